@@ -1,0 +1,3 @@
+"""vehval: vehicle test data to trusted knowledge."""
+__version__ = "0.1.0"
+

@@ -1,0 +1,5 @@
+import sys
+
+from vehval.cli import main
+
+sys.exit(main())

@@ -1,0 +1,74 @@
+"""Command-line interface: a thin layer over the library.
+
+Each command group lives in its own module and registers itself on :data:`app`.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import typer
+
+try:  # typer >= 0.20 vendors click
+    from typer._click import exceptions as _cx
+except ImportError:  # pragma: no cover
+    from click import exceptions as _cx
+
+from vehval.errors import VehvalError
+
+app = typer.Typer(
+    name="vehval",
+    help="Vehicle test data to trusted knowledge: import, QA, simulate, validate.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+@app.callback()
+def _root() -> None:
+    """Vehicle test data to trusted knowledge: import, QA, simulate, validate."""
+
+
+def _register() -> None:
+    # Imported here so that each module can import `app` from this package.
+    from vehval.cli import commands_import  # noqa: F401
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: run the CLI, turn user errors into one clear line and an exit code."""
+    _register()
+    args = list(sys.argv[1:] if argv is None else argv)
+    try:
+        app(args=args, standalone_mode=False, prog_name="vehval")
+    except VehvalError as exc:
+        typer.echo(f"vehval: error: {exc}", err=True)
+        return exc.exit_code
+    except typer.Exit as exc:
+        return exc.exit_code
+    except typer.Abort:
+        typer.echo("vehval: aborted", err=True)
+        return 130
+    except _cx.ClickException as exc:
+        exc.show()
+        return exc.exit_code
+    except SystemExit as exc:
+        code = exc.code
+        return code if isinstance(code, int) else (0 if code is None else 1)
+    except BrokenPipeError:
+        return 0
+    except KeyboardInterrupt:
+        typer.echo("vehval: interrupted", err=True)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - last line of defence: never a bare traceback
+        if os.environ.get("VEHVAL_DEBUG"):
+            raise
+        typer.echo(f"vehval: internal error: {type(exc).__name__}: {exc} "
+                   "(set VEHVAL_DEBUG=1 for the traceback and please report it)", err=True)
+        return 3
+    return 0
+
+
+def run() -> None:  # pragma: no cover - console script wrapper
+    sys.exit(main())

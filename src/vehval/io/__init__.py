@@ -1,0 +1,1 @@
+"""Readers, templates and writers."""

@@ -1,0 +1,195 @@
+"""The package's single pint registry and SI conversion helpers.
+
+Units are converted once, at import and at export; everything inside is SI floats.
+"""
+
+from __future__ import annotations
+
+import re
+from functools import lru_cache
+
+import numpy as np
+import pint
+
+from vehval.errors import UnitError
+
+ureg = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+ureg.define("cc_per_second = cubic_centimeter / second = ccps")
+ureg.define("percent_fraction = 0.01 = pct")
+
+#: Spellings found in raw file headers -> pint expressions.
+_ALIASES: dict[str, str] = {
+    "": "dimensionless",
+    "-": "dimensionless",
+    "#": "dimensionless",
+    "none": "dimensionless",
+    "sec": "second",
+    "secs": "second",
+    "s": "second",
+    "ms": "millisecond",
+    "mph": "mile / hour",
+    "kph": "kilometer / hour",
+    "km/h": "kilometer / hour",
+    "kmh": "kilometer / hour",
+    "kmph": "kilometer / hour",
+    "m/s": "meter / second",
+    "mps": "meter / second",
+    "m/s2": "meter / second ** 2",
+    "m/s^2": "meter / second ** 2",
+    "rpm": "revolution / minute",
+    "rad/s": "radian / second",
+    "c": "degC",
+    "°c": "degC",
+    "degc": "degC",
+    "deg c": "degC",
+    "f": "degF",
+    "°f": "degF",
+    "degf": "degF",
+    "deg f": "degF",
+    "k": "kelvin",
+    "%": "percent",
+    "pct": "percent",
+    "percent": "percent",
+    "nm": "newton * meter",
+    "n.m": "newton * meter",
+    "n*m": "newton * meter",
+    "n-m": "newton * meter",
+    "n·m": "newton * meter",
+    "ft-lb": "foot * force_pound",
+    "ftlb": "foot * force_pound",
+    "lb-ft": "foot * force_pound",
+    "lbft": "foot * force_pound",
+    "lbf": "force_pound",
+    "lb": "force_pound",
+    "n": "newton",
+    "kn": "kilonewton",
+    "w": "watt",
+    "kw": "kilowatt",
+    "hp": "horsepower",
+    "v": "volt",
+    "a": "ampere",
+    "ah": "ampere * hour",
+    "wh": "watt * hour",
+    "kwh": "kilowatt * hour",
+    "j": "joule",
+    "kj": "kilojoule",
+    "mj": "megajoule",
+    "g/s": "gram / second",
+    "gps": "gram / second",
+    "kg/s": "kilogram / second",
+    "kg/h": "kilogram / hour",
+    "g/h": "gram / hour",
+    "l/h": "liter / hour",
+    "ccps": "cubic_centimeter / second",
+    "cc/s": "cubic_centimeter / second",
+    "ml/s": "milliliter / second",
+    "kpa": "kilopascal",
+    "pa": "pascal",
+    "bar": "bar",
+    "mbar": "millibar",
+    "psi": "psi",
+    "inhg": "inch_Hg",
+    "ohm": "ohm",
+    "mohm": "milliohm",
+    "kg": "kilogram",
+    "g": "gram",
+    "m": "meter",
+    "km": "kilometer",
+    "mi": "mile",
+    "rad": "radian",
+    "deg": "degree",
+}
+
+_VOLUMETRIC = ureg.Unit("meter ** 3 / second").dimensionality
+_MASS_RATE = ureg.Unit("kilogram / second").dimensionality
+
+
+@lru_cache(maxsize=512)
+def parse_unit(text: str | None) -> pint.Unit:
+    """Parse a unit as written in a file header or template.
+
+    Parameters
+    ----------
+    text : str or None
+        e.g. ``"mph"``, ``"rpm"``, ``"°F"``, ``"g/s"``, ``"N.m"``; ``None`` or ``""`` is
+        dimensionless.
+
+    Raises
+    ------
+    UnitError
+        When the unit is unknown to the registry, with a hint.
+    """
+    raw = "" if text is None else str(text).strip()
+    key = raw.lower()
+    expr = _ALIASES.get(key, raw)
+    try:
+        return ureg.Unit(expr)
+    except Exception as exc:  # pint raises several types
+        raise UnitError(
+            f"unknown unit '{raw}': use a pint unit expression (for example 'mph', 'rpm', "
+            f"'degF', 'g/s', 'kW', 'N*m') or one of the header spellings vehval knows"
+        ) from exc
+
+
+def conversion(raw_unit: str | None, si_unit: str, *, fuel_density_kg_per_m3: float | None = None,
+               ) -> tuple[float, float]:
+    """Return ``(scale, offset)`` such that ``si = raw * scale + offset``.
+
+    Volumetric fuel flow (e.g. ccps) converts to a mass rate with the fuel density.
+
+    Parameters
+    ----------
+    raw_unit : str
+        Unit of the raw samples.
+    si_unit : str
+        Target unit (the registry's SI unit of the signal).
+    fuel_density_kg_per_m3 : float, optional
+        Density [kg/m^3] used for volume -> mass conversions.
+    """
+    src = parse_unit(raw_unit)
+    dst = parse_unit(si_unit)
+    factor = 1.0
+    if src.dimensionality == _VOLUMETRIC and dst.dimensionality == _MASS_RATE:
+        if not fuel_density_kg_per_m3:
+            raise UnitError(
+                f"converting volumetric '{raw_unit}' to '{si_unit}' needs the fuel density: "
+                "set constants.fuel_density_kg_per_m3 in the template")
+        factor = float(fuel_density_kg_per_m3)
+        q0 = ureg.Quantity(0.0, src).to("meter ** 3 / second").magnitude
+        q1 = ureg.Quantity(1.0, src).to("meter ** 3 / second").magnitude
+        return (q1 - q0) * factor * ureg.Quantity(1.0, "kg/s").to(dst).magnitude, 0.0
+    if src.dimensionality != dst.dimensionality:
+        raise UnitError(
+            f"cannot convert '{raw_unit}' ({src.dimensionality}) to '{si_unit}' "
+            f"({dst.dimensionality}): check the raw unit in the template")
+    q0 = ureg.Quantity(0.0, src).to(dst).magnitude
+    q1 = ureg.Quantity(1.0, src).to(dst).magnitude
+    return float(q1 - q0), float(q0)
+
+
+def to_si(values: np.ndarray, raw_unit: str | None, si_unit: str, **kwargs: float | None,
+          ) -> np.ndarray:
+    """Convert an array from ``raw_unit`` to ``si_unit`` (affine, so °F/°C work)."""
+    scale, offset = conversion(raw_unit, si_unit, **kwargs)
+    out = np.asarray(values, dtype=float) * scale
+    if offset:
+        out = out + offset
+    return out
+
+
+def from_si(values: np.ndarray, si_unit: str, raw_unit: str | None, **kwargs: float | None,
+            ) -> np.ndarray:
+    """Inverse of :func:`to_si`: convert SI samples to ``raw_unit`` for export."""
+    scale, offset = conversion(raw_unit, si_unit, **kwargs)
+    return (np.asarray(values, dtype=float) - offset) / scale
+
+
+_HEADER = re.compile(r"^(?P<name>.*?)\s*[\[(](?P<unit>[^\])]*)[\])]\s*$")
+
+
+def split_header(header: str) -> tuple[str, str | None]:
+    """Split ``'Dyno_Speed[mph]'`` or ``'Speed (kph)'`` into name and unit (``None`` if absent)."""
+    m = _HEADER.match(header.strip())
+    if not m:
+        return header.strip(), None
+    return m.group("name").strip(), m.group("unit").strip()
