@@ -1,6 +1,57 @@
 #!/usr/bin/env bash
-# The main job on bundled data (a virtual test when no other data is given).
+# vehval demo: the main job on bundled data.
+#
+#   bash scripts/demo.sh BIN OUT        (called by `make demo`)
+#
+# Data: when DEMO_DATA is unset, a VIRTUAL TEST is generated (`vehval synth`: a simulated
+# 2004 Prius on the UDDS, measured by virtual sensors with known injected faults). Otherwise
+# DEMO_DATA is a directory with the raw files of one test and its template.yaml (or set
+# DEMO_TEMPLATE).
+#
+# Stages (later stages are appended below, each with its own banner):
+#   1 data     virtual test or DEMO_DATA
+#   2 import   raw files + template -> OUT/test.parquet
 set -euo pipefail
 BIN="$1"; OUT="$2"
-"$BIN/vehval" signals > /dev/null
-echo "demo: registry loaded; outputs in $OUT"
+VEHVAL="$BIN/vehval"
+mkdir -p "$OUT"
+
+stage() { echo; echo "== demo stage $1: $2"; }
+
+# --------------------------------------------------------------------------- 1 data
+if [ -z "${DEMO_DATA:-}" ]; then
+  stage 1 "data: VIRTUAL TEST (no DEMO_DATA given)"
+  DATA="$OUT/virtual_test"
+  "$VEHVAL" synth --vehicle prius_2004 --cycle udds --seed 7 --faults default -o "$DATA" --force
+  TEMPLATE="$DATA/template.yaml"
+  FILES=("$DATA"/*_d3.txt "$DATA"/*_obd.csv)
+  KIND="VIRTUAL TEST: synthetic data from a simulation (vehval synth), not a measurement.
+The injected offsets and faults are listed in virtual_test/truth.json and README.txt."
+else
+  stage 1 "data: $DEMO_DATA"
+  DATA="$DEMO_DATA"
+  TEMPLATE="${DEMO_TEMPLATE:-$DATA/template.yaml}"
+  FILES=()
+  for f in "$DATA"/*; do
+    case "$(basename "$f")" in
+      *.yaml|*.yml|*.json|*.md|README*|clean.parquet) ;;
+      *) [ -f "$f" ] && FILES+=("$f") ;;
+    esac
+  done
+  KIND="Test data from $DEMO_DATA (template $TEMPLATE)."
+fi
+cat > "$OUT/README.txt" <<EOF
+vehval demo output
+==================
+$KIND
+
+test.parquet   the imported test (standard names, SI units)
+EOF
+echo "data: ${FILES[*]}"
+
+# --------------------------------------------------------------------------- 2 import
+stage 2 "import"
+"$VEHVAL" import "${FILES[@]}" -t "$TEMPLATE" -o "$OUT/test.parquet"
+
+echo
+echo "demo: outputs in $OUT (see $OUT/README.txt)"

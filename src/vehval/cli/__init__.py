@@ -34,6 +34,10 @@ def _root() -> None:
 def _register() -> None:
     # Imported here so that each module can import `app` from this package.
     from vehval.cli import commands_import  # noqa: F401
+    from vehval.cli import commands_synth  # noqa: F401
+    from vehval.cli import commands_cycles  # noqa: F401
+    from vehval.cli import commands_batch  # noqa: F401
+    from vehval.cli import commands_report  # noqa: F401
 
 
 def main(argv: list[str] | None = None) -> int:

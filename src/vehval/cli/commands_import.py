@@ -1,4 +1,5 @@
-"""`vehval signals`: the nomenclature registry. (Import commands are added here too.)"""
+"""`vehval signals` (the nomenclature registry) and the import commands:
+`vehval template init|check`, `vehval import`, `vehval info`."""
 
 from __future__ import annotations
 
@@ -20,3 +21,132 @@ def signals_cmd(as_json: bool = typer.Option(False, "--json", help="Print JSON."
         return
     for b, s in reg.specs.items():
         typer.echo(f"{b:22s} {s.unit:10s} {s.category:12s} {s.description}")
+
+
+# --------------------------------------------------------------------------- import commands
+# (appended by the foundation I/O work: template init/check, import, info)
+
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from vehval.errors import InputFileError  # noqa: E402
+
+template_app = typer.Typer(help="Create and check import templates.", no_args_is_help=True)
+app.add_typer(template_app, name="template")
+
+
+@template_app.command("init")
+def template_init_cmd(
+    files: list[Path] = typer.Argument(..., help="Raw files of one test."),
+    output: Path = typer.Option(..., "-o", "--output", help="Template YAML to write."),
+    force: bool = typer.Option(False, "--force", help="Overwrite an existing template."),
+) -> None:
+    """Propose a template: standard names, units and source tags for every channel."""
+    from vehval.io.template import propose_template
+
+    if output.exists() and not force:
+        raise InputFileError(f"{output}: already exists: choose another name or pass --force")
+    for f in files:
+        if not f.exists():
+            raise InputFileError(f"{f}: file not found: check the path")
+    template, unmatched = propose_template(files)
+    template.save(output)
+    n = sum(len(f.channels) for f in template.files)
+    typer.echo(f"wrote {output}: {len(template.files)} file entr{'y' if len(template.files) == 1 else 'ies'}, "
+               f"{n} channels, {len(unmatched)} unmatched")
+    for u in unmatched:
+        typer.echo(f"  unmatched (delete: true, edit if needed): {u}")
+    for item in template.todo:
+        typer.echo(f"  to do: {item}")
+
+
+@template_app.command("check")
+def template_check_cmd(
+    template: Path = typer.Argument(..., help="Template YAML."),
+    files: list[Path] = typer.Argument(..., help="Raw files to check against it."),
+) -> None:
+    """Compare a template with raw files: missing/extra channels, unit problems."""
+    from vehval.io.template import check_template
+
+    report = check_template(template, files)
+    typer.echo(report.format())
+    if not report.ok:
+        raise typer.Exit(1)
+
+
+@app.command("import")
+def import_cmd(
+    files: list[Path] = typer.Argument(..., help="Raw files of one test."),
+    template: Path = typer.Option(..., "-t", "--template", help="Template YAML."),
+    output: Path = typer.Option(..., "-o", "--output", help="Test Parquet file to write."),
+    repair_time: bool = typer.Option(False, "--repair-time",
+                                     help="Sort decreasing and drop repeated timestamps."),
+) -> None:
+    """Import raw files with a template into one Test Parquet file (SI units, provenance)."""
+    from vehval.io.importer import import_test
+    from vehval.io.parquet import write_test
+
+    test = import_test(files, template, repair_time=repair_time)
+    write_test(test, output)
+    typer.echo(f"wrote {output}: {len(test)} signals from {len(files)} file(s), "
+               f"{len(test.meta.deleted)} channel(s) deleted")
+    for note in test.meta.notes:
+        typer.echo(f"  {note}", err=note.startswith("warning"))
+
+
+def _channel_stats(name: str, unit: str | None, t: np.ndarray | None, v: np.ndarray) -> dict:
+    out = {"name": name, "unit": unit, "samples": int(v.size), "nan": int(np.isnan(v).sum()),
+           "rate_hz": None, "duration_s": None, "t0_s": None}
+    if t is not None and t.size >= 2:
+        dt = np.diff(t[np.isfinite(t)])
+        med = float(np.median(dt)) if dt.size else float("nan")
+        out["rate_hz"] = round(1.0 / med, 6) if med > 0 else None
+        out["duration_s"] = float(np.nanmax(t) - np.nanmin(t))
+        out["t0_s"] = float(np.nanmin(t))
+    return out
+
+
+@app.command("info")
+def info_cmd(
+    file: Path = typer.Argument(..., help="Raw file or Test Parquet."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """Channels, units, rates, duration, samples and NaN counts of a file."""
+    from vehval.io.parquet import read_test
+    from vehval.io.readers import read_raw
+
+    info: dict = {"file": str(file)}
+    try:
+        test = read_test(file) if file.suffix.lower() in (".parquet", ".pq") else None
+    except InputFileError:
+        test = None
+    if test is not None:
+        info.update(kind="test", test_id=test.meta.test_id, notes=test.meta.notes,
+                    channels=[dict(_channel_stats(s.name, s.unit, s.time, s.values), source=s.source)
+                              for s in test])
+    else:
+        raw = read_raw(file)
+        tu = raw.time_unit
+        info.update(kind="raw", format=raw.fmt, time_column=raw.time_name, time_unit=tu,
+                    notes=raw.notes, channels=[])
+        for name, unit in zip(raw.names, raw.units):
+            if name == raw.time_name:
+                continue
+            t = raw.time_of(name)
+            if t is not None and tu:
+                from vehval.units import to_si
+                t = to_si(t, tu, "s")
+            info["channels"].append(_channel_stats(name, unit, t, raw.data[name]))
+    if as_json:
+        typer.echo(json.dumps(info, indent=1))
+        return
+    typer.echo(f"{file}: {info['kind']}" + (f" ({info['format']})" if "format" in info else ""))
+    for n in info["notes"]:
+        typer.echo(f"  note: {n}")
+    typer.echo(f"  {'channel':28s} {'unit':13s} {'samples':>8s} {'rate[Hz]':>9s} {'dur[s]':>9s} {'NaN':>6s}")
+    for c in info["channels"]:
+        rate = f"{c['rate_hz']:.3g}" if c["rate_hz"] else "-"
+        dur = f"{c['duration_s']:.1f}" if c["duration_s"] is not None else "-"
+        typer.echo(f"  {c['name']:28s} {str(c['unit'] or '-'):13s} {c['samples']:8d} {rate:>9s} "
+                   f"{dur:>9s} {c['nan']:6d}")

@@ -1,0 +1,4 @@
+"""vehval benchmarks: ``python -m benchmarks`` runs every ``bench_*.py`` module.
+
+Each module exposes ``run() -> list[dict]``; see ``benchmarks/README.md``.
+"""

@@ -1,0 +1,367 @@
+"""Time alignment between acquisition systems (sources).
+
+Each file of a test (dyno 10 Hz, OBD ~1 Hz with jitter, a DAQ...) has its own clock. The
+offset between two sources is estimated from pairs of signals that should match in time:
+the same quantity measured by both (same base name, e.g. ``eng_spd_out_test`` and
+``eng_spd_out_obd_test``) or, failing those, quantities that are strongly correlated
+(vehicle speed and wheel speed, engine torque and fuel rate...).
+
+Method, for each pair:
+
+1. both signals are resampled on a common grid (the faster sample period) over their
+   overlapping span, normalised (zero mean, unit variance; NaN excluded);
+2. the normalised cross-correlation is computed with FFTs and divided by the number of
+   overlapping valid samples at each lag, over the search range (default ±30 s);
+3. the integer peak is refined to sub-sample accuracy by a bounded minimisation of
+   ``1 - corr(slow samples, fast signal interpolated at slow times + d)``: the slower
+   signal is used at its own sample times and the faster, better-resolved signal is
+   interpolated, so no information is smeared;
+4. confidence = peak correlation × (1 − second-peak ratio), where the second peak is the
+   highest local maximum outside the main lobe.
+
+Pairs are combined by a confidence-weighted median; the agreement between pairs scales
+the final confidence. Sign convention: ``offset_s`` is added to the timestamps of the
+source (:meth:`vehval.test.Test.shift_source`), i.e. ``ref(t) = other(t - offset_s)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+from scipy.signal import correlate
+
+from vehval.errors import SignalError
+from vehval.nomenclature import registry
+from vehval.test import Signal, Test
+
+#: Base-name pairs that should be strongly (positively) correlated in time.
+CORRELATED_BASES: tuple[tuple[str, str], ...] = (
+    ("veh_spd", "whl_spd"),
+    ("veh_spd", "dyno_spd"),
+    ("veh_spd", "mot_spd_out"),
+    ("veh_spd", "fd_spd_in"),
+    ("veh_spd", "pg_spd_ring"),
+    ("whl_spd", "mot_spd_out"),
+    ("veh_frc_in", "whl_trq_out"),
+    ("veh_frc_in", "veh_pwr_in"),
+    ("eng_trq_out", "fuel_rate"),
+    ("eng_pwr_out", "fuel_rate"),
+    ("eng_pwr_out", "eng_trq_out"),
+    ("eng_spd_out", "eng_spd_target"),
+    ("eng_spd_out", "fuel_rate"),
+    ("ess_curr", "ess_pwr"),
+    ("mot_trq_out", "whl_trq_out"),
+    ("drv_pos_accel", "eng_pos_throttle"),
+)
+
+
+@dataclass
+class PairResult:
+    """Offset estimate from one pair of signals."""
+
+    ref: str
+    other: str
+    kind: str                     # "duplicate", "correlated" or "user"
+    offset_s: float
+    peak_corr: float
+    second_ratio: float
+    confidence: float
+    corr_before: float
+    corr_after: float
+
+    def to_dict(self) -> dict:
+        return {k: (float(v) if isinstance(v, (float, np.floating)) else v)
+                for k, v in self.__dict__.items()}
+
+
+@dataclass
+class AlignmentResult:
+    """Alignment of one source against the reference source.
+
+    Attributes
+    ----------
+    source : str
+        Source tag aligned.
+    reference : str
+        Source it was aligned to.
+    offset_s : float
+        Estimated offset [s] added to the source's timestamps (NaN when no pair).
+    confidence : float
+        0..1: peak correlation × peak sharpness × agreement between pairs.
+    applied : bool
+        Whether the shift was applied to the test.
+    pairs : list of PairResult
+        Every pair used, with its own estimate.
+    corr_before, corr_after : float
+        Mean correlation of the pairs before and after the shift.
+    message : str
+        Plain explanation (why not applied, which pairs...).
+    """
+
+    source: str
+    reference: str
+    offset_s: float
+    confidence: float
+    applied: bool
+    pairs: list[PairResult] = field(default_factory=list)
+    corr_before: float = float("nan")
+    corr_after: float = float("nan")
+    agreement: float = float("nan")
+    message: str = ""
+
+    def to_dict(self) -> dict:
+        def f(x):
+            return None if x is None or (isinstance(x, float) and not np.isfinite(x)) else float(x)
+        return {"source": self.source, "reference": self.reference, "offset_s": f(self.offset_s),
+                "confidence": f(self.confidence), "applied": self.applied,
+                "corr_before": f(self.corr_before), "corr_after": f(self.corr_after),
+                "agreement": f(self.agreement), "message": self.message,
+                "pairs": [{k: (f(v) if isinstance(v, (float, np.floating)) else v)
+                           for k, v in p.to_dict().items()} for p in self.pairs]}
+
+
+def _base(name: str) -> str | None:
+    try:
+        return registry().parse(name).base
+    except SignalError:
+        return None
+
+
+def _period(sig: Signal) -> float:
+    p = sig.sample_period
+    return p if np.isfinite(p) and p > 0 else 1.0
+
+
+def reference_source(test: Test) -> str:
+    """The reference source: most ``_test`` signals, then fastest sample rate."""
+    stats: dict[str, tuple[int, float]] = {}
+    for sig in test:
+        if sig.name.endswith("_calc") or sig.name.endswith("_simu"):
+            continue
+        n, p = stats.get(sig.source, (0, np.inf))
+        stats[sig.source] = (n + 1, min(p, _period(sig)))
+    if not stats:
+        raise SignalError("cannot align: the test has no measured signals")
+    return max(stats, key=lambda s: (stats[s][0], -stats[s][1], s == "", s))
+
+
+def _pearson(a: np.ndarray, b: np.ndarray) -> float:
+    ok = np.isfinite(a) & np.isfinite(b)
+    if ok.sum() < 3:
+        return float("nan")
+    a, b = a[ok] - a[ok].mean(), b[ok] - b[ok].mean()
+    den = np.sqrt((a * a).sum() * (b * b).sum())
+    return float((a * b).sum() / den) if den > 0 else float("nan")
+
+
+def _fine_corr(ref: Signal, other: Signal, d: float) -> float:
+    """Correlation of the slower signal at its own times with the faster one interpolated."""
+    if _period(other) >= _period(ref):
+        return _pearson(other.values, ref.at(other.time + d))
+    return _pearson(ref.values, other.at(ref.time - d))
+
+
+def estimate_pair(ref: Signal, other: Signal, max_offset_s: float = 30.0,
+                  kind: str = "duplicate") -> PairResult | None:
+    """Estimate the offset of ``other`` relative to ``ref`` [s].
+
+    Parameters
+    ----------
+    ref, other : Signal
+        Signals that should match in time (same quantity or strongly correlated).
+    max_offset_s : float
+        Search range ±[s].
+    kind : str
+        Label recorded in the result.
+
+    Returns
+    -------
+    PairResult or None
+        ``None`` when the overlap is too short or a signal does not vary.
+    """
+    t0 = max(ref.time[0], other.time[0])
+    t1 = min(ref.time[-1], other.time[-1])
+    dt = min(_period(ref), _period(other))
+    if not np.isfinite(t1 - t0) or t1 - t0 < 10 * max(_period(ref), _period(other)):
+        return None
+    grid = t0 + dt * np.arange(int((t1 - t0) / dt) + 1)
+    a, b = ref.at(grid), other.at(grid)
+    va, vb = np.isfinite(a), np.isfinite(b)
+    if va.sum() < 10 or vb.sum() < 10:
+        return None
+    sa, sb = np.nanstd(a), np.nanstd(b)
+    if not (sa > 0 and sb > 0):
+        return None
+    a = np.where(va, (a - np.nanmean(a)) / sa, 0.0)
+    b = np.where(vb, (b - np.nanmean(b)) / sb, 0.0)
+    n = grid.size
+    max_lag = int(min(max_offset_s, 0.5 * (t1 - t0)) / dt)
+    c = correlate(a, b, mode="full", method="fft")
+    cnt = correlate(va.astype(float), vb.astype(float), mode="full", method="fft")
+    lags = np.arange(-(n - 1), n)
+    sel = np.abs(lags) <= max_lag
+    c, cnt, lags = c[sel], np.round(cnt[sel]), lags[sel]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cn = np.where(cnt >= max(10, 0.25 * n), c / cnt, -np.inf)
+    k = int(np.argmax(cn))
+    peak = float(cn[k])
+    if not np.isfinite(peak):
+        return None
+    # second peak: highest local maximum outside the main lobe
+    left = k
+    while left > 0 and cn[left - 1] <= cn[left]:
+        left -= 1
+    right = k
+    while right < cn.size - 1 and cn[right + 1] <= cn[right]:
+        right += 1
+    outside = np.concatenate([cn[:left], cn[right + 1:]])
+    second = float(outside.max()) if outside.size and np.isfinite(outside.max()) else 0.0
+    coarse = lags[k] * dt
+    # sub-sample refinement: parabola, then bounded minimisation of the mismatch
+    if 0 < k < cn.size - 1 and np.isfinite(cn[k - 1]) and np.isfinite(cn[k + 1]):
+        den = cn[k - 1] - 2 * cn[k] + cn[k + 1]
+        if den < 0:
+            coarse += 0.5 * (cn[k - 1] - cn[k + 1]) / den * dt
+    span = 1.5 * max(_period(ref), _period(other), dt)
+    res = minimize_scalar(lambda d: -_fine_corr(ref, other, d) if np.isfinite(_fine_corr(ref, other, d)) else 1.0,
+                          bounds=(coarse - span, coarse + span), method="bounded",
+                          options={"xatol": dt / 200})
+    offset = float(res.x) if res.success else float(coarse)
+    r_after = _fine_corr(ref, other, offset)
+    if not np.isfinite(r_after) or r_after < _fine_corr(ref, other, coarse) - 1e-9:
+        offset, r_after = float(coarse), _fine_corr(ref, other, coarse)
+    ratio = max(second, 0.0) / peak if peak > 0 else 1.0
+    conf = max(0.0, r_after) * max(0.0, 1.0 - ratio)
+    return PairResult(ref=ref.name, other=other.name, kind=kind, offset_s=offset,
+                      peak_corr=float(r_after), second_ratio=float(ratio), confidence=float(conf),
+                      corr_before=_fine_corr(ref, other, 0.0), corr_after=float(r_after))
+
+
+def candidate_pairs(test: Test, ref_source: str, source: str) -> list[tuple[str, str, str]]:
+    """Pairs ``(ref_name, other_name, kind)`` between two sources from the nomenclature.
+
+    Duplicated quantities (same base name) are used when any exist; otherwise the
+    correlated base pairs of :data:`CORRELATED_BASES`.
+    """
+    ref_sigs = [s for s in test if s.source == ref_source and s.name.endswith("_test")]
+    oth_sigs = [s for s in test if s.source == source and s.name.endswith("_test")]
+    rb = {s.name: _base(s.name) for s in ref_sigs}
+    ob = {s.name: _base(s.name) for s in oth_sigs}
+    dup = [(r, o, "duplicate") for r, b1 in rb.items() for o, b2 in ob.items()
+           if b1 is not None and b1 == b2]
+    if dup:
+        return dup
+    corr = []
+    for r, b1 in rb.items():
+        for o, b2 in ob.items():
+            if b1 and b2 and ((b1, b2) in CORRELATED_BASES or (b2, b1) in CORRELATED_BASES):
+                corr.append((r, o, "correlated"))
+    return corr
+
+
+def _combine(pairs: list[PairResult], tol_s: float) -> tuple[float, float, float]:
+    """Confidence-weighted median offset, agreement fraction, combined confidence."""
+    offs = np.array([p.offset_s for p in pairs])
+    w = np.array([max(p.confidence, 1e-6) for p in pairs])
+    order = np.argsort(offs)
+    cw = np.cumsum(w[order])
+    off = float(offs[order][np.searchsorted(cw, 0.5 * cw[-1])])
+    near = np.abs(offs - off) <= tol_s
+    agreement = float(w[near].sum() / w.sum())
+    # refine: weighted mean of the agreeing pairs (sub-sample)
+    off = float(np.average(offs[near], weights=w[near]))
+    conf = float(np.max(w[near]) * agreement) if near.any() else 0.0
+    return off, agreement, conf
+
+
+def align_test(test: Test, pairs: list[tuple[str, str]] | None = None, *,
+               reference: str | None = None, max_offset_s: float = 30.0,
+               min_confidence: float = 0.3, apply: bool = True) -> list[AlignmentResult]:
+    """Estimate and (optionally) remove the clock offsets between the sources of a test.
+
+    Parameters
+    ----------
+    test : Test
+        The test; modified in place when ``apply`` (via :meth:`Test.shift_source`).
+    pairs : list of (str, str), optional
+        User-named pairs ``(signal_a, signal_b)`` of different sources. When given for a
+        source they replace the automatic choice for that source.
+    reference : str, optional
+        Reference source (default :func:`reference_source`).
+    max_offset_s : float
+        Search range ±[s].
+    min_confidence : float
+        Below this confidence the offset is reported but not applied.
+    apply : bool
+        Apply the shifts to the test.
+
+    Returns
+    -------
+    list of AlignmentResult
+        One per non-reference source.
+    """
+    ref_src = reference if reference is not None else reference_source(test)
+    sources = [s for s in test.sources if s != ref_src and s not in ("calc", "simu")]
+    results: list[AlignmentResult] = []
+    user: dict[str, list[tuple[str, str]]] = {}
+    for a, b in pairs or []:
+        sa, sb = test[a].source, test[b].source
+        if sa == sb:
+            raise SignalError(f"alignment pair ({a}, {b}): both signals come from source "
+                              f"'{sa}'; a pair must link two different sources")
+        if sb == ref_src:
+            a, b, sa, sb = b, a, sb, sa
+        user.setdefault(sb, []).append((a, b))
+    aligned = {ref_src}
+    pending = list(sources)
+    for _ in range(len(sources) + 1):
+        progress = False
+        for src in list(pending):
+            if src in user:
+                cands = [(a, b, "user") for a, b in user[src]]
+            else:
+                cands = []
+                for anchor in sorted(aligned, key=lambda s: s != ref_src):
+                    cands = candidate_pairs(test, anchor, src)
+                    if cands:
+                        break
+            if not cands:
+                continue
+            est = [r for a, b, k in cands
+                   if (r := estimate_pair(test[a], test[b], max_offset_s, k)) is not None]
+            pending.remove(src)
+            progress = True
+            anchor_src = test[cands[0][0]].source
+            if not est:
+                results.append(AlignmentResult(src, anchor_src, float("nan"), 0.0, False,
+                                               message="pairs found but none varies enough "
+                                                       "over a long enough overlap"))
+                continue
+            tol = max(min(_period(test[p.ref]) for p in est), 0.05)
+            off, agreement, conf = _combine(est, tol)
+            res = AlignmentResult(src, anchor_src, off, conf, False, est,
+                                  corr_before=float(np.nanmean([p.corr_before for p in est])),
+                                  corr_after=float(np.nanmean([p.corr_after for p in est])),
+                                  agreement=agreement)
+            names = ", ".join(f"{p.ref}~{p.other}" for p in est)
+            if conf >= min_confidence and apply:
+                test.shift_source(src, off)
+                res.applied = True
+                res.message = f"shifted by {off:+.3f} s using {names}"
+            elif conf < min_confidence:
+                res.message = (f"offset {off:+.3f} s not applied: confidence {conf:.2f} below "
+                               f"{min_confidence:.2f} (pairs {names})")
+            else:
+                res.message = f"offset {off:+.3f} s estimated (not applied) using {names}"
+            aligned.add(src)
+            results.append(res)
+        if not progress:
+            break
+    for src in pending:
+        results.append(AlignmentResult(src, ref_src, float("nan"), 0.0, False,
+                                       message="no pair of duplicated or correlated signals "
+                                               "links this source to the others; name pairs "
+                                               "explicitly to align it"))
+    return results

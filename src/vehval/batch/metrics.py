@@ -1,0 +1,125 @@
+"""Key metrics of one test, computed from its measured signals (SI in, SI out).
+
+The same function serves the batch runner and a direct single-test run, so the catalog
+can be checked against either. Integrals use the trapezoidal rule on each signal's own
+time base over its finite samples.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from vehval.test import Signal, Test
+
+#: Assumed when the template gives no constant [kg/m^3], [J/kg] (US test gasoline).
+DEFAULT_FUEL_DENSITY_KG_PER_M3 = 745.0
+DEFAULT_FUEL_LHV_J_PER_KG = 42.6e6
+_M_PER_MILE = 1609.344
+_M3_PER_US_GAL = 3.785411784e-3
+
+
+def _pick(test: Test, base: str, preferred: dict[str, str] | None = None) -> Signal | None:
+    """The measured signal of ``base``: the QA-selected one, else the unqualified one, else first."""
+    cands = test.by_base(base, "test")
+    if not cands:
+        return None
+    if preferred and base in preferred:
+        for s in cands:
+            if s.name == preferred[base]:
+                return s
+    cands.sort(key=lambda s: (s.name != f"{base}_test", s.name))
+    return cands[0]
+
+
+def _finite(sig: Signal) -> tuple[np.ndarray, np.ndarray]:
+    ok = np.isfinite(sig.time) & np.isfinite(sig.values)
+    return sig.time[ok], sig.values[ok]
+
+
+def _integral(t: np.ndarray, v: np.ndarray) -> float | None:
+    if t.size < 2:
+        return None
+    return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)))
+
+
+def _product(a: Signal, b: Signal) -> tuple[np.ndarray, np.ndarray]:
+    t, va = _finite(a)
+    vb = b.at(t)
+    ok = np.isfinite(vb)
+    return t[ok], va[ok] * vb[ok]
+
+
+def _power(test: Test, pwr: str, effort: str, flow: str, pref) -> tuple[np.ndarray, np.ndarray] | None:
+    s = _pick(test, pwr, pref)
+    if s is not None:
+        return _finite(s)
+    e, f = _pick(test, effort, pref), _pick(test, flow, pref)
+    if e is not None and f is not None:
+        return _product(e, f)
+    return None
+
+
+def test_metrics(test: Test, selected: dict[str, str] | None = None) -> dict[str, Any]:
+    """Key metrics of a test.
+
+    Parameters
+    ----------
+    test : Test
+        An imported test (measured signals ``*_test`` in SI).
+    selected : dict, optional
+        Base name -> full name of the signal QA selection kept, used when several sources
+        measure the same quantity.
+
+    Returns
+    -------
+    dict
+        ``duration_s`` [s], ``distance_m`` [m], ``fuel_mass_kg`` [kg], ``fuel_economy_mpg``
+        [mile/US gal], ``fuel_consumption_l_per_100km`` [L/100 km], ``soc_initial``,
+        ``soc_final``, ``soc_change`` [-], ``fuel_energy_j``, ``ess_energy_j`` (net,
+        positive discharged), ``eng_energy_j`` (positive brake energy),
+        ``tractive_energy_j`` (positive) [J]; None where the signals are missing.
+    """
+    c = test.meta.constants or {}
+    density = float(c.get("fuel_density_kg_per_m3") or DEFAULT_FUEL_DENSITY_KG_PER_M3)
+    lhv = float(c.get("fuel_lhv_j_per_kg") or DEFAULT_FUEL_LHV_J_PER_KG)
+    out: dict[str, Any] = {k: None for k in (
+        "duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
+        "fuel_consumption_l_per_100km", "soc_initial", "soc_final", "soc_change",
+        "fuel_energy_j", "ess_energy_j", "eng_energy_j", "tractive_energy_j")}
+    if len(test):
+        t0, t1 = test.span()
+        out["duration_s"] = float(t1 - t0)
+    spd = _pick(test, "veh_spd", selected)
+    if spd is not None:
+        out["distance_m"] = _integral(*_finite(spd))
+    fuel = _pick(test, "fuel_rate", selected)
+    if fuel is not None:
+        out["fuel_mass_kg"] = _integral(*_finite(fuel))
+    fm, dist = out["fuel_mass_kg"], out["distance_m"]
+    if fm is not None:
+        out["fuel_energy_j"] = fm * lhv
+        if dist is not None and fm > 0 and dist > 0:
+            gal = fm / density / _M3_PER_US_GAL
+            out["fuel_economy_mpg"] = dist / _M_PER_MILE / gal
+            out["fuel_consumption_l_per_100km"] = fm / density * 1e3 / (dist / 1e5)
+    soc = _pick(test, "ess_soc", selected)
+    if soc is not None:
+        _, v = _finite(soc)
+        if v.size:
+            out["soc_initial"], out["soc_final"] = float(v[0]), float(v[-1])
+            out["soc_change"] = float(v[-1] - v[0])
+    ess = _power(test, "ess_pwr", "ess_volt", "ess_curr", selected)
+    if ess is not None:
+        out["ess_energy_j"] = _integral(*ess)
+    eng = _power(test, "eng_pwr_out", "eng_trq_out", "eng_spd_out", selected)
+    if eng is not None:
+        t, p = eng
+        out["eng_energy_j"] = _integral(t, np.maximum(p, 0.0))
+    trac = _power(test, "whl_pwr_out", "veh_frc_in", "veh_spd", selected)
+    if trac is not None:
+        t, p = trac
+        out["tractive_energy_j"] = _integral(t, np.maximum(p, 0.0))
+    return {k: (v if v is None or math.isfinite(v) else None) for k, v in out.items()}

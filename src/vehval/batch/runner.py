@@ -1,0 +1,243 @@
+"""Batch driver: discover tests, skip unchanged ones, run the rest on Dask, fill the catalog.
+
+The driver alone writes the catalog (workers return their results), so DuckDB never sees
+two writers. Each test's outputs are written by the task itself under
+``OUTDIR/tests/<test_id>/`` with ``result.json`` last, so an interrupted batch resumes: a
+rerun skips every test whose ``result.json`` carries the same input hash.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import secrets
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Callable
+
+from vehval.batch.discover import TestSpec, discover_tests, hash_spec, settings_hash
+from vehval.batch.task import RESULT_NAME, check_steps, jsonable, process_test
+from vehval.catalog import open_catalog
+from vehval.errors import ConfigError, VehvalError
+
+CATALOG_NAME = "catalog.duckdb"
+INDEX_NAME = "index.html"
+
+
+@dataclass
+class BatchSummary:
+    """What a batch run did."""
+
+    run_id: str
+    outdir: Path
+    n_ok: int = 0
+    n_failed: int = 0
+    n_skipped: int = 0
+    status: str = "done"
+    results: list[dict] = field(default_factory=list)
+
+    @property
+    def n_tests(self) -> int:
+        return self.n_ok + self.n_failed + self.n_skipped
+
+
+def new_run_id() -> str:
+    """A sortable, unique run id: UTC time plus 6 random hex digits."""
+    return datetime.now(timezone.utc).strftime("%Y%m%dT%H%M%S") + "-" + secrets.token_hex(3)
+
+
+def _load_settings(template: str | Path, vehicle: str | None) -> tuple[Any, dict]:
+    from vehval.io.template import load_template
+
+    tpath = Path(template)
+    tmpl = load_template(tpath)
+    veh_name = vehicle or getattr(tmpl, "vehicle", None)
+    veh_digest = ""
+    if veh_name:
+        from vehval.sim.vehicle import load_vehicle
+
+        veh = load_vehicle(veh_name)
+        dump = veh.model_dump_json() if hasattr(veh, "model_dump_json") else repr(veh)
+        veh_digest = hashlib.sha256(dump.encode()).hexdigest()
+    tmpl_digest = hashlib.sha256(tpath.read_bytes()).hexdigest() if tpath.is_file() else \
+        hashlib.sha256(repr(tmpl).encode()).hexdigest()
+    return tmpl, {"template": str(tpath.resolve()) if tpath.exists() else str(template),
+                  "template_hash": tmpl_digest, "vehicle": str(veh_name) if veh_name else None,
+                  "vehicle_hash": veh_digest}
+
+
+def _cached(outdir: Path, spec: TestSpec) -> dict | None:
+    """The previous result of ``spec`` when it is complete and its inputs are unchanged."""
+    path = outdir / "tests" / spec.test_id / RESULT_NAME
+    try:
+        res = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(res, dict) or res.get("input_hash") != spec.input_hash:
+        return None
+    if res.get("status") == "ok" or (res.get("status") == "failed" and res.get("error_kind") == "user"):
+        return res  # an internal error may be transient (a killed worker...): retried
+    return None
+
+
+def _lost(job: dict, exc: BaseException) -> dict:
+    """Result for a task that never returned (worker died, cancelled...)."""
+    return jsonable({"test_id": job["test_id"], "run_id": job["run_id"], "status": "failed",
+                     "error": f"{type(exc).__name__}: {exc}", "error_type": type(exc).__name__,
+                     "error_kind": "internal", "input_hash": job["input_hash"],
+                     "file_hashes": job["file_hashes"], "files": job["files"],
+                     "vehicle": job.get("vehicle_name"), "metrics": {}, "findings": []})
+
+
+def _client(workers: int, scheduler: str | None):
+    """A Dask client on ``scheduler`` or on a new local process cluster; returns (client, cluster)."""
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="15s"), None
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise VehvalError(f"cannot connect to the Dask scheduler at '{scheduler}': {exc} "
+                              "(check the address, e.g. tcp://127.0.0.1:8786)") from None
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None, host="127.0.0.1", silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
+              vehicle: str | None = None, steps: list[str] | tuple[str, ...] = ("qa",),
+              workers: int | None = None, scheduler: str | None = None, report: bool = True,
+              force: bool = False, progress: bool = True,
+              on_result: Callable[[dict], None] | None = None) -> BatchSummary:
+    """Run many tests at once.
+
+    Parameters
+    ----------
+    target : str or Path
+        Directory of tests or glob (see :func:`vehval.batch.discover.discover_tests`).
+    template : str or Path
+        Import template YAML.
+    outdir : str or Path
+        Output directory: ``tests/<id>/``, ``catalog.duckdb``, ``index.html``. With a
+        remote scheduler it must be reachable by the workers at the same path.
+    vehicle : str, optional
+        Vehicle name or file; default the template's ``vehicle``.
+    steps : sequence of str
+        Steps after import, among ``qa``, ``analyze``, ``validate``.
+    workers : int, optional
+        Local worker processes (default: CPU count); 0 runs a plain loop in this process.
+    scheduler : str, optional
+        Address of an existing ``dask.distributed`` scheduler (``workers`` is then unused).
+    report : bool
+        Build each test's HTML report.
+    force : bool
+        Recompute every test even when unchanged.
+    progress : bool
+        Show a progress bar.
+    on_result : callable, optional
+        Called with each result dict as it lands (driver side).
+    """
+    steps = [s.strip() for s in steps if s and s.strip()]
+    if len(set(steps)) != len(steps):
+        raise ConfigError(f"a step is repeated in --steps: {','.join(steps)}")
+    check_steps(steps, report)
+    tmpl, settings = _load_settings(template, vehicle)
+    from vehval import __version__
+
+    settings.update(steps=steps, report=bool(report), vehval_version=__version__)
+    digest = settings_hash(settings)
+    specs = [hash_spec(s, digest) for s in discover_tests(target, tmpl)]
+    out = Path(outdir).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    run_id = new_run_id()
+    summary = BatchSummary(run_id=run_id, outdir=out)
+    veh_name = getattr(tmpl, "vehicle", None) if not vehicle else vehicle
+    catalog = open_catalog(out / CATALOG_NAME)
+    try:
+        catalog.start_run(run_id, {**settings, "target": str(target), "outdir": str(out),
+                                   "workers": workers, "scheduler": scheduler, "force": force})
+        jobs = []
+        for spec in specs:
+            cached = None if force else _cached(out, spec)
+            if cached is not None:
+                catalog.add_result(run_id, cached, status="skipped")
+                summary.n_skipped += 1
+                summary.results.append({**cached, "batch_status": "skipped"})
+                continue
+            jobs.append({"test_id": spec.test_id, "files": [str(f) for f in spec.files],
+                         "file_hashes": spec.file_hashes, "input_hash": spec.input_hash,
+                         "run_id": run_id, "outdir": str(out), "steps": steps,
+                         "report": bool(report), "vehicle_name": veh_name, **settings})
+
+        def record(res: dict) -> None:
+            catalog.add_result(run_id, res)
+            if res.get("status") == "ok":
+                summary.n_ok += 1
+            else:
+                summary.n_failed += 1
+            summary.results.append({**res, "batch_status": res.get("status")})
+            if on_result is not None:
+                on_result(res)
+
+        try:
+            _execute(jobs, record, workers, scheduler, progress, len(specs), summary.n_skipped)
+        except KeyboardInterrupt:
+            summary.status = "interrupted"
+            catalog.finish_run(run_id, "interrupted")
+            raise
+        catalog.finish_run(run_id, "done")
+        from vehval.batch.index import write_index
+
+        write_index(out / INDEX_NAME, catalog, run_id)
+    finally:
+        catalog.close()
+    return summary
+
+
+def _execute(jobs: list[dict], record: Callable[[dict], None], workers: int | None,
+             scheduler: str | None, progress: bool, total: int, done: int) -> None:
+    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
+                               TimeElapsedColumn, TimeRemainingColumn)
+
+    bar = Progress(TextColumn("[bold]batch"), BarColumn(), MofNCompleteColumn(),
+                   TextColumn("{task.fields[last]}"), TimeElapsedColumn(), TimeRemainingColumn(),
+                   disable=not progress, transient=False)
+    with bar:
+        task = bar.add_task("batch", total=total, completed=done, last="")
+
+        def land(res: dict) -> None:
+            record(res)
+            mark = "ok" if res.get("status") == "ok" else "FAILED"
+            bar.update(task, advance=1, last=f"{res['test_id']} {mark}")
+
+        if not jobs:
+            return
+        if workers is None:
+            workers = os.cpu_count() or 1
+        if workers <= 0 and not scheduler:
+            for job in jobs:
+                land(process_test(job))
+            return
+        from distributed import as_completed
+
+        client, cluster = _client(workers, scheduler)
+        try:
+            futs = {client.submit(process_test, job, key=f"vehval-{job['run_id']}-{job['test_id']}",
+                                  pure=False): job for job in jobs}
+            for fut in as_completed(list(futs)):
+                try:
+                    res = fut.result()
+                except Exception as exc:  # noqa: BLE001 - a lost task is recorded, not fatal
+                    res = _lost(futs[fut], exc)
+                land(res)
+        except BaseException:
+            for f in futs if "futs" in locals() else ():
+                f.cancel()
+            raise
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()

@@ -1,0 +1,276 @@
+"""Results catalog: every batch run and every test result in one embedded DuckDB file.
+
+The catalog lives at ``OUTDIR/catalog.duckdb``. It is written by the batch driver process
+only (workers return their results to the driver), so there is never a concurrent writer.
+The schema is versioned (:data:`SCHEMA_VERSION`) and documented in ``docs/catalog.md``.
+
+Tables
+------
+``schema_info``  one row: schema version, creation time, vehval version.
+``runs``         one row per batch run: id, start/finish, status, settings, counts.
+``tests``        one row per test and run (status ``ok``, ``failed`` or ``skipped``),
+                 with input hashes, key metrics [SI and mpg], QA summary and validation.
+``findings``     one row per QA finding of a test in a run.
+View ``latest_tests``: the most recent row of every test id.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any, Iterable
+
+from vehval.errors import ConfigError, InputFileError, VehvalError
+
+SCHEMA_VERSION = 1
+
+#: Key metrics stored as DOUBLE columns of ``tests`` (name -> description [unit]).
+METRIC_COLUMNS: dict[str, str] = {
+    "duration_s": "test duration [s]",
+    "distance_m": "distance driven [m]",
+    "fuel_mass_kg": "fuel mass used [kg]",
+    "fuel_economy_mpg": "fuel economy [mile/US gal]",
+    "fuel_consumption_l_per_100km": "fuel consumption [L/100 km]",
+    "soc_initial": "battery SOC at the start [-]",
+    "soc_final": "battery SOC at the end [-]",
+    "soc_change": "battery SOC change, final - initial [-]",
+    "fuel_energy_j": "fuel chemical energy used [J]",
+    "ess_energy_j": "net battery terminal energy, positive discharged [J]",
+    "eng_energy_j": "positive engine brake energy [J]",
+    "tractive_energy_j": "positive tractive energy at the wheels [J]",
+}
+
+#: Metrics summarised by :func:`summary` (variability per vehicle and cycle).
+SUMMARY_METRICS = ("fuel_economy_mpg", "fuel_mass_kg", "soc_change", "fuel_energy_j",
+                   "ess_energy_j", "eng_energy_j", "tractive_energy_j")
+
+_DDL = [
+    """CREATE TABLE IF NOT EXISTS schema_info (
+        version INTEGER NOT NULL, created TIMESTAMP NOT NULL, vehval_version VARCHAR)""",
+    """CREATE TABLE IF NOT EXISTS runs (
+        run_id VARCHAR PRIMARY KEY, started TIMESTAMP NOT NULL, finished TIMESTAMP,
+        status VARCHAR NOT NULL, vehval_version VARCHAR NOT NULL, settings JSON,
+        n_tests INTEGER, n_ok INTEGER, n_failed INTEGER, n_skipped INTEGER)""",
+    "CREATE TABLE IF NOT EXISTS tests (\n"
+    "    test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, status VARCHAR NOT NULL,\n"
+    "    error VARCHAR, error_type VARCHAR, source_run_id VARCHAR, recorded TIMESTAMP,\n"
+    "    vehicle VARCHAR, cycle VARCHAR, files VARCHAR[], file_hashes JSON,\n"
+    "    input_hash VARCHAR, elapsed_s DOUBLE,\n"
+    + "".join(f"    {c} DOUBLE,\n" for c in METRIC_COLUMNS)
+    + "    n_findings INTEGER, n_findings_by_severity JSON, qa_summary JSON,\n"
+    "    validation JSON, validation_errors JSON, outputs VARCHAR[],\n"
+    "    PRIMARY KEY (test_id, run_id))",
+    """CREATE TABLE IF NOT EXISTS findings (
+        test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, signal VARCHAR, kind VARCHAR,
+        severity VARCHAR, start_s DOUBLE, end_s DOUBLE, message VARCHAR)""",
+    """CREATE OR REPLACE VIEW latest_tests AS
+        SELECT t.* FROM tests t JOIN runs r USING (run_id)
+        QUALIFY row_number() OVER (PARTITION BY t.test_id
+                                   ORDER BY r.started DESC, t.recorded DESC) = 1""",
+]
+
+
+def _duckdb():
+    import duckdb  # imported lazily: the CLI starts faster without it
+
+    return duckdb
+
+
+def _clean(value: Any) -> Any:
+    """JSON-safe copy: NaN/inf become None, numpy scalars become Python numbers."""
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if hasattr(value, "item") and callable(value.item) and not isinstance(value, (str, bytes)):
+        try:
+            value = value.item()
+        except (TypeError, ValueError):
+            return str(value)
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, (str, int, float, bool)) or value is None:
+        return value
+    return str(value)
+
+
+def to_json(value: Any) -> str | None:
+    """Serialise ``value`` to a JSON string for a JSON column (None stays NULL)."""
+    if value is None:
+        return None
+    return json.dumps(_clean(value), sort_keys=True)
+
+
+def _num(value: Any) -> float | None:
+    try:
+        f = float(value)
+    except (TypeError, ValueError):
+        return None
+    return f if math.isfinite(f) else None
+
+
+class Catalog:
+    """An open catalog database.
+
+    Parameters
+    ----------
+    path : str or Path
+        The DuckDB file (created with the current schema when absent).
+    read_only : bool
+        Open for queries only; the file must exist.
+
+    Use as a context manager, or call :meth:`close`.
+    """
+
+    def __init__(self, path: str | Path, *, read_only: bool = False) -> None:
+        duckdb = _duckdb()
+        self.path = Path(path)
+        if read_only and not self.path.is_file():
+            raise InputFileError(f"catalog {self.path} does not exist: run `vehval batch ... -o DIR` "
+                                 "first or pass --db DIR/catalog.duckdb")
+        if not read_only:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self.con = duckdb.connect(str(self.path), read_only=read_only)
+        except duckdb.Error as exc:
+            raise InputFileError(f"cannot open catalog {self.path}: {exc}") from None
+        if read_only:
+            self._check_version()
+        else:
+            self._create()
+
+    # -- lifecycle ---------------------------------------------------------------------
+    def __enter__(self) -> "Catalog":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Checkpoint and close the database."""
+        try:
+            self.con.close()
+        except Exception:  # noqa: BLE001 - closing twice or after a failure is harmless
+            pass
+
+    def _create(self) -> None:
+        from vehval import __version__
+
+        existing = {r[0] for r in self.con.execute(
+            "SELECT table_name FROM information_schema.tables").fetchall()}
+        if "schema_info" in existing:
+            self._check_version()
+        for ddl in _DDL:
+            self.con.execute(ddl)
+        if self.con.execute("SELECT count(*) FROM schema_info").fetchone()[0] == 0:
+            self.con.execute("INSERT INTO schema_info VALUES (?, current_timestamp, ?)",
+                             [SCHEMA_VERSION, __version__])
+
+    def _check_version(self) -> None:
+        try:
+            row = self.con.execute("SELECT max(version) FROM schema_info").fetchone()
+        except Exception:  # noqa: BLE001 - any DuckDB error here means 'not a catalog'
+            raise ConfigError(f"{self.path} is not a vehval catalog (no schema_info table)") from None
+        if row is None or row[0] is None or int(row[0]) != SCHEMA_VERSION:
+            raise ConfigError(f"catalog {self.path} has schema version {row and row[0]}, this vehval "
+                              f"reads version {SCHEMA_VERSION}: use a new output directory")
+
+    # -- writing -----------------------------------------------------------------------
+    def start_run(self, run_id: str, settings: dict) -> None:
+        """Record the start of a batch run."""
+        from vehval import __version__
+
+        self.con.execute("INSERT INTO runs (run_id, started, status, vehval_version, settings) "
+                         "VALUES (?, current_timestamp, 'running', ?, ?)",
+                         [run_id, __version__, to_json(settings)])
+
+    def finish_run(self, run_id: str, status: str = "done") -> dict[str, int]:
+        """Record the end of a run (``done`` or ``interrupted``) and its counts."""
+        counts = dict(self.con.execute(
+            "SELECT status, count(*) FROM tests WHERE run_id = ? GROUP BY status", [run_id]).fetchall())
+        n = {k: int(counts.get(k, 0)) for k in ("ok", "failed", "skipped")}
+        self.con.execute("UPDATE runs SET finished = current_timestamp, status = ?, n_tests = ?, "
+                         "n_ok = ?, n_failed = ?, n_skipped = ? WHERE run_id = ?",
+                         [status, sum(n.values()), n["ok"], n["failed"], n["skipped"], run_id])
+        return n
+
+    def add_result(self, run_id: str, result: dict, *, status: str | None = None) -> None:
+        """Insert one test result (the content of its ``result.json``) for ``run_id``.
+
+        ``status`` overrides the result's own status (``skipped`` for a cached result);
+        the run that computed the result is kept in ``source_run_id``.
+        """
+        metrics = result.get("metrics") or {}
+        findings = result.get("findings") or []
+        validation = result.get("validation")
+        val_errors = validation.get("errors") if isinstance(validation, dict) else None
+        row = [result["test_id"], run_id, status or result.get("status", "failed"),
+               result.get("error"), result.get("error_type"), result.get("run_id", run_id),
+               result.get("vehicle"), result.get("cycle"), [str(f) for f in result.get("files", [])],
+               to_json(result.get("file_hashes")), result.get("input_hash"),
+               _num(result.get("elapsed_s"))]
+        row += [_num(metrics.get(c)) for c in METRIC_COLUMNS]
+        row += [len(findings), to_json(result.get("findings_by_severity") or {}),
+                to_json(result.get("qa_summary")), to_json(validation), to_json(val_errors),
+                [str(o) for o in result.get("outputs", [])]]
+        cols = (["test_id", "run_id", "status", "error", "error_type", "source_run_id", "vehicle",
+                 "cycle", "files", "file_hashes", "input_hash", "elapsed_s"] + list(METRIC_COLUMNS)
+                + ["n_findings", "n_findings_by_severity", "qa_summary", "validation",
+                   "validation_errors", "outputs"])
+        self.con.execute("BEGIN TRANSACTION")
+        try:
+            self.con.execute("DELETE FROM tests WHERE test_id = ? AND run_id = ?", [row[0], run_id])
+            self.con.execute("DELETE FROM findings WHERE test_id = ? AND run_id = ?", [row[0], run_id])
+            self.con.execute(f"INSERT INTO tests ({', '.join(cols)}, recorded) VALUES "
+                             f"({', '.join('?' * len(cols))}, current_timestamp)", row)
+            if findings:
+                self.con.executemany(
+                    "INSERT INTO findings VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                    [[row[0], run_id, f.get("signal"), f.get("kind"), f.get("severity"),
+                      _num(f.get("start_s")), _num(f.get("end_s")), f.get("message")]
+                     for f in findings])
+            self.con.execute("COMMIT")
+        except BaseException:
+            self.con.execute("ROLLBACK")
+            raise
+
+    # -- reading -----------------------------------------------------------------------
+    def query(self, sql: str, params: Iterable[Any] | None = None) -> tuple[list[str], list[tuple]]:
+        """Run ``sql``; return column names and rows. A bad statement is a :class:`VehvalError`."""
+        duckdb = _duckdb()
+        try:
+            cur = self.con.execute(sql, list(params) if params is not None else None)
+        except duckdb.Error as exc:
+            raise VehvalError(f"catalog query failed: {exc}") from None
+        if cur.description is None:
+            return [], []
+        return [d[0] for d in cur.description], cur.fetchall()
+
+    def summary(self, metrics: Iterable[str] = SUMMARY_METRICS) -> list[dict]:
+        """Test-to-test variability per vehicle and cycle over the latest result of each test.
+
+        Returns one dict per (vehicle, cycle, metric): ``n``, ``mean``, ``std`` (sample,
+        ddof = 1), ``cv`` (std / |mean|, None when the mean is 0), ``min``, ``max``.
+        Only tests whose latest result is ``ok`` (computed or skipped as unchanged) count.
+        """
+        out: list[dict] = []
+        for m in metrics:
+            if m not in METRIC_COLUMNS:
+                raise VehvalError(f"unknown metric '{m}'; known: {', '.join(METRIC_COLUMNS)}")
+            _, rows = self.query(
+                f"""SELECT coalesce(vehicle, ''), coalesce(cycle, ''), count({m}), avg({m}),
+                           stddev_samp({m}), min({m}), max({m})
+                    FROM latest_tests
+                    WHERE status IN ('ok', 'skipped') AND error IS NULL AND {m} IS NOT NULL
+                    GROUP BY 1, 2 ORDER BY 1, 2""")
+            for veh, cyc, n, mean, std, lo, hi in rows:
+                cv = (std / abs(mean)) if (std is not None and mean) else None
+                out.append({"vehicle": veh, "cycle": cyc, "metric": m, "n": int(n), "mean": mean,
+                            "std": std, "cv": cv, "min": lo, "max": hi})
+        return out
+
+
+def open_catalog(path: str | Path, *, read_only: bool = False) -> Catalog:
+    """Open (or create) the catalog at ``path``; see :class:`Catalog`."""
+    return Catalog(path, read_only=read_only)

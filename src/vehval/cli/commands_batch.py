@@ -1,0 +1,109 @@
+"""`vehval batch` (many tests on Dask) and `vehval catalog query|summary` (the results catalog)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from vehval.cli import app
+
+catalog_app = typer.Typer(help="Query the results catalog (OUTDIR/catalog.duckdb).",
+                          no_args_is_help=True)
+app.add_typer(catalog_app, name="catalog")
+
+
+@app.command("batch")
+def batch_cmd(
+    target: str = typer.Argument(..., help="Directory of tests (one subdirectory per test, or one "
+                                 "file per test for a single-file template) or a quoted glob."),
+    template: Path = typer.Option(..., "--template", "-t", help="Import template YAML."),
+    outdir: Path = typer.Option(..., "--outdir", "-o", help="Output directory."),
+    vehicle: Optional[str] = typer.Option(None, "--vehicle", help="Vehicle name or file "
+                                          "(default: the template's vehicle)."),
+    steps: str = typer.Option("qa", "--steps", help="Comma-separated steps: qa,analyze,validate "
+                              "(empty for import only)."),
+    workers: Optional[int] = typer.Option(None, "--workers", "-j", help="Local worker processes "
+                                          "(default: CPU count; 0 = plain loop, no Dask)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of an existing "
+                                            "dask.distributed scheduler, e.g. tcp://host:8786."),
+    report: bool = typer.Option(True, "--report/--no-report", help="Build each test's HTML report."),
+    force: bool = typer.Option(False, "--force", help="Recompute unchanged tests too."),
+    quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+) -> None:
+    """Process many tests at once; rerun to resume: unchanged tests are skipped."""
+    from vehval.batch import run_batch
+
+    res = run_batch(target, template, outdir, vehicle=vehicle, steps=steps.split(","),
+                    workers=workers, scheduler=scheduler, report=report, force=force,
+                    progress=not quiet)
+    typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged "
+               f"-> {res.outdir / 'index.html'}")
+    for r in res.results:
+        if r.get("batch_status") == "failed":
+            typer.echo(f"  failed {r['test_id']}: {r.get('error')}", err=True)
+    if res.n_failed:
+        raise typer.Exit(1)
+
+
+def _db(db: Optional[Path]) -> Path:
+    return db if db is not None else Path("catalog.duckdb")
+
+
+@catalog_app.command("query")
+def catalog_query(
+    sql: str = typer.Argument(..., help="SQL on tables runs, tests, findings, schema_info, "
+                              "view latest_tests."),
+    db: Optional[Path] = typer.Option(None, "--db", help="Catalog file (default ./catalog.duckdb)."),
+    as_json: bool = typer.Option(False, "--json", help="Print a JSON list of row objects."),
+) -> None:
+    """Run one SQL statement on the catalog (read-only) and print the rows."""
+    from vehval.catalog import open_catalog
+
+    with open_catalog(_db(db), read_only=True) as cat:
+        cols, rows = cat.query(sql)
+    if as_json:
+        from vehval.batch.task import jsonable
+
+        typer.echo(json.dumps([jsonable(dict(zip(cols, r))) for r in rows], indent=1, default=str))
+        return
+    _print_table(cols, [[_cell(v) for v in r] for r in rows])
+
+
+def _cell(v) -> str:
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    return str(v)
+
+
+def _print_table(cols: list[str], rows: list[list[str]]) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    t = Table(*cols, show_lines=False)
+    for r in rows:
+        t.add_row(*r)
+    Console(width=max(100, sum(len(c) + 3 for c in cols))).print(t)
+
+
+@catalog_app.command("summary")
+def catalog_summary(
+    db: Optional[Path] = typer.Option(None, "--db", help="Catalog file (default ./catalog.duckdb)."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """Test-to-test variability per vehicle and cycle: n, mean, std, CV of the key metrics."""
+    from vehval.catalog import open_catalog
+
+    with open_catalog(_db(db), read_only=True) as cat:
+        rows = cat.summary()
+    if as_json:
+        typer.echo(json.dumps(rows, indent=1))
+        return
+    cols = ["vehicle", "cycle", "metric", "n", "mean", "std", "cv [%]", "min", "max"]
+    _print_table(cols, [[r["vehicle"], r["cycle"], r["metric"], str(r["n"]), _cell(r["mean"]),
+                         _cell(r["std"]), "" if r["cv"] is None else f"{100 * r['cv']:.2f}",
+                         _cell(r["min"]), _cell(r["max"])] for r in rows])

@@ -1,0 +1,55 @@
+"""`vehval cycles`: list and inspect the drive cycles shipped with the package."""
+
+from __future__ import annotations
+
+import json
+
+import typer
+
+from vehval.cli import app
+from vehval.sim.cycles import list_cycles, load_cycle
+
+cycles_app = typer.Typer(help="Drive cycles: regulatory speed traces and steady runs.",
+                         no_args_is_help=True)
+app.add_typer(cycles_app, name="cycles")
+
+
+@cycles_app.command("list")
+def list_cmd(as_json: bool = typer.Option(False, "--json", help="Print JSON.")) -> None:
+    """List the package drive cycles: regulation, duration, distance, max and mean speed."""
+    rows = [load_cycle(n).summary() for n in list_cycles()]
+    if as_json:
+        typer.echo(json.dumps(rows, indent=1))
+        return
+    from rich.console import Console
+    from rich.markup import escape
+    from rich.table import Table
+
+    table = Table(title="vehval drive cycles", show_lines=False)
+    for col, just in (("name", "left"), ("duration [s]", "right"), ("distance [km]", "right"),
+                      ("max [km/h]", "right"), ("mean [km/h]", "right"),
+                      ("regulation", "left")):
+        table.add_column(escape(col), justify=just, no_wrap=col != "regulation")
+    for r in rows:
+        table.add_row(r["name"], f"{r['duration_s']:g}", f"{r['distance_km']:.2f}",
+                      f"{r['max_speed_kph']:.1f}", f"{r['mean_speed_kph']:.1f}",
+                      escape(r["regulation"]))
+    Console().print(table)
+
+
+@cycles_app.command("show")
+def show_cmd(name: str = typer.Argument(..., help="Cycle name, alias, 'steady:60kph:300s' "
+                                                  "or CSV path."),
+             as_json: bool = typer.Option(False, "--json", help="Print JSON.")) -> None:
+    """Show one cycle's figures, regulation and source."""
+    info = load_cycle(name).summary()
+    if as_json:
+        typer.echo(json.dumps(info, indent=1))
+        return
+    labels = {"duration_s": "duration [s]", "distance_km": "distance [km]",
+              "max_speed_kph": "max speed [km/h]", "mean_speed_kph": "mean speed [km/h]",
+              "dt_s": "time step [s]", "idle_fraction": "idle fraction [-]"}
+    for key, value in info.items():
+        if value == "":
+            continue
+        typer.echo(f"{labels.get(key, key) + ':':20s} {value}")

@@ -1,0 +1,75 @@
+"""`vehval synth`: write a virtual test (simulated run + virtual sensors + known faults)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+import yaml
+
+from vehval.cli import app
+from vehval.errors import ConfigError, VehvalError
+
+
+def _pairs(items: list[str], option: str) -> dict:
+    out = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ConfigError(f"{option} '{item}': expected KEY=VALUE (for example "
+                              f"{option} soc_target=0.6)")
+        try:
+            out[key.strip()] = yaml.safe_load(value)
+        except yaml.YAMLError:
+            raise ConfigError(f"{option} '{item}': the value is not a number, list or text") from None
+    return out
+
+
+@app.command("synth")
+def synth_cmd(
+    vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
+    cycle: str = typer.Option("udds", "--cycle", help="Cycle name, 'steady:60kph:300s' or CSV path."),
+    seed: int = typer.Option(7, "--seed", help="Seed of every random draw (same seed, same bytes)."),
+    faults: str = typer.Option("default", "--faults",
+                               help="'default' (a representative mix), 'none', or a fault YAML file."),
+    out: Path = typer.Option(..., "-o", "--out", help="Output directory (written atomically)."),
+    control: list[str] = typer.Option([], "--control", metavar="KEY=VALUE",
+                                      help="Controller parameter override (repeatable)."),
+    param: list[str] = typer.Option([], "--param", metavar="KEY=VALUE",
+                                    help="Vehicle parameter override, dotted key (repeatable)."),
+    force: bool = typer.Option(False, "--force", help="Write into a non-empty directory that "
+                                                      "is not a previous virtual test."),
+    as_json: bool = typer.Option(False, "--json", help="Print the output paths as JSON."),
+) -> None:
+    """Simulate VEHICLE on CYCLE and write it as a virtual dyno test: a D3 facility file, an
+    OBD logger file, an import template and truth.json (every injected offset and fault)."""
+    from vehval.synth import make_virtual_test
+    from vehval.synth.dyno import is_virtual_test_dir
+
+    if out.exists() and not out.is_dir():
+        raise VehvalError(f"output '{out}' exists and is not a directory: choose another -o")
+    if out.is_dir() and any(out.iterdir()) and not is_virtual_test_dir(out) and not force:
+        raise VehvalError(f"output directory '{out}' is not empty and holds no virtual test: "
+                          "choose an empty directory or pass --force")
+    if faults not in ("default", "none") and not Path(faults).is_file():
+        raise ConfigError(f"fault file '{faults}' does not exist: use --faults default, "
+                          "--faults none or the path of a fault YAML file")
+    res = make_virtual_test(vehicle=vehicle, cycle=cycle, seed=seed, faults=faults, outdir=out,
+                            controller_overrides=_pairs(control, "--control") or None,
+                            vehicle_overrides=_pairs(param, "--param") or None)
+    truth = json.loads(res.truth_path.read_text(encoding="utf-8"))
+    if as_json:
+        typer.echo(json.dumps({"files": [str(p) for p in res.files],
+                               "template": str(res.template_path), "truth": str(res.truth_path),
+                               "clean": str(res.clean_path), "faults": len(truth["faults"]),
+                               "offsets_s": truth["offsets_s"]}, indent=1))
+        return
+    typer.echo(f"virtual test '{truth['test_id']}' (VIRTUAL: synthetic, not a measurement) in {out}")
+    for p in res.files:
+        typer.echo(f"  data      {p.name}")
+    typer.echo(f"  template  {res.template_path.name}")
+    typer.echo(f"  truth     {res.truth_path.name}: {len(truth['faults'])} injected faults, "
+               f"offsets {truth['offsets_s']}")
+    typer.echo(f"import it with: vehval import {' '.join(str(p) for p in res.files)} "
+               f"-t {res.template_path}")

@@ -1,0 +1,317 @@
+"""Effort/flow calculation: every ``*_calc`` signal the measured inputs allow.
+
+A calculation file (``data/calculations/<name>.yaml``) declares parameters (where to find
+them: template constant, vehicle key, default) and relations ``output = expression``.
+:func:`compute` evaluates them on a common grid, iterating to a fixed point: a relation
+runs once all its inputs exist, either measured (the facility ``_test`` signal first, then
+other sources) or already calculated. Relations of the same output are tried in file order
+(included files first) and the first computable one is used. A relation may not use a calculated input that was
+itself derived from the relation's own output (no circular self-confirmation). What could
+not be computed is explained: the missing signals or parameters of each relation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from vehval.equations.expr import parse_expression
+from vehval.errors import ConfigError, SignalError
+from vehval.nomenclature import registry
+from vehval.qa.level2 import preference_rank
+from vehval.test import Signal, Test
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class ParameterSpec(_Strict):
+    """Where a parameter comes from: template constant, vehicle keys, default."""
+
+    constant: str | None = None
+    vehicle: list[str] = Field(default_factory=list)
+    default: float | None = None
+    unit: str = ""
+    description: str = ""
+
+
+class RelationSpec(_Strict):
+    """One relation ``<output>_calc = expr``."""
+
+    output: str
+    expr: str
+    equation: str | None = None
+    description: str = ""
+
+
+class CalculationFile(_Strict):
+    calculation_version: int = 1
+    name: str
+    description: str = ""
+    include: list[str] = Field(default_factory=list)
+    parameters: dict[str, ParameterSpec] = Field(default_factory=dict)
+    relations: list[RelationSpec] = Field(default_factory=list)
+
+
+def load_calculations(name_or_path: str | Path) -> CalculationFile:
+    """Load a calculation file (package name like ``power_split`` or a path), with includes.
+
+    Raises
+    ------
+    ConfigError
+        Unknown name, invalid YAML, unknown key, unknown output base name or bad expression.
+    """
+    p = Path(str(name_or_path))
+    if p.suffix in (".yaml", ".yml") and p.exists():
+        text, where = p.read_text(encoding="utf-8"), str(p)
+    else:
+        res = resources.files("vehval").joinpath(f"data/calculations/{name_or_path}.yaml")
+        if not res.is_file():
+            known = sorted(x.name[:-5] for x in resources.files("vehval").joinpath(
+                "data/calculations").iterdir() if x.name.endswith(".yaml"))
+            raise ConfigError(f"calculation set '{name_or_path}' not found; known: {', '.join(known)}")
+        text, where = res.read_text(encoding="utf-8"), f"calculations/{name_or_path}.yaml"
+    try:
+        data = yaml.safe_load(text)
+        calc = CalculationFile.model_validate(data)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{where}: invalid YAML: {exc}") from None
+    except ValidationError as exc:
+        err = exc.errors()[0]
+        raise ConfigError(f"{where}: {'.'.join(str(x) for x in err['loc'])}: {err['msg']}") from None
+    reg = registry()
+    for i, rel in enumerate(calc.relations):
+        if rel.output not in reg:
+            raise ConfigError(f"{where}: relations[{i}].output '{rel.output}' is not a base name "
+                              "of the nomenclature")
+        parse_expression(rel.expr, f"{where}: relations[{i}].expr")
+    for inc in calc.include:
+        sub = load_calculations(inc)
+        params = dict(sub.parameters)
+        params.update(calc.parameters)
+        calc = calc.model_copy(update={"parameters": params,
+                                       "relations": sub.relations + calc.relations})
+    return calc
+
+
+def _find_key(obj: Any, key: str, depth: int = 0) -> Any:
+    """Breadth-first search of ``key`` (or a dotted path) in a nested model/dict."""
+    if depth > 6 or obj is None:
+        return None
+    if "." in key:
+        cur = obj
+        for part in key.split("."):
+            cur = cur.get(part) if isinstance(cur, dict) else getattr(cur, part, None)
+            if cur is None:
+                return None
+        return cur
+    if isinstance(obj, BaseModel):
+        obj = obj.model_dump()
+    elif not isinstance(obj, dict) and hasattr(obj, "__dict__"):
+        obj = vars(obj)
+    if not isinstance(obj, dict):
+        return None
+    if key in obj and isinstance(obj[key], (int, float)) and not isinstance(obj[key], bool):
+        return obj[key]
+    for v in obj.values():
+        if isinstance(v, (dict, BaseModel)) or hasattr(v, "__dict__"):
+            r = _find_key(v, key, depth + 1)
+            if r is not None:
+                return r
+    return None
+
+
+def resolve_parameters(calc: CalculationFile, constants: dict[str, float] | None = None,
+                       vehicle: Any = None) -> tuple[dict[str, float], dict[str, str], dict[str, str]]:
+    """Parameter values, their provenance, and the reason each missing one is missing."""
+    constants = constants or {}
+    values, origin, missing = {}, {}, {}
+    for name, spec in calc.parameters.items():
+        if spec.constant and constants.get(spec.constant) is not None:
+            values[name] = float(constants[spec.constant])
+            origin[name] = f"template constant {spec.constant}"
+            continue
+        found = None
+        for key in spec.vehicle:
+            found = _find_key(vehicle, key) if vehicle is not None else None
+            if found is not None:
+                origin[name] = f"vehicle {key}"
+                break
+        if found is not None:
+            values[name] = float(found)
+            continue
+        if spec.default is not None:
+            values[name] = float(spec.default)
+            origin[name] = "default"
+            continue
+        where = []
+        if spec.constant:
+            where.append(f"template constant '{spec.constant}'")
+        if spec.vehicle:
+            where.append(f"vehicle key '{spec.vehicle[0]}'" + ("" if vehicle is not None else
+                                                               " (no vehicle given)"))
+        missing[name] = "set " + " or ".join(where) if where else "no source declared"
+    return values, origin, missing
+
+
+@dataclass
+class CalcResult:
+    """Outcome of :func:`compute`."""
+
+    grid: np.ndarray
+    computed: dict[str, dict] = field(default_factory=dict)      # name -> details
+    not_computed: dict[str, list[str]] = field(default_factory=dict)  # output -> reasons
+    parameters: dict[str, dict] = field(default_factory=dict)
+    calc_set: str = ""
+
+    def to_dict(self) -> dict:
+        return {"set": self.calc_set, "computed": self.computed,
+                "not_computed": self.not_computed, "parameters": self.parameters}
+
+
+def choose_calc_set(test: Test, vehicle: Any = None) -> str:
+    """``power_split`` when the vehicle or the signals show a planetary hybrid, else
+    ``conventional``."""
+    if vehicle is not None and _find_key(vehicle, "ring_teeth") is not None:
+        return "power_split"
+    for sig in test:
+        if sig.name.startswith(("gen_", "mot_", "pg_")):
+            return "power_split"
+    return "conventional"
+
+
+def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,
+            constants: dict[str, float] | None = None, *, dt: float | None = None,
+            exclude: set[str] | frozenset[str] = frozenset(), add: bool = True) -> CalcResult:
+    """Compute every ``*_calc`` signal the test's inputs allow.
+
+    Parameters
+    ----------
+    test : Test
+        Aligned test; ``<base>_calc`` signals are added to it when ``add``.
+    vehicle : Vehicle, optional
+        Source of parameters not in the template constants (searched by key name).
+    calc : CalculationFile or str, optional
+        Relation set (default chosen by :func:`choose_calc_set`).
+    constants : dict, optional
+        Template constants (default ``test.meta.constants``).
+    dt : float, optional
+        Grid step [s] (default the fastest measured sample period, at least 0.01 s).
+    exclude : set of str
+        Measured signals not to use as inputs (e.g. dropped by QA).
+    add : bool
+        Add the computed signals to ``test``.
+    """
+    if calc is None:
+        calc = choose_calc_set(test, vehicle)
+    if isinstance(calc, str):
+        calc = load_calculations(calc)
+    constants = dict(test.meta.constants if constants is None else constants)
+    pvals, porigin, pmissing = resolve_parameters(calc, constants, vehicle)
+    reg = registry()
+    measured: dict[str, Signal] = {}
+    by_base: dict[str, list[Signal]] = {}
+    for sig in test:
+        if sig.name in exclude:
+            continue
+        try:
+            p = reg.parse(sig.name)
+        except SignalError:
+            continue
+        if p.origin == "test":
+            by_base.setdefault(p.base, []).append(sig)
+    for base, sigs in by_base.items():
+        measured[base] = sorted(sigs, key=lambda s: preference_rank(s.name))[0]
+    if dt is None:
+        periods = [s.sample_period for s in measured.values() if np.isfinite(s.sample_period)]
+        dt = max(0.01, min(periods)) if periods else 0.1
+    if measured:
+        t0 = min(s.time[0] for s in measured.values())
+        t1 = max(s.time[-1] for s in measured.values())
+        grid = t0 + dt * np.arange(int(np.floor((t1 - t0) / dt + 1e-9)) + 1)
+    else:
+        grid = np.zeros(0)
+    result = CalcResult(grid=grid, calc_set=calc.name,
+                        parameters={k: {"value": v, "from": porigin[k]} for k, v in pvals.items()}
+                        | {k: {"value": None, "missing": r} for k, r in pmissing.items()})
+    cache: dict[str, np.ndarray] = {}
+    calc_vals: dict[str, np.ndarray] = {}
+    calc_deps: dict[str, frozenset[str]] = {}
+
+    def measured_on_grid(base: str) -> np.ndarray:
+        if base not in cache:
+            cache[base] = measured[base].at(grid)
+        return cache[base]
+
+    exprs = [(rel, parse_expression(rel.expr, f"{calc.name}: {rel.output}")) for rel in calc.relations]
+    done: set[str] = set()
+    changed = True
+    while changed and grid.size:
+        changed = False
+        for rel, ex in exprs:
+            if rel.output in done:
+                continue
+            var: dict[str, object] = {}
+            deps: set[str] = set()
+            used: dict[str, str] = {}
+            ok = True
+            for nm in ex.names:
+                if nm in pvals:
+                    var[nm] = pvals[nm]
+                elif nm in calc.parameters:
+                    ok = False
+                elif nm == "t":
+                    continue
+                elif nm in measured:
+                    var[nm] = measured_on_grid(nm)
+                    deps.add(nm)
+                    used[nm] = measured[nm].name
+                elif nm in calc_vals and rel.output not in calc_deps[nm]:
+                    var[nm] = calc_vals[nm]
+                    deps |= calc_deps[nm] | {nm}
+                    used[nm] = f"{nm}_calc"
+                else:
+                    ok = False
+            if not ok:
+                continue
+            values = ex.evaluate(var, grid)
+            if not np.isfinite(values).any():
+                continue
+            calc_vals[rel.output] = values
+            calc_deps[rel.output] = frozenset(deps)
+            done.add(rel.output)
+            changed = True
+            result.computed[f"{rel.output}_calc"] = {
+                "expr": rel.expr, "equation": rel.equation, "description": rel.description,
+                "inputs": used, "parameters": {n: pvals[n] for n in sorted(ex.names) if n in pvals}}
+    # explain what was not computed
+    for rel, ex in exprs:
+        if rel.output in done:
+            continue
+        reasons = []
+        for nm in sorted(ex.names):
+            if nm == "t":
+                continue
+            if nm in calc.parameters and nm not in pvals:
+                reasons.append(f"parameter {nm} missing ({pmissing.get(nm, '')})")
+            elif nm not in calc.parameters and nm not in measured and nm not in calc_vals:
+                reasons.append(f"signal {nm} missing (no measured {nm}_test and not computable)")
+            elif nm in calc_vals and nm not in measured and rel.output in calc_deps.get(nm, ()):
+                reasons.append(f"{nm}_calc is itself derived from {rel.output} (circular)")
+        if not reasons:
+            reasons.append("inputs available but the result is NaN everywhere "
+                           "(inputs do not overlap in time)")
+        result.not_computed.setdefault(f"{rel.output}_calc", []).append(f"{rel.expr}: " + "; ".join(reasons))
+    if add:
+        for name in result.computed:
+            sig = Signal.standard(name, grid, calc_vals[name[:-5]], source="calc",
+                                  notes=[f"computed: {result.computed[name]['expr']}"])
+            test.add(sig, replace_existing=True)
+    return result

@@ -1,0 +1,277 @@
+"""Delimited text (CSV, TSV, semicolon; decimal point or comma) with one header row.
+
+The byte-level checks (encoding, NUL bytes, stray bytes before the header, truncated last
+line) are done here in Python on the raw bytes; the numeric parsing is done by
+``pyarrow.csv`` so that a large file costs little more than pyarrow alone.
+"""
+
+from __future__ import annotations
+
+import codecs
+import csv
+import re
+from pathlib import Path
+
+import pyarrow as pa
+import pyarrow.csv as pacsv
+
+from vehval.errors import InputFileError
+from vehval.io.raw import (RawTable, find_time_column, is_printable, is_time_header,
+                           split_headers)
+from vehval.units import split_header
+
+_DELIMS = ("\t", ";", ",")
+_DECIMAL_COMMA = re.compile(rb"(?:^|[;\t ])-?\d+,\d+(?:[;\t\r\n]|$)")
+_NUMBER = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
+_NULLS = ["", "NaN", "nan", "NAN", "NA", "N/A", "n/a", "null", "NULL", "-nan", "#N/A", "inf", "-inf"]
+
+
+def check_exists(path: Path) -> None:
+    """Raise :class:`InputFileError` when ``path`` is missing, a directory or empty."""
+    if not path.exists():
+        raise InputFileError(f"{path}: file not found: check the path")
+    if path.is_dir():
+        raise InputFileError(f"{path}: is a directory, expected a data file")
+    if path.stat().st_size == 0:
+        raise InputFileError(f"{path}: file is empty (0 bytes)")
+
+
+def decode_bytes(raw: bytes, path: Path, encoding: str | None, notes: list[str]) -> bytes:
+    """Return UTF-8 (or ASCII-compatible) bytes, decoding UTF-16 and explicit encodings."""
+    if encoding and codecs.lookup(encoding).name not in ("utf-8", "ascii"):
+        try:
+            text = raw.decode(encoding)
+        except UnicodeDecodeError as exc:
+            raise InputFileError(f"{path}: cannot decode as {encoding}: {exc}") from None
+        notes.append(f"decoded from {encoding}")
+        return text.lstrip("\ufeff").encode("utf-8")
+    if raw.startswith(codecs.BOM_UTF8):
+        return raw[3:]
+    utf16 = None
+    if raw.startswith(codecs.BOM_UTF16_LE) or raw.startswith(codecs.BOM_UTF16_BE):
+        utf16 = "utf-16"
+    else:
+        head = raw[:400]
+        if len(head) >= 8:
+            even_nul = head[0::2].count(0) / len(head[0::2])
+            odd_nul = head[1::2].count(0) / len(head[1::2])
+            if odd_nul > 0.4 and even_nul < 0.05:
+                utf16 = "utf-16-le"
+            elif even_nul > 0.4 and odd_nul < 0.05:
+                utf16 = "utf-16-be"
+    if utf16:
+        body = raw.rstrip(b"\0")
+        if len(body) % 2:
+            body = body + b"\0"
+        try:
+            text = body.decode(utf16)
+        except UnicodeDecodeError as exc:
+            raise InputFileError(f"{path}: looks like UTF-16 but cannot be decoded: {exc}") from None
+        notes.append("decoded from UTF-16")
+        return text.lstrip("\ufeff").encode("utf-8")
+    return raw
+
+
+def _strip_nuls(raw: bytes, path: Path, notes: list[str]) -> bytes:
+    body = raw.rstrip(b"\0")
+    if len(body) != len(raw):
+        notes.append(f"stripped {len(raw) - len(body)} NUL bytes of padding at the end of the file")
+    i = body.find(b"\0")
+    if i >= 0:
+        line = body.count(b"\n", 0, i) + 1
+        raise InputFileError(
+            f"{path} line {line}: NUL byte inside the data (byte offset {i}): the file is "
+            "corrupted; cut the damaged lines or re-export the file")
+    return body
+
+
+def _decode_line(line: bytes, path: Path, notes: list[str]) -> str:
+    try:
+        return line.decode("utf-8")
+    except UnicodeDecodeError:
+        notes.append("header decoded as cp1252 (not valid UTF-8)")
+        return line.decode("cp1252", errors="replace")
+
+
+def sniff_delimiter(lines: list[str]) -> str:
+    """Pick tab, semicolon or comma: present in the header and equally often in data lines."""
+    header, data = lines[0], [ln for ln in lines[1:] if ln.strip()]
+    for d in _DELIMS:
+        n = header.count(d)
+        if n == 0:
+            continue
+        if not data or all(ln.count(d) == n for ln in data[:-1] or data):
+            return d
+    counts = {d: header.count(d) for d in _DELIMS}
+    best = max(counts, key=counts.get)
+    return best if counts[best] else ","
+
+
+def _tokens(line: str, delimiter: str) -> list[str]:
+    row = next(csv.reader([line], delimiter=delimiter, skipinitialspace=True), [])
+    return [t.strip().strip('"').strip() for t in row]
+
+
+def repair_first_header(token: str, path: Path, notes: list[str]) -> str:
+    """Strip stray bytes before a recognisable time header (``fpTime[sec]`` -> ``Time[sec]``).
+
+    Raises
+    ------
+    InputFileError
+        When the first header has control bytes and no recognisable time header follows.
+    """
+    name, unit = split_header(token)
+    if is_time_header(name, unit) and is_printable(token):
+        return token
+    for k in range(1, min(9, len(token))):
+        rest = token[k:]
+        n2, u2 = split_header(rest)
+        if len(n2) >= 4 and is_time_header(n2, u2) and (u2 is not None or not is_printable(token[:k])):
+            notes.append(f"line 1: stripped {k} stray byte(s) {token[:k]!r} before the time header "
+                         f"'{rest}'")
+            return rest
+    if not is_printable(token):
+        raise InputFileError(
+            f"{path} line 1: stray control byte(s) in the first header {token!r}: remove them "
+            "from the file (the header is not a recognisable time column)")
+    return token
+
+
+def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None = None,
+                   decimal: str | None = None, encoding: str | None = None) -> RawTable:
+    """Read a delimited text file with one header row (optionally a unit row below it).
+
+    Parameters
+    ----------
+    path : str or Path
+        File to read.
+    fmt : str
+        Format tag stored in the result (``csv`` or ``d3``).
+    delimiter : str, optional
+        Field separator; sniffed among tab, ``;`` and ``,`` when omitted.
+    decimal : str, optional
+        Decimal mark ``.`` or ``,``; detected when omitted (comma only with ``;`` or tab).
+    encoding : str, optional
+        Text encoding; UTF-8 (with or without BOM) and UTF-16 (BOM or NUL pattern) are
+        detected when omitted.
+
+    Returns
+    -------
+    RawTable
+        Channels as float64 arrays (empty cells are NaN), with repair notes.
+
+    Raises
+    ------
+    InputFileError
+        Missing or empty file, NUL bytes inside the data, duplicate channel names, non-numeric
+        cells, rows with a wrong number of fields (each naming file and line).
+    """
+    path = Path(path)
+    check_exists(path)
+    notes: list[str] = []
+    raw = decode_bytes(path.read_bytes(), path, encoding, notes)
+    raw = _strip_nuls(raw, path, notes)
+    # leading blank lines
+    start, skipped = 0, 0
+    while True:
+        nl = raw.find(b"\n", start)
+        line = raw[start:nl if nl >= 0 else len(raw)]
+        if line.strip() or nl < 0:
+            break
+        start, skipped = nl + 1, skipped + 1
+    if not raw[start:].strip():
+        raise InputFileError(f"{path}: file is empty (no header line)")
+    # first few lines for sniffing
+    sample_end = start
+    for _ in range(8):
+        nl = raw.find(b"\n", sample_end)
+        if nl < 0:
+            sample_end = len(raw)
+            break
+        sample_end = nl + 1
+    sample = [_decode_line(ln.rstrip(b"\r"), path, notes) for ln in raw[start:sample_end].split(b"\n")]
+    sample = [s for s in sample if s != ""] or [""]
+    header_line = sample[0]
+    delim = delimiter or sniff_delimiter(sample)
+    headers = _tokens(header_line, delim)
+    headers[0] = repair_first_header(headers[0], path, notes)
+    for i, h in enumerate(headers[1:], start=2):
+        if not is_printable(h):
+            raise InputFileError(f"{path} line {skipped + 1}: control byte(s) in header column {i} "
+                                 f"{h!r}: fix the header")
+    names, units = split_headers(headers, path)
+    header_end = raw.find(b"\n", start)
+    data_start = len(raw) if header_end < 0 else header_end + 1
+    first_line = skipped + 2
+    # optional unit row: no [unit] in the header and a fully non-numeric second line
+    if len(sample) > 1 and all(u is None for u in units):
+        cells = _tokens(sample[1], delim)
+        if len(cells) == len(names) and any(cells) and not any(_NUMBER.match(c) for c in cells if c):
+            units = [c or None for c in cells]
+            headers = [f"{n}[{u}]" if u else n for n, u in zip(names, units)]
+            nl = raw.find(b"\n", data_start)
+            data_start = len(raw) if nl < 0 else nl + 1
+            first_line += 1
+            notes.append("line 2 read as the unit row")
+    body = raw[data_start:].rstrip(b"\r\n\t ")
+    if not body:
+        raise InputFileError(f"{path}: header found but no data rows")
+    ncol = len(names)
+    bdelim = delim.encode()
+    # truncated last line -> drop with a note
+    last_start = body.rfind(b"\n") + 1
+    last = body[last_start:]
+    n_last = last.count(bdelim) + 1
+    if n_last < ncol and b'"' not in last:
+        lineno = first_line + body.count(b"\n")
+        if last_start == 0:
+            raise InputFileError(f"{path} line {lineno}: the only data row has {n_last} of {ncol} "
+                                 "fields (truncated file)")
+        notes.append(f"line {lineno}: truncated last line ({n_last} of {ncol} fields) dropped")
+        body = body[:last_start].rstrip(b"\r\n")
+    if decimal is None:
+        decimal = "," if delim != "," and _DECIMAL_COMMA.search(body[:4000]) else "."
+    col_ids = [f"c{i}" for i in range(ncol)]
+    try:
+        table = pacsv.read_csv(
+            pa.BufferReader(body),
+            read_options=pacsv.ReadOptions(column_names=col_ids, block_size=1 << 22),
+            parse_options=pacsv.ParseOptions(delimiter=delim),
+            convert_options=pacsv.ConvertOptions(
+                column_types={c: pa.float64() for c in col_ids}, decimal_point=decimal,
+                null_values=_NULLS, strings_can_be_null=True))
+    except pa.ArrowInvalid as exc:
+        raise _locate_error(exc, body, delim, decimal, names, first_line, path) from None
+    data = {n: table.column(i).to_numpy() for i, n in enumerate(names)}
+    time_name = find_time_column(names, units)
+    return RawTable(path=path, fmt=fmt, headers=headers, names=names, units=units, data=data,
+                    time_name=time_name, notes=notes,
+                    time_unit=(units[names.index(time_name)] or "s") if time_name else None,
+                    first_data_line=first_line, meta={"delimiter": delim, "decimal": decimal})
+
+
+def _locate_error(exc: Exception, body: bytes, delim: str, decimal: str, names: list[str],
+                  first_line: int, path: Path) -> InputFileError:
+    """Turn a pyarrow parse error into a message naming the line (and channel)."""
+    msg = str(exc)
+    text = body.decode("utf-8", errors="replace").split("\n")
+    m = re.search(r"column #(\d+)", msg)
+    col = int(m.group(1)) if m else None
+    for i, line in enumerate(text):
+        line = line.rstrip("\r")
+        cells = _tokens(line, delim) if '"' in line else line.split(delim)
+        if len(cells) != len(names):
+            return InputFileError(f"{path} line {first_line + i}: {len(cells)} fields, the header "
+                                  f"has {len(names)}: fix or remove the line")
+        if col is not None:
+            cell = cells[col].strip().strip('"')
+            if cell in _NULLS:
+                continue
+            try:
+                float(cell.replace(",", ".") if decimal == "," else cell)
+            except ValueError:
+                return InputFileError(
+                    f"{path} line {first_line + i}: non-numeric value {cell!r} in channel "
+                    f"'{names[col]}': fix the cell or leave it empty")
+    return InputFileError(f"{path}: cannot parse the data: {msg}")
+

@@ -1,0 +1,264 @@
+"""Import raw files into a :class:`~vehval.test.Test` with a template.
+
+Each file is matched to a template ``files[]`` entry by its ``match`` glob, read, and every
+kept channel is converted to the SI unit of its registry base name (pint, affine for
+temperatures, fuel density for volumetric fuel flow), then the template's scale and offset are
+applied. Sentinel values become NaN; deleted channels are recorded in ``meta.deleted``; every
+repair and mismatch is written to ``meta.notes`` (warnings start with ``warning:``).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+
+import numpy as np
+
+from vehval.errors import ConfigError, InputFileError, UnitError
+from vehval.io.propose import entry_for_file, find_channel
+from vehval.io.raw import RawTable
+from vehval.io.readers import read_raw
+from vehval.io.template import FileSpec, Template, as_template
+from vehval.nomenclature import registry
+from vehval.test import Signal, Test, TestMeta
+from vehval.units import conversion, parse_unit
+
+__all__ = ["import_test", "check_time"]
+
+
+@lru_cache(maxsize=1024)
+def _conv(raw_unit: str | None, si_unit: str, density: float | None) -> tuple[float, float]:
+    return conversion(raw_unit, si_unit, fuel_density_kg_per_m3=density)
+
+
+def check_time(t: np.ndarray, *, path: Path, raw: RawTable | None, label: str,
+               repair: bool) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
+    """Check that a time array [s] is finite and strictly increasing.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample times [s] in file order.
+    path : Path
+        File (for messages).
+    raw : RawTable, optional
+        Gives the file line of a row.
+    label : str
+        What the time belongs to (``time column 'Time'``, ``channel 'X'``).
+    repair : bool
+        Sort, drop duplicates (first kept) and drop NaN times instead of raising.
+
+    Returns
+    -------
+    time : numpy.ndarray
+        Strictly increasing times [s].
+    index : numpy.ndarray or None
+        Row indices to apply to the samples (``None`` when nothing was changed).
+    notes : list of str
+        What was repaired.
+
+    Raises
+    ------
+    InputFileError
+        Decreasing, repeated or missing timestamps without ``repair`` (names file and line).
+    """
+    def where(i: int) -> str:
+        line = raw.line_of(i) if raw is not None else None
+        return f"{path} line {line}" if line else f"{path} sample {i}"
+
+    finite = np.isfinite(t)
+    d = np.diff(t)
+    ok_order = bool(np.all(d > 0)) if finite.all() else False
+    if ok_order:
+        return t, None, []
+    if not repair:
+        if not finite.all():
+            i = int(np.flatnonzero(~finite)[0])
+            raise InputFileError(f"{where(i)}: missing timestamp in the {label}: fix the file or "
+                                 "pass --repair-time to drop rows without a time")
+        i = int(np.flatnonzero(~(d > 0))[0]) + 1
+        kind = "repeated" if d[i - 1] == 0 else "decreasing"
+        raise InputFileError(
+            f"{where(i)}: {kind} timestamp {t[i]:g} s after {t[i - 1]:g} s in the {label}: fix the "
+            "file or pass --repair-time to sort the rows and drop duplicate times")
+    idx = np.flatnonzero(finite)
+    n_nan = t.size - idx.size
+    n_dec = int(np.sum(np.diff(t[idx]) < 0))
+    order = idx[np.argsort(t[idx], kind="stable")]
+    ts = t[order]
+    keep = np.r_[True, np.diff(ts) > 0]
+    n_dup = int(np.sum(~keep))
+    note = (f"{path.name}: {label} repaired (--repair-time): {n_dec} decreasing step(s) sorted, "
+            f"{n_dup} repeated timestamp(s) dropped (first kept), {n_nan} row(s) without time dropped")
+    return ts[keep], order[keep], [note]
+
+
+def _time_unit(spec: FileSpec, header_unit: str | None) -> str:
+    if "unit" in spec.time.model_fields_set:
+        return spec.time.unit
+    return header_unit or "s"
+
+
+def _shared_time(raw: RawTable, spec: FileSpec, idx: int, path: Path, repair: bool,
+                 notes: list[str]) -> tuple[np.ndarray | None, np.ndarray | None, str | None]:
+    """The file's shared time [s], row index after repair, and the time column used."""
+    if spec.time.rate_hz is not None:
+        n = raw.n_rows
+        return spec.time.start_s + np.arange(n) / spec.time.rate_hz, None, None
+    col = None
+    if spec.time.column is not None:
+        col = find_channel(raw, spec.time.column)
+        if col is None:
+            raise InputFileError(
+                f"{path}: time column '{spec.time.column}' (files[{idx}].time.column) is not in the "
+                f"file; its columns are: {', '.join(raw.names)}")
+    elif raw.time_name is not None:
+        col = raw.time_name
+    elif raw.times:
+        return None, None, None
+    else:
+        raise InputFileError(
+            f"{path}: no time column found (looked for Time, t, Timestamp...) and the template "
+            f"gives no rate: set files[{idx}].time.column or files[{idx}].time.rate_hz")
+    scale, offset = _conv(_time_unit(spec, raw.unit_of(col)), "s", None)
+    t = raw.data[col] * scale + offset
+    t, order, tn = check_time(t, path=path, raw=raw, label=f"time column '{col}'", repair=repair)
+    notes.extend(tn)
+    return t, order, col
+
+
+def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Test,
+                 repair: bool) -> None:
+    reg = registry()
+    path = raw.path
+    meta = test.meta
+    notes = [f"{path.name}: {n}" for n in raw.notes]
+    density = t.constants.fuel_density_kg_per_m3
+    t_shared, order, time_col = _shared_time(raw, spec, idx, path, repair, notes)
+    mapped: set[str] = set()
+    missing: list[str] = []
+    for key, ch in spec.channels.items():
+        col = find_channel(raw, key)
+        if col is None:
+            missing.append(key)
+            continue
+        mapped.add(col)
+        if ch.delete:
+            meta.deleted.append({"name": key, "file": path.name, "source": spec.source,
+                                 "reason": ch.reason or "deleted in the template"})
+            continue
+        sspec = reg.spec_of(ch.name)
+        unit = ch.unit if ch.unit is not None else raw.unit_of(col)
+        if unit is None and not parse_unit(sspec.unit).dimensionless:
+            raise ConfigError(
+                f"{path.name}: channel '{key}' -> {ch.name}: no unit in the file header or the "
+                f"template: set files[{idx}].channels.{key}.unit (SI unit is {sspec.unit})")
+        try:
+            scale, offset = _conv(unit, sspec.unit, density)
+        except UnitError as exc:
+            raise UnitError(f"{path.name}: channel '{key}' -> {ch.name}: {exc}") from None
+        values = raw.data[col]
+        sig_notes: list[str] = []
+        if ch.invalid_values:
+            bad = np.zeros(values.shape, dtype=bool)
+            for v in ch.invalid_values:
+                bad |= np.abs(values - v) <= 1e-9 * max(1.0, abs(v))
+            n_bad = int(bad.sum())
+            if n_bad:
+                values = np.where(bad, np.nan, values)
+                sig_notes.append(f"{n_bad} sample(s) equal to invalid value(s) "
+                                 f"{ch.invalid_values} replaced by NaN")
+        si = values * (scale * ch.scale)
+        off = offset * ch.scale + ch.offset
+        if off:
+            si = si + off
+        if t_shared is not None:
+            time = t_shared
+            if order is not None:
+                si = si[order]
+        else:
+            ts, tu = raw.times[col], _time_unit(spec, raw.time_unit)
+            s_t, o_t = _conv(tu, "s", None)
+            time, ord_c, tn = check_time(ts * s_t + o_t, path=path, raw=None,
+                                         label=f"timestamps of channel '{col}'", repair=repair)
+            notes.extend(tn)
+            if ord_c is not None:
+                si = si[ord_c]
+        if ch.unit is not None and raw.unit_of(col) is not None and ch.unit != raw.unit_of(col):
+            sig_notes.append(f"template unit '{ch.unit}' used instead of header unit "
+                             f"'{raw.unit_of(col)}'")
+        test.add(Signal(name=ch.name, time=time, values=si, unit=sspec.unit, source=spec.source,
+                        raw_name=col, raw_unit=unit, file=str(path), resample=sspec.resample,
+                        notes=sig_notes))
+        if sig_notes:
+            notes.extend(f"{ch.name}: {n}" for n in sig_notes)
+    if missing:
+        notes.append(f"warning: {path.name}: template channel(s) not in the file: "
+                     + ", ".join(missing))
+    extra = [n for n in raw.names if n not in mapped and n != time_col]
+    if extra:
+        notes.append(f"warning: {path.name}: channel(s) in the file but not in the template "
+                     "(not imported): " + ", ".join(extra))
+    meta.notes.extend(notes)
+
+
+def import_test(files: list[str | Path] | str | Path, template: Template | str | Path, *,
+                repair_time: bool = False, test_id: str | None = None) -> Test:
+    """Import the raw files of one test with a template.
+
+    Parameters
+    ----------
+    files : list of str or Path
+        Raw files of the test (one per acquisition system); each must match one template
+        ``files[]`` entry.
+    template : Template or str or Path
+        Template instance or YAML file.
+    repair_time : bool
+        Sort decreasing and drop repeated timestamps (with a note) instead of raising.
+    test_id : str, optional
+        Test identifier (default: stem of the first file).
+
+    Returns
+    -------
+    Test
+        Signals in SI with provenance; ``meta`` has files, template, constants, deleted
+        channels and notes (warnings start with ``warning:``).
+
+    Raises
+    ------
+    InputFileError, ConfigError, UnitError, SignalError
+        Any bad input, with a message naming file, line and channel.
+    """
+    if isinstance(files, (str, Path)):
+        files = [files]
+    paths = [Path(f) for f in files]
+    if not paths:
+        raise InputFileError("no input file given")
+    t = as_template(template)
+    tname = t.path.name if t.path else "template"
+    meta = TestMeta(test_id=test_id or paths[0].stem, vehicle=t.vehicle or "",
+                    files=[str(p) for p in paths], template=str(t.path) if t.path else None,
+                    constants=t.constants_dict())
+    test = Test(meta=meta)
+    used: dict[int, Path] = {}
+    for path in paths:
+        if not path.exists():
+            raise InputFileError(f"{path}: file not found: check the path")
+        idx = entry_for_file(t, path, set(used))
+        if idx is None:
+            globs = ", ".join(repr(f.match) for f in t.files)
+            raise ConfigError(f"{path}: no files[] entry of {tname} matches this file name "
+                              f"(match globs: {globs})")
+        if idx in used:
+            raise ConfigError(f"{path} and {used[idx]} both match files[{idx}] of {tname}: one "
+                              "entry takes one file per test; import them separately or add "
+                              "an entry with its own 'match'")
+        used[idx] = path
+        spec = t.files[idx]
+        raw = read_raw(path, spec.format, **spec.options.model_dump())
+        _import_file(raw, spec, idx, t, test, repair_time)
+    for name, reason in t.selection.drop.items():
+        if name in test:
+            test.drop(name)
+            meta.deleted.append({"name": name, "reason": reason, "by": "selection.drop"})
+    return test

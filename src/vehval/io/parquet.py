@@ -1,0 +1,192 @@
+"""Parquet: our own Test file (one file, all signals, units and provenance) and plain tables.
+
+Layout of a Test file: signals are grouped by time base (:meth:`Test.time_bases`); each group
+has one time column ``time__<group>`` and its signal columns; shorter groups are padded with
+nulls to the longest. Each field carries metadata (unit, source, raw_name, raw_unit, file,
+resample, group, notes); the file carries the TestMeta and the group lengths as JSON under the
+schema metadata key ``vehval``.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from vehval.errors import InputFileError
+from vehval.io.atomic import atomic_path
+from vehval.io.delimited import check_exists
+from vehval.io.raw import RawTable, find_time_column
+from vehval.test import Signal, Test, TestMeta
+from vehval.units import split_header
+
+FORMAT = "vehval-test"
+FORMAT_VERSION = 1
+_META_KEY = b"vehval"
+_TIME_PREFIX = "time__"
+
+
+def _padded(values: np.ndarray, n: int) -> pa.Array:
+    """float64 array of length ``n``: ``values`` then nulls (NaN samples stay NaN)."""
+    full = np.full(n, np.nan)
+    full[:values.size] = values
+    mask = np.zeros(n, dtype=bool)
+    mask[values.size:] = True
+    return pa.array(full, type=pa.float64(), mask=mask if values.size < n else None)
+
+
+def _field_meta(**kw) -> dict[bytes, bytes]:
+    return {k.encode(): ("" if v is None else str(v)).encode() for k, v in kw.items()}
+
+
+def table_of_test(test: Test) -> pa.Table:
+    """The Test as a wide Arrow table with per-field and file metadata (see module doc)."""
+    groups = test.time_bases()
+    n_max = max((test[names[0]].time.size for names in groups.values()), default=0)
+    fields, arrays, info = [], [], {}
+    for label, names in groups.items():
+        t = test[names[0]].time
+        info[label] = {"n": int(t.size), "signals": list(names)}
+        fields.append(pa.field(f"{_TIME_PREFIX}{label}", pa.float64(),
+                               metadata=_field_meta(unit="s", group=label, role="time")))
+        arrays.append(_padded(t, n_max))
+        for name in names:
+            s = test[name]
+            fields.append(pa.field(name, pa.float64(), metadata=_field_meta(
+                unit=s.unit, source=s.source, raw_name=s.raw_name, raw_unit=s.raw_unit,
+                file=s.file, resample=s.resample, group=label, role="signal",
+                notes=json.dumps(s.notes))))
+            arrays.append(_padded(s.values, n_max))
+    meta = {"format": FORMAT, "format_version": FORMAT_VERSION, "meta": test.meta.to_dict(),
+            "groups": info}
+    schema = pa.schema(fields, metadata={_META_KEY: json.dumps(meta).encode()})
+    return pa.Table.from_arrays(arrays, schema=schema)
+
+
+def write_test(test: Test, path: str | Path) -> Path:
+    """Write a Test to one Parquet file, atomically.
+
+    Parameters
+    ----------
+    test : Test
+        Signals in SI with provenance and metadata.
+    path : str or Path
+        Output file; replaced only when the write succeeded.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    path = Path(path)
+    table = table_of_test(test)
+    with atomic_path(path) as tmp:
+        pq.write_table(table, tmp, compression="zstd")
+    return path
+
+
+def _vehval_meta(schema: pa.Schema) -> dict | None:
+    raw = (schema.metadata or {}).get(_META_KEY)
+    if raw is None:
+        return None
+    meta = json.loads(raw)
+    return meta if meta.get("format") == FORMAT else None
+
+
+def _open(path: str | Path) -> tuple[Path, pa.Table]:
+    path = Path(path)
+    check_exists(path)
+    try:
+        return path, pq.read_table(path)
+    except (pa.ArrowException, OSError) as exc:
+        raise InputFileError(f"{path}: not a readable Parquet file ({exc})") from None
+
+
+def read_test(path: str | Path) -> Test:
+    """Read a Test written by :func:`write_test` (units, provenance and metadata restored).
+
+    Raises
+    ------
+    InputFileError
+        When the file is missing, unreadable or not a vehval Test file.
+    """
+    path, table = _open(path)
+    info = _vehval_meta(table.schema)
+    if info is None:
+        raise InputFileError(f"{path}: not a vehval Test file (no 'vehval' metadata): import it "
+                             "with `vehval import FILE -t TEMPLATE`")
+    if int(info.get("format_version", 0)) > FORMAT_VERSION:
+        raise InputFileError(f"{path}: written by a newer vehval (format version "
+                             f"{info['format_version']}): upgrade vehval")
+    meta_d = info.get("meta", {})
+    meta = TestMeta(**{k: v for k, v in meta_d.items() if k in TestMeta.__dataclass_fields__})
+    test = Test(meta=meta)
+    for label, g in info["groups"].items():
+        n = int(g["n"])
+        t = table.column(f"{_TIME_PREFIX}{label}").to_numpy()[:n]
+        for name in g["signals"]:
+            fmeta = {k.decode(): v.decode() for k, v in (table.schema.field(name).metadata or {}).items()}
+            test.add(Signal(
+                name=name, time=t.copy(), values=table.column(name).to_numpy()[:n].copy(),
+                unit=fmeta.get("unit", ""), source=fmeta.get("source", ""),
+                raw_name=fmeta.get("raw_name") or None, raw_unit=fmeta.get("raw_unit") or None,
+                file=fmeta.get("file") or None, resample=fmeta.get("resample") or "linear",
+                notes=json.loads(fmeta.get("notes") or "[]")))
+    return test
+
+
+def read_parquet_raw(path: str | Path, **_opts) -> RawTable:
+    """Read a Parquet file as raw channels.
+
+    A vehval Test file gives one channel per signal with its own time array; a plain wide
+    table gives its numeric columns (``Name[unit]`` column names or a ``unit`` field metadata
+    give the unit) and its time column, if any. Timestamp columns become seconds since the
+    first sample; other non-numeric columns are skipped with a note.
+    """
+    path, table = _open(path)
+    info = _vehval_meta(table.schema)
+    notes: list[str] = []
+    if info is not None:
+        names, units, data, times = [], [], {}, {}
+        for label, g in info["groups"].items():
+            n = int(g["n"])
+            t = table.column(f"{_TIME_PREFIX}{label}").to_numpy()[:n]
+            for name in g["signals"]:
+                f = table.schema.field(name)
+                names.append(name)
+                units.append(((f.metadata or {}).get(b"unit") or b"").decode() or None)
+                data[name] = table.column(name).to_numpy()[:n].astype(float)
+                times[name] = t
+        headers = [f"{n}[{u}]" if u else n for n, u in zip(names, units)]
+        return RawTable(path=path, fmt="parquet", headers=headers, names=names, units=units,
+                        data=data, times=times, notes=notes, meta={"vehval": info})
+    headers, names, units, data = [], [], [], {}
+    for f, col in zip(table.schema, table.columns):
+        name, unit = split_header(f.name)
+        if f.metadata and f.metadata.get(b"unit"):
+            unit = f.metadata[b"unit"].decode()
+        if pa.types.is_timestamp(f.type):
+            ns = col.cast(pa.timestamp("ns")).to_numpy().astype("int64").astype(float)
+            values = (ns - ns[0]) * 1e-9 if ns.size else ns
+            unit = "s"
+            notes.append(f"column '{f.name}': timestamps converted to seconds since the first row")
+        elif pa.types.is_integer(f.type) or pa.types.is_floating(f.type) or pa.types.is_boolean(f.type):
+            values = col.cast(pa.float64()).to_numpy()
+        else:
+            notes.append(f"column '{f.name}' ({f.type}) is not numeric: skipped")
+            continue
+        if name in data:
+            raise InputFileError(f"{path}: duplicate channel name '{name}' in the columns")
+        headers.append(f.name)
+        names.append(name)
+        units.append(unit or None)
+        data[name] = np.asarray(values, dtype=float)
+    if not names:
+        raise InputFileError(f"{path}: no numeric column in the Parquet file")
+    time_name = find_time_column(names, units)
+    return RawTable(path=path, fmt="parquet", headers=headers, names=names, units=units, data=data,
+                    time_name=time_name, notes=notes,
+                    time_unit=(units[names.index(time_name)] or "s") if time_name else None)

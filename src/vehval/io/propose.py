@@ -1,0 +1,300 @@
+"""Propose a template from raw files (``vehval template init``) and check one against files
+(``vehval template check``)."""
+
+from __future__ import annotations
+
+import difflib
+import fnmatch
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from vehval.errors import UnitError, VehvalError
+from vehval.io.raw import RawTable
+from vehval.io.readers import read_raw
+from vehval.io.template import ChannelSpec, FileSpec, Template, TimeSpec, as_template
+from vehval.nomenclature import registry
+from vehval.units import conversion, parse_unit
+
+__all__ = ["propose_template", "check_template", "CheckReport", "match_channel", "source_tag",
+           "entry_for_file", "find_channel"]
+
+UNMATCHED_REASON = "no standard name matched; edit"
+
+#: Abbreviations -> one canonical token, so that ``Eng_Spd`` and ``Engine Speed`` compare equal.
+_CANON = {
+    "spd": "speed", "trq": "torque", "tq": "torque", "temp": "temperature", "tmp": "temperature",
+    "volt": "voltage", "v": "voltage", "curr": "current", "i": "current", "pwr": "power",
+    "frc": "force", "eng": "engine", "veh": "vehicle", "vehicle": "vehicle", "mot": "motor",
+    "mg2": "motor", "gen": "generator", "mg1": "generator", "bty": "battery", "batt": "battery",
+    "bat": "battery", "ess": "battery", "acc": "acceleration", "accel": "acceleration",
+    "pos": "position", "pres": "pressure", "press": "pressure", "whl": "wheel", "brk": "brake",
+    "amb": "ambient", "rh": "humidity", "te": "effort", "fuelflow": "fuel flow",
+    "flow": "flow", "soc": "soc", "lim": "limit", "chg": "charge", "dis": "discharge",
+}
+_PORTS = {"in", "out"}
+_OBD_HINT = re.compile(r"^(eng2|obd|pid|mode01)|^(rpm|vss|maf|map|iat|ect|stft|ltft)$", re.I)
+
+
+def _tokens(text: str) -> list[str]:
+    text = re.sub(r"([a-z])([A-Z])", r"\1 \2", text)
+    out: list[str] = []
+    for tok in re.split(r"[^A-Za-z0-9]+", text.lower()):
+        if not tok:
+            continue
+        out.extend(_CANON.get(tok, tok).split())
+    return out
+
+
+def _score(a: list[str], b: list[str]) -> float:
+    """Dice similarity of two token lists, near-identical tokens counting as equal."""
+    if not a or not b:
+        return 0.0
+    rest = list(b)
+    hits = 0
+    for tok in a:
+        best = max(rest, key=lambda r: difflib.SequenceMatcher(None, tok, r).ratio(), default=None)
+        if best is not None and (best == tok or difflib.SequenceMatcher(None, tok, best).ratio() >= 0.85):
+            hits += 1
+            rest.remove(best)
+    return 2.0 * hits / (len(a) + len(b))
+
+
+def _unit_fits(raw_unit: str | None, si_unit: str) -> bool:
+    if raw_unit is None:
+        return True
+    try:
+        conversion(raw_unit, si_unit, fuel_density_kg_per_m3=1.0)
+        return True
+    except UnitError:
+        return False
+
+
+def match_channel(raw_name: str, raw_unit: str | None, *, cutoff: float = 0.7) -> str | None:
+    """Base name for a raw channel: registry alias first, then fuzzy tokens + unit dimension.
+
+    Parameters
+    ----------
+    raw_name : str
+        Channel name without unit, e.g. ``Engine Speed``.
+    raw_unit : str or None
+        Header unit; a candidate whose SI unit cannot be reached from it is rejected.
+    cutoff : float
+        Minimum token similarity (0..1) for a fuzzy match.
+    """
+    reg = registry()
+    base = reg.match_alias(raw_name)
+    if base is not None and base != "time" and _unit_fits(raw_unit, reg[base].unit):
+        return base
+    toks = _tokens(raw_name)
+    best, best_score = None, 0.0
+    for b, spec in reg.specs.items():
+        if b == "time" or not _unit_fits(raw_unit, spec.unit):
+            continue
+        cands = [[t for t in _tokens(b.replace("_", " ")) if t not in _PORTS]]
+        cands += [_tokens(a) for a in spec.aliases]
+        s = max(_score(toks, c) for c in cands)
+        if s > best_score:
+            best, best_score = b, s
+    if best_score >= cutoff:
+        return best
+    return None
+
+
+def source_tag(raw: RawTable) -> str:
+    """Default source tag of a file: ``dyno`` for D3, ``obd`` for OBD-like CSV, else the stem."""
+    if raw.fmt == "d3":
+        return "dyno"
+    if raw.fmt == "csv" and sum(1 for n in raw.names if _OBD_HINT.search(n)) >= 2:
+        return "obd"
+    stem = re.sub(r"[^a-z0-9]", "", raw.path.stem.lower())
+    if not stem or not stem[0].isalpha():
+        stem = "f" + stem
+    return stem[:16]
+
+
+def _unique_name(base: str, source: str, raw_name: str, used: set[str]) -> str:
+    qual = re.sub(r"[^a-z0-9]", "", raw_name.lower())
+    cands = [f"{base}_test", f"{base}_{source}_test"]
+    if qual and qual[0].isalpha() and len(qual) <= 8:
+        cands.append(f"{base}_{qual}_test")
+    cands += [f"{base}_{source}{k}_test" for k in range(2, 100)]
+    for c in cands:
+        if c not in used:
+            return c
+    raise VehvalError(f"cannot find a unique name for channel '{raw_name}'")  # pragma: no cover
+
+
+def propose_template(files: list[str | Path]) -> tuple[Template, list[str]]:
+    """Propose a template for raw files.
+
+    Each channel is matched to a registry base name (alias, then fuzzy tokens and unit
+    dimension); names are made unique with the file's source tag; unmatched channels are
+    written with ``delete: true, reason: "no standard name matched; edit"``.
+
+    Returns
+    -------
+    template : Template
+        The proposal; ``template.todo`` lists what must still be filled in by hand (units of
+        channels whose file gives none, time of files without a time column...).
+    unmatched : list of str
+        ``file: channel`` for every channel no standard name matched.
+    """
+    reg = registry()
+    entries: list[FileSpec] = []
+    unmatched: list[str] = []
+    todo: list[str] = []
+    used: set[str] = set()
+    sources: set[str] = set()
+    paths = [Path(f) for f in files]
+    for path in paths:
+        raw = read_raw(path)
+        src = source_tag(raw)
+        k = 2
+        while src in sources:
+            src = f"{source_tag(raw)}{k}"
+            k += 1
+        sources.add(src)
+        if raw.time_name is not None:
+            time = TimeSpec(column=raw.time_name, unit=raw.time_unit or "s")
+        elif raw.times:
+            time = TimeSpec()
+        else:
+            time = TimeSpec(rate_hz=1.0)
+            todo.append(f"{path.name}: no time column; time.rate_hz 1.0 assumed: set the real rate")
+        channels: dict[str, ChannelSpec] = {}
+        for name, unit in zip(raw.names, raw.units):
+            if name == raw.time_name:
+                continue
+            base = match_channel(name, unit)
+            if base is None:
+                channels[name] = ChannelSpec(delete=True, reason=UNMATCHED_REASON)
+                unmatched.append(f"{path.name}: {name}")
+                continue
+            full = _unique_name(base, src, name, used)
+            used.add(full)
+            spec = reg[base]
+            if unit is None and not parse_unit(spec.unit).dimensionless:
+                todo.append(f"{path.name}: channel '{name}' -> {full}: the file gives no unit; "
+                            f"set 'unit' (SI is {spec.unit})")
+            elif unit is None and spec.range[1] <= 1.0:
+                todo.append(f"{path.name}: channel '{name}' -> {full}: the file gives no unit, so "
+                            "values are taken as a fraction 0..1: set unit '%' if they are percent")
+            if unit is not None and parse_unit(unit).dimensionality != parse_unit(spec.unit).dimensionality:
+                todo.append(f"{path.name}: channel '{name}' [{unit}] -> {full}: volumetric fuel "
+                            "flow needs constants.fuel_density_kg_per_m3")
+            channels[name] = ChannelSpec(name=full, unit=unit)
+        entries.append(FileSpec(match=_glob_escape(path.name) if len(paths) > 1 else None,
+                                source=src, format=raw.fmt, time=time, channels=channels))
+    t = Template(description=f"proposed by `vehval template init` from {', '.join(p.name for p in paths)}",
+                 files=entries)
+    t._todo = todo
+    return t, unmatched
+
+
+def _glob_escape(name: str) -> str:
+    return re.sub(r"([\[\]*?])", r"[\1]", name)
+
+
+def entry_for_file(t: Template, path: Path, taken: set[int] | None = None) -> int | None:
+    """Index of the first ``files[]`` entry whose ``match`` glob fits the file name."""
+    for i, f in enumerate(t.files):
+        if taken and i in taken and len(t.files) > 1:
+            continue
+        if f.match is None or fnmatch.fnmatch(path.name, f.match):
+            return i
+    return None
+
+
+def find_channel(raw: RawTable, key: str) -> str | None:
+    """Raw channel of ``raw`` that a template key names: exact, then case/space-insensitive."""
+    if key in raw.data:
+        return key
+    from vehval.nomenclature import normalise_raw
+    norm = normalise_raw(key)
+    for n in raw.names:
+        if normalise_raw(n) == norm:
+            return n
+    return None
+
+
+@dataclass
+class CheckReport:
+    """Result of :func:`check_template`: errors make ``vehval template check`` fail."""
+
+    errors: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.errors
+
+    def format(self) -> str:
+        lines = [f"error: {e}" for e in self.errors] + [f"warning: {w}" for w in self.warnings]
+        lines.append(f"{len(self.errors)} error(s), {len(self.warnings)} warning(s)")
+        return "\n".join(lines)
+
+
+def check_template(template: Template | str | Path, files: list[str | Path]) -> CheckReport:
+    """Compare a template with raw files without importing them.
+
+    Errors: a file no entry matches, a template channel whose unit is missing or cannot be
+    converted, volumetric fuel without density, no time. Warnings: channels in a file but not
+    in the template and template channels missing from the file, header unit differing from
+    the template unit.
+    """
+    t = as_template(template)
+    reg = registry()
+    rep = CheckReport()
+    density = t.constants.fuel_density_kg_per_m3
+    taken: set[int] = set()
+    for f in files:
+        path = Path(f)
+        idx = entry_for_file(t, path, taken)
+        if idx is None:
+            rep.errors.append(f"{path.name}: no files[] entry of the template matches it")
+            continue
+        taken.add(idx)
+        spec = t.files[idx]
+        raw = read_raw(path, spec.format, **spec.options.model_dump())
+        for note in raw.notes:
+            rep.warnings.append(f"{path.name}: {note}")
+        tcol = spec.time.column or raw.time_name
+        if spec.time.rate_hz is None and not raw.times and (tcol is None or find_channel(raw, tcol) is None):
+            rep.errors.append(f"{path.name}: no time column found and files[{idx}].time.rate_hz is not set")
+        mapped = set()
+        for key, ch in spec.channels.items():
+            col = find_channel(raw, key)
+            if col is None:
+                rep.warnings.append(f"{path.name}: template channel '{key}' is not in the file")
+                continue
+            mapped.add(col)
+            if ch.delete:
+                continue
+            unit = ch.unit if ch.unit is not None else raw.unit_of(col)
+            si = reg.spec_of(ch.name).unit
+            if unit is None and not parse_unit(si).dimensionless:
+                rep.errors.append(f"{path.name}: channel '{key}' -> {ch.name}: no unit in the file or "
+                                  f"the template: set files[{idx}].channels.{key}.unit")
+                continue
+            try:
+                conversion(unit, si, fuel_density_kg_per_m3=density)
+            except UnitError as exc:
+                rep.errors.append(f"{path.name}: channel '{key}' -> {ch.name}: {exc}")
+                continue
+            hdr = raw.unit_of(col)
+            if ch.unit is not None and hdr is not None and not _same_unit(ch.unit, hdr):
+                rep.warnings.append(f"{path.name}: channel '{key}': template unit '{ch.unit}' differs "
+                                    f"from the header unit '{hdr}' (the template wins)")
+        extra = [n for n in raw.names if n not in mapped and n != raw.time_name and n != tcol]
+        if extra:
+            rep.warnings.append(f"{path.name}: channels not in the template (ignored at import): "
+                                + ", ".join(extra))
+    return rep
+
+
+def _same_unit(a: str, b: str) -> bool:
+    try:
+        return conversion(a, str(parse_unit(b))) == (1.0, 0.0)
+    except UnitError:
+        return False

@@ -1,0 +1,354 @@
+"""Import templates: how the channels of each raw file become standard SI signals.
+
+A template is YAML validated by pydantic models that reject unknown keys. Errors name the
+file and the key path (``T.yaml: files[0].channels.Engine_Speed.unti: unknown key (did you
+mean 'unit'?)``). See docs/templates.md for the schema and the init/check/import workflow.
+"""
+
+from __future__ import annotations
+
+import difflib
+import typing
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import (BaseModel, ConfigDict, Field, PositiveFloat, PrivateAttr, ValidationError,
+                      model_validator)
+
+from vehval.errors import ConfigError, SignalError, UnitError
+from vehval.io.atomic import write_text_atomic
+from vehval.nomenclature import registry
+from vehval.units import conversion, parse_unit, ureg
+
+__all__ = ["ChannelSpec", "TimeSpec", "ReadOptions", "FileSpec", "Constants", "Selection",
+           "Template", "load_template", "format_loc", "semantic_errors"]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+
+
+class TimeSpec(_Strict):
+    """Where the time of a file comes from.
+
+    Attributes
+    ----------
+    column : str, optional
+        Raw name of the time column (without unit); detected when omitted.
+    unit : str
+        Unit of the time column (default ``s``).
+    rate_hz : float, optional
+        Sample rate [Hz] for files without a time column: ``t = start_s + i / rate_hz``.
+    start_s : float
+        Time of the first row [s] when ``rate_hz`` is used.
+    """
+
+    column: str | None = None
+    unit: str = "s"
+    rate_hz: PositiveFloat | None = None
+    start_s: float = 0.0
+
+    @model_validator(mode="after")
+    def _one_source(self) -> "TimeSpec":
+        if self.column is not None and self.rate_hz is not None:
+            raise ValueError("give either 'column' or 'rate_hz', not both")
+        return self
+
+
+class ChannelSpec(_Strict):
+    """One raw channel: its standard name and raw unit, or its deletion.
+
+    Attributes
+    ----------
+    name : str
+        Full standard name, e.g. ``veh_spd_test``.
+    unit : str, optional
+        Raw unit (pint expression or header spelling); the header unit when omitted.
+    scale, offset : float
+        Applied after the SI conversion: ``si = to_si(raw) * scale + offset``.
+    invalid_values : list of float
+        Raw sentinel values replaced by NaN (e.g. ``-327.68``).
+    delete : bool
+        Drop the channel (recorded in ``meta.deleted`` with ``reason``).
+    reason : str, optional
+        Why the channel is deleted.
+    """
+
+    name: str | None = None
+    unit: str | None = None
+    scale: float = 1.0
+    offset: float = 0.0
+    invalid_values: list[float] = Field(default_factory=list)
+    delete: bool = False
+    reason: str | None = None
+
+    @model_validator(mode="after")
+    def _named(self) -> "ChannelSpec":
+        if not self.delete and not self.name:
+            raise ValueError("give the standard 'name' or set 'delete: true' with a 'reason'")
+        return self
+
+
+class ReadOptions(_Strict):
+    """Reader options for text files (all detected when omitted)."""
+
+    delimiter: str | None = None
+    decimal: Literal[".", ","] | None = None
+    encoding: str | None = None
+
+
+class FileSpec(_Strict):
+    """One acquisition system / raw file of a test."""
+
+    match: str | None = None
+    source: str = Field(pattern=r"^[a-z][a-z0-9]*$")
+    format: Literal["auto", "d3", "csv", "mdf4", "parquet"] = "auto"
+    time: TimeSpec = Field(default_factory=TimeSpec)
+    options: ReadOptions = Field(default_factory=ReadOptions)
+    channels: dict[str, ChannelSpec] = Field(default_factory=dict)
+
+
+class Constants(_Strict):
+    """Test constants in SI; the unit is in the key name."""
+
+    test_mass_kg: PositiveFloat | None = None
+    road_load_a_n: float | None = None
+    road_load_b_n_per_mps: float | None = None
+    road_load_c_n_per_mps2: float | None = None
+    fuel_density_kg_per_m3: PositiveFloat | None = None
+    fuel_lhv_j_per_kg: PositiveFloat | None = None
+    wheel_radius_m: PositiveFloat | None = None
+    final_drive_ratio: PositiveFloat | None = None
+    inertia_fraction: float | None = None
+
+
+class Selection(_Strict):
+    """Signal selection: names forced kept, and dropped names with their reason."""
+
+    keep: list[str] = Field(default_factory=list)
+    drop: dict[str, str] = Field(default_factory=dict)
+
+
+class Template(_Strict):
+    """An import template (schema version 1)."""
+
+    template_version: Literal[1] = 1
+    vehicle: str | None = None
+    description: str = ""
+    constants: Constants = Field(default_factory=Constants)
+    files: list[FileSpec] = Field(min_length=1)
+    selection: Selection = Field(default_factory=Selection)
+    _path: Path | None = PrivateAttr(default=None)
+    _todo: list[str] = PrivateAttr(default_factory=list)
+
+    @property
+    def path(self) -> Path | None:
+        """File the template was loaded from (``None`` when built in memory)."""
+        return self._path
+
+    @property
+    def todo(self) -> list[str]:
+        """Things :func:`propose_template` could not decide (units to fill in...)."""
+        return self._todo
+
+    def constants_dict(self) -> dict[str, float]:
+        """Constants that are set, as ``{key: value}`` in SI."""
+        return {k: float(v) for k, v in self.constants.model_dump().items() if v is not None}
+
+    def to_yaml(self) -> str:
+        """YAML text of the template (defaults left out, one flow mapping per channel)."""
+        data = self.model_dump(mode="json", exclude_defaults=True)
+        out: dict[str, Any] = {"template_version": 1}
+        for key in ("vehicle", "description", "constants", "files", "selection"):
+            if key in data:
+                out[key] = data[key]
+        for f in out.get("files", []):
+            f["channels"] = {k: _Flow(v) for k, v in f.get("channels", {}).items()}
+            if "time" in f:
+                f["time"] = _Flow(f["time"])
+        return yaml.dump(out, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
+
+    def save(self, path: str | Path) -> Path:
+        """Write the template as YAML (no comments), atomically."""
+        path = Path(path)
+        write_text_atomic(path, self.to_yaml())
+        return path
+
+
+class _Flow(dict):
+    """A mapping dumped in YAML flow style: ``{name: veh_spd_test, unit: mph}``."""
+
+
+class _Dumper(yaml.SafeDumper):
+    pass
+
+
+_Dumper.add_representer(_Flow, lambda d, v: d.represent_mapping(
+    "tag:yaml.org,2002:map", dict(v), flow_style=True))
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def format_loc(loc: tuple) -> str:
+    """``('files', 0, 'channels', 'X', 'unti')`` -> ``files[0].channels.X.unti``."""
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "(top level)"
+
+
+def _unwrap(tp: Any) -> Any:
+    """Strip Optional/list/dict wrappers down to a model class (or None)."""
+    while True:
+        origin = typing.get_origin(tp)
+        if origin is None:
+            return tp
+        args = [a for a in typing.get_args(tp) if a is not type(None)]
+        if not args:
+            return None
+        tp = args[-1]
+
+
+def _model_at(loc: tuple) -> type[BaseModel] | None:
+    """Model class that owns the key at ``loc`` (``loc`` without the key itself)."""
+    cur: Any = Template
+    for part in loc:
+        if isinstance(cur, type) and issubclass(cur, BaseModel) and part in cur.model_fields:
+            cur = cur.model_fields[part].annotation
+            origin = typing.get_origin(cur)
+            if origin in (list, dict) or _unwrap(cur) is not cur:
+                cur = ("container", _unwrap(cur))
+            continue
+        if isinstance(cur, tuple) and cur[0] == "container":
+            cur = cur[1]
+            continue
+        return None
+    if isinstance(cur, tuple):
+        cur = cur[1]
+    return cur if isinstance(cur, type) and issubclass(cur, BaseModel) else None
+
+
+def _message(err: dict) -> str:
+    loc = tuple(err.get("loc", ()))
+    kind = err.get("type", "")
+    if kind == "extra_forbidden":
+        key = str(loc[-1])
+        model = _model_at(loc[:-1])
+        allowed = list(model.model_fields) if model else []
+        close = difflib.get_close_matches(key, allowed, n=1, cutoff=0.6)
+        hint = f" (did you mean '{close[0]}'?)" if close else (
+            f" (allowed: {', '.join(allowed)})" if allowed else "")
+        return f"{format_loc(loc)}: unknown key{hint}"
+    if kind == "missing":
+        return f"{format_loc(loc)}: required key missing"
+    msg = str(err.get("msg", "invalid"))
+    msg = msg.removeprefix("Value error, ")
+    return f"{format_loc(loc)}: {msg}"
+
+
+def semantic_errors(t: Template) -> list[str]:
+    """Checks beyond the schema: names in the registry, units known and convertible.
+
+    Returns
+    -------
+    list of str
+        One ``key.path: problem`` message per problem (empty when the template is sound).
+    """
+    reg = registry()
+    errors: list[str] = []
+    seen: dict[str, str] = {}
+    time_dim = ureg.Unit("second").dimensionality
+    for fi, f in enumerate(t.files):
+        try:
+            if parse_unit(f.time.unit).dimensionality != time_dim:
+                errors.append(f"files[{fi}].time.unit: '{f.time.unit}' is not a time unit")
+        except UnitError as exc:
+            errors.append(f"files[{fi}].time.unit: {exc}")
+        for raw, ch in f.channels.items():
+            where = f"files[{fi}].channels.{raw}"
+            if ch.delete:
+                continue
+            try:
+                spec = reg.spec_of(ch.name)
+            except SignalError as exc:
+                errors.append(f"{where}.name: {exc}")
+                continue
+            if ch.name in seen:
+                errors.append(f"{where}.name: '{ch.name}' is also given to {seen[ch.name]}: "
+                              "give one of them a source qualifier (e.g. _obd_)")
+            seen[ch.name] = where
+            if ch.unit is None:
+                continue
+            try:
+                conversion(ch.unit, spec.unit, fuel_density_kg_per_m3=1.0)
+            except UnitError as exc:
+                errors.append(f"{where}.unit: channel '{raw}': {exc}")
+    for name in list(t.selection.keep) + list(t.selection.drop):
+        try:
+            reg.parse(name)
+        except SignalError as exc:
+            errors.append(f"selection: {exc}")
+    return errors
+
+
+def load_template(path: str | Path) -> Template:
+    """Load and validate a template file.
+
+    Raises
+    ------
+    ConfigError
+        Missing file, YAML syntax error (with line), unknown or misspelled key (with the key
+        path and a did-you-mean), bad value, unknown signal name or unit (naming the channel).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise ConfigError(f"{path}: template file not found")
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{path}{where}: YAML syntax error: "
+                          f"{getattr(exc, 'problem', None) or exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a UTF-8 text file") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: a template must be a YAML mapping with 'files:' "
+                          "(see docs/templates.md)")
+    try:
+        t = Template.model_validate(data)
+    except ValidationError as exc:
+        msgs = [_message(e) for e in exc.errors()]
+        raise ConfigError(f"{path.name}: " + f"\n  {path.name}: ".join(msgs)) from None
+    problems = semantic_errors(t)
+    if problems:
+        raise ConfigError(f"{path.name}: " + f"\n  {path.name}: ".join(problems))
+    t._path = path
+    return t
+
+
+def as_template(template: Template | str | Path) -> Template:
+    """A :class:`Template` from an instance or a path (validated either way)."""
+    if isinstance(template, Template):
+        problems = semantic_errors(template)
+        if problems:
+            raise ConfigError("template: " + "\n  template: ".join(problems))
+        return template
+    return load_template(template)
+
+
+
+def __getattr__(name: str):
+    """``propose_template`` and ``check_template`` live in :mod:`vehval.io.propose`."""
+    if name in ("propose_template", "check_template"):
+        from vehval.io import propose
+        return getattr(propose, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ += ["propose_template", "check_template"]

@@ -1,0 +1,380 @@
+"""QA level 1: each signal alone.
+
+Checks, per signal: plausible range (registry) and the vehicle's own limits, missing
+samples (NaN) and holes in the time base, sample-rate irregularity, stuck segments,
+constant or all-zero channels, spikes (Hampel filter) and impossible signs.
+
+Stuck detection is robust to legitimately constant signals: a run of exactly repeated
+values counts only when it is non-zero and long enough, and either a partner signal (the
+same quantity from another source, or a strongly correlated quantity) moves meanwhile, or
+the signal is noisy elsewhere (exact repetition is then beyond its noise). Zero runs count
+only against a duplicate of the same quantity that is clearly non-zero meanwhile.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from vehval.align import CORRELATED_BASES
+from vehval.errors import SignalError
+from vehval.nomenclature import registry
+from vehval.qa.findings import Finding, Kind, Severity, merge_runs, runs
+from vehval.test import Signal, Test
+
+#: Base names that cannot be negative (beyond sensor noise).
+NON_NEGATIVE = frozenset({"fuel_rate", "fuel_pwr", "fuel_mass", "fuel_energy", "brk_frc",
+                          "brk_pwr", "brk_pres", "eng_spd_out"})
+#: Quantity tokens of signals expected to vary during a drive (constant = suspicious).
+DYNAMIC_QUANTITIES = frozenset({"spd", "trq", "frc", "acc", "pwr", "curr", "rate"})
+#: Extra correlated bases used only as "partner moves" evidence for stuck detection.
+_EXTRA_PARTNERS = (("eng_spd_out", "eng_trq_out"), ("eng_spd_out", "gen_spd_out"),
+                   ("mot_spd_out", "whl_spd"), ("veh_spd", "veh_frc_in"),
+                   ("ess_curr", "ess_volt"), ("mot_trq_out", "veh_frc_in"))
+
+
+@dataclass
+class Level1Options:
+    """Thresholds of QA level 1 (all documented in docs/qa.md)."""
+
+    stuck_min_s: float = 5.0          # shortest exactly-repeated run considered [s]
+    stuck_min_samples: int = 4
+    noisy_repeat_fraction: float = 0.02   # below: the signal is "noisy" (repeats are rare)
+    partner_move_fraction: float = 0.05   # partner moves: range in run > this x its range
+    spike_k: float = 10.0             # Hampel threshold in robust sigmas
+    spike_range_fraction: float = 0.1  # and at least this fraction of the signal range
+    spike_window: int = 5             # Hampel window [samples], odd
+    gap_factor: float = 2.5           # time gap: step > this x median period
+    jitter_info: float = 0.05         # std(dt)/median(dt) above this -> info
+    vehicle_limit_tolerance: float = 0.03  # relative margin over the vehicle's limit
+    max_findings_per_kind: int = 10   # per signal; further runs are merged into one
+
+
+def _parse(name: str):
+    try:
+        return registry().parse(name)
+    except SignalError:
+        return None
+
+
+def robust_noise(values: np.ndarray, window: int = 5) -> tuple[float, np.ndarray]:
+    """Robust noise sigma and the Hampel residual ``v - rolling median`` (NaN-aware).
+
+    Returns
+    -------
+    sigma : float
+        1.4826 × median absolute residual (same unit as ``values``).
+    resid : numpy.ndarray
+        Residual per sample (NaN at the edges and around NaN samples).
+    """
+    v = np.asarray(values, float)
+    resid = np.full(v.shape, np.nan)
+    h = window // 2
+    if v.size < window:
+        return 0.0, resid
+    med = np.median(sliding_window_view(v, window), axis=1)
+    resid[h:v.size - h] = v[h:v.size - h] - med
+    r = np.abs(resid[np.isfinite(resid)])
+    sigma = 1.4826 * float(np.median(r)) if r.size else 0.0
+    return sigma, resid
+
+
+def _robust_range(v: np.ndarray) -> float:
+    f = v[np.isfinite(v)]
+    if f.size == 0:
+        return 0.0
+    lo, hi = np.percentile(f, [0.5, 99.5])
+    return float(hi - lo)
+
+
+def _span(sig: Signal, i0: int, i1: int) -> tuple[float, float]:
+    return float(sig.time[i0]), float(sig.time[min(i1, sig.time.size - 1)])
+
+
+def _emit_runs(out: list[Finding], sig: Signal, rs: list[tuple[int, int]], kind: Kind,
+               severity: Severity, text, numbers, opts: Level1Options) -> None:
+    """One finding per run; beyond the cap the remaining runs are merged into one."""
+    cap = opts.max_findings_per_kind
+    head, tail = rs[:cap - 1], rs[cap - 1:]
+    if len(rs) <= cap:
+        head, tail = rs, []
+    for i0, i1 in head:
+        s0, s1 = _span(sig, i0, i1)
+        out.append(Finding(sig.name, kind, s0, s1, severity, text(i0, i1), numbers(i0, i1)))
+    if tail:
+        s0, s1 = _span(sig, tail[0][0], tail[-1][1])
+        nums = numbers(tail[0][0], tail[-1][1])
+        nums["runs_merged"] = len(tail)
+        out.append(Finding(sig.name, kind, s0, s1, severity,
+                           f"{len(tail)} more occurrences between {s0:.1f} s and {s1:.1f} s",
+                           nums))
+
+
+def partners_of(test: Test, name: str) -> list[tuple[Signal, bool]]:
+    """Signals expected to move with ``name``: ``(signal, is_duplicate)`` pairs."""
+    p = _parse(name)
+    if p is None:
+        return []
+    out = []
+    for other in test:
+        if other.name == name:
+            continue
+        q = _parse(other.name)
+        if q is None or q.origin != "test":
+            continue
+        if q.base == p.base:
+            out.append((other, True))
+        elif ((p.base, q.base) in CORRELATED_BASES or (q.base, p.base) in CORRELATED_BASES
+              or (p.base, q.base) in _EXTRA_PARTNERS or (q.base, p.base) in _EXTRA_PARTNERS):
+            out.append((other, False))
+    return out
+
+
+def _moves(partner: Signal, t0: float, t1: float, frac: float) -> tuple[bool, float]:
+    """Does ``partner`` vary within [t0, t1] by more than ``frac`` of its overall range?"""
+    full = _robust_range(partner.values)
+    if full <= 0:
+        return False, 0.0
+    sel = (partner.time >= t0) & (partner.time <= t1)
+    seg = partner.values[sel]
+    seg = seg[np.isfinite(seg)]
+    if seg.size < 2:
+        return False, 0.0
+    rng = float(seg.max() - seg.min())
+    return rng > frac * full, rng / full
+
+
+def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options) -> list[Finding]:
+    v, t = sig.values, sig.time
+    if v.size < opts.stuck_min_samples or sig.resample == "previous":
+        return []
+    same = (np.diff(v) == 0)
+    rs = runs(same)                    # run (i0, i1) of diffs -> samples i0..i1+1 equal
+    if not rs:
+        return []
+    cand = []
+    for i0, i1 in rs:
+        j1 = i1 + 1
+        if j1 - i0 + 1 < opts.stuck_min_samples or t[j1] - t[i0] < opts.stuck_min_s:
+            continue
+        cand.append((i0, j1))
+    if not cand:
+        return []
+    cand_len = sum(j1 - i0 for i0, j1 in cand)
+    outside_pairs = max(1, np.isfinite(np.diff(v)).sum() - cand_len)
+    repeat_frac = max(0, int(same.sum()) - cand_len) / outside_pairs
+    noisy = repeat_frac < opts.noisy_repeat_fraction
+    partners = partners_of(test, sig.name)
+    found: list[Finding] = []
+    for i0, j1 in sorted(cand, key=lambda r: r[0] - r[1])[:50]:
+        value = float(v[i0])
+        t0, t1 = float(t[i0]), float(t[j1])
+        mover = None
+        for psig, dup in partners:
+            if value == 0 and not dup:
+                continue
+            ok, frac = _moves(psig, t0, t1, opts.partner_move_fraction)
+            if ok and value == 0:
+                pv = psig.values[(psig.time >= t0) & (psig.time <= t1)]
+                ok = bool(np.nanmedian(np.abs(pv)) > 0.1 * max(_robust_range(psig.values), 1e-12))
+            if ok:
+                mover = (psig, dup, frac)
+                if dup:
+                    break
+        if value == 0 and mover is None:
+            continue
+        if mover is not None:
+            psig, dup, frac = mover
+            sev = Severity.ERROR if dup else Severity.WARNING
+            msg = (f"{sig.name} stays exactly at {value:.6g} {sig.unit} for {t1 - t0:.1f} s "
+                   f"while {psig.name} varies by {100 * frac:.0f} % of its range")
+            nums = {"value": value, "duration_s": t1 - t0, "samples": j1 - i0 + 1,
+                    "partner_range_fraction": frac}
+            found.append(Finding(sig.name, Kind.STUCK, t0, t1, sev, msg, nums,
+                                 related=[psig.name]))
+        elif noisy:
+            msg = (f"{sig.name} repeats exactly {value:.6g} {sig.unit} for {t1 - t0:.1f} s "
+                   f"although it changes at almost every sample elsewhere (stuck sensor?)")
+            found.append(Finding(sig.name, Kind.STUCK, t0, t1, Severity.WARNING, msg,
+                                 {"value": value, "duration_s": t1 - t0,
+                                  "samples": j1 - i0 + 1, "repeat_fraction": repeat_frac}))
+    found.sort(key=lambda f: f.start_s)
+    return found[:opts.max_findings_per_kind]
+
+
+def check_signal(test: Test, sig: Signal, limits: dict | None = None,
+                 opts: Level1Options | None = None) -> list[Finding]:
+    """All level-1 findings of one signal.
+
+    Parameters
+    ----------
+    test : Test
+        The test (for partners of stuck detection).
+    sig : Signal
+        The signal to check.
+    limits : dict, optional
+        The vehicle's limits ``{base: (min, max)}`` in SI (``Vehicle.signal_limits()``).
+    opts : Level1Options, optional
+        Thresholds.
+    """
+    opts = opts or Level1Options()
+    out: list[Finding] = []
+    parsed = _parse(sig.name)
+    if parsed is None:
+        out.append(Finding(sig.name, Kind.UNRECOGNISED, float(sig.time[0]) if sig.time.size else 0.0,
+                           float(sig.time[-1]) if sig.time.size else 0.0, Severity.WARNING,
+                           f"{sig.name} is not a name of the nomenclature; it cannot be checked "
+                           "or used by the calculations", {}))
+        return out
+    base = parsed.base
+    spec = registry()[base]
+    v, t = sig.values, sig.time
+    if v.size == 0:
+        return [Finding(sig.name, Kind.ALL_ZERO, 0.0, 0.0, Severity.ERROR,
+                        f"{sig.name} has no samples", {})]
+    fin = np.isfinite(v)
+    t_start, t_end = float(t[0]), float(t[-1])
+
+    # time base ------------------------------------------------------------------------
+    if t.size > 2:
+        dt = np.diff(t)
+        med = float(np.median(dt))
+        bad = dt <= 0
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            out.append(Finding(sig.name, Kind.RATE_IRREGULAR, float(t[i]), float(t[i + 1]),
+                               Severity.ERROR, f"time of {sig.name} goes backwards or repeats "
+                               f"{int(bad.sum())} times (first at {t[i]:.3f} s)",
+                               {"count": int(bad.sum())}))
+        if med > 0:
+            gaps = runs(dt > opts.gap_factor * med)
+            _emit_runs(out, sig, [(i0, i1 + 1) for i0, i1 in gaps], Kind.TIME_GAP, Severity.WARNING,
+                       lambda i0, i1: (f"{sig.name} has no samples from {t[i0]:.1f} s to "
+                                       f"{t[i1]:.1f} s (nominal period {med:.3g} s)"),
+                       lambda i0, i1: {"gap_s": float(t[i1] - t[i0]), "period_s": med}, opts)
+            jitter = float(np.std(dt[dt > 0]) / med) if (dt > 0).any() else 0.0
+            if jitter > opts.jitter_info:
+                out.append(Finding(sig.name, Kind.RATE_IRREGULAR, t_start, t_end, Severity.INFO,
+                                   f"{sig.name} is sampled irregularly: period {med:.3g} s with "
+                                   f"{100 * jitter:.0f} % jitter", {"period_s": med,
+                                                                    "jitter_fraction": jitter}))
+
+    # missing samples ----------------------------------------------------------------------
+    if not fin.any():
+        out.append(Finding(sig.name, Kind.NAN_GAP, t_start, t_end, Severity.ERROR,
+                           f"{sig.name} has no valid sample (all NaN)", {"count": int(v.size)}))
+        return out
+    nan_runs = merge_runs(runs(~fin), t, 1.0)
+    if nan_runs:
+        period = sig.sample_period
+        def nan_nums(i0, i1):
+            return {"count": int((~fin[i0:i1 + 1]).sum()), "duration_s": float(t[i1] - t[i0])}
+        long_r = [r for r in nan_runs if t[r[1]] - t[r[0]] >= max(1.0, 2 * period)]
+        short_r = [r for r in nan_runs if r not in long_r]
+        _emit_runs(out, sig, long_r, Kind.NAN_GAP, Severity.WARNING,
+                   lambda i0, i1: f"{sig.name} is missing (NaN) from {t[i0]:.1f} s to {t[i1]:.1f} s",
+                   nan_nums, opts)
+        _emit_runs(out, sig, short_r, Kind.NAN_GAP, Severity.INFO,
+                   lambda i0, i1: f"{sig.name} has isolated missing samples near {t[i0]:.1f} s",
+                   nan_nums, opts)
+    vf = v[fin]
+
+    # all zero / constant -------------------------------------------------------------------
+    qty = base.split("_")[1] if "_" in base else ""
+    if np.all(vf == 0):
+        sev = Severity.INFO if sig.resample == "previous" else Severity.ERROR
+        out.append(Finding(sig.name, Kind.ALL_ZERO, t_start, t_end, sev,
+                           f"{sig.name} is zero over the whole test: the channel was probably "
+                           "not measured or not connected", {"samples": int(vf.size)}))
+        return out
+    if vf.size > 10 and np.all(vf == vf[0]):
+        sev = Severity.WARNING if qty in DYNAMIC_QUANTITIES and sig.resample == "linear" else Severity.INFO
+        out.append(Finding(sig.name, Kind.CONSTANT, t_start, t_end, sev,
+                           f"{sig.name} is constant at {vf[0]:.6g} {sig.unit} over the whole test",
+                           {"value": float(vf[0])}))
+        return out
+
+    # range against the registry and the vehicle ------------------------------------------
+    lo, hi = spec.range
+    outside = fin & ((v < lo) | (v > hi))
+    rs = merge_runs(runs(outside), t, 1.0)
+    _emit_runs(out, sig, rs, Kind.RANGE, Severity.ERROR,
+               lambda i0, i1: (f"{sig.name} reaches {_extreme(v, i0, i1, lo, hi):.6g} {sig.unit}, "
+                               f"outside the plausible range [{lo:.6g}, {hi:.6g}] {sig.unit}"),
+               lambda i0, i1: {"value": _extreme(v, i0, i1, lo, hi), "limit_min": lo, "limit_max": hi},
+               opts)
+    if limits and base in limits:
+        vlo, vhi = limits[base]
+        vlo = -np.inf if vlo is None else float(vlo)
+        vhi = np.inf if vhi is None else float(vhi)
+        tol = opts.vehicle_limit_tolerance
+        over = fin & ~outside & ((v > vhi + tol * abs(vhi)) | (v < vlo - tol * abs(vlo)))
+        rs = merge_runs(runs(over), t, 1.0)
+        _emit_runs(out, sig, rs, Kind.VEHICLE_LIMIT, Severity.ERROR,
+                   lambda i0, i1: (f"{sig.name} reaches {_extreme(v, i0, i1, vlo, vhi):.6g} {sig.unit}, "
+                                   f"beyond the vehicle's limit [{vlo:.6g}, {vhi:.6g}] {sig.unit}"),
+                   lambda i0, i1: {"value": _extreme(v, i0, i1, vlo, vhi), "limit_min": vlo,
+                                   "limit_max": vhi}, opts)
+
+    # spikes (Hampel) -------------------------------------------------------------------
+    sigma, resid = robust_noise(v, opts.spike_window)
+    rrange = _robust_range(v)
+    if sig.resample == "linear" and rrange > 0:
+        thr = max(opts.spike_k * sigma, opts.spike_range_fraction * rrange)
+        spikes = np.isfinite(resid) & (np.abs(resid) > thr)
+        rs = [r for r in runs(spikes) if r[1] - r[0] < opts.spike_window // 2 + 1]
+        rs = merge_runs(rs, t, 1.0)
+        _emit_runs(out, sig, rs, Kind.SPIKE, Severity.WARNING,
+                   lambda i0, i1: (f"{sig.name} has a spike of {_peak(resid, i0, i1):+.4g} {sig.unit} "
+                                   f"at {t[i0]:.1f} s (threshold {thr:.3g} {sig.unit})"),
+                   lambda i0, i1: {"value": float(v[i0 + int(np.nanargmax(np.abs(resid[i0:i1 + 1])))]),
+                                   "deviation": _peak(resid, i0, i1), "threshold": thr}, opts)
+
+    # impossible sign ---------------------------------------------------------------------
+    if base in NON_NEGATIVE:
+        vmax = float(np.max(np.abs(vf)))
+        eps = max(1e-12, 1e-6 * vmax)
+        neg = fin & (v < -eps)
+        if neg.any():
+            vmin = float(np.min(vf))
+            beyond = -vmin > max(3 * sigma, 0.01 * vmax)
+            sev = Severity.WARNING if beyond else Severity.INFO
+            rs = merge_runs(runs(neg), t, 2.0)
+            frac = float(neg.sum() / fin.sum())
+            i0, i1 = rs[0][0], rs[-1][1]
+            out.append(Finding(sig.name, Kind.NEGATIVE, float(t[i0]), float(t[i1]), sev,
+                               f"{sig.name} is negative in {len(rs)} stretch(es) "
+                               f"({100 * frac:.1f} % of samples, down to {vmin:.4g} {sig.unit})"
+                               + ("; beyond the sensor noise" if beyond else "; within noise"),
+                               {"value": vmin, "limit_min": 0.0, "fraction": frac,
+                                "noise_sigma": sigma, "runs": len(rs)}))
+
+    out.extend(_stuck(test, sig, base, opts))
+    return out
+
+
+def _extreme(v: np.ndarray, i0: int, i1: int, lo: float, hi: float) -> float:
+    seg = v[i0:i1 + 1]
+    seg = seg[np.isfinite(seg)]
+    if seg.size == 0:
+        return float("nan")
+    mx, mn = float(seg.max()), float(seg.min())
+    return mx if (mx - hi) >= (lo - mn) else mn
+
+
+def _peak(resid: np.ndarray, i0: int, i1: int) -> float:
+    seg = resid[i0:i1 + 1]
+    return float(seg[int(np.nanargmax(np.abs(seg)))])
+
+
+def run_level1(test: Test, limits: dict | None = None,
+               opts: Level1Options | None = None) -> list[Finding]:
+    """Level-1 findings of every measured signal of a test (``_calc``/``_simu`` skipped)."""
+    out: list[Finding] = []
+    for sig in test:
+        if sig.name.endswith("_calc") or sig.name.endswith("_simu"):
+            continue
+        out.extend(check_signal(test, sig, limits, opts))
+    return out

@@ -1,0 +1,223 @@
+"""QA level 2: the same quantity measured by several sources (Table 2 of SAE 2006-01-0667).
+
+For every base name measured by two or more signals, each pair is compared at the slower
+signal's own sample times (the faster one is interpolated): R², mean absolute difference,
+mean relative difference, linear fit ``other = slope · ref + offset`` and the residual lag
+left after alignment. Poor agreement becomes findings: a gain error, an offset, a sign
+flip, a wrong unit (the slope is a known unit factor), a residual lag or plain low
+correlation. With three or more sources the finding goes to the signal that agrees least
+with the others; with two, to the less preferred source (facility sensor preferred).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vehval.align import estimate_pair
+from vehval.errors import SignalError
+from vehval.nomenclature import registry
+from vehval.qa.findings import Finding, Kind, Severity
+from vehval.test import Signal, Test
+
+#: Unit factors a wrong unit typically produces (slope of other vs ref).
+UNIT_FACTORS: dict[str, float] = {
+    "rpm vs rad/s": 2 * np.pi / 60, "mph vs m/s": 0.44704, "km/h vs m/s": 1 / 3.6,
+    "kilo (x1000)": 1000.0, "g vs kg": 1e-3, "lb vs kg": 0.45359237, "lbf vs N": 4.4482216,
+    "percent vs fraction": 100.0, "mph vs km/h": 1.609344, "degree vs rad": np.pi / 180,
+    "lbf·ft vs N·m": 1.3558179,
+}
+
+#: Source qualifiers of the facility's own instrumentation (after no qualifier at all).
+FACILITY_QUALIFIERS = ("daq", "direct", "bench", "modal", "dyno", "pa")
+
+
+def preference_rank(name: str) -> tuple[int, str]:
+    """Sort key: facility sensor (no qualifier) first, then facility qualifiers, then
+    OBD/CAN/ECU, then anything else."""
+    try:
+        q = registry().parse(name).source
+    except SignalError:
+        return (9, name)
+    if q is None:
+        return (0, name)
+    if q in FACILITY_QUALIFIERS:
+        return (1 + FACILITY_QUALIFIERS.index(q) / 10, name)
+    if q in ("obd", "can", "ecu"):
+        return (3, name)
+    return (4, name)
+
+
+@dataclass
+class Level2Options:
+    r2_min: float = 0.9             # below: low agreement (warning)
+    gain_tol: float = 0.05          # |slope - 1| above: gain warning
+    gain_error: float = 0.2         # above: error
+    offset_tol: float = 0.05        # |offset| above this x reference range: offset warning
+    unit_tol: float = 0.03          # slope within this of a unit factor: wrong unit
+    lag_min_s: float = 0.2          # residual lag threshold floor [s]
+    lag_search_s: float = 5.0
+
+
+@dataclass
+class PairComparison:
+    """One row of Table 2."""
+
+    base: str
+    ref: str
+    other: str
+    n: int
+    r2: float
+    r: float
+    mean_abs_diff: float
+    mean_rel_diff: float
+    slope: float
+    offset: float
+    residual_lag_s: float
+    ref_range: float
+    unit: str
+    start_s: float = float("nan")
+    end_s: float = float("nan")
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        out = {}
+        for k, v in self.__dict__.items():
+            if isinstance(v, (float, np.floating)):
+                out[k] = float(v) if np.isfinite(v) else None
+            else:
+                out[k] = v
+        return out
+
+
+def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None) -> PairComparison | None:
+    """Table-2 metrics of ``other`` against ``ref`` (``None`` when they do not overlap).
+
+    Metrics (at the slower signal's sample times, NaN excluded): ``r2`` = squared Pearson
+    correlation; ``mean_abs_diff`` = mean |other − ref| [unit]; ``mean_rel_diff`` =
+    mean |other − ref| / mean |ref|; ``slope``, ``offset`` of the least-squares line
+    ``other = slope · ref + offset``; ``residual_lag_s`` [s] = offset still found by
+    cross-correlation (positive: other is late).
+    """
+    opts = opts or Level2Options()
+    base = registry().parse(ref.name).base
+    slow_other = other.sample_period >= ref.sample_period
+    if slow_other:
+        t = other.time
+        b = other.values
+        a = ref.at(t)
+    else:
+        t = ref.time
+        a = ref.values
+        b = other.at(t)
+    ok = np.isfinite(a) & np.isfinite(b)
+    if ok.sum() < 5:
+        return None
+    a, b, tt = a[ok], b[ok], t[ok]
+    da, db = a - a.mean(), b - b.mean()
+    saa, sbb = float((da * da).sum()), float((db * db).sum())
+    r = float((da * db).sum() / np.sqrt(saa * sbb)) if saa > 0 and sbb > 0 else float("nan")
+    slope = float((da * db).sum() / saa) if saa > 0 else float("nan")
+    offset = float(b.mean() - slope * a.mean()) if np.isfinite(slope) else float("nan")
+    mad = float(np.mean(np.abs(b - a)))
+    mean_ref = float(np.mean(np.abs(a)))
+    lo, hi = np.percentile(a, [0.5, 99.5])
+    lag = float("nan")
+    pr = estimate_pair(ref, other, opts.lag_search_s, kind="residual")
+    if pr is not None:
+        lag = -pr.offset_s   # other late by `lag` => shift needed is -lag
+    return PairComparison(base=base, ref=ref.name, other=other.name, n=int(ok.sum()),
+                          r2=r * r if np.isfinite(r) else float("nan"), r=r,
+                          mean_abs_diff=mad, mean_rel_diff=mad / mean_ref if mean_ref > 0 else float("nan"),
+                          slope=slope, offset=offset, residual_lag_s=lag,
+                          ref_range=float(hi - lo), unit=ref.unit,
+                          start_s=float(tt[0]), end_s=float(tt[-1]))
+
+
+def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period: float,
+                  opts: Level2Options) -> list[Finding]:
+    out = []
+    rel = [other_name]
+    s0, s1 = row.start_s, row.end_s
+    nums = {"r2": row.r2, "slope": row.slope, "offset": row.offset,
+            "mean_abs_diff": row.mean_abs_diff, "mean_rel_diff": row.mean_rel_diff,
+            "residual_lag_s": row.residual_lag_s}
+    r, slope = row.r, row.slope
+    if not np.isfinite(r):
+        return out
+    if slope < 0 and r < -0.8:
+        out.append(Finding(blamed, Kind.SIGN_FLIP, s0, s1, Severity.ERROR,
+                           f"{row.other} is the mirror image of {row.ref} (slope {slope:.3g}, "
+                           f"r {r:.3f}): sign convention flipped", nums, related=rel))
+        return out
+    if abs(r) >= 0.8 and slope > 0:
+        for label, fac in UNIT_FACTORS.items():
+            for f in (fac, 1 / fac):
+                if abs(slope / f - 1) < opts.unit_tol and abs(f - 1) > 0.1:
+                    out.append(Finding(blamed, Kind.UNIT, s0, s1, Severity.ERROR,
+                                       f"{row.other} is {slope:.4g} x {row.ref}: looks like a unit "
+                                       f"error ({label})", {**nums, "factor": f}, related=rel))
+                    return out
+        if abs(slope - 1) > opts.gain_tol:
+            sev = Severity.ERROR if abs(slope - 1) > opts.gain_error else Severity.WARNING
+            out.append(Finding(blamed, Kind.GAIN, s0, s1, sev,
+                               f"{row.other} = {slope:.3f} x {row.ref} {row.offset:+.3g} {row.unit}: "
+                               f"gain differs by {100 * (slope - 1):+.1f} %", nums, related=rel))
+        elif row.ref_range > 0 and abs(row.offset) > opts.offset_tol * row.ref_range:
+            out.append(Finding(blamed, Kind.OFFSET, s0, s1, Severity.WARNING,
+                               f"{row.other} is offset from {row.ref} by {row.offset:+.4g} {row.unit} "
+                               f"({100 * abs(row.offset) / row.ref_range:.0f} % of its range)",
+                               nums, related=rel))
+    if row.r2 < opts.r2_min and not any(f.kind in (Kind.UNIT, Kind.GAIN) for f in out):
+        out.append(Finding(blamed, Kind.LOW_AGREEMENT, s0, s1, Severity.WARNING,
+                           f"{row.other} and {row.ref} agree poorly (R² {row.r2:.3f}, mean "
+                           f"difference {row.mean_abs_diff:.4g} {row.unit})", nums, related=rel))
+    lag_thr = max(opts.lag_min_s, 1.5 * ref_period)
+    if np.isfinite(row.residual_lag_s) and abs(row.residual_lag_s) > lag_thr and row.r2 > 0.5:
+        out.append(Finding(blamed, Kind.LAG, s0, s1, Severity.WARNING,
+                           f"{row.other} lags {row.ref} by {row.residual_lag_s:+.2f} s after alignment",
+                           nums, related=rel))
+    return out
+
+
+def run_level2(test: Test, opts: Level2Options | None = None
+               ) -> tuple[list[PairComparison], list[Finding]]:
+    """Table 2 (every pair of measured signals of the same base name) and its findings."""
+    opts = opts or Level2Options()
+    reg = registry()
+    groups: dict[str, list[Signal]] = {}
+    for sig in test:
+        try:
+            p = reg.parse(sig.name)
+        except SignalError:
+            continue
+        if p.origin == "test":
+            groups.setdefault(p.base, []).append(sig)
+    rows: list[PairComparison] = []
+    findings: list[Finding] = []
+    for base, sigs in sorted(groups.items()):
+        if len(sigs) < 2:
+            continue
+        sigs = sorted(sigs, key=lambda s: preference_rank(s.name))
+        pair_rows = []
+        for i in range(len(sigs)):
+            for j in range(i + 1, len(sigs)):
+                row = compare_pair(sigs[i], sigs[j], opts)
+                if row is not None:
+                    pair_rows.append((sigs[i], sigs[j], row))
+                    rows.append(row)
+        score = {s.name: [] for s in sigs}
+        for a, b, row in pair_rows:
+            agree = row.r2 if np.isfinite(row.r2) and row.slope > 0 else 0.0
+            agree *= 1.0 / (1.0 + abs(np.log(abs(row.slope)))) if np.isfinite(row.slope) and row.slope > 0 else 0.0
+            score[a.name].append(agree)
+            score[b.name].append(agree)
+        mean_score = {k: (np.mean(v) if v else 0.0) for k, v in score.items()}
+        for a, b, row in pair_rows:
+            if len(sigs) >= 3 and mean_score[a.name] < mean_score[b.name] - 1e-9:
+                blamed, other = a.name, b.name
+            else:
+                blamed, other = b.name, a.name
+            findings.extend(_findings_for(row, blamed, other, a.sample_period, opts))
+    return rows, findings

@@ -1,0 +1,121 @@
+"""QA level 3: measured versus calculated signals (Table 3 of SAE 2006-01-0667).
+
+For every ``<base>_calc`` signal and every measured signal of the same base: mean absolute
+difference, range of the measured signal, R² (squared correlation), relative difference
+(mean absolute difference / range), slope of the fit ``measured = slope · calc + offset``.
+Poor agreement is a warning on the measured signal; the calculated signal and its inputs
+are named, since either side may be at fault.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehval.equations.calc import CalcResult
+from vehval.errors import SignalError
+from vehval.nomenclature import registry
+from vehval.qa.findings import Finding, Kind, Severity
+from vehval.test import Test
+
+#: Cumulative outputs: a drift shows in them, a correlation is meaningless.
+CUMULATIVE = frozenset({"veh_energy_in", "eng_energy_out", "fuel_mass", "fuel_energy",
+                        "ess_energy", "veh_dist"})
+
+
+@dataclass
+class Level3Options:
+    r2_min: float = 0.8            # below: calc mismatch (warning)
+    rel_max: float = 0.1           # mean abs diff above this x range: calc mismatch
+
+
+@dataclass
+class CalcComparison:
+    """One row of Table 3."""
+
+    base: str
+    measured: str
+    calculated: str
+    n: int
+    mean_abs_diff: float
+    test_range: float
+    rel_diff: float
+    r2: float
+    slope: float
+    offset: float
+    unit: str
+    inputs: dict
+
+    def to_dict(self) -> dict:
+        out = {}
+        for k, v in self.__dict__.items():
+            if isinstance(v, (float, np.floating)):
+                out[k] = float(v) if np.isfinite(v) else None
+            else:
+                out[k] = v
+        return out
+
+
+def compare_calc(test: Test, measured: str, calculated: str, inputs: dict | None = None
+                 ) -> CalcComparison | None:
+    """Table-3 metrics of a measured signal against a calculated one (on the calc grid)."""
+    c = test[calculated]
+    m = test[measured].at(c.time)
+    cv = c.values
+    ok = np.isfinite(m) & np.isfinite(cv)
+    if ok.sum() < 5:
+        return None
+    m, cv = m[ok], cv[ok]
+    rng = float(np.max(m) - np.min(m))
+    mad = float(np.mean(np.abs(m - cv)))
+    dm, dc = m - m.mean(), cv - cv.mean()
+    smm, scc = float((dm * dm).sum()), float((dc * dc).sum())
+    r = float((dm * dc).sum() / np.sqrt(smm * scc)) if smm > 0 and scc > 0 else float("nan")
+    slope = float((dm * dc).sum() / scc) if scc > 0 else float("nan")
+    return CalcComparison(base=registry().parse(measured).base, measured=measured,
+                          calculated=calculated, n=int(ok.sum()), mean_abs_diff=mad,
+                          test_range=rng, rel_diff=mad / rng if rng > 0 else float("nan"),
+                          r2=r * r if np.isfinite(r) else float("nan"), slope=slope,
+                          offset=float(m.mean() - slope * cv.mean()) if np.isfinite(slope) else float("nan"),
+                          unit=c.unit, inputs=dict(inputs or {}))
+
+
+def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None
+               ) -> tuple[list[CalcComparison], list[Finding]]:
+    """Table 3 and its findings for every calculated signal with a measured counterpart."""
+    opts = opts or Level3Options()
+    reg = registry()
+    rows: list[CalcComparison] = []
+    findings: list[Finding] = []
+    for cname, info in calc.computed.items():
+        base = cname[:-len("_calc")]
+        for sig in test:
+            try:
+                p = reg.parse(sig.name)
+            except SignalError:
+                continue
+            if p.base != base or p.origin != "test":
+                continue
+            if sig.name in info.get("inputs", {}).values():
+                continue
+            row = compare_calc(test, sig.name, cname, info.get("inputs"))
+            if row is None:
+                continue
+            rows.append(row)
+            if base in CUMULATIVE:
+                continue
+            bad_r2 = np.isfinite(row.r2) and row.r2 < opts.r2_min
+            bad_rel = np.isfinite(row.rel_diff) and row.rel_diff > opts.rel_max
+            if bad_r2 or bad_rel:
+                ins = ", ".join(info.get("inputs", {}).values())
+                findings.append(Finding(
+                    sig.name, Kind.CALC_MISMATCH, float(test[cname].time[0]),
+                    float(test[cname].time[-1]), Severity.WARNING,
+                    f"{sig.name} disagrees with {cname} = {info['expr']} (R² {row.r2:.3f}, mean "
+                    f"difference {row.mean_abs_diff:.4g} {row.unit} = {100 * row.rel_diff:.1f} % of "
+                    f"its range); check it or the inputs ({ins})",
+                    {"r2": row.r2, "mean_abs_diff": row.mean_abs_diff, "test_range": row.test_range,
+                     "rel_diff": row.rel_diff, "slope": row.slope},
+                    related=[cname] + list(info.get("inputs", {}).values())))
+    return rows, findings

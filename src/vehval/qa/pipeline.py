@@ -1,0 +1,141 @@
+"""The QA pipeline: alignment -> QA1 -> QA2 -> calculation -> QA3 -> selection.
+
+:func:`run_qa` returns a :class:`QAResult` whose :meth:`QAResult.to_dict` is the content of
+``findings.json`` (contract in docs/qa.md) and whose ``validated`` test holds the aligned,
+selected measured signals plus the ``_calc`` signals.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass, field
+from typing import Any
+
+from vehval import align as _align
+from vehval.equations.calc import CalcResult, compute
+from vehval.qa.findings import Finding, Kind, Severity, summarise
+from vehval.qa.level1 import Level1Options, run_level1
+from vehval.qa.level2 import Level2Options, PairComparison, run_level2
+from vehval.qa.level3 import CalcComparison, Level3Options, run_level3
+from vehval.qa.select import Selection, select_signals
+from vehval.test import Test
+
+#: Version of the findings.json contract (bump on any incompatible change).
+FINDINGS_VERSION = 1
+
+
+@dataclass
+class QAResult:
+    """Everything the QA found and decided for one test."""
+
+    test_id: str
+    files: list[str]
+    duration_s: float
+    alignment: list[_align.AlignmentResult]
+    findings: list[Finding]
+    table2: list[PairComparison]
+    table3: list[CalcComparison]
+    calculations: CalcResult
+    selection: Selection
+    validated: Test
+    notes: list[str] = field(default_factory=list)
+    signals_in: int = 0
+
+    def to_dict(self) -> dict:
+        """The ``findings.json`` document (stable top-level keys, see docs/qa.md)."""
+        return {
+            "findings_version": FINDINGS_VERSION,
+            "test": {"id": self.test_id, "files": list(self.files),
+                     "duration_s": round(float(self.duration_s), 6)},
+            "alignment": [a.to_dict() for a in self.alignment],
+            "findings": [f.to_dict() for f in sorted(
+                self.findings, key=lambda f: (-f.severity.rank, f.level, f.signal, f.start_s))],
+            "table2": [r.to_dict() for r in self.table2],
+            "table3": [r.to_dict() for r in self.table3],
+            "calculations": self.calculations.to_dict(),
+            "selection": self.selection.to_dict(),
+            "summary": {**summarise(self.findings),
+                        "signals_in": self.signals_in,
+                        "kept": len(self.selection.kept), "dropped": len(self.selection.dropped),
+                        "computed": len(self.calculations.computed)},
+            "notes": list(self.notes),
+        }
+
+
+def _vehicle_limits(vehicle: Any) -> dict | None:
+    if vehicle is None or not hasattr(vehicle, "signal_limits"):
+        return None
+    return vehicle.signal_limits()
+
+
+def run_qa(test: Test, vehicle: Any = None, template: Any = None,
+           pairs: list[tuple[str, str]] | None = None, *, max_offset_s: float = 30.0,
+           align: bool = True, calc_set: str | None = None,
+           level1: Level1Options | None = None, level2: Level2Options | None = None,
+           level3: Level3Options | None = None) -> QAResult:
+    """Run the whole data-quality analysis on one imported test.
+
+    Parameters
+    ----------
+    test : Test
+        Imported test (not modified: the pipeline works on a copy).
+    vehicle : Vehicle, optional
+        For the vehicle's limits (``signal_limits()``) and calculation parameters.
+    template : Template, optional
+        For the constants (when not already in ``test.meta.constants``) and the user's
+        ``selection`` overrides.
+    pairs : list of (str, str), optional
+        Alignment pairs named by the user.
+    max_offset_s : float
+        Alignment search range ±[s].
+    align : bool
+        Estimate and remove clock offsets between sources.
+    calc_set : str, optional
+        Calculation set name or path (default by vehicle/signals).
+
+    Returns
+    -------
+    QAResult
+    """
+    work = Test([copy.copy(s) for s in test], meta=copy.deepcopy(test.meta))
+    notes: list[str] = []
+    constants = dict(work.meta.constants)
+    if template is not None and hasattr(template, "constants_dict"):
+        for k, v in template.constants_dict().items():
+            constants.setdefault(k, v)
+    user_keep = list(getattr(getattr(template, "selection", None), "keep", []) or [])
+    user_drop = dict(getattr(getattr(template, "selection", None), "drop", {}) or {})
+
+    findings: list[Finding] = []
+    alignment: list[_align.AlignmentResult] = []
+    if align and len([s for s in work.sources if s not in ("calc", "simu")]) > 1:
+        alignment = _align.align_test(work, pairs, max_offset_s=max_offset_s)
+        for a in alignment:
+            if not a.applied:
+                sig = a.pairs[0].other if a.pairs else f"source:{a.source}"
+                t0, t1 = work.span()
+                findings.append(Finding(sig, Kind.ALIGNMENT, t0, t1, Severity.WARNING,
+                                        f"source '{a.source}' not aligned to '{a.reference}': {a.message}",
+                                        {"offset_s": a.offset_s, "confidence": a.confidence}))
+    findings += run_level1(work, _vehicle_limits(vehicle), level1)
+    table2, f2 = run_level2(work, level2)
+    findings += f2
+    # inputs not to trust in the calculations
+    bad = {f.signal for f in findings if f.severity == Severity.ERROR} | set(user_drop)
+    calc = compute(work, vehicle, calc_set, constants, exclude=bad)
+    table3, f3 = run_level3(work, calc, level3)
+    findings += f3
+    pvals = {k: v["value"] for k, v in calc.parameters.items() if v.get("value") is not None}
+    selection = select_signals(work, findings, table2, table3, user_keep, user_drop, pvals)
+    validated = Test(meta=copy.deepcopy(work.meta))
+    for sig in work:
+        if sig.name in selection.kept or sig.name.endswith("_calc"):
+            validated.add(sig)
+    validated.meta.notes = list(validated.meta.notes) + [
+        f"QA: kept {len(selection.kept)} measured signals, dropped {len(selection.dropped)}, "
+        f"computed {len(calc.computed)}"]
+    t0, t1 = test.span()
+    return QAResult(test_id=test.meta.test_id, files=list(test.meta.files), duration_s=t1 - t0,
+                    alignment=alignment, findings=findings, table2=table2, table3=table3,
+                    calculations=calc, selection=selection, validated=validated, notes=notes,
+                    signals_in=len(test))

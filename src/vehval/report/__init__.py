@@ -1,0 +1,58 @@
+"""Reports: one self-contained HTML file per test or validation, an Excel export, plots.
+
+Public API
+----------
+:func:`write_report`
+    ``report.html`` of one test with its QA result (and control/validation when given).
+:func:`write_tables`
+    ``tables.xlsx`` with every table of the report and the validated time series.
+:func:`build_reports`
+    Both at once into an output directory (what ``vehval qa --report`` and
+    ``vehval report`` call).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from vehval.io.atomic import atomic_dir
+from vehval.report.excel import write_tables
+from vehval.report.html import render_report, write_report
+from vehval.test import Test
+
+__all__ = ["build_reports", "write_report", "write_tables", "render_report"]
+
+
+def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any = None,
+                  vehicle: Any = None, control: dict | None = None, validation: dict | None = None,
+                  *, title: str | None = None, html_name: str = "report.html",
+                  excel_name: str = "tables.xlsx") -> dict[str, Path]:
+    """Write ``report.html`` and ``tables.xlsx`` into ``outdir``.
+
+    Both files are staged and moved in only when both succeeded, so a failed run leaves
+    neither a partial nor a mismatched pair.
+
+    Parameters
+    ----------
+    outdir : str or Path
+        Output directory (created if needed; other files in it are kept).
+    test : Test
+        Validated test.
+    qa : dict or QAResult or None
+        QA result (``findings.json`` structure).
+    template, vehicle, control, validation, title
+        As for :func:`write_report`.
+
+    Returns
+    -------
+    dict
+        ``{"report": Path, "tables": Path}``.
+    """
+    outdir = Path(outdir)
+    html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
+                         validation=validation, title=title)
+    with atomic_dir(outdir) as stage:
+        (stage / html_name).write_text(html, encoding="utf-8")
+        write_tables(stage / excel_name, qa, test)
+    return {"report": outdir / html_name, "tables": outdir / excel_name}

@@ -1,0 +1,194 @@
+"""The self-contained HTML report of one test (and, when given, its analysis and validation).
+
+One file, readable offline: plotly.js is embedded once, each figure is a compact JSON block
+(typed arrays) drawn by a small script, and every table is plain HTML. The file is written
+atomically: a failed run leaves no partial report.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import jinja2
+
+from vehval.io.atomic import write_text_atomic
+from vehval.report import plots
+from vehval.report import sections as S
+from vehval.report.figures import FigSpec, figure_json
+from vehval.report.qa_view import as_dict
+from vehval.report.tables import fmt_cell, slug
+from vehval.test import Test
+
+
+@lru_cache(maxsize=1)
+def _plotly_assets() -> tuple[str, str, str]:
+    """(plotly.js source, its version, the shared layout template JSON)."""
+    import plotly
+    import plotly.io as pio
+    from plotly.offline import get_plotlyjs
+
+    tmpl = pio.templates["plotly_white"].to_plotly_json()
+    tmpl.setdefault("layout", {})
+    tmpl["layout"].update({"font": {"family": "-apple-system, Segoe UI, Roboto, Arial, sans-serif",
+                                    "size": 12, "color": "#212529"},
+                           "colorway": ["#1f5fa8", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c",
+                                        "#0b7285", "#e67700", "#495057"]})
+    js = get_plotlyjs().replace("</script", "<\\/script")
+    return js, plotly.__version__, json.dumps(tmpl, separators=(",", ":")).replace("</", "<\\/")
+
+
+def _read_asset(name: str) -> str:
+    return resources.files("vehval.report").joinpath("templates", name).read_text(encoding="utf-8")
+
+
+def _env() -> jinja2.Environment:
+    loader = jinja2.FunctionLoader(lambda n: _read_asset(n))
+    return jinja2.Environment(loader=loader, autoescape=True, undefined=jinja2.StrictUndefined,
+                              trim_blocks=False, lstrip_blocks=False)
+
+
+def resolve_vehicle(vehicle: Any, test: Test) -> tuple[Any, str | None]:
+    """A vehicle model object from an object, a name/path, or the test's ``meta.vehicle``.
+
+    Returns ``(vehicle or None, note)``: the note says why no vehicle is used.
+    """
+    if vehicle is not None and not isinstance(vehicle, (str, Path)):
+        return vehicle, None
+    name = vehicle or test.meta.vehicle
+    if not name:
+        return None, "No vehicle file given: component-map plots are skipped."
+    try:
+        from vehval.sim.vehicle import load_vehicle
+    except ImportError:
+        return None, "The vehicle model is not available: component-map plots are skipped."
+    try:
+        return load_vehicle(name), None
+    except Exception as exc:  # noqa: BLE001 - an unknown vehicle must not stop the report
+        return None, f"Vehicle '{name}' could not be loaded ({exc}): component-map plots are skipped."
+
+
+def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S.Section:
+    """Operating points on maps, histograms, Willans line and the energy Sankey diagram."""
+    sec = S.Section("engineering", "Engineering plots",
+                    intro="Operating points on the component maps of the vehicle file, distributions, "
+                          "Willans line and the energy flow over the test.")
+    if vehicle_note:
+        sec.notes.append(vehicle_note)
+    makers: list[tuple[str, Any]] = []
+    if vehicle is not None:
+        makers += [("Engine map", lambda: plots.engine_map_figure(test, vehicle))]
+    makers += [("Motor map", lambda: plots.machine_map_figure(test, vehicle, "mot")),
+               ("Generator map", lambda: plots.machine_map_figure(test, vehicle, "gen")),
+               ("Battery current during braking", lambda: plots.regen_current_histogram(test)),
+               ("Engine power distribution", lambda: plots.engine_power_histogram(test)),
+               ("Willans line", lambda: plots.willans_figure(test)),
+               ("Energy flow", lambda: plots.sankey_figure(plots.energy_flows(test)))]
+    for title, make in makers:
+        try:
+            fig = make()
+        except plots.PlotSkipped as exc:
+            sec.notes.append(f"{title}: skipped ({exc}).")
+            continue
+        sec.figures.append(FigSpec(title, fig))
+    flows = plots.energy_flows(test)
+    if flows:
+        sec.tables.append(S.Table("Energies over the test", ["quantity", "energy [MJ]"],
+                                  [[k, v / 1e6] for k, v in flows.items()], key="energies"))
+    return sec
+
+
+def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle: Any = None,
+                   control: dict | None = None, validation: dict | None = None,
+                   title: str = "") -> list[S.Section]:
+    """All sections of the report, in order (see :func:`write_report`)."""
+    q = as_dict(qa)
+    veh, vnote = resolve_vehicle(vehicle, test)
+    limits = None
+    if veh is not None and hasattr(veh, "signal_limits"):
+        try:
+            limits = veh.signal_limits()
+        except Exception:  # noqa: BLE001 - limits only draw the band
+            limits = None
+    secs = [S.summary_section(test, q, template, title), S.import_section(test),
+            S.alignment_section(test, q), S.findings_section(test, q, limits),
+            S.table2_section(test, q), S.calculations_section(q), S.table3_section(test, q),
+            S.selection_section(q), S.signals_section(test), engineering_section(test, veh, vnote)]
+    for key, name, payload in (("control", "Control strategy", control), ("validation", "Validation", validation)):
+        sec = S.plugin_section(key, name, payload)
+        if sec is not None:
+            secs.append(sec)
+    return secs
+
+
+def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: Any = None,
+                  control: dict | None = None, validation: dict | None = None,
+                  title: str | None = None) -> str:
+    """The report as one HTML string (see :func:`write_report`)."""
+    from vehval import __version__
+
+    m = test.meta
+    title = title or f"Test report: {m.test_id or 'unnamed test'}"
+    secs = build_sections(test, qa, template=template, vehicle=vehicle, control=control,
+                          validation=validation, title=title)
+    n = 0
+    for sec in secs:
+        for f in sec.figures:
+            n += 1
+            f.key = f"fig-{n}-{slug(f.title)[:40]}"
+            f.json = figure_json(f.figure)  # type: ignore[attr-defined]
+            f.height = int((f.figure.get("layout", {}) if isinstance(f.figure, dict)
+                            else f.figure.to_plotly_json().get("layout", {})).get("height") or 450)
+        seen: set[str] = set()
+        for t in sec.tables:
+            base, k = t.key, 2
+            while t.key in seen:
+                t.key = f"{base}-{k}"
+                k += 1
+            seen.add(t.key)
+    js, pver, tmpl = _plotly_assets()
+    subtitle = " · ".join(x for x in (m.vehicle, m.cycle, m.test_id) if x) or "vehicle test"
+    return _env().get_template("report.html.j2").render(
+        title=title, subtitle=subtitle, generated=_dt.datetime.now().strftime("%Y-%m-%d %H:%M"),
+        version=__version__, synthetic=bool(m.synthetic), sections=secs, fmt=fmt_cell,
+        css=_read_asset("report.css"), plotly_js=js, plotly_version=pver, template_json=tmpl,
+        render_js=_read_asset("render.js"))
+
+
+def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any = None,
+                 vehicle: Any = None, control: dict | None = None, validation: dict | None = None,
+                 title: str | None = None) -> Path:
+    """Write one self-contained HTML report of a test.
+
+    Parameters
+    ----------
+    path : str or Path
+        Output file (written atomically).
+    test : Test
+        The validated test (after alignment, calculation and selection).
+    qa : dict or QAResult or None
+        QA result (``findings.json`` structure).
+    template : Template or str or None
+        Import template (shown in the summary).
+    vehicle : Vehicle or str or None
+        Vehicle model or name/path; defaults to ``test.meta.vehicle`` when loadable.
+    control, validation : dict or None
+        Analysis and validation results: ``{"tables": [{"title", "columns", "rows"}],
+        "figures": [plotly figure or {"title", "figure"}], "notes": [...]}``; other keys are
+        shown as generic tables.
+    title : str, optional
+        Report title.
+
+    Returns
+    -------
+    Path
+        The written file.
+    """
+    html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
+                         validation=validation, title=title)
+    write_text_atomic(path, html)
+    return Path(path)

@@ -1,0 +1,368 @@
+"""Engineering plots: operating points on component maps, histograms, Willans lines, Sankey.
+
+Every function returns a :class:`plotly.graph_objects.Figure`, or ``None`` together with a
+note (via :class:`PlotSkipped`) when the data it needs is absent, so callers can say why a
+plot is missing. Speeds are drawn in rpm and powers in kW for readability; the data stays SI.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import plotly.graph_objects as go
+
+from vehval.test import Test
+
+RPM = 2.0 * np.pi / 60.0  # [rad/s] per rpm
+DEFAULT_LHV_J_PER_KG = 42.6e6
+MAX_POINTS = 4000
+
+
+class PlotSkipped(Exception):
+    """Raised when a plot cannot be drawn; the message says why (shown in the report)."""
+
+
+# ----------------------------------------------------------------------------- helpers
+def pick(test: Test, base: str, origins: tuple[str, ...] = ("test", "calc", "simu")):
+    """The first signal of ``base`` by origin preference (sourceless name first), or None."""
+    for origin in origins:
+        sigs = test.by_base(base, origin)
+        if sigs:
+            sigs.sort(key=lambda s: (s.name != f"{base}_{origin}", s.name))
+            return sigs[0]
+    return None
+
+
+def common(test: Test, bases: tuple[str, ...], origins: tuple[str, ...] = ("test", "calc", "simu"),
+           ) -> tuple[np.ndarray, list[np.ndarray], list[str]]:
+    """Signals of several bases on the time base of the first one.
+
+    Returns
+    -------
+    time : numpy.ndarray
+        [s]
+    values : list of numpy.ndarray
+        One array per base (SI), NaN outside each signal's span.
+    names : list of str
+        Signal used for each base.
+
+    Raises
+    ------
+    PlotSkipped
+        When a base has no signal.
+    """
+    sigs = []
+    for b in bases:
+        s = pick(test, b, origins)
+        if s is None:
+            raise PlotSkipped(f"no {b} signal")
+        sigs.append(s)
+    t = sigs[0].time
+    return t, [s.values if s is sigs[0] else s.at(t) for s in sigs], [s.name for s in sigs]
+
+
+def _thin(*arrays: np.ndarray, n: int = MAX_POINTS) -> list[np.ndarray]:
+    size = arrays[0].size
+    if size <= n:
+        return list(arrays)
+    idx = np.linspace(0, size - 1, n).astype(int)
+    return [a[idx] for a in arrays]
+
+
+def _layout(fig: go.Figure, title: str, x: str, y: str, height: int = 460) -> go.Figure:
+    fig.update_layout(title={"text": title, "font": {"size": 14}}, height=height, bargap=0.04,
+                      margin={"l": 70, "r": 30, "t": 50, "b": 50},
+                      xaxis_title=x, yaxis_title=y, legend={"x": 0.01, "y": 0.99})
+    return fig
+
+
+def _component(vehicle: Any, *names: str) -> Any:
+    for n in names:
+        comp = getattr(vehicle, n, None)
+        if comp is None and isinstance(vehicle, dict):
+            comp = vehicle.get(n)
+        if comp is not None:
+            return comp
+    return None
+
+
+# ----------------------------------------------------------------------------- maps
+def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
+    """Engine operating points on the fuel-map efficiency contours with the best-efficiency line.
+
+    Parameters
+    ----------
+    test : Test
+        Uses ``eng_spd_out`` [rad/s] and ``eng_trq_out`` [N·m] (test, else calc, else simu).
+    vehicle : vehval.sim.vehicle.Vehicle
+        Its ``engine`` parameters give the fuel map (``speed_rpm``, ``torque_nm``,
+        ``fuel_rate_g_per_s``), full-load curve and fuel heating value.
+    """
+    eng = _component(vehicle, "engine", "eng")
+    if eng is None or not hasattr(eng, "fuel_rate_g_per_s"):
+        raise PlotSkipped("no vehicle engine fuel map")
+    spd = np.asarray(eng.speed_rpm, float)
+    trq = np.asarray(eng.torque_nm, float)
+    fuel = np.asarray(eng.fuel_rate_g_per_s, float) * 1e-3  # [kg/s], rows = speed
+    lhv = float(getattr(eng, "fuel_lhv_j_per_kg", DEFAULT_LHV_J_PER_KG))
+    pw = (spd[:, None] * RPM) * trq[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eff = np.where((fuel > 0) & (pw > 0), pw / (fuel * lhv), np.nan) * 100.0
+    tmax = np.asarray(eng.max_torque_nm, float)
+    eff = np.where(trq[None, :] <= np.interp(spd, spd, tmax)[:, None] * 1.02, eff, np.nan)
+    fig = go.Figure()
+    fig.add_trace(go.Contour(x=spd, y=trq, z=eff.T, name="efficiency [%]", colorscale="Blues",
+                             contours={"start": 10, "end": 40, "size": 2, "showlabels": True},
+                             colorbar={"title": {"text": "eff. [%]"}}, opacity=0.75,
+                             hovertemplate="%{x:.0f} rpm, %{y:.0f} N·m: %{z:.1f} %<extra></extra>"))
+    fig.add_trace(go.Scatter(x=spd, y=tmax, mode="lines", name="full load",
+                             line={"color": "#212529", "width": 2}))
+    try:
+        from vehval.sim.components.engine import best_efficiency_line
+        _, w, t = best_efficiency_line(eng)
+        fig.add_trace(go.Scatter(x=w / RPM, y=t, mode="lines", name="best efficiency",
+                                 line={"color": "#2b8a3e", "width": 3, "dash": "dash"}))
+    except Exception:  # noqa: BLE001 - the line is optional decoration (older vehicle models)
+        pass
+    try:
+        _, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
+        on = np.isfinite(w) & np.isfinite(tq) & (w > 1.0)
+        x, y = _thin(w[on] / RPM, tq[on])
+        fig.add_trace(go.Scatter(x=x, y=y, mode="markers", name=f"operating points ({names[0]})",
+                                 marker={"size": 4, "color": "#d9480f", "opacity": 0.5}))
+    except PlotSkipped:
+        pass
+    return _layout(fig, "Engine operating points on the efficiency map", "engine speed [rpm]",
+                   "engine torque [N·m]")
+
+
+def machine_map_figure(test: Test, vehicle: Any, which: str) -> go.Figure:
+    """Motor (``mot``) or generator (``gen``) operating points on the efficiency map.
+
+    The map comes from the vehicle's ``motor``/``generator`` parameters: speed and torque
+    breakpoints (``speed_rpm``, ``torque_nm``) and ``efficiency`` (fraction) over them.
+    Operating points without a map are still drawn against the torque envelope if known.
+    """
+    base = {"mot": "mot", "gen": "gen"}[which]
+    comp = _component(vehicle, *(("motor", "mot", "mg2") if which == "mot" else ("generator", "gen", "mg1")))
+    title = "Motor (MG2)" if which == "mot" else "Generator (MG1)"
+    fig = go.Figure()
+    if comp is not None:
+        spd = getattr(comp, "speed_rpm", None)
+        trq = getattr(comp, "torque_nm", None)
+        eff = next((getattr(comp, k) for k in ("efficiency", "eff", "efficiency_map") if hasattr(comp, k)), None)
+        if spd is not None and trq is not None and eff is not None:
+            z = np.asarray(eff, float)
+            z = z * 100.0 if np.nanmax(z) <= 1.0 else z
+            fig.add_trace(go.Contour(x=np.asarray(spd, float), y=np.asarray(trq, float), z=z.T,
+                                     colorscale="Blues", opacity=0.75, name="efficiency [%]",
+                                     contours={"start": 60, "end": 98, "size": 2, "showlabels": True},
+                                     colorbar={"title": {"text": "eff. [%]"}}))
+        tm = getattr(comp, "max_torque_nm", None)
+        if spd is not None and tm is not None and np.size(tm) == np.size(spd):
+            fig.add_trace(go.Scatter(x=spd, y=tm, mode="lines", name="max torque", line={"color": "#212529"}))
+            fig.add_trace(go.Scatter(x=spd, y=-np.asarray(tm, float), mode="lines", name="min torque",
+                                     line={"color": "#212529"}, showlegend=False))
+    try:
+        _, (w, tq), names = common(test, (f"{base}_spd_out", f"{base}_trq_out"))
+    except PlotSkipped as exc:
+        if not fig.data:
+            raise
+        names, w, tq = [str(exc)], np.array([]), np.array([])
+    ok = np.isfinite(w) & np.isfinite(tq)
+    x, y = _thin(w[ok] / RPM, tq[ok])
+    if x.size:
+        fig.add_trace(go.Scatter(x=x, y=y, mode="markers", name=f"operating points ({names[0]})",
+                                 marker={"size": 4, "color": "#d9480f", "opacity": 0.5}))
+    if not fig.data:
+        raise PlotSkipped(f"no {title.lower()} map and no operating points")
+    return _layout(fig, f"{title} operating points", "speed [rpm]", "torque [N·m]")
+
+
+# ----------------------------------------------------------------------------- histograms
+def regen_current_histogram(test: Test) -> go.Figure:
+    """Battery current [A] while braking: vehicle moving and decelerating (dv/dt < −0.1 m/s²)."""
+    t, (i, v), names = common(test, ("ess_curr", "veh_spd"))
+    acc = np.gradient(np.where(np.isfinite(v), v, 0.0), t) if t.size > 1 else np.zeros_like(t)
+    mask = np.isfinite(i) & (v > 0.5) & (acc < -0.1)
+    if not mask.any():
+        raise PlotSkipped("no braking phase (deceleration below −0.1 m/s² while moving)")
+    fig = go.Figure(go.Histogram(x=i[mask], nbinsx=60, name=names[0], marker={"color": "#1f5fa8"}))
+    fig.add_vline(x=0.0, line={"color": "#868e96", "dash": "dot"})
+    return _layout(fig, f"Battery current during braking ({mask.sum()} samples)", f"{names[0]} [A]",
+                   "samples", height=380)
+
+
+def engine_power_histogram(test: Test) -> go.Figure:
+    """Distribution of engine power [kW] while the engine turns (speed above 50 rad/s)."""
+    p = pick(test, "eng_pwr_out")
+    if p is not None:
+        pw, name = p.values, p.name
+        try:
+            _, (_, w), _ = common(test, ("eng_pwr_out", "eng_spd_out"))
+        except PlotSkipped:
+            w = np.full_like(pw, np.inf)
+    else:
+        _, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
+        pw, name = w * tq, f"{names[0]} × {names[1]}"
+    on = np.isfinite(pw) & (w > 50.0)
+    if not on.any():
+        raise PlotSkipped("engine never on")
+    fig = go.Figure(go.Histogram(x=pw[on] / 1e3, nbinsx=50, name=name, marker={"color": "#d9480f"}))
+    return _layout(fig, "Engine power while running", "engine power [kW]", "samples", height=380)
+
+
+# ----------------------------------------------------------------------------- Willans
+def willans(test: Test, lhv_j_per_kg: float | None = None) -> dict:
+    """Willans line: fuel power [W] = slope × engine power [W] + intercept, engine running.
+
+    Returns
+    -------
+    dict
+        ``eng_pwr`` and ``fuel_pwr`` arrays [W] of the running samples, ``slope`` [-]
+        (inverse marginal efficiency), ``intercept`` [W] (fuel power at zero output),
+        ``marginal_efficiency`` [-] and ``r2`` [-].
+    """
+    lhv = lhv_j_per_kg or test.meta.constants.get("fuel_lhv_j_per_kg") or DEFAULT_LHV_J_PER_KG
+    fp = pick(test, "fuel_pwr")
+    if fp is not None:
+        t, fuel = fp.time, fp.values
+    else:
+        fr = pick(test, "fuel_rate")
+        if fr is None:
+            raise PlotSkipped("no fuel_rate or fuel_pwr signal")
+        t, fuel = fr.time, fr.values * lhv
+    ep = pick(test, "eng_pwr_out")
+    if ep is not None:
+        pw = ep.at(t)
+    else:
+        w, tq = pick(test, "eng_spd_out"), pick(test, "eng_trq_out")
+        if w is None or tq is None:
+            raise PlotSkipped("no engine power (eng_pwr_out or eng_spd_out and eng_trq_out)")
+        pw = w.at(t) * tq.at(t)
+    on = np.isfinite(pw) & np.isfinite(fuel) & (fuel > 0) & (pw > 0)
+    if on.sum() < 3 or np.ptp(pw[on]) <= 0:
+        raise PlotSkipped("too few running samples for a Willans line")
+    slope, icpt = np.polyfit(pw[on], fuel[on], 1)
+    r2 = float(np.corrcoef(pw[on], fuel[on])[0, 1] ** 2)
+    return {"eng_pwr": pw[on], "fuel_pwr": fuel[on], "slope": float(slope), "intercept": float(icpt),
+            "marginal_efficiency": float(1.0 / slope) if slope else float("nan"), "r2": r2}
+
+
+def willans_figure(test: Test, lhv_j_per_kg: float | None = None) -> go.Figure:
+    """Scatter of fuel power against engine power [kW] with the fitted Willans line."""
+    w = willans(test, lhv_j_per_kg)
+    x, y = _thin(w["eng_pwr"] / 1e3, w["fuel_pwr"] / 1e3)
+    xs = np.array([0.0, float(np.max(w["eng_pwr"]))])
+    fig = go.Figure([
+        go.Scatter(x=x, y=y, mode="markers", name="engine running", marker={"size": 4, "opacity": 0.45}),
+        go.Scatter(x=xs / 1e3, y=(w["slope"] * xs + w["intercept"]) / 1e3, mode="lines",
+                   name=(f"fuel = {w['slope']:.3f}·P + {w['intercept'] / 1e3:.2f} kW "
+                         f"(marginal eff. {w['marginal_efficiency'] * 100:.1f} %, R² = {w['r2']:.3f})"),
+                   line={"color": "#d9480f", "width": 2})])
+    return _layout(fig, "Willans line", "engine power [kW]", "fuel power [kW]")
+
+
+# ----------------------------------------------------------------------------- Sankey
+def _energy(test: Test, base: str, origins: tuple[str, ...], sign: int = 0, scale: float = 1.0) -> float | None:
+    s = pick(test, base, origins)
+    if s is None or s.time.size < 2:
+        return None
+    v = np.where(np.isfinite(s.values), s.values, 0.0) * scale
+    if sign > 0:
+        v = np.maximum(v, 0.0)
+    elif sign < 0:
+        v = np.maximum(-v, 0.0)
+    return float(np.trapezoid(v, s.time))
+
+
+def energy_flows(test: Test, origin: str = "test", lhv_j_per_kg: float | None = None) -> dict[str, float]:
+    """Energies [J] over the test from the power signals of one origin (``test`` → also ``calc``).
+
+    Returns a dict with ``fuel`` (fuel chemical energy), ``engine`` (engine output),
+    ``battery_out`` / ``battery_in`` (discharge and charge), ``wheel_out`` (positive
+    tractive energy at the wheels), ``road_load`` (``veh_frc_loss`` × ``veh_spd``) and
+    ``braking`` (negative wheel energy), each present only when its signals are.
+    Battery power is positive when discharging.
+    """
+    origins = (origin, "calc") if origin == "test" else (origin,)
+    lhv = lhv_j_per_kg or test.meta.constants.get("fuel_lhv_j_per_kg") or DEFAULT_LHV_J_PER_KG
+    out: dict[str, float] = {}
+    fuel = _energy(test, "fuel_pwr", origins) or _energy(test, "fuel_rate", origins, scale=lhv)
+    eng = _energy(test, "eng_pwr_out", origins, sign=+1)
+    if eng is None:
+        w, tq = pick(test, "eng_spd_out", origins), pick(test, "eng_trq_out", origins)
+        if w is not None and tq is not None:
+            p = np.nan_to_num(w.values * tq.at(w.time))
+            eng = float(np.trapezoid(np.maximum(p, 0.0), w.time))
+    for key, val in (("fuel", fuel), ("engine", eng),
+                     ("battery_out", _energy(test, "ess_pwr", origins, sign=+1)),
+                     ("battery_in", _energy(test, "ess_pwr", origins, sign=-1))):
+        if val is not None:
+            out[key] = val
+    wheel = pick(test, "whl_pwr_out", origins)
+    if wheel is None:
+        f, v = pick(test, "veh_frc_in", origins), pick(test, "veh_spd", origins)
+        if f is not None and v is not None:
+            p, tw = np.nan_to_num(f.values * v.at(f.time)), f.time
+        else:
+            p = tw = None
+    else:
+        p, tw = np.nan_to_num(wheel.values), wheel.time
+    if p is not None and tw.size > 1:
+        out["wheel_out"] = float(np.trapezoid(np.maximum(p, 0.0), tw))
+        out["braking"] = float(np.trapezoid(np.maximum(-p, 0.0), tw))
+    fl, v = pick(test, "veh_frc_loss", origins), pick(test, "veh_spd", origins)
+    if fl is not None and v is not None and fl.time.size > 1:
+        out["road_load"] = float(np.trapezoid(np.nan_to_num(fl.values * v.at(fl.time)), fl.time))
+    return out
+
+
+def sankey_figure(flows: dict[str, float], title: str = "Energy flow over the test") -> go.Figure:
+    """Sankey diagram [MJ] from fuel and battery to the wheels and the losses.
+
+    Nodes: fuel → engine → powertrain (planetary, MG1, MG2, inverters) ← battery discharge;
+    powertrain → wheels, battery charge and powertrain losses (the balance, clipped at 0);
+    engine → engine losses. Missing quantities are left out.
+    """
+    if "fuel" not in flows and "battery_out" not in flows:
+        raise PlotSkipped("no fuel or battery energy")
+    nodes = ["Fuel", "Engine", "Engine losses", "Battery (discharge)", "Powertrain",
+             "Wheels (traction)", "Battery (charge)", "Powertrain losses", "Road load",
+             "Inertia and brakes"]
+    src, dst, val = [], [], []
+
+    def link(a: str, b: str, v: float | None) -> None:
+        if v is not None and v > 0:
+            src.append(nodes.index(a))
+            dst.append(nodes.index(b))
+            val.append(v / 1e6)
+
+    fuel, eng = flows.get("fuel"), flows.get("engine")
+    if fuel is not None and eng is None:
+        eng = 0.0
+    link("Fuel", "Engine", fuel)
+    if fuel is not None and eng is not None:
+        link("Engine", "Engine losses", max(fuel - eng, 0.0))
+        link("Engine", "Powertrain", eng)
+    link("Battery (discharge)", "Powertrain", flows.get("battery_out"))
+    inflow = (eng or 0.0) + flows.get("battery_out", 0.0)
+    wheel, charge = flows.get("wheel_out"), flows.get("battery_in")
+    link("Powertrain", "Wheels (traction)", wheel)
+    link("Powertrain", "Battery (charge)", charge)
+    if wheel is not None:
+        link("Powertrain", "Powertrain losses", max(inflow - wheel - (charge or 0.0), 0.0))
+        road = flows.get("road_load")
+        if road is not None:
+            link("Wheels (traction)", "Road load", min(road, wheel))
+            link("Wheels (traction)", "Inertia and brakes", max(wheel - road, 0.0))
+    fig = go.Figure(go.Sankey(
+        valueformat=".2f", valuesuffix=" MJ",
+        node={"label": nodes, "pad": 18, "thickness": 16,
+              "color": ["#e67700", "#d9480f", "#adb5bd", "#2b8a3e", "#1f5fa8", "#0b7285", "#2b8a3e",
+                        "#adb5bd", "#868e96", "#868e96"]},
+        link={"source": src, "target": dst, "value": val, "color": "rgba(31,95,168,0.25)"}))
+    fig.update_layout(title={"text": title, "font": {"size": 14}}, height=420,
+                      margin={"l": 20, "r": 20, "t": 50, "b": 20})
+    return fig

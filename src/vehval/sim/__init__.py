@@ -1,0 +1,1 @@
+"""Forward-looking vehicle simulation: cycles, components, controller, driver."""

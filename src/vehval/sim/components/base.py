@@ -1,0 +1,57 @@
+"""Common base for component parameter blocks: unknown keys rejected, every value sourced."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, model_validator
+
+
+class Block(BaseModel):
+    """A parameter block. ``sources`` maps every parameter name to its source (text)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=False, validate_assignment=False)
+
+    sources: dict[str, str]
+
+    @model_validator(mode="after")
+    def _every_parameter_has_a_source(self):
+        params = set(type(self).model_fields) - {"sources"}
+        missing = sorted(params - set(self.sources))
+        if missing:
+            raise ValueError(f"parameters without a source: {', '.join(missing)} "
+                             "(add them under 'sources:' with where the value comes from)")
+        unknown = sorted(set(self.sources) - params)
+        if unknown:
+            raise ValueError(f"'sources' names unknown parameters: {', '.join(unknown)}")
+        empty = sorted(k for k, v in self.sources.items() if not str(v).strip())
+        if empty:
+            raise ValueError(f"empty source for: {', '.join(empty)}")
+        return self
+
+
+def bp_check(values: Sequence[float], key: str) -> list[float]:
+    """Raise ValueError naming ``key`` unless ``values`` are strictly increasing breakpoints."""
+    arr = np.asarray(values, dtype=float)
+    if arr.ndim != 1 or arr.size < 2 or not np.all(np.isfinite(arr)):
+        raise ValueError(f"'{key}' must be a list of at least 2 finite numbers")
+    d = np.diff(arr)
+    if np.any(d <= 0):
+        i = int(np.nonzero(d <= 0)[0][0])
+        raise ValueError(f"'{key}' breakpoints must be strictly increasing (entry {i + 1} = "
+                         f"{arr[i + 1]:g} follows {arr[i]:g})")
+    return list(values)
+
+
+def table_check(values, rows: int, cols: int | None, key: str) -> None:
+    """Raise ValueError naming ``key`` unless ``values`` has shape (rows,) or (rows, cols)."""
+    arr = np.asarray(values, dtype=float)
+    shape = (rows,) if cols is None else (rows, cols)
+    if arr.shape != shape:
+        raise ValueError(f"'{key}' has shape {arr.shape}, expected {shape} to match its breakpoints")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"'{key}' must contain finite numbers only")
+
+
+RPM = np.pi / 30.0  # [rad/s per rpm]

@@ -1,0 +1,31 @@
+"""Vehicle body on the chassis dynamometer: test mass and road load F = A + B v + C v^2."""
+
+from __future__ import annotations
+
+from numba import njit
+from pydantic import Field
+
+from vehval.sim.components.base import Block
+
+
+class BodyParams(Block):
+    """Test mass, dyno road-load coefficients and the electrical accessory load."""
+
+    mass_kg: float = Field(gt=0)
+    road_load_a_n: float = Field(ge=0)
+    road_load_b_n_per_mps: float = Field(ge=0)
+    road_load_c_n_per_mps2: float = Field(ge=0)
+    aux_power_w: float = Field(ge=0)
+
+
+@njit(cache=True)
+def road_load(speed, a, b, c):
+    """Road-load force [N] at ``speed`` [m/s] >= 0: A + B v + C v^2 (zero at standstill)."""
+    if speed <= 0.0:
+        return 0.0
+    return a + b * speed + c * speed * speed
+
+
+def equivalent_mass(mass_kg: float, rotating_inertia_kg_m2: float, wheel_radius_m: float) -> float:
+    """Mass [kg] including rotating inertia referred to the wheel: m + J / r^2 (eq. 5)."""
+    return mass_kg + rotating_inertia_kg_m2 / wheel_radius_m ** 2

@@ -1,0 +1,161 @@
+"""Supervisory controller: the engine on/off state machine and its parameters.
+
+States (named as in the paper): ``Eng_Off``, ``Eng_Off_MinTime``, ``Eng_On``,
+``Eng_On_MinTime``. Each engine-on condition (total power demand, vehicle speed, battery
+unable to supply the demand, low SOC) counts only after it has held for its own hold time;
+the engine-off request likewise. After a switch the engine stays in the new state for a
+minimum time; only a critically low SOC may cut the minimum off time short.
+
+The step functions are compiled with numba and called from the time loop in
+:mod:`vehval.sim.kernel`; they are plain functions of their inputs, so tests call them
+directly with crafted inputs.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+from pydantic import Field, model_validator
+
+from vehval.sim.components.base import Block
+
+ENG_OFF = 0
+ENG_OFF_MINTIME = 1
+ENG_ON = 2
+ENG_ON_MINTIME = 3
+STATE_NAMES = ("Eng_Off", "Eng_Off_MinTime", "Eng_On", "Eng_On_MinTime")
+
+PROPEL_NORMAL = 0
+PROPEL_DISCHARGE_LIMIT = 1
+PROPEL_CHARGE_LIMIT = 2
+PROPEL_BRAKING = 3
+
+
+class ControllerParams(Block):
+    """All thresholds of the supervisory controller (SI units, unit in the key name)."""
+
+    soc_target: float = Field(gt=0, lt=1)
+    soc_gain_w: float = Field(ge=0)
+    soc_charge_power_max_w: float = Field(ge=0)
+    soc_discharge_power_max_w: float = Field(ge=0)
+    engine_on_power_w: float
+    engine_on_power_hold_s: float = Field(ge=0)
+    engine_off_power_w: float
+    engine_on_speed_mps: float = Field(gt=0)
+    engine_on_speed_hold_s: float = Field(ge=0)
+    engine_off_speed_mps: float = Field(gt=0)
+    battery_condition_hold_s: float = Field(ge=0)
+    electric_drive_efficiency: float = Field(gt=0, le=1)
+    engine_off_hold_s: float = Field(ge=0)
+    soc_engine_on: float = Field(gt=0, lt=1)
+    soc_engine_on_hold_s: float = Field(ge=0)
+    soc_force_on: float = Field(gt=0, lt=1)
+    min_on_time_s: float = Field(ge=0)
+    min_off_time_s: float = Field(ge=0)
+    battery_discharge_margin_w: float = Field(ge=0)
+    battery_charge_margin_w: float = Field(ge=0)
+    engine_min_power_w: float = Field(ge=0)
+    fuel_cut_power_w: float = Field(ge=0)
+    fuel_cut_min_speed_mps: float = Field(ge=0)
+    regen_fraction_max: float = Field(ge=0, le=1)
+    regen_fade_low_mps: float = Field(ge=0)
+    regen_fade_high_mps: float = Field(gt=0)
+    gen_speed_kp_nm_per_radps: float = Field(gt=0)
+    gen_speed_ki_nm_per_rad: float = Field(ge=0)
+    gen_speed_margin_rpm: float = Field(ge=0)
+    engine_speed_margin_rpm: float = Field(ge=0)
+    soc_correction_path_efficiency: float = Field(gt=0, le=1)
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        if self.engine_off_speed_mps > self.engine_on_speed_mps:
+            raise ValueError("'engine_off_speed_mps' must not exceed 'engine_on_speed_mps' "
+                             "(the hysteresis would make the engine oscillate)")
+        if self.engine_off_power_w > self.engine_on_power_w:
+            raise ValueError("'engine_off_power_w' must not exceed 'engine_on_power_w'")
+        if self.soc_force_on > self.soc_engine_on:
+            raise ValueError("'soc_force_on' must not exceed 'soc_engine_on'")
+        if self.regen_fade_low_mps >= self.regen_fade_high_mps:
+            raise ValueError("'regen_fade_low_mps' must be below 'regen_fade_high_mps'")
+        return self
+
+
+@njit(cache=True)
+def hold_timer(timer, condition, dt):
+    """Time [s] a condition has held: ``timer + dt`` while true, reset to 0 when false."""
+    if condition:
+        return timer + dt
+    return 0.0
+
+
+@njit(cache=True)
+def held(timer, hold_s):
+    """True once a condition timer [s] has reached its hold time [s] (1 µs tolerance)."""
+    return timer >= hold_s - 1e-6
+
+
+@njit(cache=True)
+def state_step(state, t_state, on_request, off_request, force_on, dt, min_on_s, min_off_s):
+    """One step of the engine state machine.
+
+    Parameters
+    ----------
+    state : int
+        Current state (ENG_OFF, ENG_OFF_MINTIME, ENG_ON, ENG_ON_MINTIME).
+    t_state : float
+        Time spent in the current state [s] before this step.
+    on_request, off_request : bool
+        Engine-on / engine-off requests (already held for their hold times).
+    force_on : bool
+        SOC critically low: the engine must run, even during the minimum off time.
+    dt : float
+        Step [s].
+    min_on_s, min_off_s : float
+        Minimum on and off times [s].
+
+    Returns
+    -------
+    (new_state, new_t_state) : (int, float)
+    """
+    t = t_state + dt
+    if state == ENG_OFF:
+        if on_request or force_on:
+            return ENG_ON_MINTIME, 0.0
+        return ENG_OFF, t
+    if state == ENG_ON_MINTIME:
+        if t >= min_on_s - 1e-6:
+            return ENG_ON, t
+        return ENG_ON_MINTIME, t
+    if state == ENG_ON:
+        if off_request and not force_on:
+            return ENG_OFF_MINTIME, 0.0
+        return ENG_ON, t
+    # ENG_OFF_MINTIME
+    if force_on:
+        return ENG_ON_MINTIME, 0.0
+    if t >= min_off_s - 1e-6:
+        return ENG_OFF, t
+    return ENG_OFF_MINTIME, t
+
+
+@njit(cache=True)
+def engine_commanded_on(state):
+    """True in the two engine-on states."""
+    return state == ENG_ON or state == ENG_ON_MINTIME
+
+
+@njit(cache=True)
+def soc_power_demand(soc, soc_target, gain_w, charge_max_w, discharge_max_w):
+    """Battery power demand [W] from SOC regulation (> 0 asks the engine to charge)."""
+    p = gain_w * (soc_target - soc)
+    if p > charge_max_w:
+        return charge_max_w
+    if p < -discharge_max_w:
+        return -discharge_max_w
+    return p
+
+
+@njit(cache=True)
+def regen_fade(speed, fade_low, fade_high):
+    """Fraction [0..1] of regenerative braking allowed at ``speed`` [m/s] (linear fade-out)."""
+    f = (speed - fade_low) / (fade_high - fade_low)
+    return min(max(f, 0.0), 1.0)

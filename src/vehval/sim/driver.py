@@ -1,0 +1,98 @@
+"""Driver: a forward speed-trace follower and the EPA trace-tolerance check.
+
+The demand is a wheel force [N]: a feed-forward through the vehicle model (inertia force
+to reach the next target speed in one step plus road load) and a PI on the present speed
+error with conditional-integration anti-windup.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+from pydantic import Field
+
+from vehval.sim.components.base import Block
+
+MPH = 0.44704  # [m/s per mph]
+
+
+class DriverParams(Block):
+    """Speed-follower gains and force bounds."""
+
+    kp_n_per_mps: float = Field(ge=0)
+    ki_n_per_m: float = Field(ge=0)
+    integrator_limit_n: float = Field(ge=0)
+    max_force_n: float = Field(gt=0)
+    tolerance_speed_mph: float = Field(gt=0)
+    tolerance_time_s: float = Field(ge=0)
+
+
+@njit(cache=True)
+def driver_force(v, v_now, v_next, dt, mass_eq, road_force, integ, kp, f_min, f_max):
+    """Wheel force demand [N].
+
+    Parameters
+    ----------
+    v : float
+        Present vehicle speed [m/s].
+    v_now, v_next : float
+        Target speed now and one step ahead [m/s].
+    dt : float
+        Step [s].
+    mass_eq : float
+        Equivalent mass [kg] of the vehicle model.
+    road_force : float
+        Road load [N] the feed-forward compensates.
+    integ : float
+        Present value of the integral term [N].
+    kp : float
+        Proportional gain [N/(m/s)].
+    f_min, f_max : float
+        Bounds of the demand [N].
+    """
+    f = mass_eq * (v_next - v) / dt + road_force + kp * (v_now - v) + integ
+    return min(max(f, f_min), f_max)
+
+
+def tolerance_band(time_s: np.ndarray, target_mps: np.ndarray, speed_tol_mps: float,
+                   time_tol_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """EPA speed-trace band: [min - tol, max + tol] of the target within ±``time_tol_s``.
+
+    Returns
+    -------
+    lo, hi : ndarray [m/s] on ``time_s``.
+    """
+    t = np.asarray(time_s, float)
+    v = np.asarray(target_mps, float)
+    lo = np.empty_like(v)
+    hi = np.empty_like(v)
+    a = np.searchsorted(t, t - time_tol_s - 1e-9, side="left")
+    b = np.searchsorted(t, t + time_tol_s + 1e-9, side="right")
+    # the target is piecewise linear: include its values interpolated at the window edges
+    ve_lo = np.interp(t - time_tol_s, t, v)
+    ve_hi = np.interp(t + time_tol_s, t, v)
+    for i in range(t.size):
+        seg = v[a[i]:b[i]]
+        lo[i] = min(seg.min(), ve_lo[i], ve_hi[i]) - speed_tol_mps
+        hi[i] = max(seg.max(), ve_lo[i], ve_hi[i]) + speed_tol_mps
+    return np.maximum(lo, 0.0), hi
+
+
+def trace_misses(time_s, target_mps, speed_mps, speed_tol_mps: float = 2 * MPH,
+                 time_tol_s: float = 1.0) -> dict:
+    """Check a driven speed against the EPA tolerance (±2 mph within ±1 s by default).
+
+    Returns
+    -------
+    dict with ``max_miss_mps`` (largest distance outside the band), ``miss_time_s``
+    (time outside the band), ``n_miss`` (samples outside) and ``max_abs_error_mps``.
+    """
+    lo, hi = tolerance_band(time_s, target_mps, speed_tol_mps, time_tol_s)
+    v = np.asarray(speed_mps, float)
+    miss = np.maximum(np.maximum(lo - v, v - hi), 0.0)
+    dt = float(np.median(np.diff(time_s))) if len(time_s) > 1 else 0.0
+    return {"max_miss_mps": float(miss.max(initial=0.0)),
+            "n_miss": int(np.count_nonzero(miss > 0)),
+            "miss_time_s": float(np.count_nonzero(miss > 0) * dt),
+            "max_abs_error_mps": float(np.max(np.abs(v - np.asarray(target_mps, float)),
+                                              initial=0.0))}

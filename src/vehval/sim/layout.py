@@ -1,0 +1,43 @@
+"""Flat layouts shared by the Python packer and the compiled time loop.
+
+``PARAMS`` lists the scalar parameters packed in one float vector; ``SIGNALS`` the columns
+of the recorded output (base names of the ``_simu`` signals); ``SUMMARY`` the entries of
+the accumulator vector (energies [J], masses [kg], counts, extrema).
+"""
+
+from __future__ import annotations
+
+PARAMS = (
+    "mass", "rl_a", "rl_b", "rl_c", "aux_w", "r_wheel", "fd_ratio", "fd_eff", "j_wheel",
+    "brk_max", "n_sun", "n_ring", "j_carrier", "j_ring",
+    "j_eng", "eng_idle", "eng_max_spd", "eng_fire", "eng_drag", "eng_pmax", "fuel_lhv",
+    "mot_tmax", "mot_pmax", "mot_max_spd", "j_mot",
+    "gen_tmax", "gen_pmax", "gen_max_spd", "j_gen",
+    "batt_cap_c", "boost_eff", "boost_vmax", "boost_vmin", "boost_full_spd",
+    "soc_target", "soc_gain", "soc_pchg_max", "soc_pdis_max", "on_pwr", "on_pwr_hold",
+    "off_pwr", "on_spd", "on_spd_hold", "off_spd", "batt_hold", "elec_eff", "off_hold",
+    "soc_on", "soc_on_hold", "soc_force", "min_on", "min_off", "dis_margin", "chg_margin",
+    "eng_min_pwr", "fuel_cut_pwr", "fuel_cut_spd", "regen_frac", "fade_lo", "fade_hi",
+    "gen_kp", "gen_ki", "gen_spd_margin", "eng_spd_margin",
+    "drv_kp", "drv_ki", "drv_int_lim", "drv_fmax",
+    "soc_init",
+)
+SIGNALS = (
+    "veh_spd", "veh_spd_target", "veh_acc", "veh_frc_in", "veh_frc_loss", "whl_trq_out",
+    "whl_spd", "eng_spd_out", "eng_trq_out", "eng_pwr_out", "eng_spd_target", "eng_on",
+    "eng_fuel_cut", "fuel_rate", "gen_spd_out", "gen_trq_out", "gen_pwr_in", "mot_spd_out",
+    "mot_trq_out", "mot_pwr_in", "ess_volt", "ess_curr", "ess_pwr", "ess_soc",
+    "ess_pwr_lim_dis", "ess_pwr_lim_chg", "boost_volt_out", "brk_frc", "drv_pwr_demand",
+    "drv_frc_demand", "pg_trq_ring", "eng_ctrl_state", "ess_pwr_lim_state",
+)
+SUMMARY = (
+    "fuel_mass_kg", "fuel_energy_j", "ess_chem_energy_j", "ess_loss_j", "eng_loss_j",
+    "mot_loss_j", "gen_loss_j", "boost_loss_j", "aux_energy_j", "fd_loss_j", "brake_energy_j",
+    "road_energy_j", "lock_loss_j", "ke_start_j", "ke_end_j", "unmet_energy_j",
+    "eng_out_energy_j", "distance_m", "eng_on_time_s", "engine_starts", "soc_final",
+    "soc_min_seen", "soc_max_seen", "eng_spd_max", "gen_spd_max_abs", "mot_spd_max",
+    "trace_max_miss_mps", "trace_n_miss", "state_switches", "duration_s",
+)
+P = {n: i for i, n in enumerate(PARAMS)}
+S = {n: i for i, n in enumerate(SIGNALS)}
+Y = {n: i for i, n in enumerate(SUMMARY)}

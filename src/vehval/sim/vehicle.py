@@ -1,0 +1,183 @@
+"""Vehicle definition: the parameter blocks of every component, loaded from YAML.
+
+``load_vehicle("prius_2004")`` reads ``vehval/data/vehicles/prius_2004.yaml``; a path
+works too. Unknown or missing keys, unsourced parameters, non-positive masses and
+non-monotonic map breakpoints raise :class:`~vehval.errors.ConfigError` naming the key
+and the file.
+"""
+
+from __future__ import annotations
+
+import copy
+from functools import cached_property
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
+
+from vehval.errors import ConfigError
+from vehval.sim.components.base import RPM
+from vehval.sim.components.battery import BatteryParams
+from vehval.sim.components.body import BodyParams
+from vehval.sim.components.boost import BoostParams
+from vehval.sim.components.driveline import DrivelineParams
+from vehval.sim.components.electric_machine import MachineParams
+from vehval.sim.components.engine import EngineParams, best_efficiency_line
+from vehval.sim.components.planetary import PlanetaryParams
+from vehval.sim.control import ControllerParams
+from vehval.sim.driver import DriverParams
+
+BLOCKS = ("body", "engine", "mg1", "mg2", "battery", "boost", "planetary", "driveline",
+          "controller", "driver")
+
+
+class Vehicle(BaseModel):
+    """A complete vehicle: every component block plus controller and driver parameters."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    name: str
+    description: str = ""
+    body: BodyParams
+    engine: EngineParams
+    mg1: MachineParams
+    mg2: MachineParams
+    battery: BatteryParams
+    boost: BoostParams
+    planetary: PlanetaryParams
+    driveline: DrivelineParams
+    controller: ControllerParams
+    driver: DriverParams
+    _file: str = PrivateAttr(default="")
+
+    @property
+    def file(self) -> str:
+        """File the vehicle was loaded from ('' when built in code)."""
+        return self._file
+
+    def parameters(self) -> dict[str, Any]:
+        """Flat dict of every scalar parameter by dotted path (e.g. ``body.mass_kg``)."""
+        out: dict[str, Any] = {}
+        for blk in BLOCKS:
+            for key, val in getattr(self, blk).model_dump(exclude={"sources"}).items():
+                if isinstance(val, (int, float)):
+                    out[f"{blk}.{key}"] = val
+        return out
+
+    def sources(self) -> dict[str, str]:
+        """Source of every parameter by dotted path."""
+        return {f"{blk}.{k}": v for blk in BLOCKS for k, v in getattr(self, blk).sources.items()}
+
+    def with_overrides(self, overrides: dict[str, Any] | None) -> "Vehicle":
+        """A validated copy with parameters replaced by dotted path (``controller.soc_target``).
+
+        ``__`` may stand for ``.`` (``controller__soc_target``) so paths can be keyword names.
+        """
+        if not overrides:
+            return self
+        data = self.model_dump()
+        for raw_key, value in overrides.items():
+            key = raw_key.replace("__", ".")
+            parts = key.split(".")
+            if len(parts) != 2 or parts[0] not in BLOCKS:
+                raise ConfigError(f"override '{raw_key}': use <block>.<parameter> with block one "
+                                  f"of {', '.join(BLOCKS)}")
+            blk, name = parts
+            if name == "sources" or name not in data[blk]:
+                raise ConfigError(f"override '{raw_key}': '{blk}' has no parameter '{name}' "
+                                  f"(known: {', '.join(k for k in data[blk] if k != 'sources')})")
+            data[blk][name] = value
+        return _validate(data, f"{self._file or self.name} with overrides")
+
+    def signal_limits(self) -> dict[str, tuple[float, float]]:
+        """Physical limits per signal base name, SI units (for QA range checks)."""
+        e, g1, g2, b, d = self.engine, self.mg1, self.mg2, self.battery, self.driveline
+        v_max = g2.max_speed_rpm * RPM * d.wheel_radius_m / d.final_drive_ratio
+        tmax = float(np.max(e.max_torque_nm))
+        ring = self.planetary.ring_teeth / (self.planetary.ring_teeth + self.planetary.sun_teeth)
+        return {
+            "veh_spd": (0.0, v_max),
+            "whl_spd": (0.0, v_max / d.wheel_radius_m),
+            "eng_spd_out": (0.0, e.max_speed_rpm * RPM),
+            "eng_trq_out": (-e.motoring_torque_nm, tmax),
+            "eng_pwr_out": (-e.motoring_torque_nm * e.max_speed_rpm * RPM, e.max_power_w),
+            "gen_spd_out": (-g1.max_speed_rpm * RPM, g1.max_speed_rpm * RPM),
+            "gen_trq_out": (-g1.max_torque_nm, g1.max_torque_nm),
+            "gen_pwr_out": (-g1.max_power_w, g1.max_power_w),
+            "mot_spd_out": (-g2.max_speed_rpm * RPM, g2.max_speed_rpm * RPM),
+            "mot_trq_out": (-g2.max_torque_nm, g2.max_torque_nm),
+            "mot_pwr_out": (-g2.max_power_w, g2.max_power_w),
+            "pg_trq_ring": (-tmax * ring, tmax * ring),
+            "ess_soc": (b.soc_min, b.soc_max),
+            "ess_pwr": (-float(np.max(b.charge_power_limit_w)),
+                        float(np.max(b.discharge_power_limit_w))),
+            "ess_volt": (0.0, float(np.max(b.ocv_v)) * 1.3),
+            "boost_volt_out": (0.0, self.boost.volt_out_max_v),
+            "fuel_rate": (0.0, float(np.max(e.fuel_rate_g_per_s)) * 1e-3),
+        }
+
+    @cached_property
+    def best_line(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Engine best-efficiency line: power [W], speed [rad/s], torque [N·m]."""
+        return best_efficiency_line(self.engine)
+
+
+def _vehicles_dir() -> Path:
+    return Path(str(resources.files("vehval") / "data" / "vehicles"))
+
+
+def list_vehicles() -> list[str]:
+    """Names of the vehicles shipped with vehval."""
+    return sorted(p.stem for p in _vehicles_dir().glob("*.yaml"))
+
+
+def _validate(data: Any, where: str) -> Vehicle:
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: a vehicle file must be a mapping of blocks "
+                          f"({', '.join(BLOCKS)})")
+    try:
+        veh = Vehicle.model_validate(copy.deepcopy(data))
+    except ValidationError as exc:
+        lines = []
+        for err in exc.errors()[:8]:
+            key = ".".join(str(x) for x in err["loc"]) or "(top level)"
+            msg = err["msg"].removeprefix("Value error, ")
+            if err["type"] == "extra_forbidden":
+                msg = "unknown key (misspelled?)"
+            elif err["type"] == "missing":
+                msg = "missing key"
+            lines.append(f"key '{key}': {msg}")
+        raise ConfigError(f"{where}: invalid vehicle: " + "; ".join(lines)) from None
+    return veh
+
+
+def load_vehicle(name_or_path: str | Path | Vehicle) -> Vehicle:
+    """Load a vehicle by name (shipped file) or from a YAML path.
+
+    Raises
+    ------
+    ConfigError
+        Unknown name, unreadable file, or any invalid / missing / unknown key (the message
+        names the key and the file).
+    """
+    if isinstance(name_or_path, Vehicle):
+        return name_or_path
+    text = str(name_or_path)
+    path = Path(text)
+    if not (path.suffix in (".yaml", ".yml") or path.exists()):
+        path = _vehicles_dir() / f"{text}.yaml"
+        if not path.exists():
+            raise ConfigError(f"unknown vehicle '{text}': known vehicles are "
+                              f"{', '.join(list_vehicles())}, or give a path to a YAML file")
+    try:
+        data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read vehicle file ({exc.strerror})") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    veh = _validate(data, str(path))
+    veh._file = str(path)
+    return veh
