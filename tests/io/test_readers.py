@@ -166,3 +166,48 @@ def test_detect_format(tmp_path, d3_file):
 
 def test_d3_header_constant():
     assert D3_HEADER[0].startswith("Time")
+
+
+def test_utf32_unknown_encoding_cr_only_and_empty_last_cell(tmp_path):
+    p = tmp_path / "u32.txt"
+    p.write_bytes("Time[s]\tSpeed[mph]\r\n0\t1\r\n".encode("utf-32"))
+    assert read_raw(p).data["Speed"].tolist() == [1.0]
+    with pytest.raises(InputFileError, match="unknown text encoding 'no-such-codec'"):
+        read_raw(p, encoding="no-such-codec")
+    p = tmp_path / "cr.csv"
+    p.write_bytes(b"t,x\r0,1\r1,2\r")
+    assert read_raw(p).data["x"].tolist() == [1.0, 2.0]
+    p = tmp_path / "e.txt"
+    p.write_bytes(b"Time[s]\tSpeed[mph]\tEmpty[A]\r\n0\t12.5\t\r\n1\t12.5\t\r\n")
+    r = read_raw(p)
+    assert r.data["Speed"].tolist() == [12.5, 12.5] and np.isnan(r.data["Empty"]).all()
+    assert r.notes == []
+
+
+def test_corrupted_mdf_is_an_error_not_a_crash(tmp_path):
+    """Flipped bytes in MDF blocks must give InputFileError (asammdf's C code would segfault
+    on an out-of-record channel offset; the layout is checked first)."""
+    from asammdf import MDF, Signal as MSig
+
+    t = np.arange(20) * 0.1
+    mdf = MDF(version="4.10")
+    mdf.append([MSig(samples=t, timestamps=t, name="A", unit="V")])
+    good = tmp_path / "g.mf4"
+    mdf.save(good, overwrite=True)
+    mdf.close()
+    data = good.read_bytes()
+    rng = np.random.default_rng(3)
+    outcomes = set()
+    for k in range(60):
+        raw = bytearray(data[: int(len(data) * (0.2 + 0.8 * k / 60))] if k % 2 else data)
+        if not k % 2:
+            for pos in rng.integers(0, len(raw), 3):
+                raw[pos] = int(rng.integers(0, 256))
+        p = tmp_path / "m.mf4"
+        p.write_bytes(bytes(raw))
+        try:
+            read_raw(p)
+            outcomes.add("ok")
+        except InputFileError:
+            outcomes.add("error")
+    assert "error" in outcomes

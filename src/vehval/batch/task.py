@@ -120,9 +120,19 @@ def _by_severity(findings: list[dict]) -> dict[str, int]:
 
 def _selected(qa_dict: dict) -> dict[str, str]:
     """Base name -> kept full name, from the QA selection when it states it."""
+    from vehval.nomenclature import registry
+
     sel = qa_dict.get("selection") or {}
-    chosen = sel.get("chosen") or sel.get("selected") or {}
-    return {str(k): str(v) for k, v in chosen.items()} if isinstance(chosen, dict) else {}
+    kept = sel.get("kept") or {}
+    out: dict[str, str] = {}
+    for name in (kept if isinstance(kept, (dict, list)) else []):
+        try:
+            parsed = registry().parse(str(name))
+        except Exception:  # noqa: BLE001 - a name QA kept but the registry rejects: ignore
+            continue
+        if parsed.origin == "test":
+            out.setdefault(parsed.base, str(name))
+    return out
 
 
 def _validation_summary(val: dict) -> dict:

@@ -38,6 +38,10 @@ def _register() -> None:
     from vehval.cli import commands_cycles  # noqa: F401
     from vehval.cli import commands_batch  # noqa: F401
     from vehval.cli import commands_report  # noqa: F401
+    from vehval.cli import commands_analyze  # noqa: F401
+    from vehval.cli import commands_qa  # noqa: F401
+    from vehval.cli import commands_sim  # noqa: F401
+    from vehval.cli import commands_validate  # noqa: F401
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -45,7 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     _register()
     args = list(sys.argv[1:] if argv is None else argv)
     try:
-        app(args=args, standalone_mode=False, prog_name="vehval")
+        rc = app(args=args, standalone_mode=False, prog_name="vehval")
+        if isinstance(rc, int) and rc:  # typer.Exit(n) is returned, not raised, here
+            return rc
     except VehvalError as exc:
         typer.echo(f"vehval: error: {exc}", err=True)
         return exc.exit_code

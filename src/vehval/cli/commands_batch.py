@@ -41,10 +41,11 @@ def batch_cmd(
                     progress=not quiet)
     typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged "
                f"-> {res.outdir / 'index.html'}")
-    for r in res.results:
-        if r.get("batch_status") == "failed":
-            typer.echo(f"  failed {r['test_id']}: {r.get('error')}", err=True)
-    if res.n_failed:
+    failed = [r for r in res.results if r.get("status") == "failed"]
+    for r in failed:
+        when = " (unchanged since an earlier run)" if r.get("batch_status") == "skipped" else ""
+        typer.echo(f"  failed {r['test_id']}{when}: {r.get('error')}", err=True)
+    if failed:
         raise typer.Exit(1)
 
 

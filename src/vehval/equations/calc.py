@@ -51,6 +51,18 @@ class RelationSpec(_Strict):
     description: str = ""
 
 
+class CheckSpec(_Strict):
+    """A balance check ``lhs ≈ rhs`` between two independent expressions; disagreement is
+    reported on the measured signal of base ``blame`` (the usual suspect)."""
+
+    name: str
+    lhs: str
+    rhs: str
+    blame: str
+    r2_min: float = 0.6
+    description: str = ""
+
+
 class CalculationFile(_Strict):
     calculation_version: int = 1
     name: str
@@ -58,6 +70,7 @@ class CalculationFile(_Strict):
     include: list[str] = Field(default_factory=list)
     parameters: dict[str, ParameterSpec] = Field(default_factory=dict)
     relations: list[RelationSpec] = Field(default_factory=list)
+    checks: list[CheckSpec] = Field(default_factory=list)
 
 
 def load_calculations(name_or_path: str | Path) -> CalculationFile:
@@ -92,12 +105,16 @@ def load_calculations(name_or_path: str | Path) -> CalculationFile:
             raise ConfigError(f"{where}: relations[{i}].output '{rel.output}' is not a base name "
                               "of the nomenclature")
         parse_expression(rel.expr, f"{where}: relations[{i}].expr")
+    for i, chk in enumerate(calc.checks):
+        parse_expression(chk.lhs, f"{where}: checks[{i}].lhs")
+        parse_expression(chk.rhs, f"{where}: checks[{i}].rhs")
     for inc in calc.include:
         sub = load_calculations(inc)
         params = dict(sub.parameters)
         params.update(calc.parameters)
         calc = calc.model_copy(update={"parameters": params,
-                                       "relations": sub.relations + calc.relations})
+                                       "relations": sub.relations + calc.relations,
+                                       "checks": sub.checks + calc.checks})
     return calc
 
 
@@ -170,10 +187,13 @@ class CalcResult:
     not_computed: dict[str, list[str]] = field(default_factory=dict)  # output -> reasons
     parameters: dict[str, dict] = field(default_factory=dict)
     calc_set: str = ""
+    checks: dict[str, dict] = field(default_factory=dict)   # name -> lhs, rhs, inputs, blame
 
     def to_dict(self) -> dict:
         return {"set": self.calc_set, "computed": self.computed,
-                "not_computed": self.not_computed, "parameters": self.parameters}
+                "not_computed": self.not_computed, "parameters": self.parameters,
+                "checks": {k: {"expr": v["text"], "inputs": v["inputs"], "blame": v["blame"]}
+                           for k, v in self.checks.items()}}
 
 
 def choose_calc_set(test: Test, vehicle: Any = None) -> str:
@@ -309,6 +329,30 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
             reasons.append("inputs available but the result is NaN everywhere "
                            "(inputs do not overlap in time)")
         result.not_computed.setdefault(f"{rel.output}_calc", []).append(f"{rel.expr}: " + "; ".join(reasons))
+    # balance checks: both sides from measured (preferred) or calculated signals
+    for chk in calc.checks:
+        sides, used, ok = [], {}, True
+        for text in (chk.lhs, chk.rhs):
+            ex = parse_expression(text, f"{calc.name}: check {chk.name}")
+            var: dict[str, object] = {}
+            for nm in ex.names:
+                if nm in pvals:
+                    var[nm] = pvals[nm]
+                elif nm in measured:
+                    var[nm] = measured_on_grid(nm)
+                    used[nm] = measured[nm].name
+                elif nm in calc_vals:
+                    var[nm] = calc_vals[nm]
+                    used[nm] = f"{nm}_calc"
+                elif nm != "t":
+                    ok = False
+            if not ok:
+                break
+            sides.append(ex.evaluate(var, grid))
+        if ok and chk.blame in measured and grid.size:
+            result.checks[chk.name] = {"lhs": sides[0], "rhs": sides[1], "inputs": used,
+                                       "blame": measured[chk.blame].name, "r2_min": chk.r2_min,
+                                       "text": f"{chk.lhs} ≈ {chk.rhs}"}
     if add:
         for name in result.computed:
             sig = Signal.standard(name, grid, calc_vals[name[:-5]], source="calc",

@@ -38,7 +38,13 @@ def check_exists(path: Path) -> None:
 
 def decode_bytes(raw: bytes, path: Path, encoding: str | None, notes: list[str]) -> bytes:
     """Return UTF-8 (or ASCII-compatible) bytes, decoding UTF-16 and explicit encodings."""
-    if encoding and codecs.lookup(encoding).name not in ("utf-8", "ascii"):
+    if encoding:
+        try:
+            codec = codecs.lookup(encoding).name
+        except LookupError:
+            raise InputFileError(f"{path}: unknown text encoding '{encoding}': use e.g. utf-8, "
+                                 "cp1252, latin-1 or utf-16") from None
+    if encoding and codec not in ("utf-8", "ascii"):
         try:
             text = raw.decode(encoding)
         except UnicodeDecodeError as exc:
@@ -48,6 +54,13 @@ def decode_bytes(raw: bytes, path: Path, encoding: str | None, notes: list[str])
     if raw.startswith(codecs.BOM_UTF8):
         return raw[3:]
     utf16 = None
+    if raw.startswith(codecs.BOM_UTF32_LE) or raw.startswith(codecs.BOM_UTF32_BE):
+        try:
+            text = raw.decode("utf-32")
+        except UnicodeDecodeError as exc:
+            raise InputFileError(f"{path}: looks like UTF-32 but cannot be decoded: {exc}") from None
+        notes.append("decoded from UTF-32")
+        return text.lstrip("\ufeff").encode("utf-8")
     if raw.startswith(codecs.BOM_UTF16_LE) or raw.startswith(codecs.BOM_UTF16_BE):
         utf16 = "utf-16"
     else:
@@ -85,6 +98,17 @@ def _strip_nuls(raw: bytes, path: Path, notes: list[str]) -> bytes:
     return body
 
 
+def _drop_blank_tail(body: bytes) -> bytes:
+    """Remove trailing line ends and whitespace-only lines, keeping empty last cells."""
+    body = body.rstrip(b"\r\n")
+    while body:
+        start = body.rfind(b"\n") + 1
+        if body[start:].strip():
+            break
+        body = body[:start].rstrip(b"\r\n")
+    return body
+
+
 def _decode_line(line: bytes, path: Path, notes: list[str]) -> str:
     try:
         return line.decode("utf-8")
@@ -108,7 +132,10 @@ def sniff_delimiter(lines: list[str]) -> str:
 
 
 def _tokens(line: str, delimiter: str) -> list[str]:
-    row = next(csv.reader([line], delimiter=delimiter, skipinitialspace=True), [])
+    try:
+        row = next(csv.reader([line], delimiter=delimiter, skipinitialspace=True), [])
+    except csv.Error as exc:
+        raise InputFileError(f"cannot split the line {line[:60]!r}: {exc}") from None
     return [t.strip().strip('"').strip() for t in row]
 
 
@@ -171,6 +198,9 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     notes: list[str] = []
     raw = decode_bytes(path.read_bytes(), path, encoding, notes)
     raw = _strip_nuls(raw, path, notes)
+    if b"\n" not in raw and b"\r" in raw:
+        raw = raw.replace(b"\r", b"\n")
+        notes.append("old Mac line ends (CR only) read as line ends")
     # leading blank lines
     start, skipped = 0, 0
     while True:
@@ -193,7 +223,10 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     sample = [s for s in sample if s != ""] or [""]
     header_line = sample[0]
     delim = delimiter or sniff_delimiter(sample)
-    headers = _tokens(header_line, delim)
+    try:
+        headers = _tokens(header_line, delim)
+    except InputFileError as exc:
+        raise InputFileError(f"{path} line {skipped + 1}: {exc}") from None
     headers[0] = repair_first_header(headers[0], path, notes)
     for i, h in enumerate(headers[1:], start=2):
         if not is_printable(h):
@@ -205,7 +238,10 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     first_line = skipped + 2
     # optional unit row: no [unit] in the header and a fully non-numeric second line
     if len(sample) > 1 and all(u is None for u in units):
-        cells = _tokens(sample[1], delim)
+        try:
+            cells = _tokens(sample[1], delim)
+        except InputFileError:
+            cells = []
         if len(cells) == len(names) and any(cells) and not any(_NUMBER.match(c) for c in cells if c):
             units = [c or None for c in cells]
             headers = [f"{n}[{u}]" if u else n for n, u in zip(names, units)]
@@ -213,7 +249,7 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
             data_start = len(raw) if nl < 0 else nl + 1
             first_line += 1
             notes.append("line 2 read as the unit row")
-    body = raw[data_start:].rstrip(b"\r\n\t ")
+    body = _drop_blank_tail(raw[data_start:])
     if not body:
         raise InputFileError(f"{path}: header found but no data rows")
     ncol = len(names)
@@ -259,7 +295,10 @@ def _locate_error(exc: Exception, body: bytes, delim: str, decimal: str, names: 
     col = int(m.group(1)) if m else None
     for i, line in enumerate(text):
         line = line.rstrip("\r")
-        cells = _tokens(line, delim) if '"' in line else line.split(delim)
+        try:
+            cells = _tokens(line, delim) if '"' in line else line.split(delim)
+        except InputFileError as err:
+            return InputFileError(f"{path} line {first_line + i}: {err}")
         if len(cells) != len(names):
             return InputFileError(f"{path} line {first_line + i}: {len(cells)} fields, the header "
                                   f"has {len(names)}: fix or remove the line")

@@ -244,7 +244,7 @@ def import_test(files: list[str | Path] | str | Path, template: Template | str |
     for path in paths:
         if not path.exists():
             raise InputFileError(f"{path}: file not found: check the path")
-        idx = entry_for_file(t, path, set(used))
+        idx = entry_for_file(t, path)
         if idx is None:
             globs = ", ".join(repr(f.match) for f in t.files)
             raise ConfigError(f"{path}: no files[] entry of {tname} matches this file name "

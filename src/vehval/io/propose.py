@@ -7,6 +7,7 @@ import difflib
 import fnmatch
 import re
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 
 from vehval.errors import UnitError, VehvalError
@@ -53,13 +54,31 @@ def _score(a: list[str], b: list[str]) -> float:
     rest = list(b)
     hits = 0
     for tok in a:
-        best = max(rest, key=lambda r: difflib.SequenceMatcher(None, tok, r).ratio(), default=None)
-        if best is not None and (best == tok or difflib.SequenceMatcher(None, tok, best).ratio() >= 0.85):
+        if tok in rest:
             hits += 1
-            rest.remove(best)
+            rest.remove(tok)
+            continue
+        close = difflib.get_close_matches(tok, rest, n=1, cutoff=0.85)
+        if close:
+            hits += 1
+            rest.remove(close[0])
     return 2.0 * hits / (len(a) + len(b))
 
 
+@lru_cache(maxsize=1)
+def _candidates() -> list[tuple[str, str, list[list[str]]]]:
+    """(base, SI unit, token lists of the base name and its aliases) for every registry entry."""
+    out = []
+    for b, spec in registry().specs.items():
+        if b == "time":
+            continue
+        cands = [[t for t in _tokens(b.replace("_", " ")) if t not in _PORTS]]
+        cands += [_tokens(a) for a in spec.aliases]
+        out.append((b, spec.unit, cands))
+    return out
+
+
+@lru_cache(maxsize=4096)
 def _unit_fits(raw_unit: str | None, si_unit: str) -> bool:
     if raw_unit is None:
         return True
@@ -88,11 +107,9 @@ def match_channel(raw_name: str, raw_unit: str | None, *, cutoff: float = 0.7) -
         return base
     toks = _tokens(raw_name)
     best, best_score = None, 0.0
-    for b, spec in reg.specs.items():
-        if b == "time" or not _unit_fits(raw_unit, spec.unit):
+    for b, unit, cands in _candidates():
+        if not _unit_fits(raw_unit, unit):
             continue
-        cands = [[t for t in _tokens(b.replace("_", " ")) if t not in _PORTS]]
-        cands += [_tokens(a) for a in spec.aliases]
         s = max(_score(toks, c) for c in cands)
         if s > best_score:
             best, best_score = b, s

@@ -42,13 +42,15 @@ class Level1Options:
     stuck_min_s: float = 5.0          # shortest exactly-repeated run considered [s]
     stuck_min_samples: int = 4
     noisy_repeat_fraction: float = 0.02   # below: the signal is "noisy" (repeats are rare)
-    partner_move_fraction: float = 0.05   # partner moves: range in run > this x its range
+    partner_move_fraction: float = 0.05   # duplicate moves: range in run > this x its range
+    correlated_move_fraction: float = 0.2  # same for a merely correlated partner
+    spike_corroboration_k: float = 4.0  # partner residual above this x its sigma: real event
     spike_k: float = 10.0             # Hampel threshold in robust sigmas
-    spike_range_fraction: float = 0.1  # and at least this fraction of the signal range
+    spike_range_fraction: float = 0.2  # and at least this fraction of the signal range
     spike_window: int = 5             # Hampel window [samples], odd
     gap_factor: float = 2.5           # time gap: step > this x median period
     jitter_info: float = 0.05         # std(dt)/median(dt) above this -> info
-    vehicle_limit_tolerance: float = 0.03  # relative margin over the vehicle's limit
+    vehicle_limit_tolerance: float = 0.03  # margin: this x the larger |limit|
     max_findings_per_kind: int = 10   # per signal; further runs are merged into one
 
 
@@ -126,14 +128,18 @@ def partners_of(test: Test, name: str) -> list[tuple[Signal, bool]]:
             continue
         if q.base == p.base:
             out.append((other, True))
+        elif "target" in p.base or "target" in q.base:
+            continue          # a target may legitimately hold while the actual value moves
         elif ((p.base, q.base) in CORRELATED_BASES or (q.base, p.base) in CORRELATED_BASES
               or (p.base, q.base) in _EXTRA_PARTNERS or (q.base, p.base) in _EXTRA_PARTNERS):
             out.append((other, False))
     return out
 
 
-def _moves(partner: Signal, t0: float, t1: float, frac: float) -> tuple[bool, float]:
-    """Does ``partner`` vary within [t0, t1] by more than ``frac`` of its overall range?"""
+def _moves(partner: Signal, t0: float, t1: float, frac: float,
+           min_abs: float = 0.0) -> tuple[bool, float]:
+    """Does ``partner`` vary within [t0, t1] by more than ``frac`` of its overall range
+    (and more than ``min_abs``, e.g. a few quantisation steps of the stuck signal)?"""
     full = _robust_range(partner.values)
     if full <= 0:
         return False, 0.0
@@ -143,7 +149,7 @@ def _moves(partner: Signal, t0: float, t1: float, frac: float) -> tuple[bool, fl
     if seg.size < 2:
         return False, 0.0
     rng = float(seg.max() - seg.min())
-    return rng > frac * full, rng / full
+    return rng > max(frac * full, min_abs), rng / full
 
 
 def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options) -> list[Finding]:
@@ -165,17 +171,27 @@ def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options) -> list[Find
     cand_len = sum(j1 - i0 for i0, j1 in cand)
     outside_pairs = max(1, np.isfinite(np.diff(v)).sum() - cand_len)
     repeat_frac = max(0, int(same.sum()) - cand_len) / outside_pairs
-    noisy = repeat_frac < opts.noisy_repeat_fraction
+    covered = cand_len / max(1, v.size - 1)
+    noisy = repeat_frac < opts.noisy_repeat_fraction and covered < 0.5
     partners = partners_of(test, sig.name)
+    if any(dup for _, dup in partners):
+        partners = [(p, dup) for p, dup in partners if dup]
+    nz = np.abs(np.diff(v))
+    nz = nz[np.isfinite(nz) & (nz > 0)]
+    quantum = float(np.median(nz)) if nz.size else 0.0
     found: list[Finding] = []
+    zero_tol = 0.01 * _robust_range(v)
     for i0, j1 in sorted(cand, key=lambda r: r[0] - r[1])[:50]:
         value = float(v[i0])
+        if abs(value) <= zero_tol and not noisy:
+            value = 0.0          # quantised "zero" (e.g. -1e-6 kg/s at fuel cut) counts as zero
         t0, t1 = float(t[i0]), float(t[j1])
         mover = None
         for psig, dup in partners:
             if value == 0 and not dup:
                 continue
-            ok, frac = _moves(psig, t0, t1, opts.partner_move_fraction)
+            ok, frac = _moves(psig, t0, t1, opts.partner_move_fraction if dup
+                              else opts.correlated_move_fraction, 3 * quantum if dup else 0.0)
             if ok and value == 0:
                 pv = psig.values[(psig.time >= t0) & (psig.time <= t1)]
                 ok = bool(np.nanmedian(np.abs(pv)) > 0.1 * max(_robust_range(psig.values), 1e-12))
@@ -188,14 +204,14 @@ def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options) -> list[Find
         if mover is not None:
             psig, dup, frac = mover
             sev = Severity.ERROR if dup else Severity.WARNING
-            msg = (f"{sig.name} stays exactly at {value:.6g} {sig.unit} for {t1 - t0:.1f} s "
+            msg = (f"{sig.name} stays exactly at {float(v[i0]):.6g} {sig.unit} for {t1 - t0:.1f} s "
                    f"while {psig.name} varies by {100 * frac:.0f} % of its range")
             nums = {"value": value, "duration_s": t1 - t0, "samples": j1 - i0 + 1,
                     "partner_range_fraction": frac}
             found.append(Finding(sig.name, Kind.STUCK, t0, t1, sev, msg, nums,
                                  related=[psig.name]))
         elif noisy:
-            msg = (f"{sig.name} repeats exactly {value:.6g} {sig.unit} for {t1 - t0:.1f} s "
+            msg = (f"{sig.name} repeats exactly {float(v[i0]):.6g} {sig.unit} for {t1 - t0:.1f} s "
                    f"although it changes at almost every sample elsewhere (stuck sensor?)")
             found.append(Finding(sig.name, Kind.STUCK, t0, t1, Severity.WARNING, msg,
                                  {"value": value, "duration_s": t1 - t0,
@@ -309,8 +325,9 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
         vlo, vhi = limits[base]
         vlo = -np.inf if vlo is None else float(vlo)
         vhi = np.inf if vhi is None else float(vhi)
-        tol = opts.vehicle_limit_tolerance
-        over = fin & ~outside & ((v > vhi + tol * abs(vhi)) | (v < vlo - tol * abs(vlo)))
+        scale = max(abs(x) for x in (vlo, vhi) if np.isfinite(x)) if np.isfinite([vlo, vhi]).any() else 0.0
+        margin = opts.vehicle_limit_tolerance * scale
+        over = fin & ~outside & ((v > vhi + margin) | (v < vlo - margin))
         rs = merge_runs(runs(over), t, 1.0)
         _emit_runs(out, sig, rs, Kind.VEHICLE_LIMIT, Severity.ERROR,
                    lambda i0, i1: (f"{sig.name} reaches {_extreme(v, i0, i1, vlo, vhi):.6g} {sig.unit}, "
@@ -339,7 +356,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
         neg = fin & (v < -eps)
         if neg.any():
             vmin = float(np.min(vf))
-            beyond = -vmin > max(3 * sigma, 0.01 * vmax)
+            beyond = -vmin > max(5 * sigma, 0.02 * vmax)
             sev = Severity.WARNING if beyond else Severity.INFO
             rs = merge_runs(runs(neg), t, 2.0)
             frac = float(neg.sum() / fin.sum())
@@ -369,12 +386,59 @@ def _peak(resid: np.ndarray, i0: int, i1: int) -> float:
     return float(seg[int(np.nanargmax(np.abs(seg)))])
 
 
+#: Extra pairs whose simultaneous jumps reveal a physical event (not a sensor spike).
+_EVENT_PARTNERS = (("mot_trq_out", "ess_curr"), ("mot_trq_out", "ess_volt"),
+                   ("gen_trq_out", "ess_curr"), ("gen_trq_out", "ess_volt"),
+                   ("eng_trq_out", "eng_spd_out"), ("ess_pwr", "ess_volt"))
+
+
+def _corroborate_spikes(test: Test, found: list[Finding], opts: Level1Options) -> None:
+    """Demote to info the spikes that a related signal shows at the same time.
+
+    A sensor spike is local to one channel; a jump seen at the same instant on a
+    physically related channel (battery voltage sag with a current step, OBD torque and
+    voltage in the same polling round) is a real event.
+    """
+    cache: dict[str, tuple[float, np.ndarray]] = {}
+
+    def noise(sig: Signal):
+        if sig.name not in cache:
+            cache[sig.name] = robust_noise(sig.values, opts.spike_window)
+        return cache[sig.name]
+
+    for f in found:
+        if f.kind != Kind.SPIKE or f.severity == Severity.INFO:
+            continue
+        sig = test[f.signal]
+        p = _parse(sig.name)
+        partners = [ps for ps, _ in partners_of(test, sig.name)]
+        for other in test:
+            q = _parse(other.name)
+            if q is None or q.origin != "test" or other.name == sig.name or p is None:
+                continue
+            if (p.base, q.base) in _EVENT_PARTNERS or (q.base, p.base) in _EVENT_PARTNERS:
+                partners.append(other)
+        for other in partners:
+            tol = max(sig.sample_period, other.sample_period)
+            sigma, resid = noise(other)
+            sel = (other.time >= f.start_s - tol) & (other.time <= f.end_s + tol)
+            r = np.abs(resid[sel])
+            r = r[np.isfinite(r)]
+            if sigma > 0 and r.size and r.max() > opts.spike_corroboration_k * sigma:
+                f.severity = Severity.INFO
+                f.message += f"; {other.name} jumps at the same time: a real transient, not a sensor spike"
+                f.related.append(other.name)
+                break
+
+
 def run_level1(test: Test, limits: dict | None = None,
                opts: Level1Options | None = None) -> list[Finding]:
     """Level-1 findings of every measured signal of a test (``_calc``/``_simu`` skipped)."""
+    opts = opts or Level1Options()
     out: list[Finding] = []
     for sig in test:
         if sig.name.endswith("_calc") or sig.name.endswith("_simu"):
             continue
         out.extend(check_signal(test, sig, limits, opts))
+    _corroborate_spikes(test, out, opts)
     return out

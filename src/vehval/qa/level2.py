@@ -74,11 +74,13 @@ class PairComparison:
     mean_rel_diff: float
     slope: float
     offset: float
+    gain: float
     residual_lag_s: float
     ref_range: float
     unit: str
     start_s: float = float("nan")
     end_s: float = float("nan")
+    slow_period_s: float = float("nan")
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
@@ -119,6 +121,11 @@ def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None) 
     saa, sbb = float((da * da).sum()), float((db * db).sum())
     r = float((da * db).sum() / np.sqrt(saa * sbb)) if saa > 0 and sbb > 0 else float("nan")
     slope = float((da * db).sum() / saa) if saa > 0 else float("nan")
+    # gain robust to noise in both signals (regression dilution): reduced-major-axis slope,
+    # or the ratio of means for offset-dominated signals (e.g. a pack voltage)
+    gain = float(np.sign(r) * np.sqrt(sbb / saa)) if saa > 0 and np.isfinite(r) else float("nan")
+    if abs(a.mean()) > 2 * a.std() and abs(a.mean()) > 0:
+        gain = float(b.mean() / a.mean())
     offset = float(b.mean() - slope * a.mean()) if np.isfinite(slope) else float("nan")
     mad = float(np.mean(np.abs(b - a)))
     mean_ref = float(np.mean(np.abs(a)))
@@ -130,9 +137,10 @@ def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None) 
     return PairComparison(base=base, ref=ref.name, other=other.name, n=int(ok.sum()),
                           r2=r * r if np.isfinite(r) else float("nan"), r=r,
                           mean_abs_diff=mad, mean_rel_diff=mad / mean_ref if mean_ref > 0 else float("nan"),
-                          slope=slope, offset=offset, residual_lag_s=lag,
+                          slope=slope, offset=offset, gain=gain, residual_lag_s=lag,
                           ref_range=float(hi - lo), unit=ref.unit,
-                          start_s=float(tt[0]), end_s=float(tt[-1]))
+                          start_s=float(tt[0]), end_s=float(tt[-1]),
+                          slow_period_s=float(max(ref.sample_period, other.sample_period)))
 
 
 def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period: float,
@@ -141,9 +149,9 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
     rel = [other_name]
     s0, s1 = row.start_s, row.end_s
     nums = {"r2": row.r2, "slope": row.slope, "offset": row.offset,
-            "mean_abs_diff": row.mean_abs_diff, "mean_rel_diff": row.mean_rel_diff,
+            "gain": row.gain, "mean_abs_diff": row.mean_abs_diff, "mean_rel_diff": row.mean_rel_diff,
             "residual_lag_s": row.residual_lag_s}
-    r, slope = row.r, row.slope
+    r, slope = row.r, row.gain
     if not np.isfinite(r):
         return out
     if slope < 0 and r < -0.8:
@@ -162,9 +170,11 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
         if abs(slope - 1) > opts.gain_tol:
             sev = Severity.ERROR if abs(slope - 1) > opts.gain_error else Severity.WARNING
             out.append(Finding(blamed, Kind.GAIN, s0, s1, sev,
-                               f"{row.other} = {slope:.3f} x {row.ref} {row.offset:+.3g} {row.unit}: "
-                               f"gain differs by {100 * (slope - 1):+.1f} %", nums, related=rel))
-        elif row.ref_range > 0 and abs(row.offset) > opts.offset_tol * row.ref_range:
+                               f"{row.other} reads {slope:.3f} x {row.ref} (fit slope {row.slope:.3f}, "
+                               f"offset {row.offset:+.3g} {row.unit}): gain differs by "
+                               f"{100 * (slope - 1):+.1f} %", nums, related=rel))
+        elif (row.ref_range > 0 and abs(row.offset) > opts.offset_tol * row.ref_range
+              and abs(row.slope - 1) <= opts.gain_tol):
             out.append(Finding(blamed, Kind.OFFSET, s0, s1, Severity.WARNING,
                                f"{row.other} is offset from {row.ref} by {row.offset:+.4g} {row.unit} "
                                f"({100 * abs(row.offset) / row.ref_range:.0f} % of its range)",
@@ -173,7 +183,7 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
         out.append(Finding(blamed, Kind.LOW_AGREEMENT, s0, s1, Severity.WARNING,
                            f"{row.other} and {row.ref} agree poorly (R² {row.r2:.3f}, mean "
                            f"difference {row.mean_abs_diff:.4g} {row.unit})", nums, related=rel))
-    lag_thr = max(opts.lag_min_s, 1.5 * ref_period)
+    lag_thr = max(opts.lag_min_s, 1.5 * ref_period, 0.5 * row.slow_period_s)
     if np.isfinite(row.residual_lag_s) and abs(row.residual_lag_s) > lag_thr and row.r2 > 0.5:
         out.append(Finding(blamed, Kind.LAG, s0, s1, Severity.WARNING,
                            f"{row.other} lags {row.ref} by {row.residual_lag_s:+.2f} s after alignment",
@@ -209,8 +219,8 @@ def run_level2(test: Test, opts: Level2Options | None = None
                     rows.append(row)
         score = {s.name: [] for s in sigs}
         for a, b, row in pair_rows:
-            agree = row.r2 if np.isfinite(row.r2) and row.slope > 0 else 0.0
-            agree *= 1.0 / (1.0 + abs(np.log(abs(row.slope)))) if np.isfinite(row.slope) and row.slope > 0 else 0.0
+            agree = row.r2 if np.isfinite(row.r2) and row.gain > 0 else 0.0
+            agree *= 1.0 / (1.0 + abs(np.log(abs(row.gain)))) if np.isfinite(row.gain) and row.gain > 0 else 0.0
             score[a.name].append(agree)
             score[b.name].append(agree)
         mean_score = {k: (np.mean(v) if v else 0.0) for k, v in score.items()}

@@ -28,6 +28,8 @@ CUMULATIVE = frozenset({"veh_energy_in", "eng_energy_out", "fuel_mass", "fuel_en
 class Level3Options:
     r2_min: float = 0.8            # below: calc mismatch (warning)
     rel_max: float = 0.1           # mean abs diff above this x range: calc mismatch
+    drift_blocks: int = 10         # residual medians over this many time blocks
+    drift_min: float = 0.04        # drift of the residual above this x range: warning
 
 
 @dataclass
@@ -105,6 +107,9 @@ def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None
             rows.append(row)
             if base in CUMULATIVE:
                 continue
+            drift = residual_drift(test, sig.name, cname, row.test_range, opts)
+            if drift is not None:
+                findings.append(drift)
             bad_r2 = np.isfinite(row.r2) and row.r2 < opts.r2_min
             bad_rel = np.isfinite(row.rel_diff) and row.rel_diff > opts.rel_max
             if bad_r2 or bad_rel:
@@ -118,4 +123,66 @@ def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None
                     {"r2": row.r2, "mean_abs_diff": row.mean_abs_diff, "test_range": row.test_range,
                      "rel_diff": row.rel_diff, "slope": row.slope},
                     related=[cname] + list(info.get("inputs", {}).values())))
+    return rows, findings
+
+
+def residual_drift(test: Test, measured: str, calculated: str, rng: float,
+                   opts: Level3Options) -> Finding | None:
+    """A slow drift of ``measured − calculated``: block medians trending monotonically."""
+    c = test[calculated]
+    res = test[measured].at(c.time) - c.values
+    ok = np.isfinite(res)
+    if ok.sum() < 10 * opts.drift_blocks or not rng > 0:
+        return None
+    t, r = c.time[ok], res[ok]
+    blocks = np.array_split(np.arange(r.size), opts.drift_blocks)
+    med = np.array([np.median(r[b]) for b in blocks])
+    tb = np.array([t[b].mean() for b in blocks])
+    total = med[-1] - med[0]
+    if abs(total) < opts.drift_min * rng:
+        return None
+    steps = np.diff(med)
+    if np.mean(np.sign(steps) == np.sign(total)) < 0.6 or np.corrcoef(tb, med)[0, 1] ** 2 < 0.7:
+        return None
+    start_i = int(np.argmax(np.abs(med - med[0]) > 0.25 * abs(total)))
+    t0 = float(t[blocks[max(start_i - 1, 0)][0]])
+    return Finding(measured, Kind.OFFSET, t0, float(t[-1]), Severity.WARNING,
+                   f"{measured} drifts from {calculated} by {total:+.4g} {c.unit} over the test "
+                   f"({100 * abs(total) / rng:.1f} % of its range): zero drift of the sensor?",
+                   {"drift": float(total), "test_range": rng, "block_medians": med.tolist()},
+                   related=[calculated])
+
+
+def run_checks(test: Test, calc: CalcResult) -> tuple[list[dict], list[Finding]]:
+    """Balance checks declared in the calculation file (``lhs ≈ rhs``)."""
+    rows, findings = [], []
+    for name, chk in calc.checks.items():
+        a, b = chk["lhs"], chk["rhs"]
+        ok = np.isfinite(a) & np.isfinite(b)
+        if ok.sum() < 10:
+            continue
+        a, b = a[ok], b[ok]
+        da, db = a - a.mean(), b - b.mean()
+        den = np.sqrt((da * da).sum() * (db * db).sum())
+        r = float((da * db).sum() / den) if den > 0 else float("nan")
+        slope = float((da * db).sum() / (db * db).sum()) if (db * db).sum() > 0 else float("nan")
+        row = {"check": name, "expr": chk["text"], "blame": chk["blame"], "n": int(ok.sum()),
+               "r2": r * r if np.isfinite(r) else None, "r": r if np.isfinite(r) else None,
+               "slope": slope if np.isfinite(slope) else None,
+               "mean_abs_diff": float(np.mean(np.abs(a - b)))}
+        rows.append(row)
+        t = calc.grid[ok]
+        nums = {k: row[k] for k in ("r2", "r", "slope", "mean_abs_diff")}
+        related = list(chk["inputs"].values())
+        if np.isfinite(r) and r < -0.5:
+            findings.append(Finding(chk["blame"], Kind.SIGN_FLIP, float(t[0]), float(t[-1]),
+                                    Severity.ERROR,
+                                    f"{name}: {chk['text']} holds with the opposite sign (r {r:.2f}); "
+                                    f"{chk['blame']} probably has its sign convention reversed",
+                                    nums, related=related))
+        elif not (np.isfinite(r) and r * r >= chk["r2_min"]):
+            findings.append(Finding(chk["blame"], Kind.CALC_MISMATCH, float(t[0]), float(t[-1]),
+                                    Severity.WARNING,
+                                    f"{name}: {chk['text']} does not hold (R² {r * r:.2f}); check "
+                                    f"{chk['blame']} and the other inputs", nums, related=related))
     return rows, findings

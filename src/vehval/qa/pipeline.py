@@ -16,7 +16,7 @@ from vehval.equations.calc import CalcResult, compute
 from vehval.qa.findings import Finding, Kind, Severity, summarise
 from vehval.qa.level1 import Level1Options, run_level1
 from vehval.qa.level2 import Level2Options, PairComparison, run_level2
-from vehval.qa.level3 import CalcComparison, Level3Options, run_level3
+from vehval.qa.level3 import CalcComparison, Level3Options, run_checks, run_level3
 from vehval.qa.select import Selection, select_signals
 from vehval.test import Test
 
@@ -40,6 +40,7 @@ class QAResult:
     validated: Test
     notes: list[str] = field(default_factory=list)
     signals_in: int = 0
+    checks: list[dict] = field(default_factory=list)
 
     def to_dict(self) -> dict:
         """The ``findings.json`` document (stable top-level keys, see docs/qa.md)."""
@@ -52,6 +53,7 @@ class QAResult:
                 self.findings, key=lambda f: (-f.severity.rank, f.level, f.signal, f.start_s))],
             "table2": [r.to_dict() for r in self.table2],
             "table3": [r.to_dict() for r in self.table3],
+            "checks": list(self.checks),
             "calculations": self.calculations.to_dict(),
             "selection": self.selection.to_dict(),
             "summary": {**summarise(self.findings),
@@ -60,6 +62,22 @@ class QAResult:
                         "computed": len(self.calculations.computed)},
             "notes": list(self.notes),
         }
+
+
+def _blame_inputs(level3: list[Finding], earlier: list[Finding]) -> None:
+    """A measured-vs-calculated mismatch whose inputs already have warnings or errors
+    overlapping it says more about the inputs: demote it to info and name them."""
+    for f in level3:
+        if f.kind != Kind.CALC_MISMATCH:
+            continue
+        inputs = set(f.related[1:])
+        bad = sorted({g.signal for g in earlier if g.signal in inputs and g.severity != Severity.INFO
+                      and g.overlaps(f.start_s, f.end_s)} |
+                     {g.signal for g in level3 if g is not f and g.signal in inputs
+                      and g.severity != Severity.INFO})
+        if bad:
+            f.severity = Severity.INFO
+            f.message += f" (inputs with their own findings: {', '.join(bad)})"
 
 
 def _vehicle_limits(vehicle: Any) -> dict | None:
@@ -124,7 +142,9 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     bad = {f.signal for f in findings if f.severity == Severity.ERROR} | set(user_drop)
     calc = compute(work, vehicle, calc_set, constants, exclude=bad)
     table3, f3 = run_level3(work, calc, level3)
-    findings += f3
+    checks, fc = run_checks(work, calc)
+    _blame_inputs(f3, findings)
+    findings += f3 + fc
     pvals = {k: v["value"] for k, v in calc.parameters.items() if v.get("value") is not None}
     selection = select_signals(work, findings, table2, table3, user_keep, user_drop, pvals)
     validated = Test(meta=copy.deepcopy(work.meta))
@@ -138,4 +158,4 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     return QAResult(test_id=test.meta.test_id, files=list(test.meta.files), duration_s=t1 - t0,
                     alignment=alignment, findings=findings, table2=table2, table3=table3,
                     calculations=calc, selection=selection, validated=validated, notes=notes,
-                    signals_in=len(test))
+                    signals_in=len(test), checks=checks)

@@ -71,9 +71,15 @@ def _warnings(sig_name: str, findings: list[Finding]) -> int:
     return sum(1 for f in findings if f.signal == sig_name and f.severity != Severity.INFO)
 
 
+def _calc_score(row: CalcComparison) -> float:
+    """Agreement with the calculation: R² penalised by the relative mean difference."""
+    rel = row.rel_diff if row.rel_diff is not None and np.isfinite(row.rel_diff) else 1.0
+    return float(row.r2) - 2.0 * rel
+
+
 def _agree(row: PairComparison | None) -> bool:
     return (row is not None and row.r2 is not None and np.isfinite(row.r2) and row.r2 >= 0.95
-            and np.isfinite(row.slope) and abs(row.slope - 1) <= 0.05)
+            and np.isfinite(row.gain) and abs(row.gain - 1) <= 0.05)
 
 
 def select_signals(test: Test, findings: list[Finding], table2: list[PairComparison] = (),
@@ -145,13 +151,15 @@ def select_signals(test: Test, findings: list[Finding], table2: list[PairCompari
         reason = f"preferred source of {base} (facility sensor first)"
         # disagreeing sources: the one closer to the calculation, else fewer warnings
         if any(not _agree(rows2.get((best, n))) for n in names[1:]):
-            scored = [(n, r3[n].r2 if n in r3 else None, _warnings(n, findings)) for n in names]
+            scored = [(n, _calc_score(r3[n]) if n in r3 else None, _warnings(n, findings))
+                      for n in names]
             with_calc = [s for s in scored if s[1] is not None]
             if len(with_calc) >= 2:
                 cand = max(with_calc, key=lambda s: (s[1], -preference_rank(s[0])[0]))
-                if cand[0] != best and cand[1] > (r3[best].r2 if best in r3 else -1) + 0.02:
+                if cand[0] != best and cand[1] > (_calc_score(r3[best]) if best in r3 else -9) + 0.02:
                     best = cand[0]
-                    reason = (f"agrees best with {r3[best].calculated} (R² {cand[1]:.3f}) among "
+                    reason = (f"agrees best with {r3[best].calculated} (R² {r3[best].r2:.3f}, mean "
+                              f"difference {100 * r3[best].rel_diff:.1f} % of range) among "
                               f"disagreeing sources of {base}")
             else:
                 fewest = min(scored, key=lambda s: (s[2], preference_rank(s[0])))
@@ -164,9 +172,9 @@ def select_signals(test: Test, findings: list[Finding], table2: list[PairCompari
                 continue
             row = rows2.get((best, n))
             if _agree(row):
-                sel.dropped[n] = f"duplicate of {best} (R² {row.r2:.3f}, slope {row.slope:.3f}); {best} preferred"
+                sel.dropped[n] = f"duplicate of {best} (R² {row.r2:.3f}, gain {row.gain:.3f}); {best} preferred"
             elif row is not None:
-                sel.dropped[n] = (f"disagrees with {best} (R² {row.r2:.3f}, slope {row.slope:.3f}); "
+                sel.dropped[n] = (f"disagrees with {best} (R² {row.r2:.3f}, gain {row.gain:.3f}); "
                                   f"{best} kept: {reason}")
             else:
                 sel.dropped[n] = f"{best} preferred for {base} (no overlap to compare)"

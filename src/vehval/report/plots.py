@@ -137,47 +137,58 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
                    "engine torque [N·m]")
 
 
-def machine_map_figure(test: Test, vehicle: Any, which: str) -> go.Figure:
-    """Motor (``mot``) or generator (``gen``) operating points on the efficiency map.
+def machine_efficiency(speed_rpm: np.ndarray, torque_nm: np.ndarray, loss_w: np.ndarray) -> np.ndarray:
+    """Efficiency [%] of an electric machine with inverter from its loss map.
 
-    The map comes from the vehicle's ``motor``/``generator`` parameters: speed and torque
-    breakpoints (``speed_rpm``, ``torque_nm``) and ``efficiency`` (fraction) over them.
-    Operating points without a map are still drawn against the torque envelope if known.
+    Motoring (``T·ω > 0``): ``P / (P + loss)``; generating: ``(|P| − loss) / |P|``, with
+    ``P = T·ω`` the mechanical power [W]; NaN at zero power.
+    """
+    pm = (np.asarray(speed_rpm, float)[:, None] * RPM) * np.asarray(torque_nm, float)[None, :]
+    loss = np.asarray(loss_w, float)
+    a = np.abs(pm)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eff = np.where(pm > 0, pm / (pm + loss), (a - loss) / a)
+    eff = np.where(a > 1.0, eff, np.nan)
+    return np.clip(eff, 0.0, 1.0) * 100.0
+
+
+def machine_map_figure(test: Test, vehicle: Any, which: str) -> go.Figure:
+    """Motor (``mot``, MG2) or generator (``gen``, MG1) operating points on the efficiency map.
+
+    The map is the vehicle's ``mg2``/``mg1`` loss map (``speed_rpm``, ``torque_nm``,
+    ``loss_w``) turned into efficiency by :func:`machine_efficiency`, with the torque
+    envelope ``min(max_torque_nm, max_power_w / |ω|)``. Operating points come from
+    ``<mot|gen>_spd_out`` [rad/s] and ``<mot|gen>_trq_out`` [N·m].
     """
     base = {"mot": "mot", "gen": "gen"}[which]
-    comp = _component(vehicle, *(("motor", "mot", "mg2") if which == "mot" else ("generator", "gen", "mg1")))
+    comp = _component(vehicle, *(("mg2", "motor", "mot") if which == "mot" else ("mg1", "generator", "gen")))
     title = "Motor (MG2)" if which == "mot" else "Generator (MG1)"
     fig = go.Figure()
-    if comp is not None:
-        spd = getattr(comp, "speed_rpm", None)
-        trq = getattr(comp, "torque_nm", None)
-        eff = next((getattr(comp, k) for k in ("efficiency", "eff", "efficiency_map") if hasattr(comp, k)), None)
-        if spd is not None and trq is not None and eff is not None:
-            z = np.asarray(eff, float)
-            z = z * 100.0 if np.nanmax(z) <= 1.0 else z
-            fig.add_trace(go.Contour(x=np.asarray(spd, float), y=np.asarray(trq, float), z=z.T,
-                                     colorscale="Blues", opacity=0.75, name="efficiency [%]",
-                                     contours={"start": 60, "end": 98, "size": 2, "showlabels": True},
-                                     colorbar={"title": {"text": "eff. [%]"}}))
-        tm = getattr(comp, "max_torque_nm", None)
-        if spd is not None and tm is not None and np.size(tm) == np.size(spd):
-            fig.add_trace(go.Scatter(x=spd, y=tm, mode="lines", name="max torque", line={"color": "#212529"}))
-            fig.add_trace(go.Scatter(x=spd, y=-np.asarray(tm, float), mode="lines", name="min torque",
-                                     line={"color": "#212529"}, showlegend=False))
+    if comp is not None and hasattr(comp, "loss_w"):
+        spd, trq = np.asarray(comp.speed_rpm, float), np.asarray(comp.torque_nm, float)
+        fig.add_trace(go.Contour(x=spd, y=trq, z=machine_efficiency(spd, trq, comp.loss_w).T,
+                                 colorscale="Blues", opacity=0.75, name="efficiency [%]",
+                                 contours={"start": 50, "end": 98, "size": 4, "showlabels": True},
+                                 colorbar={"title": {"text": "eff. [%]"}},
+                                 hovertemplate="%{x:.0f} rpm, %{y:.0f} N·m: %{z:.1f} %<extra></extra>"))
+        w = np.linspace(spd.min(), spd.max(), 200)
+        with np.errstate(divide="ignore"):
+            env = np.minimum(comp.max_torque_nm, comp.max_power_w / np.abs(w * RPM))
+        fig.add_trace(go.Scatter(x=w, y=env, mode="lines", name="torque limit", line={"color": "#212529"}))
+        fig.add_trace(go.Scatter(x=w, y=-env, mode="lines", name="torque limit", showlegend=False,
+                                 line={"color": "#212529"}))
     try:
         _, (w, tq), names = common(test, (f"{base}_spd_out", f"{base}_trq_out"))
-    except PlotSkipped as exc:
-        if not fig.data:
-            raise
-        names, w, tq = [str(exc)], np.array([]), np.array([])
-    ok = np.isfinite(w) & np.isfinite(tq)
-    x, y = _thin(w[ok] / RPM, tq[ok])
-    if x.size:
+        ok = np.isfinite(w) & np.isfinite(tq)
+        x, y = _thin(w[ok] / RPM, tq[ok])
         fig.add_trace(go.Scatter(x=x, y=y, mode="markers", name=f"operating points ({names[0]})",
                                  marker={"size": 4, "color": "#d9480f", "opacity": 0.5}))
-    if not fig.data:
-        raise PlotSkipped(f"no {title.lower()} map and no operating points")
-    return _layout(fig, f"{title} operating points", "speed [rpm]", "torque [N·m]")
+        subtitle = "operating points"
+    except PlotSkipped as exc:
+        if not fig.data:
+            raise PlotSkipped(f"no {title} map and {exc}") from None
+        subtitle = f"map only: {exc}"
+    return _layout(fig, f"{title}: {subtitle}", "speed [rpm]", "torque [N·m]")
 
 
 # ----------------------------------------------------------------------------- histograms

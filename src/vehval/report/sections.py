@@ -97,6 +97,7 @@ def summary_section(test: Test, qa: dict, template: Any, title: str) -> Section:
                                 [[k, v] for k, v in m.constants.items()], key="constants"))
     if m.notes:
         sec.notes += [str(n) for n in m.notes]
+    sec.notes += [f"QA: {n}" for n in qa.get("notes") or []]
     if not qa:
         sec.notes.append("No QA result was given: the QA sections are empty.")
     return sec
@@ -218,6 +219,8 @@ def findings_section(test: Test, qa: dict, limits: dict | None = None) -> Sectio
     table = rows_table("QA1 findings", rows, key="findings")
     table.highlight = {i: f"sev-{qv.severity(r)}" for i, r in enumerate(rows)}
     sec.tables.append(table)
+    if qa.get("checks"):
+        sec.tables += to_tables(qa["checks"], "Checks run", key="checks")
     if not rows:
         sec.notes.append("No findings." if "findings" in qa else "No QA result.")
         return sec

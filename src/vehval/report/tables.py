@@ -116,13 +116,13 @@ def to_tables(obj: Any, title: str, *, key: str = "") -> list[Table]:
                             key=key))
     dict_of_dicts = {k: v for k, v in nested.items()
                      if isinstance(v, dict) and v and all(not isinstance(x, (dict, list)) for x in v.values())}
-    if len(dict_of_dicts) == len(nested) and len(nested) > 1 and not scalars:
+    same_keys = len({tuple(v) for v in dict_of_dicts.values()}) == 1
+    if len(dict_of_dicts) == len(nested) and len(nested) > 1 and not scalars and same_keys:
         rows = [{"name": k, **v} for k, v in dict_of_dicts.items()]
         return [rows_table(title, rows, key=key)]
     for k, v in nested.items():
         sub = f"{title}: {k}"
-        if isinstance(v, dict) and v and all(isinstance(x, dict) for x in v.values()) \
-                and all(not isinstance(y, (dict, list)) for x in v.values() for y in x.values()):
+        if isinstance(v, dict) and v and all(isinstance(x, dict) for x in v.values()):
             rows = [{"name": kk, **vv} for kk, vv in v.items()]
             tables.append(rows_table(sub, rows, key=f"{key}-{slug(k)}"))
         elif isinstance(v, dict) and v and all(not isinstance(x, (dict, list)) for x in v.values()):

@@ -54,6 +54,7 @@ class ControllerParams(Block):
     battery_discharge_margin_w: float = Field(ge=0)
     battery_charge_margin_w: float = Field(ge=0)
     engine_min_power_w: float = Field(ge=0)
+    engine_power_filter_s: float = Field(ge=0)
     fuel_cut_power_w: float = Field(ge=0)
     fuel_cut_min_speed_mps: float = Field(ge=0)
     regen_fraction_max: float = Field(ge=0, le=1)

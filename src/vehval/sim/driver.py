@@ -1,8 +1,9 @@
 """Driver: a forward speed-trace follower and the EPA trace-tolerance check.
 
-The demand is a wheel force [N]: a feed-forward through the vehicle model (inertia force
-to reach the next target speed in one step plus road load) and a PI on the present speed
-error with conditional-integration anti-windup.
+The demand is a wheel force [N]: a feed-forward through the vehicle model (the inertia
+force to go from the present to the next target speed in one step, plus road load) and a
+PI on the present speed error (proportional part m_eq / response time) with
+conditional-integration anti-windup.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ MPH = 0.44704  # [m/s per mph]
 class DriverParams(Block):
     """Speed-follower gains and force bounds."""
 
-    kp_n_per_mps: float = Field(ge=0)
+    response_time_s: float = Field(gt=0)
     ki_n_per_m: float = Field(ge=0)
     integrator_limit_n: float = Field(ge=0)
     max_force_n: float = Field(gt=0)
@@ -28,7 +29,7 @@ class DriverParams(Block):
 
 
 @njit(cache=True)
-def driver_force(v, v_now, v_next, dt, mass_eq, road_force, integ, kp, f_min, f_max):
+def driver_force(v, v_now, v_next, dt, mass_eq, road_force, integ, tau, f_min, f_max):
     """Wheel force demand [N].
 
     Parameters
@@ -45,12 +46,14 @@ def driver_force(v, v_now, v_next, dt, mass_eq, road_force, integ, kp, f_min, f_
         Road load [N] the feed-forward compensates.
     integ : float
         Present value of the integral term [N].
-    kp : float
-        Proportional gain [N/(m/s)].
+    tau : float
+        Response time [s] of the speed-error correction (proportional gain m_eq / tau,
+        never faster than one step).
     f_min, f_max : float
         Bounds of the demand [N].
     """
-    f = mass_eq * (v_next - v) / dt + road_force + kp * (v_now - v) + integ
+    f = (mass_eq * (v_next - v_now) / dt + road_force
+         + mass_eq * (v_now - v) / max(tau, dt) + integ)
     return min(max(f, f_min), f_max)
 
 
@@ -64,17 +67,19 @@ def tolerance_band(time_s: np.ndarray, target_mps: np.ndarray, speed_tol_mps: fl
     """
     t = np.asarray(time_s, float)
     v = np.asarray(target_mps, float)
-    lo = np.empty_like(v)
-    hi = np.empty_like(v)
-    a = np.searchsorted(t, t - time_tol_s - 1e-9, side="left")
-    b = np.searchsorted(t, t + time_tol_s + 1e-9, side="right")
-    # the target is piecewise linear: include its values interpolated at the window edges
-    ve_lo = np.interp(t - time_tol_s, t, v)
-    ve_hi = np.interp(t + time_tol_s, t, v)
-    for i in range(t.size):
-        seg = v[a[i]:b[i]]
-        lo[i] = min(seg.min(), ve_lo[i], ve_hi[i]) - speed_tol_mps
-        hi[i] = max(seg.max(), ve_lo[i], ve_hi[i]) + speed_tol_mps
+    # the target is piecewise linear: its extrema over [t - T, t + T] are at samples inside
+    # the window or at the window edges (interpolated)
+    lo = np.minimum(np.interp(t - time_tol_s, t, v), np.interp(t + time_tol_s, t, v))
+    hi = np.maximum(np.interp(t - time_tol_s, t, v), np.interp(t + time_tol_s, t, v))
+    dt = float(np.min(np.diff(t))) if t.size > 1 else 1.0
+    n = int(np.ceil(time_tol_s / dt - 1e-9)) if dt > 0 else 0
+    for k in range(-n, n + 1):
+        idx = np.clip(np.arange(t.size) + k, 0, t.size - 1)
+        inside = np.abs(t[idx] - t) <= time_tol_s + 1e-9
+        lo = np.where(inside, np.minimum(lo, v[idx]), lo)
+        hi = np.where(inside, np.maximum(hi, v[idx]), hi)
+    lo = lo - speed_tol_mps
+    hi = hi + speed_tol_mps
     return np.maximum(lo, 0.0), hi
 
 

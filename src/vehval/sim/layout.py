@@ -18,8 +18,8 @@ PARAMS = (
     "off_pwr", "on_spd", "on_spd_hold", "off_spd", "batt_hold", "elec_eff", "off_hold",
     "soc_on", "soc_on_hold", "soc_force", "min_on", "min_off", "dis_margin", "chg_margin",
     "eng_min_pwr", "fuel_cut_pwr", "fuel_cut_spd", "regen_frac", "fade_lo", "fade_hi",
-    "gen_kp", "gen_ki", "gen_spd_margin", "eng_spd_margin",
-    "drv_kp", "drv_ki", "drv_int_lim", "drv_fmax",
+    "gen_kp", "gen_ki", "eng_pwr_tau", "gen_spd_margin", "eng_spd_margin",
+    "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax",
     "soc_init",
 )
 SIGNALS = (

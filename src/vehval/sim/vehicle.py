@@ -78,7 +78,7 @@ class Vehicle(BaseModel):
         """
         if not overrides:
             return self
-        data = self.model_dump()
+        per_block: dict[str, dict[str, Any]] = {}
         for raw_key, value in overrides.items():
             key = raw_key.replace("__", ".")
             parts = key.split(".")
@@ -86,11 +86,28 @@ class Vehicle(BaseModel):
                 raise ConfigError(f"override '{raw_key}': use <block>.<parameter> with block one "
                                   f"of {', '.join(BLOCKS)}")
             blk, name = parts
-            if name == "sources" or name not in data[blk]:
+            fields = type(getattr(self, blk)).model_fields
+            if name == "sources" or name not in fields:
                 raise ConfigError(f"override '{raw_key}': '{blk}' has no parameter '{name}' "
-                                  f"(known: {', '.join(k for k in data[blk] if k != 'sources')})")
-            data[blk][name] = value
-        return _validate(data, f"{self._file or self.name} with overrides")
+                                  f"(known: {', '.join(k for k in fields if k != 'sources')})")
+            per_block.setdefault(blk, {})[name] = value
+        update = {}
+        where = f"{self._file or self.name} with overrides"
+        for blk, changes in per_block.items():
+            old = getattr(self, blk)
+            data = {**old.model_dump(), **changes}
+            try:
+                update[blk] = type(old).model_validate(data)
+            except ValidationError as exc:
+                msgs = "; ".join(f"key '{blk}.{'.'.join(str(x) for x in e['loc']) or '?'}': "
+                                 f"{e['msg'].removeprefix('Value error, ')}"
+                                 for e in exc.errors()[:5])
+                raise ConfigError(f"{where}: invalid override: {msgs}") from None
+        new = self.model_copy(update=update)
+        if "engine" in update:
+            new.__dict__.pop("best_line", None)  # cached from the engine block
+        new._file = self._file
+        return new
 
     def signal_limits(self) -> dict[str, tuple[float, float]]:
         """Physical limits per signal base name, SI units (for QA range checks)."""

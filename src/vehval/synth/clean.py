@@ -82,7 +82,7 @@ def coolant_temperature(grid: np.ndarray, fuel_rate_kg_s: np.ndarray, amb_c: np.
 
 
 def build_clean(sim_signals: dict[str, tuple[np.ndarray, np.ndarray]], cycle_name: str,
-                duration_s: float, seed: int, fuel_lhv_j_per_kg: float,
+                duration_s: float, seed: int, fuel_lhv_j_per_kg: float, pad_s: float = PAD_S,
                 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """All clean signals on the extended grid.
 
@@ -98,6 +98,9 @@ def build_clean(sim_signals: dict[str, tuple[np.ndarray, np.ndarray]], cycle_nam
         Test seed.
     fuel_lhv_j_per_kg : float
         Fuel lower heating value [J/kg] for the coolant model.
+    pad_s : float
+        Padding on each side of the simulated span [s]; must cover every file's sample
+        instants on the true clock.
 
     Returns
     -------
@@ -107,7 +110,7 @@ def build_clean(sim_signals: dict[str, tuple[np.ndarray, np.ndarray]], cycle_nam
         ``base -> values [SI]`` on ``grid``.
     """
     t_ref = sim_signals["veh_spd"][0]
-    grid = extended_grid(t_ref)
+    grid = extended_grid(t_ref, pad_s)
     clean = {b: hold_extend(t, v, grid) for b, (t, v) in sim_signals.items()}
     # at rest in the padding: speeds, forces, torques and flows are those of a parked car
     outside = (grid < t_ref[0]) | (grid > t_ref[-1])

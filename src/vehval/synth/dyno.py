@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vehval.errors import ConfigError, VehvalError
+from vehval.errors import VehvalError
 from vehval.io.atomic import atomic_dir, atomic_path, write_text_atomic
 from vehval.synth.clean import SYNTHESISED, build_clean
 from vehval.synth.faults import load_fault_specs, resolve_faults
@@ -95,6 +95,12 @@ def _plain(value: Any) -> Any:
     return json.loads(json.dumps(value, default=_json_default))
 
 
+def _faults_origin(faults: str | Path | list) -> str:
+    if isinstance(faults, list):
+        return "faults"
+    return "data/faults/default.yaml" if str(faults) == "default" else str(faults)
+
+
 def _faults_label(faults: str | Path | list) -> str:
     if isinstance(faults, list):
         return "custom list"
@@ -103,51 +109,46 @@ def _faults_label(faults: str | Path | list) -> str:
     return Path(faults).name
 
 
-def _simulate(vehicle: str | Path, cycle: Any, controller_overrides: dict | None,
-              vehicle_overrides: dict | None) -> tuple[Any, Any, Any]:
-    """Load vehicle and cycle, run the simulation; returns ``(vehicle, cycle, result)``."""
+def _load_inputs(vehicle: str | Path, cycle: Any, controller_overrides: dict | None,
+                 vehicle_overrides: dict | None) -> tuple[Any, Any]:
+    """Load the vehicle (with overrides) and the cycle; raises VehvalError when unknown."""
     from vehval.sim.cycles import Cycle, load_cycle
-    from vehval.sim.simulate import simulate
     from vehval.sim.vehicle import load_vehicle
 
+    cyc = cycle if isinstance(cycle, Cycle) else load_cycle(cycle)
     veh = load_vehicle(vehicle)
     if vehicle_overrides or controller_overrides:
         veh = apply_overrides(veh, vehicle_overrides or {}, controller_overrides or {})
-    cyc = cycle if isinstance(cycle, Cycle) else load_cycle(cycle)
-    result = simulate(veh, cyc, dt=0.1)
-    return veh, cyc, result
+    return veh, cyc
+
+
+def _simulate(veh: Any, cyc: Any) -> Any:
+    """Run the simulation at dt = 0.1 s."""
+    from vehval.sim.simulate import simulate
+
+    return simulate(veh, cyc, dt=0.1)
 
 
 def apply_overrides(vehicle: Any, vehicle_overrides: dict, controller_overrides: dict) -> Any:
-    """A copy of ``vehicle`` with dotted-key overrides applied (validated again).
+    """A validated copy of ``vehicle`` with parameter overrides.
 
     Parameters
     ----------
     vehicle : Vehicle
-        Loaded vehicle (pydantic model).
+        Loaded vehicle.
     vehicle_overrides : dict
-        ``{"body.mass_kg": 1350, ...}``: dotted keys into the vehicle model.
+        ``{"body.mass_kg": 1350, ...}``: ``<block>.<parameter>`` keys.
     controller_overrides : dict
-        Dotted keys relative to the vehicle's ``control`` section.
+        Keys of the ``controller`` block (``{"soc_target": 0.55}``).
 
     Raises
     ------
     ConfigError
-        When a key does not exist in the vehicle model.
+        When a key is not a parameter of the vehicle (from ``Vehicle.with_overrides``).
     """
-    data = vehicle.model_dump()
-    items = list(vehicle_overrides.items()) + [(f"control.{k}", v) for k, v in controller_overrides.items()]
-    for key, value in items:
-        node = data
-        parts = key.split(".")
-        for p in parts[:-1]:
-            if not isinstance(node, dict) or p not in node:
-                raise ConfigError(f"override '{key}': no '{p}' in the vehicle parameters")
-            node = node[p]
-        if not isinstance(node, dict) or parts[-1] not in node:
-            raise ConfigError(f"override '{key}': no '{parts[-1]}' in the vehicle parameters")
-        node[parts[-1]] = value
-    return type(vehicle).model_validate(data)
+    merged = dict(vehicle_overrides)
+    merged.update({f"controller.{k}": v for k, v in controller_overrides.items()})
+    return vehicle.with_overrides(merged)
 
 
 def make_virtual_test(vehicle: str | Path = "prius_2004", cycle: Any = "udds", seed: int = 7,
@@ -184,10 +185,23 @@ def make_virtual_test(vehicle: str | Path = "prius_2004", cycle: Any = "udds", s
     """
     seed = int(seed)
     table = load_sensor_table()
-    specs = load_fault_specs(faults)  # fail fast, before the simulation
-    veh, cyc, result = _simulate(vehicle, cycle, controller_overrides, vehicle_overrides)
+    specs = load_fault_specs(faults)
+    veh, cyc = _load_inputs(vehicle, cycle, controller_overrides, vehicle_overrides)
     consts = vehicle_constants(veh)
     duration = float(cyc.duration_s)
+    spans = {}  # first and last time of each file, on the file's own clock [s]
+    for label, fs in table.items():
+        if fs.format == "d3":  # fixed stamps: -pre_padding .. end + post_padding
+            spans[label] = (-fs.setting("pre_padding_s", 10.0),
+                            duration + fs.setting("post_padding_s", 3.0))
+        else:  # the logger polls on the true clock and stamps with its offset clock
+            c = sum(float(f.magnitude or 0.0) for f in specs
+                    if f.kind == "clock_offset" and f.file == label)
+            spans[label] = (fs.setting("start_s", -4.0) + c,
+                            duration + fs.setting("post_padding_s", 2.0) + c)
+    # fail fast on a bad fault file, before the simulation
+    resolved = resolve_faults(specs, table, duration, spans, origin=_faults_origin(faults))
+    result = _simulate(veh, cyc)
 
     sim_signals = {}
     for sig in result.test:
@@ -198,14 +212,11 @@ def make_virtual_test(vehicle: str | Path = "prius_2004", cycle: Any = "udds", s
     if missing:
         raise VehvalError(f"the simulation result lacks signals the virtual dyno needs: "
                           f"{', '.join(b + '_simu' for b in missing)}")
-    grid, clean = build_clean(sim_signals, cyc.name, duration, seed, consts["fuel_lhv_j_per_kg"])
+    shift = max([abs(f.params["clock_offset_s"]) + abs(f.params["delay_s"])
+                 for f in resolved if f.kind == "clock_offset"] + [0.0])
+    grid, clean = build_clean(sim_signals, cyc.name, duration, seed, consts["fuel_lhv_j_per_kg"],
+                              pad_s=15.0 + float(np.ceil(shift)))
 
-    spans = {}
-    for label, fs in table.items():
-        lo = -fs.setting("pre_padding_s", 10.0) if fs.format == "d3" else fs.setting("start_s", -4.0)
-        spans[label] = (lo, duration + fs.setting("post_padding_s", 2.0))
-    origin = "default" if str(faults) == "default" else _faults_label(faults)
-    resolved = resolve_faults(specs, table, duration, spans, origin=origin)
 
     test_id = f"virtual_{vehicle_name(veh, vehicle)}_{cyc.name}_seed{seed}"
     datas: dict[str, FileData] = {}
@@ -253,20 +264,20 @@ def _truth(test_id, veh, vehicle_arg, cyc, seed, faults, table, datas, written, 
         name, info = written[label]
         files[label] = {
             "file": name, "format": d.spec.format, "source": d.spec.source,
-            "offset_s": round(d.offset_s, 9), "clock_offset_s": d.clock_offset_s,
+            "offset_s": round(d.offset_s, 9) + 0.0, "clock_offset_s": d.clock_offset_s,
             "delay_s": d.delay_s, "rate_hz": d.spec.rate_hz, "decimals": d.spec.decimals,
             "rows_written": info["rows_written"], "truncated": d.truncate_rows is not None,
             "partial_last_line": info["partial_line"], "bytes": info["bytes"],
             "first_time_s": round(float(d.file_time[0]), 3),
             "settings": dict(d.spec.settings)}
-        offsets[d.spec.source] = round(d.offset_s, 9)
+        offsets[d.spec.source] = round(d.offset_s, 9) + 0.0
         for ch, s in d.spec.channels.items():
             entry = s.to_dict(consts["fuel_density_kg_per_m3"])
             entry.update({"file": label, "header": d.headers[1 + list(d.spec.channels).index(ch)],
                           "header_unit": d.header_units[ch], "true_raw_unit": s.unit,
                           "faults": [f.index for f in resolved if f.channel == ch]})
             channels[ch] = entry
-    control = getattr(veh, "control", None)
+    control = getattr(veh, "controller", None)
     summary = getattr(result, "summary", {}) or {}
     return {
         "format": TRUTH_FORMAT, "version": 1, "synthetic": True,
@@ -287,7 +298,8 @@ def _truth(test_id, veh, vehicle_arg, cyc, seed, faults, table, datas, written, 
                   "note": "simulation signals are held (and motion quantities zeroed) outside "
                           "the simulated span"},
         "constants": consts,
-        "controller": _plain(control) if control is not None else None,
+        "controller": ({k: v for k, v in _plain(control).items() if k != "sources"}
+                       if control is not None else None),
         "controller_overrides": _plain(controller_overrides or {}),
         "vehicle_overrides": _plain(vehicle_overrides or {}),
         "simulation": {"dt_s": 0.1, "summary": _plain(summary)},

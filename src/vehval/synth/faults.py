@@ -99,7 +99,7 @@ class Fault:
     def to_dict(self, offset_s: float = 0.0) -> dict:
         """Truth record; ``true_start_s``/``true_end_s`` are on the true clock."""
         out = {"index": self.index, "kind": self.kind, "file": self.file, "channel": self.channel,
-               "signal": self.signal, "start_s": round(self.start_s, 6), "end_s": round(self.end_s, 6),
+               "signal": self.signal, "start_s": self.start_s, "end_s": self.end_s,
                "true_start_s": round(self.start_s + offset_s, 6),
                "true_end_s": round(self.end_s + offset_s, 6),
                "magnitude": self.magnitude, "description": self.description}
@@ -152,9 +152,10 @@ def load_fault_specs(faults: str | Path | list) -> list[FaultSpec]:
             specs.append(FaultSpec.model_validate(item))
         except ValidationError as exc:
             err = exc.errors()[0]
-            loc = ".".join(str(p) for p in err["loc"]) or "(fault)"
-            raise ConfigError(f"{origin}: faults[{i}] ({item.get('kind', '?')}): {loc}: "
-                              f"{err['msg']}") from None
+            loc = ".".join(str(p) for p in err["loc"])
+            msg = str(err["msg"]).removeprefix("Value error, ")
+            raise ConfigError(f"{origin}: faults[{i}] ({item.get('kind', '?')}): "
+                              f"{loc + ': ' if loc else ''}{msg}") from None
     return specs
 
 
@@ -213,7 +214,8 @@ def resolve_faults(specs: list[FaultSpec], files: dict[str, FileSpec], duration_
             params = {"label_unit": s.label_unit,
                       "true_unit": files[label].channels[channel].unit}
         out.append(Fault(index=i, kind=s.kind, file=label, channel=channel, signal=signal,
-                         start_s=float(start), end_s=float(end), magnitude=s.magnitude,
+                         start_s=round(float(start), 6), end_s=round(float(end), 6),
+                         magnitude=s.magnitude,
                          description=s.description, params=params))
     return out
 

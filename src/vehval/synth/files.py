@@ -105,10 +105,12 @@ def build_file(spec: FileSpec, grid: np.ndarray, clean: dict[str, np.ndarray],
     else:
         # the logger polls on the true clock, stamps with its own (offset) clock
         file_time = logger_times(spec, duration_s, seed) + c
+    # the stamps as written are the sampling instants (no hidden rounding error)
+    file_time = np.round(file_time, spec.decimals) + 0.0
     data = FileData(label=spec.label, spec=spec, file_time=file_time, offset_s=-(c + d),
                     clock_offset_s=c, delay_s=d)
     if clock:
-        clock.details["offset_s"] = data.offset_s
+        clock.details["offset_s"] = round(data.offset_s, 9) + 0.0
     true_t = data.true_time
     style = "d3" if spec.format == "d3" else "csv"
     data.headers.append(header_text(*TIME_HEADER[style], style))

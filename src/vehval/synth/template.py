@@ -29,18 +29,16 @@ def vehicle_constants(vehicle: Any) -> dict[str, float]:
         ``road_load_c_n_per_mps2``, ``fuel_density_kg_per_m3``, ``fuel_lhv_j_per_kg``,
         ``wheel_radius_m``, ``final_drive_ratio``.
     """
-    if hasattr(vehicle, "template_constants"):
-        return {k: float(v) for k, v in vehicle.template_constants().items()}
-    body, fuel = vehicle.body, vehicle.fuel
+    body, eng, dl = vehicle.body, vehicle.engine, vehicle.driveline
     return {
         "test_mass_kg": float(body.mass_kg),
         "road_load_a_n": float(body.road_load_a_n),
         "road_load_b_n_per_mps": float(body.road_load_b_n_per_mps),
         "road_load_c_n_per_mps2": float(body.road_load_c_n_per_mps2),
-        "fuel_density_kg_per_m3": float(fuel.density_kg_per_m3),
-        "fuel_lhv_j_per_kg": float(fuel.lhv_j_per_kg),
-        "wheel_radius_m": float(vehicle.wheel.radius_m),
-        "final_drive_ratio": float(vehicle.final_drive.ratio),
+        "fuel_density_kg_per_m3": float(eng.fuel_density_kg_per_m3),
+        "fuel_lhv_j_per_kg": float(eng.fuel_lhv_j_per_kg),
+        "wheel_radius_m": float(dl.wheel_radius_m),
+        "final_drive_ratio": float(dl.final_drive_ratio),
     }
 
 

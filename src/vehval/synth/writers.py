@@ -100,8 +100,14 @@ def write_table(path: str | Path, headers: list[str], columns: list[np.ndarray],
         nxt = lines[truncate_rows + 1]
         sep = "\t" if style == "d3" else ","
         cuts = [i for i, ch in enumerate(nxt) if ch == sep]
-        # cut inside a field of the second half: the partial line lacks whole fields
-        cut = cuts[len(cuts) // 2] + 2 if cuts else max(1, len(nxt) // 2)
+        # cut one character into a middle field: the partial line lacks whole fields, so a
+        # reader cannot mistake it for a complete row
+        if len(cuts) >= 2:
+            cut = cuts[(len(cuts) - 1) // 2] + 1
+            if cut < len(nxt) and nxt[cut] != sep:
+                cut += 1
+        else:
+            cut = cuts[0] if cuts else max(1, len(nxt) // 2)
         partial = nxt[:cut]
         lines = lines[: truncate_rows + 1]
         text = eol.join(lines) + eol + partial

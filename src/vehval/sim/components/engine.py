@@ -79,13 +79,24 @@ def best_efficiency_line(p: EngineParams, n_power: int = 121, n_speed: int = 400
     tmax = np.interp(speeds, a["spd"], a["tmax"])
     pmax = min(p.max_power_w, float(np.max(speeds * tmax)))
     power = np.linspace(0.0, pmax, n_power)
-    best = np.empty(n_power)
-    for k, pw in enumerate(power):
-        trq = pw / speeds
-        ok = trq <= tmax + 1e-9
-        fr = np.array([fuel_rate(a["spd"], a["trq"], a["fuel"], w, t) for w, t in zip(speeds, trq)])
-        fr[~ok] = np.inf
-        best[k] = speeds[int(np.argmin(fr))] if np.any(ok) else w_hi
+    # bilinear fuel rate on the (power x speed) grid, torque = power / speed
+    trq = power[:, None] / speeds[None, :]
+    fr = _bilinear(a["spd"], a["trq"], a["fuel"], np.broadcast_to(speeds, trq.shape), trq)
+    fr = np.where(trq <= tmax[None, :] + 1e-9, fr, np.inf)
+    best = np.where(np.isfinite(fr).any(axis=1), speeds[np.argmin(fr, axis=1)], w_hi)
     best[0] = w_lo
     best = np.maximum.accumulate(best)
     return power, best, power / best
+
+
+def _bilinear(xb: np.ndarray, yb: np.ndarray, z: np.ndarray, x: np.ndarray, y: np.ndarray):
+    """Vectorised clamped bilinear interpolation of ``z[x, y]`` (same rule as interp2)."""
+    x = np.clip(x, xb[0], xb[-1])
+    y = np.clip(y, yb[0], yb[-1])
+    i = np.clip(np.searchsorted(xb, x, side="right") - 1, 0, xb.size - 2)
+    j = np.clip(np.searchsorted(yb, y, side="right") - 1, 0, yb.size - 2)
+    wx = (x - xb[i]) / (xb[i + 1] - xb[i])
+    wy = (y - yb[j]) / (yb[j + 1] - yb[j])
+    a = z[i, j] + wy * (z[i, j + 1] - z[i, j])
+    b = z[i + 1, j] + wy * (z[i + 1, j + 1] - z[i + 1, j])
+    return a + wx * (b - a)

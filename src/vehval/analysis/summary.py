@@ -1,0 +1,223 @@
+"""``analyze``: the whole control-strategy analysis of one test, and its control.json."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vehval.analysis.braking import braking_split
+from vehval.analysis.events import event_table
+from vehval.analysis.inputs import AnalysisInputs, Finding, prepare_inputs
+from vehval.analysis.modes import (MODES, classify_modes, detect_engine_on, mode_shares,
+                                   run_lengths, timeline)
+from vehval.analysis.operating import current_histogram, operating_points, power_histogram_by_mode
+from vehval.analysis.replay import base_params
+from vehval.analysis.soc import fit_soc_regulation
+from vehval.analysis.thresholds import fit_rule
+from vehval.test import Test
+
+CONTROL_VERSION = 1
+
+
+@dataclass
+class AnalysisResult:
+    """Everything the control-strategy analysis found; :meth:`to_dict` is control.json."""
+
+    test_id: str
+    controller: dict
+    uncertainty: dict
+    rule_agreement: float | None
+    events: list
+    modes: dict
+    soc_regulation: dict
+    operating_points: dict
+    braking: dict
+    findings: list
+    engine: dict = field(default_factory=dict)
+    rule: dict = field(default_factory=dict)
+    inputs: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return _clean({
+            "control_version": CONTROL_VERSION, "test_id": self.test_id,
+            "controller": self.controller, "uncertainty": self.uncertainty,
+            "rule_agreement": self.rule_agreement, "rule": self.rule, "engine": self.engine,
+            "events": self.events, "modes": self.modes, "soc_regulation": self.soc_regulation,
+            "operating_points": self.operating_points, "braking": self.braking,
+            "findings": self.findings, "inputs": self.inputs, "report": self.report()})
+
+    def report(self) -> dict:
+        """Section for the HTML report: {title, tables, figures (plotly dicts)}."""
+        rows = [[k, v, self.uncertainty.get(k, {}).get("low"), self.uncertainty.get(k, {}).get("high")]
+                for k, v in self.controller.items()]
+        for k, b in self.rule.get("bounds", {}).items():
+            rows.append([k, "not identified", b.get("low"), b.get("high")])
+        tables = [
+            {"title": "Estimated controller parameters", "columns": ["key", "estimate", "low", "high"],
+             "rows": rows},
+            {"title": "Operating modes", "columns": ["mode", "time [s]", "share"],
+             "rows": [[m, d["time_s"], d["share"]] for m, d in self.modes.get("shares", {}).items()
+                      if d["time_s"] > 0]},
+            {"title": "Engine on/off events", "columns": ["type", "time [s]", "speed [m/s]",
+                                                          "wheel power [W]", "SOC", "cause"],
+             "rows": [[e["type"], e["time_s"], e["speed_mps"], e["wheel_power_w"], e["soc"], e["cause"]]
+                      for e in self.events[:200]]},
+            {"title": "Findings", "columns": ["kind", "signal", "message"],
+             "rows": [[f["kind"], f["signal"], f["message"]] for f in self.findings]},
+        ]
+        figs = []
+        hist = self.operating_points.get("power_by_mode", {})
+        if "edges_w" in hist:
+            centers = [(a + b) / 2e3 for a, b in zip(hist["edges_w"][:-1], hist["edges_w"][1:])]
+            figs.append({"data": [{"type": "bar", "name": m, "x": centers, "y": c}
+                                  for m, c in hist["counts"].items()],
+                         "layout": {"title": "Engine power by mode", "barmode": "stack",
+                                    "xaxis": {"title": "engine power [kW]"},
+                                    "yaxis": {"title": "steps"}}})
+        cur = self.braking.get("current_during_regen", {})
+        if "edges_a" in cur:
+            centers = [(a + b) / 2 for a, b in zip(cur["edges_a"][:-1], cur["edges_a"][1:])]
+            figs.append({"data": [{"type": "bar", "x": centers, "y": cur["counts"]}],
+                         "layout": {"title": "Battery current during regenerative braking",
+                                    "xaxis": {"title": "current [A]"}, "yaxis": {"title": "steps"}}})
+        ev = [e for e in self.events if e["type"] == "on"]
+        if ev:
+            figs.append({"data": [{"type": "scatter", "mode": "markers", "name": "engine starts",
+                                   "x": [e["speed_mps"] for e in ev], "y": [e["total_demand_w"] for e in ev]}],
+                         "layout": {"title": "Conditions at engine starts",
+                                    "xaxis": {"title": "speed [m/s]"},
+                                    "yaxis": {"title": "total demand [W]"}}})
+        return {"title": "Control strategy", "tables": tables, "figures": figs}
+
+
+def _clean(x: Any) -> Any:
+    """JSON-safe copy: numpy scalars -> float/int, NaN/inf -> None."""
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (np.bool_, bool)):
+        return bool(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        f = float(x)
+        return f if np.isfinite(f) else None
+    if isinstance(x, np.ndarray):
+        return _clean(x.tolist())
+    return x
+
+
+def _battery_limits(inp: AnalysisInputs, vehicle: Any) -> tuple:
+    if vehicle is None or not inp.has("soc"):
+        return None, None, None
+    b = vehicle.battery
+    soc = np.where(np.isfinite(inp.soc), inp.soc, vehicle.controller.soc_target)
+    pd = np.interp(soc, b.soc, b.discharge_power_limit_w)
+    pc = np.interp(soc, b.soc, b.charge_power_limit_w)
+    return pd - vehicle.controller.battery_discharge_margin_w, pd, pc
+
+
+def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
+            dt: float | None = None) -> AnalysisResult:
+    """Control-strategy analysis of a test.
+
+    Parameters
+    ----------
+    test : Test
+        Imported (ideally QA-validated) test; ``_test`` then ``_calc`` signals are used.
+    vehicle : Vehicle or str, optional
+        Gives the fixed controller parameters (hold times, SOC conditions, auxiliary load,
+        battery limits), the fuel map for the best-efficiency line and default constants.
+    constants : dict, optional
+        Constants overriding the test's (mass, road load, wheel radius).
+    dt : float, optional
+        Analysis grid step [s] (default: the speed signal's period, at least 0.1 s).
+
+    Returns
+    -------
+    AnalysisResult
+    """
+    if isinstance(vehicle, str):
+        from vehval.sim.vehicle import load_vehicle
+        vehicle = load_vehicle(vehicle)
+    inp = prepare_inputs(test, vehicle, constants, dt)
+    findings: list[Finding] = list(inp.findings)
+    es = detect_engine_on(inp.t, inp.eng_spd, inp.fuel_rate)
+    aux = float(vehicle.body.aux_power_w) if vehicle is not None else 0.0
+    base = base_params(vehicle)
+    pdis_av, pd_lim, pc_lim = _battery_limits(inp, vehicle)
+    eng_pwr = inp.eng_spd * inp.eng_trq
+    codes = classify_modes(inp.v, inp.p_whl, es.on, inp.ess_pwr, eng_pwr)
+    starts, lengths, vals = run_lengths(es.on)
+    engine = {"method": es.method, "on_share": float(np.mean(es.on[es.valid])) if es.valid.any() else None,
+              "starts": int(np.sum(vals[1:])) if vals.size else 0,
+              "valid_share": float(np.mean(es.valid))}
+    # SOC regulation first: its estimate feeds the total demand of the rule
+    soc_reg = fit_soc_regulation(inp.soc, inp.ess_pwr, es.on & es.valid, inp.p_whl, inp.dt)
+    soc_reg["engine_on_share_by_soc"] = _on_by_soc(inp.soc, es.on, es.valid)
+    controller, uncertainty, rule = {}, {}, {}
+    agree = None
+    if soc_reg.get("fitted") and "soc_target" in soc_reg and soc_reg.get("r2", 0) > 0.3:
+        controller["soc_target"] = round(soc_reg["soc_target"], 4)
+        controller["soc_gain_w"] = round(soc_reg["soc_gain_w"], 1)
+        uncertainty["soc_target"] = {"method": "robust linear fit", "r2": soc_reg["r2"]}
+        uncertainty["soc_gain_w"] = {"method": "robust linear fit (battery side: lower than the "
+                                     "controller gain by the engine-to-battery efficiency)",
+                                     "r2": soc_reg["r2"]}
+    events: list = []
+    n_switch = int(np.sum(es.on[1:] != es.on[:-1]))
+    if es.valid.any() and inp.has("p_whl") and n_switch >= 2:
+        fit = fit_rule(es.on, es.valid, inp.p_whl, inp.v, inp.soc, inp.dt, base, aux_w=aux,
+                       pdis_av=pdis_av)
+        controller.update(fit.estimated)
+        uncertainty.update({k: fit.uncertainty[k] for k in fit.uncertainty})
+        agree = round(fit.agreement, 5)
+        rule = {"lag_s": fit.lag_s, "bounds": fit.bounds, "notes": fit.notes, "replay_params": fit.params,
+                "fixed": {k: v for k, v in fit.params.items() if k not in fit.estimated},
+                "run_durations_s": fit.runs}
+        events = event_table(inp.t, es.on, es.valid, inp.v, inp.p_whl, inp.soc, inp.ess_pwr,
+                             fit.params, aux, fit.lag_s)
+        for n in fit.notes:
+            findings.append(Finding("warning", "engine state", n))
+    else:
+        findings.append(Finding("warning", "engine state",
+                                "engine on/off rule not estimated: needs engine speed or fuel rate, "
+                                "a wheel power demand and at least one engine start and stop "
+                                f"(found {n_switch} switch(es))"))
+        events = event_table(inp.t, es.on, es.valid, inp.v, inp.p_whl, inp.soc, inp.ess_pwr,
+                             base, aux, 0.0)
+    regen_mask = codes == MODES.index("regen_braking")
+    op = operating_points(inp.eng_spd, inp.eng_trq, es.on, inp.dt, vehicle, inp.ess_pwr, pd_lim, pc_lim)
+    op["power_by_mode"] = power_histogram_by_mode(eng_pwr, codes, es.on)
+    brk = braking_split(inp.v, inp.a, inp.p_whl, inp.ess_pwr, inp.brk_frc, aux_w=aux,
+                        path_efficiency=base["electric_drive_efficiency"])
+    brk["current_during_regen"] = current_histogram(inp.ess_curr, regen_mask)
+    if not np.any(np.isfinite(inp.ess_pwr)) and inp.has("ess_curr"):
+        # no voltage: the regen current histogram still needs braking steps
+        brake = np.isfinite(inp.a) & (inp.a < -0.3) & (inp.v > 1.0) & ~es.on
+        brk["current_during_decel_engine_off"] = current_histogram(inp.ess_curr, brake)
+    modes = {"codes": list(MODES), "timeline": timeline(inp.t, codes), "shares": mode_shares(codes, inp.dt)}
+    return AnalysisResult(
+        test_id=test.meta.test_id, controller=controller, uncertainty=uncertainty,
+        rule_agreement=agree, events=events, modes=modes, soc_regulation=soc_reg,
+        operating_points=op, braking=brk, findings=[f.to_dict() for f in findings], engine=engine,
+        rule=rule, inputs={"dt_s": inp.dt, "duration_s": float(inp.t[-1] - inp.t[0]) if inp.n else 0.0,
+                           "sources": inp.sources})
+
+
+def _on_by_soc(soc: np.ndarray, on: np.ndarray, valid: np.ndarray) -> list[dict]:
+    """Engine-on share per 2 %-SOC bin (the SOC window the strategy keeps)."""
+    ok = np.isfinite(soc) & valid
+    if not ok.any():
+        return []
+    edges = np.arange(np.floor(np.min(soc[ok]) * 50) / 50, np.max(soc[ok]) + 0.02, 0.02)
+    out = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        sel = ok & (soc >= lo) & (soc < hi)
+        if sel.sum():
+            out.append({"soc": [round(float(lo), 3), round(float(hi), 3)],
+                        "on_share": float(np.mean(on[sel])), "n": int(sel.sum())})
+    return out

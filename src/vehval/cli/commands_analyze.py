@@ -1,0 +1,58 @@
+"""`vehval analyze`: control-strategy analysis of a test -> control.json."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from vehval.cli import app
+
+
+@app.command("analyze")
+def analyze_cmd(
+    files: list[Path] = typer.Argument(..., help="Raw files of one test."),
+    template: Path = typer.Option(..., "-t", "--template", help="Import template (YAML)."),
+    vehicle: str = typer.Option(None, "--vehicle", help="Vehicle name or file (fixed controller "
+                                "parameters, fuel map, battery limits)."),
+    outdir: Path = typer.Option(..., "-o", "--outdir", help="Directory for control.json."),
+    qa: bool = typer.Option(True, "--qa/--no-qa", help="Align and compute _calc signals with the QA first."),
+    as_json: bool = typer.Option(False, "--json", help="Print control.json."),
+) -> None:
+    """Estimate the engine on/off rule, SOC regulation, modes and braking split of a test."""
+    from vehval.analysis import analyze
+    from vehval.errors import InputFileError
+    from vehval.io.atomic import write_text_atomic
+    from vehval.io.importer import import_test
+    from vehval.io.template import load_template
+
+    for f in files:
+        if not f.exists():
+            raise InputFileError(f"{f}: file not found: check the path")
+    tpl = load_template(template)
+    test = import_test(files, tpl)
+    veh = None
+    veh_name = vehicle or tpl.vehicle
+    if veh_name:
+        from vehval.sim.vehicle import load_vehicle
+        veh = load_vehicle(veh_name)
+    if qa:
+        try:
+            from vehval.qa.pipeline import run_qa
+        except ImportError:  # pragma: no cover - QA not installed
+            run_qa = None
+        if run_qa is not None:
+            test = run_qa(test, veh, tpl).validated
+    result = analyze(test, veh)
+    text = json.dumps(result.to_dict(), indent=1) + "\n"
+    outdir.mkdir(parents=True, exist_ok=True)
+    write_text_atomic(outdir / "control.json", text)
+    if as_json:
+        typer.echo(text, nl=False)
+        return
+    c = result.controller
+    typer.echo(f"wrote {outdir / 'control.json'}: {len(c)} controller parameter(s) estimated, "
+               f"rule agreement {result.rule_agreement if result.rule_agreement is not None else 'n/a'}")
+    for k, v in c.items():
+        typer.echo(f"  {k} = {v}")

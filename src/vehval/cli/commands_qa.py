@@ -1,0 +1,91 @@
+"""`vehval qa`: import a test, run the data-quality analysis, write the results atomically."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from vehval.cli import app
+from vehval.errors import InputFileError
+
+
+def _summary(result, outdir: Path) -> dict:
+    d = result.to_dict()
+    return {"test": d["test"], "outdir": str(outdir), "summary": d["summary"],
+            "alignment": [{k: a[k] for k in ("source", "reference", "offset_s", "confidence",
+                                             "applied")} for a in d["alignment"]],
+            "files": ["findings.json", "validated.parquet", "template_final.yaml"]}
+
+
+@app.command("qa")
+def qa_cmd(
+    files: list[Path] = typer.Argument(..., help="Raw files of one test."),
+    template: Path = typer.Option(..., "-t", "--template", help="Import template YAML."),
+    vehicle: str = typer.Option(None, "--vehicle",
+                                help="Vehicle file name or path (default: the template's)."),
+    outdir: Path = typer.Option(..., "-o", "--outdir", help="Output directory."),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON on stdout."),
+    report: bool = typer.Option(False, "--report", help="Also write the HTML QA report."),
+    max_offset: float = typer.Option(30.0, "--max-offset", help="Alignment search range ±[s]."),
+) -> None:
+    """Import, align, check (QA levels 1-3), calculate and select signals.
+
+    Writes findings.json, validated.parquet and template_final.yaml into OUTDIR (atomically);
+    with --report also report.html and tables.xlsx.
+    """
+    from vehval.io.atomic import atomic_dir, write_text_atomic
+    from vehval.io.importer import import_test
+    from vehval.io.parquet import write_test
+    from vehval.io.template import load_template
+    from vehval.qa.pipeline import run_qa
+    from vehval.qa.select import save_final_template
+
+    for f in files:
+        if not f.exists():
+            raise InputFileError(f"{f}: file not found: check the path")
+    tpl = load_template(template)
+    veh = None
+    vname = vehicle or tpl.vehicle
+    if vname:
+        from vehval.sim.vehicle import load_vehicle
+        veh = load_vehicle(vname)
+    test = import_test(files, tpl)
+    result = run_qa(test, veh, tpl, max_offset_s=max_offset)
+    report_note = None
+    with atomic_dir(outdir) as stage:
+        write_text_atomic(stage / "findings.json", json.dumps(result.to_dict(), indent=1))
+        write_test(result.validated, stage / "validated.parquet")
+        save_final_template(tpl, result.selection, stage / "template_final.yaml")
+        if report:
+            try:
+                from vehval.report import render_report, write_tables
+            except ImportError:
+                report_note = ("--report: the HTML report module (vehval.report) is not "
+                               "available in this version; findings.json has the same content")
+            else:
+                html = render_report(result.validated, result, template=tpl, vehicle=veh)
+                write_text_atomic(stage / "report.html", html)
+                write_tables(stage / "tables.xlsx", result, result.validated)
+    summ = _summary(result, outdir)
+    if report and not report_note:
+        summ["files"] += ["report.html", "tables.xlsx"]
+    if report_note:
+        summ["report"] = report_note
+        typer.echo(f"vehval: note: {report_note}", err=True)
+    if as_json:
+        typer.echo(json.dumps(summ, indent=1))
+        return
+    s = summ["summary"]
+    typer.echo(f"{result.test_id}: {s['total']} findings ({s['by_severity']['error']} error, "
+               f"{s['by_severity']['warning']} warning, {s['by_severity']['info']} info); "
+               f"kept {s['kept']}, dropped {s['dropped']}, computed {s['computed']}")
+    for a in summ["alignment"]:
+        off = "n/a" if a["offset_s"] is None else f"{a['offset_s']:+.3f} s"
+        typer.echo(f"  align {a['source']} -> {a['reference']}: {off} "
+                   f"(confidence {a['confidence']:.2f}{'' if a['applied'] else ', not applied'})")
+    for f in result.to_dict()["findings"]:
+        if f["severity"] != "info":
+            typer.echo(f"  {f['severity']:7s} {f['kind']:14s} {f['message']}")
+    typer.echo(f"wrote {outdir}/: {', '.join(summ['files'])}")

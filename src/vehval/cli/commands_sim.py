@@ -1,0 +1,135 @@
+"""`vehval simulate` (forward-looking simulation of a vehicle over a cycle) and
+`vehval vehicle list|show`."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from vehval.cli import app
+
+vehicle_app = typer.Typer(help="Vehicle parameter files.", no_args_is_help=True)
+app.add_typer(vehicle_app, name="vehicle")
+
+SUMMARY_KEYS = ("fuel_mass_kg", "distance_m", "fuel_economy_mpg", "fuel_consumption_l_per_100km",
+                "soc_initial", "soc_final", "fuel_economy_soc_corrected_mpg",
+                "engine_on_fraction", "engine_starts", "trace_max_miss_mps")
+
+
+def _jsonable(d: dict) -> dict:
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, float) and not math.isfinite(v):
+            v = None
+        out[k] = v
+    return out
+
+
+def _write_outputs(result, outdir: Path) -> list[str]:
+    from vehval.io.atomic import atomic_dir
+
+    written = []
+    with atomic_dir(outdir) as stage:
+        (stage / "summary.json").write_text(
+            json.dumps(_jsonable(result.summary), indent=2, sort_keys=True), encoding="utf-8")
+        written.append("summary.json")
+        try:
+            from vehval.io.parquet import write_test
+        except ImportError:  # pragma: no cover - depends on the I/O package
+            write_test = None
+        if write_test is not None:
+            write_test(result.test, stage / "signals.parquet")
+            written.append("signals.parquet")
+        else:  # pragma: no cover
+            result.frame().to_csv(stage / "signals.csv")
+            written.append("signals.csv")
+    return written
+
+
+@app.command("simulate")
+def simulate_cmd(
+    vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
+    cycle: str = typer.Option("udds", "--cycle", help="Cycle name or file (see `vehval cycles`)."),
+    dt: float = typer.Option(0.1, "--dt", help="Time step [s], in (0, 1]."),
+    soc_initial: Optional[float] = typer.Option(None, "--soc-initial",
+                                                help="Initial SOC [-] (default: SOC target)."),
+    charge_balance: bool = typer.Option(False, "--charge-balance",
+                                        help="Iterate the initial SOC until SOC end = start."),
+    set_: list[str] = typer.Option([], "--set", help="Override a parameter: block.key=value "
+                                   "(repeatable), e.g. controller.soc_target=0.55."),
+    as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
+    outdir: Optional[Path] = typer.Option(None, "-o", "--output",
+                                          help="Directory for summary.json and the signals."),
+) -> None:
+    """Simulate a vehicle over a drive cycle (forward-looking, state-machine controller)."""
+    from vehval.errors import ConfigError
+    from vehval.sim.simulate import simulate
+
+    overrides = {}
+    for item in set_:
+        if "=" not in item:
+            raise ConfigError(f"--set '{item}': use block.key=value")
+        key, val = item.split("=", 1)
+        try:
+            overrides[key.strip()] = float(val)
+        except ValueError:
+            raise ConfigError(f"--set '{item}': value must be a number") from None
+    res = simulate(vehicle, cycle, dt=dt, soc_initial=soc_initial,
+                   charge_balance=charge_balance, **overrides)
+    s = res.summary
+    written = _write_outputs(res, outdir) if outdir is not None else []
+    if as_json:
+        keys = list(SUMMARY_KEYS) + [k for k in s if k not in SUMMARY_KEYS]
+        typer.echo(json.dumps(_jsonable({k: s[k] for k in keys})))
+        return
+    typer.echo(f"{s['vehicle']} on {s['cycle']} (dt = {s['dt_s']:g} s)")
+    typer.echo(f"  distance            {s['distance_m'] / 1000:8.3f} km")
+    typer.echo(f"  fuel                {s['fuel_mass_kg'] * 1000:8.1f} g")
+    typer.echo(f"  fuel economy        {s['fuel_economy_mpg']:8.1f} mpg "
+               f"({s['fuel_consumption_l_per_100km']:.2f} L/100 km)")
+    typer.echo(f"  SOC-corrected       {s['fuel_economy_soc_corrected_mpg']:8.1f} mpg")
+    typer.echo(f"  SOC                 {s['soc_initial']:.3f} -> {s['soc_final']:.3f}")
+    typer.echo(f"  engine on           {100 * s['engine_on_fraction']:8.1f} % "
+               f"({s['engine_starts']} starts)")
+    typer.echo(f"  trace max miss      {s['trace_max_miss_mps']:8.3f} m/s "
+               "(outside ±2 mph / ±1 s)")
+    typer.echo(f"  energy balance      {s['energy_balance_rel']:8.1e} (relative residual)")
+    if written:
+        typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+@vehicle_app.command("list")
+def vehicle_list_cmd() -> None:
+    """List the vehicles shipped with vehval."""
+    from vehval.sim.vehicle import list_vehicles
+
+    for name in list_vehicles():
+        typer.echo(name)
+
+
+@vehicle_app.command("show")
+def vehicle_show_cmd(
+    name: str = typer.Argument(..., help="Vehicle name or YAML path."),
+    sources: bool = typer.Option(False, "--sources", help="Show the source of each parameter."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """Show a vehicle's scalar parameters (maps are summarised)."""
+    from vehval.sim.vehicle import load_vehicle
+
+    veh = load_vehicle(name)
+    params = veh.parameters()
+    src = veh.sources()
+    if as_json:
+        typer.echo(json.dumps({"name": veh.name, "file": veh.file, "parameters": params,
+                               "sources": src}))
+        return
+    typer.echo(f"{veh.name}: {veh.description}")
+    for key, val in params.items():
+        line = f"  {key:48s} {val:g}"
+        if sources:
+            line += f"   [{src.get(key, '')}]"
+        typer.echo(line)

@@ -1,0 +1,173 @@
+"""`vehval validate` and `vehval calibrate`: the model against test data.
+
+Test grouping (see :mod:`vehval.validate.loading`): each directory is one test, each
+``.parquet`` file is one validated test, loose files together are one test, and
+``--test A,B`` (repeatable) groups files explicitly.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import typer
+
+from vehval.cli import app
+from vehval.errors import ConfigError
+
+
+def _slug(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "test"
+
+
+def _params(text: str | None) -> list[str]:
+    if not text:
+        return []
+    return [p.strip() for p in text.split(",") if p.strip()]
+
+
+def _tolerances(fuel_tol: float, soc_tol: float, soc_points: float | None):
+    from vehval.validate.ladder import Tolerances
+
+    return Tolerances.from_mapping({"fuel_pct": fuel_tol, "soc_pct": soc_tol, "soc_points": soc_points})
+
+
+@app.command("validate")
+def validate_cmd(
+    files: list[Path] = typer.Argument(None, help="Test directories, validated .parquet tests or the raw files of one test."),
+    template: Path = typer.Option(None, "-t", "--template", help="Import template (default: template.yaml of each test directory)."),
+    vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
+    output: Path = typer.Option(..., "-o", "--output", help="Output directory (written atomically)."),
+    test_group: list[str] = typer.Option([], "--test", metavar="A,B", help="Files (comma-separated) of one test; repeatable."),
+    dt: float = typer.Option(0.1, "--dt", help="Simulation step [s]."),
+    window_s: float = typer.Option(2.0, "--window", help="Engine start/stop matching window [s]."),
+    fuel_tol: float = typer.Option(5.0, "--fuel-tol", help="Ladder tolerance on the fuel error [%]."),
+    soc_tol: float = typer.Option(5.0, "--soc-tol", help="Ladder tolerance on the SOC error [%] (relative error of final SOC)."),
+    soc_points: float = typer.Option(None, "--soc-points", help="Optional tolerance on the ΔSOC mismatch [SOC points]."),
+    no_qa: bool = typer.Option(False, "--no-qa", help="Use the imported signals without the QA pipeline."),
+    report: bool = typer.Option(False, "--report", help="Also write report.html and tables.xlsx per test."),
+    as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
+) -> None:
+    """Simulate VEHICLE on each test's own conditions and compare: writes validation.json
+    (report tables and overlay figures), metrics.json and overlays_<test>.parquet."""
+    from vehval.io.atomic import atomic_dir
+    from vehval.sim.vehicle import load_vehicle
+    from vehval.validate import error_vs_repeatability, ladder, validate_test, variability
+    from vehval.validate.compare import _clean
+    from vehval.validate.loading import load_tests
+
+    if not files and not test_group:
+        raise ConfigError("no test given: name test directories or files, or use --test A,B")
+    veh = load_vehicle(vehicle)
+    tol = _tolerances(fuel_tol, soc_tol, soc_points)
+    loaded = load_tests(files or [], test_group, template, veh, qa=not no_qa)
+    vals = [validate_test(lt.test, veh, dt=dt, window_s=window_s) for lt in loaded]
+    lad = ladder([v.comparison for v in vals], tol)
+    payload = {"title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "
+               "initial SOC, mass and road load", "tables": [], "figures": [], "notes": []}
+    for v in vals:
+        p = v.payload()
+        payload["tables"] += p["tables"]
+        payload["figures"] += p["figures"]
+        payload["notes"] += [f"{v.comparison.test_id}: {n}" for n in p["notes"]]
+    payload["tables"] += lad.tables()
+    metrics = {"vehicle": veh.name, "vehicle_file": veh.file, "dt_s": dt,
+               "tests": [v.to_dict() for v in vals], "ladder": lad.to_dict()}
+    by_cycle: dict[str, list[int]] = {}
+    for i, lt in enumerate(loaded):
+        by_cycle.setdefault(lt.test.meta.cycle or "", []).append(i)
+    reps = []
+    for cyc, idx in by_cycle.items():
+        if len(idx) >= 2:
+            var = variability([loaded[i].test for i in idx])
+            payload["tables"] += var.tables()
+            rows = []
+            for i in idx:
+                for r in error_vs_repeatability(vals[i].comparison, var):
+                    rows.append([vals[i].comparison.test_id, r["quantity"], r["error"], r["test_std"],
+                                 r["ratio"], r["verdict"]])
+            payload["tables"].append({"title": f"Model error against test repeatability ({cyc})",
+                                      "columns": ["test", "quantity", "error (SI)", "test std (SI)",
+                                                  "|error| / std", "verdict"], "rows": rows})
+            reps.append(var.to_dict())
+    metrics["variability"] = reps
+    with atomic_dir(output) as stage:
+        (stage / "validation.json").write_text(json.dumps(_clean(payload), indent=1) + "\n", encoding="utf-8")
+        (stage / "metrics.json").write_text(json.dumps(_clean(metrics), indent=1) + "\n", encoding="utf-8")
+        for v in vals:
+            v.comparison.overlays.to_parquet(stage / f"overlays_{_slug(v.comparison.test_id)}.parquet",
+                                             index=False)
+    if report:
+        from vehval.report import build_reports
+
+        for lt, v in zip(loaded, vals):
+            sub = output if len(vals) == 1 else output / _slug(v.comparison.test_id)
+            build_reports(sub, lt.test, lt.qa, lt.template, veh, validation=v.payload(),
+                          title=f"Validation report: {v.comparison.test_id}")
+    if as_json:
+        typer.echo(json.dumps(_clean(metrics), indent=1))
+        return
+    for e in lad.entries:
+        typer.echo(f"{e.test_id} ({e.cycle}, {e.rung}): fuel {e.errors['fuel_pct']:.2f} %, "
+                   f"SOC {e.errors['soc_pct']:.2f} %, engine state agreement "
+                   f"{e.errors['engine_on_agreement_pct']:.1f} %: {'pass' if e.passed else 'FAIL'}")
+    typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
+
+
+@app.command("calibrate")
+def calibrate_cmd(
+    files: list[Path] = typer.Argument(None, help="Tests to tune on (directories, .parquet tests or raw files of one test)."),
+    template: Path = typer.Option(None, "-t", "--template", help="Import template (default: template.yaml of each test directory)."),
+    vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
+    output: Path = typer.Option(..., "-o", "--output", help="Output directory (written atomically)."),
+    test_group: list[str] = typer.Option([], "--test", metavar="A,B", help="Files of one tuning test; repeatable."),
+    holdout: list[str] = typer.Option([], "--holdout", metavar="DIR_OR_A,B", help="A held-out test (directory, .parquet or comma-separated files); repeatable."),
+    params: str = typer.Option("controller.engine_on_power_w,controller.soc_gain_w,controller.regen_fraction_max",
+                               "--params", help="Comma-separated dotted parameters to tune (bare names mean controller.<name>)."),
+    start: Path = typer.Option(None, "--start", help="JSON with start values (e.g. control.json of the analysis: its 'controller' mapping)."),
+    dt: float = typer.Option(1.0, "--dt", help="Simulation step during the search [s]."),
+    popsize: int = typer.Option(8, "--popsize", help="Differential-evolution population multiplier."),
+    maxiter: int = typer.Option(20, "--maxiter", help="Differential-evolution generations."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the search."),
+    no_qa: bool = typer.Option(False, "--no-qa", help="Use the imported signals without the QA pipeline."),
+    as_json: bool = typer.Option(False, "--json", help="Print calibration.json to stdout."),
+) -> None:
+    """Tune vehicle parameters on several tests and check them on held-out tests: writes
+    calibration.json and vehicle_calibrated.yaml (tuned values with their provenance)."""
+    from vehval.io.atomic import atomic_dir
+    from vehval.sim.vehicle import load_vehicle
+    from vehval.validate.calibration import calibrate
+    from vehval.validate.compare import _clean
+    from vehval.validate.loading import load_one, load_tests
+
+    if not files and not test_group:
+        raise ConfigError("no tuning test given: name test directories or files, or use --test A,B")
+    names = _params(params)
+    veh = load_vehicle(vehicle)
+    tests = [lt.test for lt in load_tests(files or [], test_group, template, veh, qa=not no_qa)]
+    hold = [load_one([Path(x.strip()) for x in h.split(",") if x.strip()], template, veh, qa=not no_qa).test
+            for h in holdout]
+    start_values = None
+    if start is not None:
+        try:
+            start_values = json.loads(Path(start).read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ConfigError(f"{start}: cannot read the start values ({exc})") from None
+    res = calibrate(tests, veh, names, start=start_values, holdout_tests=hold, dt=dt,
+                    popsize=popsize, maxiter=maxiter, seed=seed)
+    doc = res.to_dict()
+    with atomic_dir(output) as stage:
+        (stage / "calibration.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+        res.write_vehicle(stage / "vehicle_calibrated.yaml")
+    if as_json:
+        typer.echo(json.dumps(_clean(doc), indent=1))
+        return
+    for n in res.parameters:
+        typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}")
+    for row in res.rows():
+        typer.echo(f"{row[0]} ({row[1]}): fuel error {row[2]:.2f} -> {row[3]:.2f} %, "
+                   f"SOC error {row[4]:.2f} -> {row[5]:.2f} %")
+    typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
+               f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
+    typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")

@@ -1,0 +1,209 @@
+"""The validation ladder: steady speeds, then low-transient, then high-transient cycles.
+
+A model is trusted step by step: first on steady-speed runs (component losses and road
+load, little control), then on low-transient cycles (Japan 10-15, NEDC: the engine on/off
+logic at gentle demands), then on high-transient cycles (UDDS, HWFET, US06: power limits,
+regeneration, fast transients). Each test gets a verdict against user tolerances.
+
+Error definitions (documented in docs/validation.md):
+
+* fuel error [%] = 100 · |m_sim − m_test| / m_test (fuel mass over the test);
+* SOC error [%] = 100 · |ΔSOC_sim − ΔSOC_test| / SOC_final,test, with ΔSOC = SOC_final −
+  SOC_initial. The simulation starts at the measured initial SOC, so this is the relative
+  error of the final SOC; it stays well defined on charge-sustaining tests where ΔSOC ≈ 0
+  (a relative error of ΔSOC itself would blow up). The ΔSOC mismatch in SOC points
+  (100 · |ΔSOC_sim − ΔSOC_test|) is reported alongside and may be bounded too.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import asdict, dataclass, field
+from typing import Any, Sequence
+
+import numpy as np
+
+from vehval.errors import ConfigError
+from vehval.validate.compare import Comparison, _clean
+
+RUNGS = ("steady", "low_transient", "high_transient", "other")
+RUNG_LABELS = {"steady": "1 steady-state speeds", "low_transient": "2 low-transient cycles",
+               "high_transient": "3 high-transient cycles", "other": "4 other tests"}
+
+_LOW = ("japan1015", "1015", "nedc", "ece15", "ece", "eudc", "jc08")
+_HIGH = ("udds", "ftp75", "ftp", "hwfet", "hwy", "us06", "la92", "sc03", "wltc", "wltc3b",
+         "wltp", "artemis")
+
+
+def rung_of(cycle: str) -> str:
+    """Ladder rung of a cycle name: steady, low_transient, high_transient or other.
+
+    Names are matched without case, spaces, dashes or underscores; a ``_measured`` suffix
+    and a ``steady`` prefix are understood (``steady_60kph_300s``, ``steady:60kph``).
+    """
+    key = re.sub(r"[\s_\-:]", "", (cycle or "").lower()).removesuffix("measured")
+    if key.startswith("steady") or key.startswith("cruise") or key.startswith("constant"):
+        return "steady"
+    for names, rung in ((_LOW, "low_transient"), (_HIGH, "high_transient")):
+        if any(key == n or key.startswith(n) for n in names):
+            return rung
+    return "other"
+
+
+@dataclass
+class Tolerances:
+    """Acceptance limits of the ladder (None disables a criterion).
+
+    Attributes
+    ----------
+    fuel_pct : float
+        Max relative fuel-mass error [%].
+    soc_pct : float
+        Max SOC error [%] (relative error of the final SOC, see the module docstring).
+    soc_points : float or None
+        Max ΔSOC mismatch [SOC points] (off by default).
+    engine_on_agreement_min_pct : float or None
+        Min share of time steps with the same engine state [%] (off by default).
+    """
+
+    fuel_pct: float | None = 5.0
+    soc_pct: float | None = 5.0
+    soc_points: float | None = None
+    engine_on_agreement_min_pct: float | None = None
+
+    @classmethod
+    def from_mapping(cls, data: dict | None) -> "Tolerances":
+        data = dict(data or {})
+        unknown = sorted(set(data) - set(cls.__dataclass_fields__))
+        if unknown:
+            raise ConfigError(f"unknown tolerance(s) {', '.join(unknown)}: known are "
+                              f"{', '.join(cls.__dataclass_fields__)}")
+        for k, v in data.items():
+            if v is not None and not (isinstance(v, (int, float)) and v >= 0):
+                raise ConfigError(f"tolerance '{k}' must be a number >= 0 or null, got {v!r}")
+        return cls(**data)
+
+
+def errors_of(comp: Comparison) -> dict[str, float]:
+    """The ladder's error figures of one comparison (see the module docstring) [%]."""
+    tt, ts = comp.totals_test, comp.totals_sim
+    fuel = abs(comp.fuel_error) * 100.0 if np.isfinite(comp.fuel_error) else math.nan
+    d = comp.soc_delta_error
+    sf = tt.get("soc_final", math.nan)
+    soc = abs(d) / sf * 100.0 if (np.isfinite(d) and np.isfinite(sf) and sf > 0) else math.nan
+    return {"fuel_pct": fuel, "soc_pct": soc,
+            "soc_points": abs(d) * 100.0 if np.isfinite(d) else math.nan,
+            "engine_on_agreement_pct": comp.on_agreement * 100.0,
+            "fuel_test_kg": tt.get("fuel_mass_kg", math.nan),
+            "fuel_sim_kg": ts.get("fuel_mass_kg", math.nan)}
+
+
+@dataclass
+class LadderEntry:
+    """Verdict of one test."""
+
+    test_id: str
+    cycle: str
+    rung: str
+    errors: dict[str, float]
+    passed: bool
+    failures: list[str] = field(default_factory=list)
+
+
+def verdict(comp: Comparison, tol: Tolerances) -> tuple[bool, list[str], dict[str, float]]:
+    """(passed, reasons for failure, errors) of one comparison against ``tol``.
+
+    A criterion whose error cannot be computed (missing signal) fails with that reason.
+    """
+    err = errors_of(comp)
+    fails = []
+    for key, limit, op in (("fuel_pct", tol.fuel_pct, "max"), ("soc_pct", tol.soc_pct, "max"),
+                           ("soc_points", tol.soc_points, "max"),
+                           ("engine_on_agreement_pct", tol.engine_on_agreement_min_pct, "min")):
+        if limit is None:
+            continue
+        v = err[key]
+        if not np.isfinite(v):
+            fails.append(f"{key}: cannot be computed (missing signal)")
+        elif op == "max" and v > limit:
+            fails.append(f"{key} = {v:.3g} > {limit:g}")
+        elif op == "min" and v < limit:
+            fails.append(f"{key} = {v:.3g} < {limit:g}")
+    return not fails, fails, err
+
+
+@dataclass
+class LadderResult:
+    """All tests on the ladder, ordered by rung."""
+
+    entries: list[LadderEntry]
+    tolerances: Tolerances
+
+    @property
+    def passed(self) -> bool:
+        return all(e.passed for e in self.entries)
+
+    def rung_passed(self) -> dict[str, bool | None]:
+        """Per rung: all tests passed (None: no test on that rung)."""
+        out: dict[str, bool | None] = {}
+        for r in RUNGS:
+            es = [e for e in self.entries if e.rung == r]
+            out[r] = all(e.passed for e in es) if es else None
+        return out
+
+    def highest_rung_passed(self) -> str | None:
+        """The last rung reached with every lower populated rung passed (None: the first fails)."""
+        best = None
+        for r in RUNGS[:3]:
+            ok = self.rung_passed()[r]
+            if ok is None:
+                continue
+            if not ok:
+                break
+            best = r
+        return best
+
+    def tables(self) -> list[dict]:
+        t = self.tolerances
+        rows = [[RUNG_LABELS[e.rung], e.cycle, e.test_id, e.errors["fuel_pct"], e.errors["soc_pct"],
+                 e.errors["soc_points"], e.errors["engine_on_agreement_pct"],
+                 "pass" if e.passed else "FAIL: " + "; ".join(e.failures)] for e in self.entries]
+        return [{"title": "Validation ladder",
+                 "columns": ["rung", "cycle", "test", "fuel error [%]", "SOC error [%]",
+                             "ΔSOC error [points]", "engine state agreement [%]", "verdict"],
+                 "rows": rows,
+                 "note": f"tolerances: fuel ≤ {t.fuel_pct} %, SOC ≤ {t.soc_pct} % (relative error of "
+                         f"final SOC), ΔSOC ≤ {t.soc_points} points, engine agreement ≥ "
+                         f"{t.engine_on_agreement_min_pct} % (None = not checked)"}]
+
+    def to_dict(self) -> dict[str, Any]:
+        return _clean({"passed": self.passed, "tolerances": asdict(self.tolerances),
+                       "rung_passed": self.rung_passed(),
+                       "highest_rung_passed": self.highest_rung_passed(),
+                       "entries": [asdict(e) for e in self.entries], "tables": self.tables()})
+
+
+def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | None = None,
+           rungs: dict[str, str] | None = None) -> LadderResult:
+    """Place comparisons on the ladder and judge each against the tolerances.
+
+    Parameters
+    ----------
+    comparisons : sequence of Comparison
+        One per test (see :func:`vehval.validate.validation.validate_test`).
+    tolerances : Tolerances or dict, optional
+        Defaults: fuel and SOC within 5 %.
+    rungs : dict, optional
+        test id -> rung, overriding the classification by cycle name.
+    """
+    tol = tolerances if isinstance(tolerances, Tolerances) else Tolerances.from_mapping(tolerances)
+    entries = []
+    for c in comparisons:
+        rung = (rungs or {}).get(c.test_id) or rung_of(c.cycle)
+        if rung not in RUNGS:
+            raise ConfigError(f"test '{c.test_id}': unknown rung '{rung}' (use {', '.join(RUNGS)})")
+        ok, fails, err = verdict(c, tol)
+        entries.append(LadderEntry(c.test_id, c.cycle, rung, err, ok, fails))
+    entries.sort(key=lambda e: (RUNGS.index(e.rung), e.cycle, e.test_id))
+    return LadderResult(entries, tol)

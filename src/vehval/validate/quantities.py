@@ -1,0 +1,177 @@
+"""Whole-test quantities (fuel, distance, SOC, engine on/off, energies) from a Test's signals.
+
+The same function computes them from the measured signals (origin ``test``, falling back
+to ``calc``) and from the simulated ones (origin ``simu``), on the same time grid, so the
+test and the simulation are always reduced by identical formulas.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vehval.nomenclature import registry
+from vehval.test import Signal, Test
+from vehval.validate.metrics import energies, integrate, on_off_events
+
+RPM = np.pi / 30.0          # [rad/s per rpm]
+MILE_M = 1609.344           # [m]
+GALLON_M3 = 3.785411784e-3  # US gallon [m^3]
+
+#: Preferred acquisition systems when a measured quantity exists from several sources.
+SOURCE_PREFERENCE = ("", "dyno", "direct", "daq", "bench", "modal", "can", "ecu", "obd", "pa",
+                     "target")
+
+#: Component powers [W] and the (torque, speed) pair that gives them when not recorded.
+POWERS: dict[str, tuple[str, str] | None] = {
+    "eng_pwr_out": ("eng_trq_out", "eng_spd_out"),
+    "mot_pwr_out": ("mot_trq_out", "mot_spd_out"),
+    "gen_pwr_out": ("gen_trq_out", "gen_spd_out"),
+    "whl_pwr_out": ("whl_trq_out", "whl_spd"),
+    "ess_pwr": ("ess_volt", "ess_curr"),
+}
+
+
+def pick_signal(test: Test, base: str, origin: str) -> Signal | None:
+    """The signal of ``base`` to use for one side of a comparison.
+
+    ``origin='simu'`` takes ``<base>_simu``. ``origin='test'`` takes ``<base>_test``, else the
+    measured signal of the most preferred source (:data:`SOURCE_PREFERENCE`), else the
+    calculated ``<base>_calc`` (a quantity derived from measured signals by QA). None when
+    the test has none of them.
+    """
+    origins = ("simu",) if origin == "simu" else ("test", "calc")
+    reg = registry()
+    for org in origins:
+        exact = f"{base}_{org}"
+        if exact in test:
+            return test[exact]
+        found = []
+        for sig in test:
+            try:
+                parsed = reg.parse(sig.name)
+            except Exception:  # noqa: BLE001 - names outside the nomenclature are skipped
+                continue
+            if parsed.base == base and parsed.origin == org:
+                src = parsed.source or ""
+                rank = SOURCE_PREFERENCE.index(src) if src in SOURCE_PREFERENCE else len(SOURCE_PREFERENCE)
+                found.append((rank, sig.name, sig))
+        if found:
+            return sorted(found, key=lambda x: (x[0], x[1]))[0][2]
+    return None
+
+
+def on_grid(test: Test, base: str, origin: str, grid: np.ndarray) -> np.ndarray | None:
+    """Samples of ``base`` (see :func:`pick_signal`) on ``grid`` [s], or None if absent.
+
+    Powers listed in :data:`POWERS` are computed from torque x speed (or volt x current)
+    when the test has no power signal of their own.
+    """
+    sig = pick_signal(test, base, origin)
+    if sig is not None:
+        return _at(sig, grid)
+    pair = POWERS.get(base)
+    if pair:
+        a, b = (pick_signal(test, n, origin) for n in pair)
+        if a is not None and b is not None:
+            return _at(a, grid) * _at(b, grid)
+    return None
+
+
+def _at(sig: Signal, grid: np.ndarray) -> np.ndarray:
+    """``sig.at(grid)``, short-cut when the signal is already sampled on ``grid``."""
+    t = sig.time
+    if t.size == grid.size and t.size and abs(t[0] - grid[0]) < 1e-9 and abs(t[-1] - grid[-1]) < 1e-9 \
+            and float(np.max(np.abs(t - grid))) < 1e-9:
+        return np.array(sig.values, dtype=float)
+    return sig.at(grid)
+
+
+def engine_on(test: Test, origin: str, grid: np.ndarray, method: str,
+              on_speed_rpm: float = 400.0) -> np.ndarray | None:
+    """Engine on flag (1/0, NaN where unknown) on ``grid`` [s].
+
+    ``method='flag'`` uses ``eng_on``; ``'speed'`` says the engine is on when
+    ``eng_spd_out`` exceeds ``on_speed_rpm`` [rpm]; ``'fuel'`` when ``fuel_rate`` > 0.05 g/s.
+    """
+    if method == "flag":
+        v = on_grid(test, "eng_on", origin, grid)
+        return None if v is None else np.where(np.isfinite(v), (v > 0.5).astype(float), np.nan)
+    if method == "speed":
+        v = on_grid(test, "eng_spd_out", origin, grid)
+        return None if v is None else np.where(np.isfinite(v), (v > on_speed_rpm * RPM).astype(float), np.nan)
+    if method == "fuel":
+        v = on_grid(test, "fuel_rate", origin, grid)
+        return None if v is None else np.where(np.isfinite(v), (v > 0.05e-3).astype(float), np.nan)
+    raise ValueError(f"unknown engine-on method '{method}' (flag, speed or fuel)")
+
+
+def engine_on_method(test: Test, sim: Test | None = None) -> str | None:
+    """The engine-on definition both sides support: flag, else speed, else fuel (None: none)."""
+    for method, base in (("flag", "eng_on"), ("speed", "eng_spd_out"), ("fuel", "fuel_rate")):
+        if pick_signal(test, base, "test") is not None and (
+                sim is None or pick_signal(sim, base, "simu") is not None):
+            return method
+    return None
+
+
+def _first_last(v: np.ndarray | None) -> tuple[float, float]:
+    if v is None:
+        return float("nan"), float("nan")
+    ok = np.flatnonzero(np.isfinite(v))
+    if not ok.size:
+        return float("nan"), float("nan")
+    return float(v[ok[0]]), float(v[ok[-1]])
+
+
+def totals(test: Test, origin: str, grid: np.ndarray, *,
+                    fuel_density_kg_per_m3: float = 745.0, fuel_lhv_j_per_kg: float = 42.6e6,
+                    on_method: str | None = None, on_speed_rpm: float = 400.0) -> dict[str, Any]:
+    """Whole-test quantities of one side (``origin`` test or simu) over ``grid`` [s].
+
+    Returns
+    -------
+    dict
+        ``distance_m``, ``fuel_mass_kg``, ``fuel_energy_j``, ``fuel_economy_mpg``,
+        ``fuel_consumption_l_per_100km``, ``soc_initial``, ``soc_final``, ``soc_delta``
+        (final - initial), ``engine_on_share`` [-], ``engine_starts``, and for each power
+        of :data:`POWERS` available ``<power>_pos_j`` and ``<power>_neg_j`` [J]. Missing
+        inputs give NaN.
+    """
+    nan = float("nan")
+    q: dict[str, Any] = {}
+    spd = on_grid(test, "veh_spd", origin, grid)
+    q["distance_m"] = integrate(grid, spd) if spd is not None else nan
+    fuel = on_grid(test, "fuel_rate", origin, grid)
+    if fuel is None:
+        cum = on_grid(test, "fuel_mass", origin, grid)
+        a, b = _first_last(cum)
+        q["fuel_mass_kg"] = b - a
+    else:
+        q["fuel_mass_kg"] = integrate(grid, fuel)
+    q["fuel_energy_j"] = q["fuel_mass_kg"] * fuel_lhv_j_per_kg
+    vol_m3 = q["fuel_mass_kg"] / fuel_density_kg_per_m3
+    dist = q["distance_m"]
+    q["fuel_economy_mpg"] = (dist / MILE_M) / (vol_m3 / GALLON_M3) if vol_m3 > 0 else nan
+    q["fuel_consumption_l_per_100km"] = vol_m3 * 1e3 / (dist / 1e5) if dist > 0 else nan
+    soc = on_grid(test, "ess_soc", origin, grid)
+    q["soc_initial"], q["soc_final"] = _first_last(soc)
+    q["soc_delta"] = q["soc_final"] - q["soc_initial"]
+    on = engine_on(test, origin, grid, on_method, on_speed_rpm) if on_method else None
+    if on is not None and np.any(np.isfinite(on)):
+        q["engine_on_share"] = float(np.nanmean(on))
+        q["engine_starts"] = int(on_off_events(grid, on)[0].size)
+    else:
+        q["engine_on_share"], q["engine_starts"] = nan, nan
+    for pname in POWERS:
+        p = on_grid(test, pname, origin, grid)
+        if p is not None:
+            q[f"{pname}_pos_j"], q[f"{pname}_neg_j"] = energies(grid, p)
+    return q
+
+
+def uniform_grid(t0: float, t1: float, dt: float) -> np.ndarray:
+    """Uniform grid from ``t0`` to ``t1`` [s] with step ``dt`` [s] (end included if it falls on it)."""
+    n = int(np.floor((t1 - t0) / dt + 1e-9)) + 1
+    return t0 + dt * np.arange(max(n, 1))

@@ -1,0 +1,79 @@
+"""Validate a vehicle model against one test: simulate on the test's conditions and compare.
+
+``validate_test(test, vehicle)`` builds the test's conditions (measured speed trace,
+measured initial SOC, template mass and road load), runs the forward-looking simulation
+on them and compares test and simulation (:func:`vehval.validate.compare.compare`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from vehval.sim.simulate import SimResult, simulate
+from vehval.sim.vehicle import Vehicle, load_vehicle
+from vehval.test import Test
+from vehval.validate.compare import Comparison, _clean, compare, overlay_figures
+from vehval.validate.conditions import Conditions, simulation_conditions, vehicle_variant
+
+
+@dataclass
+class Validation:
+    """One test validated: its conditions, the simulation and the comparison."""
+
+    conditions: Conditions
+    sim: SimResult
+    comparison: Comparison
+    overrides: dict[str, Any]
+
+    def payload(self, figures: bool = True) -> dict[str, Any]:
+        """The ``validation`` dict of the report: ``{tables, figures, notes}``."""
+        c = self.comparison
+        return {"tables": c.tables(), "figures": overlay_figures(c) if figures else [],
+                "notes": self.conditions.notes + c.notes}
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (``validation.json``)."""
+        d = self.comparison.to_dict()
+        d["conditions"] = self.conditions.to_dict()
+        d["overrides"] = dict(self.overrides)
+        d["vehicle"] = self.sim.vehicle.name
+        d["vehicle_file"] = self.sim.vehicle.file
+        d["dt_s"] = self.sim.dt
+        d["sim_summary"] = {k: v for k, v in self.sim.summary.items()
+                            if isinstance(v, (int, float, str, bool))}
+        return _clean(d)
+
+
+def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
+                  overrides: dict[str, Any] | None = None, window_s: float = 2.0,
+                  use_constants: bool = True, on_speed_rpm: float = 400.0) -> Validation:
+    """Simulate ``vehicle`` on the conditions of ``test`` and compare the two.
+
+    Parameters
+    ----------
+    test : Test
+        Measured (validated) test.
+    vehicle : Vehicle or name/path
+        The model.
+    dt : float
+        Simulation step [s].
+    overrides : dict, optional
+        Extra dotted parameter overrides (applied after the template's mass and road load).
+    window_s : float
+        Engine start/stop matching window [s].
+    use_constants : bool
+        Use the template's mass and road-load constants.
+    on_speed_rpm : float
+        Engine-on speed threshold [rpm] when the engine state comes from engine speed.
+    """
+    veh = load_vehicle(vehicle)
+    cond = simulation_conditions(test, veh, use_constants=use_constants)
+    ov = dict(cond.overrides)
+    ov.update(overrides or {})
+    sim = simulate(vehicle_variant(veh, ov) if ov else veh, cond.cycle, dt=dt,
+                   soc_initial=cond.soc_initial)
+    comp = compare(test, sim.test, dt=dt, window_s=window_s, on_speed_rpm=on_speed_rpm,
+                   fuel_density_kg_per_m3=cond.fuel_density_kg_per_m3,
+                   fuel_lhv_j_per_kg=cond.fuel_lhv_j_per_kg)
+    return Validation(conditions=cond, sim=sim, comparison=comp, overrides=ov)

@@ -1,0 +1,118 @@
+"""Batch runs in a plain loop (``--workers 0``): metrics, failures, resume, index, CLI."""
+
+from __future__ import annotations
+
+import json
+import os
+
+import pytest
+
+from vehval.batch import run_batch
+from vehval.catalog import open_catalog
+from vehval.cli import main
+from vehval.errors import ConfigError
+
+from .conftest import write_d3
+
+# Metrics are trapezoidal integrals of the values as written (10 significant digits) and the
+# reader parses them exactly, so the only differences are float summation order: rtol 1e-9.
+RTOL = 1e-9
+
+
+def _inputs(root, n=3):
+    expected = {}
+    for i in range(n):
+        expected[f"t{i}"] = write_d3(root / f"t{i}" / f"run{i}.txt", seed=i)
+    (root / "garbage").mkdir(parents=True)
+    (root / "garbage" / "x.txt").write_bytes(bytes(range(256)) * 3)
+    (root / "empty").mkdir()                         # no matching file
+    return expected
+
+
+def _rows(db, run_id):
+    with open_catalog(db, read_only=True) as cat:
+        cols, rows = cat.query("SELECT * FROM tests WHERE run_id = ? ORDER BY test_id", [run_id])
+    return {r[0]: dict(zip(cols, r)) for r in rows}
+
+
+def test_plain_loop_metrics_failures_and_resume(tmp_path, template_path):
+    inp, out = tmp_path / "in", tmp_path / "out"
+    expected = _inputs(inp)
+    s1 = run_batch(inp, template_path, out, steps=["qa"], workers=0, report=False, progress=False)
+    assert (s1.n_ok, s1.n_failed, s1.n_skipped) == (3, 2, 0)
+    rows = _rows(out / "catalog.duckdb", s1.run_id)
+    assert set(rows) == {"t0", "t1", "t2", "garbage", "empty"}
+    for tid, exp in expected.items():
+        for key, val in exp.items():
+            assert rows[tid][key] == pytest.approx(val, rel=RTOL), (tid, key)
+        assert (out / "tests" / tid / "findings.json").is_file()
+    assert rows["garbage"]["status"] == "failed" and "x.txt" in rows["garbage"]["error"]
+    assert rows["empty"]["status"] == "failed" and rows["empty"]["error"]
+    res = json.loads((out / "tests" / "garbage" / "result.json").read_text())
+    assert res["error_kind"] == "user" and res["error_type"] == "InputFileError"
+
+    # rerun: nothing recomputed; change one file: only that test is recomputed
+    mtimes = {t: os.stat(out / "tests" / t / "result.json").st_mtime_ns for t in rows}
+    write_d3(inp / "t1" / "run1.txt", seed=99)
+    s2 = run_batch(inp, template_path, out, steps=["qa"], workers=0, report=False, progress=False)
+    assert (s2.n_ok, s2.n_failed, s2.n_skipped) == (1, 0, 4)
+    rows2 = _rows(out / "catalog.duckdb", s2.run_id)
+    assert rows2["t1"]["status"] == "ok" and rows2["t1"]["source_run_id"] == s2.run_id
+    assert rows2["t0"]["status"] == "skipped" and rows2["t0"]["source_run_id"] == s1.run_id
+    assert rows2["t0"]["fuel_mass_kg"] == rows["t0"]["fuel_mass_kg"]
+    assert rows2["garbage"]["error"] == rows["garbage"]["error"]
+    for t in ("t0", "t2", "garbage", "empty"):
+        assert os.stat(out / "tests" / t / "result.json").st_mtime_ns == mtimes[t]
+    # different steps = different settings: everything is recomputed
+    s3 = run_batch(inp, template_path, out, steps=[], workers=0, report=False, progress=False)
+    assert s3.n_skipped == 0 and not (out / "tests" / "t0" / "findings.json").exists()
+
+
+def test_index_and_report_links(tmp_path, template_path):
+    inp, out = tmp_path / "in", tmp_path / "out"
+    _inputs(inp, n=2)
+    pytest.importorskip("vehval.report")
+    run_batch(inp, template_path, out, steps=["qa"], workers=0, report=True, progress=False)
+    html = (out / "index.html").read_text(encoding="utf-8")
+    for tid in ("t0", "t1"):
+        assert f'href="tests/{tid}/report.html"' in html
+        assert (out / "tests" / tid / "report.html").is_file()
+    assert 'href="tests/garbage/report.html"' not in html
+    # plotly.js embedded exactly once, nothing loaded from the network
+    assert html.count("Plotly.newPlot") == 1 and "<script src=" not in html
+    assert html.count("* plotly.js v") == 1
+    assert "Test-to-test variability" in html
+
+
+def test_unavailable_or_unknown_step_fails_early(tmp_path, template_path):
+    _inputs(tmp_path / "in", n=1)
+    with pytest.raises(ConfigError, match="unknown step 'nope'"):
+        run_batch(tmp_path / "in", template_path, tmp_path / "out", steps=["nope"], workers=0)
+    import importlib.util
+
+    for step, module in (("analyze", "vehval.analysis"), ("validate", "vehval.validate")):
+        if importlib.util.find_spec(module) is None:
+            with pytest.raises(ConfigError, match=f"step '{step}' is not available in this version"):
+                run_batch(tmp_path / "in", template_path, tmp_path / "out", steps=[step], workers=0)
+    assert not (tmp_path / "out").exists()  # nothing written before the settings are checked
+
+
+def test_cli_batch_and_catalog(tmp_path, template_path, capsys):
+    inp, out = tmp_path / "in", tmp_path / "out"
+    _inputs(inp, n=2)
+    rc = main(["batch", str(inp), "-t", str(template_path), "-o", str(out), "--steps", "",
+               "--no-report", "--workers", "0", "-q"])
+    assert rc == 1  # two broken tests
+    err = capsys.readouterr().err
+    assert "failed garbage" in err and "failed empty" in err
+    db = str(out / "catalog.duckdb")
+    assert main(["catalog", "query", "SELECT test_id, status FROM latest_tests ORDER BY 1",
+                 "--db", db, "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["status"] for r in rows] == ["failed", "failed", "ok", "ok"]
+    assert main(["catalog", "summary", "--db", db, "--json"]) == 0
+    summ = json.loads(capsys.readouterr().out)
+    assert {r["metric"] for r in summ} >= {"fuel_economy_mpg", "soc_change"}
+    assert all(r["n"] == 2 for r in summ)
+    assert main(["catalog", "query", "DROP TABLE tests", "--db", db]) == 2  # read-only
+    assert "catalog query failed" in capsys.readouterr().err

@@ -1,0 +1,74 @@
+"""The DuckDB catalog: schema, inserts, the latest view and the variability summary."""
+
+from __future__ import annotations
+
+import math
+import statistics
+
+import pytest
+
+from vehval.catalog import SCHEMA_VERSION, open_catalog
+from vehval.errors import ConfigError, InputFileError, VehvalError
+
+
+def _res(tid, run, mpg, soc, status="ok", cycle="udds", findings=()):
+    return {"test_id": tid, "run_id": run, "status": status, "vehicle": "prius_2004",
+            "cycle": cycle, "files": [f"/d/{tid}.txt"], "file_hashes": {f"{tid}.txt": "ab"},
+            "input_hash": "h" + tid, "elapsed_s": 0.5, "error": None if status == "ok" else "bad",
+            "metrics": {"fuel_economy_mpg": mpg, "soc_change": soc, "distance_m": float("nan")},
+            "findings": list(findings), "findings_by_severity": {"warning": len(findings)}}
+
+
+def test_schema_and_roundtrip(tmp_path):
+    db = tmp_path / "c.duckdb"
+    f = {"signal": "veh_spd_test", "kind": "spike", "severity": "warning", "start_s": 1.0,
+         "end_s": 2.0, "message": "spike"}
+    with open_catalog(db) as cat:
+        cat.start_run("r1", {"steps": ["qa"]})
+        cat.add_result("r1", _res("a", "r1", 50.0, -0.01, findings=[f, f]))
+        cat.add_result("r1", _res("b", "r1", None, None, status="failed"))
+        assert cat.finish_run("r1") == {"ok": 1, "failed": 1, "skipped": 0}
+    with open_catalog(db, read_only=True) as cat:
+        assert cat.query("SELECT version FROM schema_info")[1] == [(SCHEMA_VERSION,)]
+        cols, rows = cat.query("SELECT test_id, status, fuel_economy_mpg, distance_m, files, "
+                               "n_findings, n_findings_by_severity->>'warning' FROM tests ORDER BY 1")
+        assert rows[0] == ("a", "ok", 50.0, None, ["/d/a.txt"], 2, "2")  # NaN stored as NULL
+        assert rows[1][1] == "failed"
+        assert cat.query("SELECT count(*) FROM findings WHERE test_id = 'a'")[1] == [(2,)]
+        with pytest.raises(VehvalError, match="catalog query failed"):
+            cat.query("SELECT nope FROM tests")
+
+
+def test_summary_uses_latest_row_per_test(tmp_path):
+    with open_catalog(tmp_path / "c.duckdb") as cat:
+        cat.start_run("r1", {})
+        for tid, mpg in (("a", 40.0), ("b", 44.0), ("c", 48.0)):
+            cat.add_result("r1", _res(tid, "r1", mpg, -0.02))
+        cat.add_result("r1", _res("h", "r1", 30.0, 0.0, cycle="hwfet"))
+        cat.finish_run("r1")
+        cat.start_run("r2", {})
+        cat.add_result("r2", _res("a", "r2", 60.0, -0.02))          # a recomputed: 60 replaces 40
+        cat.add_result("r2", _res("b", "r1", 44.0, -0.02), status="skipped")
+        cat.add_result("r2", _res("c", "r2", None, None, status="failed"))  # now failing: left out
+        cat.finish_run("r2")
+        rows = {(r["cycle"], r["metric"]): r for r in cat.summary()}
+    s = rows[("udds", "fuel_economy_mpg")]
+    assert s["n"] == 2
+    assert s["mean"] == pytest.approx(52.0, rel=1e-12)
+    assert s["std"] == pytest.approx(statistics.stdev([60.0, 44.0]), rel=1e-12)
+    assert s["cv"] == pytest.approx(statistics.stdev([60.0, 44.0]) / 52.0, rel=1e-12)
+    h = rows[("hwfet", "soc_change")]
+    assert h["n"] == 1 and h["std"] is None and h["cv"] is None
+    assert not math.isnan(rows[("udds", "soc_change")]["mean"])
+
+
+def test_read_only_errors(tmp_path):
+    with pytest.raises(InputFileError, match="does not exist"):
+        open_catalog(tmp_path / "none.duckdb", read_only=True)
+    import duckdb
+
+    con = duckdb.connect(str(tmp_path / "other.duckdb"))
+    con.execute("CREATE TABLE x (a INTEGER)")
+    con.close()
+    with pytest.raises(ConfigError, match="not a vehval catalog"):
+        open_catalog(tmp_path / "other.duckdb", read_only=True)

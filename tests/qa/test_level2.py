@@ -1,0 +1,80 @@
+"""QA level 2: Table-2 metrics against hand computation; faults between sources."""
+
+import numpy as np
+import pytest
+
+from vehval.qa.findings import Kind, Severity
+from vehval.qa.level2 import compare_pair, preference_rank, run_level2
+from vehval.test import Signal, Test
+
+from .conftest import make_test
+
+
+def test_table2_metrics_hand_computed():
+    # same time base: ref = [1, 2, 3, 4, 5, 6], other = 2 ref + 1 (exact line)
+    t = np.arange(6.0)
+    a = Signal.standard("eng_spd_out_test", t, [1, 2, 3, 4, 5, 6.0])
+    b = Signal.standard("eng_spd_out_obd_test", t, [3, 5, 7, 9, 11, 13.0])
+    row = compare_pair(a, b)
+    assert row.n == 6
+    assert row.r2 == pytest.approx(1.0, abs=1e-12)
+    assert row.slope == pytest.approx(2.0, abs=1e-12)
+    assert row.offset == pytest.approx(1.0, abs=1e-12)
+    # |b - a| = a + 1 = [2..7], mean 4.5; mean |a| = 3.5
+    assert row.mean_abs_diff == pytest.approx(4.5, abs=1e-12)
+    assert row.mean_rel_diff == pytest.approx(4.5 / 3.5, abs=1e-12)
+
+
+def test_table2_r2_hand_computed_with_noise():
+    t = np.arange(5.0)
+    a = Signal.standard("veh_spd_test", t, [0, 1, 2, 3, 4.0])
+    b = Signal.standard("veh_spd_obd_test", t, [0, 1, 3, 3, 4.0])
+    row = compare_pair(a, b)
+    # hand: da = [-2,-1,0,1,2], db = [-2.2,-1.2,0.8,0.8,1.8]; Sab = 4.4+1.2+0+0.8+3.6 = 10,
+    # Saa = 10, Sbb = 4.84+1.44+0.64+0.64+3.24 = 10.8 -> r^2 = 100/108, slope 1, offset 0.2
+    assert row.r2 == pytest.approx(100 / 108, abs=1e-12)
+    assert row.slope == pytest.approx(1.0, abs=1e-12)
+    assert row.offset == pytest.approx(0.2, abs=1e-12)
+    assert row.mean_abs_diff == pytest.approx(0.2, abs=1e-12)
+
+
+def test_preference_facility_first():
+    names = ["eng_spd_out_obd_test", "eng_spd_out_test", "eng_spd_out_dyno_test", "eng_spd_out_x_test"]
+    assert sorted(names, key=preference_rank)[0] == "eng_spd_out_test"
+    assert sorted(names, key=preference_rank)[-1] == "eng_spd_out_x_test"
+
+
+def _with(test, name, values):
+    s = test[name]
+    test.add(Signal.standard(name, s.time, values, source=s.source), replace_existing=True)
+
+
+@pytest.mark.parametrize("fault,kind", [
+    (lambda v: 1.12 * v, Kind.GAIN),
+    (lambda v: -v, Kind.SIGN_FLIP),
+    (lambda v: v * 60 / (2 * np.pi), Kind.UNIT),
+    (lambda v: v + 40.0, Kind.OFFSET),
+])
+def test_faults_between_sources(fault, kind):
+    test = make_test(seed=21)
+    _with(test, "eng_spd_out_obd_test", fault(test["eng_spd_out_obd_test"].values))
+    rows, found = run_level2(test)
+    hit = [f for f in found if f.kind == kind]
+    assert hit and all(f.signal == "eng_spd_out_obd_test" for f in hit), [(f.kind, f.signal) for f in found]
+    assert not [f for f in found if f.signal == "veh_spd_obd_test"]
+
+
+def test_three_sources_blame_the_odd_one():
+    test = make_test(seed=22)
+    s = test["eng_spd_out_test"]
+    test.add(Signal.standard("eng_spd_out_daq_test", s.time, 1.15 * s.values, source="dyno"))
+    _, found = run_level2(test)
+    blamed = {f.signal for f in found if f.severity != Severity.INFO}
+    assert blamed == {"eng_spd_out_daq_test"}
+
+
+def test_clean_sources_agree():
+    rows, found = run_level2(make_test(seed=23))
+    assert found == []
+    assert {r.base for r in rows} == {"eng_spd_out", "veh_spd"}
+    assert all(r.r2 > 0.99 and abs(r.residual_lag_s) < 0.1 for r in rows)

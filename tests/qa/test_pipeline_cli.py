@@ -1,0 +1,88 @@
+"""The QA pipeline contract (findings.json) and the `vehval qa` command."""
+
+import json
+
+import numpy as np
+import pytest
+
+from vehval.qa.findings import Finding, Kind, Severity, summarise
+from vehval.qa.pipeline import run_qa
+
+from .conftest import NR, NS, make_test
+
+TOP_KEYS = {"findings_version", "test", "alignment", "findings", "table2", "table3", "checks",
+            "calculations", "selection", "summary", "notes"}
+
+
+def test_run_qa_document_and_validated_test():
+    test = make_test(seed=41, obd_offset_s=1.5)
+    before = {s.name: s.time.copy() for s in test}
+    res = run_qa(test, {"planetary": {"ring_teeth": NR, "sun_teeth": NS}})
+    d = json.loads(json.dumps(res.to_dict()))
+    assert set(d) == TOP_KEYS
+    assert set(d["test"]) == {"id", "files", "duration_s"}
+    assert set(d["calculations"]) >= {"computed", "not_computed", "parameters"}
+    assert set(d["summary"]["by_severity"]) == {"info", "warning", "error"}
+    assert d["summary"]["by_severity"]["warning"] == 0 and d["summary"]["by_severity"]["error"] == 0
+    assert abs(d["alignment"][0]["offset_s"] - 1.5) < 0.05
+    # the input test is untouched; the validated one is aligned and has the calc signals
+    assert all(np.array_equal(test[n].time, t) for n, t in before.items())
+    assert res.validated.meta.offsets_s["obd"] == pytest.approx(d["alignment"][0]["offset_s"])
+    assert any(n.endswith("_calc") for n in res.validated.names)
+    assert set(d["selection"]["kept"]) <= set(res.validated.names)
+
+
+def test_finding_roundtrip_and_summary():
+    f = Finding("veh_spd_test", Kind.SPIKE, 1.0, 2.0, Severity.WARNING, "x", {"value": float("nan")})
+    d = f.to_dict()
+    assert d["numbers"]["value"] is None and d["level"] == 1
+    assert Finding.from_dict(d).kind == Kind.SPIKE
+    s = summarise([f, f])
+    assert s["total"] == 2 and s["by_kind"] == {"spike": 2} and s["by_severity"]["error"] == 0
+
+
+def _write_d3(path, test, names_units):
+    """Write the facility signals of a hand test as a D3-style tab file."""
+    t = test["veh_spd_test"].time
+    cols = [f"{raw}[{unit}]" for raw, (_, unit, _) in names_units.items()]
+    lines = ["Time[sec]\t" + "\t".join(cols)]
+    data = [t] + [test[n].values * k for n, _, k in names_units.values()]
+    for row in np.column_stack(data):
+        lines.append("\t".join(f"{x:.4f}" for x in row))
+    path.write_text("\n".join(lines) + "\n")
+
+
+def test_cli_qa_writes_outputs(tmp_path):
+    from vehval.cli import main
+    test = make_test(seed=42, obd=())
+    f = tmp_path / "t1_d3.txt"
+    _write_d3(f, test, {"Dyno_Speed": ("veh_spd_test", "m/s", 1.0),
+                        "Dyno_Tractive_Effort": ("veh_frc_in_test", "N", 1.0),
+                        "Engine_Speed": ("eng_spd_out_test", "rpm", 60 / (2 * np.pi)),
+                        "Bty_Curr": ("veh_spd_test", "A", 0.0)})
+    tpl = tmp_path / "t.yaml"
+    tpl.write_text(
+        "template_version: 1\nconstants: {test_mass_kg: 1295, road_load_a_n: 88.6, "
+        "road_load_b_n_per_mps: 0.14, road_load_c_n_per_mps2: 0.36}\nfiles:\n"
+        "  - match: '*_d3.txt'\n    source: dyno\n    format: d3\n    time: {column: Time, unit: s}\n"
+        "    channels:\n      Dyno_Speed: {name: veh_spd_test, unit: m/s}\n"
+        "      Dyno_Tractive_Effort: {name: veh_frc_in_test, unit: N}\n"
+        "      Engine_Speed: {name: eng_spd_out_test, unit: rpm}\n"
+        "      Bty_Curr: {name: ess_curr_test, unit: A}\n")
+    out = tmp_path / "out"
+    rc = main(["qa", str(f), "-t", str(tpl), "-o", str(out), "--json"])
+    assert rc == 0
+    d = json.loads((out / "findings.json").read_text())
+    assert d["test"]["id"] and d["summary"]["by_kind"].get("all_zero") == 1
+    assert (out / "validated.parquet").is_file()
+    from vehval.io.template import load_template
+    final = load_template(out / "template_final.yaml")
+    assert list(final.selection.drop) == ["ess_curr_test"]
+    assert final.selection.drop["ess_curr_test"].startswith("all_zero")
+    from vehval.io.parquet import read_test
+    assert "veh_frc_in_calc" in read_test(out / "validated.parquet")
+    # a bad template is one clear error line and exit code 2, and no output directory
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("template_version: 1\nfiles: []\n")
+    assert main(["qa", str(f), "-t", str(bad), "-o", str(tmp_path / "o2")]) == 2
+    assert not (tmp_path / "o2").exists()

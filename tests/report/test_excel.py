@@ -1,0 +1,98 @@
+"""tables.xlsx: opens with openpyxl, its tables equal findings.json cell by cell, units in headers."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+openpyxl = pytest.importorskip("openpyxl")
+
+from vehval.report.excel import timeseries_frame, write_tables  # noqa: E402
+
+from .conftest import make_qa, make_test  # noqa: E402
+
+pytestmark = pytest.mark.xdist_group("report_excel")
+
+
+@pytest.fixture(scope="module")
+def workbook(tmp_path_factory):
+    path = tmp_path_factory.mktemp("xl") / "tables.xlsx"
+    qa = json.loads(json.dumps(make_qa()))          # exactly what findings.json holds
+    write_tables(path, qa, make_test())
+    return openpyxl.load_workbook(path, read_only=False), qa
+
+
+def _table(ws, title):
+    """Rows of the table whose title cell is ``title``: (header, rows)."""
+    rows = [list(r) for r in ws.iter_rows(values_only=True)]
+    i = next(k for k, r in enumerate(rows) if r and r[0] == title)
+    header = [c for c in rows[i + 1] if c is not None]
+    out = []
+    for r in rows[i + 2:]:
+        if all(c is None for c in r):
+            break
+        out.append(list(r[:len(header)]) + [None] * (len(header) - len(r)))
+    return header, out
+
+
+def _same(cell, value):
+    if isinstance(value, (list, dict)):
+        return json.loads(cell) == value
+    if isinstance(value, float):
+        return cell == pytest.approx(value, rel=1e-12)   # xlsx stores IEEE doubles as text
+    return cell == value
+
+
+@pytest.mark.parametrize("sheet,title,key", [("Findings", "QA findings", "findings"),
+                                              ("Table2", "Table 2", "table2"),
+                                              ("Table3", "Table 3", "table3")])
+def test_tables_match_findings_json(workbook, sheet, title, key):
+    wb, qa = workbook
+    header, rows = _table(wb[sheet], title)
+    expected = qa[key]
+    assert header == list(expected[0].keys())
+    assert len(rows) == len(expected)
+    for row, exp in zip(rows, expected):
+        for col, cell in zip(header, row):
+            assert _same(cell, exp[col]), (sheet, col, cell, exp[col])
+
+
+def test_other_sheets(workbook):
+    wb, qa = workbook
+    assert set(wb.sheetnames) >= {"Summary", "Findings", "Table2", "Table3", "Alignment", "Selection",
+                                  "Calculations", "Mapping", "Deleted", "TimeSeries"}
+    header, rows = _table(wb["Alignment"], "Alignment by source")
+    assert rows[0][header.index("offset_s")] == 1.2
+    header, rows = _table(wb["Selection"], "Selection: dropped")
+    assert rows == [["veh_spd_obd_test", qa["selection"]["dropped"]["veh_spd_obd_test"]]]
+    header, rows = _table(wb["Mapping"], "Channel mapping")
+    r = rows[[x[0] for x in rows].index("veh_spd_test")]
+    assert r[:5] == ["veh_spd_test", "m/s", "dyno", "Dyno_Speed", "mph"]
+
+
+def test_timeseries_sheet(workbook):
+    wb, _ = workbook
+    ws = wb["TimeSeries"]
+    header = [c.value for c in ws[1]]
+    assert header[0] == "time [s]" and "veh_spd_test [m/s]" in header and "eng_trq_out_test [N*m]" in header
+    test = make_test()
+    frame = timeseries_frame(test)
+    assert ws.max_row == len(frame) + 1                  # 0.1 s grid over 300 s
+    j = header.index("veh_spd_obd_test [m/s]")
+    col = [ws.cell(row=i + 2, column=j + 1).value for i in range(len(frame))]
+    got = np.array([np.nan if c is None else c for c in col], float)
+    np.testing.assert_allclose(got, test["veh_spd_obd_test"].at(frame["time [s]"].to_numpy()),
+                               rtol=1e-12, equal_nan=True)   # linear interpolation of the 1 Hz signal
+
+
+def test_write_is_atomic(tmp_path, monkeypatch):
+    import vehval.report.excel as xl
+
+    def boom(*a, **k):
+        raise RuntimeError("resample failed")
+    monkeypatch.setattr(xl, "timeseries_frame", boom)
+    with pytest.raises(RuntimeError):
+        write_tables(tmp_path / "t.xlsx", make_qa(), make_test())
+    assert list(tmp_path.iterdir()) == []

@@ -1,0 +1,113 @@
+"""Structure of the self-contained HTML report: one plotly.js, every table, nothing fetched."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+
+from vehval.report import build_reports, write_report
+from vehval.report import html as html_mod
+
+from .conftest import make_qa, make_test
+
+TABLE_KEYS = ("findings", "table2", "table3", "alignment", "alignment-pairs", "selection-kept",
+              "selection-dropped", "calculations", "mapping", "deleted")
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rep") / "report.html"
+    control = {"tables": [{"title": "Engine on/off thresholds", "columns": ["threshold", "value [W]"],
+                           "rows": [["power on", 9000.0], ["power off", 5000.0]]}],
+               "figures": [{"title": "Engine on map", "figure": {"data": [{"type": "bar", "x": [1, 2], "y": [3, 4]}],
+                                                                 "layout": {}}}]}
+    validation = {"tables": [{"title": "Fuel economy", "rows": [{"quantity": "fuel [kg]", "test": 0.5,
+                                                                  "simu": 0.52}]}],
+                  "figures": [], "metrics": {"soc_final_error": 0.01}}
+    write_report(path, test=make_test(), qa=make_qa(), control=control, validation=validation)
+    return path.read_text(encoding="utf-8")
+
+
+def _strip_plotly(text: str) -> str:
+    return re.sub(r'<script id="plotly-js">.*?</script>', "", text, count=1, flags=re.S)
+
+
+def test_plotly_embedded_once(report):
+    from plotly.offline import get_plotlyjs
+    head = get_plotlyjs()[:200]
+    assert report.count(head) == 1
+    assert report.count('<script id="plotly-js">') == 1
+    # figures are JSON data blocks, not copies of the library
+    assert len(report) < len(get_plotlyjs()) + 3_000_000
+
+
+def test_every_table_present(report):
+    for key in TABLE_KEYS:
+        assert f'data-table="{key}"' in report, key
+    for key in ("control-", "validation-"):
+        assert f'data-table="{key}' in report
+    for sec in ("summary", "import", "alignment", "qa1", "qa2", "qa3", "calc", "selection", "signals",
+                "engineering", "control", "validation"):
+        assert f'<section id="{sec}"' in report, sec
+
+
+def test_no_network_reference(report):
+    own = _strip_plotly(report)
+    assert not re.search(r'(src|href)\s*=\s*["\']?\s*(https?:)?//', own, re.I)
+    assert "fetch(" not in own and "XMLHttpRequest" not in own and "@import" not in own
+    assert "url(http" not in own
+
+
+def test_figures_are_valid_json_with_data(report):
+    blocks = re.findall(r'<script type="application/json" id="(fig-[^"]+)-data">(.*?)</script>', report, re.S)
+    assert len(blocks) >= 10
+    for key, text in blocks:
+        fig = json.loads(text)
+        assert fig["data"], key
+        assert "template" not in fig["layout"]            # one shared template for the page
+        assert f'id="{key}"' in report
+
+
+def test_virtual_banner_only_when_synthetic(tmp_path):
+    p = tmp_path / "r.html"
+    write_report(p, test=make_test(synthetic=False), qa=None)
+    text = p.read_text(encoding="utf-8")
+    assert 'id="virtual-banner"' not in text
+    assert "No QA result" in text
+    write_report(p, test=make_test(synthetic=True), qa=None)
+    assert 'id="virtual-banner"' in p.read_text(encoding="utf-8")
+
+
+def test_import_mapping_and_finding_rows(report):
+    # raw name and unit -> standard name and unit, deleted channel with its reason
+    assert re.search(r"<td>veh_spd_test</td><td>m/s</td><td>dyno</td><td>Dyno_Speed</td><td>mph</td>", report)
+    assert "Test_Cell_RH" in report and "not used" in report
+    assert report.count('class="sev-error"') == 1 and report.count('class="sev-warning"') == 2
+
+
+def test_engineering_notes_without_vehicle(report):
+    assert "component-map plots are skipped" in report
+    assert "Willans line" in report and "Energy flow" in report
+
+
+def test_failed_run_leaves_nothing(tmp_path, monkeypatch):
+    def boom(*a, **k):
+        raise RuntimeError("figure failed")
+    monkeypatch.setattr(html_mod, "figure_json", boom)
+    with pytest.raises(RuntimeError):
+        build_reports(tmp_path / "out", make_test(), make_qa())
+    assert not list((tmp_path).rglob("*.html")) and not list(tmp_path.rglob("*.xlsx"))
+    assert not [p for p in tmp_path.rglob("*") if p.is_file()]
+
+
+def test_failed_excel_leaves_no_html(tmp_path, monkeypatch):
+    import vehval.report as rep
+
+    def boom(*a, **k):
+        raise OSError("disk full")
+    monkeypatch.setattr(rep, "write_tables", boom)
+    with pytest.raises(OSError):
+        build_reports(tmp_path / "out", make_test(), make_qa())
+    assert not [p for p in tmp_path.rglob("*") if p.is_file()]

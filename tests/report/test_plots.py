@@ -1,0 +1,99 @@
+"""Engineering plots: hand-computed Willans line and energies, map plots with a vehicle."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from vehval.report import plots
+from vehval.test import Signal, Test
+from vehval.test import TestMeta as Meta
+
+from .conftest import LHV, make_test
+
+
+def test_willans_recovers_the_line():
+    w = plots.willans(make_test())
+    # fuel = (2.7 P + 4000 W) / LHV exactly: the fit is exact to rounding
+    assert w["slope"] == pytest.approx(2.7, rel=1e-9)
+    assert w["intercept"] == pytest.approx(4000.0, rel=1e-6)
+    assert w["r2"] == pytest.approx(1.0, abs=1e-12)
+    fig = plots.willans_figure(make_test())
+    assert len(fig.data) == 2
+
+
+def test_energy_flows_hand_computed():
+    t = np.arange(0.0, 100.01, 0.01)
+    test = Test([Signal.standard("fuel_rate_test", t, np.full(t.size, 1e-3), source="d"),   # 42.6 kW
+                 Signal.standard("eng_pwr_out_test", t, np.full(t.size, 15e3), source="d"),
+                 Signal.standard("ess_pwr_test", t, np.where(t < 50, 2e3, -1e3), source="d"),
+                 Signal.standard("whl_pwr_out_test", t, np.where(t < 50, 10e3, -4e3), source="d")],
+                Meta(constants={"fuel_lhv_j_per_kg": LHV}))
+    f = plots.energy_flows(test)
+    # trapezoid over steps: the switch at t = 50 s costs half a sample (rtol 1e-3)
+    assert f["fuel"] == pytest.approx(1e-3 * LHV * 100, rel=1e-9)
+    assert f["engine"] == pytest.approx(15e3 * 100, rel=1e-9)
+    assert f["battery_out"] == pytest.approx(2e3 * 50, rel=1e-3)
+    assert f["battery_in"] == pytest.approx(1e3 * 50, rel=1e-3)
+    assert f["wheel_out"] == pytest.approx(10e3 * 50, rel=1e-3)
+    assert f["braking"] == pytest.approx(4e3 * 50, rel=1e-3)
+    fig = plots.sankey_figure(f)
+    link = fig.data[0].link
+    # energy conservation at the powertrain node: in = out (losses are the balance)
+    nodes = list(fig.data[0].node.label)
+    pt = nodes.index("Powertrain")
+    inflow = sum(v for s, d, v in zip(link.source, link.target, link.value) if d == pt)
+    outflow = sum(v for s, d, v in zip(link.source, link.target, link.value) if s == pt)
+    assert inflow == pytest.approx(outflow, rel=1e-12)
+
+
+def test_skips_are_explicit():
+    empty = Test([Signal.standard("veh_spd_test", [0, 1], [0, 1])])
+    with pytest.raises(plots.PlotSkipped, match="fuel"):
+        plots.willans(empty)
+    with pytest.raises(plots.PlotSkipped):
+        plots.sankey_figure(plots.energy_flows(empty))
+    with pytest.raises(plots.PlotSkipped, match="fuel map"):
+        plots.engine_map_figure(empty, None)
+
+
+def test_histograms():
+    test = make_test()
+    fig = plots.regen_current_histogram(test)
+    assert fig.data[0].x.size > 0
+    fig = plots.engine_power_histogram(test)
+    p = np.asarray(fig.data[0].x)
+    assert p.min() >= 0 and p.max() == pytest.approx((250 * 80) / 1e3, rel=0.05)
+
+
+def _fake_engine():
+    spd = np.linspace(1000, 5000, 9)
+    trq = np.linspace(0, 110, 12)
+    pw = spd[:, None] * plots.RPM * trq[None, :]
+    fuel = (2.7 * pw + 3000.0) / LHV * 1e3                       # [g/s]
+    return SimpleNamespace(speed_rpm=list(spd), torque_nm=list(trq), fuel_rate_g_per_s=fuel.tolist(),
+                           max_torque_nm=[100.0] * 9, fuel_lhv_j_per_kg=LHV, idle_speed_rpm=1000.0,
+                           max_speed_rpm=5000.0, max_power_w=57e3)
+
+
+def test_engine_map_with_duck_typed_vehicle():
+    veh = SimpleNamespace(engine=_fake_engine())
+    fig = plots.engine_map_figure(make_test(), veh)
+    z = np.asarray(fig.data[0].z, float)
+    # efficiency = P / (2.7 P + 3 kW) < 1/2.7 everywhere
+    assert np.nanmax(z) < 100 / 2.7 and np.nanmax(z) > 30
+    assert any("operating points" in (tr.name or "") for tr in fig.data)
+
+
+def test_engine_map_with_the_real_vehicle():
+    vm = pytest.importorskip("vehval.sim.vehicle")
+    try:
+        veh = vm.load_vehicle("prius_2004")
+    except Exception as exc:  # noqa: BLE001
+        pytest.skip(f"prius_2004 vehicle not available yet: {exc}")
+    fig = plots.engine_map_figure(make_test(), veh)
+    assert any(tr.name == "best efficiency" for tr in fig.data)
+    for which in ("mot", "gen"):
+        plots.machine_map_figure(make_test(), veh, which)
