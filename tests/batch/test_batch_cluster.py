@@ -27,7 +27,7 @@ from vehval.catalog import open_catalog
 
 from .conftest import TEMPLATE, write_d3
 
-N_DISTINCT, N_COPIES = 4, 5          # 20 good tests: 4 distinct recordings, 5 copies each
+N_DISTINCT, N_COPIES = 2, 10         # 20 good tests: 2 distinct recordings, 10 copies each
 WAIT_S = 120                          # generous wall for subprocess waits (not an assertion of speed)
 # The batch and the direct run execute the same code on the same bytes: only the order of
 # float operations may differ between processes, so rtol 1e-9.

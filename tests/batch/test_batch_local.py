@@ -101,7 +101,7 @@ def test_cli_batch_and_catalog(tmp_path, template_path, capsys):
     inp, out = tmp_path / "in", tmp_path / "out"
     _inputs(inp, n=2)
     rc = main(["batch", str(inp), "-t", str(template_path), "-o", str(out), "--steps", "",
-               "--no-report", "--workers", "0", "-q"])
+               "--no-report", "--workers", "0", "-q", "--cycle", "hump120"])
     assert rc == 1  # two broken tests
     err = capsys.readouterr().err
     assert "failed garbage" in err and "failed empty" in err
@@ -113,6 +113,32 @@ def test_cli_batch_and_catalog(tmp_path, template_path, capsys):
     assert main(["catalog", "summary", "--db", db, "--json"]) == 0
     summ = json.loads(capsys.readouterr().out)
     assert {r["metric"] for r in summ} >= {"fuel_economy_mpg", "soc_change"}
-    assert all(r["n"] == 2 for r in summ)
+    assert all(r["n"] == 2 and r["cycle"] == "hump120" for r in summ)
     assert main(["catalog", "query", "DROP TABLE tests", "--db", db]) == 2  # read-only
     assert "catalog query failed" in capsys.readouterr().err
+
+
+def test_internal_error_is_recorded_and_retried(tmp_path, template_path, monkeypatch):
+    """A bug (non-VehvalError) in a step fails that test only, and is retried on rerun."""
+    import vehval.batch.metrics as metrics_mod
+
+    inp, out = tmp_path / "in", tmp_path / "out"
+    write_d3(inp / "a" / "a.txt", seed=1)
+    write_d3(inp / "b" / "b.txt", seed=2)
+    real = metrics_mod.test_metrics
+
+    def flaky(test, selected=None):
+        if test.meta.test_id == "b":
+            raise ZeroDivisionError("boom")
+        return real(test, selected)
+
+    monkeypatch.setattr(metrics_mod, "test_metrics", flaky)
+    s1 = run_batch(inp, template_path, out, steps=[], workers=0, report=False, progress=False)
+    res = json.loads((out / "tests" / "b" / "result.json").read_text())
+    assert (s1.n_ok, s1.n_failed) == (1, 1)
+    assert res["error"] == "ZeroDivisionError: boom" and res["error_kind"] == "internal"
+    assert "traceback" in res and res["outputs"] == []
+    monkeypatch.setattr(metrics_mod, "test_metrics", real)
+    s2 = run_batch(inp, template_path, out, steps=[], workers=0, report=False, progress=False)
+    assert (s2.n_ok, s2.n_skipped) == (1, 1)          # b retried and now ok, a unchanged
+    assert _rows(out / "catalog.duckdb", s2.run_id)["b"]["status"] == "ok"

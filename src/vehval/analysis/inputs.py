@@ -246,7 +246,11 @@ def prepare_inputs(test: Test, vehicle: Any = None, constants: dict | None = Non
     # wheel power demand, most direct first
     p_whl = nan.copy()
     frc = pick_signal(test, "veh_frc_in", ("dyno", ""))
-    if frc is not None:
+    if pick_signal(test, "drv_pwr_demand") is not None:
+        # the driver's own demand (CAN / controller log) is what the rule reacts to
+        p_whl = grab("drv_pwr_demand", "wheel power")
+        sources["wheel power"] = sources["wheel power"] + " (driver demand signal)"
+    elif frc is not None:
         p_whl = grab("veh_frc_in", "tractive force") * v
         sources["wheel power"] = f"{frc.name} x {sources['vehicle speed']} (measured)"
     if not np.any(np.isfinite(p_whl)) and pick_signal(test, "whl_pwr_out") is not None:

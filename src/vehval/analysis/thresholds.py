@@ -345,6 +345,9 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
         if hi - lo > 2500.0:
             bounds[key] = {"low": lo, "high": hi, "why": "agreement is flat over a wide range"}
     for key in ESTIMATED:
+        for side in ("low", "high"):
+            if unc[key].get(side) is not None:
+                unc[key][side] = round(float(unc[key][side]), 4)
         if key not in bounds:
             estimated[key] = round(params[key], 4)
     if agree < 0.9:

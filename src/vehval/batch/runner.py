@@ -89,7 +89,8 @@ def _lost(job: dict, exc: BaseException) -> dict:
                      "error": f"{type(exc).__name__}: {exc}", "error_type": type(exc).__name__,
                      "error_kind": "internal", "input_hash": job["input_hash"],
                      "file_hashes": job["file_hashes"], "files": job["files"],
-                     "vehicle": job.get("vehicle_name"), "metrics": {}, "findings": []})
+                     "vehicle": job.get("vehicle_name"), "cycle": job.get("cycle"),
+                     "metrics": {}, "findings": []})
 
 
 def _client(workers: int, scheduler: str | None):
@@ -110,7 +111,7 @@ def _client(workers: int, scheduler: str | None):
 def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
               vehicle: str | None = None, steps: list[str] | tuple[str, ...] = ("qa",),
               workers: int | None = None, scheduler: str | None = None, report: bool = True,
-              force: bool = False, progress: bool = True,
+              force: bool = False, progress: bool = True, cycle: str | None = None,
               on_result: Callable[[dict], None] | None = None) -> BatchSummary:
     """Run many tests at once.
 
@@ -137,6 +138,9 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
         Recompute every test even when unchanged.
     progress : bool
         Show a progress bar.
+    cycle : str, optional
+        Cycle name recorded for tests whose metadata names none (the importer does not
+        know the cycle of a raw file).
     on_result : callable, optional
         Called with each result dict as it lands (driver side).
     """
@@ -147,7 +151,7 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     tmpl, settings = _load_settings(template, vehicle)
     from vehval import __version__
 
-    settings.update(steps=steps, report=bool(report), vehval_version=__version__)
+    settings.update(steps=steps, report=bool(report), cycle=cycle, vehval_version=__version__)
     digest = settings_hash(settings)
     specs = [hash_spec(s, digest) for s in discover_tests(target, tmpl)]
     out = Path(outdir).resolve()
@@ -184,9 +188,9 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
 
         try:
             _execute(jobs, record, workers, scheduler, progress, len(specs), summary.n_skipped)
-        except KeyboardInterrupt:
-            summary.status = "interrupted"
-            catalog.finish_run(run_id, "interrupted")
+        except BaseException as exc:  # record how the run ended, then let it propagate
+            summary.status = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
+            catalog.finish_run(run_id, summary.status)
             raise
         catalog.finish_run(run_id, "done")
         from vehval.batch.index import write_index

@@ -166,8 +166,8 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     test = import_test([Path(f) for f in job["files"]], template, test_id=job["test_id"])
     if not test.meta.test_id:
         test.meta.test_id = job["test_id"]
-    result["vehicle"] = test.meta.vehicle or job.get("vehicle_name") or job.get("vehicle")
-    result["cycle"] = test.meta.cycle or None
+    result["vehicle"] = job.get("vehicle_name") or test.meta.vehicle or None
+    result["cycle"] = test.meta.cycle or job.get("cycle") or None
     outputs: dict[str, Any] = {}
     qa = None
     for step in job["steps"]:

@@ -30,6 +30,8 @@ def batch_cmd(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of an existing "
                                             "dask.distributed scheduler, e.g. tcp://host:8786."),
     report: bool = typer.Option(True, "--report/--no-report", help="Build each test's HTML report."),
+    cycle: Optional[str] = typer.Option(None, "--cycle", help="Cycle name recorded in the catalog "
+                                        "for tests whose metadata names none."),
     force: bool = typer.Option(False, "--force", help="Recompute unchanged tests too."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
 ) -> None:
@@ -38,7 +40,7 @@ def batch_cmd(
 
     res = run_batch(target, template, outdir, vehicle=vehicle, steps=steps.split(","),
                     workers=workers, scheduler=scheduler, report=report, force=force,
-                    progress=not quiet)
+                    progress=not quiet, cycle=cycle)
     typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged "
                f"-> {res.outdir / 'index.html'}")
     failed = [r for r in res.results if r.get("status") == "failed"]

@@ -13,6 +13,7 @@ not be computed is explained: the missing signals or parameters of each relation
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -49,6 +50,7 @@ class RelationSpec(_Strict):
     expr: str
     equation: str | None = None
     description: str = ""
+    steady_state: bool = False     # holds only in steady state (QA3 tolerates transients)
 
 
 class CheckSpec(_Strict):
@@ -74,6 +76,19 @@ class CalculationFile(_Strict):
 
 
 def load_calculations(name_or_path: str | Path) -> CalculationFile:
+    """Load a calculation file (cached for package names; treat the result as read-only)."""
+    p = Path(str(name_or_path))
+    if p.suffix in (".yaml", ".yml") and p.exists():
+        return _load_calculations(name_or_path)
+    return _load_package_calculations(str(name_or_path))
+
+
+@lru_cache(maxsize=16)
+def _load_package_calculations(name: str) -> CalculationFile:
+    return _load_calculations(name)
+
+
+def _load_calculations(name_or_path: str | Path) -> CalculationFile:
     """Load a calculation file (package name like ``power_split`` or a path), with includes.
 
     Raises
@@ -310,6 +325,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
             changed = True
             result.computed[f"{rel.output}_calc"] = {
                 "expr": rel.expr, "equation": rel.equation, "description": rel.description,
+                "steady_state": rel.steady_state,
                 "inputs": used, "parameters": {n: pvals[n] for n in sorted(ex.names) if n in pvals}}
     # explain what was not computed
     for rel, ex in exprs:

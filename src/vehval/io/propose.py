@@ -132,7 +132,11 @@ def source_tag(raw: RawTable) -> str:
 
 def _unique_name(base: str, source: str, raw_name: str, used: set[str]) -> str:
     qual = re.sub(r"[^a-z0-9]", "", raw_name.lower())
-    cands = [f"{base}_test", f"{base}_{source}_test"]
+    cands = [f"{base}_test"]
+    # a source named in the raw name (``Eng_Speed_OBD``) beats the file's tag
+    known = set(registry().sources)
+    cands += [f"{base}_{tok}_test" for tok in re.split(r"[^a-z0-9]+", raw_name.lower()) if tok in known]
+    cands.append(f"{base}_{source}_test")
     if qual and qual[0].isalpha() and len(qual) <= 8:
         cands.append(f"{base}_{qual}_test")
     cands += [f"{base}_{source}{k}_test" for k in range(2, 100)]

@@ -137,10 +137,14 @@ def partners_of(test: Test, name: str) -> list[tuple[Signal, bool]]:
 
 
 def _moves(partner: Signal, t0: float, t1: float, frac: float,
-           min_abs: float = 0.0) -> tuple[bool, float]:
+           min_abs: float = 0.0, cache: dict | None = None) -> tuple[bool, float]:
     """Does ``partner`` vary within [t0, t1] by more than ``frac`` of its overall range
     (and more than ``min_abs``, e.g. a few quantisation steps of the stuck signal)?"""
-    full = _robust_range(partner.values)
+    full = cache.get(partner.name) if cache is not None else None
+    if full is None:
+        full = _robust_range(partner.values)
+        if cache is not None:
+            cache[partner.name] = full
     if full <= 0:
         return False, 0.0
     sel = (partner.time >= t0) & (partner.time <= t1)
@@ -152,7 +156,8 @@ def _moves(partner: Signal, t0: float, t1: float, frac: float,
     return rng > max(frac * full, min_abs), rng / full
 
 
-def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options) -> list[Finding]:
+def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options,
+           range_cache: dict | None = None) -> list[Finding]:
     v, t = sig.values, sig.time
     if v.size < opts.stuck_min_samples or sig.resample == "previous":
         return []
@@ -191,7 +196,8 @@ def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options) -> list[Find
             if value == 0 and not dup:
                 continue
             ok, frac = _moves(psig, t0, t1, opts.partner_move_fraction if dup
-                              else opts.correlated_move_fraction, 3 * quantum if dup else 0.0)
+                              else opts.correlated_move_fraction, 3 * quantum if dup else 0.0,
+                              range_cache)
             if ok and value == 0:
                 pv = psig.values[(psig.time >= t0) & (psig.time <= t1)]
                 ok = bool(np.nanmedian(np.abs(pv)) > 0.1 * max(_robust_range(psig.values), 1e-12))
@@ -221,7 +227,7 @@ def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options) -> list[Find
 
 
 def check_signal(test: Test, sig: Signal, limits: dict | None = None,
-                 opts: Level1Options | None = None) -> list[Finding]:
+                 opts: Level1Options | None = None, range_cache: dict | None = None) -> list[Finding]:
     """All level-1 findings of one signal.
 
     Parameters
@@ -234,6 +240,8 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
         The vehicle's limits ``{base: (min, max)}`` in SI (``Vehicle.signal_limits()``).
     opts : Level1Options, optional
         Thresholds.
+    range_cache : dict, optional
+        Robust ranges of partner signals by name, shared within one run.
     """
     opts = opts or Level1Options()
     out: list[Finding] = []
@@ -356,7 +364,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
         neg = fin & (v < -eps)
         if neg.any():
             vmin = float(np.min(vf))
-            beyond = -vmin > max(5 * sigma, 0.02 * vmax)
+            beyond = -vmin > max(5 * sigma, 0.05 * vmax)
             sev = Severity.WARNING if beyond else Severity.INFO
             rs = merge_runs(runs(neg), t, 2.0)
             frac = float(neg.sum() / fin.sum())
@@ -368,7 +376,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
                                {"value": vmin, "limit_min": 0.0, "fraction": frac,
                                 "noise_sigma": sigma, "runs": len(rs)}))
 
-    out.extend(_stuck(test, sig, base, opts))
+    out.extend(_stuck(test, sig, base, opts, range_cache))
     return out
 
 
@@ -436,9 +444,10 @@ def run_level1(test: Test, limits: dict | None = None,
     """Level-1 findings of every measured signal of a test (``_calc``/``_simu`` skipped)."""
     opts = opts or Level1Options()
     out: list[Finding] = []
+    ranges: dict[str, float] = {}
     for sig in test:
         if sig.name.endswith("_calc") or sig.name.endswith("_simu"):
             continue
-        out.extend(check_signal(test, sig, limits, opts))
+        out.extend(check_signal(test, sig, limits, opts, ranges))
     _corroborate_spikes(test, out, opts)
     return out

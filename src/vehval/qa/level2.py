@@ -11,6 +11,7 @@ with the others; with two, to the less preferred source (facility sensor preferr
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,6 +34,15 @@ UNIT_FACTORS: dict[str, float] = {
 FACILITY_QUALIFIERS = ("daq", "direct", "bench", "modal", "dyno", "pa")
 
 
+#: Bases measured per instance (module, cell...): different qualifiers are not duplicates.
+PER_INSTANCE = frozenset({"ess_volt_module", "ess_res_module"})
+
+
+def is_instance_qualifier(q: str | None) -> bool:
+    """``m1``, ``bt3``, ``d12``: a numbered instance (module, sensor), not a source."""
+    return bool(q) and re.fullmatch(r"[a-z]+\d+", q) is not None
+
+
 def preference_rank(name: str) -> tuple[int, str]:
     """Sort key: facility sensor (no qualifier) first, then facility qualifiers, then
     OBD/CAN/ECU, then anything else."""
@@ -51,13 +61,15 @@ def preference_rank(name: str) -> tuple[int, str]:
 
 @dataclass
 class Level2Options:
-    r2_min: float = 0.9             # below: low agreement (warning)
+    r2_min: float = 0.9             # below: low agreement (warning) ...
+    low_agreement_diff: float = 0.05  # ... if also mean |diff| > this x reference range
     gain_tol: float = 0.05          # |slope - 1| above: gain warning
     gain_error: float = 0.2         # above: error
     offset_tol: float = 0.05        # |offset| above this x reference range: offset warning
     unit_tol: float = 0.03          # slope within this of a unit factor: wrong unit
     lag_min_s: float = 0.2          # residual lag threshold floor [s]
     lag_search_s: float = 5.0
+    max_all_pairs: int = 5          # more sources: compare each with the preferred one only
 
 
 @dataclass
@@ -76,6 +88,7 @@ class PairComparison:
     offset: float
     gain: float
     residual_lag_s: float
+    mean_diff: float
     ref_range: float
     unit: str
     start_s: float = float("nan")
@@ -131,13 +144,15 @@ def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None) 
     mean_ref = float(np.mean(np.abs(a)))
     lo, hi = np.percentile(a, [0.5, 99.5])
     lag = float("nan")
-    pr = estimate_pair(ref, other, opts.lag_search_s, kind="residual")
+    pr = estimate_pair(ref, other, opts.lag_search_s, kind="residual", refine=False) \
+        if np.isfinite(r) and abs(r) > 0.5 else None
     if pr is not None:
         lag = -pr.offset_s   # other late by `lag` => shift needed is -lag
     return PairComparison(base=base, ref=ref.name, other=other.name, n=int(ok.sum()),
                           r2=r * r if np.isfinite(r) else float("nan"), r=r,
                           mean_abs_diff=mad, mean_rel_diff=mad / mean_ref if mean_ref > 0 else float("nan"),
                           slope=slope, offset=offset, gain=gain, residual_lag_s=lag,
+                          mean_diff=float(np.mean(b - a)),
                           ref_range=float(hi - lo), unit=ref.unit,
                           start_s=float(tt[0]), end_s=float(tt[-1]),
                           slow_period_s=float(max(ref.sample_period, other.sample_period)))
@@ -173,13 +188,13 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
                                f"{row.other} reads {slope:.3f} x {row.ref} (fit slope {row.slope:.3f}, "
                                f"offset {row.offset:+.3g} {row.unit}): gain differs by "
                                f"{100 * (slope - 1):+.1f} %", nums, related=rel))
-        elif (row.ref_range > 0 and abs(row.offset) > opts.offset_tol * row.ref_range
-              and abs(row.slope - 1) <= opts.gain_tol):
+        elif row.ref_range > 0 and abs(row.mean_diff) > opts.offset_tol * row.ref_range:
             out.append(Finding(blamed, Kind.OFFSET, s0, s1, Severity.WARNING,
-                               f"{row.other} is offset from {row.ref} by {row.offset:+.4g} {row.unit} "
-                               f"({100 * abs(row.offset) / row.ref_range:.0f} % of its range)",
+                               f"{row.other} is offset from {row.ref} by {row.mean_diff:+.4g} {row.unit} "
+                               f"on average ({100 * abs(row.mean_diff) / row.ref_range:.0f} % of its range)",
                                nums, related=rel))
-    if row.r2 < opts.r2_min and not any(f.kind in (Kind.UNIT, Kind.GAIN) for f in out):
+    if (row.r2 < opts.r2_min and not any(f.kind in (Kind.UNIT, Kind.GAIN) for f in out)
+            and row.mean_abs_diff > opts.low_agreement_diff * row.ref_range):
         out.append(Finding(blamed, Kind.LOW_AGREEMENT, s0, s1, Severity.WARNING,
                            f"{row.other} and {row.ref} agree poorly (R² {row.r2:.3f}, mean "
                            f"difference {row.mean_abs_diff:.4g} {row.unit})", nums, related=rel))
@@ -202,7 +217,7 @@ def run_level2(test: Test, opts: Level2Options | None = None
             p = reg.parse(sig.name)
         except SignalError:
             continue
-        if p.origin == "test":
+        if p.origin == "test" and not is_instance_qualifier(p.source) and p.base not in PER_INSTANCE:
             groups.setdefault(p.base, []).append(sig)
     rows: list[PairComparison] = []
     findings: list[Finding] = []
@@ -211,7 +226,7 @@ def run_level2(test: Test, opts: Level2Options | None = None
             continue
         sigs = sorted(sigs, key=lambda s: preference_rank(s.name))
         pair_rows = []
-        for i in range(len(sigs)):
+        for i in range(len(sigs) if len(sigs) <= opts.max_all_pairs else 1):
             for j in range(i + 1, len(sigs)):
                 row = compare_pair(sigs[i], sigs[j], opts)
                 if row is not None:

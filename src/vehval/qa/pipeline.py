@@ -80,6 +80,18 @@ def _blame_inputs(level3: list[Finding], earlier: list[Finding]) -> None:
             f.message += f" (inputs with their own findings: {', '.join(bad)})"
 
 
+def _blame_check_inputs(check_findings: list[Finding], earlier: list[Finding]) -> None:
+    """A failed balance check blames its usual suspect only when no other measured input
+    of the balance has a warning or error of its own."""
+    for f in check_findings:
+        others = set(f.related) - {f.signal}
+        bad = sorted({g.signal for g in earlier if g.signal in others
+                      and g.severity != Severity.INFO})
+        if bad:
+            f.severity = Severity.INFO
+            f.message += f" (other inputs have their own findings: {', '.join(bad)})"
+
+
 def _vehicle_limits(vehicle: Any) -> dict | None:
     if vehicle is None or not hasattr(vehicle, "signal_limits"):
         return None
@@ -144,6 +156,7 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     table3, f3 = run_level3(work, calc, level3)
     checks, fc = run_checks(work, calc)
     _blame_inputs(f3, findings)
+    _blame_check_inputs(fc, findings + f3)
     findings += f3 + fc
     pvals = {k: v["value"] for k, v in calc.parameters.items() if v.get("value") is not None}
     selection = select_signals(work, findings, table2, table3, user_keep, user_drop, pvals)

@@ -133,6 +133,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
         vnow = vt[i]
         vnext = vt[i + 1]
         wr0 = g * v0
+        wr_e = g * 0.5 * (v0 + vnext)  # expected mid-step ring speed (for power estimates)
         # ---------------- driver: wheel force demand
         if v0 > 0.0:
             fl_ff = road_load(v0, rl_a, rl_b, rl_c)
@@ -202,7 +203,8 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
         if locked:
             te = 0.0
         elif fired and not fuelcut:
-            te = min(p_eng / w_tgt, te_max_now) if p_eng > 0.0 else 0.0
+            # best-line torque; above the target speed, the torque that gives the demanded power
+            te = min(p_eng / max(w_tgt, we0), te_max_now) if p_eng > 0.0 else 0.0
         elif we0 > 0.0:
             te = -eng_drag
         else:
@@ -221,7 +223,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             t_m = t_req
         t_m = min(max(t_m, -tm_lim), tm_lim)
         p_gen_est = 0.0 if locked else electrical_power(gS, gT, gL, wg0, tg_ff)
-        p_mot_est = electrical_power(mS, mT, mL, wr0, t_m)
+        p_mot_est = electrical_power(mS, mT, mL, wr_e, t_m)
         p_b_est = battery_side_power(p_mot_est + p_gen_est, boost_eff) + aux
         pstate = PROPEL_BRAKING if braking else PROPEL_NORMAL
         if p_b_est > pdis_av:
@@ -235,14 +237,14 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                     tg_ff = -te / k1
                     t_m = min(max(t_fd - t_ring, -tm_lim), tm_lim)
                     p_gen_est = electrical_power(gS, gT, gL, wg0, tg_ff)
-                    p_mot_est = electrical_power(mS, mT, mL, wr0, t_m)
+                    p_mot_est = electrical_power(mS, mT, mL, wr_e, t_m)
                     p_b_est = battery_side_power(p_mot_est + p_gen_est, boost_eff) + aux
             if p_b_est > pdis_av:
                 p_allow = _bus_allowed(pdis_av - aux, boost_eff) - p_gen_est
-                t_m = torque_for_power(mS, mT, mL, wr0, p_allow, -tm_lim, t_m)
+                t_m = torque_for_power(mS, mT, mL, wr_e, p_allow, -tm_lim, t_m)
         elif p_b_est < -pchg_av:
             pstate = PROPEL_CHARGE_LIMIT
-            if fired and (not fuelcut) and (not braking) and te > 0.0:
+            if fired and (not fuelcut) and te > 0.0:
                 # leave the best line: less engine torque at the present speed
                 te_new = max(te - (-pchg_av - p_b_est) / max(we0, eng_idle), 0.0)
                 t_ring += (te_new - te) * k2 / k1
@@ -250,11 +252,11 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                 tg_ff = -te / k1
                 t_m = min(max(t_fd - t_ring, -tm_lim), tm_lim)
                 p_gen_est = electrical_power(gS, gT, gL, wg0, tg_ff)
-                p_mot_est = electrical_power(mS, mT, mL, wr0, t_m)
+                p_mot_est = electrical_power(mS, mT, mL, wr_e, t_m)
                 p_b_est = battery_side_power(p_mot_est + p_gen_est, boost_eff) + aux
             if p_b_est < -pchg_av:
                 p_allow = _bus_allowed(-pchg_av - aux, boost_eff) - p_gen_est
-                t_m = max(t_m, torque_for_power(mS, mT, mL, wr0, p_allow, t_m, max(t_m, 0.0)))
+                t_m = max(t_m, torque_for_power(mS, mT, mL, wr_e, p_allow, t_m, max(t_m, 0.0)))
         f_pt_est = (t_m + t_ring) * g
         f_pt_est = f_pt_est * fd_eff if f_pt_est >= 0.0 else f_pt_est / fd_eff
         f_brk = min(max(f_pt_est - f_dem, 0.0), brk_max) if braking else 0.0
@@ -286,15 +288,16 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             t_g = min(max(tg_c - kp_e * we1, -tg_lim), tg_lim)
             t_m = t_fd_cmd + k2 * t_g
             # hard battery limits on the actual torques (MG2 gives way, the trace may suffer)
-            p_g_act = electrical_power(gS, gT, gL, wg0, t_g)
+            # MG1 power at the mid-step speed predicted by the implicit solve
+            p_g_act = electrical_power(gS, gT, gL, k1 * 0.5 * (we0 + we1) - k2 * wr0, t_g)
             t_m_hi = tm_lim
             t_m_lo = -tm_lim
             p_m_hi = _bus_allowed(pdis_lim - aux, boost_eff) - p_g_act
-            if electrical_power(mS, mT, mL, wr0, t_m) > p_m_hi:
-                t_m_hi = torque_for_power(mS, mT, mL, wr0, p_m_hi, -tm_lim, t_m)
+            if electrical_power(mS, mT, mL, wr_e, t_m) > p_m_hi:
+                t_m_hi = torque_for_power(mS, mT, mL, wr_e, p_m_hi, -tm_lim, t_m)
             p_m_lo = _bus_allowed(-pchg_lim - aux, boost_eff) - p_g_act
-            if electrical_power(mS, mT, mL, wr0, t_m) < p_m_lo:
-                t_m_lo = torque_for_power(mS, mT, mL, wr0, p_m_lo, t_m, max(t_m, 0.0))
+            if electrical_power(mS, mT, mL, wr_e, t_m) < p_m_lo:
+                t_m_lo = torque_for_power(mS, mT, mL, wr_e, p_m_lo, t_m, max(t_m, 0.0))
             if t_m > t_m_hi or t_m < t_m_lo:
                 t_m = min(max(t_m, t_m_lo), t_m_hi)
                 f2 = -k2 * g * eta_d
@@ -303,6 +306,14 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                                               - m12 * (m12 + dt * kp_e * f2))
                 t_g = min(max(tg_c - kp_e * we1, -tg_lim), tg_lim)
             clipped = abs(tg_c - kp_e * we1) > tg_lim
+            # charge limit: MG1 slowing the engine gives way too (scaled generating torque)
+            wg_m = k1 * 0.5 * (we0 + we1) - k2 * wr0
+            p_g_min = (_bus_allowed(-pchg_lim - aux, boost_eff)
+                       - electrical_power(mS, mT, mL, wr_e, t_m))
+            p_g_now = electrical_power(gS, gT, gL, wg_m, t_g)
+            if p_g_now < p_g_min and p_g_now < 0.0:
+                t_g *= max(p_g_min, 0.0 if p_g_min > 0.0 else p_g_min) / p_g_now
+                clipped = True
             # final explicit solve with the torques now fixed (exact energy bookkeeping)
             c1 = m11 * we0 + m12 * v0 + dt * (te + k1 * t_g)
             c2 = m12 * we0 + m22 * v0 + dt * (eta_d * g * (t_m - k2 * t_g) - r_full)

@@ -17,6 +17,7 @@ Sensor models are in ``data/faults/sensors.yaml``, the default fault mix in
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -169,9 +170,11 @@ def make_virtual_test(vehicle: str | Path = "prius_2004", cycle: Any = "udds", s
         Fault mix: the package default, nothing, a fault YAML file or a list of fault dicts.
     outdir : path
         Output directory, written atomically (files appear complete or not at all).
-    controller_overrides, vehicle_overrides : dict, optional
-        Dotted-key parameter overrides (``control.<key>`` / any vehicle key) recorded in the
-        truth as the true parameters.
+    controller_overrides : dict, optional
+        Controller parameters to replace (``{"soc_target": 0.55}``); the controller actually
+        used is recorded in the truth.
+    vehicle_overrides : dict, optional
+        Vehicle parameters to replace by ``<block>.<parameter>`` (``{"body.mass_kg": 1350}``).
 
     Returns
     -------
@@ -217,8 +220,7 @@ def make_virtual_test(vehicle: str | Path = "prius_2004", cycle: Any = "udds", s
     grid, clean = build_clean(sim_signals, cyc.name, duration, seed, consts["fuel_lhv_j_per_kg"],
                               pad_s=15.0 + float(np.ceil(shift)))
 
-
-    test_id = f"virtual_{vehicle_name(veh, vehicle)}_{cyc.name}_seed{seed}"
+    test_id = re.sub(r"[^A-Za-z0-9_.-]+", "_", f"virtual_{vehicle_name(veh, vehicle)}_{cyc.name}_seed{seed}")
     datas: dict[str, FileData] = {}
     for label, fs in table.items():
         datas[label] = build_file(fs, grid, clean, duration, seed,

@@ -121,12 +121,10 @@ def on_off_events(time_s: np.ndarray, on: np.ndarray) -> tuple[np.ndarray, np.nd
     x = np.asarray(on, dtype=float)
     if not x.size:
         return np.empty(0), np.empty(0)
-    state = np.empty(x.size, dtype=bool)
-    prev = bool(x[0] > 0.5) if np.isfinite(x[0]) else False
-    for i, v in enumerate(x):  # forward-fill NaN (short loop, booleans only)
-        if np.isfinite(v):
-            prev = bool(v > 0.5)
-        state[i] = prev
+    fin = np.isfinite(x)
+    # forward-fill NaN: index of the last finite sample at or before each position
+    idx = np.maximum.accumulate(np.where(fin, np.arange(x.size), -1))
+    state = np.where(idx >= 0, x[np.maximum(idx, 0)] > 0.5, False)
     d = np.diff(state.astype(np.int8))
     return t[1:][d > 0], t[1:][d < 0]
 

@@ -30,8 +30,8 @@ from vehval.validate.conditions import Conditions, simulation_conditions
 from vehval.validate.metrics import integrate, rmse
 from vehval.validate.quantities import RPM, engine_on, engine_on_method, on_grid
 
-DEFAULT_WEIGHTS = {"fuel": 1.0, "soc": 1.0, "engine_on": 0.5, "signals": 0.25}
-DEFAULT_SCALES = {"fuel": 0.01, "soc": 0.01, "engine_on": 0.05}
+DEFAULT_WEIGHTS = {"fuel": 1.0, "soc": 1.0, "engine_on": 0.5, "signals": 0.25, "starts": 0.25}
+DEFAULT_SCALES = {"fuel": 0.01, "soc": 0.01, "engine_on": 0.05, "starts": 0.1}
 DEFAULT_SIGNALS = ("eng_spd_out", "eng_trq_out", "ess_curr", "ess_soc")
 
 
@@ -107,6 +107,31 @@ def errors(target: Target, sim: Test) -> dict[str, float]:
     return out
 
 
+def errors_from_summary(target: Target, summary: dict[str, Any]) -> dict[str, float]:
+    """Errors from a simulation summary only (batch mode of the calibration).
+
+    ``fuel`` and ``soc`` as in :func:`errors` (from ``fuel_mass_kg``, ``soc_initial`` and
+    ``soc_final``); ``engine_on`` becomes |on-time share_sim − share_test| (no time
+    series: a lower bound of the step-wise disagreement) and ``starts`` the relative error
+    of the number of engine starts. No component NRMSE.
+    """
+    out: dict[str, float] = {}
+    fuel = float(summary.get("fuel_mass_kg", float("nan")))
+    out["fuel"] = (fuel - target.fuel_kg) / target.fuel_kg if target.fuel_kg > 0 else float("nan")
+    d_sim = float(summary.get("soc_final", float("nan"))) - float(summary.get("soc_initial", float("nan")))
+    d_err = d_sim - (target.soc_final - target.soc_initial)
+    out["soc"] = abs(d_err) / target.soc_final if target.soc_final > 0 else float("nan")
+    if target.on is not None and np.isfinite(target.on).any():
+        share_t = float(np.nanmean(target.on))
+        share_s = float(summary.get("engine_on_fraction", float("nan")))
+        out["engine_on"] = abs(share_s - share_t)
+        from vehval.validate.metrics import on_off_events
+        n_t = on_off_events(target.grid, target.on)[0].size
+        n_s = float(summary.get("engine_starts", float("nan")))
+        out["starts"] = (n_s - n_t) / max(n_t, 1)
+    return out
+
+
 def objective(err: dict[str, float], weights: dict[str, float] | None = None,
               scales: dict[str, float] | None = None) -> float:
     """Weighted sum of squared normalised errors of one test (see the module docstring).
@@ -116,7 +141,7 @@ def objective(err: dict[str, float], weights: dict[str, float] | None = None,
     w = {**DEFAULT_WEIGHTS, **(weights or {})}
     s = {**DEFAULT_SCALES, **(scales or {})}
     j = 0.0
-    for key in ("fuel", "soc", "engine_on"):
+    for key in ("fuel", "soc", "engine_on", "starts"):
         e = err.get(key, float("nan"))
         if w.get(key, 0.0) and np.isfinite(e):
             j += w[key] * (e / s[key]) ** 2
@@ -126,5 +151,5 @@ def objective(err: dict[str, float], weights: dict[str, float] | None = None,
     return float(j)
 
 
-__all__ = ["Target", "make_target", "errors", "objective", "DEFAULT_WEIGHTS", "DEFAULT_SCALES",
+__all__ = ["Target", "make_target", "errors", "errors_from_summary", "objective", "DEFAULT_WEIGHTS", "DEFAULT_SCALES",
            "DEFAULT_SIGNALS", "RPM"]
