@@ -11,6 +11,9 @@
 # Stages (later stages are appended below, each with its own banner):
 #   1 data     virtual test or DEMO_DATA
 #   2 import   raw files + template -> OUT/test.parquet
+#   3 qa       alignment, QA levels 1-3, calculations, selection -> OUT/qa/ (+ report.html)
+#   4 analyze  control-strategy analysis -> OUT/analysis/control.json
+#   5 simulate the model on the same cycle -> OUT/simulation/summary.json
 set -euo pipefail
 BIN="$1"; OUT="$2"
 VEHVAL="$BIN/vehval"
@@ -45,13 +48,31 @@ vehval demo output
 ==================
 $KIND
 
-test.parquet   the imported test (standard names, SI units)
+test.parquet            the imported test (standard names, SI units)
+qa/findings.json        alignment, findings, tables 2 and 3, selection
+qa/report.html          the HTML report (open it in a browser; works offline)
+qa/tables.xlsx          every table plus the validated time series
+analysis/control.json   control strategy estimated from the test
+simulation/summary.json the 2004 Prius model on the same cycle
 EOF
 echo "data: ${FILES[*]}"
 
 # --------------------------------------------------------------------------- 2 import
 stage 2 "import"
 "$VEHVAL" import "${FILES[@]}" -t "$TEMPLATE" -o "$OUT/test.parquet"
+
+# --------------------------------------------------------------------------- 3 qa
+stage 3 "qa + report"
+"$VEHVAL" qa "${FILES[@]}" -t "$TEMPLATE" -o "$OUT/qa" --report
+
+# --------------------------------------------------------------------------- 4 analyze
+stage 4 "control-strategy analysis"
+"$VEHVAL" analyze "${FILES[@]}" -t "$TEMPLATE" -o "$OUT/analysis" > /dev/null
+echo "wrote $OUT/analysis/control.json"
+
+# --------------------------------------------------------------------------- 5 simulate
+stage 5 "simulation of the 2004 Prius model"
+"$VEHVAL" simulate --vehicle prius_2004 --cycle udds --charge-balance -o "$OUT/simulation" --json
 
 echo
 echo "demo: outputs in $OUT (see $OUT/README.txt)"

@@ -95,8 +95,11 @@ def batch_inputs(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def cluster():
+    import warnings
+
     from distributed import LocalCluster
 
+    warnings.filterwarnings("ignore", message="Port 8787 is already in use")
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=None, silence_logs=logging.ERROR) as c:
         yield c

@@ -28,6 +28,9 @@ FUZZ = settings(max_examples=25, deadline=DEADLINE_MS, derandomize=True,
                 suppress_health_check=[HealthCheck.function_scoped_fixture,
                                        HealthCheck.too_slow, HealthCheck.data_too_large])
 
+#: For loaders that are slow per call (the vehicle file validates whole efficiency maps).
+FUZZ_SLOW = settings(FUZZ, max_examples=10)
+
 
 class Hang(Exception):
     pass

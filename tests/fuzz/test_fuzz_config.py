@@ -12,7 +12,7 @@ from hypothesis import given, strategies as st
 
 from vehval.errors import VehvalError
 
-from .conftest import FUZZ, outcome
+from .conftest import FUZZ, FUZZ_SLOW, outcome
 
 VALID_TEMPLATE = {
     "template_version": 1,
@@ -141,7 +141,7 @@ def _vehicle_base():
     return vehicle.load_vehicle, yaml.safe_load(path.read_text(encoding="utf-8")), path
 
 
-@FUZZ
+@FUZZ_SLOW
 @given(ops=OPS)
 def test_vehicle_mutations(tmp_path, ops):
     load_vehicle, base, _ = _vehicle_base()
@@ -153,7 +153,7 @@ def test_vehicle_mutations(tmp_path, ops):
         assert isinstance(limits, dict)
 
 
-@FUZZ
+@FUZZ_SLOW
 @given(data=st.binary(max_size=600), cut=st.floats(0, 1))
 def test_vehicle_random_and_truncated(tmp_path, data, cut):
     load_vehicle, _, path = _vehicle_base()

@@ -132,3 +132,43 @@ def test_missing_file_and_directory(tmp_path):
     for p in (tmp_path / "absent.txt", tmp_path):
         for fmt in ("auto", "d3", "csv", "mdf4", "parquet"):
             assert isinstance(outcome(read_raw, p, fmt), VehvalError)
+
+
+IMPORT_TEMPLATE = """template_version: 1
+files:
+  - match: "*.txt"
+    source: dyno
+    format: auto
+    time: {column: Time, unit: s}
+    channels:
+      Dyno_Speed: {name: veh_spd_test, unit: mph}
+      Engine_Speed: {name: eng_spd_out_test, unit: rpm}
+      Bty_Curr: {name: ess_curr_test, unit: A, invalid_values: [-3]}
+      Cell_Temp: {name: amb_temp_test, unit: degC}
+"""
+
+
+@FUZZ
+@given(edits=st.lists(st.tuples(st.integers(1, 30), st.integers(0, 4), _WEIRD), max_size=5),
+       cut=st.one_of(st.none(), st.floats(0, 1)))
+def test_import_with_template_on_damaged_d3(tmp_path, edits, cut):
+    """The whole import (reader + template + SI conversion) on damaged files: a Test whose
+    signals are 1-D float arrays on increasing time, or a VehvalError."""
+    from vehval.io.importer import import_test
+
+    tmpl = tmp_path / "t.yaml"
+    tmpl.write_text(IMPORT_TEMPLATE, encoding="utf-8")
+    rows = [ln.split("\t") for ln in d3_text(n=30, eol="\n").splitlines()]
+    for r, c, val in edits:
+        rows[r][c] = val
+    raw = ("\n".join("\t".join(r) for r in rows) + "\n").encode()
+    if cut is not None:
+        raw = raw[: int(cut * len(raw))]
+    p = tmp_path / "run.txt"
+    p.write_bytes(raw)
+    res = outcome(import_test, [p], tmpl)
+    if isinstance(res, VehvalError):
+        return
+    for sig in res:
+        assert sig.time.ndim == 1 and sig.time.shape == sig.values.shape
+        assert np.all(np.diff(sig.time) > 0), f"{sig.name}: time not increasing"

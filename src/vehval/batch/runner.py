@@ -13,6 +13,7 @@ import json
 import logging
 import os
 import secrets
+import warnings
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
@@ -103,8 +104,12 @@ def _client(workers: int, scheduler: str | None):
         except (OSError, TimeoutError, ValueError) as exc:
             raise VehvalError(f"cannot connect to the Dask scheduler at '{scheduler}': {exc} "
                               "(check the address, e.g. tcp://127.0.0.1:8786)") from None
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None, host="127.0.0.1", silence_logs=logging.ERROR)
+    with warnings.catch_warnings():
+        # the scheduler's small HTTP server falls back to a free port when 8787 is taken
+        warnings.filterwarnings("ignore", message="Port 8787 is already in use")
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, host="127.0.0.1",
+                               silence_logs=logging.ERROR)
     return Client(cluster), cluster
 
 

@@ -287,6 +287,9 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             we1 = (b1 * m22 - m12 * b2) / ((m11 + dt * kp_e * k1) * m22 - m12 * m12)
             t_g = min(max(tg_c - kp_e * we1, -tg_lim), tg_lim)
             t_m = t_fd_cmd + k2 * t_g
+            # engine speed predicted with the (possibly clipped) torques
+            we1 = ((m11 * we0 + m12 * v0 + dt * (te + k1 * t_g)) * m22 - m12 * (
+                m12 * we0 + m22 * v0 + dt * (eta_d * g * (t_m - k2 * t_g) - r_full))) / det
             # hard battery limits on the actual torques (MG2 gives way, the trace may suffer)
             # MG1 power at the mid-step speed predicted by the implicit solve
             p_g_act = electrical_power(gS, gT, gL, k1 * 0.5 * (we0 + we1) - k2 * wr0, t_g)
@@ -305,14 +308,16 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                 we1 = (b1 * m22 - m12 * b2) / ((m11 + dt * kp_e * k1) * m22
                                               - m12 * (m12 + dt * kp_e * f2))
                 t_g = min(max(tg_c - kp_e * we1, -tg_lim), tg_lim)
-            clipped = abs(tg_c - kp_e * we1) > tg_lim
+                we1 = ((m11 * we0 + m12 * v0 + dt * (te + k1 * t_g)) * m22 - m12 * (
+                m12 * we0 + m22 * v0 + dt * (eta_d * g * (t_m - k2 * t_g) - r_full))) / det
+            clipped = abs(t_g) >= tg_lim - 1e-12
             # charge limit: MG1 slowing the engine gives way too (scaled generating torque)
             wg_m = k1 * 0.5 * (we0 + we1) - k2 * wr0
             p_g_min = (_bus_allowed(-pchg_lim - aux, boost_eff)
                        - electrical_power(mS, mT, mL, wr_e, t_m))
             p_g_now = electrical_power(gS, gT, gL, wg_m, t_g)
             if p_g_now < p_g_min and p_g_now < 0.0:
-                t_g *= max(p_g_min, 0.0 if p_g_min > 0.0 else p_g_min) / p_g_now
+                t_g *= min(p_g_min, 0.0) / p_g_now
                 clipped = True
             # final explicit solve with the torques now fixed (exact energy bookkeeping)
             c1 = m11 * we0 + m12 * v0 + dt * (te + k1 * t_g)

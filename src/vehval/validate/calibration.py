@@ -234,6 +234,8 @@ class _Problem:
         return out
 
     def __call__(self, x: np.ndarray) -> float:
+        if self.mode == "batch":  # one objective per mode: score single points the same way
+            return float(self.batch(np.asarray(x, dtype=float).reshape(-1, 1))[0])
         self.n_eval += 1
         errs = self.per_test(x)
         if errs is None:
@@ -318,8 +320,8 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         objective (step-wise engine state, component NRMSE). ``batch``: each generation
         goes through :func:`vehval.sim.batch.simulate_batch` (summaries only, parallel
         compiled loop); the objective then uses fuel, SOC, engine-on share and engine
-        starts (:func:`vehval.validate.objective.errors_from_summary`). The polish and the
-        before/after errors always use full simulations.
+        starts (:func:`vehval.validate.objective.errors_from_summary`), for the
+        polish too. The before/after errors always use full simulations and comparisons.
     workers : int
         Threads of the batch simulation.
 
