@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import os
 import shutil
 import signal
@@ -49,7 +50,7 @@ def batch_inputs(tmp_path_factory):
     plus broken ones: truncated, garbage bytes, wrong template (unrelated columns)."""
     root = tmp_path_factory.mktemp("batch")
     inp = root / "in"
-    sources = []
+    sources, truths = [], []
     if _virtual_dyno_available():
         from vehval.sim.cycles import steady_cycle
         from vehval.synth import make_virtual_test
@@ -58,6 +59,7 @@ def batch_inputs(tmp_path_factory):
             out = make_virtual_test(cycle=steady_cycle(12.0 + i, 60.0), seed=i,
                                     outdir=root / f"virtual{i}")
             sources.append(list(out.files))
+            truths.append(json.loads(Path(out.truth_path).read_text())["simulation"]["summary"])
         template = Path(out.template_path)
     else:
         template = root / "template.yaml"
@@ -90,7 +92,7 @@ def batch_inputs(tmp_path_factory):
     (d / main_file).write_text("Colour[-]\tMood[-]\n1\t2\n1\t2\n", encoding="utf-8")
     broken[d.name] = main_file
     return {"root": root, "inp": inp, "template": template, "good": good, "broken": broken,
-            "sources": sources}
+            "sources": sources, "truths": truths}
 
 
 @pytest.fixture(scope="module")
@@ -207,6 +209,12 @@ def test_batch_on_cluster_kill_and_resume(batch_inputs, cluster, tmp_path):
             else:
                 assert row[key] == pytest.approx(val, rel=RTOL), (tid, key)
         assert row["fuel_economy_mpg"] > 0 and row["distance_m"] > 0
+        if batch_inputs["truths"]:
+            # independent check against the simulation behind the virtual test: the file
+            # stores speed in mph with 3 decimals on the simulation's 10 Hz grid, so the
+            # distance agrees to ~1e-5; rtol 1e-3 leaves room for the dyno sensor model.
+            truth = batch_inputs["truths"][i]
+            assert row["distance_m"] == pytest.approx(truth["distance_m"], rel=1e-3)
         assert row["n_findings"] == n_findings.get(tid, 0)
     # broken tests: recorded as failed with a user error naming the file
     for tid, fname in broken.items():
@@ -215,3 +223,27 @@ def test_batch_on_cluster_kill_and_resume(batch_inputs, cluster, tmp_path):
         res = json.loads((out / "tests" / tid / "result.json").read_text())
         assert res["status"] == "failed" and res["error_kind"] == "user", res["error"]
     assert (out / "index.html").is_file()
+
+
+def test_all_steps_on_one_virtual_test(batch_inputs, tmp_path):
+    """qa, analyze and validate plus the report on one test (glob target, plain loop)."""
+    if not batch_inputs["truths"]:
+        pytest.skip("virtual dyno not available")
+    from vehval.batch import run_batch
+
+    out = tmp_path / "out"
+    target = str(batch_inputs["inp"] / "good_0_[0]")      # a glob naming one test directory
+    s = run_batch(target, batch_inputs["template"], out, steps=["qa", "analyze", "validate"],
+                  workers=0, report=True, progress=False, cycle="steady")
+    assert (s.n_ok, s.n_failed) == (1, 0), s.results[0].get("error")
+    files = {p.name for p in (out / "tests" / "good_0_0").iterdir()}
+    assert {"findings.json", "control.json", "validation.json", "report.html",
+            "result.json"} <= files
+    with open_catalog(out / "catalog.duckdb", read_only=True) as cat:
+        _, rows = cat.query("SELECT cycle, validation_errors->>'fuel_error', "
+                            "validation->>'on_method' FROM tests")
+    cycle, fuel_err, on_method = rows[0]
+    assert cycle == "steady" and on_method
+    assert math.isfinite(float(fuel_err))
+    val = json.loads((out / "tests" / "good_0_0" / "validation.json").read_text())
+    assert float(fuel_err) == pytest.approx(val["fuel_error"], rel=0, abs=0)

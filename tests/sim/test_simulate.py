@@ -76,9 +76,9 @@ def test_limits_respected(runs, prius, cycle):
     assert np.abs(sig(r, "mot_trq_out")).max() <= 400 + 1e-9
     assert np.abs(sig(r, "gen_trq_out")).max() <= 55 + 1e-9
     # battery power within its limits. They are enforced on the speeds predicted for the
-    # middle of the step, so the allowance grows with the step: 1 % at 0.1 s, 3 % at 0.5 s.
+    # middle of the step, so the allowance grows with the step: 1 % at 0.1 s, 5 % at 0.5 s.
     p = sig(r, "ess_pwr")
-    tol = 1.01 if r.dt <= 0.1 else 1.03
+    tol = 1.01 if r.dt <= 0.1 else 1.05
     assert p.max() <= 21000 * tol and p.min() >= -21000 * tol
 
 

@@ -154,6 +154,9 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
         raise ConfigError(f"a step is repeated in --steps: {','.join(steps)}")
     check_steps(steps, report)
     tmpl, settings = _load_settings(template, vehicle)
+    if "validate" in steps and not settings["vehicle"]:
+        raise ConfigError("step 'validate' needs a vehicle model: pass --vehicle or set "
+                          f"'vehicle:' in the template {template}")
     from vehval import __version__
 
     settings.update(steps=steps, report=bool(report), cycle=cycle, vehval_version=__version__)

@@ -135,13 +135,17 @@ def _selected(qa_dict: dict) -> dict[str, str]:
     return out
 
 
+#: Scalar model-vs-test errors of validation.json kept in the catalog (relative errors).
+VALIDATION_ERRORS = ("fuel_error", "soc_delta_error", "soc_final_error")
+
+
 def _validation_summary(val: dict) -> dict:
-    if isinstance(val.get("summary"), dict):
-        out = dict(val["summary"])
-    else:
-        out = {k: v for k, v in val.items() if isinstance(v, (int, float, str, bool)) or v is None}
-    if "errors" in val:
-        out["errors"] = val["errors"]
+    """Scalars of validation.json for the catalog, with ``errors`` = the relative errors."""
+    out = {k: v for k, v in val.items() if isinstance(v, (int, float, str, bool)) or v is None}
+    errors = val.get("errors") if isinstance(val.get("errors"), dict) else {
+        k: val.get(k) for k in VALIDATION_ERRORS if k in val}
+    if errors:
+        out["errors"] = errors
     return out
 
 
@@ -169,16 +173,27 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     result["vehicle"] = job.get("vehicle_name") or test.meta.vehicle or None
     result["cycle"] = test.meta.cycle or job.get("cycle") or None
     outputs: dict[str, Any] = {}
+    report_parts: dict[str, Any] = {}
     qa = None
+    work = test  # what the later steps see: the QA-validated test once QA ran
     for step in job["steps"]:
         fn = step_function(step)
         if step == "qa":
             qa = fn(test, vehicle, template)
+            work = getattr(qa, "validated", None) or test
             out = jsonable(qa)
         elif step == "analyze":
-            out = jsonable(fn(test, vehicle))
+            res = fn(work, vehicle)
+            out = jsonable(res)
+            report_parts["control"] = out
         else:
-            out = jsonable(fn(test, vehicle, template))
+            if vehicle is None:
+                raise ConfigError("step 'validate' needs a vehicle model: pass --vehicle or set "
+                                  f"'vehicle:' in {Path(job['template']).name}")
+            res = fn(work, vehicle)
+            out = jsonable(res)
+            report_parts["validation"] = (jsonable(res.payload()) if hasattr(res, "payload")
+                                          else out)
         outputs[step] = out
         write_text_atomic(stage / STEP_OUTPUT[step], dump_json(out))
     qa_dict = outputs.get("qa") or {}
@@ -191,8 +206,8 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
         result["validation"] = _validation_summary(outputs["validate"])
     if job.get("report"):
         build = _resolve(*_REPORT, what="the HTML report (use --no-report)")
-        build(stage, test, qa if qa is not None else None, template=template, vehicle=vehicle,
-              control=outputs.get("analyze"), validation=outputs.get("validate"),
+        build(stage, work, qa, template=template, vehicle=vehicle,
+              control=report_parts.get("control"), validation=report_parts.get("validation"),
               title=f"vehval test {job['test_id']}")
 
 
