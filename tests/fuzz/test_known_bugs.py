@@ -44,11 +44,8 @@ def test_empty_last_cell_in_last_row_is_kept(tmp_path, rows):
     assert np.isnan(t.data["Empty"]).all()
 
 
-@pytest.mark.xfail(strict=True, raises=UnicodeDecodeError,
-                   reason="H2 bug: load_vehicle reads with encoding='utf-8' and catches only "
-                          "OSError/YAMLError, so a non-UTF-8 vehicle file raises "
-                          "UnicodeDecodeError instead of a ConfigError")
 def test_non_utf8_vehicle_file_gives_vehval_error(tmp_path):
+    """Was: UnicodeDecodeError escaped load_vehicle. Fixed."""
     vehicle = pytest.importorskip("vehval.sim.vehicle")
     p = tmp_path / "v.yaml"
     p.write_bytes(b"name: \xff\xfe bad\n")
