@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml constraints.txt
 venv: $(STAMP)
 
 demo: venv
-	bash scripts/demo.sh "$(BIN)" "$(DEMO_OUT)"
+	DEMO_DATA="$(DEMO_DATA)" bash scripts/demo.sh "$(BIN)" "$(DEMO_OUT)"
 
 browser:
 	@bash scripts/ensure_chromium.sh
