@@ -52,7 +52,7 @@ def _write_d3(path, test, names_units):
     path.write_text("\n".join(lines) + "\n")
 
 
-def test_cli_qa_writes_outputs(tmp_path):
+def test_cli_qa_writes_outputs(tmp_path, capsys):
     from vehval.cli import main
     test = make_test(seed=42, obd=())
     f = tmp_path / "t1_d3.txt"
@@ -73,6 +73,12 @@ def test_cli_qa_writes_outputs(tmp_path):
     rc = main(["qa", str(f), "-t", str(tpl), "-o", str(out), "--json"])
     assert rc == 0
     d = json.loads((out / "findings.json").read_text())
+    printed = json.loads(capsys.readouterr().out)
+    # --json is a public contract: findings.json's keys, plus outdir and files
+    for key in ("test", "alignment", "findings", "table2", "table3", "calculations",
+                "selection", "summary"):
+        assert printed[key] == d[key], key
+    assert printed["files"][:1] == ["findings.json"]
     assert d["test"]["id"] and d["summary"]["by_kind"].get("all_zero") == 1
     assert (out / "validated.parquet").is_file()
     from vehval.io.template import load_template

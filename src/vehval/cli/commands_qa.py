@@ -26,7 +26,7 @@ def qa_cmd(
     vehicle: str = typer.Option(None, "--vehicle",
                                 help="Vehicle file name or path (default: the template's)."),
     outdir: Path = typer.Option(..., "-o", "--outdir", help="Output directory."),
-    as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON on stdout."),
+    as_json: bool = typer.Option(False, "--json", help="Print findings.json (plus outdir and files) on stdout."),
     report: bool = typer.Option(False, "--report", help="Also write the HTML QA report."),
     max_offset: float = typer.Option(30.0, "--max-offset", help="Alignment search range ±[s]."),
 ) -> None:
@@ -75,7 +75,12 @@ def qa_cmd(
         summ["report"] = report_note
         typer.echo(f"vehval: note: {report_note}", err=True)
     if as_json:
-        typer.echo(json.dumps(summ, indent=1))
+        # the public contract: findings.json's keys, plus where the files went
+        full = result.to_dict()
+        full.update(outdir=summ["outdir"], files=summ["files"])
+        if report_note:
+            full["report"] = report_note
+        typer.echo(json.dumps(full, indent=1))
         return
     s = summ["summary"]
     typer.echo(f"{result.test_id}: {s['total']} findings ({s['by_severity']['error']} error, "
