@@ -1,7 +1,6 @@
 """Batch throughput: tests per minute on a local Dask cluster against a plain loop.
 
-All run the same tests (virtual-dyno tests on a short steady cycle, copied to make a
-batch), the same steps (import + QA, no HTML report) and write the same outputs and
+All run the same tests (virtual-dyno UDDS tests, copied to make a batch), the same steps (import + QA, no HTML report) and write the same outputs and
 catalog, in the same run on the same machine. The baseline is ``vehval batch --workers 0``
 (a plain loop in one warm process). Two cluster figures: a new local cluster per batch (what
 a user pays for one short batch: cluster start + cold worker imports) and a warm cluster
@@ -21,17 +20,17 @@ from pathlib import Path
 from benchmarks.common import row
 
 N_TESTS = 16
-N_DISTINCT = 4
+N_DISTINCT = 2
+CYCLE = "udds"  # 1369 s: a real test length (10 Hz facility file + 1 Hz OBD file)
 
 
 def _inputs(root: Path) -> Path:
     """``N_TESTS`` test directories under ``root/in``; returns the template path."""
-    from vehval.sim.cycles import steady_cycle
     from vehval.synth import make_virtual_test
 
     srcs = []
     for i in range(N_DISTINCT):
-        out = make_virtual_test(cycle=steady_cycle(12.0 + i, 120.0), seed=i, outdir=root / f"v{i}")
+        out = make_virtual_test(cycle=CYCLE, seed=i, outdir=root / f"v{i}")
         srcs.append(out.files)
     for k in range(N_TESTS):
         d = root / "in" / f"t{k:03d}"
@@ -73,7 +72,7 @@ def run() -> list[dict]:
             _timed(root, template, "prime", scheduler=cluster.scheduler_address)
             t_warm = _timed(root, template, "warmcluster", scheduler=cluster.scheduler_address)
     loop = 60.0 * N_TESTS / t_loop
-    what = (f"{N_TESTS} virtual tests (120 s steady cycle, D3 + OBD files), import + QA, no "
+    what = (f"{N_TESTS} virtual tests ({CYCLE}, D3 10 Hz + OBD 1 Hz files), import + QA, no "
             f"report, catalog written; {ncpu} worker processes x 1 thread")
     rows.append(row("batch_tests_per_min_new_local_cluster", 60.0 * N_TESTS / t_cold, "tests/min",
                     baseline=loop, target=1.0, better="higher",

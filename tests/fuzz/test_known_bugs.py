@@ -2,7 +2,7 @@
 
 An open bug is a strict xfail: it documents the bug and turns into a failure (XPASS) the
 moment the bug is fixed, so the marker is then removed and the case stays as a regression
-test (the H1 cases below were fixed that way).
+test (every case below was fixed that way; none is open now).
 """
 
 from __future__ import annotations

@@ -84,7 +84,7 @@ def test_engine_map_with_duck_typed_vehicle():
     z = np.asarray(fig.data[0].z, float)
     # efficiency = P / (2.7 P + 3 kW) < 1/2.7 everywhere
     assert np.nanmax(z) < 100 / 2.7 and np.nanmax(z) > 30
-    assert any("operating points" in (tr.name or "") for tr in fig.data)
+    assert any("engine running" in (tr.name or "") for tr in fig.data)
 
 
 def test_engine_map_with_the_real_vehicle():

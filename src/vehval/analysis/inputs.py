@@ -48,7 +48,7 @@ class AnalysisInputs:
     a : ndarray
         Vehicle acceleration [m/s²] (measured, or the smoothed derivative of ``v``).
     p_whl : ndarray
-        Wheel power demand [W] (> 0 propelling, < 0 braking).
+        Delivered wheel power [W] (> 0 propelling, < 0 braking).
     eng_spd, eng_trq, fuel_rate : ndarray
         Engine speed [rad/s], engine torque [N·m], fuel mass rate [kg/s].
     ess_curr, ess_volt, ess_pwr : ndarray
@@ -57,6 +57,8 @@ class AnalysisInputs:
         Battery state of charge [-] (0..1).
     brk_frc : ndarray
         Friction brake force [N] (>= 0) when measured.
+    consts : dict
+        Constants used (test mass, road load, wheel radius...; SI, unit in the key).
     sources : dict
         Quantity -> how it was obtained (signal names or the formula used).
     """
@@ -75,6 +77,7 @@ class AnalysisInputs:
     soc: np.ndarray
     brk_frc: np.ndarray
     mass_kg: float | None = None
+    consts: dict[str, float] = field(default_factory=dict)
     sources: dict[str, str] = field(default_factory=dict)
     findings: list[Finding] = field(default_factory=list)
 
@@ -243,14 +246,11 @@ def prepare_inputs(test: Test, vehicle: Any = None, constants: dict | None = Non
         pwr = curr * volt
         sources["battery power"] = f"{sources['battery current']} x {sources['battery voltage']}"
 
-    # wheel power demand, most direct first
+    # delivered wheel power, most direct first (the driver's demand is not measured: the
+    # rule's demand is rebuilt from these by vehval.analysis.demand)
     p_whl = nan.copy()
     frc = pick_signal(test, "veh_frc_in", ("dyno", ""))
-    if pick_signal(test, "drv_pwr_demand") is not None:
-        # the driver's own demand (CAN / controller log) is what the rule reacts to
-        p_whl = grab("drv_pwr_demand", "wheel power")
-        sources["wheel power"] = sources["wheel power"] + " (driver demand signal)"
-    elif frc is not None:
+    if frc is not None:
         p_whl = grab("veh_frc_in", "tractive force") * v
         sources["wheel power"] = f"{frc.name} x {sources['vehicle speed']} (measured)"
     if not np.any(np.isfinite(p_whl)) and pick_signal(test, "whl_pwr_out") is not None:
@@ -287,7 +287,8 @@ def prepare_inputs(test: Test, vehicle: Any = None, constants: dict | None = Non
                                 "not estimated"))
     return AnalysisInputs(t=t, dt=step, v=v, a=a, p_whl=p_whl, eng_spd=eng_spd, eng_trq=eng_trq,
                           fuel_rate=fuel, ess_curr=curr, ess_volt=volt, ess_pwr=pwr, soc=soc,
-                          brk_frc=brk, mass_kg=mass, sources=sources, findings=findings)
+                          brk_frc=brk, mass_kg=mass, consts=consts, sources=sources,
+                          findings=findings)
 
 
 def from_simulation(sim_test: Test) -> Test:

@@ -76,10 +76,15 @@ def _replay(p_wh, v, soc, pdis_av, aux, dt, prm, state0):
     on_pwr = prm[0]; off_pwr = prm[1]; on_spd = prm[2]; off_spd = prm[3]
     min_on = prm[4]; min_off = prm[5]; h_pwr = prm[6]; h_spd = prm[7]; h_off = prm[8]
     h_bat = prm[9]; soc_on = prm[10]; h_soc = prm[11]; soc_force = prm[12]
+    pw = 0.0
+    vi = 0.0
     for i in range(n):
         out[i] = engine_commanded_on(st)
-        pw = p_wh[i] if p_wh[i] == p_wh[i] else 0.0
-        vi = v[i] if v[i] == v[i] else 0.0
+        # unknown samples (NaN) hold the last known value
+        if p_wh[i] == p_wh[i]:
+            pw = p_wh[i]
+        if v[i] == v[i]:
+            vi = v[i]
         si = soc[i]
         soc_ok = si == si
         p_bdem = soc_power_demand(si, prm[13], prm[14], prm[15], prm[16]) if soc_ok else 0.0
@@ -103,15 +108,15 @@ def _replay(p_wh, v, soc, pdis_av, aux, dt, prm, state0):
 def replay(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, dt: float,
            params: dict[str, float] | np.ndarray, *, aux_w: float = 0.0,
            pdis_av_w: np.ndarray | None = None, state0: bool = False,
-           lag_steps: int = 0) -> np.ndarray:
+           lag_steps: int | tuple[int, int] = 0) -> np.ndarray:
     """Engine state commanded by the rule at every step.
 
     Parameters
     ----------
     p_wh : ndarray
-        Wheel power demand [W].
+        Wheel power demand [W] (NaN samples hold the last known value).
     v : ndarray
-        Vehicle speed [m/s].
+        Vehicle speed [m/s] (NaN samples hold the last known value).
     soc : ndarray
         State of charge [-] (NaN: SOC conditions and SOC regulation ignored).
     dt : float
@@ -124,9 +129,11 @@ def replay(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, dt: float,
         Battery discharge power available [W] (limit minus margin); default unlimited.
     state0 : bool
         Engine on at the first step.
-    lag_steps : int
-        Delay [steps] between the commanded state and the observable engine state
-        (spin-up / spin-down of the engine).
+    lag_steps : int or (int, int)
+        Delay [steps] between the commanded state and the observable engine state (spin-up
+        or spin-down of the engine, minus the delay of the measured inputs behind the
+        controller's own: a negative value advances the replayed state); a pair gives the
+        delays of the starts and of the stops separately.
 
     Returns
     -------
@@ -137,9 +144,21 @@ def replay(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, dt: float,
     pd = np.full(n, np.inf) if pdis_av_w is None else np.where(np.isfinite(pdis_av_w), pdis_av_w, np.inf)
     out = _replay(np.asarray(p_wh, float), np.asarray(v, float), np.asarray(soc, float),
                   pd.astype(float), float(aux_w), float(dt), prm, bool(state0))
-    if lag_steps > 0:
-        out = np.concatenate([np.full(lag_steps, out[0]), out[:-lag_steps]])
-    return out
+    if isinstance(lag_steps, (tuple, list)):
+        lag_on, lag_off = int(lag_steps[0]), int(lag_steps[1])
+        a, b = shift_state(out, lag_on), shift_state(out, lag_off)
+        # starts move by lag_on, stops by lag_off
+        return (a | b) if lag_on <= lag_off else (a & b)
+    return shift_state(out, int(lag_steps))
+
+
+def shift_state(x: np.ndarray, k: int) -> np.ndarray:
+    """``x`` delayed by ``k`` steps (advanced when negative), edges padded with the end values."""
+    if k > 0:
+        return np.concatenate([np.full(k, x[0]), x[:-k]])
+    if k < 0:
+        return np.concatenate([x[-k:], np.full(-k, x[-1])])
+    return x
 
 
 def agreement(observed: np.ndarray, replayed: np.ndarray, valid: np.ndarray | None = None) -> float:

@@ -2,18 +2,20 @@
 
 Estimator: the rule is the simulator's state machine (:mod:`vehval.analysis.replay`);
 its thresholds are chosen to maximise the share of time steps where the replayed state
-(fed with the measured demand, speed and SOC) agrees with the observed engine state.
-The objective is piecewise constant, so the search is a coordinate ascent over grids:
-joint (on, off) grids for the power and for the speed thresholds, 1-D grids for the
-minimum times and the spin-up lag; each round refines the grids around the best point.
-Initial values come from the demand and speed distributions at the observed on-transitions
-and from the run-length distribution.
+(fed with the demand rebuilt from measured signals, :mod:`vehval.analysis.demand`) agrees
+with the observed engine state. The objective is piecewise constant, so the search is a
+coordinate ascent over grids: a joint coarse scan of the two on-thresholds, then rounds of
+(start / stop delays), joint (on, off) grids for the power and for the speed thresholds,
+the joint off-conditions and the minimum times; a final round refines every parameter on a
+fine grid (100 W, 0.1 m/s, one step).
 
-Uncertainty is the classification margin: the interval of values whose agreement is within
-``tol`` (default 0.2 % of the steps) of the best with everything else fixed. A threshold whose
-interval reaches the end of its search range never bound (e.g. a speed threshold above
-every speed driven) and is reported as a bound, not an estimate. The minimum times also get
-a bootstrap interval of the lower quantile of the on/off run lengths.
+Identifiability: every estimated parameter is finally scanned over its whole plausible
+range with the others fixed. The values whose agreement lies within ``tol`` (default 0.2 %
+of the steps) of the best form its interval. A parameter is *identified* only when that
+interval lies strictly inside the range; when it reaches an end of the range, changing the
+parameter up to that end does not change the replay, so the data only **bound** it (e.g.
+an on-power threshold above every demand driven, an off-power threshold that never decided
+a stop, a minimum time no run was held by): it goes to ``bounds``, never to ``estimated``.
 """
 
 from __future__ import annotations
@@ -40,13 +42,15 @@ class RuleFit:
     estimated : dict
         Only the parameters the data identified (vehicle-file controller keys).
     bounds : dict
-        Parameters the data bounded but did not pin down: key -> {"low", "high", "why"}.
+        Parameters the data bounded but did not pin down: key -> {"low", "high", "why"}
+        (``None`` for an open side).
     uncertainty : dict
-        Key -> {"low", "high", "method"} (and bootstrap figures for the minimum times).
+        Key -> {"low", "high", "method", ...} (and bootstrap figures for the minimum times).
     agreement : float
         Share of valid time steps where the replayed rule matches the observed state.
-    lag_s : float
-        Estimated delay between commanded and observed engine state [s].
+    lag_s : dict
+        ``{"start": s, "stop": s}``: delay of the observed engine starts / stops behind the
+        replayed command [s].
     replayed : ndarray of bool
         Replayed (lagged) engine state.
     """
@@ -56,10 +60,11 @@ class RuleFit:
     bounds: dict
     uncertainty: dict
     agreement: float
-    lag_s: float
+    lag_s: dict
     replayed: np.ndarray
     runs: dict = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    ranges: dict = field(default_factory=dict)
 
 
 def run_durations(state: np.ndarray, dt: float, valid: np.ndarray | None = None) -> dict[str, np.ndarray]:
@@ -96,10 +101,10 @@ class _Problem:
         self.aux_w, self.pdis_av = aux_w, pdis_av
         self.vec = rule_vector(base)
         self.state0 = bool(obs[np.argmax(valid)]) if valid.any() else False
-        self.lag = 0
+        self.lag = (0, 0)
         self.calls = 0
 
-    def score(self, vec: np.ndarray, lag: int | None = None) -> float:
+    def score(self, vec: np.ndarray, lag: tuple[int, int] | None = None) -> float:
         self.calls += 1
         rep = replay(self.p_wh, self.v, self.soc, self.dt, vec, aux_w=self.aux_w,
                      pdis_av_w=self.pdis_av, state0=self.state0,
@@ -111,16 +116,24 @@ class _Problem:
                       pdis_av_w=self.pdis_av, state0=self.state0, lag_steps=self.lag)
 
 
-def _pick(values: np.ndarray, scores: np.ndarray, prefer: str) -> tuple[float, int]:
-    """Best value of a 1-D scan: ties -> middle of the best plateau, or its upper end."""
+def _plateau(values: np.ndarray, scores: np.ndarray, i_ref: int, tol: float) -> tuple[int, int]:
+    """Index range [lo, hi] of the contiguous run around ``i_ref`` scoring >= best - tol."""
+    ok = scores >= np.max(scores) - tol
+    lo = hi = i_ref
+    while lo > 0 and ok[lo - 1]:
+        lo -= 1
+    while hi < values.size - 1 and ok[hi + 1]:
+        hi += 1
+    return lo, hi
+
+
+def _pick(values: np.ndarray, scores: np.ndarray) -> float:
+    """Best value of a 1-D scan: the middle of the longest plateau of exactly best score."""
     best = np.max(scores)
     idx = np.nonzero(scores >= best - 1e-12)[0]
-    if prefer == "high":
-        return float(values[idx[-1]]), int(idx[-1])
-    # the longest contiguous run of tied indices, its middle
     groups = np.split(idx, np.nonzero(np.diff(idx) > 1)[0] + 1)
     g = max(groups, key=len)
-    return float(values[g[len(g) // 2]]), int(g[len(g) // 2])
+    return float(values[g[len(g) // 2]])
 
 
 def _scan(prob: _Problem, key: str, values: np.ndarray) -> np.ndarray:
@@ -134,19 +147,19 @@ def _scan(prob: _Problem, key: str, values: np.ndarray) -> np.ndarray:
 
 
 def _scan_pair(prob: _Problem, on_key: str, off_key: str, on_vals: np.ndarray,
-               off_fracs: np.ndarray) -> tuple[float, float]:
+               gaps: np.ndarray) -> None:
     """Joint grid over (on threshold, off threshold = on - gap); sets the best in place."""
-    best, arg = -1.0, (prob.vec[IDX[on_key]], prob.vec[IDX[off_key]])
+    best, arg = prob.score(prob.vec), None
     for on in on_vals:
-        for gap in off_fracs:
+        for gap in gaps:
             vec = prob.vec.copy()
             vec[IDX[on_key]] = on
             vec[IDX[off_key]] = on - gap
             s = prob.score(vec)
             if s > best + 1e-12:
                 best, arg = s, (on, on - gap)
-    prob.vec[IDX[on_key]], prob.vec[IDX[off_key]] = arg
-    return arg
+    if arg is not None:
+        prob.vec[IDX[on_key]], prob.vec[IDX[off_key]] = arg
 
 
 def _scan_off(prob: _Problem, p_vals: np.ndarray, v_vals: np.ndarray) -> None:
@@ -164,38 +177,95 @@ def _scan_off(prob: _Problem, p_vals: np.ndarray, v_vals: np.ndarray) -> None:
         prob.vec[IDX["engine_off_power_w"]], prob.vec[IDX["engine_off_speed_mps"]] = arg
 
 
-def _refine(prob: _Problem, key: str, lo: float, hi: float, step: float, prefer: str,
-            limit: tuple[float, float] | None = None) -> tuple[float, np.ndarray, np.ndarray]:
+def _scan_lags(prob: _Problem, lags: np.ndarray) -> None:
+    """Joint grid over the start and stop delays [steps], set in place."""
+    best, arg = -1.0, prob.lag
+    for a in lags:
+        for b in lags:
+            s = prob.score(prob.vec, lag=(int(a), int(b)))
+            if s > best + 1e-12:
+                best, arg = s, (int(a), int(b))
+    prob.lag = arg
+
+
+def _refine(prob: _Problem, key: str, lo: float, hi: float, step: float) -> None:
     values = np.arange(lo, hi + step / 2, step)
-    if limit is not None:
-        values = values[(values >= limit[0]) & (values <= limit[1])]
-    if values.size == 0:
-        return float(prob.vec[IDX[key]]), values, values
-    scores = _scan(prob, key, values)
-    x, _ = _pick(values, scores, prefer)
-    prob.vec[IDX[key]] = x
-    return x, values, scores
+    if values.size:
+        prob.vec[IDX[key]] = _pick(values, _scan(prob, key, values))
 
 
-def _margin(values: np.ndarray, scores: np.ndarray, x: float, tol: float) -> tuple[float, float]:
-    """Contiguous interval around ``x`` whose score is within ``tol`` of the best."""
-    if values.size == 0:
-        return (x, x)
-    best = np.max(scores)
-    ok = scores >= best - tol
-    i = int(np.argmin(np.abs(values - x)))
-    lo = hi = i
-    while lo > 0 and ok[lo - 1]:
-        lo -= 1
-    while hi < values.size - 1 and ok[hi + 1]:
-        hi += 1
-    return float(values[lo]), float(values[hi])
+def _ranges(prob: _Problem, p_hi: float, v_max: float, p_step: float, v_step: float,
+            t_step: float) -> dict[str, np.ndarray]:
+    """Plausible range of each estimated parameter, as a scan grid (given the others)."""
+    on_p = prob.vec[IDX["engine_on_power_w"]]
+    on_v = prob.vec[IDX["engine_on_speed_mps"]]
+    return {
+        "engine_on_power_w": np.arange(0.0, p_hi + p_step / 2, p_step),
+        "engine_off_power_w": np.arange(-10000.0, on_p + p_step / 2, p_step),
+        "engine_on_speed_mps": np.arange(0.0, v_max + 2.0 + v_step / 2, v_step),
+        "engine_off_speed_mps": np.arange(0.0, on_v + v_step / 2, v_step),
+        "min_on_time_s": np.arange(0.0, 30.0 + t_step / 2, t_step),
+        "min_off_time_s": np.arange(0.0, 30.0 + t_step / 2, t_step),
+    }
+
+
+_WHY = {
+    "engine_on_power_w": "the power condition never decided an engine start",
+    "engine_off_power_w": "the power condition never decided an engine stop",
+    "engine_on_speed_mps": "the speed condition never decided an engine start",
+    "engine_off_speed_mps": "the speed condition never decided an engine stop",
+    "min_on_time_s": "no on run was held by the minimum on time",
+    "min_off_time_s": "no off run was held by the minimum off time",
+}
+
+
+def identifiability(prob: _Problem, grids: dict[str, np.ndarray], tol: float
+                    ) -> tuple[dict, dict, dict]:
+    """Classify each parameter as identified or bounded from a full-range scan.
+
+    Returns
+    -------
+    (estimated, bounds, uncertainty) : dicts keyed by parameter name.
+    """
+    estimated, bounds, unc = {}, {}, {}
+    for key in ESTIMATED:
+        values = grids[key]
+        x = float(prob.vec[IDX[key]])
+        if values.size < 2:
+            bounds[key] = {"low": None, "high": None, "why": "empty plausible range"}
+            continue
+        scores = _scan(prob, key, values)
+        i_ref = int(np.argmin(np.abs(values - x)))
+        lo, hi = _plateau(values, scores, i_ref, tol)
+        at_lo, at_hi = lo == 0, hi == values.size - 1
+        unit = key.rsplit("_", 1)[-1]
+        rng = [round(float(values[0]), 4), round(float(values[-1]), 4)]
+        unc[key] = {"low": round(float(values[lo]), 4), "high": round(float(values[hi]), 4),
+                    "method": f"classification margin: agreement within {tol:.1%} of the best "
+                              "with the other parameters fixed, scanned over the plausible "
+                              f"range {rng} [{unit}]",
+                    "agreement_drop_over_range": round(float(np.max(scores) - np.min(scores)), 5)}
+        if at_lo and at_hi:
+            bounds[key] = {"low": None, "high": None,
+                           "why": f"{_WHY[key]}: any value in the plausible range {rng} "
+                                  "reproduces the test (not identifiable)"}
+        elif at_hi:
+            bounds[key] = {"low": round(float(values[lo]), 4), "high": None,
+                           "why": f"{_WHY[key]}: any value above {values[lo]:g} reproduces "
+                                  "the test up to the end of the plausible range"}
+        elif at_lo:
+            bounds[key] = {"low": None, "high": round(float(values[hi]), 4),
+                           "why": f"{_WHY[key]}: any value below {values[hi]:g} reproduces "
+                                  "the test down to the start of the plausible range"}
+        else:
+            estimated[key] = round(x, 4)
+    return estimated, bounds, unc
 
 
 def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray,
              soc: np.ndarray, dt: float, base: dict, *, aux_w: float = 0.0,
              pdis_av: np.ndarray | None = None, tol: float = 0.002, rounds: int = 3,
-             max_lag_s: float = 1.0) -> RuleFit:
+             lag_range_s: tuple[float, float] = (-0.3, 1.0)) -> RuleFit:
     """Estimate the engine on/off rule that best reproduces the observed engine state.
 
     Parameters
@@ -203,7 +273,7 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
     obs, valid : ndarray of bool
         Observed engine state and the steps where it (and the demand) is known.
     p_wh : ndarray
-        Wheel power demand [W].
+        Wheel power demand [W] (:func:`vehval.analysis.demand.rule_demand`).
     v : ndarray
         Vehicle speed [m/s].
     soc : ndarray
@@ -217,51 +287,44 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
     pdis_av : ndarray, optional
         Battery discharge power available [W] (battery condition); default unlimited.
     tol : float
-        Agreement tolerance [share of steps] defining the uncertainty intervals.
+        Agreement tolerance [share of steps] defining the intervals and identifiability.
     rounds : int
         Coordinate-ascent rounds.
+    lag_range_s : (float, float)
+        Search range of the start / stop delays [s].
 
     Returns
     -------
     RuleFit
     """
     obs = np.asarray(obs, bool)
-    valid = np.asarray(valid, bool) & np.isfinite(p_wh) & np.isfinite(v)
-    prob = _Problem(obs, valid, np.where(np.isfinite(p_wh), p_wh, 0.0), v, soc, dt, base,
-                    aux_w, pdis_av)
+    valid = np.asarray(valid, bool) & np.isfinite(v)
+    prob = _Problem(obs, valid, np.asarray(p_wh, float), v, soc, dt, base, aux_w, pdis_av)
     notes: list[str] = []
     runs = run_durations(obs, dt, valid)
     boot = {k: bootstrap_quantile(runs[k]) for k in ("on", "off")}
-    # ---- initial values from the data
-    p_pos = p_wh[valid & (p_wh > 0)]
+    # ---- search ranges from the data
+    p_fin = p_wh[valid & np.isfinite(p_wh)]
     v_max = float(np.nanmax(v[valid])) if valid.any() else 30.0
-    # top of the power search: above every total demand seen, so "never binding" is a value
-    p_hi = (float(np.max(p_pos)) if p_pos.size else 30e3) + aux_w + \
+    # top of the power range: above every total demand seen, so "never binding" is a value
+    p_hi = (float(np.max(p_fin)) if p_fin.size else 30e3) + aux_w + \
         max(prob.vec[IDX["soc_charge_power_max_w"]], 0.0) + 2000.0
-    onsets = np.nonzero(obs[1:] & ~obs[:-1] & valid[1:])[0] + 1
-    if onsets.size:
-        look = max(1, int(round(1.0 / dt)))
-        p_on = np.array([np.nanmax(p_wh[max(0, i - look):i + 1]) for i in onsets])
-        prob.vec[IDX["engine_on_power_w"]] = float(np.clip(np.nanquantile(p_on, 0.25), 1e3, p_hi))
-    p_grid_hi = p_hi
+    p_hi = float(np.ceil(max(p_hi, 4000.0) / 1000.0) * 1000.0)
     for key, b in (("min_on_time_s", boot["on"]), ("min_off_time_s", boot["off"])):
-        if b:
-            # start short: a long minimum time would mask the thresholds in the first scans
-            prob.vec[IDX[key]] = min(max(b["estimate"] - 0.5, 0.0), 2.0)
-    # ---- spin-up lag
-    lags = np.arange(0, max(1, int(round(max_lag_s / dt))) + 1)
-    # ---- coordinate ascent
-    p_step = 1000.0
-    on_grid = np.arange(1000.0, max(p_hi, 4000.0) + p_step, p_step)
-    gaps = np.arange(0.0, 12000.0 + 1, 1000.0)
+        # start short: a long minimum time would mask the thresholds in the first scans
+        prob.vec[IDX[key]] = min(max(b["estimate"] - 0.5, 0.0), 2.0) if b else 0.0
+    k_lo = int(np.floor(lag_range_s[0] / dt + 1e-9))
+    k_hi = max(int(np.ceil(lag_range_s[1] / dt - 1e-9)), 0)
+    lags = np.arange(k_lo, k_hi + 1)
+    on_grid = np.arange(1000.0, p_hi + 1.0, 1000.0)
+    gaps = np.arange(0.0, 12000.0 + 1.0, 1000.0)
     v_grid = np.arange(5.0, np.ceil(v_max) + 2.0, 1.0)
     v_gaps = np.arange(0.0, 6.01, 1.0)
-    trace = {}
-    # joint coarse scan of the two on-thresholds (offs follow at a fixed hysteresis), so the
-    # ascent does not start by explaining speed-triggered starts with a power threshold
+    # joint coarse scan of the two on-thresholds (offs at a fixed hysteresis), so the ascent
+    # does not start by explaining speed-triggered starts with a power threshold
     best = -1.0
     start = prob.vec.copy()
-    for on in np.arange(2000.0, max(p_hi, 4000.0) + 2000.0, 2000.0):
+    for on in np.arange(2000.0, p_hi + 2000.0, 2000.0):
         for vs in v_grid:
             vec = start.copy()
             vec[IDX["engine_on_power_w"]], vec[IDX["engine_off_power_w"]] = on, on - 3000.0
@@ -269,91 +332,50 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
             sc = prob.score(vec)
             if sc > best + 1e-12:
                 best, prob.vec = sc, vec
-    for r in range(rounds):
-        ls = np.array([prob.score(prob.vec, lag=int(k)) for k in lags])
-        prob.lag = int(lags[int(np.argmax(ls))])
+    t_step = max(dt, 0.5)
+    for _ in range(rounds):
+        _scan_lags(prob, lags)
         _scan_pair(prob, "engine_on_power_w", "engine_off_power_w", on_grid, gaps)
         _scan_pair(prob, "engine_on_speed_mps", "engine_off_speed_mps", v_grid, v_gaps)
         _scan_off(prob, np.arange(-6000.0, prob.vec[IDX["engine_on_power_w"]] + 1.0, 1000.0),
                   np.arange(3.0, prob.vec[IDX["engine_on_speed_mps"]] + 0.01, 1.0))
-        x = prob.vec
         rmax_on = float(runs["on"].max()) + 2.0 if runs["on"].size else 20.0
         rmax_off = float(runs["off"].max()) + 2.0 if runs["off"].size else 20.0
-        _refine(prob, "min_on_time_s", 0.0, min(rmax_on, 30.0), max(dt, 0.5), "high")
-        _refine(prob, "min_off_time_s", 0.0, min(rmax_off, 30.0), max(dt, 0.5), "high")
-        if r == rounds - 1:
-            # fine refinement with margins
-            on = x[IDX["engine_on_power_w"]]
-            trace["engine_on_power_w"] = _refine(prob, "engine_on_power_w", on - 1500, on + 1500, 100.0,
-                                                 "mid", (x[IDX["engine_off_power_w"]], np.inf))
-            off = x[IDX["engine_off_power_w"]]
-            trace["engine_off_power_w"] = _refine(prob, "engine_off_power_w", off - 1500, off + 1500,
-                                                  100.0, "mid", (-np.inf, x[IDX["engine_on_power_w"]]))
-            vs = x[IDX["engine_on_speed_mps"]]
-            trace["engine_on_speed_mps"] = _refine(prob, "engine_on_speed_mps", vs - 1.5, vs + 1.5, 0.1,
-                                                   "mid", (x[IDX["engine_off_speed_mps"]], v_max + 2.0))
-            vo = x[IDX["engine_off_speed_mps"]]
-            trace["engine_off_speed_mps"] = _refine(prob, "engine_off_speed_mps", vo - 1.5, vo + 1.5, 0.1,
-                                                    "mid", (0.5, x[IDX["engine_on_speed_mps"]]))
-            mo = x[IDX["min_on_time_s"]]
-            trace["min_on_time_s"] = _refine(prob, "min_on_time_s", max(mo - 2.0, 0.0), mo + 2.0, dt, "high")
-            mf = x[IDX["min_off_time_s"]]
-            trace["min_off_time_s"] = _refine(prob, "min_off_time_s", max(mf - 2.0, 0.0), mf + 2.0, dt, "high")
+        _refine(prob, "min_on_time_s", 0.0, min(rmax_on, 30.0), t_step)
+        _refine(prob, "min_off_time_s", 0.0, min(rmax_off, 30.0), t_step)
+    # ---- fine refinement (each within +-1.5 grid cells of the coarse optimum)
+    x = prob.vec
+    for _ in range(2):
+        _scan_lags(prob, lags)
+        on = x[IDX["engine_on_power_w"]]
+        _refine(prob, "engine_on_power_w", max(on - 1500.0, x[IDX["engine_off_power_w"]]),
+                min(on + 1500.0, p_hi), 100.0)
+        off = x[IDX["engine_off_power_w"]]
+        _refine(prob, "engine_off_power_w", off - 1500.0, min(off + 1500.0, x[IDX["engine_on_power_w"]]), 100.0)
+        vs = x[IDX["engine_on_speed_mps"]]
+        _refine(prob, "engine_on_speed_mps", max(vs - 1.5, x[IDX["engine_off_speed_mps"]]),
+                min(vs + 1.5, v_max + 2.0), 0.1)
+        vo = x[IDX["engine_off_speed_mps"]]
+        _refine(prob, "engine_off_speed_mps", max(vo - 1.5, 0.0), min(vo + 1.5, x[IDX["engine_on_speed_mps"]]), 0.1)
+        mo = x[IDX["min_on_time_s"]]
+        _refine(prob, "min_on_time_s", max(mo - 2.0, 0.0), mo + 2.0, dt)
+        mf = x[IDX["min_off_time_s"]]
+        _refine(prob, "min_off_time_s", max(mf - 2.0, 0.0), mf + 2.0, dt)
     params = {k: float(prob.vec[i]) for k, i in IDX.items()}
     rep = prob.replayed()
     agree = agreement(obs, rep, valid)
-    # ---- identification and uncertainty
-    estimated, bounds, unc = {}, {}, {}
-    for key in ESTIMATED:
-        _, values, scores = trace[key]
-        x = params[key]
-        lo, hi = _margin(values, scores, x, tol)
-        # a wide margin means the rule did not bind inside the refine window: widen the scan
-        unc[key] = {"low": lo, "high": hi, "method": f"classification margin: agreement within "
-                    f"{tol:.1%} of the best with the other parameters fixed"}
-    # speed: never binding when the whole plateau lies above the speeds driven
-    for key in ("engine_on_speed_mps", "engine_off_speed_mps"):
-        full = np.arange(0.5, v_max + 2.05, 0.25)
-        sc = _scan(prob, key, full)
-        lo, hi = _margin(full, sc, params[key], tol)
-        unc[key]["low"], unc[key]["high"] = lo, hi
-        if hi >= full[-1] - 1e-9:
-            bounds[key] = {"low": lo, "high": None,
-                           "why": "the rule never switched on speed in this test: any value "
-                                  f"above {lo:.1f} m/s reproduces it"}
+    # ---- identification: full-range scans
+    grids = _ranges(prob, p_hi, v_max, 100.0, 0.1, dt)
+    estimated, bounds, unc = identifiability(prob, grids, tol)
     for key, b in (("min_on_time_s", boot["on"]), ("min_off_time_s", boot["off"])):
-        kind = "on" if key == "min_on_time_s" else "off"
         if b:
             unc[key]["bootstrap_q05_of_runs"] = b
-        x = params[key]
-        d = runs[kind]
-        n_close = int(np.sum((d >= x - 0.5) & (d <= x + 1.5))) if d.size else 0
-        if n_close < 2:
-            bounds[key] = {"low": None, "high": float(d.min()) if d.size else None,
-                           "why": f"fewer than 2 {kind} runs end near the minimum time: the "
-                                  f"shortest {kind} run bounds it from above"}
-        unc[key]["runs_near_minimum"] = n_close
-    full = np.arange(1000.0, p_hi + 1.0, 250.0)
-    sc = _scan(prob, "engine_on_power_w", full)
-    lo, hi = _margin(full, sc, params["engine_on_power_w"], tol)
-    if hi >= full[-1] - 1e-9:
-        bounds["engine_on_power_w"] = {
-            "low": lo, "high": None, "why": "the rule never switched on power demand in this test: "
-            f"any value above {lo:.0f} W reproduces it"}
-    for key in ("engine_on_power_w", "engine_off_power_w"):
-        lo, hi = unc[key]["low"], unc[key]["high"]
-        if hi - lo > 2500.0:
-            bounds[key] = {"low": lo, "high": hi, "why": "agreement is flat over a wide range"}
-    for key in ESTIMATED:
-        for side in ("low", "high"):
-            if unc[key].get(side) is not None:
-                unc[key][side] = round(float(unc[key][side]), 4)
-        if key not in bounds:
-            estimated[key] = round(params[key], 4)
     if agree < 0.9:
         notes.append(f"the replayed rule reproduces only {agree:.1%} of the steps: the engine "
                      "state depends on conditions the rule does not see (e.g. warm-up, "
                      "catalyst heating, driver modes) or on an unmeasured demand")
+    ranges = {k: [round(float(g[0]), 4), round(float(g[-1]), 4)] for k, g in grids.items()}
     return RuleFit(params=params, estimated=estimated, bounds=bounds, uncertainty=unc,
-                   agreement=agree, lag_s=prob.lag * dt, replayed=rep,
-                   runs={k: runs[k].tolist() for k in runs}, notes=notes)
+                   agreement=agree, lag_s={"start": prob.lag[0] * dt, "stop": prob.lag[1] * dt},
+                   replayed=rep, runs={k: runs[k].tolist() for k in runs}, notes=notes,
+                   ranges=ranges)

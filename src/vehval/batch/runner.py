@@ -229,7 +229,9 @@ def _execute(jobs: list[dict], record: Callable[[dict], None], workers: int | No
             return
         if workers is None:
             workers = os.cpu_count() or 1
-        if workers <= 0 and not scheduler:
+        # a plain loop when asked, or when a local cluster cannot pay off (a single test:
+        # starting workers and their cold imports cost more than the test itself)
+        if not scheduler and (workers <= 0 or len(jobs) == 1):
             for job in jobs:
                 land(process_test(job))
             return

@@ -91,6 +91,8 @@ def import_cmd(
     write_test(test, output)
     typer.echo(f"wrote {output}: {len(test)} signals from {len(files)} file(s), "
                f"{len(test.meta.deleted)} channel(s) deleted")
+    typer.echo(f"  cycle: {test.meta.cycle or '(not identified)'}"
+               + ("  [VIRTUAL TEST: synthetic data]" if test.meta.synthetic else ""))
     for note in test.meta.notes:
         typer.echo(f"  {note}", err=note.startswith("warning"))
 
@@ -105,6 +107,30 @@ def _channel_stats(name: str, unit: str | None, t: np.ndarray | None, v: np.ndar
         out["duration_s"] = float(np.nanmax(t) - np.nanmin(t))
         out["t0_s"] = float(np.nanmin(t))
     return out
+
+
+def _raw_cycle(raw) -> dict:
+    """Cycle of a raw file, identified from its vehicle-speed channel (matched like
+    ``template init`` does), as ``{cycle, cycle_found}``; empty when the file has none."""
+    from vehval.io.identify import describe, identify_cycle
+    from vehval.io.propose import match_channel, unit_known
+    from vehval.units import to_si
+
+    if raw.time_name is None and not raw.times:
+        return {}
+    for name, unit in zip(raw.names, raw.units):
+        if name == raw.time_name or unit is None or not unit_known(unit):
+            continue
+        if match_channel(name, unit) != "veh_spd":
+            continue
+        t = raw.time_of(name)
+        if t is None:
+            continue
+        if raw.time_unit:
+            t = to_si(t, raw.time_unit, "s")
+        cyc, _, details = identify_cycle(t, to_si(raw.data[name], unit, "m/s"))
+        return {"cycle": cyc, "cycle_found": f"{describe(cyc, details)} from '{name}'"}
+    return {}
 
 
 @app.command("info")
@@ -122,7 +148,9 @@ def info_cmd(
     except InputFileError:
         test = None
     if test is not None:
-        info.update(kind="test", test_id=test.meta.test_id, notes=test.meta.notes,
+        info.update(kind="test", test_id=test.meta.test_id, cycle=test.meta.cycle or None,
+                    cycle_found=next((n for n in test.meta.notes if n.startswith("cycle ")), None),
+                    synthetic=bool(test.meta.synthetic), notes=test.meta.notes,
                     channels=[dict(_channel_stats(s.name, s.unit, s.time, s.values), source=s.source)
                               for s in test])
     else:
@@ -138,10 +166,16 @@ def info_cmd(
                 from vehval.units import to_si
                 t = to_si(t, tu, "s")
             info["channels"].append(_channel_stats(name, unit, t, raw.data[name]))
+        info.update(_raw_cycle(raw))
     if as_json:
         typer.echo(json.dumps(info, indent=1))
         return
     typer.echo(f"{file}: {info['kind']}" + (f" ({info['format']})" if "format" in info else ""))
+    if info.get("synthetic"):
+        typer.echo("  VIRTUAL TEST: synthetic data, not a measurement")
+    if "cycle" in info:
+        typer.echo(f"  cycle: {info['cycle'] or '(not identified)'}"
+                   + (f"  [{info['cycle_found']}]" if info.get("cycle_found") else ""))
     for n in info["notes"]:
         typer.echo(f"  note: {n}")
     typer.echo(f"  {'channel':28s} {'unit':13s} {'samples':>8s} {'rate[Hz]':>9s} {'dur[s]':>9s} {'NaN':>6s}")

@@ -65,7 +65,7 @@ def qa_cmd(
                 report_note = ("--report: the HTML report module (vehval.report) is not "
                                "available in this version; findings.json has the same content")
             else:
-                html = render_report(result.validated, result, template=tpl, vehicle=veh)
+                html = render_report(result.validated, result, template=tpl, vehicle=veh, raw=test)
                 write_text_atomic(stage / "report.html", html)
                 write_tables(stage / "tables.xlsx", result, result.validated)
     summ = _summary(result, outdir)

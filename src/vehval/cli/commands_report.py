@@ -1,8 +1,7 @@
-"""`vehval report`: the HTML report and Excel tables from the output of `vehval qa`."""
+"""`vehval report`: one HTML report (and Excel tables) from the outputs of `vehval qa`, `analyze` and `validate`."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import typer
@@ -14,74 +13,95 @@ FINDINGS = "findings.json"
 VALIDATED = "validated.parquet"
 
 
-def _load_json(path: Path) -> dict:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise InputFileError(f"{path}: cannot be read ({exc})") from None
-    except json.JSONDecodeError as exc:
-        raise InputFileError(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg}): "
-                             "re-run `vehval qa` to rewrite it") from None
-
-
 def collect_inputs(paths: list[Path]) -> dict[str, Path]:
     """Find findings.json, the validated Parquet test and optional control/validation JSON.
 
-    ``paths`` are QA output directories and/or files; files are recognised by name
-    (``findings.json``, ``control.json``, ``validation.json``) or extension (``.parquet``).
+    ``paths`` are output directories (of ``vehval qa``, ``analyze``, ``validate``) and/or
+    files. In a directory only ``validated.parquet``, ``findings.json``, ``control.json`` and
+    ``validation.json`` are read (other Parquet files, e.g. ``overlays_*.parquet`` of
+    ``vehval validate``, are not tests). A file given by name is recognised by its name
+    (``*findings*.json``, ``*control*.json``, ``*validation*.json``) or, for the test, by
+    its ``.parquet`` extension; later paths override earlier ones.
     """
     found: dict[str, Path] = {}
     for p in paths:
         if not p.exists():
             raise InputFileError(f"{p}: not found: give the output directory of `vehval qa` "
                                  f"(with {FINDINGS} and {VALIDATED}) or those files")
-        files = sorted(p.iterdir()) if p.is_dir() else [p]
-        for f in files:
-            name = f.name.lower()
-            if name == FINDINGS or (p == f and name.endswith(".json") and "findings" in name):
-                found["findings"] = f
-            elif name in ("control.json", "validation.json"):
-                found[name[:-5]] = f
-            elif name.endswith(".parquet"):
-                # validated.parquet wins over any other Parquet file of a directory
-                if "test" not in found or name == VALIDATED or p == f:
-                    found["test"] = f
+        if p.is_dir():
+            for kind, name in (("findings", FINDINGS), ("test", VALIDATED),
+                               ("control", "control.json"), ("validation", "validation.json")):
+                if (p / name).is_file():
+                    found[kind] = p / name
+            continue
+        name = p.name.lower()
+        if name.endswith(".parquet"):
+            found["test"] = p
+        elif name.endswith(".json"):
+            kind = next((k for k in ("findings", "control", "validation") if k in name), None)
+            if kind is None:
+                raise InputFileError(f"{p}: unknown JSON input: name it *findings*.json, "
+                                     "*control*.json or *validation*.json, or use --control / "
+                                     "--validation")
+            found[kind] = p
+        else:
+            raise InputFileError(f"{p}: not a report input: expected a directory, a .parquet "
+                                 "test or a .json result")
     if "test" not in found:
         raise InputFileError(f"no validated test found in {', '.join(map(str, paths))}: expected "
                              f"{VALIDATED} (written by `vehval qa`) or a .parquet file")
     return found
 
 
+def _existing(path: Path | None, what: str) -> Path | None:
+    if path is not None and not path.is_file():
+        raise InputFileError(f"{path}: {what} not found: check the path")
+    return path
+
+
 @app.command("report")
 def report_cmd(
-    inputs: list[Path] = typer.Argument(..., help="QA output directory, or findings.json + validated.parquet "
+    inputs: list[Path] = typer.Argument(..., help="Output directories of `vehval qa` (and `analyze`, "
+                                                  "`validate`), or findings.json + validated.parquet "
                                                   "(+ control.json, validation.json)."),
     output: Path = typer.Option(None, "-o", "--output", help="Report file (default OUTDIR/report.html)."),
+    control: Path = typer.Option(None, "--control", help="control.json of `vehval analyze` "
+                                                         "(default: found in the input directories)."),
+    validation: Path = typer.Option(None, "--validation", help="validation.json of `vehval validate` "
+                                                               "(default: found in the input directories)."),
+    raw: Path = typer.Option(None, "--raw", help="The imported test (Parquet of `vehval import`): plots "
+                                                 "the signals the QA selection dropped."),
     vehicle: str = typer.Option(None, "--vehicle", help="Vehicle name or file for the component maps "
                                                        "(default: the test's vehicle)."),
     title: str = typer.Option(None, "--title", help="Report title."),
     excel: bool = typer.Option(True, "--excel/--no-excel", help="Also write tables.xlsx beside the report."),
 ) -> None:
-    """Write a self-contained report.html (and tables.xlsx) for a QA'd test."""
+    """Write a self-contained report.html (and tables.xlsx): QA, control strategy and validation."""
     from vehval.io.parquet import read_test
-    from vehval.report import build_reports, write_report
+    from vehval.report import build_reports, load_json, write_report
 
     found = collect_inputs(list(inputs))
+    for kind, path in (("control", _existing(control, "control.json")),
+                       ("validation", _existing(validation, "validation.json"))):
+        if path is not None:
+            found[kind] = path
     test = read_test(found["test"])
-    qa = _load_json(found["findings"]) if "findings" in found else None
-    control = _load_json(found["control"]) if "control" in found else None
-    validation = _load_json(found["validation"]) if "validation" in found else None
+    raw_test = read_test(_existing(raw, "imported test")) if raw is not None else None
+    qa = load_json(found["findings"]) if "findings" in found else None
+    ctl = load_json(found["control"]) if "control" in found else None
+    val = load_json(found["validation"]) if "validation" in found else None
     if output is None:
         base = inputs[0] if inputs[0].is_dir() else found["test"].parent
         output = base / "report.html"
+    kw = dict(vehicle=vehicle, control=ctl, validation=val, title=title, raw=raw_test)
     if excel:
-        paths = build_reports(output.parent, test, qa, vehicle=vehicle, control=control,
-                              validation=validation, title=title, html_name=output.name)
+        paths = build_reports(output.parent, test, qa, html_name=output.name, **kw)
     else:
-        paths = {"report": write_report(output, test=test, qa=qa, vehicle=vehicle, control=control,
-                                        validation=validation, title=title)}
-    for kind, path in paths.items():
+        paths = {"report": write_report(output, test=test, qa=qa, **kw)}
+    for path in paths.values():
         size = path.stat().st_size / 1e6
         typer.echo(f"wrote {path} ({size:.1f} MB)")
+    typer.echo("inputs: " + "; ".join(f"{k} {found[k]}" for k in ("test", "findings", "control", "validation")
+                                      if k in found))
     if qa is None:
         typer.echo(f"note: no {FINDINGS} found: the report has no QA sections")

@@ -99,11 +99,14 @@ def validate_cmd(
             v.comparison.overlays.to_parquet(stage / f"overlays_{_slug(v.comparison.test_id)}.parquet",
                                              index=False)
     if report:
-        from vehval.report import build_reports
+        from vehval.report import build_reports, results_beside
 
         for lt, v in zip(loaded, vals):
             sub = output if len(vals) == 1 else output / _slug(v.comparison.test_id)
-            build_reports(sub, lt.test, lt.qa, lt.template, veh, validation=v.payload(),
+            # a validated test from `vehval qa` / `analyze`: its findings and control.json
+            found = results_beside(lt.origin) if lt.qa is None else {}
+            build_reports(sub, lt.test, lt.qa if lt.qa is not None else found.get("findings"),
+                          lt.template, veh, control=found.get("control"), validation=v.payload(),
                           title=f"Validation report: {v.comparison.test_id}")
     if as_json:
         typer.echo(json.dumps(_clean(metrics), indent=1))

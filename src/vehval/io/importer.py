@@ -23,7 +23,7 @@ from vehval.nomenclature import registry
 from vehval.test import Signal, Test, TestMeta
 from vehval.units import conversion, parse_unit
 
-__all__ = ["import_test", "check_time"]
+__all__ = ["import_test", "check_time", "set_cycle", "speed_signals"]
 
 
 @lru_cache(maxsize=1024)
@@ -202,8 +202,48 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
     meta.notes.extend(notes)
 
 
+def speed_signals(test: Test) -> list[Signal]:
+    """Measured vehicle speeds of a test, best first for cycle identification: the dyno
+    source, then the others by sample count."""
+    sigs = [s for s in test.by_base("veh_spd", "test") if s.values.size]
+    return sorted(sigs, key=lambda s: (s.source != "dyno", -s.values.size, s.name))
+
+
+def set_cycle(test: Test, template: Template | None = None, *, identify: bool = True) -> None:
+    """Fill ``test.meta.cycle``: the template's ``cycle`` when given, else the cycle
+    identified from the measured vehicle speed (:func:`vehval.io.identify.identify_cycle`).
+
+    How the cycle was found is written to ``meta.notes`` (``cycle identified as udds (rms
+    0.21 m/s, offset 0.0 s) from veh_spd_test``); an unidentified cycle leaves
+    ``meta.cycle`` empty with a note saying why.
+    """
+    from vehval.io.identify import describe, identify_cycle
+
+    meta = test.meta
+    if template is not None and template.cycle:
+        meta.cycle = template.cycle
+        meta.notes.append(f"cycle from the template: {template.cycle}")
+        return
+    if not identify:
+        return
+    sigs = speed_signals(test)
+    if not sigs:
+        meta.notes.append("cycle not identified: no measured vehicle speed (veh_spd_*_test)")
+        return
+    first = None
+    for sig in sigs:
+        name, _, details = identify_cycle(sig.time, sig.values)
+        if name is not None:
+            meta.cycle = name
+            meta.notes.append(f"{describe(name, details)} from {sig.name}")
+            return
+        first = first or f"{describe(name, details)} (from {sig.name})"
+    meta.notes.append(first)
+
+
 def import_test(files: list[str | Path] | str | Path, template: Template | str | Path, *,
-                repair_time: bool = False, test_id: str | None = None) -> Test:
+                repair_time: bool = False, test_id: str | None = None,
+                identify: bool = True) -> Test:
     """Import the raw files of one test with a template.
 
     Parameters
@@ -217,12 +257,16 @@ def import_test(files: list[str | Path] | str | Path, template: Template | str |
         Sort decreasing and drop repeated timestamps (with a note) instead of raising.
     test_id : str, optional
         Test identifier (default: stem of the first file).
+    identify : bool
+        Identify the drive cycle from the measured vehicle speed when the template gives no
+        ``cycle`` (see :func:`set_cycle`).
 
     Returns
     -------
     Test
         Signals in SI with provenance; ``meta`` has files, template, constants, deleted
-        channels and notes (warnings start with ``warning:``).
+        channels, the cycle, the synthetic flag and notes (warnings start with
+        ``warning:``).
 
     Raises
     ------
@@ -238,7 +282,7 @@ def import_test(files: list[str | Path] | str | Path, template: Template | str |
     tname = t.path.name if t.path else "template"
     meta = TestMeta(test_id=test_id or paths[0].stem, vehicle=t.vehicle or "",
                     files=[str(p) for p in paths], template=str(t.path) if t.path else None,
-                    constants=t.constants_dict())
+                    constants=t.constants_dict(), synthetic=t.synthetic)
     test = Test(meta=meta)
     used: dict[int, Path] = {}
     for path in paths:
@@ -261,4 +305,5 @@ def import_test(files: list[str | Path] | str | Path, template: Template | str |
         if name in test:
             test.drop(name)
             meta.deleted.append({"name": name, "reason": reason, "by": "selection.drop"})
+    set_cycle(test, t, identify=identify)
     return test

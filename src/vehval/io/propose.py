@@ -18,7 +18,7 @@ from vehval.nomenclature import registry
 from vehval.units import conversion, parse_unit
 
 __all__ = ["propose_template", "check_template", "CheckReport", "match_channel", "source_tag",
-           "entry_for_file", "find_channel"]
+           "entry_for_file", "find_channel", "unit_known", "unit_from_name"]
 
 UNMATCHED_REASON = "no standard name matched; edit"
 
@@ -32,9 +32,17 @@ _CANON = {
     "pos": "position", "pres": "pressure", "press": "pressure", "whl": "wheel", "brk": "brake",
     "amb": "ambient", "rh": "humidity", "te": "effort", "fuelflow": "fuel flow",
     "flow": "flow", "soc": "soc", "lim": "limit", "chg": "charge", "dis": "discharge",
+    "rpm": "speed", "tgt": "target", "trgt": "target", "cmd": "target", "setpoint": "target",
 }
 _PORTS = {"in", "out"}
 _OBD_HINT = re.compile(r"^(eng2|obd|pid|mode01)|^(rpm|vss|maf|map|iat|ect|stft|ltft)$", re.I)
+#: Raw-name tokens typical of OBD/CAN logger channels (``ENGINE_RPM``, ``PID_0D``, ``MAF``).
+_OBD_TOKENS = {"obd", "obd2", "obdii", "pid", "elm", "elm327", "vss", "maf", "iat", "ect",
+               "stft", "ltft", "rpm"}
+#: Units written in channel names: token -> unit (``ENGINE_RPM`` -> rpm).
+_NAME_UNITS = {"rpm": "rpm", "kph": "km/h", "kmh": "km/h", "mph": "mph", "pct": "%",
+               "percent": "%", "degc": "degC", "degf": "degF", "kpa": "kPa", "nm": "N*m",
+               "kw": "kW", "gps": "g/s"}
 
 
 def _tokens(text: str) -> list[str]:
@@ -102,10 +110,10 @@ def match_channel(raw_name: str, raw_unit: str | None, *, cutoff: float = 0.7) -
         Minimum token similarity (0..1) for a fuzzy match.
     """
     reg = registry()
+    toks = _tokens(raw_name)
     base = reg.match_alias(raw_name)
     if base is not None and base != "time" and _unit_fits(raw_unit, reg[base].unit):
-        return base
-    toks = _tokens(raw_name)
+        return _targeted(base, toks, raw_unit)
     best, best_score = None, 0.0
     for b, unit, cands in _candidates():
         if not _unit_fits(raw_unit, unit):
@@ -114,16 +122,71 @@ def match_channel(raw_name: str, raw_unit: str | None, *, cutoff: float = 0.7) -
         if s > best_score:
             best, best_score = b, s
     if best_score >= cutoff:
-        return best
+        return _targeted(best, toks, raw_unit)
     return None
 
 
+def _targeted(base: str, toks: list[str], raw_unit: str | None) -> str:
+    """``<component>_<quantity>_target`` for a raw name saying "target" (``TARGET_ENGINE_RPM``
+    -> ``eng_spd_target``) when the registry has that base name and the unit fits."""
+    if "target" not in toks or base.endswith("_target"):
+        return base
+    parts = base.split("_")
+    cand = "_".join(parts[:2]) + "_target"
+    reg = registry()
+    if cand in reg.specs and _unit_fits(raw_unit, reg[cand].unit):
+        return cand
+    return base
+
+
+def unit_known(unit: str | None) -> bool:
+    """Whether a header unit is understood (``None``, no unit, counts as known)."""
+    if unit is None:
+        return True
+    try:
+        parse_unit(unit)
+        return True
+    except UnitError:
+        return False
+
+
+def unit_from_name(raw_name: str, si_unit: str) -> str | None:
+    """A unit written in a channel name (``ENGINE_RPM`` -> ``rpm``) that converts to
+    ``si_unit``, or ``None``."""
+    for tok in re.split(r"[^a-z0-9]+", re.sub(r"([a-z])([A-Z])", r"\1 \2", raw_name).lower()):
+        unit = _NAME_UNITS.get(tok)
+        if unit is not None and _unit_fits(unit, si_unit):
+            return unit
+    return None
+
+
+def _obd_like(name: str) -> bool:
+    if _OBD_HINT.search(name):
+        return True
+    toks = re.split(r"[^a-z0-9]+", re.sub(r"([a-z])([A-Z])", r"\1 \2", name).lower())
+    return any(t in _OBD_TOKENS for t in toks)
+
+
 def source_tag(raw: RawTable) -> str:
-    """Default source tag of a file: ``dyno`` for D3, ``obd`` for OBD-like CSV, else the stem."""
+    """Default source tag of a file.
+
+    A registry source named in the file name (``run1_obd.csv`` -> ``obd``, ``run1_daq.csv``
+    -> ``daq``); else ``dyno`` for D3 files; ``obd`` for an OBD-like CSV (at least two
+    channels named like OBD/CAN logger channels, e.g. ``ENGINE_RPM``, ``eng2vsp``, ``MAF``,
+    and at most half of the channels with a unit in the header); else the file stem.
+    """
+    known = [x for x in registry().sources if x != "target"]
+    for tok in re.split(r"[^a-z0-9]+", raw.path.stem.lower()):
+        if tok in known:
+            return tok
     if raw.fmt == "d3":
         return "dyno"
-    if raw.fmt == "csv" and sum(1 for n in raw.names if _OBD_HINT.search(n)) >= 2:
-        return "obd"
+    if raw.fmt == "csv":
+        chans = [(n, u) for n, u in zip(raw.names, raw.units) if n != raw.time_name]
+        hits = sum(1 for n, _ in chans if _obd_like(n))
+        with_unit = sum(1 for _, u in chans if u)
+        if hits >= 2 and with_unit <= len(chans) / 2:
+            return "obd"
     stem = re.sub(r"[^a-z0-9]", "", raw.path.stem.lower())
     if not stem or not stem[0].isalpha():
         stem = "f" + stem
@@ -135,7 +198,8 @@ def _unique_name(base: str, source: str, raw_name: str, used: set[str]) -> str:
     cands = [f"{base}_test"]
     # a source named in the raw name (``Eng_Speed_OBD``) beats the file's tag
     known = set(registry().sources)
-    cands += [f"{base}_{tok}_test" for tok in re.split(r"[^a-z0-9]+", raw_name.lower()) if tok in known]
+    cands += [f"{base}_{tok}_test" for tok in re.split(r"[^a-z0-9]+", raw_name.lower())
+              if tok in known and not base.endswith(f"_{tok}")]
     cands.append(f"{base}_{source}_test")
     if qual and qual[0].isalpha() and len(qual) <= 8:
         cands.append(f"{base}_{qual}_test")
@@ -187,15 +251,26 @@ def propose_template(files: list[str | Path]) -> tuple[Template, list[str]]:
         for name, unit in zip(raw.names, raw.units):
             if name == raw.time_name:
                 continue
-            base = match_channel(name, unit)
+            known_unit = unit_known(unit)
+            base = match_channel(name, unit if known_unit else None)
             if base is None:
                 channels[name] = ChannelSpec(delete=True, reason=UNMATCHED_REASON)
-                unmatched.append(f"{path.name}: {name}")
+                unmatched.append(f"{path.name}: {name}" + ("" if known_unit else f" [{unit}]"))
                 continue
             full = _unique_name(base, src, name, used)
             used.add(full)
             spec = reg[base]
-            if unit is None and not parse_unit(spec.unit).dimensionless:
+            if not known_unit:
+                channels[name] = ChannelSpec(name=full, delete=True, reason=(
+                    f"unit '{unit}' not understood: set 'unit', then remove 'delete'"))
+                todo.append(f"{path.name}: channel '{name}' [{unit}] -> {full}: unit '{unit}' is "
+                            f"unknown; set 'unit' (SI is {spec.unit}) and remove 'delete: true'")
+                continue
+            if unit is None and (guess := unit_from_name(name, spec.unit)) is not None:
+                unit = guess
+                todo.append(f"{path.name}: channel '{name}' -> {full}: the file gives no unit; "
+                            f"'{guess}' taken from the channel name: check it")
+            elif unit is None and not parse_unit(spec.unit).dimensionless:
                 todo.append(f"{path.name}: channel '{name}' -> {full}: the file gives no unit; "
                             f"set 'unit' (SI is {spec.unit})")
             elif unit is None and spec.range[1] <= 1.0:

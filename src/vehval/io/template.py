@@ -131,10 +131,24 @@ class Selection(_Strict):
 
 
 class Template(_Strict):
-    """An import template (schema version 1)."""
+    """An import template (schema version 1).
+
+    Attributes
+    ----------
+    vehicle : str, optional
+        Vehicle file (name or path) for limits and parameters.
+    cycle : str, optional
+        Drive cycle of every test imported with this template (for templates dedicated to
+        one cycle); when omitted the importer identifies the cycle from the vehicle speed.
+    synthetic : bool
+        The files are virtual-dyno output (``vehval synth``), not measurements: sets
+        ``Test.meta.synthetic`` so reports show the virtual-test banner.
+    """
 
     template_version: Literal[1] = 1
     vehicle: str | None = None
+    cycle: str | None = Field(default=None, pattern=r"^[A-Za-z0-9][A-Za-z0-9_.:+\-]*$")
+    synthetic: bool = False
     description: str = ""
     constants: Constants = Field(default_factory=Constants)
     files: list[FileSpec] = Field(min_length=1)
@@ -160,7 +174,8 @@ class Template(_Strict):
         """YAML text of the template (defaults left out, one flow mapping per channel)."""
         data = self.model_dump(mode="json", exclude_defaults=True)
         out: dict[str, Any] = {"template_version": 1}
-        for key in ("vehicle", "description", "constants", "files", "selection"):
+        for key in ("vehicle", "cycle", "synthetic", "description", "constants", "files",
+                    "selection"):
             if key in data:
                 out[key] = data[key]
         for f in out.get("files", []):

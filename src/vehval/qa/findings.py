@@ -53,6 +53,7 @@ class Kind(str, Enum):
     ALIGNMENT = "alignment"
     # level 3: measured vs calculated
     CALC_MISMATCH = "calc_mismatch"
+    FUEL_MAP = "fuel_map"                # fuel meter against the engine fuel map
 
 
 LEVEL_OF_KIND = {
@@ -63,6 +64,7 @@ LEVEL_OF_KIND = {
                       Kind.UNIT, Kind.LAG)},
     Kind.ALIGNMENT: 0,
     Kind.CALC_MISMATCH: 3,
+    Kind.FUEL_MAP: 3,
 }
 
 

@@ -5,6 +5,20 @@ difference, range of the measured signal, R² (squared correlation), relative di
 (mean absolute difference / range), slope of the fit ``measured = slope · calc + offset``.
 Poor agreement is a warning on the measured signal; the calculated signal and its inputs
 are named, since either side may be at fault.
+
+Relations marked ``steady_state`` (the planetary torque balance, equations 1-2) leave out
+the inertia torques of the engine/carrier and generator, which reach 100-200 N·m while the
+engine starts or changes speed. Their Table-3 row is computed on the quasi-steady samples
+only: engine speed changing by at most ``steady_acc_max`` (20 rad/s², about 190 rpm/s, i.e.
+an inertia torque of about 4 N·m with the Prius engine), ±``steady_pad_s`` around any
+faster change (see :func:`quasi_steady_mask`).
+
+A calculation fed by a slow input (a 1 Hz OBD torque in a 10 Hz grid) is exact only at that
+input's sample instants; between them it follows a straight line the real quantity did not
+take. When the slowest signal of a comparison (the measured signal or any measured input,
+followed through intermediate ``_calc`` signals) is sampled more than twice as slowly as the
+grid, the comparison uses the grid points nearest to its samples
+(:func:`slow_sample_mask`). The row's ``samples`` field says which samples were used.
 """
 
 from __future__ import annotations
@@ -32,6 +46,9 @@ class Level3Options:
     drift_min: float = 0.04        # drift of the residual above this x range: warning
     local_fraction: float = 0.2    # |measured - calc| above this x range ...
     local_min_s: float = 5.0       # ... for at least this long [s]: local mismatch
+    steady_acc_max: float = 20.0   # quasi-steady: |d(engine speed)/dt| below this [rad/s^2]
+    steady_pad_s: float = 0.5      # ... and not within this of a faster change [s]
+    steady_min_fraction: float = 0.2  # fewer quasi-steady samples: use all samples
 
 
 @dataclass
@@ -50,6 +67,7 @@ class CalcComparison:
     offset: float
     unit: str
     inputs: dict
+    samples: str = "all"           # "all" or "quasi-steady" (steady-state relations)
 
     def to_dict(self) -> dict:
         out = {}
@@ -61,13 +79,100 @@ class CalcComparison:
         return out
 
 
-def compare_calc(test: Test, measured: str, calculated: str, inputs: dict | None = None
+def quasi_steady_mask(test: Test, grid: np.ndarray, acc_max: float = 20.0,
+                      pad_s: float = 0.5) -> np.ndarray | None:
+    """Samples of ``grid`` where the engine (carrier) speed is quasi-steady.
+
+    The engine speed is the preferred measured ``eng_spd_out`` signal (facility first),
+    else ``eng_spd_out_calc``; it is averaged over 0.5 s, differentiated, and a sample is
+    quasi-steady when ``|dω/dt| <= acc_max`` [rad/s²] everywhere within ``pad_s`` [s].
+    Missing speed samples count as steady (nothing is known against them).
+
+    Returns
+    -------
+    numpy.ndarray of bool or None
+        ``None`` when the test has no engine speed.
+    """
+    from scipy.ndimage import maximum_filter1d, uniform_filter1d
+
+    from vehval.qa.level2 import preference_rank
+    reg = registry()
+    cands = []
+    for sig in test:
+        try:
+            p = reg.parse(sig.name)
+        except SignalError:
+            continue
+        if p.base == "eng_spd_out" and p.origin in ("test", "calc"):
+            cands.append(((p.origin == "calc",) + preference_rank(sig.name), sig))
+    if not cands or grid.size < 3:
+        return None
+    sig = min(cands, key=lambda c: c[0])[1]
+    w = sig.at(grid)
+    ok = np.isfinite(w)
+    if ok.sum() < 3:
+        return None
+    dt = float(np.median(np.diff(grid)))
+    w = np.interp(grid, grid[ok], w[ok])
+    n_avg = max(1, int(round(0.5 / dt)))
+    acc = np.gradient(uniform_filter1d(w, n_avg, mode="nearest"), grid)
+    fast = np.abs(acc) > acc_max
+    n_pad = 2 * max(0, int(round(pad_s / dt))) + 1
+    fast = maximum_filter1d(fast.astype(np.uint8), n_pad, mode="nearest") > 0
+    return ~fast
+
+
+def measured_inputs(name: str, computed: dict, depth: int = 0) -> set[str]:
+    """Measured signals a ``_calc`` signal was computed from, through other ``_calc`` ones."""
+    out: set[str] = set()
+    if depth > 20:
+        return out
+    for inp in computed.get(name, {}).get("inputs", {}).values():
+        if inp.endswith("_calc"):
+            out |= measured_inputs(inp, computed, depth + 1)
+        else:
+            out.add(inp)
+    return out
+
+
+def slow_sample_mask(test: Test, names: set[str], grid: np.ndarray,
+                     ratio: float = 2.0) -> tuple[np.ndarray | None, str | None]:
+    """Grid points nearest to the samples of the slowest of ``names``.
+
+    Returns ``(mask, name)``, or ``(None, None)`` when no signal is sampled more than
+    ``ratio`` times more slowly than the grid.
+    """
+    if grid.size < 2:
+        return None, None
+    dt = float(np.median(np.diff(grid)))
+    periods = {n: test[n].sample_period for n in names if n in test}
+    periods = {n: p for n, p in periods.items() if np.isfinite(p)}
+    if not periods:
+        return None, None
+    slow = max(periods, key=periods.get)
+    if periods[slow] <= ratio * dt:
+        return None, None
+    t = test[slow].time
+    t = t[(t >= grid[0] - 0.5 * dt) & (t <= grid[-1] + 0.5 * dt)]
+    mask = np.zeros(grid.size, bool)
+    mask[np.clip(np.round((t - grid[0]) / dt).astype(int), 0, grid.size - 1)] = True
+    return mask, slow
+
+
+def compare_calc(test: Test, measured: str, calculated: str, inputs: dict | None = None,
+                 mask: np.ndarray | None = None, samples: str = "selected"
                  ) -> CalcComparison | None:
-    """Table-3 metrics of a measured signal against a calculated one (on the calc grid)."""
+    """Table-3 metrics of a measured signal against a calculated one (on the calc grid).
+
+    ``mask`` (bool on the calc grid) restricts the samples compared (quasi-steady samples
+    for steady-state relations, the slow input's sample instants); ``samples`` names them.
+    """
     c = test[calculated]
     m = test[measured].at(c.time)
     cv = c.values
     ok = np.isfinite(m) & np.isfinite(cv)
+    if mask is not None:
+        ok &= mask
     if ok.sum() < 5:
         return None
     m, cv = m[ok], cv[ok]
@@ -82,16 +187,41 @@ def compare_calc(test: Test, measured: str, calculated: str, inputs: dict | None
                           test_range=rng, rel_diff=mad / rng if rng > 0 else float("nan"),
                           r2=r * r if np.isfinite(r) else float("nan"), slope=slope,
                           offset=float(m.mean() - slope * cv.mean()) if np.isfinite(slope) else float("nan"),
-                          unit=c.unit, inputs=dict(inputs or {}))
+                          unit=c.unit, inputs=dict(inputs or {}),
+                          samples="all" if mask is None else samples)
 
 
-def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None
+def untrusted_mask(names: set[str], grid: np.ndarray, findings: list[Finding],
+                   pad_s: float = 0.5) -> np.ndarray:
+    """Grid samples covered (±``pad_s`` [s]) by a warning/error finding of any of ``names``."""
+    bad = np.zeros(grid.size, bool)
+    for f in findings:
+        if f.signal in names and f.severity != Severity.INFO:
+            bad |= (grid >= f.start_s - pad_s) & (grid <= f.end_s + pad_s)
+    return bad
+
+
+def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None,
+               findings_before: list[Finding] | None = None
                ) -> tuple[list[CalcComparison], list[Finding]]:
-    """Table 3 and its findings for every calculated signal with a measured counterpart."""
+    """Table 3 and its findings for every calculated signal with a measured counterpart.
+
+    ``findings_before`` (QA1/QA2 findings): the samples where a measured input of a
+    calculation has its own warning or error are left out of that comparison, so that a
+    stuck wheel torque does not hide (or fake) a drift of the engine torque; when that
+    leaves less than half of the samples, every sample is used and the findings name the
+    untrusted inputs (the pipeline then demotes them to info).
+    """
     opts = opts or Level3Options()
+    before = list(findings_before or [])
     reg = registry()
     rows: list[CalcComparison] = []
     findings: list[Finding] = []
+    steady: np.ndarray | None = None
+    if any(info.get("steady_state") for info in calc.computed.values()):
+        steady = quasi_steady_mask(test, calc.grid, opts.steady_acc_max, opts.steady_pad_s)
+        if steady is not None and steady.mean() < opts.steady_min_fraction:
+            steady = None
     for cname, info in calc.computed.items():
         base = cname[:-len("_calc")]
         for sig in test:
@@ -103,56 +233,102 @@ def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None
                 continue
             if sig.name in info.get("inputs", {}).values():
                 continue
-            row = compare_calc(test, sig.name, cname, info.get("inputs"))
+            mask, label = _row_mask(test, sig.name, cname, calc, steady)
+            excluded = False
+            if before:
+                bad = untrusted_mask(measured_inputs(cname, calc.computed), calc.grid, before)
+                if bad.any() and (~bad).mean() >= 0.5:
+                    mask = ~bad if mask is None else mask & ~bad
+                    label = "inputs trusted" if label == "all" else f"{label}, inputs trusted"
+                    excluded = True
+            row = compare_calc(test, sig.name, cname, info.get("inputs"), mask, label)
+            if row is not None and row.n < 20 and mask is not None:
+                mask, excluded = None, False
+                row = compare_calc(test, sig.name, cname, info.get("inputs"))
             if row is None:
                 continue
             rows.append(row)
             if base in CUMULATIVE:
                 continue
-            findings.extend(local_mismatch(test, sig.name, cname, row.test_range, info, opts))
-            drift = residual_drift(test, sig.name, cname, row.test_range, opts)
-            if drift is not None:
-                findings.append(drift)
-            if np.isfinite(row.slope) and row.slope < 0 and np.isfinite(row.r2) and row.r2 > 0.25:
-                findings.append(Finding(
-                    sig.name, Kind.SIGN_FLIP, float(test[cname].time[0]), float(test[cname].time[-1]),
-                    Severity.ERROR, f"{sig.name} is the mirror image of {cname} = {info['expr']} "
-                    f"(slope {row.slope:.2f}, R² {row.r2:.2f}): sign convention reversed",
-                    {"r2": row.r2, "slope": row.slope}, related=[cname] + list(info.get("inputs", {}).values())))
-                continue
-            bad_r2 = np.isfinite(row.r2) and row.r2 < opts.r2_min
-            bad_rel = np.isfinite(row.rel_diff) and row.rel_diff > opts.rel_max
-            if bad_r2 or bad_rel:
-                ins = ", ".join(info.get("inputs", {}).values())
-                findings.append(Finding(
-                    sig.name, Kind.CALC_MISMATCH, float(test[cname].time[0]),
-                    float(test[cname].time[-1]), Severity.WARNING,
-                    f"{sig.name} disagrees with {cname} = {info['expr']} (R² {row.r2:.3f}, mean "
-                    f"difference {row.mean_abs_diff:.4g} {row.unit} = {100 * row.rel_diff:.1f} % of "
-                    f"its range); check it or the inputs ({ins})",
-                    {"r2": row.r2, "mean_abs_diff": row.mean_abs_diff, "test_range": row.test_range,
-                     "rel_diff": row.rel_diff, "slope": row.slope},
-                    related=[cname] + list(info.get("inputs", {}).values())))
+            new = _row_findings(test, sig.name, cname, info, row, opts, mask)
+            if excluded:
+                # the untrusted inputs' spans were left out: nothing to blame on them
+                for f in new:
+                    f.numbers["input_findings_excluded"] = True
+                    if f.kind == Kind.CALC_MISMATCH:
+                        f.message += " (samples where the inputs have their own findings left out)"
+            findings.extend(new)
     return rows, findings
 
 
+def _row_findings(test: Test, measured: str, cname: str, info: dict, row: CalcComparison,
+                  opts: Level3Options, mask: np.ndarray | None) -> list[Finding]:
+    """Findings of one Table-3 comparison: local mismatch, drift, sign flip, mismatch."""
+    out: list[Finding] = []
+    out.extend(local_mismatch(test, measured, cname, row.test_range, info, opts, mask))
+    drift = residual_drift(test, measured, cname, row.test_range, opts, mask)
+    if drift is not None:
+        out.append(drift)
+    if np.isfinite(row.slope) and row.slope < 0 and np.isfinite(row.r2) and row.r2 > 0.25:
+        out.append(Finding(
+            measured, Kind.SIGN_FLIP, float(test[cname].time[0]), float(test[cname].time[-1]),
+            Severity.ERROR, f"{measured} is the mirror image of {cname} = {info['expr']} "
+            f"(slope {row.slope:.2f}, R² {row.r2:.2f}): sign convention reversed",
+            {"r2": row.r2, "slope": row.slope}, related=[cname] + list(info.get("inputs", {}).values())))
+        return out
+    bad_r2 = np.isfinite(row.r2) and row.r2 < opts.r2_min
+    bad_rel = np.isfinite(row.rel_diff) and row.rel_diff > opts.rel_max
+    if bad_r2 or bad_rel:
+        ins = ", ".join(info.get("inputs", {}).values())
+        out.append(Finding(
+            measured, Kind.CALC_MISMATCH, float(test[cname].time[0]),
+            float(test[cname].time[-1]), Severity.WARNING,
+            f"{measured} disagrees with {cname} = {info['expr']} (R² {row.r2:.3f}, mean "
+            f"difference {row.mean_abs_diff:.4g} {row.unit} = {100 * row.rel_diff:.1f} % of "
+            f"its range); check it or the inputs ({ins})",
+            {"r2": row.r2, "mean_abs_diff": row.mean_abs_diff, "test_range": row.test_range,
+             "rel_diff": row.rel_diff, "slope": row.slope},
+            related=[cname] + list(info.get("inputs", {}).values())))
+    return out
+
+
+def _row_mask(test: Test, measured: str, calculated: str, calc: CalcResult,
+              steady: np.ndarray | None) -> tuple[np.ndarray | None, str]:
+    """Samples of the calc grid a Table-3 comparison uses, and their description."""
+    info = calc.computed[calculated]
+    mask, parts = None, []
+    if info.get("steady_state") and steady is not None:
+        mask, parts = steady, ["quasi-steady"]
+    slow, name = slow_sample_mask(test, measured_inputs(calculated, calc.computed) | {measured},
+                                  calc.grid)
+    if slow is not None:
+        mask = slow if mask is None else mask & slow
+        parts.append(f"at the samples of {name}")
+    return mask, ", ".join(parts) or "all"
+
+
 def local_mismatch(test: Test, measured: str, calculated: str, rng: float, info: dict,
-                   opts: Level3Options) -> list[Finding]:
+                   opts: Level3Options, mask: np.ndarray | None = None) -> list[Finding]:
     """Stretches where the measured signal leaves its calculated value by more than
     ``local_fraction`` of its range for ``local_min_s`` or longer (stuck, dropped, local
-    faults that a whole-test R² hides)."""
+    faults that a whole-test R² hides). ``mask``: calc-grid samples to judge (others are
+    ignored, gaps between judged samples do not break a stretch)."""
     from vehval.qa.findings import merge_runs, runs
     c = test[calculated]
     m_sig = test[measured]
     res = m_sig.at(c.time) - c.values
-    if not rng > 0:
+    t = c.time
+    if mask is not None:
+        t, res = t[mask], res[mask]
+    if not rng > 0 or t.size < 2:
         return []
     bad = np.isfinite(res) & (np.abs(res) > opts.local_fraction * rng)
     min_s = max(opts.local_min_s * (2.0 if info.get("steady_state") else 1.0),
                 3 * m_sig.sample_period)
+    gap = 1.0 if mask is None else max(1.0, 2.0 * float(np.median(np.diff(t))))
     out = []
-    for i0, i1 in merge_runs(runs(bad), c.time, 1.0):
-        t0, t1 = float(c.time[i0]), float(c.time[i1])
+    for i0, i1 in merge_runs(runs(bad), t, gap):
+        t0, t1 = float(t[i0]), float(t[i1])
         if t1 - t0 < min_s:
             continue
         dev = float(np.nanmax(np.abs(res[i0:i1 + 1])))
@@ -165,12 +341,15 @@ def local_mismatch(test: Test, measured: str, calculated: str, rng: float, info:
 
 
 def residual_drift(test: Test, measured: str, calculated: str, rng: float,
-                   opts: Level3Options) -> Finding | None:
-    """A slow drift of ``measured − calculated``: block medians trending monotonically."""
+                   opts: Level3Options, mask: np.ndarray | None = None) -> Finding | None:
+    """A slow drift of ``measured − calculated``: block medians trending monotonically
+    (over the ``mask`` samples of the calc grid when given)."""
     c = test[calculated]
     res = test[measured].at(c.time) - c.values
     ok = np.isfinite(res)
-    if ok.sum() < 10 * opts.drift_blocks or not rng > 0:
+    if mask is not None:
+        ok &= mask
+    if ok.sum() < 5 * opts.drift_blocks or not rng > 0:
         return None
     t, r = c.time[ok], res[ok]
     blocks = np.array_split(np.arange(r.size), opts.drift_blocks)

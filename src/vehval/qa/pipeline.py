@@ -14,6 +14,7 @@ from typing import Any
 from vehval import align as _align
 from vehval.equations.calc import CalcResult, compute
 from vehval.qa.findings import Finding, Kind, Severity, summarise
+from vehval.qa.fuelmap import FuelMapOptions, fuel_map_check
 from vehval.qa.level1 import Level1Options, run_level1
 from vehval.qa.level2 import Level2Options, PairComparison, run_level2
 from vehval.qa.level3 import CalcComparison, Level3Options, run_checks, run_level3
@@ -71,8 +72,10 @@ def _blame_inputs(level3: list[Finding], earlier: list[Finding]) -> None:
         if f.kind != Kind.CALC_MISMATCH:
             continue
         inputs = set(f.related[1:])
+        # samples under the inputs' own level-1/2 findings were already left out
+        skip_earlier = bool(f.numbers.get("input_findings_excluded"))
         bad = sorted({g.signal for g in earlier if g.signal in inputs and g.severity != Severity.INFO
-                      and g.overlaps(f.start_s, f.end_s)} |
+                      and not skip_earlier and g.overlaps(f.start_s, f.end_s)} |
                      {g.signal for g in level3 if g is not f and g.signal in inputs
                       and g.severity != Severity.INFO})
         if bad:
@@ -102,7 +105,8 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
            pairs: list[tuple[str, str]] | None = None, *, max_offset_s: float = 30.0,
            align: bool = True, calc_set: str | None = None,
            level1: Level1Options | None = None, level2: Level2Options | None = None,
-           level3: Level3Options | None = None) -> QAResult:
+           level3: Level3Options | None = None, fuel_map: FuelMapOptions | None = None
+           ) -> QAResult:
     """Run the whole data-quality analysis on one imported test.
 
     Parameters
@@ -122,6 +126,8 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
         Estimate and remove clock offsets between sources.
     calc_set : str, optional
         Calculation set name or path (default by vehicle/signals).
+    level1, level2, level3, fuel_map : options, optional
+        Thresholds of each stage (defaults documented in docs/qa.md).
 
     Returns
     -------
@@ -153,11 +159,14 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     # inputs not to trust in the calculations
     bad = {f.signal for f in findings if f.severity == Severity.ERROR} | set(user_drop)
     calc = compute(work, vehicle, calc_set, constants, exclude=bad)
-    table3, f3 = run_level3(work, calc, level3)
+    table3, f3 = run_level3(work, calc, level3, findings)
     checks, fc = run_checks(work, calc)
     _blame_inputs(f3, findings)
     _blame_check_inputs(fc, findings + f3)
     findings += f3 + fc
+    fuel_rows, ff = fuel_map_check(work, vehicle, findings, calc.computed, fuel_map)
+    checks += fuel_rows
+    findings += ff
     pvals = {k: v["value"] for k, v in calc.parameters.items() if v.get("value") is not None}
     selection = select_signals(work, findings, table2, table3, user_keep, user_drop, pvals)
     validated = Test(meta=copy.deepcopy(work.meta))

@@ -7,8 +7,10 @@ Public API
 :func:`write_tables`
     ``tables.xlsx`` with every table of the report and the validated time series.
 :func:`build_reports`
-    Both at once into an output directory (what ``vehval qa --report`` and
-    ``vehval report`` call).
+    Both at once into an output directory (what ``vehval report``, ``vehval validate
+    --report`` and the batch runner call).
+:func:`results_beside`
+    ``findings.json`` / ``control.json`` stored next to a validated test.
 """
 
 from __future__ import annotations
@@ -19,15 +21,17 @@ from typing import Any
 from vehval.io.atomic import atomic_dir
 from vehval.report.excel import write_tables
 from vehval.report.html import render_report, write_report
+from vehval.report.inputs import load_json, results_beside
 from vehval.test import Test
 
-__all__ = ["build_reports", "write_report", "write_tables", "render_report"]
+__all__ = ["build_reports", "write_report", "write_tables", "render_report", "load_json",
+           "results_beside"]
 
 
 def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any = None,
-                  vehicle: Any = None, control: dict | None = None, validation: dict | None = None,
+                  vehicle: Any = None, control: Any = None, validation: dict | None = None,
                   *, title: str | None = None, html_name: str = "report.html",
-                  excel_name: str = "tables.xlsx") -> dict[str, Path]:
+                  excel_name: str = "tables.xlsx", raw: Test | None = None) -> dict[str, Path]:
     """Write ``report.html`` and ``tables.xlsx`` into ``outdir``.
 
     Both files are staged and moved in only when both succeeded, so a failed run leaves
@@ -41,8 +45,9 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
         Validated test.
     qa : dict or QAResult or None
         QA result (``findings.json`` structure).
-    template, vehicle, control, validation, title
-        As for :func:`write_report`.
+    template, vehicle, control, validation, title, raw
+        As for :func:`write_report`; the control and validation tables also get their own
+        sheets in the workbook.
 
     Returns
     -------
@@ -51,8 +56,8 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
     """
     outdir = Path(outdir)
     html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
-                         validation=validation, title=title)
+                         validation=validation, title=title, raw=raw)
     with atomic_dir(outdir) as stage:
         (stage / html_name).write_text(html, encoding="utf-8")
-        write_tables(stage / excel_name, qa, test)
+        write_tables(stage / excel_name, qa, test, control=control, validation=validation)
     return {"report": outdir / html_name, "tables": outdir / excel_name}

@@ -1,17 +1,22 @@
 """Excel export: every table of the report and the validated time series in ``tables.xlsx``.
 
 Sheets: ``Summary``, ``Findings``, ``Table2``, ``Table3``, ``Alignment``, ``Selection``,
-``Calculations``, ``Mapping`` (raw → standard names and units), ``Deleted`` and ``TimeSeries``
-(every signal resampled to one grid, header ``name [unit]``). Cells hold the same values as
-``findings.json`` (nested values as JSON text). Written with xlsxwriter, atomically.
+``Calculations``, ``Mapping`` (raw → standard names and units), ``Deleted``, ``Control`` and
+``Validation`` (when given) and ``TimeSeries`` (every signal resampled to one grid, header
+``name [unit]``). Each table sheet stacks its tables: a bold title row, a header row, the
+rows, a blank row. Cells hold the same values as ``findings.json`` (nested values as JSON
+text). The table sheets are written with xlsxwriter; the time series, which is most of the
+cells, is formatted as sheet XML by Arrow kernels (see :func:`_rows_xml_chunks`). Written
+atomically.
 """
 
 from __future__ import annotations
 
 import os
 import re
-from pathlib import Path
 import zipfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 from typing import Any, Iterator
 
 import numpy as np
@@ -23,6 +28,7 @@ from vehval.report.tables import Table, rows_table, to_tables
 from vehval.test import Test
 
 MAX_SHEET_ROWS = 1_048_575
+CHUNK_ROWS = 2048  # time-series rows formatted per chunk
 
 
 def qa_tables(qa: Any, test: Test | None = None) -> dict[str, list[Table]]:
@@ -110,6 +116,7 @@ def _write_tables(ws, tables: list[Table], fmt: dict) -> None:
 
 
 def _col_letter(j: int) -> str:
+    """Excel column letters of the 0-based column ``j`` (0 -> A, 26 -> AA)."""
     out = ""
     j += 1
     while j:
@@ -118,52 +125,98 @@ def _col_letter(j: int) -> str:
     return out
 
 
-def _rows_xml(values: np.ndarray, first_row: int) -> Iterator[str]:
-    """``<row>`` elements of a numeric block (NaN/inf cells left empty)."""
+def _rows_xml_chunks(values: np.ndarray, first_row: int,
+                     chunk_rows: int = CHUNK_ROWS) -> Iterator[bytes]:
+    """``<row>`` elements of a numeric block as UTF-8 XML, ``chunk_rows`` rows at a time.
+
+    Built column-wise with Arrow compute kernels (no Python loop over cells): each float is
+    cast to its shortest round-trip decimal text (exact: parsing it gives the same IEEE
+    double), joined into ``<c r="B7"><v>…</v></c>`` cells and the cells into rows. NaN and
+    infinite samples have no cell at all (an empty cell in Excel).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        2-D float array, one row per sheet row.
+    first_row : int
+        1-based sheet row of ``values[0]``.
+    chunk_rows : int
+        Rows per yielded chunk (bounds memory and Arrow's 2 GiB string-array limit).
+    """
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
     letters = [_col_letter(j) for j in range(values.shape[1])]
-    finite = np.isfinite(values)
-    for i, (vals, ok) in enumerate(zip(values.tolist(), finite.tolist())):
-        r = i + first_row
-        cells = "".join(f'<c r="{c}{r}"><v>{v!r}</v></c>' for c, v, good in zip(letters, vals, ok) if good)
-        yield f'<row r="{r}">{cells}</row>'
+    for start in range(0, values.shape[0], chunk_rows):
+        block = values[start:start + chunk_rows]
+        rnum = pc.cast(pa.array(np.arange(first_row + start, first_row + start + block.shape[0],
+                                          dtype=np.int64)), pa.string())
+        cells = []
+        for j, letter in enumerate(letters):
+            col = np.ascontiguousarray(block[:, j])
+            ok = np.isfinite(col)
+            text = pc.cast(pa.array(col, mask=None if ok.all() else ~ok), pa.string())
+            # a null value makes the whole cell null, then an empty string: no cell
+            cell = pc.binary_join_element_wise(f'<c r="{letter}', rnum, '"><v>', text, "</v></c>", "")
+            cells.append(cell if ok.all() else pc.fill_null(cell, ""))
+        rows = pc.binary_join_element_wise('<row r="', rnum, '">', *cells, "</row>", "")
+        offsets = np.frombuffer(rows.buffers()[1], dtype=np.int32, count=len(rows) + 1,
+                                offset=rows.offset * 4)
+        yield memoryview(rows.buffers()[2])[offsets[0]:offsets[-1]].tobytes()
 
 
 def _inject_rows(xlsx: Path, member: str, values: np.ndarray) -> None:
     """Append ``values`` as rows 2.. of a worksheet that xlsxwriter wrote with a header row only.
 
     xlsxwriter spends ~20 µs a cell in Python; a 10 Hz, 1,500 s, 60-channel time series
-    (900,000 cells) is instead formatted here as sheet XML directly (Python's shortest
-    round-trip float repr, so values are exact) and the package is re-zipped.
+    (900,000 cells) is instead formatted as sheet XML by :func:`_rows_xml_chunks` and
+    streamed into the re-zipped package (deflate level 1). Formatting the next chunk and
+    compressing the previous one overlap: both Arrow and zlib release the GIL.
     """
     with zipfile.ZipFile(xlsx) as zin:
         items = [(info, zin.read(info.filename)) for info in zin.infolist()]
     tmp2 = xlsx.with_name(xlsx.name + ".rows")
+    big = values.size * 48 > (1 << 30)  # uncompressed sheet may pass 2 GiB: ZIP64 entry
     try:
         with zipfile.ZipFile(tmp2, "w", compression=zipfile.ZIP_DEFLATED, compresslevel=1) as zout:
             for info, data in items:
                 if info.filename != member:
-                    zout.writestr(info, data, compress_type=zipfile.ZIP_DEFLATED)
+                    zout.writestr(info, data, compress_type=zipfile.ZIP_DEFLATED, compresslevel=1)
                     continue
                 xml = data.decode("utf-8")
                 last = f"{_col_letter(values.shape[1] - 1)}{values.shape[0] + 1}"
                 xml = re.sub(r'<dimension ref="[^"]*"/>', f'<dimension ref="A1:{last}"/>', xml, count=1)
                 end = xml.index("</sheetData>")
-                with zout.open(info.filename, "w") as fh:
+                with zout.open(info.filename, "w", force_zip64=big) as fh, \
+                        ThreadPoolExecutor(max_workers=1) as pool:
                     fh.write(xml[:end].encode("utf-8"))
-                    chunk: list[str] = []
-                    for row_xml in _rows_xml(values, 2):
-                        chunk.append(row_xml)
-                        if len(chunk) >= 2000:
-                            fh.write("".join(chunk).encode("utf-8"))
-                            chunk = []
-                    fh.write("".join(chunk).encode("utf-8"))
+                    pending = None
+                    for chunk in _rows_xml_chunks(values, 2):
+                        if pending is not None:
+                            pending.result()
+                        pending = pool.submit(fh.write, chunk)
+                    if pending is not None:
+                        pending.result()
                     fh.write(xml[end:].encode("utf-8"))
         os.replace(tmp2, xlsx)
     finally:
         tmp2.unlink(missing_ok=True)
 
 
-def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: float | None = None) -> Path:
+def plugin_tables(control: Any = None, validation: Any = None) -> dict[str, list[Table]]:
+    """The ``Control`` and ``Validation`` sheets: the tables of those report sections."""
+    from vehval.report.plugins import control_section, validation_section
+
+    sheets: dict[str, list[Table]] = {}
+    if control is not None:
+        sheets["Control"] = control_section(qv.as_dict(control)).tables
+    if validation is not None:
+        sheets["Validation"] = validation_section(qv.as_dict(validation)).tables
+    return {k: v or [rows_table(k, [])] for k, v in sheets.items()}
+
+
+def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: float | None = None,
+                 control: Any = None, validation: Any = None) -> Path:
     """Write ``tables.xlsx``: the report tables, one sheet per group, and the time series.
 
     Parameters
@@ -176,6 +229,9 @@ def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: flo
         Validated test: adds the summary, mapping and ``TimeSeries`` sheets.
     dt : float, optional
         Time-series grid step [s] (see :func:`timeseries_frame`).
+    control, validation : dict, optional
+        ``control.json`` / ``validation.json``: their report tables in the ``Control`` and
+        ``Validation`` sheets.
 
     Returns
     -------
@@ -189,7 +245,7 @@ def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: flo
                                             "strings_to_formulas": False, "strings_to_urls": False})
         fmt = {"title": wb.add_format({"bold": True, "font_size": 12}),
                "head": wb.add_format({"bold": True, "bg_color": "#E9EEF3", "bottom": 1})}
-        for name, tables in qa_tables(qa, test).items():
+        for name, tables in {**qa_tables(qa, test), **plugin_tables(control, validation)}.items():
             ws = wb.add_worksheet(name)
             _write_tables(ws, tables, fmt)
             ws.freeze_panes(2, 0)

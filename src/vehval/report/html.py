@@ -20,9 +20,10 @@ from vehval.io.atomic import write_text_atomic
 from vehval.report import plots
 from vehval.report import sections as S
 from vehval.report.figures import FigSpec, figure_json
+from vehval.report.plugins import control_section, normalise_figure, validation_section
 from vehval.report.qa_view import as_dict
 from vehval.report.tables import fmt_cell, slug
-from vehval.test import Test
+from vehval.test import Test, TestMeta
 
 
 @lru_cache(maxsize=1)
@@ -94,7 +95,8 @@ def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S
         except plots.PlotSkipped as exc:
             sec.notes.append(f"{title}: skipped ({exc}).")
             continue
-        sec.figures.append(FigSpec(title, fig))
+        fig, caption = normalise_figure(fig)  # the plot's own title becomes the caption
+        sec.figures.append(FigSpec(caption or title, fig))
     flows = plots.energy_flows(test)
     if flows:
         sec.tables.append(S.Table("Energies over the test", ["quantity", "energy [MJ]"],
@@ -102,9 +104,34 @@ def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S
     return sec
 
 
+def with_dropped(test: Test, raw: Test | None, qa: dict) -> Test:
+    """The validated test plus the signals of ``raw`` that selection dropped, aligned.
+
+    ``raw`` is the imported test before QA; its sources are shifted by the offsets the QA
+    applied (``alignment[].applied``), so the dropped signals sit on the validated time
+    base. The QA sections plot from this view; every other section uses ``test`` only.
+    """
+    if raw is None:
+        return test
+    extra = Test([s for s in raw if s.name not in test], TestMeta())
+    if not len(extra):
+        return test
+    for r in S.alignment_results(qa.get("alignment")):
+        off = r.get("offset_s")
+        if r.get("applied") and isinstance(r.get("source"), str) and isinstance(off, (int, float)):
+            extra.shift_source(r["source"], float(off))
+    return Test(list(test) + list(extra), test.meta)
+
+
+def _is_virtual(test: Test, template: Any) -> bool:
+    """A virtual test: flagged in its metadata, or its template says so (``vehval synth``)."""
+    desc = template if isinstance(template, str) else getattr(template, "description", None)
+    return bool(test.meta.synthetic) or str(desc or "").lstrip().upper().startswith("VIRTUAL TEST")
+
+
 def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle: Any = None,
                    control: dict | None = None, validation: dict | None = None,
-                   title: str = "") -> list[S.Section]:
+                   title: str = "", raw: Test | None = None) -> list[S.Section]:
     """All sections of the report, in order (see :func:`write_report`)."""
     q = as_dict(qa)
     veh, vnote = resolve_vehicle(vehicle, test)
@@ -114,27 +141,28 @@ def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle:
             limits = veh.signal_limits()
         except Exception:  # noqa: BLE001 - limits only draw the band
             limits = None
+    qt = with_dropped(test, raw, q)
     secs = [S.summary_section(test, q, template, title), S.import_section(test),
-            S.alignment_section(test, q), S.findings_section(test, q, limits),
-            S.table2_section(test, q), S.calculations_section(q), S.table3_section(test, q),
+            S.alignment_section(qt, q), S.findings_section(qt, q, limits),
+            S.table2_section(qt, q), S.calculations_section(q), S.table3_section(qt, q),
             S.selection_section(q), S.signals_section(test), engineering_section(test, veh, vnote)]
-    for key, name, payload in (("control", "Control strategy", control), ("validation", "Validation", validation)):
-        sec = S.plugin_section(key, name, payload)
-        if sec is not None:
-            secs.append(sec)
+    if control is not None:
+        secs.append(control_section(as_dict(control)))
+    if validation is not None:
+        secs.append(validation_section(as_dict(validation)))
     return secs
 
 
 def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: Any = None,
                   control: dict | None = None, validation: dict | None = None,
-                  title: str | None = None) -> str:
+                  title: str | None = None, raw: Test | None = None) -> str:
     """The report as one HTML string (see :func:`write_report`)."""
     from vehval import __version__
 
     m = test.meta
     title = title or f"Test report: {m.test_id or 'unnamed test'}"
     secs = build_sections(test, qa, template=template, vehicle=vehicle, control=control,
-                          validation=validation, title=title)
+                          validation=validation, title=title, raw=raw)
     n = 0
     for sec in secs:
         for f in sec.figures:
@@ -154,14 +182,14 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
     subtitle = " · ".join(x for x in (m.vehicle, m.cycle, m.test_id) if x) or "vehicle test"
     return _env().get_template("report.html.j2").render(
         title=title, subtitle=subtitle, generated=_dt.datetime.now().strftime("%Y-%m-%d %H:%M"),
-        version=__version__, synthetic=bool(m.synthetic), sections=secs, fmt=fmt_cell,
+        version=__version__, synthetic=_is_virtual(test, template), sections=secs, fmt=fmt_cell,
         css=_read_asset("report.css"), plotly_js=js, plotly_version=pver, template_json=tmpl,
         render_js=_read_asset("render.js"))
 
 
 def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any = None,
                  vehicle: Any = None, control: dict | None = None, validation: dict | None = None,
-                 title: str | None = None) -> Path:
+                 title: str | None = None, raw: Test | None = None) -> Path:
     """Write one self-contained HTML report of a test.
 
     Parameters
@@ -176,12 +204,17 @@ def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any 
         Import template (shown in the summary).
     vehicle : Vehicle or str or None
         Vehicle model or name/path; defaults to ``test.meta.vehicle`` when loadable.
-    control, validation : dict or None
-        Analysis and validation results: ``{"tables": [{"title", "columns", "rows"}],
-        "figures": [plotly figure or {"title", "figure"}], "notes": [...]}``; other keys are
-        shown as generic tables.
+    control : dict or AnalysisResult or None
+        ``control.json`` of ``vehval analyze`` (its ``report`` entry plus figures drawn from
+        the analysis), or any section payload (see :mod:`vehval.report.plugins`).
+    validation : dict or None
+        ``validation.json`` of ``vehval validate``: ``{"tables": [{"title", "columns",
+        "rows"}], "figures": [plotly figure or {"title", "figure"}], "notes": [...]}``.
     title : str, optional
         Report title.
+    raw : Test, optional
+        The imported test before QA: signals that selection dropped are plotted in the QA
+        sections (shifted by the applied alignment offsets).
 
     Returns
     -------
@@ -189,6 +222,6 @@ def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any 
         The written file.
     """
     html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
-                         validation=validation, title=title)
+                         validation=validation, title=title, raw=raw)
     write_text_atomic(path, html)
     return Path(path)

@@ -17,6 +17,8 @@ from vehval.test import Test
 RPM = 2.0 * np.pi / 60.0  # [rad/s] per rpm
 DEFAULT_LHV_J_PER_KG = 42.6e6
 MAX_POINTS = 4000
+#: Engine speed above which the engine counts as running [rad/s] (~480 rpm: above cranking).
+ENGINE_RUNNING_RAD_S = 50.0
 
 
 class PlotSkipped(Exception):
@@ -127,9 +129,9 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
         pass
     try:
         _, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
-        on = np.isfinite(w) & np.isfinite(tq) & (w > 1.0)
+        on = np.isfinite(w) & np.isfinite(tq) & (w > ENGINE_RUNNING_RAD_S)
         x, y = _thin(w[on] / RPM, tq[on])
-        fig.add_trace(go.Scatter(x=x, y=y, mode="markers", name=f"operating points ({names[0]})",
+        fig.add_trace(go.Scatter(x=x, y=y, mode="markers", name=f"engine running ({names[0]})",
                                  marker={"size": 4, "color": "#d9480f", "opacity": 0.5}))
     except PlotSkipped:
         pass
@@ -193,8 +195,21 @@ def machine_map_figure(test: Test, vehicle: Any, which: str) -> go.Figure:
 
 # ----------------------------------------------------------------------------- histograms
 def regen_current_histogram(test: Test) -> go.Figure:
-    """Battery current [A] while braking: vehicle moving and decelerating (dv/dt < −0.1 m/s²)."""
-    t, (i, v), names = common(test, ("ess_curr", "veh_spd"))
+    """Battery current [A] while braking: vehicle moving and decelerating (dv/dt < −0.1 m/s²).
+
+    The current is ``ess_curr``; without it, ``ess_pwr / ess_volt`` (current positive when
+    discharging, like the power).
+    """
+    try:
+        t, (i, v), names = common(test, ("ess_curr", "veh_spd"))
+    except PlotSkipped:
+        try:
+            t, (p, u, v), names = common(test, ("ess_pwr", "ess_volt", "veh_spd"))
+        except PlotSkipped:
+            raise PlotSkipped("no ess_curr signal, nor ess_pwr and ess_volt") from None
+        with np.errstate(divide="ignore", invalid="ignore"):
+            i = np.where(u > 1.0, p / u, np.nan)
+        names = [f"{names[0]} / {names[1]}", names[2]]
     acc = np.gradient(np.where(np.isfinite(v), v, 0.0), t) if t.size > 1 else np.zeros_like(t)
     mask = np.isfinite(i) & (v > 0.5) & (acc < -0.1)
     if not mask.any():
@@ -206,7 +221,8 @@ def regen_current_histogram(test: Test) -> go.Figure:
 
 
 def engine_power_histogram(test: Test) -> go.Figure:
-    """Distribution of engine power [kW] while the engine turns (speed above 50 rad/s)."""
+    """Distribution of engine power [kW] while the engine runs (speed above
+    :data:`ENGINE_RUNNING_RAD_S`)."""
     p = pick(test, "eng_pwr_out")
     if p is not None:
         pw, name = p.values, p.name
@@ -217,7 +233,7 @@ def engine_power_histogram(test: Test) -> go.Figure:
     else:
         _, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
         pw, name = w * tq, f"{names[0]} × {names[1]}"
-    on = np.isfinite(pw) & (w > 50.0)
+    on = np.isfinite(pw) & (w > ENGINE_RUNNING_RAD_S)
     if not on.any():
         raise PlotSkipped("engine never on")
     fig = go.Figure(go.Histogram(x=pw[on] / 1e3, nbinsx=50, name=name, marker={"color": "#d9480f"}))

@@ -14,7 +14,7 @@ import numpy as np
 from vehval.nomenclature import registry
 from vehval.report import qa_view as qv
 from vehval.report.figures import PALETTE, FigSpec, scatter_fit_figure, time_traces_figure
-from vehval.report.tables import Table, rows_table, table_from_spec, to_tables
+from vehval.report.tables import Table, rows_table, to_tables
 from vehval.test import Test
 
 MAX_FINDING_PLOTS = 40
@@ -142,6 +142,33 @@ def alignment_results(alignment: Any) -> list[dict]:
     return []
 
 
+def calc_sources(qa: dict, name: str, test: Test, _seen: set | None = None) -> set[str]:
+    """Acquisition sources a ``_calc`` signal was computed from (through other ``_calc``).
+
+    Read from the QA calculation log (``calculations.computed[name].inputs``); a signal
+    whose inputs are unknown counts as depending on every source of the test.
+    """
+    seen = _seen if _seen is not None else set()
+    if name in seen:
+        return set()
+    seen.add(name)
+    calc = qa.get("calculations")
+    entry = (calc.get("computed") or {}).get(name) if isinstance(calc, dict) else None
+    inputs = entry.get("inputs") if isinstance(entry, dict) else None
+    if not isinstance(inputs, dict):
+        return set(test.sources)
+    out: set[str] = set()
+    for dep in inputs.values():
+        for d in dep if isinstance(dep, list) else [dep]:
+            if not isinstance(d, str):
+                continue
+            if d.endswith("_calc"):
+                out |= calc_sources(qa, d, test, seen)
+            elif d in test:
+                out.add(test[d].source)
+    return out
+
+
 def alignment_section(test: Test, qa: dict) -> Section:
     al = qa.get("alignment")
     sec = Section("alignment", "Time alignment",
@@ -179,7 +206,10 @@ def alignment_section(test: Test, qa: dict) -> Section:
             sigs = [s for s in test if s.source == src and _parse(s.name) and _parse(s.name).origin == "test"]
             sigs.sort(key=lambda s: prefer.index(s.base) if s.base in prefer else len(prefer))
             for s in sigs:
-                refs = [x for x in test.by_base(s.base, "test") if x.source != src]
+                # the same quantity from another source, else calculated (from other signals)
+                refs = ([x for x in test.by_base(s.base, "test") if x.source != src]
+                        or [x for x in test.by_base(s.base, "calc")
+                            if src not in calc_sources(qa, x.name, test)])
                 if refs:
                     pair = (refs[0].name, s.name)
                     break
@@ -233,7 +263,10 @@ def findings_section(test: Test, qa: dict, limits: dict | None = None) -> Sectio
             by_signal.setdefault(name, []).append(r)
     missing = [n for n in by_signal if n not in test]
     if missing:
-        sec.notes.append("Flagged signals not in the validated test (dropped): " + ", ".join(missing))
+        sec.notes.append("Flagged signals without data in the report (dropped by the selection; "
+                         "give the imported test to plot them): " + ", ".join(missing))
+    sel = qa.get("selection")
+    dropped = sel.get("dropped") if isinstance(sel, dict) and isinstance(sel.get("dropped"), dict) else {}
     plotted = [n for n in by_signal if n in test][:MAX_FINDING_PLOTS]
     if len(by_signal) - len(missing) > len(plotted):
         sec.notes.append(f"Plots limited to the first {MAX_FINDING_PLOTS} flagged signals.")
@@ -247,7 +280,8 @@ def findings_section(test: Test, qa: dict, limits: dict | None = None) -> Sectio
         checks = sorted({str(r.get("kind") or r.get("check") or r.get("test") or "?") for r in fr})
         fig = time_traces_figure([{"ylabel": label(test, name), "traces": [_trace(test, name, 0)],
                                    "band": band, "spans": spans}], row_height=240)
-        sec.figures.append(FigSpec(f"{name}: {', '.join(checks)}", fig, linked=True))
+        sec.figures.append(FigSpec(f"{name}: {', '.join(checks)}" + (" (dropped by the selection)" if name in dropped else ""),
+                                   fig, linked=True))
     return sec
 
 
@@ -348,33 +382,4 @@ def signals_section(test: Test) -> Section:
             part = f" ({k // PANELS_PER_FIGURE + 1})" if len(bases) > PANELS_PER_FIGURE else ""
             sec.figures.append(FigSpec(f"{cat.capitalize()}{part}", time_traces_figure(panels),
                                        linked=True))
-    return sec
-
-
-# ----------------------------------------------------------------------------- plug-ins
-def plugin_section(key: str, title: str, payload: dict | None) -> Section | None:
-    """A section from a ``{tables: [{title, columns, rows}], figures: [...], notes, intro}`` dict.
-
-    Figures are plotly figures (or their JSON dicts), optionally wrapped as
-    ``{"title": ..., "figure": ...}``. Any other keys are rendered as generic tables.
-    """
-    if payload is None:
-        return None
-    sec = Section(key, str(payload.get("title") or title), intro=str(payload.get("intro") or ""))
-    for i, spec in enumerate(payload.get("tables") or []):
-        t = table_from_spec(spec, f"{title} table {i + 1}")
-        t.key = f"{key}-{t.key}"
-        sec.tables.append(t)
-    for i, f in enumerate(payload.get("figures") or []):
-        if isinstance(f, dict) and "figure" in f:
-            sec.figures.append(FigSpec(str(f.get("title") or f"{title} figure {i + 1}"), f["figure"],
-                                       linked=bool(f.get("linked", False)), note=str(f.get("note") or "")))
-        else:
-            fig = f.to_plotly_json() if hasattr(f, "to_plotly_json") else f
-            t = ((fig.get("layout") or {}).get("title") or {})
-            sec.figures.append(FigSpec(str(t.get("text") if isinstance(t, dict) else t or f"{title} figure {i + 1}"), fig))
-    sec.notes += [str(n) for n in payload.get("notes") or []]
-    rest = {k: v for k, v in payload.items() if k not in ("tables", "figures", "notes", "intro", "title")}
-    for k, v in rest.items():
-        sec.tables += to_tables(v, f"{title}: {k}", key=f"{key}-{k}")
     return sec

@@ -47,6 +47,9 @@ def template_for(table: dict, datas: dict, consts: dict[str, float], vehicle: An
                  suffix: dict[str, str]) -> Template:
     """Build the (validated) import template of a virtual test.
 
+    The template declares ``synthetic: true`` and ``cycle: <cycle_name>``, so the imported
+    test carries the virtual-test flag and its generating cycle.
+
     Parameters
     ----------
     table : dict
@@ -78,6 +81,8 @@ def template_for(table: dict, datas: dict, consts: dict[str, float], vehicle: An
     data = {
         "template_version": 1,
         "vehicle": vehicle_name(vehicle, vehicle_arg),
+        "cycle": cycle_name,
+        "synthetic": True,
         "description": (f"VIRTUAL TEST (synthetic data from vehval synth, not a measurement): "
                         f"{vehicle_name(vehicle, vehicle_arg)} on {cycle_name}, seed {seed}, "
                         f"faults '{faults_label}'. Facility D3 file + OBD logger file."),
