@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 
-import numpy as np
 import pytest
 
 from vehval.sim.control import (ENG_OFF, ENG_OFF_MINTIME, ENG_ON, ENG_ON_MINTIME, STATE_NAMES,

@@ -8,14 +8,15 @@ from typing import Any
 import numpy as np
 
 from vehval.analysis.braking import braking_split
+from vehval.analysis.demand import estimate_soc, power_sign_check, quantisation_step, rule_demand
 from vehval.analysis.events import event_table
-from vehval.analysis.inputs import AnalysisInputs, Finding, prepare_inputs
+from vehval.analysis.inputs import Finding, pick_signal, prepare_inputs
 from vehval.analysis.modes import (MODES, classify_modes, detect_engine_on, mode_shares,
                                    run_lengths, timeline)
 from vehval.analysis.operating import current_histogram, operating_points, power_histogram_by_mode
 from vehval.analysis.replay import base_params
 from vehval.analysis.soc import fit_soc_regulation
-from vehval.analysis.thresholds import fit_rule
+from vehval.analysis.thresholds import ESTIMATED, fit_rule
 from vehval.test import Test
 
 CONTROL_VERSION = 1
@@ -110,13 +111,14 @@ def _clean(x: Any) -> Any:
     return x
 
 
-def _battery_limits(inp: AnalysisInputs, vehicle: Any) -> tuple:
-    if vehicle is None or not inp.has("soc"):
+def _battery_limits(soc: np.ndarray, vehicle: Any) -> tuple:
+    """(available discharge power, discharge limit, charge limit) [W] at the SOC, or Nones."""
+    if vehicle is None or not np.any(np.isfinite(soc)):
         return None, None, None
     b = vehicle.battery
-    soc = np.where(np.isfinite(inp.soc), inp.soc, vehicle.controller.soc_target)
-    pd = np.interp(soc, b.soc, b.discharge_power_limit_w)
-    pc = np.interp(soc, b.soc, b.charge_power_limit_w)
+    s = np.where(np.isfinite(soc), soc, vehicle.controller.soc_target)
+    pd = np.interp(s, b.soc, b.discharge_power_limit_w)
+    pc = np.interp(s, b.soc, b.charge_power_limit_w)
     return pd - vehicle.controller.battery_discharge_margin_w, pd, pc
 
 
@@ -129,8 +131,9 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     test : Test
         Imported (ideally QA-validated) test; ``_test`` then ``_calc`` signals are used.
     vehicle : Vehicle or str, optional
-        Gives the fixed controller parameters (hold times, SOC conditions, auxiliary load,
-        battery limits), the fuel map for the best-efficiency line and default constants.
+        Gives the fixed controller parameters (hold times, SOC regulation and conditions,
+        auxiliary load, battery limits and capacity), the fuel map for the best-efficiency
+        line and default constants.
     constants : dict, optional
         Constants overriding the test's (mass, road load, wheel radius).
     dt : float, optional
@@ -148,38 +151,58 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     es = detect_engine_on(inp.t, inp.eng_spd, inp.fuel_rate)
     aux = float(vehicle.body.aux_power_w) if vehicle is not None else 0.0
     base = base_params(vehicle)
-    pdis_av, pd_lim, pc_lim = _battery_limits(inp, vehicle)
+    # state of charge (coulomb counting anchored to the logged SOC) and battery power sign
+    se = estimate_soc(inp.t, inp.soc, inp.ess_curr,
+                      vehicle.battery.capacity_ah if vehicle is not None else None)
+    findings.extend(se.findings)
+    soc = se.soc
+    soc_sig = pick_signal(test, "ess_soc", ("obd", "", "dyno"))
+    res_step = quantisation_step(soc_sig.values) if soc_sig is not None else None
+    if res_step and res_step >= 0.002 and se.method.startswith("measured"):
+        findings.append(Finding("warning", soc_sig.name, (
+            f"logged SOC resolution {res_step:.3g} and no usable battery current: the SOC-"
+            f"regulation demand is known only to ±{0.5 * res_step * base['soc_gain_w']:.0f} W")))
+    ess_pwr, f_sign = power_sign_check(inp.t, soc, inp.ess_pwr)
+    findings.extend(f_sign)
+    pdis_av, pd_lim, pc_lim = _battery_limits(soc, vehicle)
     eng_pwr = inp.eng_spd * inp.eng_trq
-    codes = classify_modes(inp.v, inp.p_whl, es.on, inp.ess_pwr, eng_pwr)
+    codes = classify_modes(inp.v, inp.p_whl, es.on, ess_pwr, eng_pwr)
     starts, lengths, vals = run_lengths(es.on)
     engine = {"method": es.method, "on_share": float(np.mean(es.on[es.valid])) if es.valid.any() else None,
               "starts": int(np.sum(vals[1:])) if vals.size else 0,
               "valid_share": float(np.mean(es.valid))}
-    # SOC regulation first: its estimate feeds the total demand of the rule
-    soc_reg = fit_soc_regulation(inp.soc, inp.ess_pwr, es.on & es.valid, inp.p_whl, inp.dt)
-    soc_reg["engine_on_share_by_soc"] = _on_by_soc(inp.soc, es.on, es.valid)
+    soc_reg = fit_soc_regulation(soc, ess_pwr, es.on & es.valid, inp.p_whl, inp.dt)
+    soc_reg["engine_on_share_by_soc"] = _on_by_soc(soc, es.on, es.valid)
+    soc_reg["soc_source"] = se.method
     controller, uncertainty, rule = {}, {}, {}
     agree = None
     if soc_reg.get("fitted") and "soc_target" in soc_reg and soc_reg.get("r2", 0) > 0.3:
+        soc_reg["battery_side_gain_w"] = soc_reg.pop("soc_gain_w")
         controller["soc_target"] = round(soc_reg["soc_target"], 4)
-        controller["soc_gain_w"] = round(soc_reg["soc_gain_w"], 1)
-        uncertainty["soc_target"] = {"method": "robust linear fit", "r2": soc_reg["r2"]}
-        uncertainty["soc_gain_w"] = {"method": "robust linear fit (battery side: lower than the "
-                                     "controller gain by the engine-to-battery efficiency)",
-                                     "r2": soc_reg["r2"]}
+        uncertainty["soc_target"] = {"method": "robust linear fit of battery power against SOC "
+                                     "in steady engine-on propulsion (zero crossing; biased by "
+                                     "the auxiliary load and losses)", "r2": soc_reg["r2"]}
     events: list = []
     n_switch = int(np.sum(es.on[1:] != es.on[:-1]))
+    demand_info: dict = {}
     if es.valid.any() and inp.has("p_whl") and n_switch >= 2:
-        fit = fit_rule(es.on, es.valid, inp.p_whl, inp.v, inp.soc, inp.dt, base, aux_w=aux,
+        dem = rule_demand(inp.t, inp.v, inp.a, inp.p_whl, es.on, ess_pwr, inp.consts,
+                          eng_spd=inp.eng_spd, pdis_lim=pd_lim)
+        demand_info = dem.info
+        fit = fit_rule(es.on, es.valid, dem.p, inp.v, soc, inp.dt, base, aux_w=aux,
                        pdis_av=pdis_av)
         controller.update(fit.estimated)
         uncertainty.update({k: fit.uncertainty[k] for k in fit.uncertainty})
         agree = round(fit.agreement, 5)
-        rule = {"lag_s": fit.lag_s, "bounds": fit.bounds, "notes": fit.notes, "replay_params": fit.params,
-                "fixed": {k: v for k, v in fit.params.items() if k not in fit.estimated},
+        src = f"vehicle file ({vehicle.name})" if vehicle is not None and getattr(vehicle, "name", None) \
+            else ("vehicle file" if vehicle is not None else "generic default (no vehicle)")
+        rule = {"lag_s": fit.lag_s, "bounds": fit.bounds, "notes": fit.notes,
+                "replay_params": fit.params, "plausible_ranges": fit.ranges,
+                "fixed": {k: {"value": v, "source": src} for k, v in fit.params.items()
+                          if k not in fit.estimated and k not in fit.bounds and k not in ESTIMATED},
                 "run_durations_s": fit.runs}
-        events = event_table(inp.t, es.on, es.valid, inp.v, inp.p_whl, inp.soc, inp.ess_pwr,
-                             fit.params, aux, fit.lag_s)
+        events = event_table(inp.t, es.on, es.valid, inp.v, dem.p, soc, ess_pwr,
+                             fit.params, aux, fit.lag_s["start"])
         for n in fit.notes:
             findings.append(Finding("warning", "engine state", n))
     else:
@@ -187,15 +210,15 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
                                 "engine on/off rule not estimated: needs engine speed or fuel rate, "
                                 "a wheel power demand and at least one engine start and stop "
                                 f"(found {n_switch} switch(es))"))
-        events = event_table(inp.t, es.on, es.valid, inp.v, inp.p_whl, inp.soc, inp.ess_pwr,
+        events = event_table(inp.t, es.on, es.valid, inp.v, inp.p_whl, soc, ess_pwr,
                              base, aux, 0.0)
     regen_mask = codes == MODES.index("regen_braking")
-    op = operating_points(inp.eng_spd, inp.eng_trq, es.on, inp.dt, vehicle, inp.ess_pwr, pd_lim, pc_lim)
+    op = operating_points(inp.eng_spd, inp.eng_trq, es.on, inp.dt, vehicle, ess_pwr, pd_lim, pc_lim)
     op["power_by_mode"] = power_histogram_by_mode(eng_pwr, codes, es.on)
-    brk = braking_split(inp.v, inp.a, inp.p_whl, inp.ess_pwr, inp.brk_frc, aux_w=aux,
+    brk = braking_split(inp.v, inp.a, inp.p_whl, ess_pwr, inp.brk_frc, aux_w=aux,
                         path_efficiency=base["electric_drive_efficiency"])
     brk["current_during_regen"] = current_histogram(inp.ess_curr, regen_mask)
-    if not np.any(np.isfinite(inp.ess_pwr)) and inp.has("ess_curr"):
+    if not np.any(np.isfinite(ess_pwr)) and inp.has("ess_curr"):
         # no voltage: the regen current histogram still needs braking steps
         brake = np.isfinite(inp.a) & (inp.a < -0.3) & (inp.v > 1.0) & ~es.on
         brk["current_during_decel_engine_off"] = current_histogram(inp.ess_curr, brake)
@@ -205,7 +228,8 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
         rule_agreement=agree, events=events, modes=modes, soc_regulation=soc_reg,
         operating_points=op, braking=brk, findings=[f.to_dict() for f in findings], engine=engine,
         rule=rule, inputs={"dt_s": inp.dt, "duration_s": float(inp.t[-1] - inp.t[0]) if inp.n else 0.0,
-                           "sources": inp.sources})
+                           "sources": inp.sources, "soc": {"method": se.method, **se.info},
+                           "demand": demand_info})
 
 
 def _on_by_soc(soc: np.ndarray, on: np.ndarray, valid: np.ndarray) -> list[dict]:

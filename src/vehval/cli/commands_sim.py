@@ -66,18 +66,14 @@ def simulate_cmd(
                                           help="Directory for summary.json and the signals."),
 ) -> None:
     """Simulate a vehicle over a drive cycle (forward-looking, state-machine controller)."""
+    from vehval.cli.options import parse_assignments
     from vehval.errors import ConfigError
     from vehval.sim.simulate import simulate
 
-    overrides = {}
-    for item in set_:
-        if "=" not in item:
-            raise ConfigError(f"--set '{item}': use block.key=value")
-        key, val = item.split("=", 1)
-        try:
-            overrides[key.strip()] = float(val)
-        except ValueError:
-            raise ConfigError(f"--set '{item}': value must be a number") from None
+    overrides = parse_assignments(set_, "--set", "controller.soc_target=0.55")
+    for key, val in overrides.items():
+        if isinstance(val, bool) or not isinstance(val, (int, float)):
+            raise ConfigError(f"--set '{key}={val}': value must be a number")
     res = simulate(vehicle, cycle, dt=dt, soc_initial=soc_initial,
                    charge_balance=charge_balance, **overrides)
     s = res.summary

@@ -6,24 +6,14 @@ import json
 from pathlib import Path
 
 import typer
-import yaml
 
 from vehval.cli import app
+from vehval.cli.options import parse_assignments
 from vehval.errors import ConfigError, VehvalError
 
 
 def _pairs(items: list[str], option: str) -> dict:
-    out = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ConfigError(f"{option} '{item}': expected KEY=VALUE (for example "
-                              f"{option} soc_target=0.6)")
-        try:
-            out[key.strip()] = yaml.safe_load(value)
-        except yaml.YAMLError:
-            raise ConfigError(f"{option} '{item}': the value is not a number, list or text") from None
-    return out
+    return parse_assignments(items, option, "soc_target=0.6")
 
 
 @app.command("synth")

@@ -167,11 +167,14 @@ def _sliding_rms(g: _Grid, c: np.ndarray, pad: int) -> tuple[np.ndarray, np.ndar
     vw = np.concatenate([np.zeros(pad), g.v, np.zeros(pad)]) * w
     if w.size < m:
         return np.zeros(0), np.zeros(0)
-    ones = np.ones(m)
-    s_vv = correlate(vw * vw, ones, mode="valid")
-    s_vc = correlate(vw, c, mode="valid")
-    s_cc = correlate(w, c * c, mode="valid")
-    n_w = correlate(w, ones, mode="valid")
+    def window_sum(x: np.ndarray) -> np.ndarray:
+        cs = np.concatenate([[0.0], np.cumsum(x)])
+        return cs[m:] - cs[:-m]
+
+    s_vv = window_sum(vw * vw)
+    s_vc = correlate(vw, c, mode="valid", method="fft")
+    s_cc = correlate(w, c * c, mode="valid", method="fft")
+    n_w = window_sum(w)
     sse = np.maximum(s_vv - 2.0 * s_vc + s_cc, 0.0)
     n_w = np.round(n_w)
     rms = np.sqrt(sse / np.maximum(n_w, 1.0))

@@ -44,7 +44,9 @@ class Level1Options:
     noisy_repeat_fraction: float = 0.02   # below: the signal is "noisy" (repeats are rare)
     partner_move_fraction: float = 0.05   # duplicate moves: range in run > this x its range
     correlated_move_fraction: float = 0.2  # same for a merely correlated partner
-    spike_corroboration_k: float = 4.0  # partner residual above this x its sigma: real event
+    spike_corroboration_k: float = 4.0  # partner residual above this x its sigma: real event ...
+    spike_corroboration_ratio: float = 0.25  # ... and, relative to its range, at least this
+                                      # fraction of the spike's size relative to the signal's range
     spike_k: float = 10.0             # Hampel threshold in robust sigmas
     spike_range_fraction: float = 0.2  # and at least this fraction of the signal range
     spike_window: int = 5             # Hampel window [samples], odd
@@ -395,7 +397,8 @@ def _peak(resid: np.ndarray, i0: int, i1: int) -> float:
 
 
 #: Extra pairs whose simultaneous jumps reveal a physical event (not a sensor spike).
-_EVENT_PARTNERS = (("mot_trq_out", "ess_curr"), ("mot_trq_out", "ess_volt"),
+_EVENT_PARTNERS = (("ess_curr", "ess_volt"),
+                   ("mot_trq_out", "ess_curr"), ("mot_trq_out", "ess_volt"),
                    ("gen_trq_out", "ess_curr"), ("gen_trq_out", "ess_volt"),
                    ("eng_trq_out", "eng_spd_out"), ("ess_pwr", "ess_volt"))
 
@@ -405,13 +408,20 @@ def _corroborate_spikes(test: Test, found: list[Finding], opts: Level1Options) -
 
     A sensor spike is local to one channel; a jump seen at the same instant on a
     physically related channel (battery voltage sag with a current step, OBD torque and
-    voltage in the same polling round) is a real event.
+    voltage in the same polling round) is a real event. To corroborate, the partner must
+    be sampled at least as fast as the spiking signal (a 1 Hz channel cannot resolve a
+    one-sample event at 10 Hz: it "jumps" at every transient), and its jump, relative to its
+    own range, must be at least ``spike_corroboration_ratio`` of the spike's relative size
+    (a real event moves both channels by a comparable part of their ranges; an ordinary
+    transient of the partner during a 3000 N spike does not).
     """
     cache: dict[str, tuple[float, np.ndarray]] = {}
+    ranges: dict[str, float] = {}
 
     def noise(sig: Signal):
         if sig.name not in cache:
             cache[sig.name] = robust_noise(sig.values, opts.spike_window)
+            ranges[sig.name] = _robust_range(sig.values)
         return cache[sig.name]
 
     for f in found:
@@ -426,13 +436,20 @@ def _corroborate_spikes(test: Test, found: list[Finding], opts: Level1Options) -
                 continue
             if (p.base, q.base) in _EVENT_PARTNERS or (q.base, p.base) in _EVENT_PARTNERS:
                 partners.append(other)
+        noise(sig)
+        rel_spike = abs(f.numbers.get("deviation", np.nan)) / ranges[sig.name] \
+            if ranges[sig.name] > 0 else np.inf
         for other in partners:
+            if not other.sample_period <= 1.5 * sig.sample_period:
+                continue
             tol = max(sig.sample_period, other.sample_period)
             sigma, resid = noise(other)
             sel = (other.time >= f.start_s - tol) & (other.time <= f.end_s + tol)
             r = np.abs(resid[sel])
             r = r[np.isfinite(r)]
-            if sigma > 0 and r.size and r.max() > opts.spike_corroboration_k * sigma:
+            big = r.size and ranges[other.name] > 0 and np.isfinite(rel_spike) and (
+                r.max() / ranges[other.name] >= opts.spike_corroboration_ratio * rel_spike)
+            if sigma > 0 and big and r.max() > opts.spike_corroboration_k * sigma:
                 f.severity = Severity.INFO
                 f.message += f"; {other.name} jumps at the same time: a real transient, not a sensor spike"
                 f.related.append(other.name)

@@ -207,10 +207,11 @@ def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None,
     """Table 3 and its findings for every calculated signal with a measured counterpart.
 
     ``findings_before`` (QA1/QA2 findings): the samples where a measured input of a
-    calculation has its own warning or error are left out of that comparison, so that a
-    stuck wheel torque does not hide (or fake) a drift of the engine torque; when that
-    leaves less than half of the samples, every sample is used and the findings name the
-    untrusted inputs (the pipeline then demotes them to info).
+    calculation, or the measured signal itself, has its own warning or error are left out of
+    that comparison, so that a stuck wheel torque does not hide (or fake) a drift of the
+    engine torque, and a problem already reported for a span is not reported again for the
+    whole test; when that leaves less than half of the samples, every sample is used and
+    the findings name the untrusted inputs (the pipeline then demotes them to info).
     """
     opts = opts or Level3Options()
     before = list(findings_before or [])
@@ -236,7 +237,8 @@ def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None,
             mask, label = _row_mask(test, sig.name, cname, calc, steady)
             excluded = False
             if before:
-                bad = untrusted_mask(measured_inputs(cname, calc.computed), calc.grid, before)
+                bad = untrusted_mask(measured_inputs(cname, calc.computed) | {sig.name},
+                                     calc.grid, before)
                 if bad.any() and (~bad).mean() >= 0.5:
                     mask = ~bad if mask is None else mask & ~bad
                     label = "inputs trusted" if label == "all" else f"{label}, inputs trusted"
