@@ -1,9 +1,11 @@
-"""Report generation: time and size of report.html (and tables.xlsx) for a long test.
+"""Report generation: time and size of report.html and time of tables.xlsx for a long test.
 
-Test: 10 Hz over 1,500 s, 60 channels (15,000 samples each), a QA result with findings on
-20 signals. Baseline: writing the same Test to Parquet (``vehval.io.parquet.write_test``)
-in the same run, i.e. the cost of just persisting the data the report shows.
-Targets: report under 3 s and under 15 MB.
+Test: 10 Hz over 1,500 s, 60 channels (15,000 samples each), vehicle ``prius_2004`` (so the
+engineering section draws the component maps), a QA result with findings on 20 signals.
+Baseline: writing the same Test to Parquet (``vehval.io.parquet.write_test``) in the same
+run, i.e. the cost of just persisting the data the report shows; every time and size is
+also given as a ratio to it. Targets (absolute, from the issue): report.html under 3 s and
+under 15 MB; tables.xlsx (15,000 rows x 61 columns of time series + the tables) under 2 s.
 """
 
 from __future__ import annotations
@@ -30,7 +32,8 @@ def make_long_test(duration_s: float = 1500.0, rate_hz: float = 10.0, n_channels
         mid, amp = 0.5 * (lo + hi), 0.2 * (hi - lo)
         y = mid + amp * np.sin(t / (20.0 + k)) + 0.01 * amp * rng.normal(size=t.size)
         sigs.append(Signal.standard(f"{b}_test", t, y, source="dyno", raw_name=f"CH{k}", raw_unit="-"))
-    return Test(sigs, TestMeta(test_id="bench", cycle="udds", files=["bench_d3.txt"], synthetic=True))
+    return Test(sigs, TestMeta(test_id="bench", vehicle="prius_2004", cycle="udds", files=["bench_d3.txt"],
+                               synthetic=True))
 
 
 def make_qa(test: Test) -> dict:
@@ -51,21 +54,25 @@ def run() -> list[dict]:
 
     test = make_long_test()
     qa = make_qa(test)
+    n_cells = 15_000 * (len(test) + 1)
     with tempfile.TemporaryDirectory() as d:
         html, xlsx, pq = Path(d) / "report.html", Path(d) / "tables.xlsx", Path(d) / "t.parquet"
-        t_rep = best_of(lambda: write_report(html, test=test, qa=qa), n=3)
         t_pq = best_of(lambda: write_test(test, pq), n=3)
-        t_xl = best_of(lambda: write_tables(xlsx, qa, test), n=1, warmup=0)
-        size = html.stat().st_size / 1e6
-        xsize = xlsx.stat().st_size / 1e6
-    note = "10 Hz, 1,500 s, 60 channels, 20 flagged signals"
+        t_rep = best_of(lambda: write_report(html, test=test, qa=qa), n=3)
+        t_xl = best_of(lambda: write_tables(xlsx, qa, test), n=3)
+        size, xsize, pqsize = (p.stat().st_size / 1e6 for p in (html, xlsx, pq))
+    note = "10 Hz, 1,500 s, 60 channels, 20 flagged signals, vehicle maps"
+    base = "baseline: vehval.io.parquet.write_test of the same Test, same run"
     return [
-        row("report_html_1500s_60ch", t_rep, "s", baseline=t_pq, note=f"{note}; target 3 s on value; "
-            "baseline vehval.io.parquet.write_test of the same Test", target=None),
-        row("report_html_1500s_60ch_abs", t_rep, "s", target=3.0, note=f"{note}; absolute time"),
-        row("report_html_size", size, "MB", target=15.0, note="plotly.js (4.8 MB) + min/max-decimated traces"),
-        row("tables_xlsx_1500s_60ch", t_xl, "s", baseline=t_pq, note=f"{note}; {xsize:.1f} MB workbook, "
-            "time series on a 0.1 s grid; baseline Parquet write"),
+        row("report_html_1500s_60ch", t_rep, "s", baseline=t_pq, note=f"{note}; {base}; target 3 s absolute"),
+        row("report_html_1500s_60ch_abs", t_rep, "s", target=3.0, note=f"{note}; absolute time, target 3 s"),
+        row("report_html_size", size, "MB", baseline=pqsize,
+            note="plotly.js (4.8 MB) + min/max-decimated traces; baseline: the Parquet file size"),
+        row("report_html_size_abs", size, "MB", target=15.0, note="absolute size, target 15 MB"),
+        row("tables_xlsx_1500s_60ch", t_xl, "s", baseline=t_pq,
+            note=f"{note}; {xsize:.1f} MB workbook, {n_cells:,} time-series cells; {base}; target 2 s absolute"),
+        row("tables_xlsx_1500s_60ch_abs", t_xl, "s", target=2.0,
+            note=f"absolute time, target 2 s ({n_cells / t_xl / 1e6:.2f} M cells/s)"),
     ]
 
 

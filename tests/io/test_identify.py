@@ -7,10 +7,12 @@ with pauses, a soak, logging gaps. Tolerances are stated where figures are compa
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
-
 from iohelpers import write_d3
+
 from vehval.errors import ConfigError, VehvalError
 from vehval.io.identify import describe, identify_cycle
 from vehval.io.importer import import_test, set_cycle
@@ -212,7 +214,6 @@ def test_cli_import_and_info_print_the_cycle(tmp_path, cli, d3_template):
     assert read_test(o).meta.cycle == "sc03"
     code, out, err = cli("info", o, "--json")
     assert code == 0, err
-    import json
     info = json.loads(out)
     assert info["cycle"] == "sc03" and info["synthetic"] is False
     assert info["cycle_found"].startswith("cycle identified as sc03")
@@ -225,7 +226,7 @@ def test_propose_unknown_header_unit_goes_to_todo(tmp_path):
     p = tmp_path / "run_daq.csv"
     p.write_text("Time[s],Engine_Speed[blips],Vehicle_Speed_Target[km/h]\n0,1,2\n1,2,3\n",
                  encoding="utf-8")
-    t, unmatched = propose_template([p])
+    t, _ = propose_template([p])
     ch = t.files[0].channels
     assert t.files[0].source == "daq"  # a registry source named in the file name
     assert ch["Engine_Speed"].delete and ch["Engine_Speed"].name == "eng_spd_out_test"

@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import pytest
 
-from vehval.io.importer import import_test, set_cycle
 from vehval.io.identify import identify_cycle
+from vehval.io.importer import import_test, set_cycle
 from vehval.io.template import load_template, propose_template
 from vehval.sim.cycles import steady_cycle
 from vehval.synth import make_virtual_test

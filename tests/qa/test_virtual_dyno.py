@@ -1,9 +1,17 @@
-"""QA on virtual dyno tests with injected faults (vehval.synth): recall and false alarms.
+"""QA on virtual dyno tests with injected faults (vehval.synth): the acceptance figures.
 
-Each virtual test is a short UDDS piece (340 s, ending at rest) so that the whole module stays fast. A fault
-counts as found when a warning- or error-level finding names its signal with a span that
-overlaps the fault span (on the true clock, ±1 s). A false alarm is a warning/error on a
-signal that carries no injected fault. Figures are printed (run with -s to see them).
+Acceptance (QA issue): on virtual tests with injected faults (several seeds and fault
+mixes) every injected clock offset is recovered within one sample of the faster source
+(0.1 s at 10 Hz); every injected fault is reported on the right signal with an
+overlapping time span; clean signals raise no warning-level findings.
+
+Cases: three fault mixes (``default`` and the two below) with three seeds each, plus two
+fault-free runs. Tests are short cycle pieces that end at rest (340 s of UDDS, 300 s of the
+more aggressive LA92) so that the module stays fast. A fault counts as found when a
+warning- or error-level finding names its signal with a span overlapping the fault span
+(on the true clock, ±1 s); a false alarm is a warning or error on a measured signal that
+carries no injected fault. The figures are printed (run with ``-s`` to see them) and are
+reported at the end of docs/qa.md.
 """
 
 import json
@@ -20,6 +28,7 @@ from vehval.qa.pipeline import run_qa  # noqa: E402
 from vehval.sim.cycles import Cycle, load_cycle  # noqa: E402
 from vehval.sim.vehicle import load_vehicle  # noqa: E402
 
+#: OBD logger behind the dyno, a frozen OBD motor speed, a reversed OBD motor torque...
 MIX_B = [
     {"kind": "clock_offset", "file": "obd", "magnitude": -5.1, "delay_s": 0.2},
     {"kind": "spikes", "channel": "Dyno_Tractive_Effort", "start_frac": 0.1, "end_frac": 0.9,
@@ -31,27 +40,46 @@ MIX_B = [
      "magnitude": 200.0},
     {"kind": "zero", "channel": "Hioki_Boost_Voltage"},
 ]
-CASES = [("default", 1), ("default", 2), ("default", 5), (MIX_B, 3), (MIX_B, 4), ("none", 6)]
+#: A large offset with a long transport delay, gain errors on a single-source and on a
+#: duplicated quantity, a drifting wheel torque, current spikes...
+MIX_C = [
+    {"kind": "clock_offset", "file": "obd", "magnitude": -11.3, "delay_s": 0.6},
+    {"kind": "gain_error", "channel": "Eng_FuelFlow_Direct", "magnitude": -0.07},
+    {"kind": "gain_error", "channel": "HV_BATT_VOLTAGE", "magnitude": 0.10},
+    {"kind": "spikes", "channel": "Hioki_Batt_Current", "start_frac": 0.1, "end_frac": 0.9,
+     "magnitude": 150.0, "count": 5},
+    {"kind": "stuck", "channel": "ENGINE_RPM", "start_frac": 0.4, "end_frac": 0.55},
+    {"kind": "dropout", "channel": "Dyno_Speed", "start_frac": 0.2, "end_frac": 0.23},
+    {"kind": "offset_drift", "channel": "Wheel_Torque", "start_frac": 0.3, "magnitude": 60.0},
+    {"kind": "out_of_range", "channel": "VEHICLE_SPEED", "start_frac": 0.8, "end_frac": 0.82,
+     "magnitude": 80.0},
+]
+MIXES = {"default": "default", "mix_b": MIX_B, "mix_c": MIX_C, "none": "none"}
+CASES = [("default", "udds", 1), ("default", "udds", 2), ("default", "la92", 5),
+         ("mix_b", "udds", 3), ("mix_b", "la92", 4), ("mix_b", "udds", 8),
+         ("mix_c", "udds", 7), ("mix_c", "la92", 9), ("mix_c", "la92", 10),
+         ("none", "udds", 6), ("none", "la92", 11)]
+PIECES = {"udds": 340.0, "la92": 300.0}   # both at rest at that time: no artificial end step
+
+
+def _piece(name: str) -> Cycle:
+    c = load_cycle(name)
+    keep = c.time_s <= PIECES[name]
+    return Cycle.from_trace(c.time_s[keep], c.speed_mps[keep], f"{name}{int(PIECES[name])}")
 
 
 @pytest.fixture(scope="module")
-def cycle():
-    c = load_cycle("udds")
-    keep = c.time_s <= 340.0          # UDDS is at rest at 340 s: no artificial end step
-    return Cycle.from_trace(c.time_s[keep], c.speed_mps[keep], "udds340")
-
-
-@pytest.fixture(scope="module")
-def results(cycle, tmp_path_factory):
+def results(tmp_path_factory):
     veh = load_vehicle("prius_2004")
+    cycles = {name: _piece(name) for name in PIECES}
     out = []
-    for faults, seed in CASES:
+    for mix, cyc, seed in CASES:
         d = tmp_path_factory.mktemp(f"vt{seed}")
-        so = synth.make_virtual_test(cycle=cycle, seed=seed, faults=faults, outdir=d)
+        so = synth.make_virtual_test(cycle=cycles[cyc], seed=seed, faults=MIXES[mix], outdir=d)
         test = import_test(so.files, so.template_path)
         res = run_qa(test, veh)
         truth = json.loads(so.truth_path.read_text())
-        out.append((faults if isinstance(faults, str) else "mix_b", seed, truth, res))
+        out.append((mix, cyc, seed, truth, res))
     return out
 
 
@@ -73,43 +101,61 @@ def _score(truth, res):
     return found, missed, clean, alarms
 
 
-def test_clock_offsets_recovered(results):
-    for mix, seed, truth, res in results:
+def test_clock_offsets_recovered_within_one_sample(results):
+    # one sample of the faster source: the facility file is 10 Hz -> 0.1 s, no allowance
+    # (the OBD channels have the small lags of ECU snapshots, docs/virtual_dyno.md)
+    errors = []
+    for mix, cyc, seed, truth, res in results:
+        assert res.alignment, (mix, seed)
         for a in res.alignment:
             true = truth["offsets_s"][a.source]
-            # one sample of the faster source (0.1 s), plus the difference of the sensors'
-            # first-order lags (a lag tau delays a signal by ~tau, indistinguishable from a
-            # clock offset by correlation): the truth's offset is the clock's alone
-            lags = {c["name"]: c["lag_s"] for c in truth["channels"].values()}
-            lag_diff = max(abs(lags.get(p.ref, 0) - lags.get(p.other, 0)) for p in a.pairs)
-            assert a.applied, (mix, seed, a.message)
-            assert abs(a.offset_s - true) <= 0.1 + lag_diff, (mix, seed, a.offset_s, true, lag_diff)
+            assert a.applied, (mix, cyc, seed, a.message)
+            errors.append(abs(a.offset_s - true))
+            assert abs(a.offset_s - true) <= 0.1, (mix, cyc, seed, a.offset_s, true)
+    assert len({m for m, *_ in results if m != "none"}) >= 2 and len(errors) >= 9
+    print(f"\nOFFSETS: {len(errors)} recovered, max |error| {max(errors):.3f} s, "
+          f"mean {np.mean(errors):.3f} s")
 
 
-def test_clean_virtual_test_has_no_warning(results):
-    for mix, seed, truth, res in results:
-        if mix == "none":
-            bad = [(f.signal, f.kind.value, f.message) for f in res.findings if f.severity != Severity.INFO]
-            assert bad == []
+def test_clean_virtual_tests_have_no_warning(results):
+    runs = [(mix, seed, res) for mix, _, seed, _, res in results if mix == "none"]
+    assert len(runs) == 2
+    for mix, seed, res in runs:
+        bad = [(f.signal, f.kind.value, f.message) for f in res.findings if f.severity != Severity.INFO]
+        assert bad == [], seed
+
+
+def test_fuel_meter_gain_error_found_against_engine_map(results):
+    # the only fuel measurement: found by the level-3 fuel map check (5 % threshold); the
+    # clean runs' gains stay within 2.5 % of 1 (torque sensor calibration, meter lag)
+    for mix, cyc, seed, truth, res in results:
+        row = next(r for r in res.checks if r["check"] == "fuel map")
+        fault = next((f for f in truth["faults"] if f["signal"] == "fuel_rate_test"
+                      and f["kind"] == "gain_error"), None)
+        flagged = [f for f in res.findings if f.kind.value == "fuel_map" and f.severity == Severity.WARNING]
+        if fault is None:
+            assert abs(row["gain"] - 1) < 0.025 and not flagged, (mix, seed, row["gain"])
+        else:
+            # estimate within 3 % of the injected gain (clean bias above)
+            assert row["gain"] == pytest.approx(1 + fault["magnitude"], abs=0.03), (mix, seed)
+            assert flagged and flagged[0].signal == "fuel_rate_test"
 
 
 def test_recall_and_false_alarm_rate(results):
     n_found = n_faults = n_alarm = n_clean = 0
     lines = []
-    for mix, seed, truth, res in results:
+    for mix, cyc, seed, truth, res in results:
         found, missed, clean, alarms = _score(truth, res)
         n_found += len(found)
         n_faults += len(found) + len(missed)
         n_alarm += len({s for s, _ in alarms})
         n_clean += len(clean)
-        lines.append(f"{mix:8s} seed {seed}: found {len(found)}/{len(found) + len(missed)}; "
+        lines.append(f"{mix:8s} {cyc} seed {seed:2d}: found {len(found)}/{len(found) + len(missed)}; "
                      f"missed {[(k, s) for k, s, _ in missed]}; false alarms {alarms}")
     recall = n_found / max(n_faults, 1)
     far = n_alarm / max(n_clean, 1)
     print("\n" + "\n".join(lines))
     print(f"RECALL {recall:.3f} ({n_found}/{n_faults} channel faults); FALSE-ALARM RATE {far:.3f} "
           f"({n_alarm} of {n_clean} clean signal-instances with a warning/error)")
-    # the single-source 8 % fuel-meter gain error is undetectable without a model (it is
-    # found by validation against the simulation, not by QA); everything else should be
-    assert recall >= 0.85
-    assert far <= 0.05
+    assert n_found == n_faults, lines
+    assert n_alarm == 0, lines

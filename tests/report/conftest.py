@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import json
+from functools import lru_cache
+
 import numpy as np
 import pytest
 
@@ -90,3 +93,31 @@ def small_test() -> Test:
 @pytest.fixture
 def qa_dict() -> dict:
     return make_qa()
+
+
+@lru_cache(maxsize=1)
+def _control_json() -> str:
+    from vehval.analysis import analyze
+    from vehval.sim.vehicle import load_vehicle
+
+    return json.dumps(analyze(make_test(), load_vehicle("prius_2004")).to_dict())
+
+
+@lru_cache(maxsize=1)
+def _validation_json() -> str:
+    from vehval.sim.vehicle import load_vehicle
+    from vehval.validate import validate_test
+    from vehval.validate.compare import _clean
+
+    payload = validate_test(make_test(), load_vehicle("prius_2004"), dt=0.1).payload()
+    return json.dumps(_clean(payload))
+
+
+def make_control() -> dict:
+    """control.json of the real control-strategy analysis of :func:`make_test`."""
+    return json.loads(_control_json())
+
+
+def make_validation() -> dict:
+    """validation.json payload of the real validation of :func:`make_test` (prius_2004)."""
+    return json.loads(_validation_json())

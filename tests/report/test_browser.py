@@ -1,7 +1,9 @@
 """The report in real headless Chromium: renders every plot, no console error, no network.
 
-Needs Debian's /usr/bin/chromium (``make browser`` installs it) and the python playwright
-package; skipped cleanly otherwise. Playwright's own browser download is never used.
+One browser session loads one report with every section, including the control-strategy
+section of a real ``analyze`` result and the validation section of a real ``validate_test``
+payload. Needs Debian's /usr/bin/chromium (``make browser`` installs it) and the python
+playwright package; skipped cleanly otherwise. Playwright's own browser download is never used.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import pytest
 
 from vehval.report import write_report
 
-from .conftest import make_qa, make_test
+from .conftest import make_control, make_qa, make_test, make_validation
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("report_browser")]
 
@@ -30,8 +32,9 @@ def page_report(tmp_path_factory):
         pytest.skip("chromium not installed (run `make browser`)")
     sync_api = pytest.importorskip("playwright.sync_api")
     path = tmp_path_factory.mktemp("browser") / "report.html"
-    control = {"figures": [{"title": "bar", "figure": {"data": [{"type": "bar", "x": [1, 2], "y": [1, 3]}]}}]}
-    write_report(path, test=make_test(), qa=make_qa(), control=control)
+    test = make_test()
+    test.meta.vehicle = "prius_2004"  # component maps too
+    write_report(path, test=test, qa=make_qa(), control=make_control(), validation=make_validation())
     errors, remote = [], []
     with sync_api.sync_playwright() as p:
         try:
@@ -53,12 +56,16 @@ def page_report(tmp_path_factory):
         page.goto(path.as_uri())
         page.evaluate("window.vehvalReport.renderAll()")
         state = page.evaluate("""() => Array.from(document.querySelectorAll('.vv-fig')).map(el => ({
-            id: el.id, rendered: el.dataset.rendered === '1',
+            id: el.id, rendered: el.dataset.rendered === '1', section: el.closest('section').id,
             svg: el.querySelectorAll('.main-svg').length,
+            height: el.getBoundingClientRect().height,
             traces: (el.data || []).length,
+            points: (el._fullData || []).reduce((n, t) => n + (t._length || (t.z ? t.z.length : 0)
+                                                 || (t.link && t.link.value ? t.link.value.length : 0)), 0),
             drawn: el.querySelectorAll('.scatterlayer .trace, .barlayer .trace, .contourlayer .trace, '
-                                       + '.sankey, .heatmaplayer .trace').length}))""")
+                                       + '.sankey, .heatmaplayer .trace, .gl-canvas').length}))""")
         tables = page.evaluate("Array.from(document.querySelectorAll('table.data')).map(t => t.dataset.table)")
+        sections = page.evaluate("Array.from(document.querySelectorAll('section')).map(s => s.id)")
         # zooming one linked time plot moves the others
         ids = [s["id"] for s in state]
         linked = page.evaluate("Array.from(document.querySelectorAll('.vv-fig[data-linked]')).map(e => e.id)")
@@ -66,7 +73,8 @@ def page_report(tmp_path_factory):
         page.wait_for_timeout(300)
         other = page.evaluate(f"document.getElementById('{linked[-1]}').layout.xaxis.range")
         browser.close()
-    return {"errors": errors, "remote": remote, "state": state, "tables": tables, "ids": ids, "other": other}
+    return {"errors": errors, "remote": remote, "state": state, "tables": tables, "ids": ids, "other": other,
+            "sections": sections}
 
 
 def test_no_console_errors(page_report):
@@ -78,14 +86,30 @@ def test_no_network_request(page_report):
 
 
 def test_every_plot_rendered_with_data(page_report):
-    assert len(page_report["state"]) >= 10
+    assert len(page_report["state"]) >= 20
     for s in page_report["state"]:
+        # rendered, visible (a plot without a height collapses to 0 px) and with data drawn
         assert s["rendered"] and s["svg"] >= 1 and s["traces"] >= 1 and s["drawn"] >= 1, s
+        assert s["height"] > 100 and s["points"] >= 1, s
+
+
+def test_every_section_with_its_plots(page_report):
+    figs_by_section: dict[str, int] = {}
+    for s in page_report["state"]:
+        figs_by_section[s["section"]] = figs_by_section.get(s["section"], 0) + 1
+    for sec in ("summary", "import", "alignment", "qa1", "qa2", "calc", "qa3", "selection", "signals",
+                "engineering", "control", "validation"):
+        assert sec in page_report["sections"], sec
+    for sec, n in (("alignment", 1), ("qa1", 2), ("qa2", 1), ("qa3", 1), ("signals", 3),
+                   ("engineering", 7), ("control", 4), ("validation", 3)):
+        assert figs_by_section.get(sec, 0) >= n, (sec, figs_by_section)
 
 
 def test_every_table_present(page_report):
-    for key in ("findings", "table2", "table3", "alignment", "calculations", "mapping", "deleted"):
-        assert key in page_report["tables"]
+    for key in ("findings", "table2", "table3", "alignment", "calculations", "mapping", "deleted",
+                "energies", "control-operating-modes", "control-findings"):
+        assert key in page_report["tables"], key
+    assert any(k.startswith("validation-") for k in page_report["tables"])
 
 
 def test_time_axes_linked(page_report):

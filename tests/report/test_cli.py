@@ -8,7 +8,7 @@ import pytest
 
 from vehval.cli import main
 
-from .conftest import make_qa, make_test
+from .conftest import make_control, make_qa, make_test
 
 parquet = pytest.importorskip("vehval.io.parquet")
 
@@ -51,3 +51,42 @@ def test_user_errors_are_one_line(tmp_path, capsys):
     assert main(["report", str(tmp_path)]) == 2
     err = capsys.readouterr().err
     assert "findings.json" in err and "line 1" in err
+
+
+def _sections(html: str) -> list[str]:
+    import re
+
+    return re.findall(r'<section id="([^"]+)"', html)
+
+
+def test_validate_report_then_combined_report(qa_outdir, tmp_path, capsys):
+    """qa dir (+ control.json of analyze) -> `vehval validate --report` -> `vehval report`."""
+    (qa_outdir / "validation.json").unlink()
+    (qa_outdir / "control.json").write_text(json.dumps(make_control()), encoding="utf-8")
+    val = tmp_path / "val"
+    assert main(["validate", str(qa_outdir), "-o", str(val), "--report"]) == 0
+    html = (val / "report.html").read_text(encoding="utf-8")
+    # the validation report found findings.json and control.json beside validated.parquet
+    assert _sections(html)[-2:] == ["control", "validation"]
+    assert 'data-table="table2"' in html and 'data-table="control-operating-modes"' in html
+    assert list(val.glob("overlays_*.parquet"))
+    # the validate output directory is an input too: its overlays Parquet is not the test
+    assert main(["report", str(qa_outdir), str(val), "-o", str(tmp_path / "all" / "report.html")]) == 0
+    out = capsys.readouterr().out
+    assert f"validation {val / 'validation.json'}" in out and "overlays" not in out
+    html = (tmp_path / "all" / "report.html").read_text(encoding="utf-8")
+    assert _sections(html)[-2:] == ["control", "validation"]
+
+
+def test_explicit_control_validation_and_raw(qa_outdir, tmp_path):
+    ctl = tmp_path / "elsewhere" / "ctl.json"
+    ctl.parent.mkdir()
+    ctl.write_text(json.dumps(make_control()), encoding="utf-8")
+    raw = tmp_path / "imported.parquet"
+    parquet.write_test(make_test(), raw)
+    out = tmp_path / "r" / "report.html"
+    assert main(["report", str(qa_outdir), "--control", str(ctl), "--validation",
+                 str(qa_outdir / "validation.json"), "--raw", str(raw), "-o", str(out), "--no-excel"]) == 0
+    html = out.read_text(encoding="utf-8")
+    assert _sections(html)[-2:] == ["control", "validation"]
+    assert main(["report", str(qa_outdir), "--control", str(tmp_path / "missing.json")]) == 2

@@ -11,7 +11,7 @@ openpyxl = pytest.importorskip("openpyxl")
 
 from vehval.report.excel import timeseries_frame, write_tables  # noqa: E402
 
-from .conftest import make_qa, make_test  # noqa: E402
+from .conftest import make_control, make_qa, make_test, make_validation  # noqa: E402
 
 pytestmark = pytest.mark.xdist_group("report_excel")
 
@@ -96,3 +96,62 @@ def test_write_is_atomic(tmp_path, monkeypatch):
     with pytest.raises(RuntimeError):
         write_tables(tmp_path / "t.xlsx", make_qa(), make_test())
     assert list(tmp_path.iterdir()) == []
+
+
+def test_sheet_xml_is_exact_and_well_formed():
+    """Shortest round-trip text: every finite double parses back to the same bits."""
+    import xml.etree.ElementTree as ET
+
+    from vehval.report.excel import _rows_xml_chunks
+
+    rng = np.random.default_rng(5)
+    vals = rng.normal(size=(7, 3)) * np.array([1e-9, 1.0, 1e12])
+    vals[0] = [0.1 + 0.2, -0.0, 1e300]
+    vals[1] = [np.nan, np.inf, 5e-324]
+    chunks = list(_rows_xml_chunks(vals, first_row=2, chunk_rows=3))
+    assert len(chunks) == 3                                   # 3 + 3 + 1 rows
+    root = ET.fromstring(b"<sheetData>" + b"".join(chunks) + b"</sheetData>")
+    rows = root.findall("row")
+    assert [r.get("r") for r in rows] == [str(i) for i in range(2, 9)]
+    for i, row in enumerate(rows):
+        cells = {c.get("r"): c.findtext("v") for c in row.findall("c")}
+        for j, letter in enumerate("ABC"):
+            ref = f"{letter}{i + 2}"
+            if np.isfinite(vals[i, j]):
+                assert float(cells[ref]) == vals[i, j], ref   # exact, not approximate
+            else:
+                assert ref not in cells                       # NaN/inf: empty cell
+
+
+def test_control_and_validation_sheets(tmp_path):
+    control, validation = make_control(), make_validation()
+    path = write_tables(tmp_path / "t.xlsx", make_qa(), make_test(), control=control,
+                        validation=validation)
+    wb = openpyxl.load_workbook(path)
+    assert {"Control", "Validation"} <= set(wb.sheetnames)
+    for sheet, doc in (("Control", control["report"]), ("Validation", validation)):
+        for spec in doc["tables"]:
+            header, rows = _table(wb[sheet], spec["title"])
+            assert header == spec["columns"][:len(header)]
+            assert len(rows) == len(spec["rows"])
+            for row, exp in zip(rows, spec["rows"]):
+                for cell, value in zip(row, exp):
+                    assert cell == value or (value is None and cell is None) or _same(cell, value), \
+                        (sheet, spec["title"], cell, value)
+
+
+def test_libreoffice_opens_it(tmp_path):
+    """Optional: LibreOffice converts the workbook (skipped when it is not installed)."""
+    import shutil
+    import subprocess
+
+    office = shutil.which("libreoffice") or shutil.which("soffice")
+    if office is None:
+        pytest.skip("LibreOffice not installed")
+    src = tmp_path / "t.xlsx"
+    write_tables(src, make_qa(), make_test())
+    subprocess.run([office, "--headless", "--convert-to", "csv:Text - txt - csv (StarCalc):44,34,76,1,,0,false,true,false,false,false,-1",
+                    "--outdir", str(tmp_path), str(src)], check=True, capture_output=True, timeout=120)
+    ts = next(tmp_path.glob("t-TimeSeries.csv"))
+    lines = ts.read_text(encoding="utf-8").splitlines()
+    assert lines[0].startswith("time [s],") and len(lines) == len(timeseries_frame(make_test())) + 1

@@ -5,12 +5,13 @@ from __future__ import annotations
 import json
 import re
 
+import numpy as np
 import pytest
 
 from vehval.report import build_reports, write_report
 from vehval.report import html as html_mod
 
-from .conftest import make_qa, make_test
+from .conftest import make_control, make_qa, make_test, make_validation
 
 TABLE_KEYS = ("findings", "table2", "table3", "alignment", "alignment-pairs", "selection-kept",
               "selection-dropped", "calculations", "mapping", "deleted")
@@ -111,3 +112,72 @@ def test_failed_excel_leaves_no_html(tmp_path, monkeypatch):
     with pytest.raises(OSError):
         build_reports(tmp_path / "out", make_test(), make_qa())
     assert not [p for p in tmp_path.rglob("*") if p.is_file()]
+
+
+def test_control_json_uses_its_report_entry():
+    from vehval.report.plugins import control_section
+
+    doc = make_control()
+    sec = control_section(doc)
+    titles = [t.title for t in sec.tables]
+    # exactly the analysis' own report tables: the raw arrays (timeline, bins...) are not dumped
+    assert titles == [t["title"] for t in doc["report"]["tables"]]
+    captions = [f.title for f in sec.figures]
+    assert "Operating modes over time" in captions
+    assert len(sec.figures) >= len(doc["report"]["figures"]) + 1
+    facts = dict(sec.facts)
+    assert facts["Test"] == "T-report"
+    timeline = next(f for f in sec.figures if f.title == "Operating modes over time")
+    # one bar per timeline segment, starting where the segment starts [s]
+    bars = timeline.figure["data"]
+    assert sum(len(b["base"]) for b in bars) == len(doc["modes"]["timeline"])
+    assert timeline.linked
+
+
+def test_validation_payload_figures_are_svg_and_linked():
+    from vehval.report.plugins import validation_section
+
+    payload = make_validation()
+    sec = validation_section(payload)
+    assert [t.title for t in sec.tables] == [t["title"] for t in payload["tables"]]
+    assert len(sec.figures) == len(payload["figures"])
+    for f in sec.figures:
+        assert {t["type"] for t in f.figure["data"]} <= {"scatter", "bar"}   # no WebGL contexts
+        assert "title" not in f.figure["layout"] or f.figure["layout"]["title"] != f.title
+        assert f.linked                                                      # x axes are time [s]
+
+
+def test_normalise_figure_rules():
+    from vehval.report.plugins import MAX_SVG_POINTS, normalise_figure
+
+    small = {"data": [{"type": "scattergl", "x": [0, 1], "y": [1, 2]}], "layout": {"title": "A"}}
+    fig, cap = normalise_figure(small)
+    assert cap == "A" and "title" not in fig["layout"] and fig["data"][0]["type"] == "scatter"
+    assert small["data"][0]["type"] == "scattergl"                           # input not modified
+    big = {"data": [{"type": "scattergl", "x": list(range(MAX_SVG_POINTS + 1))}],
+           "layout": {"title": {"text": "B"}}}
+    fig, cap = normalise_figure(big, "other caption")
+    assert cap == "other caption" and fig["layout"]["title"] == {"text": "B"}
+    assert fig["data"][0]["type"] == "scattergl"
+
+
+def test_raw_test_plots_dropped_signals_aligned():
+    from vehval.report.html import build_sections
+
+    test, raw = make_test(), make_test()
+    # the validated test lost the OBD speed (dropped by selection); the raw one has it on the
+    # OBD clock, 1.2 s early: the QA applied +1.2 s
+    test.signals.pop("veh_spd_obd_test")
+    raw["veh_spd_obd_test"].time = raw["veh_spd_obd_test"].time - 1.2
+    qa = make_qa()
+    without = {s.key: s for s in build_sections(test, qa)}
+    assert not without["qa2"].figures
+    secs = {s.key: s for s in build_sections(test, qa, raw=raw)}
+    assert [f.title for f in secs["qa2"].figures] == ["veh_spd_obd_test vs veh_spd_test"]
+    x = secs["qa2"].figures[0].figure["data"][0]["x"]
+    y = secs["qa2"].figures[0].figure["data"][0]["y"]
+    # after the shift the OBD samples sit on the dyno trace again: y = x + 0.1 m/s (atol: the
+    # 1 Hz samples are compared with the 10 Hz trace interpolated at the same instants)
+    np.testing.assert_allclose(y, x + 0.1, atol=0.02)
+    assert all("veh_spd_obd_test" not in n for f in secs["signals"].figures
+               for n in [t["name"] for t in f.figure["data"]])                # only QA sections

@@ -97,3 +97,26 @@ def test_engine_map_with_the_real_vehicle():
     assert any(tr.name == "best efficiency" for tr in fig.data)
     for which in ("mot", "gen"):
         plots.machine_map_figure(make_test(), veh, which)
+
+
+def test_regen_current_from_power_and_voltage():
+    """Without ess_curr the braking-current histogram uses ess_pwr / ess_volt (exact here)."""
+    t = np.arange(0.0, 60.0, 0.1)
+    v = np.where(t < 30, t, 60 - t)                           # accelerate, then brake at 1 m/s²
+    test = Test([Signal.standard("veh_spd_test", t, v, source="d"),
+                 Signal.standard("ess_pwr_calc", t, np.where(t < 30, 4e3, -8e3), source="calc"),
+                 Signal.standard("ess_volt_test", t, np.full(t.size, 200.0), source="d")])
+    fig = plots.regen_current_histogram(test)
+    x = np.asarray(fig.data[0].x, float)
+    assert x.size > 250 and np.all(x == -40.0)                  # -8 kW / 200 V, braking only
+    with pytest.raises(plots.PlotSkipped, match="ess_curr"):
+        plots.regen_current_histogram(Test([Signal.standard("veh_spd_test", t, v)]))
+
+
+def test_engine_map_points_only_while_running():
+    veh = SimpleNamespace(engine=_fake_engine())
+    t = np.arange(0.0, 10.0, 0.1)
+    w = np.where(t < 5, 20.0, 200.0)                          # cranking at 20 rad/s, then running
+    test = Test([Signal.standard("eng_spd_out_test", t, w), Signal.standard("eng_trq_out_test", t, 50 + 0 * t)])
+    pts = next(tr for tr in plots.engine_map_figure(test, veh).data if "running" in (tr.name or ""))
+    assert np.allclose(np.asarray(pts.x), 200.0 / plots.RPM)

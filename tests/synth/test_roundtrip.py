@@ -35,6 +35,8 @@ def test_none_run_has_no_faults_and_zero_offsets(virtual_none):
 def test_roundtrip_recovers_clean_signals(virtual_none):
     v = virtual_none
     test = import_test(v.out.files, v.out.template_path)
+    # the generated template declares the virtual test and its generating cycle
+    assert test.meta.synthetic is True and test.meta.cycle == v.truth["cycle"] == "udds240"
     table = load_sensor_table()
     checked = 0
     for label, fs in table.items():

@@ -82,7 +82,7 @@ def quantisation_step(x: np.ndarray) -> float | None:
 
 def estimate_soc(t: np.ndarray, soc_meas: np.ndarray, curr: np.ndarray | None = None,
                  capacity_ah: float | None = None, *, min_points: int = 30,
-                 max_rms: float = 0.01) -> SocEstimate:
+                 max_rms: float = 0.01, curr_label: str = "the battery current") -> SocEstimate:
     """SOC from the logged SOC, refined by coulomb counting the battery current.
 
     Model: ``soc(t) = s0 + b·t - Q(t) / (3600·C)`` with ``Q = ∫ I dt`` [A·s] (current > 0
@@ -105,6 +105,8 @@ def estimate_soc(t: np.ndarray, soc_meas: np.ndarray, curr: np.ndarray | None = 
         Fewer finite SOC samples than this and no fit is attempted.
     max_rms : float
         Coulomb counting is rejected when the fit residual RMS exceeds this [-].
+    curr_label : str
+        What the current is (signal name or formula), for the method text and findings.
 
     Returns
     -------
@@ -165,9 +167,10 @@ def estimate_soc(t: np.ndarray, soc_meas: np.ndarray, curr: np.ndarray | None = 
         return measured
     if flipped:
         findings.append(Finding("warning", "battery current", (
-            "battery current rises while the SOC rises (charge reads positive): its sign is "
-            "reversed for coulomb counting (check the clamp orientation)")))
-    method = (f"coulomb counting of the battery current anchored to the logged SOC "
+            f"battery current ({curr_label}) is positive while the SOC rises (charging reads "
+            "positive): its sign is reversed for coulomb counting (check the clamp "
+            "orientation)")))
+    method = (f"coulomb counting of {curr_label} anchored to the logged SOC "
               f"(least squares: offset and current bias {info['current_bias_a']:+.3f} A; "
               f"capacity {cap:.3g} Ah, {cap_src}; residual RMS {rms:.4f})")
     return SocEstimate(np.clip(pred, 0.0, 1.0), method, info, findings)
@@ -268,7 +271,7 @@ def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.nda
                 eng_on: np.ndarray, ess_pwr: np.ndarray, consts: dict[str, float], *,
                 eng_spd: np.ndarray | None = None, pdis_lim: np.ndarray | None = None,
                 pre_s: float = 0.0, post_s: float = 1.0, limit_tol_w: float = 400.0,
-                inertial_braking: bool = True) -> Demand:
+                inertial_braking: bool = True, lead_s: float = 0.0) -> Demand:
     """Wheel power demand [W] for the rule from delivered power, speed and battery power.
 
     Parameters
@@ -302,8 +305,11 @@ def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.nda
     Demand
     """
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    k_lead = max(int(round(lead_s / dt)), 0)
     p = np.asarray(p_delivered, float).copy()
-    info: dict[str, Any] = {"basis": "delivered wheel power"}
+    if k_lead:
+        p = np.concatenate([p[k_lead:], np.full(k_lead, np.nan)])
+    info: dict[str, Any] = {"basis": "delivered wheel power", "lead_s": k_lead * dt}
     mass = consts.get("test_mass_kg")
     if inertial_braking and mass and np.any(np.isfinite(a)):
         fa = consts.get("road_load_a_n", 0.0)
@@ -320,12 +326,14 @@ def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.nda
     k_post = max(int(round(post_s / dt)), 1)
     disturbed = np.zeros(t.size, bool)
     for kb, k, _ in wins:
-        disturbed[max(kb - k_pre, 0):min(k + k_post + 1, t.size)] = True
+        disturbed[max(kb - k_pre - max(k_lead - 1, 0), 0):min(k + k_post + 1, t.size)] = True
     n_tr = int(disturbed.sum())
     n_lim = 0
     if pdis_lim is not None and np.any(np.isfinite(ess_pwr)):
         lim = np.asarray(pdis_lim, float)
         at_lim = np.isfinite(ess_pwr) & np.isfinite(lim) & (lim > 0) & (ess_pwr >= lim - limit_tol_w)
+        if k_lead:
+            at_lim = np.concatenate([at_lim[k_lead:], np.zeros(k_lead, bool)])
         n_lim = int(at_lim.sum())
         disturbed |= at_lim
     delays = {kind: [round((k - kb) * dt, 3) for kb, k, kd in wins if kd == kind]

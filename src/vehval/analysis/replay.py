@@ -105,6 +105,42 @@ def _replay(p_wh, v, soc, pdis_av, aux, dt, prm, state0):
     return out
 
 
+@njit(cache=True)
+def _lagged_agreement(x, obs, valid, lag_on, lag_off):
+    """Share of valid steps where ``x`` delayed by (lag_on at starts, lag_off at stops)
+    equals ``obs`` (the compiled equivalent of :func:`shift_state` + :func:`agreement`)."""
+    n = x.shape[0]
+    hit = 0
+    cnt = 0
+    for i in range(n):
+        if not valid[i]:
+            continue
+        ja = min(max(i - lag_on, 0), n - 1)
+        jb = min(max(i - lag_off, 0), n - 1)
+        if lag_on <= lag_off:
+            y = x[ja] or x[jb]
+        else:
+            y = x[ja] and x[jb]
+        cnt += 1
+        if y == obs[i]:
+            hit += 1
+    if cnt == 0:
+        return np.nan
+    return hit / cnt
+
+
+def score_rule(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, pdis_av: np.ndarray,
+               aux_w: float, dt: float, prm: np.ndarray, state0: bool, obs: np.ndarray,
+               valid: np.ndarray, lag_on: int, lag_off: int) -> float:
+    """Agreement of the replayed rule with ``obs`` (fast path for the estimator).
+
+    All arrays must already be float64 (``obs``, ``valid`` bool) with ``pdis_av`` finite
+    (``inf`` for no limit); see :func:`replay` for the meaning of the arguments.
+    """
+    out = _replay(p_wh, v, soc, pdis_av, aux_w, dt, prm, state0)
+    return _lagged_agreement(out, obs, valid, int(lag_on), int(lag_off))
+
+
 def replay(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, dt: float,
            params: dict[str, float] | np.ndarray, *, aux_w: float = 0.0,
            pdis_av_w: np.ndarray | None = None, state0: bool = False,

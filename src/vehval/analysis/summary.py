@@ -14,7 +14,7 @@ from vehval.analysis.inputs import Finding, pick_signal, prepare_inputs
 from vehval.analysis.modes import (MODES, classify_modes, detect_engine_on, mode_shares,
                                    run_lengths, timeline)
 from vehval.analysis.operating import current_histogram, operating_points, power_histogram_by_mode
-from vehval.analysis.replay import base_params
+from vehval.analysis.replay import base_params, rule_vector, score_rule
 from vehval.analysis.soc import fit_soc_regulation
 from vehval.analysis.thresholds import ESTIMATED, fit_rule
 from vehval.test import Test
@@ -39,6 +39,29 @@ class AnalysisResult:
     engine: dict = field(default_factory=dict)
     rule: dict = field(default_factory=dict)
     inputs: dict = field(default_factory=dict)
+    replay_inputs: dict = field(default_factory=dict, repr=False)
+
+    def replay_agreement(self, params: dict, lag_range_s: tuple[float, float] = (-0.3, 1.0)
+                         ) -> float | None:
+        """Agreement of the rule with ``params`` replayed on this test's rebuilt inputs.
+
+        Keys missing from ``params`` take the values the estimate used
+        (``rule["replay_params"]``); the start / stop delays are searched over
+        ``lag_range_s`` [s] as in the estimate. Used to score a known (e.g. true) parameter
+        set on the same demand, speed and SOC. ``None`` when no rule was estimated.
+        """
+        ri = self.replay_inputs
+        if not ri:
+            return None
+        full = dict(self.rule.get("replay_params", {}))
+        full.update({k: float(v) for k, v in params.items() if k in full})
+        prm = rule_vector(full)
+        dt = ri["dt"]
+        lags = range(int(np.floor(lag_range_s[0] / dt + 1e-9)),
+                     max(int(np.ceil(lag_range_s[1] / dt - 1e-9)), 0) + 1)
+        return max(score_rule(ri["p"], ri["v"], ri["soc"], ri["pdis_av"], ri["aux_w"], dt, prm,
+                              ri["state0"], ri["obs"], ri["valid"], a, b)
+                   for a in lags for b in lags)
 
     def to_dict(self) -> dict:
         return _clean({
@@ -152,8 +175,15 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     aux = float(vehicle.body.aux_power_w) if vehicle is not None else 0.0
     base = base_params(vehicle)
     # state of charge (coulomb counting anchored to the logged SOC) and battery power sign
-    se = estimate_soc(inp.t, inp.soc, inp.ess_curr,
-                      vehicle.battery.capacity_ah if vehicle is not None else None)
+    curr, curr_label = inp.ess_curr, inp.sources.get("battery current", "battery current")
+    if not inp.has("ess_curr") and inp.has("ess_pwr") and inp.has("ess_volt"):
+        # e.g. the QA dropped the current channel but kept the battery power
+        with np.errstate(divide="ignore", invalid="ignore"):
+            curr = np.where(inp.ess_volt > 1.0, inp.ess_pwr / inp.ess_volt, np.nan)
+        curr_label = f"{inp.sources['battery power']} / {inp.sources['battery voltage']}"
+    se = estimate_soc(inp.t, inp.soc, curr,
+                      vehicle.battery.capacity_ah if vehicle is not None else None,
+                      curr_label=curr_label)
     findings.extend(se.findings)
     soc = se.soc
     soc_sig = pick_signal(test, "ess_soc", ("obd", "", "dyno"))
@@ -185,6 +215,7 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     events: list = []
     n_switch = int(np.sum(es.on[1:] != es.on[:-1]))
     demand_info: dict = {}
+    replay_inputs: dict = {}
     if es.valid.any() and inp.has("p_whl") and n_switch >= 2:
         dem = rule_demand(inp.t, inp.v, inp.a, inp.p_whl, es.on, ess_pwr, inp.consts,
                           eng_spd=inp.eng_spd, pdis_lim=pd_lim)
@@ -205,6 +236,14 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
                              fit.params, aux, fit.lag_s["start"])
         for n in fit.notes:
             findings.append(Finding("warning", "engine state", n))
+        f64 = lambda x: np.ascontiguousarray(x, dtype=np.float64)  # noqa: E731
+        valid = es.valid & np.isfinite(inp.v)
+        replay_inputs = {
+            "p": f64(dem.p), "v": f64(inp.v), "soc": f64(soc), "dt": float(inp.dt),
+            "aux_w": aux, "obs": np.ascontiguousarray(es.on), "valid": np.ascontiguousarray(valid),
+            "state0": bool(es.on[np.argmax(valid)]) if valid.any() else False,
+            "pdis_av": f64(np.full(inp.n, np.inf) if pdis_av is None
+                           else np.where(np.isfinite(pdis_av), pdis_av, np.inf))}
     else:
         findings.append(Finding("warning", "engine state",
                                 "engine on/off rule not estimated: needs engine speed or fuel rate, "
@@ -229,7 +268,8 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
         operating_points=op, braking=brk, findings=[f.to_dict() for f in findings], engine=engine,
         rule=rule, inputs={"dt_s": inp.dt, "duration_s": float(inp.t[-1] - inp.t[0]) if inp.n else 0.0,
                            "sources": inp.sources, "soc": {"method": se.method, **se.info},
-                           "demand": demand_info})
+                           "demand": demand_info},
+        replay_inputs=replay_inputs)
 
 
 def _on_by_soc(soc: np.ndarray, on: np.ndarray, valid: np.ndarray) -> list[dict]:

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vehval.analysis.modes import run_lengths
-from vehval.analysis.replay import IDX, agreement, replay, rule_vector
+from vehval.analysis.replay import IDX, agreement, replay, rule_vector, score_rule
 
 ESTIMATED = ("engine_on_power_w", "engine_off_power_w", "engine_on_speed_mps",
              "engine_off_speed_mps", "min_on_time_s", "min_off_time_s")
@@ -96,9 +96,12 @@ class _Problem:
     """The replay objective over one test."""
 
     def __init__(self, obs, valid, p_wh, v, soc, dt, base, aux_w, pdis_av):
-        self.obs, self.valid = obs, valid
-        self.p_wh, self.v, self.soc, self.dt = p_wh, v, soc, dt
-        self.aux_w, self.pdis_av = aux_w, pdis_av
+        f = lambda x: np.ascontiguousarray(x, dtype=np.float64)  # noqa: E731
+        self.obs, self.valid = np.ascontiguousarray(obs, bool), np.ascontiguousarray(valid, bool)
+        self.p_wh, self.v, self.soc, self.dt = f(p_wh), f(v), f(soc), float(dt)
+        self.aux_w = float(aux_w)
+        self.pdis_av = f(np.full(len(p_wh), np.inf) if pdis_av is None
+                         else np.where(np.isfinite(pdis_av), pdis_av, np.inf))
         self.vec = rule_vector(base)
         self.state0 = bool(obs[np.argmax(valid)]) if valid.any() else False
         self.lag = (0, 0)
@@ -106,10 +109,9 @@ class _Problem:
 
     def score(self, vec: np.ndarray, lag: tuple[int, int] | None = None) -> float:
         self.calls += 1
-        rep = replay(self.p_wh, self.v, self.soc, self.dt, vec, aux_w=self.aux_w,
-                     pdis_av_w=self.pdis_av, state0=self.state0,
-                     lag_steps=self.lag if lag is None else lag)
-        return agreement(self.obs, rep, self.valid)
+        la, lb = self.lag if lag is None else lag
+        return score_rule(self.p_wh, self.v, self.soc, self.pdis_av, self.aux_w, self.dt,
+                          np.asarray(vec, np.float64), self.state0, self.obs, self.valid, la, lb)
 
     def replayed(self) -> np.ndarray:
         return replay(self.p_wh, self.v, self.soc, self.dt, self.vec, aux_w=self.aux_w,

@@ -227,7 +227,7 @@ def _occurrences(g: _Grid, c: np.ndarray, max_rms: float, min_cov: float,
         return []
     ok = (rms <= max_rms) & (cov >= min_cov - 1e-9)
     score = np.where(ok, rms, np.inf)
-    sep = c.size - int(round(0.05 * c.size))
+    sep = c.size - round(0.05 * c.size)
     out = []
     while len(out) < max_count:
         k = int(np.argmin(score))
@@ -267,7 +267,7 @@ def _match(g: _Grid, name: str, max_rms: float, min_cov: float) -> _Match:
 def _match_split(g: _Grid, name: str, split_s: float, max_rms: float, min_cov: float) -> _Match:
     """A cycle run in two parts separated by a soak (FTP-75: bags 1-2, soak, bag 3)."""
     c = _cycle_1hz(name)
-    cut = int(round(split_s))
+    cut = round(split_s)
     head, tail = c[:cut + 1], c[cut + 1:]
     m = _Match(name, split=True)
     heads = _occurrences(g, head, max_rms, min_cov, max_count=4)

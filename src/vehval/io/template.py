@@ -8,13 +8,14 @@ mean 'unit'?)``). See docs/templates.md for the schema and the init/check/import
 from __future__ import annotations
 
 import difflib
+import re
 import typing
 from pathlib import Path
 from typing import Any, Literal
 
 import yaml
 from pydantic import (BaseModel, ConfigDict, Field, PositiveFloat, PrivateAttr, ValidationError,
-                      model_validator)
+                      field_validator, model_validator)
 
 from vehval.errors import ConfigError, SignalError, UnitError
 from vehval.io.atomic import write_text_atomic
@@ -147,7 +148,7 @@ class Template(_Strict):
 
     template_version: Literal[1] = 1
     vehicle: str | None = None
-    cycle: str | None = Field(default=None, pattern=r"^[A-Za-z0-9][A-Za-z0-9_.:+\-]*$")
+    cycle: str | None = None
     synthetic: bool = False
     description: str = ""
     constants: Constants = Field(default_factory=Constants)
@@ -155,6 +156,15 @@ class Template(_Strict):
     selection: Selection = Field(default_factory=Selection)
     _path: Path | None = PrivateAttr(default=None)
     _todo: list[str] = PrivateAttr(default_factory=list)
+
+    @field_validator("cycle")
+    @classmethod
+    def _cycle_name(cls, v: str | None) -> str | None:
+        if v is not None and not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.:+\-]*", v):
+            raise ValueError(f"'{v}' is not a cycle name: use letters, digits and _ . : + - "
+                             "(e.g. udds, hwfet_x2, steady_60kph), or leave 'cycle' out to have "
+                             "the cycle identified from the vehicle speed")
+        return v
 
     @property
     def path(self) -> Path | None:

@@ -358,6 +358,9 @@ def residual_drift(test: Test, measured: str, calculated: str, rng: float,
     med = np.array([np.median(r[b]) for b in blocks])
     tb = np.array([t[b].mean() for b in blocks])
     total = med[-1] - med[0]
+    # standard error of a block median: scatter of the residual about its block medians
+    dev = np.concatenate([r[b] - m for b, m in zip(blocks, med)])
+    se = 1.2533 * 1.4826 * float(np.median(np.abs(dev))) / np.sqrt(min(len(b) for b in blocks))
     if abs(total) < opts.drift_min * rng:
         return None
     steps = np.diff(med)
@@ -368,7 +371,8 @@ def residual_drift(test: Test, measured: str, calculated: str, rng: float,
     return Finding(measured, Kind.OFFSET, t0, float(t[-1]), Severity.WARNING,
                    f"{measured} drifts from {calculated} by {total:+.4g} {c.unit} over the test "
                    f"({100 * abs(total) / rng:.1f} % of its range): zero drift of the sensor?",
-                   {"drift": float(total), "test_range": rng, "block_medians": med.tolist()},
+                   {"drift": float(total), "test_range": rng, "block_medians": med.tolist(),
+                    "median_se": se},
                    related=[calculated])
 
 

@@ -6,7 +6,7 @@ Sheets: ``Summary``, ``Findings``, ``Table2``, ``Table3``, ``Alignment``, ``Sele
 ``name [unit]``). Each table sheet stacks its tables: a bold title row, a header row, the
 rows, a blank row. Cells hold the same values as ``findings.json`` (nested values as JSON
 text). The table sheets are written with xlsxwriter; the time series, which is most of the
-cells, is formatted as sheet XML by Arrow kernels (see :func:`_rows_xml_chunks`). Written
+cells, is formatted as sheet XML by Arrow kernels (see :func:`_rows_xml_chunk`). Written
 atomically.
 """
 
@@ -15,7 +15,9 @@ from __future__ import annotations
 import os
 import re
 import zipfile
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
+from itertools import islice
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -125,14 +127,50 @@ def _col_letter(j: int) -> str:
     return out
 
 
-def _rows_xml_chunks(values: np.ndarray, first_row: int,
-                     chunk_rows: int = CHUNK_ROWS) -> Iterator[bytes]:
-    """``<row>`` elements of a numeric block as UTF-8 XML, ``chunk_rows`` rows at a time.
+def _rows_xml_chunk(columns: np.ndarray, start: int, stop: int, first_row: int,
+                    letters: list[str]) -> bytes:
+    """``<row>`` elements of rows ``start:stop`` of a column-major block as UTF-8 XML.
 
     Built column-wise with Arrow compute kernels (no Python loop over cells): each float is
     cast to its shortest round-trip decimal text (exact: parsing it gives the same IEEE
     double), joined into ``<c r="B7"><v>…</v></c>`` cells and the cells into rows. NaN and
-    infinite samples have no cell at all (an empty cell in Excel).
+    infinite samples have no cell at all (an empty cell in Excel). Arrow releases the GIL,
+    so chunks can be built in threads.
+
+    Parameters
+    ----------
+    columns : numpy.ndarray
+        2-D float array, one row per sheet *column* (``values.T``, C-contiguous).
+    start, stop : int
+        Sheet rows to format, as indices into the second axis of ``columns``.
+    first_row : int
+        1-based sheet row of index 0.
+    letters : list of str
+        Column letters (``A``, ``B``...).
+    """
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    rnum = pc.cast(pa.array(np.arange(first_row + start, first_row + stop, dtype=np.int64)), pa.string())
+    cells = []
+    for letter, col in zip(letters, columns[:, start:stop]):
+        ok = np.isfinite(col)
+        full = bool(ok.all())
+        text = pc.cast(pa.array(col, mask=None if full else ~ok), pa.string())
+        # a null value makes the whole cell null, then an empty string: no cell
+        cell = pc.binary_join_element_wise(f'<c r="{letter}', rnum, '"><v>', text, "</v></c>", "")
+        cells.append(cell if full else pc.fill_null(cell, ""))
+    rows = pc.binary_join_element_wise('<row r="', rnum, '">', *cells, "</row>", "")
+    offsets = np.frombuffer(rows.buffers()[1], dtype=np.int32, count=len(rows) + 1, offset=rows.offset * 4)
+    return memoryview(rows.buffers()[2])[offsets[0]:offsets[-1]].tobytes()
+
+
+def _rows_xml_chunks(values: np.ndarray, first_row: int, chunk_rows: int = CHUNK_ROWS,
+                     workers: int = 2) -> Iterator[bytes]:
+    """``<row>`` elements of a numeric block as UTF-8 XML, ``chunk_rows`` rows at a time, in order.
+
+    Chunks are built by :func:`_rows_xml_chunk` in ``workers`` threads, at most
+    ``workers + 1`` ahead of the consumer (bounded memory whatever the sheet size).
 
     Parameters
     ----------
@@ -141,37 +179,34 @@ def _rows_xml_chunks(values: np.ndarray, first_row: int,
     first_row : int
         1-based sheet row of ``values[0]``.
     chunk_rows : int
-        Rows per yielded chunk (bounds memory and Arrow's 2 GiB string-array limit).
+        Rows per chunk (also bounds Arrow's 2 GiB string-array limit).
+    workers : int
+        Threads building chunks (1: build in the calling thread's pool of one).
     """
-    import pyarrow as pa
-    import pyarrow.compute as pc
+    columns = np.ascontiguousarray(np.asarray(values, float).T)
+    letters = [_col_letter(j) for j in range(columns.shape[0])]
+    starts = iter(range(0, columns.shape[1], chunk_rows))
+    with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+        def submit(start: int):
+            stop = min(start + chunk_rows, columns.shape[1])
+            return pool.submit(_rows_xml_chunk, columns, start, stop, first_row, letters)
 
-    letters = [_col_letter(j) for j in range(values.shape[1])]
-    for start in range(0, values.shape[0], chunk_rows):
-        block = values[start:start + chunk_rows]
-        rnum = pc.cast(pa.array(np.arange(first_row + start, first_row + start + block.shape[0],
-                                          dtype=np.int64)), pa.string())
-        cells = []
-        for j, letter in enumerate(letters):
-            col = np.ascontiguousarray(block[:, j])
-            ok = np.isfinite(col)
-            text = pc.cast(pa.array(col, mask=None if ok.all() else ~ok), pa.string())
-            # a null value makes the whole cell null, then an empty string: no cell
-            cell = pc.binary_join_element_wise(f'<c r="{letter}', rnum, '"><v>', text, "</v></c>", "")
-            cells.append(cell if ok.all() else pc.fill_null(cell, ""))
-        rows = pc.binary_join_element_wise('<row r="', rnum, '">', *cells, "</row>", "")
-        offsets = np.frombuffer(rows.buffers()[1], dtype=np.int32, count=len(rows) + 1,
-                                offset=rows.offset * 4)
-        yield memoryview(rows.buffers()[2])[offsets[0]:offsets[-1]].tobytes()
+        pending = deque(submit(st) for st in islice(starts, max(1, workers) + 1))
+        while pending:
+            chunk = pending.popleft().result()
+            nxt = next(starts, None)
+            if nxt is not None:
+                pending.append(submit(nxt))
+            yield chunk
 
 
 def _inject_rows(xlsx: Path, member: str, values: np.ndarray) -> None:
     """Append ``values`` as rows 2.. of a worksheet that xlsxwriter wrote with a header row only.
 
     xlsxwriter spends ~20 µs a cell in Python; a 10 Hz, 1,500 s, 60-channel time series
-    (900,000 cells) is instead formatted as sheet XML by :func:`_rows_xml_chunks` and
-    streamed into the re-zipped package (deflate level 1). Formatting the next chunk and
-    compressing the previous one overlap: both Arrow and zlib release the GIL.
+    (900,000 cells) is instead formatted as sheet XML by :func:`_rows_xml_chunks` (two
+    threads) and streamed into the re-zipped package (deflate level 1) by this thread: Arrow
+    and zlib both release the GIL, so formatting and compression overlap.
     """
     with zipfile.ZipFile(xlsx) as zin:
         items = [(info, zin.read(info.filename)) for info in zin.infolist()]
@@ -187,16 +222,10 @@ def _inject_rows(xlsx: Path, member: str, values: np.ndarray) -> None:
                 last = f"{_col_letter(values.shape[1] - 1)}{values.shape[0] + 1}"
                 xml = re.sub(r'<dimension ref="[^"]*"/>', f'<dimension ref="A1:{last}"/>', xml, count=1)
                 end = xml.index("</sheetData>")
-                with zout.open(info.filename, "w", force_zip64=big) as fh, \
-                        ThreadPoolExecutor(max_workers=1) as pool:
+                with zout.open(info.filename, "w", force_zip64=big) as fh:
                     fh.write(xml[:end].encode("utf-8"))
-                    pending = None
                     for chunk in _rows_xml_chunks(values, 2):
-                        if pending is not None:
-                            pending.result()
-                        pending = pool.submit(fh.write, chunk)
-                    if pending is not None:
-                        pending.result()
+                        fh.write(chunk)
                     fh.write(xml[end:].encode("utf-8"))
         os.replace(tmp2, xlsx)
     finally:

@@ -26,6 +26,9 @@ from vehval.report.tables import fmt_cell, slug
 from vehval.test import Test, TestMeta
 
 
+DEFAULT_FIG_HEIGHT_PX = 450
+
+
 @lru_cache(maxsize=1)
 def _plotly_assets() -> tuple[str, str, str]:
     """(plotly.js source, its version, the shared layout template JSON)."""
@@ -168,9 +171,13 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
         for f in sec.figures:
             n += 1
             f.key = f"fig-{n}-{slug(f.title)[:40]}"
-            f.json = figure_json(f.figure)  # type: ignore[attr-defined]
-            f.height = int((f.figure.get("layout", {}) if isinstance(f.figure, dict)
-                            else f.figure.to_plotly_json().get("layout", {})).get("height") or 450)
+            fig = f.figure.to_plotly_json() if hasattr(f.figure, "to_plotly_json") else dict(f.figure)
+            layout = dict(fig.get("layout") or {})
+            # an explicit height: the plot div has no height of its own to autosize into
+            f.height = int(layout.get("height") or DEFAULT_FIG_HEIGHT_PX)
+            layout["height"] = f.height
+            fig["layout"] = layout
+            f.json = figure_json(fig)
         seen: set[str] = set()
         for t in sec.tables:
             base, k = t.key, 2

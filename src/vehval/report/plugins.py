@@ -74,8 +74,20 @@ def normalise_figure(fig: Any, caption: str = "") -> tuple[dict, str]:
     return fig, caption
 
 
+def is_time_figure(fig: dict) -> bool:
+    """True when the figure's x axes are time [s]: the lowest titled one says ``time``."""
+    layout = fig.get("layout") or {}
+    titles = [_title_text(v) for k, v in layout.items() if k.startswith("xaxis") and isinstance(v, dict)]
+    titles = [t for t in titles if t]
+    return bool(titles) and all(t.lower().startswith("time") for t in titles)
+
+
 def payload_figures(figures: list, default: str) -> list[FigSpec]:
-    """FigSpecs of a payload's ``figures`` list (plain figures or ``{title, figure}`` wrappers)."""
+    """FigSpecs of a payload's ``figures`` list (plain figures or ``{title, figure}`` wrappers).
+
+    A figure is *linked* (its time axis follows the other time plots of the page) when the
+    wrapper says so, else when its x axes are time (:func:`is_time_figure`).
+    """
     out = []
     for i, f in enumerate(figures or []):
         wrapped = isinstance(f, dict) and "figure" in f
@@ -83,8 +95,9 @@ def payload_figures(figures: list, default: str) -> list[FigSpec]:
                                         str(f.get("title") or "") if wrapped else "")
         if not fig.get("data"):
             continue
+        linked = f.get("linked") if wrapped else None
         out.append(FigSpec(caption or f"{default} figure {i + 1}", fig,
-                           linked=bool(f.get("linked", False)) if wrapped else False,
+                           linked=bool(linked) if linked is not None else is_time_figure(fig),
                            note=str(f.get("note") or "") if wrapped else ""))
     return out
 

@@ -88,7 +88,9 @@ def summary_section(test: Test, qa: dict, template: Any, title: str) -> Section:
         counts: dict[str, int] = {}
         for r in findings:
             counts[qv.severity(r)] = counts.get(qv.severity(r), 0) + 1
-        facts.append(("QA1 findings", ", ".join(f"{v} {k}" for k, v in sorted(counts.items()))))
+        rank = {"error": 0, "warning": 1, "info": 2}
+        facts.append(("QA findings", ", ".join(f"{v} {k}" for k, v in
+                                               sorted(counts.items(), key=lambda kv: (rank.get(kv[0], 3), kv[0])))))
     sec = Section("summary", "Test summary", facts=facts)
     if qa.get("summary") is not None:
         sec.tables += to_tables(qa["summary"], "QA summary", key="qa-summary")

@@ -126,13 +126,15 @@ class CalibrationResult:
     vehicle: Vehicle
     date: str = ""
     history: list[float] = field(default_factory=list)
+    smooth_hz: float | None = None
 
     def provenance(self, name: str) -> str:
         """Source text recorded for a tuned parameter in the calibrated vehicle file."""
         return (f"calibrated by vehval calibrate on tests {', '.join(self.tests)} on {self.date}: "
                 f"objective {self.objective_start:.4g} -> {self.objective_best:.4g} "
                 f"({self.method}; start {self.start[name]:.6g}, bounds "
-                f"[{self.bounds[name][0]:.6g}, {self.bounds[name][1]:.6g}]"
+                f"[{self.bounds[name][0]:.6g}, {self.bounds[name][1]:.6g}]; dt {self.dt:g} s"
+                + (f"; measured speed low-passed at {self.smooth_hz:g} Hz" if self.smooth_hz else "")
                 + (f"; held out {', '.join(self.holdout)}" if self.holdout else "") + ")")
 
     def calibrated_vehicle(self) -> Vehicle:
@@ -189,6 +191,7 @@ class CalibrationResult:
             "tests": self.tests, "holdout": self.holdout, "before": self.before, "after": self.after,
             "n_evaluations": self.n_evaluations, "n_simulations": self.n_simulations,
             "elapsed_s": self.elapsed_s, "method": self.method, "dt_s": self.dt, "date": self.date,
+            "speed_smoothing_hz": self.smooth_hz,
             "provenance": {n: self.provenance(n) for n in self.parameters},
             "history": self.history, "tables": self.tables()})
 
@@ -283,7 +286,7 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
               holdout_tests: Sequence[Test] = (), dt: float = 1.0, popsize: int = 8,
               maxiter: int = 20, polish: bool = True, seed: int = 0,
               signals: tuple[str, ...] = DEFAULT_SIGNALS, rel_bounds: float = 0.5,
-              mode: str = "batch", workers: int = 2,
+              mode: str = "batch", workers: int = 2, smooth_hz: float | None = None,
               progress: Callable[[int, float], None] | None = None) -> CalibrationResult:
     """Tune ``parameters`` of ``vehicle`` to minimise the error over ``tests``.
 
@@ -324,6 +327,9 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         polish too. The before/after errors always use full simulations and comparisons.
     workers : int
         Threads of the batch simulation.
+    smooth_hz : float, optional
+        Zero-phase low-pass cut-off [Hz] of each test's measured speed given to the driver,
+        in the search and in the before/after validations (default None: as measured).
 
     Returns
     -------
@@ -350,7 +356,7 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         x0[n] = min(max(x0[n], lo), hi)
     ids = [t.meta.test_id or f"test{i + 1}" for i, t in enumerate(tests)]
     hold_ids = [t.meta.test_id or f"holdout{i + 1}" for i, t in enumerate(holdout_tests)]
-    targets = [make_target(t, veh0, dt, signals=signals) for t in tests]
+    targets = [make_target(t, veh0, dt, signals=signals, smooth_hz=smooth_hz) for t in tests]
     if mode not in ("traces", "batch"):
         raise ConfigError(f"calibration mode '{mode}': use 'traces' or 'batch'")
     prob = _Problem(veh0, targets, names, dt, weights, scales, mode, workers)
@@ -391,14 +397,14 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
     before, after = {}, {}
     for role_tests, role_ids in ((tests, ids), (holdout_tests, hold_ids)):
         for t, tid in zip(role_tests, role_ids):
-            before[tid] = _errors(validate_test(t, veh0, dt=dt, overrides=dict(x0)))
-            after[tid] = _errors(validate_test(t, veh0, dt=dt, overrides=best))
+            before[tid] = _errors(validate_test(t, veh0, dt=dt, overrides=dict(x0), smooth_hz=smooth_hz))
+            after[tid] = _errors(validate_test(t, veh0, dt=dt, overrides=best, smooth_hz=smooth_hz))
     return CalibrationResult(
         parameters=names, start=x0, bounds=bnds, best=best, objective_start=j0,
         objective_best=j_best, tests=ids, holdout=hold_ids, before=before, after=after,
         n_evaluations=prob.n_eval, n_simulations=prob.n_sim,
         elapsed_s=time.perf_counter() - t_start, method=method, dt=dt, vehicle=veh0,
-        date=_dt.date.today().isoformat(), history=history)
+        date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz)
 
 
 def _errors(v) -> dict[str, float]:

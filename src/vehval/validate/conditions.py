@@ -116,8 +116,57 @@ def initial_soc(test: Test, window_s: float = 2.0) -> float | None:
     return float(np.median(v[t <= t[0] + window_s]))
 
 
-def speed_trace(test: Test) -> tuple[Cycle, list[str]]:
-    """The measured vehicle speed as a :class:`Cycle` on the test's clock, with notes."""
+def smooth_speed(t: np.ndarray, v: np.ndarray, cutoff_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """Zero-phase low-pass of a measured speed trace (optional driver-input smoothing).
+
+    The trace is resampled linearly on a uniform grid at its median sample interval, filtered
+    forward and backward (``scipy.signal.filtfilt``) with a 2nd-order Butterworth low-pass
+    at ``cutoff_hz`` (zero phase shift, effective order 4, -6 dB at the cut-off), and
+    negative undershoots at stops are set to 0.
+
+    Parameters
+    ----------
+    t : ndarray
+        Strictly increasing time [s].
+    v : ndarray
+        Speed [m/s].
+    cutoff_hz : float
+        Cut-off frequency [Hz]; must be below the trace's Nyquist frequency.
+
+    Returns
+    -------
+    t_uniform : ndarray [s], v_smooth : ndarray [m/s]
+
+    Raises
+    ------
+    ConfigError
+        If the cut-off is not positive or not below the Nyquist frequency of the trace.
+    """
+    from scipy.signal import butter, filtfilt
+
+    if not (cutoff_hz > 0 and np.isfinite(cutoff_hz)):
+        raise ConfigError(f"speed smoothing cut-off must be a positive frequency in Hz, got {cutoff_hz!r}")
+    step = float(np.median(np.diff(t)))
+    nyq = 0.5 / step
+    if not cutoff_hz < nyq:
+        raise ConfigError(f"speed smoothing cut-off {cutoff_hz:g} Hz is not below the Nyquist "
+                          f"frequency {nyq:g} Hz of the measured speed ({1 / step:g} Hz samples): "
+                          "use a lower cut-off or no smoothing")
+    n = int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1
+    tu = t[0] + step * np.arange(n)
+    vu = np.interp(tu, t, v)
+    b, a = butter(2, cutoff_hz / nyq)
+    if vu.size <= 3 * max(a.size, b.size):  # too short for filtfilt's edge padding
+        return tu, vu
+    return tu, np.maximum(filtfilt(b, a, vu), 0.0)
+
+
+def speed_trace(test: Test, smooth_hz: float | None = None) -> tuple[Cycle, list[str]]:
+    """The measured vehicle speed as a :class:`Cycle` on the test's clock, with notes.
+
+    ``smooth_hz`` (default None: the trace as measured) low-passes it first with
+    :func:`smooth_speed` (zero phase, cut-off in Hz); see docs/validation.md for its effect.
+    """
     sig = pick_signal(test, "veh_spd", "test")
     if sig is None:
         raise SignalError(f"test '{test.meta.test_id}': no measured vehicle speed (veh_spd_test): "
@@ -140,13 +189,18 @@ def speed_trace(test: Test) -> tuple[Cycle, list[str]]:
         notes.append(f"{sig.name}: {int(neg.sum())} negative samples set to 0"
                      + (f" (down to {v.min():.3g} m/s)" if big.any() else ""))
         v = np.maximum(v, 0.0)
+    if smooth_hz is not None:
+        t, v = smooth_speed(t, v, float(smooth_hz))
+        notes.append(f"{sig.name}: low-passed for the driver (zero-phase 2nd-order Butterworth, "
+                     f"cut-off {float(smooth_hz):g} Hz)")
     name = f"{test.meta.cycle or 'trace'}_measured"
     cyc = Cycle.from_trace(t, v, name, description=f"measured speed trace of {test.meta.test_id}",
                            source=f"{sig.name} of test {test.meta.test_id}")
     return cyc, notes
 
 
-def simulation_conditions(test: Test, vehicle: Any, *, use_constants: bool = True) -> Conditions:
+def simulation_conditions(test: Test, vehicle: Any, *, use_constants: bool = True,
+                          smooth_hz: float | None = None) -> Conditions:
     """Gather the simulation conditions of ``test`` for ``vehicle``.
 
     Parameters
@@ -157,8 +211,10 @@ def simulation_conditions(test: Test, vehicle: Any, *, use_constants: bool = Tru
         The model (for its battery window and fuel properties).
     use_constants : bool
         Apply the template's mass and road-load constants as vehicle overrides.
+    smooth_hz : float, optional
+        Low-pass cut-off [Hz] of the measured speed given to the driver (default: none).
     """
-    cyc, notes = speed_trace(test)
+    cyc, notes = speed_trace(test, smooth_hz)
     soc0 = initial_soc(test)
     bt = vehicle.battery
     if soc0 is None:

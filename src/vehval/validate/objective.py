@@ -60,9 +60,14 @@ def _first_last(v: np.ndarray | None) -> tuple[float, float]:
 
 
 def make_target(test: Test, vehicle: Any, dt: float, *, signals: tuple[str, ...] = DEFAULT_SIGNALS,
-                use_constants: bool = True, on_speed_rpm: float = 400.0) -> Target:
-    """Reduce ``test`` once for the calibration (conditions, grid, measured quantities)."""
-    cond = simulation_conditions(test, vehicle, use_constants=use_constants)
+                use_constants: bool = True, on_speed_rpm: float = 400.0,
+                smooth_hz: float | None = None) -> Target:
+    """Reduce ``test`` once for the calibration (conditions, grid, measured quantities).
+
+    ``smooth_hz`` low-passes the measured speed given to the driver (see
+    :func:`vehval.validate.conditions.smooth_speed`).
+    """
+    cond = simulation_conditions(test, vehicle, use_constants=use_constants, smooth_hz=smooth_hz)
     grid, _ = time_grid(cond.cycle, dt)
     fuel = on_grid(test, "fuel_rate", "test", grid)
     soc = on_grid(test, "ess_soc", "test", grid)

@@ -47,7 +47,8 @@ class Validation:
 
 def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
                   overrides: dict[str, Any] | None = None, window_s: float = 2.0,
-                  use_constants: bool = True, on_speed_rpm: float = 400.0) -> Validation:
+                  use_constants: bool = True, on_speed_rpm: float = 400.0,
+                  smooth_hz: float | None = None) -> Validation:
     """Simulate ``vehicle`` on the conditions of ``test`` and compare the two.
 
     Parameters
@@ -66,9 +67,13 @@ def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
         Use the template's mass and road-load constants.
     on_speed_rpm : float
         Engine-on speed threshold [rpm] when the engine state comes from engine speed.
+    smooth_hz : float, optional
+        Zero-phase low-pass cut-off [Hz] of the measured speed given to the driver
+        (:func:`vehval.validate.conditions.smooth_speed`); default None, the trace as measured.
+        The comparison itself always uses the measured signals.
     """
     veh = load_vehicle(vehicle)
-    cond = simulation_conditions(test, veh, use_constants=use_constants)
+    cond = simulation_conditions(test, veh, use_constants=use_constants, smooth_hz=smooth_hz)
     ov = dict(cond.overrides)
     ov.update(overrides or {})
     sim = simulate(vehicle_variant(veh, ov) if ov else veh, cond.cycle, dt=dt,
