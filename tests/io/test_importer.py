@@ -162,3 +162,17 @@ def test_template_instance_and_duplicate_signal(tmp_path, d3_file, d3_template):
 def test_missing_file(tmp_path, d3_template):
     with pytest.raises(InputFileError, match="file not found"):
         import_test([tmp_path / "nope.txt"], d3_template)
+
+
+def test_file_with_none_of_the_template_channels_is_an_error(tmp_path):
+    """A template that matches no channel of a file is a wrong template, not a warning."""
+    from vehval.errors import InputFileError
+    from vehval.io.importer import import_test
+
+    f = tmp_path / "other.txt"
+    f.write_bytes(b"Time[s]\tFoo[V]\tBar[A]\r\n0\t1\t2\r\n0.1\t1\t2\r\n")
+    tpl = tmp_path / "t.yaml"
+    tpl.write_text("template_version: 1\nfiles:\n  - source: dyno\n    time: {column: Time, unit: s}\n"
+                   "    channels:\n      Dyno_Speed: {name: veh_spd_test, unit: mph}\n")
+    with pytest.raises(InputFileError, match="none of the 1 channels.*wrong template"):
+        import_test([f], tpl)

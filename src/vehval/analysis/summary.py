@@ -16,7 +16,7 @@ from vehval.analysis.modes import (MODES, classify_modes, detect_engine_on, mode
 from vehval.analysis.operating import current_histogram, operating_points, power_histogram_by_mode
 from vehval.analysis.replay import base_params, rule_vector, score_rule
 from vehval.analysis.soc import fit_soc_regulation
-from vehval.analysis.thresholds import ESTIMATED, fit_rule
+from vehval.analysis.thresholds import ESTIMATED, fit_rule, lag_grids
 from vehval.test import Test
 
 CONTROL_VERSION = 1
@@ -41,14 +41,13 @@ class AnalysisResult:
     inputs: dict = field(default_factory=dict)
     replay_inputs: dict = field(default_factory=dict, repr=False)
 
-    def replay_agreement(self, params: dict, lag_range_s: tuple[float, float] = (-0.3, 1.0)
-                         ) -> float | None:
+    def replay_agreement(self, params: dict) -> float | None:
         """Agreement of the rule with ``params`` replayed on this test's rebuilt inputs.
 
         Keys missing from ``params`` take the values the estimate used
-        (``rule["replay_params"]``); the start / stop delays are searched over
-        ``lag_range_s`` [s] as in the estimate. Used to score a known (e.g. true) parameter
-        set on the same demand, speed and SOC. ``None`` when no rule was estimated.
+        (``rule["replay_params"]``); the start / stop delays are searched over the same
+        grids as in the estimate. Used to score a known (e.g. true) parameter set on the
+        same demand, speed and SOC. ``None`` when no rule was estimated.
         """
         ri = self.replay_inputs
         if not ri:
@@ -57,11 +56,10 @@ class AnalysisResult:
         full.update({k: float(v) for k, v in params.items() if k in full})
         prm = rule_vector(full)
         dt = ri["dt"]
-        lags = range(int(np.floor(lag_range_s[0] / dt + 1e-9)),
-                     max(int(np.ceil(lag_range_s[1] / dt - 1e-9)), 0) + 1)
+        la, lb = ri["lags"]
         return max(score_rule(ri["p"], ri["v"], ri["soc"], ri["pdis_av"], ri["aux_w"], dt, prm,
-                              ri["state0"], ri["obs"], ri["valid"], a, b)
-                   for a in lags for b in lags)
+                              ri["state0"], ri["obs"], ri["valid"], int(a), int(b))
+                   for a in la for b in lb)
 
     def to_dict(self) -> dict:
         return _clean({
@@ -220,8 +218,9 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
         dem = rule_demand(inp.t, inp.v, inp.a, inp.p_whl, es.on, ess_pwr, inp.consts,
                           eng_spd=inp.eng_spd, pdis_lim=pd_lim)
         demand_info = dem.info
+        lag_center = (dem.info.get("median_spin_up_s"), dem.info.get("median_spin_down_s"))
         fit = fit_rule(es.on, es.valid, dem.p, inp.v, soc, inp.dt, base, aux_w=aux,
-                       pdis_av=pdis_av)
+                       pdis_av=pdis_av, lag_center_s=lag_center)
         controller.update(fit.estimated)
         uncertainty.update({k: fit.uncertainty[k] for k in fit.uncertainty})
         agree = round(fit.agreement, 5)
@@ -242,6 +241,7 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
             "p": f64(dem.p), "v": f64(inp.v), "soc": f64(soc), "dt": float(inp.dt),
             "aux_w": aux, "obs": np.ascontiguousarray(es.on), "valid": np.ascontiguousarray(valid),
             "state0": bool(es.on[np.argmax(valid)]) if valid.any() else False,
+            "lags": lag_grids(inp.dt, lag_center_s=lag_center),
             "pdis_av": f64(np.full(inp.n, np.inf) if pdis_av is None
                            else np.where(np.isfinite(pdis_av), pdis_av, np.inf))}
     else:

@@ -179,11 +179,11 @@ def _scan_off(prob: _Problem, p_vals: np.ndarray, v_vals: np.ndarray) -> None:
         prob.vec[IDX["engine_off_power_w"]], prob.vec[IDX["engine_off_speed_mps"]] = arg
 
 
-def _scan_lags(prob: _Problem, lags: np.ndarray) -> None:
+def _scan_lags(prob: _Problem, lags: tuple[np.ndarray, np.ndarray]) -> None:
     """Joint grid over the start and stop delays [steps], set in place."""
     best, arg = -1.0, prob.lag
-    for a in lags:
-        for b in lags:
+    for a in lags[0]:
+        for b in lags[1]:
             s = prob.score(prob.vec, lag=(int(a), int(b)))
             if s > best + 1e-12:
                 best, arg = s, (int(a), int(b))
@@ -264,10 +264,26 @@ def identifiability(prob: _Problem, grids: dict[str, np.ndarray], tol: float
     return estimated, bounds, unc
 
 
+def lag_grids(dt: float, lag_range_s: tuple[float, float] = (-0.3, 1.0),
+              lag_center_s: tuple[float | None, float | None] = (None, None),
+              lag_halfwidth_s: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
+    """Start and stop delay grids [steps]: around the measured delays when known, else over
+    ``lag_range_s``."""
+    out = []
+    for c in lag_center_s:
+        lo, hi = (lag_range_s if c is None else (c - lag_halfwidth_s, c + lag_halfwidth_s))
+        k_lo = int(np.floor(lo / dt + 1e-9))
+        k_hi = int(np.ceil(hi / dt - 1e-9))
+        out.append(np.arange(k_lo, max(k_hi, k_lo) + 1))
+    return out[0], out[1]
+
+
 def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray,
              soc: np.ndarray, dt: float, base: dict, *, aux_w: float = 0.0,
              pdis_av: np.ndarray | None = None, tol: float = 0.002, rounds: int = 3,
-             lag_range_s: tuple[float, float] = (-0.3, 1.0)) -> RuleFit:
+             lag_range_s: tuple[float, float] = (-0.3, 1.0),
+             lag_center_s: tuple[float | None, float | None] = (None, None),
+             lag_halfwidth_s: float = 0.3) -> RuleFit:
     """Estimate the engine on/off rule that best reproduces the observed engine state.
 
     Parameters
@@ -293,7 +309,12 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
     rounds : int
         Coordinate-ascent rounds.
     lag_range_s : (float, float)
-        Search range of the start / stop delays [s].
+        Search range of the start / stop delays [s] when their centre is unknown.
+    lag_center_s : (float or None, float or None)
+        Measured start / stop delays [s] (spin-up / spin-down seen in the engine speed,
+        :func:`vehval.analysis.demand.transition_windows`): the delays are then searched
+        within ``lag_halfwidth_s`` of them. Without this constraint a low on-threshold and a
+        long start delay can trade against each other.
 
     Returns
     -------
@@ -315,9 +336,7 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
     for key, b in (("min_on_time_s", boot["on"]), ("min_off_time_s", boot["off"])):
         # start short: a long minimum time would mask the thresholds in the first scans
         prob.vec[IDX[key]] = min(max(b["estimate"] - 0.5, 0.0), 2.0) if b else 0.0
-    k_lo = int(np.floor(lag_range_s[0] / dt + 1e-9))
-    k_hi = max(int(np.ceil(lag_range_s[1] / dt - 1e-9)), 0)
-    lags = np.arange(k_lo, k_hi + 1)
+    lags = lag_grids(dt, lag_range_s, lag_center_s, lag_halfwidth_s)
     on_grid = np.arange(1000.0, p_hi + 1.0, 1000.0)
     gaps = np.arange(0.0, 12000.0 + 1.0, 1000.0)
     v_grid = np.arange(5.0, np.ceil(v_max) + 2.0, 1.0)

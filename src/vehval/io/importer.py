@@ -192,6 +192,12 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
                         notes=sig_notes))
         if sig_notes:
             notes.extend(f"{ch.name}: {n}" for n in sig_notes)
+    if spec.channels and not mapped:
+        raise InputFileError(
+            f"{path}: none of the {len(spec.channels)} channels of template entry files[{idx}] "
+            f"is in this file (it has: {', '.join(raw.names[:8])}"
+            f"{'...' if len(raw.names) > 8 else ''}): wrong template or wrong file? "
+            "Run `vehval template check` or `vehval template init` on it")
     if missing:
         notes.append(f"warning: {path.name}: template channel(s) not in the file: "
                      + ", ".join(missing))

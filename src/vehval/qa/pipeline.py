@@ -65,22 +65,55 @@ class QAResult:
         }
 
 
-def _blame_inputs(level3: list[Finding], earlier: list[Finding]) -> None:
-    """A measured-vs-calculated mismatch whose inputs already have warnings or errors
-    overlapping it says more about the inputs: demote it to info and name them."""
-    for f in level3:
-        if f.kind != Kind.CALC_MISMATCH:
+def _strength(f: Finding) -> float:
+    """Size of a level-3 disagreement relative to the measured signal's range."""
+    if f.kind == Kind.SIGN_FLIP:
+        return float("inf")
+    n = f.numbers
+    rng = n.get("test_range") or 0.0
+    for key in ("drift", "max_deviation", "mean_abs_diff"):
+        v = n.get(key)
+        if v is not None and rng and rng > 0:
+            return abs(float(v)) / float(rng)
+    return 0.0
+
+
+def _blame_inputs(level3: list[Finding], earlier: list[Finding], computed: dict) -> None:
+    """Measured-versus-calculated findings (mismatch, drift) that an input explains are
+    demoted to info, naming the input.
+
+    An input explains a finding when it has its own warning/error at levels 1-2 over the
+    finding's span (unless those samples were already left out of the comparison), or its
+    own level-3 finding, unless the two explain each other (each is an input of the
+    other's calculation: the torque balance rearranged) and the finding is the larger one
+    relative to its signal's range. The inputs are followed through intermediate
+    ``_calc`` signals.
+    """
+    from vehval.qa.level3 import measured_inputs
+    kinds = (Kind.CALC_MISMATCH, Kind.OFFSET)
+    active = [g for g in level3 if g.severity != Severity.INFO
+              and g.kind in kinds + (Kind.SIGN_FLIP,) and g.related]
+    inputs_of = {id(g): measured_inputs(g.related[0], computed) if g.related[0].endswith("_calc")
+                 else set(g.related[1:]) for g in active}
+    demote: list[tuple[Finding, list[str]]] = []
+    for f in active:
+        if f.kind not in kinds:
             continue
-        inputs = set(f.related[1:])
-        # samples under the inputs' own level-1/2 findings were already left out
+        ins = inputs_of[id(f)] | set(f.related[1:])
         skip_earlier = bool(f.numbers.get("input_findings_excluded"))
-        bad = sorted({g.signal for g in earlier if g.signal in inputs and g.severity != Severity.INFO
-                      and not skip_earlier and g.overlaps(f.start_s, f.end_s)} |
-                     {g.signal for g in level3 if g is not f and g.signal in inputs
-                      and g.severity != Severity.INFO})
+        bad = {g.signal for g in earlier if g.signal in ins and g.severity != Severity.INFO
+               and not skip_earlier and g.overlaps(f.start_s, f.end_s)}
+        for g in active:
+            if g is f or g.signal not in ins or g.signal == f.signal:
+                continue
+            mutual = f.signal in inputs_of[id(g)]
+            if not mutual or _strength(g) > _strength(f):
+                bad.add(g.signal)
         if bad:
-            f.severity = Severity.INFO
-            f.message += f" (inputs with their own findings: {', '.join(bad)})"
+            demote.append((f, sorted(bad)))
+    for f, bad in demote:
+        f.severity = Severity.INFO
+        f.message += f" (inputs with their own findings: {', '.join(bad)})"
 
 
 def _blame_check_inputs(check_findings: list[Finding], earlier: list[Finding]) -> None:
@@ -161,7 +194,7 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     calc = compute(work, vehicle, calc_set, constants, exclude=bad)
     table3, f3 = run_level3(work, calc, level3, findings)
     checks, fc = run_checks(work, calc)
-    _blame_inputs(f3, findings)
+    _blame_inputs(f3, findings, calc.computed)
     _blame_check_inputs(fc, findings + f3)
     findings += f3 + fc
     fuel_rows, ff = fuel_map_check(work, vehicle, findings, calc.computed, fuel_map)

@@ -46,6 +46,7 @@ from vehval.validate.objective import (DEFAULT_SIGNALS, Target, errors, errors_f
 from vehval.validate.validation import validate_test
 
 PENALTY = 1e6  # objective of an invalid parameter combination
+MODES = ("batch", "traces", "hybrid")
 
 
 def _value_of(vehicle: Vehicle, name: str) -> float:
@@ -286,7 +287,8 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
               holdout_tests: Sequence[Test] = (), dt: float = 1.0, popsize: int = 8,
               maxiter: int = 20, polish: bool = True, seed: int = 0,
               signals: tuple[str, ...] = DEFAULT_SIGNALS, rel_bounds: float = 0.5,
-              mode: str = "batch", workers: int = 2, smooth_hz: float | None = None,
+              mode: str = "hybrid", workers: int = 2, smooth_hz: float | None = None,
+              polish_evals: int | None = None,
               progress: Callable[[int, float], None] | None = None) -> CalibrationResult:
     """Tune ``parameters`` of ``vehicle`` to minimise the error over ``tests``.
 
@@ -357,9 +359,13 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
     ids = [t.meta.test_id or f"test{i + 1}" for i, t in enumerate(tests)]
     hold_ids = [t.meta.test_id or f"holdout{i + 1}" for i, t in enumerate(holdout_tests)]
     targets = [make_target(t, veh0, dt, signals=signals, smooth_hz=smooth_hz) for t in tests]
-    if mode not in ("traces", "batch"):
-        raise ConfigError(f"calibration mode '{mode}': use 'traces' or 'batch'")
-    prob = _Problem(veh0, targets, names, dt, weights, scales, mode, workers)
+    if mode not in MODES:
+        raise ConfigError(f"calibration mode '{mode}': use one of {', '.join(MODES)}")
+    search_mode = "batch" if mode == "hybrid" else mode
+    prob = _Problem(veh0, targets, names, dt, weights, scales, search_mode, workers)
+    # the polish (and the reported objective) of 'hybrid' uses the recorded signals
+    final = _Problem(veh0, targets, names, dt, weights, scales, "traces", workers) \
+        if mode == "hybrid" else prob
     xstart = np.array([x0[n] for n in names])
     j0 = prob(xstart)
     history = [j0]
@@ -376,22 +382,26 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
                                 popsize=popsize, maxiter=maxiter, init="latinhypercube",
                                 x0=xstart, polish=False, seed=seed, tol=1e-3, atol=1e-4,
                                 mutation=(0.5, 1.0), recombination=0.7, callback=cb)
-    method = f"differential evolution (popsize {popsize}, {de.nit} generations)"
+    method = f"differential evolution (popsize {popsize}, {de.nit} generations, {search_mode} objective)"
+    if final is not prob:
+        j0 = final(xstart)  # report one objective: the one of the polish
+        final(prob.best[1])
+        history.append(final.best[0])
     if polish:
         span = hi - lo
 
         def f_norm(u: np.ndarray) -> float:
-            return prob(lo + np.clip(u, 0.0, 1.0) * span)
+            return final(lo + np.clip(u, 0.0, 1.0) * span)
 
-        u0 = (prob.best[1] - lo) / span
+        u0 = (final.best[1] - lo) / span
         simplex = [u0] + [np.clip(u0 + np.eye(len(names))[i] * 0.05 * (1 if u0[i] < 0.95 else -1), 0, 1)
                           for i in range(len(names))]
         minimize(f_norm, u0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(names),
-                 options={"initial_simplex": np.array(simplex), "maxfev": 30 * len(names),
-                          "xatol": 1e-3, "fatol": 1e-4})
-        history.append(prob.best[0])
-        method += " + Nelder-Mead polish"
-    j_best, x_best = prob.best
+                 options={"initial_simplex": np.array(simplex),
+                          "maxfev": (polish_evals or 30) * len(names), "xatol": 1e-4, "fatol": 1e-5})
+        history.append(final.best[0])
+        method += f" + Nelder-Mead polish ({final.mode} objective)"
+    j_best, x_best = final.best
     best = {n: float(v) for n, v in zip(names, x_best)}
 
     before, after = {}, {}
@@ -402,7 +412,8 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
     return CalibrationResult(
         parameters=names, start=x0, bounds=bnds, best=best, objective_start=j0,
         objective_best=j_best, tests=ids, holdout=hold_ids, before=before, after=after,
-        n_evaluations=prob.n_eval, n_simulations=prob.n_sim,
+        n_evaluations=prob.n_eval + (final.n_eval if final is not prob else 0),
+        n_simulations=prob.n_sim + (final.n_sim if final is not prob else 0),
         elapsed_s=time.perf_counter() - t_start, method=method, dt=dt, vehicle=veh0,
         date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz)
 
