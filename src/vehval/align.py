@@ -8,6 +8,8 @@ the same quantity measured by both (same base name, e.g. ``eng_spd_out_test`` an
 
 Method, for each pair:
 
+0. samples outside the registry's plausible range are set aside (an invalid PID value
+   such as 80 m/s would dominate the variance and drag the peak);
 1. both signals are resampled on a common grid (the faster sample period) over their
    overlapping span, normalised (zero mean, unit variance; NaN excluded);
 2. the normalised cross-correlation is computed with FFTs and divided by the number of
@@ -19,14 +21,16 @@ Method, for each pair:
 4. confidence = peak correlation × (1 − second-peak ratio), where the second peak is the
    highest local maximum outside the main lobe.
 
-Pairs are combined by a confidence-weighted median; the agreement between pairs scales
-the final confidence. Sign convention: ``offset_s`` is added to the timestamps of the
+Pairs are combined by a confidence-weighted median, refined by the weighted mean of the
+pairs within one sample of the faster source of it (a pair spoiled by a stuck or invalid
+stretch is left out rather than averaged in); the agreement between pairs scales the final
+confidence. Sign convention: ``offset_s`` is added to the timestamps of the
 source (:meth:`vehval.test.Test.shift_source`), i.e. ``ref(t) = other(t - offset_s)``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -161,6 +165,22 @@ def _interp(sig: Signal, t: np.ndarray) -> np.ndarray:
     return np.interp(t, sig.time, sig.values, left=np.nan, right=np.nan)
 
 
+def _plausible(sig: Signal) -> Signal:
+    """The signal with samples outside its registry plausible range set to NaN.
+
+    An invalid PID value (127.5 % SOC, 80 m/s from a speed PID) dominates the variance of
+    a signal and drags the correlation peak; such samples carry no timing information.
+    """
+    try:
+        lo, hi = registry().spec_of(sig.name).range
+    except (SignalError, KeyError, AttributeError):
+        return sig
+    bad = (sig.values < lo) | (sig.values > hi)
+    if not bad.any():
+        return sig
+    return replace(sig, values=np.where(bad, np.nan, sig.values))
+
+
 def _fine_corr(ref: Signal, other: Signal, d: float, other_slower: bool | None = None) -> float:
     """Correlation of the slower signal at its own times with the faster one interpolated."""
     if other_slower is None:
@@ -191,6 +211,7 @@ def estimate_pair(ref: Signal, other: Signal, max_offset_s: float = 30.0,
     PairResult or None
         ``None`` when the overlap is too short or a signal does not vary.
     """
+    ref, other = _plausible(ref), _plausible(other)
     t0 = max(ref.time[0], other.time[0])
     t1 = min(ref.time[-1], other.time[-1])
     p_ref, p_oth = _period(ref), _period(other)
@@ -356,9 +377,9 @@ def align_test(test: Test, pairs: list[tuple[str, str]] | None = None, *,
                                                message="pairs found but none varies enough "
                                                        "over a long enough overlap"))
                 continue
-            # pairs agree within half a sample of the slower signal (sensor lags differ)
-            tol = max(0.5 * max(_period(test[p.other]) for p in est),
-                      min(_period(test[p.ref]) for p in est), 0.05)
+            # pairs agree within one sample of the faster source: wider would let a pair
+            # spoiled by a fault (a stuck or invalid stretch) pull the mean
+            tol = max(min(min(_period(test[p.ref]), _period(test[p.other])) for p in est), 0.05)
             off, agreement, conf = _combine(est, tol)
             res = AlignmentResult(src, anchor_src, off, conf, False, est,
                                   corr_before=float(np.nanmean([p.corr_before for p in est])),

@@ -6,7 +6,13 @@ import json
 
 import numpy as np
 
-from vehval.analysis.modes import MODES, classify_modes, debounce, detect_engine_on, run_lengths
+from vehval.analysis.modes import (
+    MODES,
+    classify_modes,
+    debounce,
+    detect_engine_on,
+    run_lengths,
+)
 from vehval.analysis.replay import replay
 from vehval.analysis.soc import fit_soc_regulation
 
@@ -17,7 +23,7 @@ def test_detection_hysteresis_and_debounce():
     rpm[30] = 0.0            # one-sample dropout while running: removed by the debounce
     rpm[80] = 1200.0         # one-sample spike while off: removed by the debounce
     es = detect_engine_on(t, rpm * 2 * np.pi / 60)
-    starts, lengths, vals = run_lengths(es.on)
+    _starts, lengths, vals = run_lengths(es.on)
     assert list(vals) == [False, True, False]
     assert abs(lengths[1] * 0.1 - 3.9) < 0.11
     assert list(debounce(np.array([0, 0, 1, 0, 0], bool), 2)) == [False] * 5
@@ -77,3 +83,30 @@ def test_cli_analyze_writes_control_json(tmp_path):
     d = json.loads((tmp_path / "out" / "control.json").read_text())
     assert d["rule_agreement"] > 0.95
     assert abs(d["controller"]["engine_on_power_w"] - 8000) <= 1000
+
+
+def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
+    """`vehval analyze FILES -t T.yaml -o OUT` with the QA (default) on a virtual test with
+    the default fault mix (OBD clock offset, reversed battery current clamp, SOC PID at
+    127.5 %, engine-speed spikes, truncated OBD file...): the rule is still recovered within
+    the tolerances of test_recovery.py, and the faults that touch the analysis are reported."""
+    from vehval.cli import main
+    from vehval.synth import make_virtual_test
+
+    from .test_recovery import CASES, check_recovery
+
+    _, overrides, identified, bounded = CASES["p10k_v14"]
+    vt = make_virtual_test(cycle="udds", seed=5, faults="default", outdir=tmp_path / "vt",
+                           controller_overrides=overrides)
+    out = tmp_path / "out"
+    rc = main(["analyze", *map(str, vt.files), "-t", str(vt.template_path), "-o", str(out)])
+    assert rc == 0
+    d = json.loads((out / "control.json").read_text())
+    truth = json.loads(vt.truth_path.read_text())["controller"]
+
+    check_recovery(d["controller"], d["rule"]["bounds"], d["rule_agreement"], truth,
+                   identified, bounded)
+    msgs = " | ".join(f["message"] for f in d["findings"])
+    assert "1.275" in msgs and "sentinel" in msgs           # SOC PID at 127.5 % excluded
+    assert "reversed" in msgs                                # battery power sign corrected
+    assert "coulomb counting" in d["inputs"]["soc"]["method"]

@@ -31,6 +31,11 @@ def test_prius_c_engine_switching_log():
     assert d["rule_agreement"] is not None and d["rule_agreement"] > 0.7
     soc = d["soc_regulation"]
     assert 0.3 < soc["soc_min"] < soc["soc_mean"] < soc["soc_max"] < 0.9   # SOC window [-]
+    # the PID has 20/255 steps (7.8 % of SOC): reported, and coulomb counting against it
+    # (current at ~1 Hz) does not fit within its quantisation noise, so it is not used
+    assert 0.05 < soc["soc_resolution"] < 0.1
+    assert d["inputs"]["soc"]["method"].startswith("measured")
+    assert any("coulomb counting rejected" in f["message"] for f in d["findings"])
     assert any("-327.68" in f["message"] and f["kind"] == "excluded" for f in d["findings"])
     starts = [e for e in d["events"] if e["type"] == "on"]
     assert starts and all(e["speed_mps"] is None or 0 <= e["speed_mps"] < 40 for e in starts)

@@ -1,96 +1,133 @@
-"""Parameter recovery: analyse simulations run with KNOWN controller parameters.
+"""Parameter recovery through the virtual dyno's FILES.
 
-The simulator's ``_simu`` signals are renamed ``_test`` (``from_simulation``) and analysed
-like a measurement; the estimated rule must recover the true thresholds.
+Each case simulates the 2004 Prius with KNOWN controller parameters
+(``make_virtual_test(..., controller_overrides=...)``, faults "none"), writes the facility
+(D3, 10 Hz) and OBD (1 Hz) files with their sensor models (lags, noise, offsets,
+quantisation), imports them with the generated template and analyses the imported test.
+Only measured signals reach the analysis: the driver's demand and the controller state are
+not in the files. The default-fault run through the CLI with QA is in test_cli_and_units.py.
 
-Tolerances (and why):
-- power thresholds: 600 W. The replay runs on the measured wheel power (force x speed),
-  which differs from the driver's internal demand by the driver's one-step look-ahead and
-  the battery/motor limits; the search grid is 100 W.
-- speed thresholds: 0.5 m/s (grid 0.1 m/s; the measured speed lags the target speed).
-- minimum times: 1.0 s (the observed engine state lags the command by the spin-up, and
-  the off request's own 2 s hold can stretch the shortest runs).
-- rule agreement >= 95 % of the time steps (the issue's acceptance figure).
+Tolerances (and why; figures from two seeds per parameter set, docs/analysis.md):
+- power thresholds: 600 W. Largest error seen 300 W: the demand is rebuilt from the dyno
+  force (offset -11 N, 0.1 s lag) and the SOC-regulation term (150 kW per unit SOC) from a
+  coulomb-counted SOC; the final grid is 100 W.
+- speed thresholds: 0.5 m/s. Largest error seen 0.3 m/s (a stop is decided while
+  decelerating at 0.7 m/s² with a 2 s hold; grid 0.1 m/s).
+- minimum times: 1.0 s. Largest error seen 0.5 s (runs ending 0.1-0.5 s after the
+  minimum time when the off request comes just after it; grid one step, 0.1 s).
+- rule agreement >= 95 % of the steps (the issue's acceptance figure), and the TRUE
+  parameters replayed on the same rebuilt inputs >= 97 % (seen: >= 99.0 %).
+- a parameter the test cannot identify must be reported as a bound that contains the truth.
 """
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
-from vehval.analysis import analyze, from_simulation
+from vehval.analysis import analyze
+from vehval.io.importer import import_test
+from vehval.io.template import load_template
 from vehval.sim.cycles import Cycle
-from vehval.sim.simulate import simulate
 from vehval.sim.vehicle import load_vehicle
+from vehval.synth import make_virtual_test
 
-P_TOL, V_TOL, T_TOL = 600.0, 0.5, 1.0
+TOL = {"_w": 600.0, "_mps": 0.5, "_s": 1.0}
+KEYS = ("engine_on_power_w", "engine_off_power_w", "engine_on_speed_mps",
+        "engine_off_speed_mps", "min_on_time_s", "min_off_time_s")
 
 
-def _ladder() -> Cycle:
-    """Gentle accelerations (0.2 m/s²) through 13-19 m/s with cruises and partial slow-downs:
-    low power at speed, so the speed threshold decides the engine starts."""
-    pts, t = [(0.0, 0.0), (10.0, 0.0)], 10.0
-    for vmax, vlow in [(17, 0), (16, 8), (18, 10), (15.5, 0), (19, 9), (16.5, 0), (13, 6),
-                       (17.5, 11), (15, 0), (18, 7), (14.8, 0)]:
-        t += (vmax - pts[-1][1]) / 0.2
+def speed_ladder() -> Cycle:
+    """Gentle accelerations (0.25 m/s²) to 13-19 m/s, cruises, partial slow-downs (0.7 m/s²):
+    the demand stays low at speed, so the speed thresholds decide the engine starts/stops.
+    Cruise speeds avoid the thresholds under test."""
+    pts, t = [(0.0, 0.0), (8.0, 0.0)], 8.0
+    for vmax, vlow in [(17.3, 0), (15.6, 7.7), (18.2, 9.4), (13.2, 5.6), (16.4, 0),
+                       (18.6, 10.3), (14.4, 0)]:
+        t += (vmax - pts[-1][1]) / 0.25
         pts.append((t, vmax))
-        t += 30
+        t += 25
         pts.append((t, vmax))
-        t += (vmax - vlow) / 0.6
+        t += (vmax - vlow) / 0.7
         pts.append((t, vlow))
-        t += 12 if vlow == 0 else 20
+        t += 10 if vlow == 0 else 15
         pts.append((t, vlow))
     tt = np.arange(0.0, pts[-1][0] + 1e-9, 1.0)
-    return Cycle.from_trace(tt, np.interp(tt, [p[0] for p in pts], [p[1] for p in pts]), "ladder")
+    return Cycle.from_trace(tt, np.interp(tt, [p[0] for p in pts], [p[1] for p in pts]),
+                            "speed_ladder")
 
 
+# name: (cycle, controller overrides, keys that must be identified, keys that must be bounds)
 CASES = {
-    # name: (cycle, controller overrides, keys that must be recovered)
-    "p6k": ("udds", {"engine_on_power_w": 6000.0, "engine_off_power_w": 2000.0,
-                     "min_on_time_s": 5.0, "min_off_time_s": 3.0},
-            ("engine_on_power_w", "engine_off_power_w", "min_on_time_s")),
-    "p10k": ("udds", {"engine_on_power_w": 10000.0, "engine_off_power_w": 4000.0,
-                      "engine_on_speed_mps": 14.0, "engine_off_speed_mps": 12.0,
-                      "min_on_time_s": 8.0, "min_off_time_s": 4.0},
-             ("engine_on_power_w", "engine_off_power_w", "engine_off_speed_mps", "min_on_time_s")),
+    "prius_2004": ("udds", {},
+                   ("engine_on_power_w", "engine_off_power_w", "engine_off_speed_mps",
+                    "min_on_time_s", "min_off_time_s"),
+                   ("engine_on_speed_mps",)),
+    "p10k_v14": ("udds", {"engine_on_power_w": 10000.0, "engine_off_power_w": 4000.0,
+                          "engine_on_speed_mps": 14.0, "engine_off_speed_mps": 12.0,
+                          "min_on_time_s": 8.0, "min_off_time_s": 4.0},
+                 ("engine_on_power_w", "engine_off_power_w", "engine_off_speed_mps",
+                  "min_on_time_s"),
+                 ("engine_on_speed_mps",)),
     "p14k": ("udds", {"engine_on_power_w": 14000.0, "engine_off_power_w": 6000.0,
-                      "engine_off_speed_mps": 16.0, "min_on_time_s": 3.0, "min_off_time_s": 6.0},
-             ("engine_on_power_w", "engine_off_power_w", "engine_off_speed_mps")),
-    "v14": ("ladder", {"engine_on_power_w": 20000.0, "engine_off_power_w": 6000.0,
-                       "engine_on_speed_mps": 14.0, "engine_off_speed_mps": 11.0,
-                       "min_on_time_s": 6.0, "min_off_time_s": 3.0},
-            ("engine_on_speed_mps", "engine_off_speed_mps")),
+                      "engine_off_speed_mps": 16.0, "min_on_time_s": 3.0,
+                      "min_off_time_s": 6.0},
+             ("engine_on_power_w", "engine_off_power_w", "engine_off_speed_mps",
+              "min_off_time_s"),
+             ("engine_on_speed_mps",)),
+    # on-power 20 kW never binds on the ladder: it and the off-power must be bounds
+    "ladder_v14.5": ("ladder", {"engine_on_power_w": 20000.0, "engine_off_power_w": 6000.0,
+                                "engine_on_speed_mps": 14.5, "engine_off_speed_mps": 11.5,
+                                "min_on_time_s": 6.0, "min_off_time_s": 3.0},
+                     ("engine_on_speed_mps", "engine_off_speed_mps"),
+                     ("engine_on_power_w", "engine_off_power_w")),
 }
 
 
+def tolerance(key: str) -> float:
+    return next(v for suf, v in TOL.items() if key.endswith(suf))
+
+
+def check_recovery(controller: dict, bounds: dict, agreement: float, truth: dict,
+                   identified=(), bounded=()) -> None:
+    """Every parameter is an estimate within tolerance or a bound containing the truth."""
+    assert agreement >= 0.95, agreement
+    for k in KEYS:
+        assert (k in controller) != (k in bounds), k
+        if k in controller:
+            assert abs(controller[k] - truth[k]) <= tolerance(k), (k, controller[k], truth[k])
+        else:
+            b = bounds[k]
+            assert b["low"] is None or b["low"] <= truth[k] + tolerance(k), (k, b, truth[k])
+            assert b["high"] is None or truth[k] <= b["high"] + tolerance(k), (k, b, truth[k])
+    for k in identified:
+        assert k in controller, (k, bounds.get(k))
+    for k in bounded:
+        assert k in bounds, (k, controller.get(k))
+
+
 @pytest.mark.parametrize("case", sorted(CASES))
-def test_recovers_controller_parameters(case):
-    cycle, overrides, keys = CASES[case]
-    veh = load_vehicle("prius_2004").with_overrides({f"controller.{k}": v for k, v in overrides.items()})
-    sim = simulate(veh, _ladder() if cycle == "ladder" else cycle, dt=0.1)
-    res = analyze(from_simulation(sim.test), veh)
-    assert res.rule_agreement >= 0.95, res.rule_agreement
-    tol = {"w": P_TOL, "mps": V_TOL, "_s": T_TOL}
-    for k in keys:
-        assert k in res.controller, (k, res.rule["bounds"].get(k))
-        t = next(v for suf, v in tol.items() if k.endswith(suf))
-        assert abs(res.controller[k] - overrides[k]) <= t, (k, res.controller[k], overrides[k])
-        unc = res.uncertainty[k]
-        assert unc["low"] <= res.controller[k] <= unc["high"]
+def test_recovers_controller_parameters_from_files(case, tmp_path):
+    cycle, overrides, identified, bounded = CASES[case]
+    out = make_virtual_test(cycle=speed_ladder() if cycle == "ladder" else cycle, seed=3,
+                            faults="none", outdir=tmp_path / "vt", controller_overrides=overrides)
+    truth = json.loads(out.truth_path.read_text())["controller"]
+    for k, v in overrides.items():
+        assert truth[k] == v
+    test = import_test(out.files, load_template(out.template_path))
+    assert not any(s.name.startswith(("drv_", "eng_ctrl")) for s in test)
+    res = analyze(test, load_vehicle("prius_2004"))
+    check_recovery(res.controller, res.rule["bounds"], res.rule_agreement, truth, identified, bounded)
+    assert res.replay_agreement(truth) >= 0.97
+    assert "coulomb counting" in res.inputs["soc"]["method"]
+    assert res.inputs["sources"]["wheel power"].startswith("veh_frc_in_test")
     # every estimate can be fed straight back into the simulator as an override
-    veh.with_overrides({f"controller.{k}": v for k, v in res.controller.items()
-                        if k.startswith(("engine_", "min_"))} | {})
-    d = res.to_dict()
-    for section in ("controller", "uncertainty", "rule_agreement", "events", "modes",
+    load_vehicle("prius_2004").with_overrides({f"controller.{k}": v for k, v in res.controller.items()})
+    d = json.loads(json.dumps(res.to_dict()))
+    for section in ("controller", "uncertainty", "rule_agreement", "rule", "events", "modes",
                     "soc_regulation", "operating_points", "braking", "findings", "report"):
         assert section in d
-
-
-def test_unbound_speed_threshold_is_reported_as_bound():
-    """On UDDS the power threshold starts the engine before any speed threshold: the speed
-    threshold must not be reported as an estimate."""
-    veh = load_vehicle("prius_2004")
-    sim = simulate(veh, "udds", dt=0.1)
-    res = analyze(from_simulation(sim.test), veh)
-    assert "engine_on_speed_mps" not in res.controller
-    assert res.rule["bounds"]["engine_on_speed_mps"]["high"] is None
+    for k, b in d["rule"]["bounds"].items():
+        assert b["why"] and k not in d["controller"]

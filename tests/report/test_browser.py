@@ -63,7 +63,11 @@ def page_report(tmp_path_factory):
             points: (el._fullData || []).reduce((n, t) => n + (t._length || (t.z ? t.z.length : 0)
                                                  || (t.link && t.link.value ? t.link.value.length : 0)), 0),
             drawn: el.querySelectorAll('.scatterlayer .trace, .barlayer .trace, .contourlayer .trace, '
-                                       + '.sankey, .heatmaplayer .trace, .gl-canvas').length}))""")
+                                       + '.sankey, .heatmaplayer .trace, .gl-canvas').length,
+            cartesian: el.querySelectorAll('.xaxislayer-above').length > 0,
+            xtitle: Array.from(el.querySelectorAll('.infolayer text')).filter(
+                t => /^g-x\\d*title$/.test(t.parentNode.getAttribute('class') || '')
+                     || /^x\\d*title$/.test(t.getAttribute('class') || '')).map(t => t.textContent).join('|')}))""")
         tables = page.evaluate("Array.from(document.querySelectorAll('table.data')).map(t => t.dataset.table)")
         sections = page.evaluate("Array.from(document.querySelectorAll('section')).map(s => s.id)")
         # zooming one linked time plot moves the others
@@ -77,23 +81,35 @@ def page_report(tmp_path_factory):
             "sections": sections}
 
 
-def test_no_console_errors(page_report):
+def test_report_in_chromium(page_report):
+    """One test on purpose: pytest-xdist runs a test on one worker, so the browser starts once
+    (``xdist_group`` does not keep tests together with pytest 9)."""
+    check_no_console_errors(page_report)
+    check_no_network_request(page_report)
+    check_every_plot_rendered_with_data(page_report)
+    check_every_section_with_its_plots(page_report)
+    check_every_table_present(page_report)
+    check_time_axes_linked(page_report)
+
+
+def check_no_console_errors(page_report):
     assert page_report["errors"] == []
 
 
-def test_no_network_request(page_report):
+def check_no_network_request(page_report):
     assert page_report["remote"] == []
 
 
-def test_every_plot_rendered_with_data(page_report):
+def check_every_plot_rendered_with_data(page_report):
     assert len(page_report["state"]) >= 20
     for s in page_report["state"]:
         # rendered, visible (a plot without a height collapses to 0 px) and with data drawn
         assert s["rendered"] and s["svg"] >= 1 and s["traces"] >= 1 and s["drawn"] >= 1, s
         assert s["height"] > 100 and s["points"] >= 1, s
+        assert s["xtitle"] or not s["cartesian"], s          # axis titles drawn (plotly.js 3)
 
 
-def test_every_section_with_its_plots(page_report):
+def check_every_section_with_its_plots(page_report):
     figs_by_section: dict[str, int] = {}
     for s in page_report["state"]:
         figs_by_section[s["section"]] = figs_by_section.get(s["section"], 0) + 1
@@ -105,13 +121,13 @@ def test_every_section_with_its_plots(page_report):
         assert figs_by_section.get(sec, 0) >= n, (sec, figs_by_section)
 
 
-def test_every_table_present(page_report):
+def check_every_table_present(page_report):
     for key in ("findings", "table2", "table3", "alignment", "calculations", "mapping", "deleted",
                 "energies", "control-operating-modes", "control-findings"):
         assert key in page_report["tables"], key
     assert any(k.startswith("validation-") for k in page_report["tables"])
 
 
-def test_time_axes_linked(page_report):
+def check_time_axes_linked(page_report):
     lo, hi = page_report["other"]
     assert lo == pytest.approx(20) and hi == pytest.approx(40)

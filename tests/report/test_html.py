@@ -181,3 +181,15 @@ def test_raw_test_plots_dropped_signals_aligned():
     np.testing.assert_allclose(y, x + 0.1, atol=0.02)
     assert all("veh_spd_obd_test" not in n for f in secs["signals"].figures
                for n in [t["name"] for t in f.figure["data"]])                # only QA sections
+
+
+def test_string_titles_become_objects():
+    """plotly.js 3 ignores ``title: "text"``: axis titles of payload figures must survive."""
+    from vehval.report.plugins import normalise_figure
+
+    fig, _ = normalise_figure({"data": [{"type": "bar", "x": [1], "y": [2], "marker": {"colorbar": {"title": "c"}}}],
+                               "layout": {"title": "T", "xaxis": {"title": "power [kW]"},
+                                          "yaxis2": {"title": {"text": "n"}}}})
+    assert fig["layout"]["xaxis"]["title"] == {"text": "power [kW]"}
+    assert fig["layout"]["yaxis2"]["title"] == {"text": "n"}
+    assert fig["data"][0]["marker"]["colorbar"]["title"] == {"text": "c"}

@@ -73,7 +73,9 @@ def test_clock_offset_and_delay(ctx):
         return float(np.sqrt(np.mean((sig.values[ok] - ref) ** 2)))
 
     aligned, raw = rms(v.truth["offsets_s"]["obd"]), rms(0.0)
-    assert aligned < 0.35  # 1 km/h quantisation + 0.3 s lag on UDDS accelerations [m/s]
+    # 1 km/h quantisation (rms 0.08 m/s) + 0.05 s snapshot lag on UDDS accelerations
+    # (< 0.08 m/s) [m/s]
+    assert aligned < 0.15
     assert raw > 2 * aligned
 
 

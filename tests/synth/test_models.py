@@ -54,6 +54,18 @@ def test_sensor_table_maps_required_signals():
     assert {"mph", "rpm", "ccps", "F", "lbf", "N", "km/h", "%"} <= units
 
 
+def test_obd_lags_are_snapshot_lags():
+    # an OBD PID is a snapshot of the ECU's value: its filter lag is at most 0.05 s and,
+    # where the facility measures the same quantity, equal to the facility sensor's (the
+    # transport latency is the clock_offset fault's delay_s); see docs/virtual_dyno.md
+    table = load_sensor_table()
+    facility = {s.clean: s.lag_s for s in table["facility"].channels.values()}
+    for s in table["obd"].channels.values():
+        assert 0.0 <= s.lag_s <= 0.05, s.channel
+        if s.clean in facility and facility[s.clean] <= 0.05:
+            assert s.lag_s == facility[s.clean], s.channel
+
+
 def test_default_faults_cover_every_kind():
     assert {s.kind for s in load_fault_specs("default")} == ALL_KINDS
     assert load_fault_specs("none") == []

@@ -17,13 +17,19 @@ from .conftest import HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
 
 
 def test_validation_of_unperturbed_model_shows_the_differences(virtual_tests, nominal):
-    test = virtual_tests["japan1015"]
-    v0 = validate_test(test, nominal, dt=1.0)
-    c0 = v0.comparison
-    # the nominal controller starts the engine at 8 kW instead of 11 kW: more engine use
-    assert c0.fuel_error > 0.03
-    assert c0.on_agreement < 0.95
+    # the nominal model against every virtual test: 8 kW engine-on power (true 11 kW) but
+    # also 100 W less accessory load and 3 points more final-drive efficiency than the car
+    comps = {c: validate_test(t, nominal, dt=1.0).comparison for c, t in virtual_tests.items()}
+    fuel = {c: abs(v.fuel_error) for c, v in comps.items()}
+    soc = {c: abs(v.soc_final_error) for c, v in comps.items()}
+    # measured: fuel 3.7 / 2.8 / 10.1 / 6.9 %, final SOC 5.5 / 3.0 / 5.3 / 4.4 % (Japan
+    # 10-15, HWFET, UDDS, NEDC): beyond the 2 % band on every cycle in one or the other
+    assert all(max(fuel[c], soc[c]) > 0.02 for c in comps), (fuel, soc)
+    assert fuel["udds"] > 0.05  # the model burns clearly less than the perturbed car
+    c0 = comps["japan1015"]
+    assert c0.fuel_error < 0 and c0.on_agreement < 0.95
     assert c0.starts.n_sim != c0.starts.n_test or c0.starts.matched_share < 1.0
+    test = virtual_tests["japan1015"]
     # with the true parameters the replay of the test's own conditions is exact to
     # discretisation noise (same model, same dt): 0.1 % fuel, 0.01 SOC points
     v1 = validate_test(test, nominal, dt=1.0, overrides=TRUTH)
@@ -37,39 +43,39 @@ def test_validation_of_unperturbed_model_shows_the_differences(virtual_tests, no
     assert e0.passed == (e0.errors["fuel_pct"] <= 5.0 and e0.errors["soc_pct"] <= 5.0)
     strict = ladder([c0, c1], {"fuel_pct": 2.0, "soc_pct": 2.0})
     assert not strict.entries[0].passed and strict.entries[1].passed
+    v0 = validate_test(test, nominal, dt=1.0)
     payload = v0.payload()
     assert payload["tables"][0]["rows"] and payload["figures"]
     json.dumps(v0.to_dict())  # JSON-ready (NaN -> None)
     assert v0.conditions.overrides["body.mass_kg"] == 1295.0
 
 
-def test_calibration_recovers_parameters_and_holds_out(virtual_tests, nominal, tmp_path):
+#: Recovery tolerances (relative). Thresholds only matter where the demand crosses them, so
+#: at dt = 1 s the objective is flat over a band of engine-on powers (about a per cent on
+#: these two cycles); the SOC gain acts through the SOC trajectory and the accessory load
+#: through the battery current (1.9 A at standstill), both a little less sharply than the
+#: regen share (every braking) and the final-drive efficiency (every propelling and
+#: regenerating step). Measured: +0.9 %, -0.07 %, -0.25 %, -0.4 %, -0.006 %.
+RECOVERY_TOL = {"controller.engine_on_power_w": 0.03, "controller.soc_gain_w": 0.02,
+                "controller.regen_fraction_max": 0.01, "body.aux_power_w": 0.02,
+                "driveline.final_drive_efficiency": 0.002}
+
+
+def test_calibration_recovers_controller_and_component_parameters(virtual_tests, nominal, tmp_path):
     tune = [virtual_tests[c] for c in TUNE_CYCLES]
     hold = [virtual_tests[c] for c in HOLDOUT_CYCLES]
     res = calibrate(tune, nominal, list(TRUTH), holdout_tests=hold, dt=1.0, seed=0)
-    # Tolerances: thresholds only matter where the demand crosses them, so at dt = 1 s the
-    # objective is flat over a band of engine-on powers (a few per cent on these two
-    # cycles); the SOC gain acts through the SOC trajectory, the regen share through the
-    # regenerated energy of every braking, which pins it tightest. Measured: 0.4 %, 0.5 %
-    # and 0.1 %.
-    tol = {"controller.engine_on_power_w": 0.03, "controller.soc_gain_w": 0.03,
-           "controller.regen_fraction_max": 0.01}
+    assert res.method.startswith("differential evolution (traces objective")
     for name, true in TRUTH.items():
-        assert abs(res.best[name] - true) / true < tol[name], (name, res.best[name], true)
-    assert res.objective_best < 0.05 * res.objective_start
+        assert abs(res.best[name] - true) / true < RECOVERY_TOL[name], (name, res.best[name], true)
+    assert res.objective_best < 1e-3 * res.objective_start
     for tid in res.tests + res.holdout:
         after = res.after[tid]
+        # acceptance: fuel and final SOC within 2 % (measured: <= 0.3 % and <= 0.44 %)
         assert after["fuel_pct"] < 2.0 and after["soc_pct"] < 2.0, (tid, after)
-    # the nominal model was clearly off on at least one held-out cycle
-    assert max(res.before[t]["fuel_pct"] for t in res.holdout) > 2.0
+    # the nominal model was clearly off on both held-out cycles
+    assert min(res.before[t]["fuel_pct"] for t in res.holdout) > 2.0
     assert res.n_simulations >= res.n_evaluations  # one simulation per test per evaluation
-    # the slower 'traces' mode (recorded signals, step-wise objective) agrees when the
-    # other two parameters are at their true values
-    others = {k: v for k, v in TRUTH.items() if k != "controller.engine_on_power_w"}
-    tr = calibrate(tune, vehicle_variant(nominal, others), ["controller.engine_on_power_w"],
-                   dt=1.0, seed=0, mode="traces", maxiter=6,
-                   bounds={"controller.engine_on_power_w": (9000.0, 13000.0)})
-    assert abs(tr.best["controller.engine_on_power_w"] - 11000.0) / 11000.0 < 0.1
 
     path = res.write_vehicle(tmp_path / "vehicle_calibrated.yaml")
     veh = load_vehicle(path)
@@ -78,14 +84,31 @@ def test_calibration_recovers_parameters_and_holds_out(virtual_tests, nominal, t
         assert getattr(getattr(veh, blk), key) == pytest.approx(res.best[name])
         src = getattr(veh, blk).sources[key]
         assert src.startswith("calibrated by vehval calibrate on tests virtual_japan1015, virtual_hwfet")
-        assert "objective" in src
+        assert "objective" in src and "held out virtual_udds, virtual_nedc" in src
     assert veh.controller.sources["soc_target"] == nominal.controller.sources["soc_target"]
+    assert veh.body.sources["mass_kg"] == nominal.body.sources["mass_kg"]
     json.dumps(res.to_dict())
+
+
+def test_batch_mode_calibration(virtual_tests, nominal):
+    # the fast summary-only search on the three controller parameters, the component
+    # parameters at their true values: the end-of-test quantities pin these well at dt = 1 s
+    # (measured within 0.9 %), held-out errors inside the 2 % band
+    base = vehicle_variant(nominal, {k: v for k, v in TRUTH.items() if not k.startswith("controller.")})
+    names = [k for k in TRUTH if k.startswith("controller.")]
+    res = calibrate([virtual_tests[c] for c in TUNE_CYCLES], base, names, mode="batch",
+                    holdout_tests=[virtual_tests["udds"]], dt=1.0, seed=0)
+    assert "batch objective" in res.method
+    for name in names:
+        assert abs(res.best[name] - TRUTH[name]) / TRUTH[name] < 0.03, (name, res.best[name])
+    assert res.after["virtual_udds"]["fuel_pct"] < 2.0 and res.after["virtual_udds"]["soc_pct"] < 2.0
 
 
 def test_calibration_inputs_checked(virtual_tests, nominal):
     with pytest.raises(ConfigError, match="unknown"):
         calibrate([virtual_tests["hwfet"]], nominal, ["controller.no_such_thing"], maxiter=1)
+    with pytest.raises(ConfigError, match="mode"):
+        calibrate([virtual_tests["hwfet"]], nominal, ["engine_on_power_w"], mode="fast", maxiter=1)
     with pytest.raises(ConfigError, match="bounds"):
         calibrate([virtual_tests["hwfet"]], nominal, ["engine_on_power_w"],
                   bounds={"controller.engine_on_power_w": (5.0, 1.0)}, maxiter=1)

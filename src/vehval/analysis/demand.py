@@ -12,14 +12,21 @@ test engineer would:
   whose sign contradicts the SOC trend is reversed, with a finding.
 * **Wheel power demand** (:func:`rule_demand`): delivered tractive power, except
 
-  - while braking the inertial demand ``(m·a + A + B·v + C·v²)·v`` when it is more
-    negative (the friction brakes' share does not pass through the tractive force
-    measurement of the powertrain);
-  - during an engine start (from ``start_pre_s`` before to ``start_post_s`` after the
-    observed start) the delivered power is disturbed by the start itself: MG1 cranks the
-    engine (inertia coupling through the planetary gear, battery power drawn) and the
-    battery may reach its discharge limit, which caps MG2. The controller had already
-    decided, so these samples do not measure the demand it decided on;
+  - its timing: the force recorded at a sample was delivered over the interval before it
+    and trails through the transducer's lag, while the controller decides on the demand for
+    the interval ahead. The delay of the force behind the force the speed trace needs is
+    measured by correlation (:func:`force_delay_steps`, one sample on the virtual dyno's
+    10 Hz files) and the delivered power is taken that many samples ahead;
+  - while braking, the inertial demand ``(m·a + A + B·v + C·v²)·v`` when it is more
+    negative (the friction brakes' share does not pass through the powertrain's tractive
+    force);
+  - around every engine start and stop (from the sample before the engine speed began to
+    move to ``post_s`` after the observed switch, :func:`transition_windows`) the
+    delivered power is disturbed by the switch itself: MG1 cranks the engine up (or pulls
+    it down), its reaction through the planetary gear and the battery power it draws move
+    the wheel force, the battery may reach its discharge limit and cap MG2, and the driver's
+    speed control answers the resulting speed error. The controller had already decided,
+    so these samples do not measure the demand it decided on;
   - while the measured battery power is at its discharge limit (vehicle file, as a function
     of SOC) the delivered power is capped below the demand.
 
@@ -82,7 +89,8 @@ def quantisation_step(x: np.ndarray) -> float | None:
 
 def estimate_soc(t: np.ndarray, soc_meas: np.ndarray, curr: np.ndarray | None = None,
                  capacity_ah: float | None = None, *, min_points: int = 30,
-                 max_rms: float = 0.01, curr_label: str = "the battery current") -> SocEstimate:
+                 max_rms: float = 0.01, curr_label: str = "the battery current",
+                 resolution: float | None = None) -> SocEstimate:
     """SOC from the logged SOC, refined by coulomb counting the battery current.
 
     Model: ``soc(t) = s0 + b·t - Q(t) / (3600·C)`` with ``Q = ∫ I dt`` [A·s] (current > 0
@@ -107,6 +115,9 @@ def estimate_soc(t: np.ndarray, soc_meas: np.ndarray, curr: np.ndarray | None = 
         Coulomb counting is rejected when the fit residual RMS exceeds this [-].
     curr_label : str
         What the current is (signal name or formula), for the method text and findings.
+    resolution : float, optional
+        Resolution of the logged SOC [-] (its quantisation step), when known; the
+        acceptable residual is then at least 1.5 x step/sqrt(12) (the quantisation noise).
 
     Returns
     -------
@@ -118,7 +129,7 @@ def estimate_soc(t: np.ndarray, soc_meas: np.ndarray, curr: np.ndarray | None = 
     if ok.sum() < min_points:
         return SocEstimate(soc_meas.copy() if ok.any() else np.full(t.size, np.nan),
                            "measured" if ok.any() else "none", {"samples": int(ok.sum())})
-    step = quantisation_step(soc_meas[ok])
+    step = resolution
     measured = SocEstimate(soc_meas.copy(), "measured (logged SOC, linear interpolation)",
                            {"resolution": step})
     if curr is None or np.isfinite(curr).sum() < 0.9 * t.size:
@@ -158,10 +169,12 @@ def estimate_soc(t: np.ndarray, soc_meas: np.ndarray, curr: np.ndarray | None = 
             "current_bias_a": round(float(c[1] * 3600.0 * cap), 4), "residual_rms": round(rms, 5),
             "resolution_logged": step, "current_gap_samples_filled": n_filled,
             "current_sign_reversed": flipped}
-    if rms > max(max_rms, 2.0 * (step or 0.0)):
+    # a quantised SOC alone leaves a residual of step/sqrt(12)
+    limit = max(max_rms, 1.5 * (step or 0.0) / np.sqrt(12.0))
+    if rms > limit:
         findings.append(Finding("warning", "state of charge", (
             f"coulomb counting rejected: residual {rms:.4f} against the logged SOC exceeds "
-            f"{max_rms:g}; the logged SOC is used")))
+            f"{limit:.4g}; the logged SOC is used")))
         measured.findings.extend(findings)
         measured.info.update(rejected_coulomb_counting=info)
         return measured
@@ -220,6 +233,36 @@ def hold_last(x: np.ndarray, mask: np.ndarray) -> np.ndarray:
     return out
 
 
+def force_delay_steps(v: np.ndarray, frc: np.ndarray, dt: float, consts: dict[str, float],
+                      max_steps: int = 3) -> int | None:
+    """Delay [samples] of a measured tractive force behind the force the speed trace needs.
+
+    The force the vehicle needed over the interval after sample ``i`` is
+    ``m·(v[i+1] - v[i])/dt + A + B·v + C·v²``; the measured force (transducer lag, sample
+    timing) trails it. The delay is the shift ``d`` in ``0..max_steps`` that maximises the
+    correlation of ``frc[i + d]`` with it (speeds above 1 m/s). ``None`` without a mass or
+    with too few samples.
+    """
+    mass = consts.get("test_mass_kg")
+    v = np.asarray(v, float)
+    frc = np.asarray(frc, float)
+    if not mass or v.size < 50:
+        return None
+    rl = consts.get("road_load_a_n", 0.0) + consts.get("road_load_b_n_per_mps", 0.0) * v + \
+        consts.get("road_load_c_n_per_mps2", 0.0) * v * v
+    need = np.concatenate([mass * np.diff(v) / dt, [np.nan]]) + rl
+    best, arg = -2.0, None
+    for d in range(max_steps + 1):
+        f = np.concatenate([frc[d:], np.full(d, np.nan)])
+        sel = np.isfinite(f) & np.isfinite(need) & (v > 1.0)
+        if sel.sum() < 50:
+            return None
+        c = float(np.corrcoef(f[sel], need[sel])[0, 1])
+        if c > best:
+            best, arg = c, d
+    return arg
+
+
 @dataclass
 class Demand:
     """Wheel power demand for the engine on/off rule.
@@ -245,15 +288,16 @@ def transition_windows(on: np.ndarray, eng_spd: np.ndarray | None, dt: float, *,
     """Where each observed engine start and stop began: ``(k_begin, k_observed, kind)``.
 
     The observed state switches when the engine speed crosses the detection thresholds; the
-    controller commanded the switch when the speed began moving monotonically towards them
-    (MG1 cranking the engine up, or pulling it down). ``k_begin`` walks back from the
+    controller commanded the switch just before the speed began moving monotonically towards
+    them (MG1 cranking the engine up, or pulling it down). ``k_begin`` walks back from the
     observed switch while the speed keeps changing by more than ``min_step_rpm`` per sample
-    in the same direction, at most ``max_back_s``.
+    in the same direction, at most ``max_back_s``: it is the last sample before the move.
+    ``k_observed - k_begin`` is the spin-up / spin-down delay.
     """
     on = np.asarray(on, bool)
     idx = np.nonzero(on[1:] != on[:-1])[0] + 1
     rpm = None if eng_spd is None else np.asarray(eng_spd, float) * 60.0 / (2.0 * np.pi)
-    kmax = max(int(round(max_back_s / dt)), 0)
+    kmax = max(round(max_back_s / dt), 0)
     out = []
     for k in idx:
         kind = "start" if on[k] else "stop"
@@ -271,7 +315,7 @@ def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.nda
                 eng_on: np.ndarray, ess_pwr: np.ndarray, consts: dict[str, float], *,
                 eng_spd: np.ndarray | None = None, pdis_lim: np.ndarray | None = None,
                 pre_s: float = 0.0, post_s: float = 1.0, limit_tol_w: float = 400.0,
-                inertial_braking: bool = True, lead_s: float = 0.0) -> Demand:
+                inertial_braking: bool = True, lead_steps: int = 0) -> Demand:
     """Wheel power demand [W] for the rule from delivered power, speed and battery power.
 
     Parameters
@@ -299,17 +343,22 @@ def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.nda
         Battery power within this of its discharge limit counts as limited [W].
     inertial_braking : bool
         Use the inertial demand while braking when it is more negative.
+    lead_steps : int
+        Samples by which the delivered power trails the controller's demand
+        (:func:`force_delay_steps`): the demand at a sample is the delivered power that many
+        samples later, and the transient windows start that much earlier (minus the one
+        sample the controller itself needs to act).
 
     Returns
     -------
     Demand
     """
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    k_lead = max(int(round(lead_s / dt)), 0)
+    k_lead = max(int(lead_steps), 0)
     p = np.asarray(p_delivered, float).copy()
     if k_lead:
         p = np.concatenate([p[k_lead:], np.full(k_lead, np.nan)])
-    info: dict[str, Any] = {"basis": "delivered wheel power", "lead_s": k_lead * dt}
+    info: dict[str, Any] = {"basis": "delivered wheel power", "lead_s": round(k_lead * dt, 6)}
     mass = consts.get("test_mass_kg")
     if inertial_braking and mass and np.any(np.isfinite(a)):
         fa = consts.get("road_load_a_n", 0.0)
@@ -322,8 +371,8 @@ def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.nda
                            "more negative than the delivered power (friction brakes)")
         info["braking_samples"] = int(brake.sum())
     wins = transition_windows(eng_on, eng_spd, dt)
-    k_pre = int(round(pre_s / dt))
-    k_post = max(int(round(post_s / dt)), 1)
+    k_pre = round(pre_s / dt)
+    k_post = max(round(post_s / dt), 1)
     disturbed = np.zeros(t.size, bool)
     for kb, k, _ in wins:
         disturbed[max(kb - k_pre - max(k_lead - 1, 0), 0):min(k + k_post + 1, t.size)] = True
@@ -339,7 +388,8 @@ def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.nda
     delays = {kind: [round((k - kb) * dt, 3) for kb, k, kd in wins if kd == kind]
               for kind in ("start", "stop")}
     info.update(engine_starts=len(delays["start"]), engine_stops=len(delays["stop"]),
-                transient_window_s=[-pre_s, post_s], transient_samples=n_tr,
+                transient_window_s=[-float(pre_s) if pre_s else 0.0, float(post_s)],
+                transient_samples=n_tr,
                 battery_limited_samples=n_lim,
                 median_spin_up_s=float(np.median(delays["start"])) if delays["start"] else None,
                 median_spin_down_s=float(np.median(delays["stop"])) if delays["stop"] else None,

@@ -31,13 +31,13 @@ def event_table(t: np.ndarray, on: np.ndarray, valid: np.ndarray, v: np.ndarray,
         since_last_s, cause}``.
     """
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    back = int(round((lag_s + 0.5) / dt))
+    back = round((lag_s + 0.5) / dt)
     p_soc = soc_power_demand_array(soc, params)
     out, last = [], None
     for i, kind in transitions(on, valid):
         j = max(i - back, 0)
         p_tot = (p_whl[j] if np.isfinite(p_whl[j]) else np.nan) + aux_w + p_soc[j]
-        win = slice(max(j - int(round(1.0 / dt)), 0), i + 1)
+        win = slice(max(j - round(1.0 / dt), 0), i + 1)
         pw = p_whl[win] + aux_w + p_soc[win]
         p_max = np.nanmax(pw) if np.any(np.isfinite(pw)) else np.nan
         v_max = np.nanmax(v[win]) if np.any(np.isfinite(v[win])) else np.nan

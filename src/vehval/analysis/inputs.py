@@ -103,7 +103,7 @@ def pick_signal(test: Test, base: str, prefer_source: tuple[str, ...] = ()) -> S
             pref = prefer_source.index(s.source) if s.source in prefer_source else len(prefer_source)
             return (pref, s.sample_period, s.name)
 
-        return sorted(cands, key=rank)[0]
+        return min(cands, key=rank)
     return None
 
 
@@ -124,7 +124,7 @@ def _constants(test: Test, vehicle: Any, constants: dict | None) -> dict[str, fl
 def _smooth_derivative(t: np.ndarray, v: np.ndarray, window_s: float = 1.0) -> np.ndarray:
     """Central-difference derivative of ``v`` after a moving-average of ``window_s`` [s]."""
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    k = max(1, int(round(window_s / dt)))
+    k = max(1, round(window_s / dt))
     vv = np.where(np.isfinite(v), v, np.nan)
     if k > 1:
         ker = np.ones(k) / k
@@ -291,15 +291,22 @@ def prepare_inputs(test: Test, vehicle: Any = None, constants: dict | None = Non
                           findings=findings)
 
 
+#: Simulator-internal signals a test cannot record (left out by :func:`from_simulation`).
+SIMULATOR_INTERNAL = ("drv_pwr_demand", "drv_frc_demand", "eng_ctrl_state", "ess_pwr_lim_state")
+
+
 def from_simulation(sim_test: Test) -> Test:
     """A copy of a simulation's test with every ``_simu`` signal renamed ``_test``.
 
-    Lets the analysis run on a simulation as if it were a measurement (used by the
-    parameter-recovery tests and to compare a model's strategy with a test's).
+    Lets the analysis run on a simulation as if it were a measurement (e.g. to compare a
+    model's strategy with a test's). The controller's internal signals
+    (:data:`SIMULATOR_INTERNAL`: driver demand, controller state) are left out, as no test
+    records them. For a realistic check use the virtual dyno's files
+    (:func:`vehval.synth.make_virtual_test`), which add sensor lags, noise and offsets.
     """
     out = Test(meta=sim_test.meta)
     for sig in sim_test:
-        if sig.name.endswith("_simu"):
+        if sig.name.endswith("_simu") and sig.name[: -len("_simu")] not in SIMULATOR_INTERNAL:
             name = sig.name[: -len("_simu")] + "_test"
             out.add(Signal(name, sig.time, sig.values, sig.unit, source="",
                            resample=sig.resample, notes=list(sig.notes)))

@@ -80,7 +80,7 @@ def debounce(state: np.ndarray, min_steps: int) -> np.ndarray:
     if min_steps <= 1 or s.size == 0:
         return s
     while True:
-        starts, lengths, vals = run_lengths(s)
+        starts, lengths, _vals = run_lengths(s)
         inner = [(ln, st) for st, ln in zip(starts, lengths) if ln < min_steps]
         if len(starts) <= 1 or not inner:
             return s
@@ -188,7 +188,7 @@ def timeline(t: np.ndarray, codes: np.ndarray, min_s: float = 1.0) -> list[dict]
         return []
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
     c = np.asarray(codes).copy()
-    k = max(1, int(round(min_s / dt)))
+    k = max(1, round(min_s / dt))
     starts, lengths, vals = run_lengths(c)
     # absorb short segments into the previous segment (one pass keeps it O(n))
     merged: list[list[int]] = []

@@ -48,7 +48,7 @@ def operating_points(eng_spd: np.ndarray, eng_trq: np.ndarray, eng_on: np.ndarra
     if vehicle is None:
         out["why"] = "no vehicle: best-efficiency line unknown"
         return out
-    pw, ws, ts = vehicle.best_line
+    _pw, ws, ts = vehicle.best_line
     order = np.argsort(ws)
     ws_u, idx = np.unique(ws[order], return_index=True)
     t_line = np.interp(w, ws_u, ts[order][idx])

@@ -1,4 +1,4 @@
-"""Replay of the simulator's engine on/off rule over measured signals.
+"""Replay of the simulator's engine on/off rule over signals rebuilt from a test.
 
 The rule is the same as the supervisory controller of :mod:`vehval.sim.kernel` (it calls
 the simulator's own compiled ``hold_timer``, ``held``, ``soc_power_demand`` and
@@ -11,9 +11,11 @@ the off request needs demand below ``engine_off_power_w``, speed below
 ``engine_off_speed_mps``, the battery able to supply and SOC at or above ``soc_engine_on``,
 all for ``engine_off_hold_s``; the state machine then enforces the minimum on/off times.
 
-Instead of the driver's internal demand the replay uses the measured wheel power demand,
-speed and SOC, so a rule estimated from a test can be compared with the observed engine
-state step by step.
+Instead of the driver's internal demand (which a test does not record) the replay uses the
+demand rebuilt from measured signals (:mod:`vehval.analysis.demand`), the measured speed and
+the estimated SOC, so a rule estimated from a test can be compared with the observed engine
+state step by step. The observed state trails the command by the engine's spin-up and
+spin-down: :func:`replay` delays starts and stops separately.
 """
 
 from __future__ import annotations
@@ -23,8 +25,13 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from vehval.sim.control import (engine_commanded_on, held, hold_timer, soc_power_demand,
-                                state_step)
+from vehval.sim.control import (
+    engine_commanded_on,
+    held,
+    hold_timer,
+    soc_power_demand,
+    state_step,
+)
 
 #: Parameters of the rule, in the vehicle file's controller keys (order of the array).
 RULE_KEYS = (

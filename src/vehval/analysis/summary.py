@@ -2,18 +2,35 @@
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from vehval.analysis.braking import braking_split
-from vehval.analysis.demand import estimate_soc, power_sign_check, quantisation_step, rule_demand
+from vehval.analysis.demand import (
+    estimate_soc,
+    force_delay_steps,
+    power_sign_check,
+    quantisation_step,
+    rule_demand,
+)
 from vehval.analysis.events import event_table
 from vehval.analysis.inputs import Finding, pick_signal, prepare_inputs
-from vehval.analysis.modes import (MODES, classify_modes, detect_engine_on, mode_shares,
-                                   run_lengths, timeline)
-from vehval.analysis.operating import current_histogram, operating_points, power_histogram_by_mode
+from vehval.analysis.modes import (
+    MODES,
+    classify_modes,
+    detect_engine_on,
+    mode_shares,
+    run_lengths,
+    timeline,
+)
+from vehval.analysis.operating import (
+    current_histogram,
+    operating_points,
+    power_histogram_by_mode,
+)
 from vehval.analysis.replay import base_params, rule_vector, score_rule
 from vehval.analysis.soc import fit_soc_regulation
 from vehval.analysis.thresholds import ESTIMATED, fit_rule, lag_grids
@@ -173,6 +190,8 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     aux = float(vehicle.body.aux_power_w) if vehicle is not None else 0.0
     base = base_params(vehicle)
     # state of charge (coulomb counting anchored to the logged SOC) and battery power sign
+    soc_sig = pick_signal(test, "ess_soc", ("obd", "", "dyno"))
+    res_step = quantisation_step(soc_sig.values) if soc_sig is not None else None
     curr, curr_label = inp.ess_curr, inp.sources.get("battery current", "battery current")
     if not inp.has("ess_curr") and inp.has("ess_pwr") and inp.has("ess_volt"):
         # e.g. the QA dropped the current channel but kept the battery power
@@ -181,12 +200,11 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
         curr_label = f"{inp.sources['battery power']} / {inp.sources['battery voltage']}"
     se = estimate_soc(inp.t, inp.soc, curr,
                       vehicle.battery.capacity_ah if vehicle is not None else None,
-                      curr_label=curr_label)
+                      curr_label=curr_label, resolution=res_step)
     findings.extend(se.findings)
     soc = se.soc
-    soc_sig = pick_signal(test, "ess_soc", ("obd", "", "dyno"))
-    res_step = quantisation_step(soc_sig.values) if soc_sig is not None else None
-    if res_step and res_step >= 0.002 and se.method.startswith("measured"):
+    if (res_step and res_step >= 0.002 and se.method.startswith("measured") and soc_sig is not None
+            and base["soc_gain_w"] > 0):
         findings.append(Finding("warning", soc_sig.name, (
             f"logged SOC resolution {res_step:.3g} and no usable battery current: the SOC-"
             f"regulation demand is known only to ±{0.5 * res_step * base['soc_gain_w']:.0f} W")))
@@ -195,13 +213,14 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     pdis_av, pd_lim, pc_lim = _battery_limits(soc, vehicle)
     eng_pwr = inp.eng_spd * inp.eng_trq
     codes = classify_modes(inp.v, inp.p_whl, es.on, ess_pwr, eng_pwr)
-    starts, lengths, vals = run_lengths(es.on)
+    _starts, _lengths, vals = run_lengths(es.on)
     engine = {"method": es.method, "on_share": float(np.mean(es.on[es.valid])) if es.valid.any() else None,
               "starts": int(np.sum(vals[1:])) if vals.size else 0,
               "valid_share": float(np.mean(es.valid))}
     soc_reg = fit_soc_regulation(soc, ess_pwr, es.on & es.valid, inp.p_whl, inp.dt)
     soc_reg["engine_on_share_by_soc"] = _on_by_soc(soc, es.on, es.valid)
     soc_reg["soc_source"] = se.method
+    soc_reg["soc_resolution"] = res_step
     controller, uncertainty, rule = {}, {}, {}
     agree = None
     if soc_reg.get("fitted") and "soc_target" in soc_reg and soc_reg.get("r2", 0) > 0.3:
@@ -215,8 +234,13 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     demand_info: dict = {}
     replay_inputs: dict = {}
     if es.valid.any() and inp.has("p_whl") and n_switch >= 2:
+        lead = None
+        if inp.sources.get("tractive force"):
+            with np.errstate(divide="ignore", invalid="ignore"):
+                frc = np.where(inp.v > 0.5, inp.p_whl / inp.v, np.nan)
+            lead = force_delay_steps(inp.v, frc, inp.dt, inp.consts)
         dem = rule_demand(inp.t, inp.v, inp.a, inp.p_whl, es.on, ess_pwr, inp.consts,
-                          eng_spd=inp.eng_spd, pdis_lim=pd_lim)
+                          eng_spd=inp.eng_spd, pdis_lim=pd_lim, lead_steps=lead or 0)
         demand_info = dem.info
         lag_center = (dem.info.get("median_spin_up_s"), dem.info.get("median_spin_down_s"))
         fit = fit_rule(es.on, es.valid, dem.p, inp.v, soc, inp.dt, base, aux_w=aux,
@@ -235,7 +259,7 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
                              fit.params, aux, fit.lag_s["start"])
         for n in fit.notes:
             findings.append(Finding("warning", "engine state", n))
-        f64 = lambda x: np.ascontiguousarray(x, dtype=np.float64)  # noqa: E731
+        f64 = lambda x: np.ascontiguousarray(x, dtype=np.float64)
         valid = es.valid & np.isfinite(inp.v)
         replay_inputs = {
             "p": f64(dem.p), "v": f64(inp.v), "soc": f64(soc), "dt": float(inp.dt),
@@ -279,7 +303,7 @@ def _on_by_soc(soc: np.ndarray, on: np.ndarray, valid: np.ndarray) -> list[dict]
         return []
     edges = np.arange(np.floor(np.min(soc[ok]) * 50) / 50, np.max(soc[ok]) + 0.02, 0.02)
     out = []
-    for lo, hi in zip(edges[:-1], edges[1:]):
+    for lo, hi in itertools.pairwise(edges):
         sel = ok & (soc >= lo) & (soc < hi)
         if sel.sum():
             out.append({"soc": [round(float(lo), 3), round(float(hi), 3)],

@@ -3,11 +3,14 @@
 Estimator: the rule is the simulator's state machine (:mod:`vehval.analysis.replay`);
 its thresholds are chosen to maximise the share of time steps where the replayed state
 (fed with the demand rebuilt from measured signals, :mod:`vehval.analysis.demand`) agrees
-with the observed engine state. The objective is piecewise constant, so the search is a
-coordinate ascent over grids: a joint coarse scan of the two on-thresholds, then rounds of
-(start / stop delays), joint (on, off) grids for the power and for the speed thresholds,
-the joint off-conditions and the minimum times; a final round refines every parameter on a
-fine grid (100 W, 0.1 m/s, one step).
+with the observed engine state, with the starts and stops delayed separately (searched
+around the spin-up / spin-down measured from the engine speed). The objective is piecewise
+constant, so the search is a coordinate ascent over grids: a joint coarse scan of the two
+on-thresholds, whose best few distinct points each start rounds of (start / stop delays),
+joint (on, off) grids for the power and for the speed thresholds, the joint
+off-conditions and the minimum times, then a fine refinement (100 W, 0.1 m/s, one step);
+the best end point wins (a power threshold can mimic a speed threshold on gentle
+accelerations: one local optimum is not enough).
 
 Identifiability: every estimated parameter is finally scanned over its whole plausible
 range with the others fixed. The values whose agreement lies within ``tol`` (default 0.2 %
@@ -96,7 +99,7 @@ class _Problem:
     """The replay objective over one test."""
 
     def __init__(self, obs, valid, p_wh, v, soc, dt, base, aux_w, pdis_av):
-        f = lambda x: np.ascontiguousarray(x, dtype=np.float64)  # noqa: E731
+        f = lambda x: np.ascontiguousarray(x, dtype=np.float64)
         self.obs, self.valid = np.ascontiguousarray(obs, bool), np.ascontiguousarray(valid, bool)
         self.p_wh, self.v, self.soc, self.dt = f(p_wh), f(v), f(soc), float(dt)
         self.aux_w = float(aux_w)
@@ -264,6 +267,30 @@ def identifiability(prob: _Problem, grids: dict[str, np.ndarray], tol: float
     return estimated, bounds, unc
 
 
+def _fine(prob: _Problem, lags: tuple[np.ndarray, np.ndarray], p_hi: float, v_max: float,
+          dt: float) -> None:
+    """Fine refinement (100 W, 0.1 m/s, one step) within +-1.5 coarse cells, twice."""
+    x = prob.vec
+    for _ in range(2):
+        _scan_lags(prob, lags)
+        on = x[IDX["engine_on_power_w"]]
+        _refine(prob, "engine_on_power_w", max(on - 1500.0, x[IDX["engine_off_power_w"]]),
+                min(on + 1500.0, p_hi), 100.0)
+        off = x[IDX["engine_off_power_w"]]
+        _refine(prob, "engine_off_power_w", off - 1500.0,
+                min(off + 1500.0, x[IDX["engine_on_power_w"]]), 100.0)
+        vs = x[IDX["engine_on_speed_mps"]]
+        _refine(prob, "engine_on_speed_mps", max(vs - 1.5, x[IDX["engine_off_speed_mps"]]),
+                min(vs + 1.5, v_max + 2.0), 0.1)
+        vo = x[IDX["engine_off_speed_mps"]]
+        _refine(prob, "engine_off_speed_mps", max(vo - 1.5, 0.0),
+                min(vo + 1.5, x[IDX["engine_on_speed_mps"]]), 0.1)
+        mo = x[IDX["min_on_time_s"]]
+        _refine(prob, "min_on_time_s", max(mo - 2.0, 0.0), mo + 2.0, dt)
+        mf = x[IDX["min_off_time_s"]]
+        _refine(prob, "min_off_time_s", max(mf - 2.0, 0.0), mf + 2.0, dt)
+
+
 def lag_grids(dt: float, lag_range_s: tuple[float, float] = (-0.3, 1.0),
               lag_center_s: tuple[float | None, float | None] = (None, None),
               lag_halfwidth_s: float = 0.3) -> tuple[np.ndarray, np.ndarray]:
@@ -283,7 +310,7 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
              pdis_av: np.ndarray | None = None, tol: float = 0.002, rounds: int = 3,
              lag_range_s: tuple[float, float] = (-0.3, 1.0),
              lag_center_s: tuple[float | None, float | None] = (None, None),
-             lag_halfwidth_s: float = 0.3) -> RuleFit:
+             lag_halfwidth_s: float = 0.3, n_starts: int = 3) -> RuleFit:
     """Estimate the engine on/off rule that best reproduces the observed engine state.
 
     Parameters
@@ -315,6 +342,8 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
         :func:`vehval.analysis.demand.transition_windows`): the delays are then searched
         within ``lag_halfwidth_s`` of them. Without this constraint a low on-threshold and a
         long start delay can trade against each other.
+    n_starts : int
+        Coordinate ascents started from the best distinct points of the coarse scan.
 
     Returns
     -------
@@ -341,47 +370,52 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
     gaps = np.arange(0.0, 12000.0 + 1.0, 1000.0)
     v_grid = np.arange(5.0, np.ceil(v_max) + 2.0, 1.0)
     v_gaps = np.arange(0.0, 6.01, 1.0)
-    # joint coarse scan of the two on-thresholds (offs at a fixed hysteresis), so the ascent
-    # does not start by explaining speed-triggered starts with a power threshold
-    best = -1.0
+    # joint coarse scan of the two on-thresholds (offs at a fixed hysteresis); the best few
+    # distinct points start one coordinate ascent each (a low power threshold and a speed
+    # threshold can explain the same starts: one local optimum is not enough)
     start = prob.vec.copy()
+    coarse = []
     for on in np.arange(2000.0, p_hi + 2000.0, 2000.0):
         for vs in v_grid:
             vec = start.copy()
             vec[IDX["engine_on_power_w"]], vec[IDX["engine_off_power_w"]] = on, on - 3000.0
             vec[IDX["engine_on_speed_mps"]], vec[IDX["engine_off_speed_mps"]] = vs, vs - 2.0
-            sc = prob.score(vec)
-            if sc > best + 1e-12:
-                best, prob.vec = sc, vec
+            coarse.append((prob.score(vec), on, vs, vec))
+    coarse.sort(key=lambda c: -c[0])
+    seeds: list[np.ndarray] = []
+    picked: list[tuple[float, float]] = []
+    for _, on, vs, vec in coarse:
+        if all(abs(on - o) >= 4000.0 or abs(vs - w) >= 2.5 for o, w in picked):
+            picked.append((on, vs))
+            seeds.append(vec)
+        if len(seeds) >= n_starts:
+            break
     t_step = max(dt, 0.5)
-    for _ in range(rounds):
-        _scan_lags(prob, lags)
-        _scan_pair(prob, "engine_on_power_w", "engine_off_power_w", on_grid, gaps)
-        _scan_pair(prob, "engine_on_speed_mps", "engine_off_speed_mps", v_grid, v_gaps)
-        _scan_off(prob, np.arange(-6000.0, prob.vec[IDX["engine_on_power_w"]] + 1.0, 1000.0),
-                  np.arange(3.0, prob.vec[IDX["engine_on_speed_mps"]] + 0.01, 1.0))
-        rmax_on = float(runs["on"].max()) + 2.0 if runs["on"].size else 20.0
-        rmax_off = float(runs["off"].max()) + 2.0 if runs["off"].size else 20.0
-        _refine(prob, "min_on_time_s", 0.0, min(rmax_on, 30.0), t_step)
-        _refine(prob, "min_off_time_s", 0.0, min(rmax_off, 30.0), t_step)
-    # ---- fine refinement (each within +-1.5 grid cells of the coarse optimum)
-    x = prob.vec
-    for _ in range(2):
-        _scan_lags(prob, lags)
-        on = x[IDX["engine_on_power_w"]]
-        _refine(prob, "engine_on_power_w", max(on - 1500.0, x[IDX["engine_off_power_w"]]),
-                min(on + 1500.0, p_hi), 100.0)
-        off = x[IDX["engine_off_power_w"]]
-        _refine(prob, "engine_off_power_w", off - 1500.0, min(off + 1500.0, x[IDX["engine_on_power_w"]]), 100.0)
-        vs = x[IDX["engine_on_speed_mps"]]
-        _refine(prob, "engine_on_speed_mps", max(vs - 1.5, x[IDX["engine_off_speed_mps"]]),
-                min(vs + 1.5, v_max + 2.0), 0.1)
-        vo = x[IDX["engine_off_speed_mps"]]
-        _refine(prob, "engine_off_speed_mps", max(vo - 1.5, 0.0), min(vo + 1.5, x[IDX["engine_on_speed_mps"]]), 0.1)
-        mo = x[IDX["min_on_time_s"]]
-        _refine(prob, "min_on_time_s", max(mo - 2.0, 0.0), mo + 2.0, dt)
-        mf = x[IDX["min_off_time_s"]]
-        _refine(prob, "min_off_time_s", max(mf - 2.0, 0.0), mf + 2.0, dt)
+    rmax_on = float(runs["on"].max()) + 2.0 if runs["on"].size else 20.0
+    rmax_off = float(runs["off"].max()) + 2.0 if runs["off"].size else 20.0
+    results = []
+    for seed in seeds:
+        prob.vec, prob.lag = seed.copy(), (int(lags[0][len(lags[0]) // 2]), int(lags[1][len(lags[1]) // 2]))
+        for r in range(rounds):
+            _scan_lags(prob, lags)
+            # later rounds search near the current point only
+            on_p, on_v = prob.vec[IDX["engine_on_power_w"]], prob.vec[IDX["engine_on_speed_mps"]]
+            near_p = on_grid if r == 0 else on_grid[np.abs(on_grid - on_p) <= 4000.0]
+            near_v = v_grid if r == 0 else v_grid[np.abs(v_grid - on_v) <= 3.0]
+            _scan_pair(prob, "engine_on_power_w", "engine_off_power_w", near_p, gaps)
+            _scan_pair(prob, "engine_on_speed_mps", "engine_off_speed_mps", near_v, v_gaps)
+            off_p, off_v = prob.vec[IDX["engine_off_power_w"]], prob.vec[IDX["engine_off_speed_mps"]]
+            p_vals = np.arange(-6000.0, prob.vec[IDX["engine_on_power_w"]] + 1.0, 1000.0)
+            v_vals = np.arange(3.0, prob.vec[IDX["engine_on_speed_mps"]] + 0.01, 1.0)
+            if r > 0:
+                p_vals = p_vals[np.abs(p_vals - off_p) <= 4000.0]
+                v_vals = v_vals[np.abs(v_vals - off_v) <= 3.0]
+            _scan_off(prob, p_vals, v_vals)
+            _refine(prob, "min_on_time_s", 0.0, min(rmax_on, 30.0), t_step)
+            _refine(prob, "min_off_time_s", 0.0, min(rmax_off, 30.0), t_step)
+        _fine(prob, lags, p_hi, v_max, dt)
+        results.append((prob.score(prob.vec), prob.vec.copy(), prob.lag))
+    _, prob.vec, prob.lag = max(results, key=lambda r: r[0])
     params = {k: float(prob.vec[i]) for k, i in IDX.items()}
     rep = prob.replayed()
     agree = agreement(obs, rep, valid)

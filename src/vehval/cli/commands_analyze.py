@@ -52,7 +52,15 @@ def analyze_cmd(
         typer.echo(text, nl=False)
         return
     c = result.controller
+    agree = result.rule_agreement
     typer.echo(f"wrote {outdir / 'control.json'}: {len(c)} controller parameter(s) estimated, "
-               f"rule agreement {result.rule_agreement if result.rule_agreement is not None else 'n/a'}")
+               f"rule agreement {f'{agree:.1%} of steps' if agree is not None else 'n/a'}")
     for k, v in c.items():
-        typer.echo(f"  {k} = {v}")
+        u = result.uncertainty.get(k, {})
+        rng = f"  [{u['low']:g}, {u['high']:g}]" if u.get("low") is not None and u.get("high") is not None else ""
+        typer.echo(f"  {k} = {v:g}{rng}")
+    for k, b in result.rule.get("bounds", {}).items():
+        side = (f">= {b['low']:g}" if b.get("low") is not None and b.get("high") is None else
+                f"<= {b['high']:g}" if b.get("high") is not None and b.get("low") is None else
+                "not identifiable")
+        typer.echo(f"  {k}: bound only ({side}): {b.get('why', '')}")

@@ -93,7 +93,7 @@ def report_cmd(
     if output is None:
         base = inputs[0] if inputs[0].is_dir() else found["test"].parent
         output = base / "report.html"
-    kw = dict(vehicle=vehicle, control=ctl, validation=val, title=title, raw=raw_test)
+    kw = {"vehicle": vehicle, "control": ctl, "validation": val, "title": title, "raw": raw_test}
     if excel:
         paths = build_reports(output.parent, test, qa, html_name=output.name, **kw)
     else:

@@ -45,6 +45,7 @@ def validate_cmd(
     fuel_tol: float = typer.Option(5.0, "--fuel-tol", help="Ladder tolerance on the fuel error (%)."),
     soc_tol: float = typer.Option(5.0, "--soc-tol", help="Ladder tolerance on the SOC error (%) (relative error of final SOC)."),
     soc_points: float = typer.Option(None, "--soc-points", help="Optional tolerance on the ΔSOC mismatch (SOC points)."),
+    smooth_hz: float = typer.Option(None, "--smooth-hz", help="Low-pass the measured speed given to the driver at this cut-off (Hz; zero phase). Default: as measured."),
     no_qa: bool = typer.Option(False, "--no-qa", help="Use the imported signals without the QA pipeline."),
     report: bool = typer.Option(False, "--report", help="Also write report.html and tables.xlsx per test."),
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
@@ -62,7 +63,7 @@ def validate_cmd(
     veh = load_vehicle(vehicle)
     tol = _tolerances(fuel_tol, soc_tol, soc_points)
     loaded = load_tests(files or [], test_group, template, veh, qa=not no_qa)
-    vals = [validate_test(lt.test, veh, dt=dt, window_s=window_s) for lt in loaded]
+    vals = [validate_test(lt.test, veh, dt=dt, window_s=window_s, smooth_hz=smooth_hz) for lt in loaded]
     lad = ladder([v.comparison for v in vals], tol)
     payload = {"title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "
                "initial SOC, mass and road load", "tables": [], "figures": [], "notes": []}
@@ -72,7 +73,7 @@ def validate_cmd(
         payload["figures"] += p["figures"]
         payload["notes"] += [f"{v.comparison.test_id}: {n}" for n in p["notes"]]
     payload["tables"] += lad.tables()
-    metrics = {"vehicle": veh.name, "vehicle_file": veh.file, "dt_s": dt,
+    metrics = {"vehicle": veh.name, "vehicle_file": veh.file, "dt_s": dt, "speed_smoothing_hz": smooth_hz,
                "tests": [v.to_dict() for v in vals], "ladder": lad.to_dict()}
     by_cycle: dict[str, list[int]] = {}
     for i, lt in enumerate(loaded):
@@ -133,6 +134,8 @@ def calibrate_cmd(
     popsize: int = typer.Option(8, "--popsize", help="Differential-evolution population multiplier."),
     maxiter: int = typer.Option(20, "--maxiter", help="Differential-evolution generations."),
     seed: int = typer.Option(0, "--seed", help="Seed of the search."),
+    mode: str = typer.Option("traces", "--mode", help="Objective of the search: traces (recorded signals, default) or batch (summaries, parallel, faster)."),
+    smooth_hz: float = typer.Option(None, "--smooth-hz", help="Low-pass the measured speed given to the driver at this cut-off (Hz; zero phase). Default: as measured."),
     no_qa: bool = typer.Option(False, "--no-qa", help="Use the imported signals without the QA pipeline."),
     as_json: bool = typer.Option(False, "--json", help="Print calibration.json to stdout."),
 ) -> None:
@@ -158,7 +161,7 @@ def calibrate_cmd(
         except (OSError, json.JSONDecodeError) as exc:
             raise ConfigError(f"{start}: cannot read the start values ({exc})") from None
     res = calibrate(tests, veh, names, start=start_values, holdout_tests=hold, dt=dt,
-                    popsize=popsize, maxiter=maxiter, seed=seed)
+                    popsize=popsize, maxiter=maxiter, seed=seed, mode=mode, smooth_hz=smooth_hz)
     doc = res.to_dict()
     with atomic_dir(output) as stage:
         (stage / "calibration.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
@@ -166,6 +169,8 @@ def calibrate_cmd(
     if as_json:
         typer.echo(json.dumps(_clean(doc), indent=1))
         return
+    for note in res.notes:
+        typer.echo(f"note: {note}")
     for n in res.parameters:
         typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}")
     for row in res.rows():

@@ -192,3 +192,13 @@ def merge_runs(rs: list[tuple[int, int]], time: np.ndarray, gap_s: float) -> lis
         else:
             out.append((i0, i1))
     return out
+
+
+def untrusted_mask(names: set[str] | frozenset[str], times: np.ndarray, findings: Iterable[Finding],
+                   pad_s: float = 0.5) -> np.ndarray:
+    """Samples at ``times`` [s] covered (±``pad_s``) by a warning or error of any of ``names``."""
+    bad = np.zeros(np.asarray(times).size, bool)
+    for f in findings:
+        if f.signal in names and f.severity != Severity.INFO:
+            bad |= (times >= f.start_s - pad_s) & (times <= f.end_s + pad_s)
+    return bad

@@ -176,8 +176,15 @@ def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options,
     if not cand:
         return []
     cand_len = sum(j1 - i0 for i0, j1 in cand)
-    outside_pairs = max(1, np.isfinite(np.diff(v)).sum() - cand_len)
-    repeat_frac = max(0, int(same.sum()) - cand_len) / outside_pairs
+    # how often the signal repeats a value outside the candidate runs; exact zeros (a
+    # speed at standstill, a torque with the engine off) are legitimate holds and do not
+    # count: they say nothing about the sensor's resolution
+    zero_tol = 0.01 * _robust_range(v)
+    in_cand = np.zeros(v.size - 1, bool)
+    for i0, j1 in cand:
+        in_cand[i0:j1] = True
+    moving = np.isfinite(np.diff(v)) & (np.abs(v[:-1]) > zero_tol) & ~in_cand
+    repeat_frac = int((same & moving).sum()) / max(1, int(moving.sum()))
     covered = cand_len / max(1, v.size - 1)
     noisy = repeat_frac < opts.noisy_repeat_fraction and covered < 0.5
     partners = partners_of(test, sig.name)
@@ -187,7 +194,6 @@ def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options,
     nz = nz[np.isfinite(nz) & (nz > 0)]
     quantum = float(np.median(nz)) if nz.size else 0.0
     found: list[Finding] = []
-    zero_tol = 0.01 * _robust_range(v)
     for i0, j1 in sorted(cand, key=lambda r: r[0] - r[1])[:50]:
         value = float(v[i0])
         if abs(value) <= zero_tol and not noisy:
@@ -352,7 +358,23 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
         thr = max(opts.spike_k * sigma, opts.spike_range_fraction * rrange)
         spikes = np.isfinite(resid) & (np.abs(resid) > thr)
         rs = [r for r in runs(spikes) if r[1] - r[0] < opts.spike_window // 2 + 1]
+        # a spike leaves and returns: the samples just before and after it agree within
+        # half its size; an edge followed by a decay (a current pulse as the engine
+        # starts) does not return and is a transient, reported as info
+        steps = []
+        for i0, i1 in list(rs):
+            if 0 < i0 and i1 + 1 < v.size:
+                before, after = v[i0 - 1], v[i1 + 1]
+                if np.isfinite(before) and np.isfinite(after) and \
+                        abs(after - before) > 0.5 * abs(_peak(resid, i0, i1)):
+                    steps.append((i0, i1))
+                    rs.remove((i0, i1))
         rs = merge_runs(rs, t, 1.0)
+        _emit_runs(out, sig, merge_runs(steps, t, 1.0), Kind.SPIKE, Severity.INFO,
+                   lambda i0, i1: (f"{sig.name} jumps by {_peak(resid, i0, i1):+.4g} {sig.unit} at "
+                                   f"{t[i0]:.1f} s and does not return to its previous level: a "
+                                   f"transient, not a sensor spike"),
+                   lambda i0, i1: {"deviation": _peak(resid, i0, i1), "threshold": thr}, opts)
         _emit_runs(out, sig, rs, Kind.SPIKE, Severity.WARNING,
                    lambda i0, i1: (f"{sig.name} has a spike of {_peak(resid, i0, i1):+.4g} {sig.unit} "
                                    f"at {t[i0]:.1f} s (threshold {thr:.3g} {sig.unit})"),
@@ -397,7 +419,10 @@ def _peak(resid: np.ndarray, i0: int, i1: int) -> float:
 
 
 #: Extra pairs whose simultaneous jumps reveal a physical event (not a sensor spike).
+#: (power split: MG1 reacts the engine torque, so an engine-torque step moves the battery
+#: current at once)
 _EVENT_PARTNERS = (("ess_curr", "ess_volt"), ("eng_spd_target", "eng_spd_out"),
+                   ("eng_trq_out", "ess_curr"),
                    ("mot_trq_out", "ess_curr"), ("mot_trq_out", "ess_volt"),
                    ("gen_trq_out", "ess_curr"), ("gen_trq_out", "ess_volt"),
                    ("eng_trq_out", "eng_spd_out"), ("ess_pwr", "ess_volt"))
@@ -486,3 +511,36 @@ def run_level1(test: Test, limits: dict | None = None,
         out.extend(check_signal(test, sig, limits, opts, ranges))
     _corroborate_spikes(test, out, opts)
     return out
+
+
+def corroborate_spikes_with_calc(test: Test, findings: list[Finding], computed: dict,
+                                 agree: float = 0.5) -> None:
+    """Demote to info the spikes that the signal's calculated counterpart reproduces.
+
+    Run after the calculations: a spike on ``X`` whose ``X_calc`` (computed from other
+    measured signals, never from ``X``) is within ``agree`` × the spike's deviation of the
+    measured value at the spike instant is a real event (a generator speed swinging to
+    -380 rad/s within one 1 Hz OBD sample as the engine stops, which the Willis equation
+    gives from the engine and motor speeds); a sensor spike leaves its calculated value.
+    """
+    for f in findings:
+        if f.kind != Kind.SPIKE or f.severity == Severity.INFO:
+            continue
+        p = _parse(f.signal)
+        if p is None:
+            continue
+        cname = f"{p.base}_calc"
+        info = computed.get(cname)
+        if info is None or cname not in test or f.signal in info.get("inputs", {}).values():
+            continue
+        sig = test[f.signal]
+        sel = (sig.time >= f.start_s - 1e-9) & (sig.time <= f.end_s + 1e-9)
+        dev = abs(float(f.numbers.get("deviation", np.nan)))
+        if not sel.any() or not dev > 0:
+            continue
+        diff = np.abs(sig.values[sel] - test[cname].at(sig.time[sel]))
+        if np.isfinite(diff).all() and float(np.max(diff)) <= agree * dev:
+            f.severity = Severity.INFO
+            f.message += (f"; {cname} = {info.get('expr', '')} shows the same value "
+                          f"(within {float(np.max(diff)):.3g} {sig.unit}): a real transient")
+            f.related.append(cname)

@@ -19,7 +19,7 @@ import numpy as np
 from vehval.align import estimate_pair
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity
+from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
 from vehval.test import Signal, Test
 
 #: Unit factors a wrong unit typically produces (slope of other vs ref).
@@ -106,14 +106,17 @@ class PairComparison:
         return out
 
 
-def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None) -> PairComparison | None:
+def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None,
+                 findings_before: list[Finding] | None = None) -> PairComparison | None:
     """Table-2 metrics of ``other`` against ``ref`` (``None`` when they do not overlap).
 
     Metrics (at the slower signal's sample times, NaN excluded): ``r2`` = squared Pearson
     correlation; ``mean_abs_diff`` = mean |other − ref| [unit]; ``mean_rel_diff`` =
     mean |other − ref| / mean |ref|; ``slope``, ``offset`` of the least-squares line
     ``other = slope · ref + offset``; ``residual_lag_s`` [s] = offset still found by
-    cross-correlation (positive: other is late).
+    cross-correlation (positive: other is late). Samples where either signal has a level-1
+    warning or error (a spike, an out-of-range stretch; ``findings_before``) are left out
+    unless that leaves less than half of them.
     """
     opts = opts or Level2Options()
     base = registry().parse(ref.name).base
@@ -127,6 +130,10 @@ def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None) 
         a = ref.values
         b = other.at(t)
     ok = np.isfinite(a) & np.isfinite(b)
+    if findings_before:
+        bad = untrusted_mask({ref.name, other.name}, t, findings_before)
+        if bad.any() and (ok & ~bad).sum() >= 0.5 * ok.sum():
+            ok &= ~bad
     if ok.sum() < 5:
         return None
     a, b, tt = a[ok], b[ok], t[ok]
@@ -206,9 +213,14 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
     return out
 
 
-def run_level2(test: Test, opts: Level2Options | None = None
+def run_level2(test: Test, opts: Level2Options | None = None,
+               findings_before: list[Finding] | None = None
                ) -> tuple[list[PairComparison], list[Finding]]:
-    """Table 2 (every pair of measured signals of the same base name) and its findings."""
+    """Table 2 (every pair of measured signals of the same base name) and its findings.
+
+    ``findings_before`` (level-1 findings): samples under a warning or error of either
+    signal of a pair are left out of its comparison (see :func:`compare_pair`).
+    """
     opts = opts or Level2Options()
     reg = registry()
     groups: dict[str, list[Signal]] = {}
@@ -228,7 +240,7 @@ def run_level2(test: Test, opts: Level2Options | None = None
         pair_rows = []
         for i in range(len(sigs) if len(sigs) <= opts.max_all_pairs else 1):
             for j in range(i + 1, len(sigs)):
-                row = compare_pair(sigs[i], sigs[j], opts)
+                row = compare_pair(sigs[i], sigs[j], opts, findings_before)
                 if row is not None:
                     pair_rows.append((sigs[i], sigs[j], row))
                     rows.append(row)

@@ -15,7 +15,7 @@ from vehval import align as _align
 from vehval.equations.calc import CalcResult, compute
 from vehval.qa.findings import Finding, Kind, Severity, summarise
 from vehval.qa.fuelmap import FuelMapOptions, fuel_map_check
-from vehval.qa.level1 import Level1Options, run_level1
+from vehval.qa.level1 import Level1Options, corroborate_spikes_with_calc, run_level1
 from vehval.qa.level2 import Level2Options, PairComparison, run_level2
 from vehval.qa.level3 import CalcComparison, Level3Options, run_checks, run_level3
 from vehval.qa.select import Selection, select_signals
@@ -187,11 +187,12 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
                                         f"source '{a.source}' not aligned to '{a.reference}': {a.message}",
                                         {"offset_s": a.offset_s, "confidence": a.confidence}))
     findings += run_level1(work, _vehicle_limits(vehicle), level1)
-    table2, f2 = run_level2(work, level2)
+    table2, f2 = run_level2(work, level2, findings)
     findings += f2
     # inputs not to trust in the calculations
     bad = {f.signal for f in findings if f.severity == Severity.ERROR} | set(user_drop)
     calc = compute(work, vehicle, calc_set, constants, exclude=bad)
+    corroborate_spikes_with_calc(work, findings, calc.computed)
     table3, f3 = run_level3(work, calc, level3, findings)
     checks, fc = run_checks(work, calc)
     _blame_inputs(f3, findings, calc.computed)

@@ -232,6 +232,23 @@ def _inject_rows(xlsx: Path, member: str, values: np.ndarray) -> None:
         tmp2.unlink(missing_ok=True)
 
 
+def _exact_worksheet_class():
+    """xlsxwriter worksheet writing numbers as shortest round-trip text (``repr``).
+
+    xlsxwriter writes ``%.16G``, one digit short of exact: a JSON value such as
+    ``1324.1602793520838`` would come back as ``1324.160279352084``. The override keeps the
+    table sheets equal to ``findings.json`` bit for bit.
+    """
+    from xlsxwriter.worksheet import Worksheet
+
+    class ExactWorksheet(Worksheet):
+        def _xml_number_element(self, number, attributes=[]) -> None:  # noqa: B006 - xlsxwriter's signature
+            attr = "".join(f' {k}="{self._escape_attributes(v)}"' for k, v in attributes)
+            self.fh.write(f"<c{attr}><v>{float(number)!r}</v></c>")
+
+    return ExactWorksheet
+
+
 def plugin_tables(control: Any = None, validation: Any = None) -> dict[str, list[Table]]:
     """The ``Control`` and ``Validation`` sheets: the tables of those report sections."""
     from vehval.report.plugins import control_section, validation_section
@@ -274,8 +291,9 @@ def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: flo
                                             "strings_to_formulas": False, "strings_to_urls": False})
         fmt = {"title": wb.add_format({"bold": True, "font_size": 12}),
                "head": wb.add_format({"bold": True, "bg_color": "#E9EEF3", "bottom": 1})}
+        exact = _exact_worksheet_class()
         for name, tables in {**qa_tables(qa, test), **plugin_tables(control, validation)}.items():
-            ws = wb.add_worksheet(name)
+            ws = wb.add_worksheet(name, worksheet_class=exact)
             _write_tables(ws, tables, fmt)
             ws.freeze_panes(2, 0)
         frame = None

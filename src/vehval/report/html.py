@@ -25,7 +25,6 @@ from vehval.report.qa_view import as_dict
 from vehval.report.tables import fmt_cell, slug
 from vehval.test import Test, TestMeta
 
-
 DEFAULT_FIG_HEIGHT_PX = 450
 
 

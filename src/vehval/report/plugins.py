@@ -46,18 +46,32 @@ def _npoints(trace: dict) -> int:
     return len(x) if isinstance(x, (list, tuple, np.ndarray)) else 0
 
 
+def _object_titles(obj: Any) -> Any:
+    """Copy of a figure part with every ``title: "text"`` as ``title: {"text": "text"}``.
+
+    plotly.js 3 dropped the string shorthand (axis titles given as strings vanish).
+    """
+    if isinstance(obj, dict):
+        return {k: ({"text": v} if k == "title" and isinstance(v, str) else _object_titles(v))
+                for k, v in obj.items()}
+    if isinstance(obj, list) and obj and isinstance(obj[0], dict):
+        return [_object_titles(v) for v in obj]
+    return obj
+
+
 def normalise_figure(fig: Any, caption: str = "") -> tuple[dict, str]:
     """A plotly figure as a JSON dict ready for the page, and its caption.
 
     The caption is the given one, else the layout title; a layout title equal to the
-    caption is removed (the page shows the caption). ``scattergl`` traces become ``scatter``
-    when every trace is small enough for SVG (see :data:`MAX_SVG_POINTS`).
+    caption is removed (the page shows the caption). String titles become ``{"text": ...}``
+    objects. ``scattergl`` traces become ``scatter`` when every trace is small enough for
+    SVG (see :data:`MAX_SVG_POINTS`).
     """
     if hasattr(fig, "to_plotly_json"):
         fig = fig.to_plotly_json()
     fig = dict(fig or {})
-    layout = dict(fig.get("layout") or {})
-    data = [dict(t) for t in fig.get("data") or []]
+    layout = _object_titles(dict(fig.get("layout") or {}))
+    data = [_object_titles(dict(t)) for t in fig.get("data") or []]
     ltitle = _title_text(layout)
     caption = caption or ltitle
     if ltitle and ltitle == caption:
@@ -251,8 +265,8 @@ def control_section(doc: dict) -> Section:
                  ("Engine state from", str(eng.get("method") or "—")),
                  ("On the best line", f"{op['share_within_band'] * 100:.1f} % within ±{_fmt(op.get('band_nm'), 'g')} N·m"
                   if isinstance(op.get("share_within_band"), (int, float)) else "—"),
-                 ("SOC window", f"{_fmt(soc.get('soc_min'), '.3f')} – {_fmt(soc.get('soc_max'), '.3f')}"
-                  f" (mean {_fmt(soc.get('soc_mean'), '.3f')})")]
+                 ("SOC window", (f"{_fmt(soc.get('soc_min'), '.3f')} – {_fmt(soc.get('soc_max'), '.3f')}"
+                                 f" (mean {_fmt(soc.get('soc_mean'), '.3f')})"))]
     if soc.get("why"):
         sec.notes.append(f"SOC regulation: {soc['why']}")
     if (doc.get("braking") or {}).get("basis"):

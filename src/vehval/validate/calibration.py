@@ -4,10 +4,13 @@
 :mod:`vehval.validate.objective` (fuel, SOC, engine state, component NRMSE) averaged over
 the tests, then reports the error before and after on the tuned and on held-out tests.
 
-Evaluation. By default each generation is one call of
-:func:`vehval.sim.batch.simulate_batch` per tuning test (summaries, parallel compiled
-loop); ``mode='traces'`` scores every candidate on recorded signals instead (step-wise
-engine state and component NRMSE, slower).
+Evaluation. By default (``mode='traces'``) every candidate is simulated with recording and
+scored on the full objective (step-wise engine state and component NRMSE): with controller
+and component parameters tuned together, the end-of-test quantities alone (fuel, SOC,
+engine-on share, starts) leave a flat valley of equally good combinations, the signals
+(battery current, engine torque) pin it. ``mode='batch'`` evaluates each generation with
+one call of :func:`vehval.sim.batch.simulate_batch` per tuning test (summaries only,
+parallel compiled loop): faster, enough for a few controller parameters.
 
 Search. The objective is piecewise constant in thresholds and hold times (an engine start
 moves by whole time steps) and has many shallow local minima, so gradients are useless. We
@@ -46,7 +49,7 @@ from vehval.validate.objective import (DEFAULT_SIGNALS, Target, errors, errors_f
 from vehval.validate.validation import validate_test
 
 PENALTY = 1e6  # objective of an invalid parameter combination
-MODES = ("batch", "traces", "hybrid")
+MODES = ("traces", "batch")
 
 
 def _value_of(vehicle: Vehicle, name: str) -> float:
@@ -128,6 +131,7 @@ class CalibrationResult:
     date: str = ""
     history: list[float] = field(default_factory=list)
     smooth_hz: float | None = None
+    notes: list[str] = field(default_factory=list)
 
     def provenance(self, name: str) -> str:
         """Source text recorded for a tuned parameter in the calibrated vehicle file."""
@@ -192,7 +196,7 @@ class CalibrationResult:
             "tests": self.tests, "holdout": self.holdout, "before": self.before, "after": self.after,
             "n_evaluations": self.n_evaluations, "n_simulations": self.n_simulations,
             "elapsed_s": self.elapsed_s, "method": self.method, "dt_s": self.dt, "date": self.date,
-            "speed_smoothing_hz": self.smooth_hz,
+            "speed_smoothing_hz": self.smooth_hz, "notes": self.notes,
             "provenance": {n: self.provenance(n) for n in self.parameters},
             "history": self.history, "tables": self.tables()})
 
@@ -287,7 +291,7 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
               holdout_tests: Sequence[Test] = (), dt: float = 1.0, popsize: int = 8,
               maxiter: int = 20, polish: bool = True, seed: int = 0,
               signals: tuple[str, ...] = DEFAULT_SIGNALS, rel_bounds: float = 0.5,
-              mode: str = "hybrid", workers: int = 2, smooth_hz: float | None = None,
+              mode: str = "traces", workers: int = 2, smooth_hz: float | None = None,
               polish_evals: int | None = None,
               progress: Callable[[int, float], None] | None = None) -> CalibrationResult:
     """Tune ``parameters`` of ``vehicle`` to minimise the error over ``tests``.
@@ -316,16 +320,18 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         Differential-evolution population multiplier and generations.
     polish : bool
         Run the Nelder-Mead polish after the evolution.
+    polish_evals : int, optional
+        Polish budget in evaluations per parameter (default 30).
     seed : int
         Seed of the search (the result is reproducible).
     signals : tuple of str
         Component signals whose NRMSE enters the objective.
     mode : {'traces', 'batch'}
-        ``traces``: every candidate is simulated with recording and scored on the full
-        objective (step-wise engine state, component NRMSE). ``batch``: each generation
-        goes through :func:`vehval.sim.batch.simulate_batch` (summaries only, parallel
-        compiled loop); the objective then uses fuel, SOC, engine-on share and engine
-        starts (:func:`vehval.validate.objective.errors_from_summary`), for the
+        ``traces`` (default): every candidate is simulated with recording and scored on the
+        full objective (step-wise engine state, component NRMSE). ``batch``: each
+        generation goes through :func:`vehval.sim.batch.simulate_batch` (summaries only,
+        parallel compiled loop); the objective then uses fuel, SOC, engine-on share and
+        engine starts (:func:`vehval.validate.objective.errors_from_summary`), for the
         polish too. The before/after errors always use full simulations and comparisons.
     workers : int
         Threads of the batch simulation.
@@ -348,6 +354,14 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         raise ConfigError(f"calibration parameters repeated: {', '.join(names)}")
     given = start_values(start)
     x0 = {n: given.get(n, _value_of(veh0, n)) for n in names}
+    notes = []
+    if given:
+        used = [n for n in names if n in given]
+        notes.append("start values from the given start: " + (", ".join(
+            f"{n} = {given[n]:.6g}" for n in used) or "none of the tuned parameters"))
+        ignored = sorted(set(given) - set(names))
+        if ignored:
+            notes.append("given but not tuned (the vehicle's values are kept): " + ", ".join(ignored))
     bnds = {}
     for n in names:
         b = (bounds or {}).get(n) or (bounds or {}).get(n.split(".", 1)[1]) if bounds else None
@@ -355,17 +369,15 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         if not lo < hi:
             raise ConfigError(f"calibration bounds of '{n}': lower {lo:g} must be below upper {hi:g}")
         bnds[n] = (lo, hi)
+        if not lo <= x0[n] <= hi:
+            notes.append(f"start value of {n} ({x0[n]:.6g}) outside the bounds: clipped")
         x0[n] = min(max(x0[n], lo), hi)
     ids = [t.meta.test_id or f"test{i + 1}" for i, t in enumerate(tests)]
     hold_ids = [t.meta.test_id or f"holdout{i + 1}" for i, t in enumerate(holdout_tests)]
     targets = [make_target(t, veh0, dt, signals=signals, smooth_hz=smooth_hz) for t in tests]
     if mode not in MODES:
         raise ConfigError(f"calibration mode '{mode}': use one of {', '.join(MODES)}")
-    search_mode = "batch" if mode == "hybrid" else mode
-    prob = _Problem(veh0, targets, names, dt, weights, scales, search_mode, workers)
-    # the polish (and the reported objective) of 'hybrid' uses the recorded signals
-    final = _Problem(veh0, targets, names, dt, weights, scales, "traces", workers) \
-        if mode == "hybrid" else prob
+    prob = _Problem(veh0, targets, names, dt, weights, scales, mode, workers)
     xstart = np.array([x0[n] for n in names])
     j0 = prob(xstart)
     history = [j0]
@@ -382,26 +394,22 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
                                 popsize=popsize, maxiter=maxiter, init="latinhypercube",
                                 x0=xstart, polish=False, seed=seed, tol=1e-3, atol=1e-4,
                                 mutation=(0.5, 1.0), recombination=0.7, callback=cb)
-    method = f"differential evolution (popsize {popsize}, {de.nit} generations, {search_mode} objective)"
-    if final is not prob:
-        j0 = final(xstart)  # report one objective: the one of the polish
-        final(prob.best[1])
-        history.append(final.best[0])
+    method = f"differential evolution ({mode} objective, popsize {popsize}, {de.nit} generations)"
     if polish:
         span = hi - lo
 
         def f_norm(u: np.ndarray) -> float:
-            return final(lo + np.clip(u, 0.0, 1.0) * span)
+            return prob(lo + np.clip(u, 0.0, 1.0) * span)
 
-        u0 = (final.best[1] - lo) / span
+        u0 = (prob.best[1] - lo) / span
         simplex = [u0] + [np.clip(u0 + np.eye(len(names))[i] * 0.05 * (1 if u0[i] < 0.95 else -1), 0, 1)
                           for i in range(len(names))]
         minimize(f_norm, u0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(names),
                  options={"initial_simplex": np.array(simplex),
                           "maxfev": (polish_evals or 30) * len(names), "xatol": 1e-4, "fatol": 1e-5})
-        history.append(final.best[0])
-        method += f" + Nelder-Mead polish ({final.mode} objective)"
-    j_best, x_best = final.best
+        history.append(prob.best[0])
+        method += " + Nelder-Mead polish"
+    j_best, x_best = prob.best
     best = {n: float(v) for n, v in zip(names, x_best)}
 
     before, after = {}, {}
@@ -412,10 +420,9 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
     return CalibrationResult(
         parameters=names, start=x0, bounds=bnds, best=best, objective_start=j0,
         objective_best=j_best, tests=ids, holdout=hold_ids, before=before, after=after,
-        n_evaluations=prob.n_eval + (final.n_eval if final is not prob else 0),
-        n_simulations=prob.n_sim + (final.n_sim if final is not prob else 0),
+        n_evaluations=prob.n_eval, n_simulations=prob.n_sim,
         elapsed_s=time.perf_counter() - t_start, method=method, dt=dt, vehicle=veh0,
-        date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz)
+        date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz, notes=notes)
 
 
 def _errors(v) -> dict[str, float]:
