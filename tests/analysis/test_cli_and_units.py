@@ -109,4 +109,6 @@ def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
     msgs = " | ".join(f["message"] for f in d["findings"])
     assert "1.275" in msgs and "sentinel" in msgs           # SOC PID at 127.5 % excluded
     assert "reversed" in msgs                                # battery power sign corrected
-    assert "coulomb counting" in d["inputs"]["soc"]["method"]
+    # the QA ran: it dropped the reversed current clamp, so the SOC is coulomb counted from
+    # its calculated battery power over the voltage
+    assert "coulomb counting of ess_pwr_calc / ess_volt_test" in d["inputs"]["soc"]["method"]
