@@ -8,14 +8,17 @@ the same quantity measured by both (same base name, e.g. ``eng_spd_out_test`` an
 
 Method, for each pair:
 
-0. samples outside the registry's plausible range are set aside (an invalid PID value
-   such as 80 m/s would dominate the variance and drag the peak);
+0. samples without timing information are set aside: values outside the registry's
+   plausible range (an invalid PID value such as 80 m/s would dominate the variance and
+   drag the peak) and isolated spikes (:func:`_plausible`);
 1. both signals are resampled on a common grid (the faster sample period) over their
    overlapping span, normalised (zero mean, unit variance; NaN excluded);
 2. the normalised cross-correlation is computed with FFTs and divided by the number of
    overlapping valid samples at each lag, over the search range (default ±30 s);
-3. the integer peak is refined to sub-sample accuracy by a bounded minimisation of
-   ``1 - corr(slow samples, fast signal interpolated at slow times + d)``: the slower
+3. the mismatch ``1 - corr(slow samples, fast signal interpolated at slow times + d)`` is
+   scanned on the fine step over the main lobe of the grid correlation (at most ±10 s: the
+   lobe of slowly varying signals is broad and its top unreliable), then refined to
+   sub-sample accuracy by a bounded minimisation around the best scan point: the slower
    signal is used at its own sample times and the faster, better-resolved signal is
    interpolated, so no information is smeared;
 4. confidence = peak correlation × (1 − second-peak ratio), where the second peak is the
@@ -166,19 +169,39 @@ def _interp(sig: Signal, t: np.ndarray) -> np.ndarray:
 
 
 def _plausible(sig: Signal) -> Signal:
-    """The signal with samples outside its registry plausible range set to NaN.
+    """The signal without the samples that carry no timing information (set to NaN).
 
-    An invalid PID value (127.5 % SOC, 80 m/s from a speed PID) dominates the variance of
-    a signal and drags the correlation peak; such samples carry no timing information.
+    * values outside the registry's plausible range (an invalid PID value such as 127.5 %
+      SOC or 80 m/s dominates the variance and drags the correlation peak);
+    * isolated spikes: one or two samples leaving their neighbours by more than 10 robust
+      sigmas and 20 % of the robust range and coming back (a Hampel filter of 5 samples, the
+      rule of QA level 1); interpolated at a shifted time they make the fine correlation
+      jump with the shift.
     """
+    v = np.asarray(sig.values, float)
+    bad = np.zeros(v.size, bool)
     try:
         lo, hi = registry().spec_of(sig.name).range
+        bad |= (v < lo) | (v > hi)
     except (SignalError, KeyError, AttributeError):
-        return sig
-    bad = (sig.values < lo) | (sig.values > hi)
+        pass
+    if v.size >= 5:
+        from numpy.lib.stride_tricks import sliding_window_view
+        resid = np.full(v.size, np.nan)
+        resid[2:-2] = v[2:-2] - np.median(sliding_window_view(v, 5), axis=1)
+        fin = np.isfinite(resid)
+        if fin.any():
+            sigma = 1.4826 * float(np.median(np.abs(resid[fin])))
+            f = v[np.isfinite(v)]
+            rrange = float(np.ptp(np.percentile(f, [0.5, 99.5]))) if f.size else 0.0
+            out = fin & (np.abs(resid) > max(10 * sigma, 0.2 * rrange)) & (rrange > 0)
+            for i in np.flatnonzero(out):
+                lo_i, hi_i = max(i - 1, 0), min(i + 1, v.size - 1)
+                if abs(v[hi_i] - v[lo_i]) <= 0.5 * abs(resid[i]):   # leaves and returns
+                    bad[i] = True
     if not bad.any():
         return sig
-    return replace(sig, values=np.where(bad, np.nan, sig.values))
+    return replace(sig, values=np.where(bad, np.nan, v))
 
 
 def _fine_corr(ref: Signal, other: Signal, d: float, other_slower: bool | None = None) -> float:
@@ -265,11 +288,24 @@ def estimate_pair(ref: Signal, other: Signal, max_offset_s: float = 30.0,
     r_coarse = -cost(coarse)
     r_after = r_coarse
     if refine:
+        # the grid correlation of slowly varying signals (a highway speed trace) has a broad
+        # lobe whose top the overlap weighting can move by seconds: scan the fine mismatch
+        # over the main lobe (at most ±10 s) on the fine step, then refine around its minimum
+        lo_d = max(lags[left] * dt, coarse - 10.0)
+        hi_d = min(lags[right] * dt, coarse + 10.0)
         span = 1.5 * max(p_ref, p_oth, dt)
-        res = minimize_scalar(cost, bounds=(coarse - span, coarse + span), method="bounded",
-                              options={"xatol": dt / 200})
-        if res.success and -res.fun >= r_coarse - 1e-12:
+        lo_d, hi_d = min(lo_d, coarse - span), max(hi_d, coarse + span)
+        scan = np.arange(lo_d, hi_d + 0.5 * dt, dt)
+        costs = np.array([cost(d) for d in scan])
+        best = float(scan[int(np.argmin(costs))]) if costs.size else coarse
+        if costs.size and costs.min() < cost(coarse):
+            coarse = best
+        res = minimize_scalar(cost, bounds=(coarse - 1.5 * dt, coarse + 1.5 * dt),
+                              method="bounded", options={"xatol": dt / 200})
+        if res.success and -res.fun >= -cost(coarse) - 1e-12:
             offset, r_after = float(res.x), float(-res.fun)
+        elif -cost(coarse) > r_after:
+            offset, r_after = float(coarse), float(-cost(coarse))
     ratio = max(second, 0.0) / peak if peak > 0 else 1.0
     conf = max(0.0, r_after) * max(0.0, 1.0 - ratio)
     return PairResult(ref=ref.name, other=other.name, kind=kind, offset_s=offset,

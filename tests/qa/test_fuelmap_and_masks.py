@@ -110,7 +110,7 @@ def test_spike_shape_and_slow_partner_cannot_confirm():
     i = int(np.searchsorted(s.time, 150.0))
     v[i] += 3000.0                                   # one-sample spike at 10 Hz
     j = int(np.searchsorted(s.time, 220.0))
-    v[j:j + 8] += np.array([2500, 2200, 1900, 1600, 1300, 1000, 700, 400.0])  # edge + decay
+    v[j:j + 6] += np.array([2500, 1200, 900, 700, 500, 300.0])   # edge + decay
     test.add(Signal.standard("veh_frc_in_test", s.time, v, source="dyno"), replace_existing=True)
     found = [f for f in run_level1(test) if f.signal == "veh_frc_in_test" and f.kind == Kind.SPIKE]
     at = {round(f.start_s): f.severity for f in found}

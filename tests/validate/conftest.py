@@ -48,16 +48,25 @@ def virtual_tests(nominal):
     return out
 
 
+class _DynoDirs(dict):
+    """cycle -> virtual dyno test directory, made on first use (once per test worker)."""
+
+    def __init__(self, root, synth):
+        super().__init__()
+        self.root, self.synth = root, synth
+
+    def __missing__(self, cycle: str):
+        d = self.root / cycle
+        self.synth.make_virtual_test("prius_2004", cycle, seed=3, faults="none", outdir=d,
+                                     controller_overrides=CONTROLLER_TRUTH,
+                                     vehicle_overrides=COMPONENT_TRUTH)
+        self[cycle] = d
+        return d
+
+
 @pytest.fixture(scope="session")
 def dyno_dirs(tmp_path_factory):
-    """cycle -> directory of a virtual dyno test of the perturbed vehicle (faults 'none')."""
+    """cycle -> directory of a virtual dyno test of the perturbed vehicle (faults 'none',
+    seed 3), generated lazily."""
     synth = pytest.importorskip("vehval.synth")
-    root = tmp_path_factory.mktemp("dyno")
-    out = {}
-    for cyc in ("ece15", "udds"):
-        d = root / cyc
-        synth.make_virtual_test("prius_2004", cyc, seed=3, faults="none", outdir=d,
-                                controller_overrides=CONTROLLER_TRUTH,
-                                vehicle_overrides=COMPONENT_TRUTH)
-        out[cyc] = d
-    return out
+    return _DynoDirs(tmp_path_factory.mktemp("dyno"), synth)

@@ -13,9 +13,10 @@ from vehval.errors import ConfigError
 from vehval.sim.cycles import load_cycle
 from vehval.sim.vehicle import load_vehicle
 from vehval.validate import validate_test, variability
+from vehval.validate.calibration import calibrate
 from vehval.validate.loading import group_args, load_one
 
-from .conftest import TRUTH
+from .conftest import HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
 
 synth = pytest.importorskip("vehval.synth")
 
@@ -94,6 +95,35 @@ def test_virtual_dyno_files_replayed_on_the_measured_speed(dyno_dirs, nominal):
     assert cs.totals_test["fuel_mass_kg"] == ct.totals_test["fuel_mass_kg"]
     with pytest.raises(ConfigError, match="Nyquist"):
         validate_test(lt.test, nominal, dt=0.1, smooth_hz=6.0)  # 10 Hz samples
+
+
+def test_calibration_through_virtual_dyno_files(dyno_dirs, nominal):
+    # the acceptance path end to end: files -> import + QA -> calibrate the five perturbed
+    # parameters on two cycles at the data's resolution (dt = 0.1 s, measured speed
+    # low-passed at 1 Hz) -> check on two held-out cycles. A shortened search (8
+    # generations) to keep the test fast; docs/validation.md has the full run.
+    tune = [load_one([dyno_dirs[c]]).test for c in TUNE_CYCLES]
+    hold = [load_one([dyno_dirs[c]]).test for c in HOLDOUT_CYCLES]
+    res = calibrate(tune, nominal, list(TRUTH), holdout_tests=hold, dt=0.1, seed=0,
+                    maxiter=8, smooth_hz=1.0)
+    # acceptance: fuel and final SOC within 2 % on the held-out cycles (measured: fuel
+    # 0.74 / 0.48 %, SOC 0.61 / 0.55 %; the nominal model was off by 9.9 / 6.8 % fuel)
+    for tid in res.holdout:
+        assert res.after[tid]["fuel_pct"] < 2.0 and res.after[tid]["soc_pct"] < 2.0, res.after[tid]
+        assert res.before[tid]["fuel_pct"] > 5.0
+    # Tolerances through the sensor chain (noise, lags, 0.5 %-step OBD SOC, measured trace):
+    # the tuned tests are fitted to < 0.1 % by trading the weakly seen accessory load (1.9 A
+    # of battery current at standstill) against the SOC gain and regen share. Measured:
+    # -0.6, +3.5, -5.0, -17.7, -0.7 %.
+    tol = {"controller.engine_on_power_w": 0.08, "controller.soc_gain_w": 0.10,
+           "controller.regen_fraction_max": 0.08, "body.aux_power_w": 0.25,
+           "driveline.final_drive_efficiency": 0.02}
+    for name, true in TRUTH.items():
+        assert abs(res.best[name] - true) / true < tol[name], (name, res.best[name], true)
+    # every parameter moved from the nominal value towards the truth
+    for name, true in TRUTH.items():
+        start = res.start[name]
+        assert abs(res.best[name] - true) < abs(start - true), (name, start, res.best[name])
 
 
 def test_cli_validate_on_virtual_dyno_files(dyno_dirs, tmp_path):

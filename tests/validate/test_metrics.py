@@ -80,3 +80,29 @@ def test_match_events_one_to_one_within_window():
 def test_match_events_greedy_prefers_closest():
     m = M.match_events([0.0, 1.0], [0.9], window_s=2.0)
     assert m.pairs == [(1.0, 0.9)] and m.missed == [0.0]
+
+
+def test_speed_smoothing_is_zero_phase_low_pass():
+    from vehval.errors import ConfigError
+    from vehval.validate.conditions import smooth_speed
+
+    t = np.arange(0.0, 200.0, 0.1)  # 10 Hz
+    slow = 10.0 + 2.0 * np.sin(2 * np.pi * 0.05 * t)  # 0.05 Hz: a driving manoeuvre
+    ripple = 0.2 * np.sin(2 * np.pi * 3.0 * t)  # 3 Hz: sensor / tracking ripple
+    tu, v = smooth_speed(t, slow + ripple, 1.0)
+    assert np.allclose(tu, t)
+    inner = slice(200, -200)  # away from the filtfilt edge transients
+    # 2nd-order Butterworth run twice: |H(f)|^2 = 1 / (1 + (f/fc)^4) for the analog prototype
+    # -> 0.05 Hz passes to 6e-6 and without phase shift (filtfilt), 3 Hz is cut to 1 / 82 =
+    # 1.2 % (0.0024 m/s) or less (the bilinear transform attenuates more near Nyquist)
+    # (a lag of only 0.05 s would already leave 2 x 2 pi x 0.05 x 0.05 = 0.03 m/s)
+    err = v[inner] - slow[inner]
+    assert np.max(np.abs(err)) < 0.2 / 82 * 1.1 + 1e-4
+    # a stop: the filter's undershoot before the standstill is clipped to 0
+    step = np.where(t < 100.0, 5.0, 0.0)
+    _, vs = smooth_speed(t, step, 1.0)
+    assert vs.min() == 0.0 and np.all(vs[t > 110.0] < 1e-3)
+    with pytest.raises(ConfigError, match="Nyquist"):
+        smooth_speed(t, slow, 6.0)
+    with pytest.raises(ConfigError, match="positive"):
+        smooth_speed(t, slow, 0.0)

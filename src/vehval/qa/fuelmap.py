@@ -23,6 +23,10 @@ Samples used (on the fuel signal's own times):
   response and the start transients are not part of a static map;
 * no warning/error finding of the speed, torque or fuel signal over the sample (spikes,
   dropouts, a drifting torque zero...): a torque signal is used only where it is trusted.
+  Speed and torque are taken per sample from the first trusted candidate: the measured
+  signals by source preference, then ``eng_spd_out_calc`` / ``eng_trq_out_calc`` where every
+  measured input of the calculation is trusted (a drifting torque sensor is replaced by the
+  planetary torque balance).
 """
 
 from __future__ import annotations
@@ -191,7 +195,10 @@ def fuel_map_check(test: Test, vehicle: Any, findings: list[Finding], computed: 
     w, ok_w, used_w = _merge(test, "eng_spd_out", t, findings, computed)
     trq, ok_t, used_t = _merge(test, "eng_trq_out", t, findings, computed)
     if not used_w or not used_t:
-        return [], []
+        missing = [b for b, u in (("engine speed", used_w), ("engine torque", used_t)) if not u]
+        return [], [Finding(fuel.name, Kind.FUEL_MAP, float(t[0]), float(t[-1]), Severity.INFO,
+                            f"fuel map check of {fuel.name} not made: no trusted "
+                            f"{' or '.join(missing)} (measured or calculated)", {})]
     use = _trusted(fuel.name, test, t, findings, computed) & ok_w & ok_t
     tmax = np.interp(np.where(ok_w, w, 0.0), fmap["spd"], fmap["tmax"])
     with np.errstate(invalid="ignore"):

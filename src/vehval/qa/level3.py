@@ -360,7 +360,7 @@ def residual_drift(test: Test, measured: str, calculated: str, rng: float,
     # drift = the straight-line trend of the block medians over the test (end points of
     # noisy medians, e.g. 19 samples a block of a 1 Hz comparison, would over- or undershoot)
     slope_fit = np.polyfit(tb - tb[0], med, 1)[0] if np.ptp(tb) > 0 else 0.0
-    total = float(slope_fit * (tb[-1] - tb[0]))
+    total = float(slope_fit * (t[-1] - t[0]))
     # standard error of a block median: scatter of the residual about its block medians
     dev = np.concatenate([r[b] - m for b, m in zip(blocks, med)])
     se = 1.2533 * 1.4826 * float(np.median(np.abs(dev))) / np.sqrt(min(len(b) for b in blocks))
