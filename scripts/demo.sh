@@ -72,7 +72,7 @@ echo "wrote $OUT/analysis/control.json"
 
 # --------------------------------------------------------------------------- 5 simulate
 stage 5 "simulation of the 2004 Prius model"
-"$VEHVAL" simulate --vehicle prius_2004 --cycle udds --charge-balance -o "$OUT/simulation" --json
+"$VEHVAL" simulate --vehicle prius_2004 --cycle udds --charge-balance -o "$OUT/simulation"
 
 echo
 echo "demo: outputs in $OUT (see $OUT/README.txt)"

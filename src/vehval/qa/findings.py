@@ -196,9 +196,16 @@ def merge_runs(rs: list[tuple[int, int]], time: np.ndarray, gap_s: float) -> lis
 
 def untrusted_mask(names: set[str] | frozenset[str], times: np.ndarray, findings: Iterable[Finding],
                    pad_s: float = 0.5) -> np.ndarray:
-    """Samples at ``times`` [s] covered (±``pad_s``) by a warning or error of any of ``names``."""
+    """Samples at ``times`` [s] covered (±``pad_s``) by a warning or error of any of ``names``.
+
+    A finding that summarises several separate stretches (``numbers["runs"] > 1``, e.g. "negative
+    in 4 stretches" from the first to the last) does not mark the time between them; the
+    stretches themselves carry their own range or spike findings.
+    """
     bad = np.zeros(np.asarray(times).size, bool)
     for f in findings:
+        if (f.numbers or {}).get("runs", 1) > 1:
+            continue
         if f.signal in names and f.severity != Severity.INFO:
             bad |= (times >= f.start_s - pad_s) & (times <= f.end_s + pad_s)
     return bad

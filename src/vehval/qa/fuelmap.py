@@ -38,7 +38,7 @@ import numpy as np
 
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity
+from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
 from vehval.qa.level2 import preference_rank
 from vehval.test import Signal, Test
 
@@ -49,9 +49,10 @@ RPM = 2.0 * np.pi / 60.0
 class FuelMapOptions:
     """Thresholds of the fuel-map check.
 
-    ``gain_tol`` 5 %: on clean virtual tests (several seeds, UDDS pieces) the gain stays
-    within about ±2 % (torque sensor calibration 1 %, map interpolation, meter lag), so 5 %
-    leaves a margin of more than twice the clean spread.
+    ``gain_tol`` 5 %: on clean virtual tests (8 cycles from ECE15 to US06, 3 seeds each) the
+    gain stays between -2.1 % and -1.3 % (the virtual torque sensor reads 1 % high, map
+    interpolation, meter lag), so 5 % leaves more than twice the clean deviation; injected
+    meter errors of +8 % and -7 % read +7..+10 % and -9 % and are reported.
     """
 
     gain_tol: float = 0.05            # |gain - 1| above this: warning on the fuel signal
@@ -128,9 +129,7 @@ def _trusted(name: str, test: Test, t: np.ndarray, findings: list[Finding],
     one where every input it was computed from is trusted.
     """
     ok = np.isfinite(test[name].at(t)) if name in test else np.zeros(t.size, bool)
-    for f in findings:
-        if f.signal == name and f.severity != Severity.INFO:
-            ok &= ~((t >= f.start_s - 0.5) & (t <= f.end_s + 0.5))
+    ok &= ~untrusted_mask({name}, t, findings)
     if name.endswith("_calc") and depth < 10:
         for inp in computed.get(name, {}).get("inputs", {}).values():
             ok &= _trusted(inp, test, t, findings, computed, depth + 1)

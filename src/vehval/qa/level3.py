@@ -344,7 +344,7 @@ def residual_drift(test: Test, measured: str, calculated: str, rng: float,
     ``drift_min_significant`` (1.5 %) of it while also exceeding ``drift_se_k`` (20) standard
     errors of a block median: a precise relation (wheel torque against tractive force x
     radius) reveals a zero drift that is small against a large range. On the clean virtual
-    tests (8 cycles, 3 seeds) no residual trend exceeds 2.5 % of the range or 6 standard errors.
+    tests (8 cycles, 3 seeds) no residual trend exceeds 2.8 % of the range or 7 standard errors.
     """
     c = test[calculated]
     res = test[measured].at(c.time) - c.values
