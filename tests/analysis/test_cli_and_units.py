@@ -111,4 +111,5 @@ def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
     assert "reversed" in msgs                                # battery power sign corrected
     # the QA ran: it dropped the reversed current clamp, so the SOC is coulomb counted from
     # its calculated battery power over the voltage
-    assert "coulomb counting of ess_pwr_calc / ess_volt_test" in d["inputs"]["soc"]["method"]
+    # QA drops the sign-flipped current; the analysis takes it back and fixes its sign
+    assert "coulomb counting of ess_curr_test" in d["inputs"]["soc"]["method"]

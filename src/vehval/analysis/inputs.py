@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from vehval.test import Signal, Test
+from vehval.nomenclature import registry
 
 #: Origins searched, in order of preference.
 ORIGINS = ("test", "calc")
@@ -311,3 +312,41 @@ def from_simulation(sim_test: Test) -> Test:
             out.add(Signal(name, sig.time, sig.values, sig.unit, source="",
                            resample=sig.resample, notes=list(sig.notes)))
     return out
+
+
+#: Quantities the analysis checks itself against the SOC trend (sign, bias): when QA
+#: dropped them for their sign only, the analysis may still use them.
+SIGN_CHECKED = ("ess_curr", "ess_pwr")
+
+
+def restore_sign_checked(validated: Test, imported: Test, dropped: dict[str, str]) -> list[str]:
+    """Put back battery current/power signals that QA dropped only for a reversed sign.
+
+    The analysis estimates the battery's sign convention itself from the SOC trend, so a
+    signal dropped for ``sign_flip`` is still usable there. It is taken from ``imported``,
+    shifted by the offset QA applied to its source, and added to ``validated`` only when no
+    signal of that quantity is left. Returns one note per restored signal.
+
+    Parameters
+    ----------
+    validated : Test
+        QA's validated test (modified in place).
+    imported : Test
+        The test as imported, before alignment.
+    dropped : dict
+        QA's selection ``dropped`` mapping (full name -> reason).
+    """
+    notes = []
+    reg = registry()
+    for name, reason in sorted(dropped.items()):
+        if not reason.startswith("sign_flip") or name not in imported:
+            continue
+        base = reg.parse(name).base
+        if base not in SIGN_CHECKED or validated.by_base(base, None):
+            continue
+        sig = imported[name]
+        offset = validated.meta.offsets_s.get(sig.source, 0.0)
+        validated.add(sig.shifted(offset) if offset else sig)
+        notes.append(f"{name}: used although QA dropped it for its sign; the analysis checks "
+                     "the sign against the SOC trend")
+    return notes

@@ -43,7 +43,13 @@ def analyze_cmd(
         except ImportError:  # pragma: no cover - QA not installed
             run_qa = None
         if run_qa is not None:
-            test = run_qa(test, veh, tpl).validated
+            from vehval.analysis.inputs import restore_sign_checked
+            qa_result = run_qa(test, veh, tpl)
+            restored = restore_sign_checked(qa_result.validated, test,
+                                            qa_result.selection.dropped)
+            test = qa_result.validated
+            for note in restored:
+                typer.echo(f"note: {note}", err=True)
     result = analyze(test, veh)
     text = json.dumps(result.to_dict(), indent=1) + "\n"
     outdir.mkdir(parents=True, exist_ok=True)

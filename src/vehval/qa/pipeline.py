@@ -134,6 +134,34 @@ def _vehicle_limits(vehicle: Any) -> dict | None:
     return vehicle.signal_limits()
 
 
+def _validated_test(work: Test, selection, calc, vehicle, calc_set, constants, bad: set[str],
+                    notes: list[str]) -> Test:
+    """The kept measured signals plus calculations that rest only on kept signals.
+
+    A calculation that used a signal the selection dropped (e.g. a battery current found
+    sign-flipped only by a later check) is recomputed without it, or left out.
+    """
+    dropped = set(selection.dropped)
+    from vehval.qa.level3 import measured_inputs
+    tainted = sorted(n for n in calc.computed if measured_inputs(n, calc.computed) & dropped)
+    validated = Test(meta=copy.deepcopy(work.meta))
+    for sig in work:
+        if sig.name in selection.kept:
+            validated.add(sig)
+    if not tainted:
+        for sig in work:
+            if sig.name.endswith("_calc"):
+                validated.add(sig)
+        return validated
+    redo = compute(validated, vehicle, calc_set, constants)  # only kept signals are in it
+    lost = sorted(set(calc.computed) - set(redo.computed))
+    notes.append(
+        f"calculations recomputed without the dropped signals ({', '.join(sorted(dropped))}) "
+        f"because {', '.join(tainted)} used them"
+        + (f"; no longer computable: {', '.join(lost)}" if lost else ""))
+    return validated
+
+
 def run_qa(test: Test, vehicle: Any = None, template: Any = None,
            pairs: list[tuple[str, str]] | None = None, *, max_offset_s: float = 30.0,
            align: bool = True, calc_set: str | None = None,
@@ -203,10 +231,7 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     findings += ff
     pvals = {k: v["value"] for k, v in calc.parameters.items() if v.get("value") is not None}
     selection = select_signals(work, findings, table2, table3, user_keep, user_drop, pvals)
-    validated = Test(meta=copy.deepcopy(work.meta))
-    for sig in work:
-        if sig.name in selection.kept or sig.name.endswith("_calc"):
-            validated.add(sig)
+    validated = _validated_test(work, selection, calc, vehicle, calc_set, constants, bad, notes)
     validated.meta.notes = list(validated.meta.notes) + [
         f"QA: kept {len(selection.kept)} measured signals, dropped {len(selection.dropped)}, "
         f"computed {len(calc.computed)}"]
