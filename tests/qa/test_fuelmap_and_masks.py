@@ -9,8 +9,13 @@ import pytest
 from vehval.align import align_test
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.qa.fuelmap import FuelMapOptions, fuel_map_check, map_fuel_rate
-from vehval.qa.level1 import check_signal, run_level1
-from vehval.qa.level3 import Level3Options, quasi_steady_mask, residual_drift, slow_sample_mask
+from vehval.qa.level1 import run_level1
+from vehval.qa.level3 import (
+    Level3Options,
+    quasi_steady_mask,
+    residual_drift,
+    slow_sample_mask,
+)
 from vehval.test import Signal, Test
 
 from .conftest import make_test

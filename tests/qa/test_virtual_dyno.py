@@ -22,11 +22,11 @@ import pytest
 synth = pytest.importorskip("vehval.synth")
 pytest.importorskip("vehval.sim.simulate")
 
-from vehval.io.importer import import_test  # noqa: E402
-from vehval.qa.findings import Severity  # noqa: E402
-from vehval.qa.pipeline import run_qa  # noqa: E402
-from vehval.sim.cycles import Cycle, load_cycle  # noqa: E402
-from vehval.sim.vehicle import load_vehicle  # noqa: E402
+from vehval.io.importer import import_test
+from vehval.qa.findings import Severity
+from vehval.qa.pipeline import run_qa
+from vehval.sim.cycles import Cycle, load_cycle
+from vehval.sim.vehicle import load_vehicle
 
 #: OBD logger behind the dyno, a frozen OBD motor speed, a reversed OBD motor torque...
 MIX_B = [

@@ -6,8 +6,13 @@ import numpy as np
 import pytest
 
 from vehval.errors import ConfigError
-from vehval.synth.faults import (Fault, apply_raw_faults, apply_si_faults, load_fault_specs,
-                                 resolve_faults)
+from vehval.synth.faults import (
+    Fault,
+    apply_raw_faults,
+    apply_si_faults,
+    load_fault_specs,
+    resolve_faults,
+)
 from vehval.synth.sensors import first_order_lag, load_sensor_table, quantise, rng_for
 from vehval.synth.writers import write_table
 

@@ -116,10 +116,10 @@ def quasi_steady_mask(test: Test, grid: np.ndarray, acc_max: float = 20.0,
         return None
     dt = float(np.median(np.diff(grid)))
     w = np.interp(grid, grid[ok], w[ok])
-    n_avg = max(1, int(round(0.5 / dt)))
+    n_avg = max(1, round(0.5 / dt))
     acc = np.gradient(uniform_filter1d(w, n_avg, mode="nearest"), grid)
     fast = np.abs(acc) > acc_max
-    n_pad = 2 * max(0, int(round(pad_s / dt))) + 1
+    n_pad = 2 * max(0, round(pad_s / dt)) + 1
     fast = maximum_filter1d(fast.astype(np.uint8), n_pad, mode="nearest") > 0
     return ~fast
 
