@@ -68,6 +68,14 @@ LEVEL_OF_KIND = {
 }
 
 
+def json_number(value):
+    """A float as JSON allows it (NaN/inf -> None, numpy -> Python); other values unchanged."""
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        return v if math.isfinite(v) else None
+    return value
+
+
 def _clean(value):
     """JSON-safe number: NaN/inf become None, numpy scalars become Python floats."""
     if isinstance(value, (np.floating, float)):

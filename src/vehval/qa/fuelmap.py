@@ -92,16 +92,9 @@ def map_fuel_rate(fmap: dict, speed: np.ndarray, torque: np.ndarray) -> np.ndarr
 
     Torque below zero is read at zero (as the simulator does for a firing engine).
     """
-    xb, yb, z = fmap["spd"], fmap["trq"], fmap["fuel"]
-    x = np.clip(speed, xb[0], xb[-1])
-    y = np.clip(np.maximum(torque, 0.0), yb[0], yb[-1])
-    i = np.clip(np.searchsorted(xb, x, side="right") - 1, 0, xb.size - 2)
-    j = np.clip(np.searchsorted(yb, y, side="right") - 1, 0, yb.size - 2)
-    wx = (x - xb[i]) / (xb[i + 1] - xb[i])
-    wy = (y - yb[j]) / (yb[j + 1] - yb[j])
-    a = z[i, j] + wy * (z[i, j + 1] - z[i, j])
-    b = z[i + 1, j] + wy * (z[i + 1, j + 1] - z[i + 1, j])
-    return np.maximum(a + wx * (b - a), 0.0)
+    from vehval.sim.maps import bilinear
+    return np.maximum(bilinear(fmap["spd"], fmap["trq"], fmap["fuel"], speed,
+                               np.maximum(torque, 0.0)), 0.0)
 
 
 def _candidates(test: Test, base: str) -> list[Signal]:

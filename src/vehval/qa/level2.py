@@ -19,7 +19,7 @@ import numpy as np
 from vehval.align import estimate_pair
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
+from vehval.qa.findings import Finding, Kind, Severity, json_number, untrusted_mask
 from vehval.test import Signal, Test
 
 #: Unit factors a wrong unit typically produces (slope of other vs ref).
@@ -97,13 +97,7 @@ class PairComparison:
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        out = {}
-        for k, v in self.__dict__.items():
-            if isinstance(v, (float, np.floating)):
-                out[k] = float(v) if np.isfinite(v) else None
-            else:
-                out[k] = v
-        return out
+        return {k: json_number(v) for k, v in self.__dict__.items()}
 
 
 def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None,

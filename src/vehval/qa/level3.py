@@ -30,7 +30,7 @@ import numpy as np
 from vehval.equations.calc import CalcResult
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
+from vehval.qa.findings import Finding, Kind, Severity, json_number, untrusted_mask
 from vehval.test import Test
 
 #: Cumulative outputs: a drift shows in them, a correlation is meaningless.
@@ -72,13 +72,7 @@ class CalcComparison:
     samples: str = "all"           # "all" or "quasi-steady" (steady-state relations)
 
     def to_dict(self) -> dict:
-        out = {}
-        for k, v in self.__dict__.items():
-            if isinstance(v, (float, np.floating)):
-                out[k] = float(v) if np.isfinite(v) else None
-            else:
-                out[k] = v
-        return out
+        return {k: json_number(v) for k, v in self.__dict__.items()}
 
 
 def quasi_steady_mask(test: Test, grid: np.ndarray, acc_max: float = 20.0,

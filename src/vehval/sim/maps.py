@@ -96,3 +96,19 @@ def interp2(bp_row, bp_col, table, x_row, x_col):
     a = table[i, j] + wj * (table[i, j + 1] - table[i, j])
     b = table[i + 1, j] + wj * (table[i + 1, j + 1] - table[i + 1, j])
     return a + wi * (b - a)
+
+
+def bilinear(xb: np.ndarray, yb: np.ndarray, z: np.ndarray, x: np.ndarray, y: np.ndarray):
+    """Vectorised clamped bilinear interpolation of ``z[x, y]`` (same rule as interp2).
+
+    Queries outside the breakpoints are clamped to the edge of the table.
+    """
+    x = np.clip(x, xb[0], xb[-1])
+    y = np.clip(y, yb[0], yb[-1])
+    i = np.clip(np.searchsorted(xb, x, side="right") - 1, 0, xb.size - 2)
+    j = np.clip(np.searchsorted(yb, y, side="right") - 1, 0, yb.size - 2)
+    wx = (x - xb[i]) / (xb[i + 1] - xb[i])
+    wy = (y - yb[j]) / (yb[j + 1] - yb[j])
+    a = z[i, j] + wy * (z[i, j + 1] - z[i, j])
+    b = z[i + 1, j] + wy * (z[i + 1, j + 1] - z[i + 1, j])
+    return a + wx * (b - a)

@@ -7,7 +7,7 @@ from numba import njit
 from pydantic import Field, model_validator
 
 from vehval.sim.components.base import RPM, Block, bp_check, table_check
-from vehval.sim.maps import interp1, interp2
+from vehval.sim.maps import bilinear, interp1, interp2
 
 
 class EngineParams(Block):
@@ -81,7 +81,7 @@ def best_efficiency_line(p: EngineParams, n_power: int = 121, n_speed: int = 400
     power = np.linspace(0.0, pmax, n_power)
     # bilinear fuel rate on the (power x speed) grid, torque = power / speed
     trq = power[:, None] / speeds[None, :]
-    fr = _bilinear(a["spd"], a["trq"], a["fuel"], np.broadcast_to(speeds, trq.shape), trq)
+    fr = bilinear(a["spd"], a["trq"], a["fuel"], np.broadcast_to(speeds, trq.shape), trq)
     fr = np.where(trq <= tmax[None, :] + 1e-9, fr, np.inf)
     best = np.where(np.isfinite(fr).any(axis=1), speeds[np.argmin(fr, axis=1)], w_hi)
     best[0] = w_lo
@@ -89,14 +89,3 @@ def best_efficiency_line(p: EngineParams, n_power: int = 121, n_speed: int = 400
     return power, best, power / best
 
 
-def _bilinear(xb: np.ndarray, yb: np.ndarray, z: np.ndarray, x: np.ndarray, y: np.ndarray):
-    """Vectorised clamped bilinear interpolation of ``z[x, y]`` (same rule as interp2)."""
-    x = np.clip(x, xb[0], xb[-1])
-    y = np.clip(y, yb[0], yb[-1])
-    i = np.clip(np.searchsorted(xb, x, side="right") - 1, 0, xb.size - 2)
-    j = np.clip(np.searchsorted(yb, y, side="right") - 1, 0, yb.size - 2)
-    wx = (x - xb[i]) / (xb[i + 1] - xb[i])
-    wy = (y - yb[j]) / (yb[j + 1] - yb[j])
-    a = z[i, j] + wy * (z[i, j + 1] - z[i, j])
-    b = z[i + 1, j] + wy * (z[i + 1, j + 1] - z[i + 1, j])
-    return a + wx * (b - a)
