@@ -72,3 +72,20 @@ def test_read_only_errors(tmp_path):
     con.close()
     with pytest.raises(ConfigError, match="not a vehval catalog"):
         open_catalog(tmp_path / "other.duckdb", read_only=True)
+
+
+def test_metrics_skip_a_quantity_qa_dropped():
+    """A fuel channel QA dropped as not measured gives no fuel metric, not 0 kg."""
+    import numpy as np
+
+    from vehval.batch.metrics import test_metrics
+    from vehval.test import Signal, Test
+
+    t = np.arange(0.0, 100.0, 0.1)
+    test = Test([Signal.standard("veh_spd_test", t, 10.0 + 0 * t, source="dyno"),
+                 Signal.standard("fuel_rate_test", t, 0 * t, source="dyno")])
+    without_qa = test_metrics(test, None)
+    assert without_qa["fuel_mass_kg"] == 0.0
+    with_qa = test_metrics(test, {"veh_spd": "veh_spd_test"})   # fuel_rate_test dropped
+    assert with_qa["fuel_mass_kg"] is None and with_qa["fuel_economy_mpg"] is None
+    assert with_qa["distance_m"] == np.float64(999.0) or abs(with_qa["distance_m"] - 999.0) < 1e-6

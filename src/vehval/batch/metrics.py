@@ -22,14 +22,16 @@ _M3_PER_US_GAL = 3.785411784e-3
 
 
 def _pick(test: Test, base: str, preferred: dict[str, str] | None = None) -> Signal | None:
-    """The measured signal of ``base``: the QA-selected one, else the unqualified one, else first."""
+    """The measured signal of ``base``: the QA-selected one, else the unqualified one, else first.
+
+    When QA ran (``preferred`` is not None), a quantity QA kept in no source is not used:
+    a channel dropped as not measured must not show up as a zero in the catalog.
+    """
     cands = test.by_base(base, "test")
     if not cands:
         return None
-    if preferred and base in preferred:
-        for s in cands:
-            if s.name == preferred[base]:
-                return s
+    if preferred is not None:
+        return next((s for s in cands if s.name == preferred.get(base)), None)
     cands.sort(key=lambda s: (s.name != f"{base}_test", s.name))
     return cands[0]
 
@@ -70,8 +72,8 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None) -> dict[str
     test : Test
         An imported test (measured signals ``*_test`` in SI).
     selected : dict, optional
-        Base name -> full name of the signal QA selection kept, used when several sources
-        measure the same quantity.
+        Base name -> full name of the signal QA selection kept. When given (QA ran), only
+        those signals are used; a quantity QA kept in no source gives None.
 
     Returns
     -------

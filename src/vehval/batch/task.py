@@ -197,7 +197,7 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
         outputs[step] = out
         write_text_atomic(stage / STEP_OUTPUT[step], dump_json(out))
     qa_dict = outputs.get("qa") or {}
-    result["metrics"] = test_metrics(test, _selected(qa_dict))
+    result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None)
     if qa_dict:
         result["findings"] = _compact_findings(qa_dict)
         result["findings_by_severity"] = _by_severity(result["findings"])
