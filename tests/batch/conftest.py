@@ -2,7 +2,7 @@
 
 The generator is deliberately simple and self-contained (a 1 Hz D3 text file and a
 one-entry template), so the batch machinery is tested independently of the simulator;
-the virtual-dyno tests in test_batch_cluster.py use H4's make_virtual_test when present.
+the virtual-dyno tests in test_batch_cluster.py use vehval.synth.make_virtual_test.
 """
 
 from __future__ import annotations

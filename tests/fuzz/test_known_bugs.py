@@ -1,4 +1,4 @@
-"""Minimal reproductions of bugs the fuzz tests found in other modules (owners: H1 vehval.io, H2 vehval.sim.vehicle).
+"""Minimal reproductions of bugs the fuzz tests found (in vehval.io and vehval.sim.vehicle).
 
 An open bug is a strict xfail: it documents the bug and turns into a failure (XPASS) the
 moment the bug is fixed, so the marker is then removed and the case stays as a regression
@@ -15,7 +15,7 @@ from vehval.io.readers import read_raw
 
 
 def test_utf32_text_auto_format_gives_vehval_error(tmp_path):
-    """Was: detect_format let _csv.Error escape on NUL-laden text (UTF-32). Fixed by H1."""
+    """Was: detect_format let _csv.Error escape on NUL-laden text (UTF-32). Fixed."""
     p = tmp_path / "u32.txt"
     p.write_bytes("Time[s]\tSpeed[mph]\r\n0\t1\r\n".encode("utf-32"))
     try:
@@ -25,7 +25,7 @@ def test_utf32_text_auto_format_gives_vehval_error(tmp_path):
 
 
 def test_unknown_encoding_gives_vehval_error(tmp_path):
-    """Was: LookupError from codecs.lookup in decode_bytes. Fixed by H1."""
+    """Was: LookupError from codecs.lookup in decode_bytes. Fixed."""
     p = tmp_path / "a.txt"
     p.write_bytes(b"Time[s]\tSpeed[mph]\n0\t1\n")
     with pytest.raises(VehvalError):
@@ -35,7 +35,7 @@ def test_unknown_encoding_gives_vehval_error(tmp_path):
 @pytest.mark.parametrize("rows", [1, 2])
 def test_empty_last_cell_in_last_row_is_kept(tmp_path, rows):
     """Was: the body was rstripped of tabs, so an empty last cell made the last row look
-    truncated and it was silently dropped. Fixed by H1."""
+    truncated and it was silently dropped. Fixed."""
     p = tmp_path / "e.txt"
     body = "".join(f"{i}\t12.5\t\r\n" for i in range(rows))
     p.write_bytes(("Time[s]\tSpeed[mph]\tEmpty[A]\r\n" + body).encode())

@@ -52,7 +52,7 @@ def test_willis_every_step(runs, cycle):
 def test_energy_balance_closes(runs, cycle):
     """fuel + battery chemical energy = losses + road load + brakes + kinetic energy change.
 
-    Tolerance 0.5 % of the energy throughput (the brief); by construction (mid-step speeds)
+    Tolerance 0.5 % of the energy throughput (the acceptance limit); by construction (mid-step speeds)
     it closes to round-off, so a bookkeeping error of any size shows up.
     """
     s = runs[cycle].summary
