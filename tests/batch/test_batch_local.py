@@ -80,12 +80,27 @@ def test_plain_loop_metrics_failures_and_resume(tmp_path, template_path):
 def test_index_and_report_links(tmp_path, template_path):
     inp, out = tmp_path / "in", tmp_path / "out"
     _inputs(inp, n=2)
-    pytest.importorskip("vehval.report")
+    plotly_asset_name = pytest.importorskip("vehval.report").plotly_asset_name
     run_batch(inp, template_path, out, steps=["qa"], workers=0, report=True, progress=False)
     html = (out / "index.html").read_text(encoding="utf-8")
     for tid in ("t0", "t1"):
         assert f'href="tests/{tid}/report.html"' in html
         assert (out / "tests" / tid / "report.html").is_file()
+    # every test report shares one local plotly.js: small, relative reference, no copy inside
+    assets = list((out / "assets").iterdir())
+    assert [a.name for a in assets] == [plotly_asset_name()] and assets[0].stat().st_size > 3e6
+    asset_mtime = assets[0].stat().st_mtime_ns
+    for tid in ("t0", "t1"):
+        report = out / "tests" / tid / "report.html"
+        text = report.read_text(encoding="utf-8")
+        assert report.stat().st_size < 1e6, report.stat().st_size   # ~9 MB when embedded
+        src = f'<script id="plotly-js" src="../../assets/{plotly_asset_name()}"></script>'
+        assert src in text and text.count(" src=") == 1             # nothing else is loaded
+        assert (report.parent / "../../assets" / plotly_asset_name()).resolve() == assets[0].resolve()
+        assert "* plotly.js v" not in text                          # no embedded copy
+    # a forced rerun leaves the identical asset untouched (written only when absent or different)
+    run_batch(inp, template_path, out, steps=[], workers=0, report=True, progress=False, force=True)
+    assert (out / "assets" / plotly_asset_name()).stat().st_mtime_ns == asset_mtime
     assert 'href="tests/garbage/report.html"' not in html
     # plotly.js embedded exactly once, nothing loaded from the network
     assert html.count("Plotly.newPlot") == 1 and "<script src=" not in html

@@ -2,7 +2,8 @@
 
 One browser session loads one report with every section, including the control-strategy
 section of a real ``analyze`` result and the validation section of a real ``validate_test``
-payload. Needs Debian's /usr/bin/chromium (``make browser`` installs it) and the python
+payload, then one report of a real ``vehval batch`` run, which loads the batch's shared
+plotly.js through a relative ``file://`` path instead of embedding it. Needs Debian's /usr/bin/chromium (``make browser`` installs it) and the python
 playwright package; skipped cleanly otherwise. Playwright's own browser download is never used.
 """
 
@@ -11,6 +12,8 @@ from __future__ import annotations
 import os
 import shutil
 from pathlib import Path
+
+import numpy as np
 
 import pytest
 
@@ -25,6 +28,42 @@ ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-f
         "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 LOCAL = ("file:", "data:", "about:", "blob:")
 
+BATCH_TEMPLATE = """template_version: 1
+files:
+  - match: "*.txt"
+    source: dyno
+    format: d3
+    time: {column: Time, unit: s}
+    channels:
+      Dyno_Speed: {name: veh_spd_test, unit: mph}
+      Engine_Speed: {name: eng_spd_out_test, unit: rpm}
+      Bty_Curr: {name: ess_curr_test, unit: A}
+      Fuel_Flow: {name: fuel_rate_test, unit: g/s}
+"""
+
+
+def _batch_report(root: Path) -> Path:
+    """Run a one-test ``vehval batch`` (QA + report) and return the test's report.html."""
+    from vehval.batch import run_batch
+
+    t = np.arange(120.0)
+    v = 30.0 * np.sin(np.pi * t / t[-1]) ** 2
+    rows = ["Time[s]\tDyno_Speed[mph]\tEngine_Speed[rpm]\tBty_Curr[A]\tFuel_Flow[g/s]"]
+    rows += [f"{a:g}\t{b:.6g}\t{1000 + 20 * b:.6g}\t{5 * np.sin(a / 9):.6g}\t{0.05 * b + 0.1:.6g}"
+             for a, b in zip(t, v)]
+    (root / "in" / "b1").mkdir(parents=True)
+    (root / "in" / "b1" / "run.txt").write_text("\r\n".join(rows) + "\r\n", encoding="utf-8")
+    (root / "tmpl.yaml").write_text(BATCH_TEMPLATE, encoding="utf-8")
+    run_batch(root / "in", root / "tmpl.yaml", root / "out", steps=["qa"], workers=0,
+              progress=False)
+    return root / "out" / "tests" / "b1" / "report.html"
+
+
+def _figure_state(page) -> list[dict]:
+    return page.evaluate("""() => Array.from(document.querySelectorAll('.vv-fig')).map(el => ({
+        id: el.id, rendered: el.dataset.rendered === '1', svg: el.querySelectorAll('.main-svg').length,
+        traces: (el.data || []).length}))""")
+
 
 @pytest.fixture(scope="module")
 def page_report(tmp_path_factory):
@@ -35,6 +74,7 @@ def page_report(tmp_path_factory):
     test = make_test()
     test.meta.vehicle = "prius_2004"  # component maps too
     write_report(path, test=test, qa=make_qa(), control=make_control(), validation=make_validation())
+    batch_report = _batch_report(path.parent)
     errors, remote = [], []
     with sync_api.sync_playwright() as p:
         try:
@@ -76,9 +116,16 @@ def page_report(tmp_path_factory):
         page.evaluate(f"Plotly.relayout(document.getElementById('{linked[0]}'), {{'xaxis.range': [20, 40]}})")
         page.wait_for_timeout(300)
         other = page.evaluate(f"document.getElementById('{linked[-1]}').layout.xaxis.range")
+        # a batch report, same browser: plotly.js comes from ../../assets/ beside it
+        n_err = len(errors)
+        page.goto(batch_report.as_uri())
+        page.evaluate("window.vehvalReport.renderAll()")
+        batch = {"state": _figure_state(page), "errors": errors[n_err:],
+                 "src": page.evaluate("document.getElementById('plotly-js').src"),
+                 "plotly": page.evaluate("typeof Plotly === 'object' && typeof Plotly.newPlot")}
         browser.close()
     return {"errors": errors, "remote": remote, "state": state, "tables": tables, "ids": ids, "other": other,
-            "sections": sections}
+            "sections": sections, "batch": batch, "batch_report": batch_report}
 
 
 def test_report_in_chromium(page_report):
@@ -90,6 +137,7 @@ def test_report_in_chromium(page_report):
     check_every_section_with_its_plots(page_report)
     check_every_table_present(page_report)
     check_time_axes_linked(page_report)
+    check_batch_report_with_shared_plotly(page_report)
 
 
 def check_no_console_errors(page_report):
@@ -131,3 +179,14 @@ def check_every_table_present(page_report):
 def check_time_axes_linked(page_report):
     lo, hi = page_report["other"]
     assert lo == pytest.approx(20) and hi == pytest.approx(40)
+
+
+def check_batch_report_with_shared_plotly(page_report):
+    b, report = page_report["batch"], page_report["batch_report"]
+    asset = (report.parent / ".." / ".." / "assets").resolve()
+    assert b["plotly"] == "function" and b["errors"] == []        # loaded from the local file
+    assert b["src"].startswith("file://") and b["src"].endswith(".min.js")
+    assert Path(b["src"][len("file://"):]).parent == asset
+    assert len(b["state"]) >= 3, b["state"]
+    for s in b["state"]:
+        assert s["rendered"] and s["svg"] >= 1 and s["traces"] >= 1, s

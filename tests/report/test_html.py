@@ -193,3 +193,25 @@ def test_string_titles_become_objects():
     assert fig["layout"]["xaxis"]["title"] == {"text": "power [kW]"}
     assert fig["layout"]["yaxis2"]["title"] == {"text": "n"}
     assert fig["data"][0]["marker"]["colorbar"]["title"] == {"text": "c"}
+
+
+def test_shared_plotly_asset(tmp_path):
+    """``plotly_js=<relative path>``: the report references one shared local copy."""
+    from vehval.errors import ConfigError
+    from vehval.report import plotly_asset_name, write_plotly_asset
+
+    asset = write_plotly_asset(tmp_path / "assets")
+    assert asset.name == plotly_asset_name() and asset.stat().st_size > 3e6
+    before = asset.stat().st_mtime_ns
+    assert write_plotly_asset(tmp_path / "assets").stat().st_mtime_ns == before  # unchanged: kept
+    asset.write_text("stale", encoding="utf-8")
+    assert write_plotly_asset(tmp_path / "assets").stat().st_size > 3e6         # different: rewritten
+    rel = f"../assets/{asset.name}"
+    path = write_report(tmp_path / "rep" / "report.html", test=make_test(), qa=make_qa(), plotly_js=rel)
+    text = path.read_text(encoding="utf-8")
+    assert f'<script id="plotly-js" src="{rel}"></script>' in text and "* plotly.js v" not in text
+    assert path.stat().st_size < 1e6 and (path.parent / rel).resolve() == asset.resolve()
+    for bad in ("https://cdn.plot.ly/plotly.min.js", "//cdn/x.js", "/abs/plotly.js", "C:\\p.js", ""):
+        with pytest.raises(ConfigError, match="relative path"):
+            write_report(tmp_path / "bad.html", test=make_test(), plotly_js=bad)
+    assert not (tmp_path / "bad.html").exists()

@@ -34,6 +34,8 @@ STEPS: dict[str, tuple[str, str]] = {
 #: Output file of each step.
 STEP_OUTPUT = {"qa": "findings.json", "analyze": "control.json", "validate": "validation.json"}
 _REPORT = ("vehval.report", "build_reports")
+#: Directory of OUTDIR holding the one plotly.js copy the test reports share.
+ASSETS_DIR = "assets"
 
 
 def _resolve(module: str, func: str, what: str) -> Callable:
@@ -206,9 +208,15 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
         result["validation"] = _validation_summary(outputs["validate"])
     if job.get("report"):
         build = _resolve(*_REPORT, what="the HTML report (use --no-report)")
+        from vehval.report import write_plotly_asset
+
+        # one plotly.js for the whole batch (OUTDIR/assets/), not 4.8 MB in every report;
+        # written here rather than by the driver so a remote worker's plotly version is used
+        asset = write_plotly_asset(Path(job["outdir"]) / ASSETS_DIR)
         build(stage, work, qa, template=template, vehicle=vehicle,
               control=report_parts.get("control"), validation=report_parts.get("validation"),
-              title=f"vehval test {job['test_id']}")
+              title=f"vehval test {job['test_id']}",
+              plotly_js=f"../../{ASSETS_DIR}/{asset.name}")  # from tests/<test_id>/
 
 
 def process_test(job: dict) -> dict:

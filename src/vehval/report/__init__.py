@@ -11,6 +11,9 @@ Public API
     --report`` and the batch runner call).
 :func:`results_beside`
     ``findings.json`` / ``control.json`` stored next to a validated test.
+:func:`write_plotly_asset`
+    One shared local copy of plotly.js for many reports (``plotly_js="<relative path>"``,
+    what the batch runner uses); single reports embed it by default.
 """
 
 from __future__ import annotations
@@ -20,18 +23,20 @@ from typing import Any
 
 from vehval.io.atomic import atomic_dir
 from vehval.report.excel import write_tables
-from vehval.report.html import render_report, write_report
+from vehval.report.html import (INLINE, plotly_asset_name, render_report, write_plotly_asset,
+                                write_report)
 from vehval.report.inputs import load_json, results_beside
 from vehval.test import Test
 
 __all__ = ["build_reports", "write_report", "write_tables", "render_report", "load_json",
-           "results_beside"]
+           "results_beside", "write_plotly_asset", "plotly_asset_name"]
 
 
 def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any = None,
                   vehicle: Any = None, control: Any = None, validation: dict | None = None,
                   *, title: str | None = None, html_name: str = "report.html",
-                  excel_name: str = "tables.xlsx", raw: Test | None = None) -> dict[str, Path]:
+                  excel_name: str = "tables.xlsx", raw: Test | None = None,
+                  plotly_js: str = INLINE) -> dict[str, Path]:
     """Write ``report.html`` and ``tables.xlsx`` into ``outdir``.
 
     Both files are staged and moved in only when both succeeded, so a failed run leaves
@@ -45,7 +50,7 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
         Validated test.
     qa : dict or QAResult or None
         QA result (``findings.json`` structure).
-    template, vehicle, control, validation, title, raw
+    template, vehicle, control, validation, title, raw, plotly_js
         As for :func:`write_report`; the control and validation tables also get their own
         sheets in the workbook.
 
@@ -56,7 +61,7 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
     """
     outdir = Path(outdir)
     html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
-                         validation=validation, title=title, raw=raw)
+                         validation=validation, title=title, raw=raw, plotly_js=plotly_js)
     with atomic_dir(outdir) as stage:
         (stage / html_name).write_text(html, encoding="utf-8")
         write_tables(stage / excel_name, qa, test, control=control, validation=validation)

@@ -3,12 +3,17 @@
 One file, readable offline: plotly.js is embedded once, each figure is a compact JSON block
 (typed arrays) drawn by a small script, and every table is plain HTML. The file is written
 atomically: a failed run leaves no partial report.
+
+Many reports side by side (``vehval batch``) can instead share one local copy of plotly.js:
+:func:`write_plotly_asset` writes it once, and ``plotly_js="<relative path>"`` makes a report
+load it with ``<script src>`` (still offline: a relative ``file://`` path, no network).
 """
 
 from __future__ import annotations
 
 import datetime as _dt
 import json
+import re
 from functools import lru_cache
 from importlib import resources
 from pathlib import Path
@@ -16,7 +21,8 @@ from typing import Any
 
 import jinja2
 
-from vehval.io.atomic import write_text_atomic
+from vehval.errors import ConfigError
+from vehval.io.atomic import atomic_path, write_text_atomic
 from vehval.report import plots
 from vehval.report import sections as S
 from vehval.report.figures import FigSpec, figure_json
@@ -26,14 +32,15 @@ from vehval.report.tables import fmt_cell, slug
 from vehval.test import Test, TestMeta
 
 DEFAULT_FIG_HEIGHT_PX = 450
+#: ``plotly_js`` value that embeds plotly.js in the report (the default).
+INLINE = "inline"
 
 
 @lru_cache(maxsize=1)
 def _plotly_assets() -> tuple[str, str, str]:
     """(plotly.js source, its version, the shared layout template JSON)."""
-    import plotly
     import plotly.io as pio
-    from plotly.offline import get_plotlyjs
+    from plotly.offline import get_plotlyjs, get_plotlyjs_version
 
     tmpl = pio.templates["plotly_white"].to_plotly_json()
     tmpl.setdefault("layout", {})
@@ -42,7 +49,60 @@ def _plotly_assets() -> tuple[str, str, str]:
                            "colorway": ["#1f5fa8", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c",
                                         "#0b7285", "#e67700", "#495057"]})
     js = get_plotlyjs().replace("</script", "<\\/script")
-    return js, plotly.__version__, json.dumps(tmpl, separators=(",", ":")).replace("</", "<\\/")
+    return js, get_plotlyjs_version(), json.dumps(tmpl, separators=(",", ":")).replace("</", "<\\/")
+
+
+def plotly_asset_name() -> str:
+    """File name of the shared plotly.js copy: ``plotly-<plotly.js version>.min.js``."""
+    from plotly.offline import get_plotlyjs_version
+
+    return f"plotly-{get_plotlyjs_version()}.min.js"
+
+
+def write_plotly_asset(directory: str | Path) -> Path:
+    """Write plotly.js once as ``directory/plotly-<version>.min.js`` for reports to share.
+
+    The file is written atomically, and only when it is absent or its content differs, so
+    concurrent writers (batch workers) and reruns are safe and an unchanged file is left
+    alone (its modification time too).
+
+    Parameters
+    ----------
+    directory : str or Path
+        Asset directory (created if needed).
+
+    Returns
+    -------
+    Path
+        The asset file.
+    """
+    from plotly.offline import get_plotlyjs
+
+    path = Path(directory) / plotly_asset_name()
+    data = get_plotlyjs().encode("utf-8")
+    try:
+        if path.stat().st_size == len(data) and path.read_bytes() == data:
+            return path
+    except OSError:
+        pass
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    return path
+
+
+#: A URL scheme (``https:``, ``C:``), an absolute path, a backslash or nothing.
+_UNSAFE_SRC = re.compile(r"^[a-zA-Z][a-zA-Z0-9+.-]*:|^/|\\|^\s*$")
+
+
+def _plotly_src(plotly_js: str) -> str | None:
+    """None to embed plotly.js, else the checked relative path of the shared copy."""
+    if plotly_js == INLINE:
+        return None
+    if not isinstance(plotly_js, str) or _UNSAFE_SRC.search(plotly_js):
+        raise ConfigError(f"plotly_js must be '{INLINE}' or a relative path to a local copy of "
+                          f"plotly.js (e.g. ../../assets/{plotly_asset_name()}), got {plotly_js!r}: "
+                          "a URL or an absolute path would not keep the report offline and movable")
+    return plotly_js
 
 
 def _read_asset(name: str) -> str:
@@ -157,10 +217,12 @@ def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle:
 
 def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: Any = None,
                   control: dict | None = None, validation: dict | None = None,
-                  title: str | None = None, raw: Test | None = None) -> str:
+                  title: str | None = None, raw: Test | None = None,
+                  plotly_js: str = INLINE) -> str:
     """The report as one HTML string (see :func:`write_report`)."""
     from vehval import __version__
 
+    src = _plotly_src(plotly_js)
     m = test.meta
     title = title or f"Test report: {m.test_id or 'unnamed test'}"
     secs = build_sections(test, qa, template=template, vehicle=vehicle, control=control,
@@ -189,13 +251,15 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
     return _env().get_template("report.html.j2").render(
         title=title, subtitle=subtitle, generated=_dt.datetime.now().strftime("%Y-%m-%d %H:%M"),
         version=__version__, synthetic=_is_virtual(test, template), sections=secs, fmt=fmt_cell,
-        css=_read_asset("report.css"), plotly_js=js, plotly_version=pver, template_json=tmpl,
+        css=_read_asset("report.css"), plotly_js=js if src is None else "", plotly_src=src,
+        plotly_version=pver, template_json=tmpl,
         render_js=_read_asset("render.js"))
 
 
 def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any = None,
                  vehicle: Any = None, control: dict | None = None, validation: dict | None = None,
-                 title: str | None = None, raw: Test | None = None) -> Path:
+                 title: str | None = None, raw: Test | None = None,
+                 plotly_js: str = INLINE) -> Path:
     """Write one self-contained HTML report of a test.
 
     Parameters
@@ -221,6 +285,12 @@ def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any 
     raw : Test, optional
         The imported test before QA: signals that selection dropped are plotted in the QA
         sections (shifted by the applied alignment offsets).
+    plotly_js : str
+        ``"inline"`` (default) embeds plotly.js (~4.8 MB): the file stands alone. Otherwise
+        a relative path (URL syntax, ``/`` separators) from the report to a local copy
+        written by :func:`write_plotly_asset`, e.g. ``"../../assets/plotly-3.1.0.min.js"``:
+        the report is then ~4.8 MB smaller but needs that file beside it. URLs and
+        absolute paths are refused (:class:`ConfigError`): the report must stay offline.
 
     Returns
     -------
@@ -228,6 +298,6 @@ def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any 
         The written file.
     """
     html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
-                         validation=validation, title=title, raw=raw)
+                         validation=validation, title=title, raw=raw, plotly_js=plotly_js)
     write_text_atomic(path, html)
     return Path(path)
