@@ -8,13 +8,14 @@ constants), so the results can say what they rest on.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from vehval.test import Signal, Test
 from vehval.nomenclature import registry
+from vehval.test import Signal, Test
 
 #: Origins searched, in order of preference.
 ORIGINS = ("test", "calc")
@@ -317,6 +318,17 @@ def from_simulation(sim_test: Test) -> Test:
 #: Quantities the analysis checks itself against the SOC trend (sign, bias): when QA
 #: dropped them for their sign only, the analysis may still use them.
 SIGN_CHECKED = ("ess_curr", "ess_pwr")
+
+
+def after_qa(qa_result: Any, imported: Test) -> tuple[Test, list[str]]:
+    """The test the analysis runs on once QA ran, and notes on what was taken back.
+
+    QA's validated test (not modified), plus the battery signals QA dropped only for a
+    reversed sign (see :func:`restore_sign_checked`).
+    """
+    validated = qa_result.validated
+    test = Test(list(validated), meta=copy.deepcopy(validated.meta))
+    return test, restore_sign_checked(test, imported, qa_result.selection.dropped)
 
 
 def restore_sign_checked(validated: Test, imported: Test, dropped: dict[str, str]) -> list[str]:

@@ -185,7 +185,11 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
             work = getattr(qa, "validated", None) or test
             out = jsonable(qa)
         elif step == "analyze":
-            res = fn(work, vehicle)
+            if qa is not None:
+                from vehval.analysis.inputs import after_qa
+                res = fn(after_qa(qa, test)[0], vehicle)
+            else:
+                res = fn(work, vehicle)
             out = jsonable(res)
             report_parts["control"] = out
         else:

@@ -43,11 +43,8 @@ def analyze_cmd(
         except ImportError:  # pragma: no cover - QA not installed
             run_qa = None
         if run_qa is not None:
-            from vehval.analysis.inputs import restore_sign_checked
-            qa_result = run_qa(test, veh, tpl)
-            restored = restore_sign_checked(qa_result.validated, test,
-                                            qa_result.selection.dropped)
-            test = qa_result.validated
+            from vehval.analysis.inputs import after_qa
+            test, restored = after_qa(run_qa(test, veh, tpl), test)
             for note in restored:
                 typer.echo(f"note: {note}", err=True)
     result = analyze(test, veh)

@@ -11,8 +11,7 @@ from vehval.cli import app
 from vehval.errors import InputFileError
 
 
-def _summary(result, outdir: Path) -> dict:
-    d = result.to_dict()
+def _summary(d: dict, outdir: Path) -> dict:
     return {"test": d["test"], "outdir": str(outdir), "summary": d["summary"],
             "alignment": [{k: a[k] for k in ("source", "reference", "offset_s", "confidence",
                                              "applied")} for a in d["alignment"]],
@@ -54,8 +53,9 @@ def qa_cmd(
     test = import_test(files, tpl)
     result = run_qa(test, veh, tpl, max_offset_s=max_offset)
     report_note = None
+    doc = result.to_dict()  # findings.json
     with atomic_dir(outdir) as stage:
-        write_text_atomic(stage / "findings.json", json.dumps(result.to_dict(), indent=1))
+        write_text_atomic(stage / "findings.json", json.dumps(doc, indent=1))
         write_test(result.validated, stage / "validated.parquet")
         save_final_template(tpl, result.selection, stage / "template_final.yaml")
         if report:
@@ -68,7 +68,7 @@ def qa_cmd(
                 html = render_report(result.validated, result, template=tpl, vehicle=veh, raw=test)
                 write_text_atomic(stage / "report.html", html)
                 write_tables(stage / "tables.xlsx", result, result.validated)
-    summ = _summary(result, outdir)
+    summ = _summary(doc, outdir)
     if report and not report_note:
         summ["files"] += ["report.html", "tables.xlsx"]
     if report_note:
@@ -76,8 +76,7 @@ def qa_cmd(
         typer.echo(f"vehval: note: {report_note}", err=True)
     if as_json:
         # the public contract: findings.json's keys, plus where the files went
-        full = result.to_dict()
-        full.update(outdir=summ["outdir"], files=summ["files"])
+        full = dict(doc, outdir=summ["outdir"], files=summ["files"])
         if report_note:
             full["report"] = report_note
         typer.echo(json.dumps(full, indent=1))
@@ -90,7 +89,7 @@ def qa_cmd(
         off = "n/a" if a["offset_s"] is None else f"{a['offset_s']:+.3f} s"
         typer.echo(f"  align {a['source']} -> {a['reference']}: {off} "
                    f"(confidence {a['confidence']:.2f}{'' if a['applied'] else ', not applied'})")
-    for f in result.to_dict()["findings"]:
+    for f in doc["findings"]:
         if f["severity"] != "info":
             typer.echo(f"  {f['severity']:7s} {f['kind']:14s} {f['message']}")
     typer.echo(f"wrote {outdir}/: {', '.join(summ['files'])}")

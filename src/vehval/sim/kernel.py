@@ -43,6 +43,21 @@ def _bus_allowed(batt_power, eff):
 
 
 @njit(cache=True)
+def _resplit(te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL, boost_eff, aux):
+    """Torque split again after the engine left its best line for a battery limit.
+
+    Returns the generator feed-forward torque [N·m] (-te/k1), the motor torque [N·m] from
+    eq. (1) within its limit, and the estimated generator electrical and battery-side
+    powers [W] for engine torque ``te`` [N·m] and ring torque ``t_ring`` [N·m].
+    """
+    tg_ff = -te / k1
+    t_m = min(max(t_fd - t_ring, -tm_lim), tm_lim)
+    p_gen = electrical_power(gS, gT, gL, wg0, tg_ff)
+    p_mot = electrical_power(mS, mT, mL, wr_e, t_m)
+    return tg_ff, t_m, p_gen, battery_side_power(p_mot + p_gen, boost_eff) + aux
+
+
+@njit(cache=True)
 def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, gT, gL,
         bSoc, bOcv, bRd, bRc, bPd, bPc, out, record):
     """Simulate one cycle.
@@ -234,11 +249,9 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                 if te_new > te:
                     t_ring += (te_new - te) * k2 / k1
                     te = te_new
-                    tg_ff = -te / k1
-                    t_m = min(max(t_fd - t_ring, -tm_lim), tm_lim)
-                    p_gen_est = electrical_power(gS, gT, gL, wg0, tg_ff)
-                    p_mot_est = electrical_power(mS, mT, mL, wr_e, t_m)
-                    p_b_est = battery_side_power(p_mot_est + p_gen_est, boost_eff) + aux
+                    tg_ff, t_m, p_gen_est, p_b_est = _resplit(
+                        te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL,
+                        boost_eff, aux)
             if p_b_est > pdis_av:
                 p_allow = _bus_allowed(pdis_av - aux, boost_eff) - p_gen_est
                 t_m = torque_for_power(mS, mT, mL, wr_e, p_allow, -tm_lim, t_m)
@@ -249,11 +262,9 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                 te_new = max(te - (-pchg_av - p_b_est) / max(we0, eng_idle), 0.0)
                 t_ring += (te_new - te) * k2 / k1
                 te = te_new
-                tg_ff = -te / k1
-                t_m = min(max(t_fd - t_ring, -tm_lim), tm_lim)
-                p_gen_est = electrical_power(gS, gT, gL, wg0, tg_ff)
-                p_mot_est = electrical_power(mS, mT, mL, wr_e, t_m)
-                p_b_est = battery_side_power(p_mot_est + p_gen_est, boost_eff) + aux
+                tg_ff, t_m, p_gen_est, p_b_est = _resplit(
+                    te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL,
+                    boost_eff, aux)
             if p_b_est < -pchg_av:
                 p_allow = _bus_allowed(-pchg_av - aux, boost_eff) - p_gen_est
                 t_m = max(t_m, torque_for_power(mS, mT, mL, wr_e, p_allow, t_m, max(t_m, 0.0)))
