@@ -27,7 +27,7 @@ from pathlib import Path
 
 from benchmarks.common import best_of, row
 from vehval.sim.simulate import simulate
-from vehval.sim.vehicle import load_vehicle
+from vehval.vehicle import load_vehicle
 from vehval.test import Signal, Test, TestMeta
 
 TRUTH = {"controller.engine_on_power_w": 11000.0, "controller.soc_gain_w": 100000.0,

@@ -23,9 +23,9 @@ import numpy as np
 
 from benchmarks.common import best_of, row
 from vehval.sim.batch import simulate_batch
-from vehval.sim.cycles import load_cycle
+from vehval.cycles import load_cycle
 from vehval.sim.simulate import simulate
-from vehval.sim.vehicle import load_vehicle
+from vehval.vehicle import load_vehicle
 
 
 def _fastsim_udds():

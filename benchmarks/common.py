@@ -102,7 +102,7 @@ D3_CHANNELS: list[str] = [
 
 
 def _udds_mph(t: np.ndarray) -> np.ndarray:
-    from vehval.sim.cycles import load_cycle
+    from vehval.cycles import load_cycle
 
     cyc = load_cycle("udds")
     period = cyc.duration_s

@@ -9,7 +9,7 @@ import pytest
 
 from vehval.cli import main
 from vehval.errors import VehvalError
-from vehval.sim.cycles import Cycle, list_cycles, load_cycle, steady_cycle
+from vehval.cycles import Cycle, list_cycles, load_cycle, steady_cycle
 
 # Published duration [s] and distance [km] of each regulatory cycle. The tolerance on the
 # distance is half a unit of the last published digit (0.005 km) plus the trapezoid vs

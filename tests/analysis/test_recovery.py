@@ -30,8 +30,8 @@ import pytest
 from vehval.analysis import analyze
 from vehval.io.importer import import_test
 from vehval.io.template import load_template
-from vehval.sim.cycles import Cycle
-from vehval.sim.vehicle import load_vehicle
+from vehval.cycles import Cycle
+from vehval.vehicle import load_vehicle
 from vehval.synth import make_virtual_test
 
 TOL = {"_w": 600.0, "_mps": 0.5, "_s": 1.0}

@@ -52,7 +52,7 @@ def batch_inputs(tmp_path_factory):
     inp = root / "in"
     sources, truths = [], []
     if _virtual_dyno_available():
-        from vehval.sim.cycles import steady_cycle
+        from vehval.cycles import steady_cycle
         from vehval.synth import make_virtual_test
 
         for i in range(N_DISTINCT):
@@ -117,7 +117,7 @@ def _direct(files, template) -> dict:
     qa = None
     try:
         from vehval.qa.pipeline import run_qa
-        from vehval.sim.vehicle import load_vehicle
+        from vehval.vehicle import load_vehicle
 
         qa = run_qa(test, load_vehicle(tmpl.vehicle) if tmpl.vehicle else None, tmpl)
     except ImportError:

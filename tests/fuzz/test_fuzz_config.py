@@ -134,7 +134,7 @@ def test_template_alias_bomb(tmp_path, where):
 
 
 def _vehicle_base():
-    vehicle = pytest.importorskip("vehval.sim.vehicle")
+    vehicle = pytest.importorskip("vehval.vehicle")
     path = Path(vehicle.__file__).resolve().parent.parent / "data" / "vehicles" / "prius_2004.yaml"
     if not path.is_file():
         pytest.skip("no packaged vehicle file")

@@ -1,4 +1,4 @@
-"""Minimal reproductions of bugs the fuzz tests found (in vehval.io and vehval.sim.vehicle).
+"""Minimal reproductions of bugs the fuzz tests found (in vehval.io and vehval.vehicle).
 
 An open bug is a strict xfail: it documents the bug and turns into a failure (XPASS) the
 moment the bug is fixed, so the marker is then removed and the case stays as a regression
@@ -46,7 +46,7 @@ def test_empty_last_cell_in_last_row_is_kept(tmp_path, rows):
 
 def test_non_utf8_vehicle_file_gives_vehval_error(tmp_path):
     """Was: UnicodeDecodeError escaped load_vehicle. Fixed."""
-    vehicle = pytest.importorskip("vehval.sim.vehicle")
+    vehicle = pytest.importorskip("vehval.vehicle")
     p = tmp_path / "v.yaml"
     p.write_bytes(b"name: \xff\xfe bad\n")
     with pytest.raises(VehvalError):

@@ -25,8 +25,8 @@ pytest.importorskip("vehval.sim.simulate")
 from vehval.io.importer import import_test
 from vehval.qa.findings import Severity
 from vehval.qa.pipeline import run_qa
-from vehval.sim.cycles import Cycle, load_cycle
-from vehval.sim.vehicle import load_vehicle
+from vehval.cycles import Cycle, load_cycle
+from vehval.vehicle import load_vehicle
 
 #: OBD logger behind the dyno, a frozen OBD motor speed, a reversed OBD motor torque...
 MIX_B = [

@@ -41,8 +41,8 @@ def _observable(fault: dict, truth: dict, clean: pd.DataFrame) -> bool:
 def test_broad_virtual_dyno_figures(name, cut, tmp_path):
     from vehval.io.importer import import_test
     from vehval.qa.pipeline import run_qa
-    from vehval.sim.cycles import Cycle, load_cycle
-    from vehval.sim.vehicle import load_vehicle
+    from vehval.cycles import Cycle, load_cycle
+    from vehval.vehicle import load_vehicle
     from vehval.synth import make_virtual_test
 
     veh = load_vehicle("prius_2004")

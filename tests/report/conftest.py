@@ -98,14 +98,14 @@ def qa_dict() -> dict:
 @lru_cache(maxsize=1)
 def _control_json() -> str:
     from vehval.analysis import analyze
-    from vehval.sim.vehicle import load_vehicle
+    from vehval.vehicle import load_vehicle
 
     return json.dumps(analyze(make_test(), load_vehicle("prius_2004")).to_dict())
 
 
 @lru_cache(maxsize=1)
 def _validation_json() -> str:
-    from vehval.sim.vehicle import load_vehicle
+    from vehval.vehicle import load_vehicle
     from vehval.validate import validate_test
     from vehval.validate.compare import _clean
 

@@ -88,7 +88,7 @@ def test_engine_map_with_duck_typed_vehicle():
 
 
 def test_engine_map_with_the_real_vehicle():
-    vm = pytest.importorskip("vehval.sim.vehicle")
+    vm = pytest.importorskip("vehval.vehicle")
     try:
         veh = vm.load_vehicle("prius_2004")
     except Exception as exc:  # noqa: BLE001

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from vehval.sim.simulate import simulate
-from vehval.sim.vehicle import load_vehicle
+from vehval.vehicle import load_vehicle
 
 
 @pytest.fixture(scope="session")

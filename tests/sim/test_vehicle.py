@@ -10,7 +10,7 @@ import yaml
 
 from vehval.errors import ConfigError
 from vehval.sim import indices, layout
-from vehval.sim.vehicle import BLOCKS, list_vehicles, load_vehicle
+from vehval.vehicle import BLOCKS, list_vehicles, load_vehicle
 
 SHIPPED = Path(load_vehicle("prius_2004").file)
 

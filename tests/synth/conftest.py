@@ -15,7 +15,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from vehval.sim.cycles import Cycle, load_cycle
+from vehval.cycles import Cycle, load_cycle
 from vehval.synth import make_virtual_test
 
 SHORT_S = 240.0

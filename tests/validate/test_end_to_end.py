@@ -10,8 +10,8 @@ import pytest
 
 from vehval.cli import main
 from vehval.errors import ConfigError
-from vehval.sim.cycles import load_cycle
-from vehval.sim.vehicle import load_vehicle
+from vehval.cycles import load_cycle
+from vehval.vehicle import load_vehicle
 from vehval.validate import validate_test, variability
 from vehval.validate.calibration import calibrate
 from vehval.validate.loading import group_args, load_one

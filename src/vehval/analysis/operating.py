@@ -1,7 +1,7 @@
 """Engine operating points against the best-efficiency line, and power distributions.
 
 With a vehicle, the best line is computed from its fuel map
-(:attr:`vehval.sim.vehicle.Vehicle.best_line`); each engine-on step's torque is compared
+(:attr:`vehval.vehicle.Vehicle.best_line`); each engine-on step's torque is compared
 with the line's torque at the same speed. Departures are attributed to the battery power
 limit (battery power within 5 % of its limit), to a transient (|d P_eng/dt| above 5 kW/s)
 or to low power (below 5 kW), in that order; the rest is "other".

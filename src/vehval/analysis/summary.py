@@ -182,7 +182,7 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     AnalysisResult
     """
     if isinstance(vehicle, str):
-        from vehval.sim.vehicle import load_vehicle
+        from vehval.vehicle import load_vehicle
         vehicle = load_vehicle(vehicle)
     inp = prepare_inputs(test, vehicle, constants, dt)
     findings: list[Finding] = list(inp.findings)

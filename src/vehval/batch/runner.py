@@ -58,7 +58,7 @@ def _load_settings(template: str | Path, vehicle: str | None) -> tuple[Any, dict
     veh_name = vehicle or getattr(tmpl, "vehicle", None)
     veh_digest = ""
     if veh_name:
-        from vehval.sim.vehicle import load_vehicle
+        from vehval.vehicle import load_vehicle
 
         veh = load_vehicle(veh_name)
         dump = veh.model_dump_json() if hasattr(veh, "model_dump_json") else repr(veh)

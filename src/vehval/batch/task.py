@@ -102,7 +102,7 @@ def _template(path: str, digest: str):
 def _vehicle(name: str | None, digest: str):
     if not name:
         return None
-    from vehval.sim.vehicle import load_vehicle
+    from vehval.vehicle import load_vehicle
 
     return load_vehicle(name)
 

@@ -35,7 +35,7 @@ def analyze_cmd(
     veh = None
     veh_name = vehicle or tpl.vehicle
     if veh_name:
-        from vehval.sim.vehicle import load_vehicle
+        from vehval.vehicle import load_vehicle
         veh = load_vehicle(veh_name)
     if qa:
         try:

@@ -7,7 +7,7 @@ import json
 import typer
 
 from vehval.cli import app
-from vehval.sim.cycles import list_cycles, load_cycle
+from vehval.cycles import list_cycles, load_cycle
 
 cycles_app = typer.Typer(help="Drive cycles: regulatory speed traces and steady runs.",
                          no_args_is_help=True)

@@ -48,7 +48,7 @@ def qa_cmd(
     veh = None
     vname = vehicle or tpl.vehicle
     if vname:
-        from vehval.sim.vehicle import load_vehicle
+        from vehval.vehicle import load_vehicle
         veh = load_vehicle(vname)
     test = import_test(files, tpl)
     result = run_qa(test, veh, tpl, max_offset_s=max_offset)

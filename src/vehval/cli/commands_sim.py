@@ -101,7 +101,7 @@ def simulate_cmd(
 @vehicle_app.command("list")
 def vehicle_list_cmd() -> None:
     """List the vehicles shipped with vehval."""
-    from vehval.sim.vehicle import list_vehicles
+    from vehval.vehicle import list_vehicles
 
     for name in list_vehicles():
         typer.echo(name)
@@ -114,7 +114,7 @@ def vehicle_show_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
 ) -> None:
     """Show a vehicle's scalar parameters (maps are summarised)."""
-    from vehval.sim.vehicle import load_vehicle
+    from vehval.vehicle import load_vehicle
 
     veh = load_vehicle(name)
     params = veh.parameters()

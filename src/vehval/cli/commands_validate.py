@@ -53,7 +53,7 @@ def validate_cmd(
     """Simulate VEHICLE on each test's own conditions and compare: writes validation.json
     (report tables and overlay figures), metrics.json and overlays_<test>.parquet."""
     from vehval.io.atomic import atomic_dir
-    from vehval.sim.vehicle import load_vehicle
+    from vehval.vehicle import load_vehicle
     from vehval.validate import error_vs_repeatability, ladder, validate_test, variability
     from vehval.validate.compare import _clean
     from vehval.validate.loading import load_tests
@@ -142,7 +142,7 @@ def calibrate_cmd(
     """Tune vehicle parameters on several tests and check them on held-out tests: writes
     calibration.json and vehicle_calibrated.yaml (tuned values with their provenance)."""
     from vehval.io.atomic import atomic_dir
-    from vehval.sim.vehicle import load_vehicle
+    from vehval.vehicle import load_vehicle
     from vehval.validate.calibration import calibrate
     from vehval.validate.compare import _clean
     from vehval.validate.loading import load_one, load_tests

@@ -1,7 +1,7 @@
 """Identify the drive cycle a test drove from its measured vehicle speed.
 
 The measured speed is averaged into 1 s bins and compared with every package cycle
-(:func:`vehval.sim.cycles.list_cycles`) at every start offset at once (a sliding RMS error
+(:func:`vehval.cycles.list_cycles`) at every start offset at once (a sliding RMS error
 computed with cross-correlations). The pre-test padding (the D3 files start at -10 s) and
 any idle before, between or after the runs cost nothing: a cycle may start anywhere in the
 record, may occur several times (HWFET x2, US06 x2, UDDS + UDDS for an FTP-type test with
@@ -22,7 +22,7 @@ steady-speed test (``steady_<kph>kph`` for one plateau, ``steady`` for several).
 
 Examples
 --------
->>> from vehval.sim.cycles import load_cycle
+>>> from vehval.cycles import load_cycle
 >>> c = load_cycle("us06")
 >>> name, score, details = identify_cycle(c.time_s + 12.0, c.speed_mps)
 >>> name, details["offset_s"], details["rms_mps"] < 1e-6
@@ -146,7 +146,7 @@ def _bin_1hz(time_s: np.ndarray, speed_mps: np.ndarray) -> _Grid:
 @lru_cache(maxsize=64)
 def _cycle_1hz(name: str) -> np.ndarray:
     """Package cycle ``name`` on a 1 s grid from its t = 0 [m/s] (read-only)."""
-    from vehval.sim.cycles import load_cycle
+    from vehval.cycles import load_cycle
 
     c = load_cycle(name)
     grid = c.time_s[0] + np.arange(int(np.floor(c.duration_s + 1e-9)) + 1, dtype=float)
@@ -345,7 +345,7 @@ def identify_cycle(time_s: Any, speed_mps: Any, *, cycles: list[str] | None = No
     speed_mps : array_like
         Measured vehicle speed [m/s].
     cycles : list of str, optional
-        Package cycle names to try (default: all of :func:`vehval.sim.cycles.list_cycles`).
+        Package cycle names to try (default: all of :func:`vehval.cycles.list_cycles`).
     max_rms_mps : float
         Largest RMS speed error of an accepted occurrence [m/s].
     min_coverage : float
@@ -368,7 +368,7 @@ def identify_cycle(time_s: Any, speed_mps: Any, *, cycles: list[str] | None = No
         ``candidates`` (the best few cycles tried, with their figures) and ``reason`` (why
         nothing matched).
     """
-    from vehval.sim.cycles import list_cycles
+    from vehval.cycles import list_cycles
 
     g = _bin_1hz(np.asarray(time_s, dtype=float), np.asarray(speed_mps, dtype=float))
     details: dict[str, Any] = {"method": None, "moving_s": float(g.moving.sum()) if g.v.size else 0.0}

@@ -92,7 +92,7 @@ def map_fuel_rate(fmap: dict, speed: np.ndarray, torque: np.ndarray) -> np.ndarr
 
     Torque below zero is read at zero (as the simulator does for a firing engine).
     """
-    from vehval.sim.maps import bilinear
+    from vehval.vehicle.maps import bilinear
     return np.maximum(bilinear(fmap["spd"], fmap["trq"], fmap["fuel"], speed,
                                np.maximum(torque, 0.0)), 0.0)
 

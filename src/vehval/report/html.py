@@ -126,7 +126,7 @@ def resolve_vehicle(vehicle: Any, test: Test) -> tuple[Any, str | None]:
     if not name:
         return None, "No vehicle file given: component-map plots are skipped."
     try:
-        from vehval.sim.vehicle import load_vehicle
+        from vehval.vehicle import load_vehicle
     except ImportError:
         return None, "The vehicle model is not available: component-map plots are skipped."
     try:

@@ -97,7 +97,7 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
     ----------
     test : Test
         Uses ``eng_spd_out`` [rad/s] and ``eng_trq_out`` [N·m] (test, else calc, else simu).
-    vehicle : vehval.sim.vehicle.Vehicle
+    vehicle : vehval.vehicle.Vehicle
         Its ``engine`` parameters give the fuel map (``speed_rpm``, ``torque_nm``,
         ``fuel_rate_g_per_s``), full-load curve and fuel heating value.
     """
@@ -121,7 +121,7 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
     fig.add_trace(go.Scatter(x=spd, y=tmax, mode="lines", name="full load",
                              line={"color": "#212529", "width": 2}))
     try:
-        from vehval.sim.components.engine import best_efficiency_line
+        from vehval.vehicle.maps import best_efficiency_line
         _, w, t = best_efficiency_line(eng)
         fig.add_trace(go.Scatter(x=w / RPM, y=t, mode="lines", name="best efficiency",
                                  line={"color": "#2b8a3e", "width": 3, "dash": "dash"}))

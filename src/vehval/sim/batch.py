@@ -14,12 +14,12 @@ from typing import Any, Sequence
 import numpy as np
 
 from vehval.errors import ConfigError
-from vehval.sim.cycles import Cycle, load_cycle
+from vehval.cycles import Cycle, load_cycle
 from vehval.sim.driver import MPH, tolerance_band
 from vehval.sim.kernel import run_batch
 from vehval.sim.packing import pack, param_vector
 from vehval.sim.simulate import _check_dt, run_once, summarise, time_grid
-from vehval.sim.vehicle import Vehicle, load_vehicle
+from vehval.vehicle import Vehicle, load_vehicle
 
 #: engine parameters that change the best-efficiency line (and so the packed maps)
 _MAP_KEYS = {"engine.idle_speed_rpm", "engine.max_speed_rpm", "engine.max_power_w"}

@@ -14,9 +14,7 @@ directly with crafted inputs.
 from __future__ import annotations
 
 from numba import njit
-from pydantic import Field, model_validator
 
-from vehval.sim.components.base import Block
 
 ENG_OFF = 0
 ENG_OFF_MINTIME = 1
@@ -28,56 +26,6 @@ PROPEL_NORMAL = 0
 PROPEL_DISCHARGE_LIMIT = 1
 PROPEL_CHARGE_LIMIT = 2
 PROPEL_BRAKING = 3
-
-
-class ControllerParams(Block):
-    """All thresholds of the supervisory controller (SI units, unit in the key name)."""
-
-    soc_target: float = Field(gt=0, lt=1)
-    soc_gain_w: float = Field(ge=0)
-    soc_charge_power_max_w: float = Field(ge=0)
-    soc_discharge_power_max_w: float = Field(ge=0)
-    engine_on_power_w: float
-    engine_on_power_hold_s: float = Field(ge=0)
-    engine_off_power_w: float
-    engine_on_speed_mps: float = Field(gt=0)
-    engine_on_speed_hold_s: float = Field(ge=0)
-    engine_off_speed_mps: float = Field(gt=0)
-    battery_condition_hold_s: float = Field(ge=0)
-    electric_drive_efficiency: float = Field(gt=0, le=1)
-    engine_off_hold_s: float = Field(ge=0)
-    soc_engine_on: float = Field(gt=0, lt=1)
-    soc_engine_on_hold_s: float = Field(ge=0)
-    soc_force_on: float = Field(gt=0, lt=1)
-    min_on_time_s: float = Field(ge=0)
-    min_off_time_s: float = Field(ge=0)
-    battery_discharge_margin_w: float = Field(ge=0)
-    battery_charge_margin_w: float = Field(ge=0)
-    engine_min_power_w: float = Field(ge=0)
-    engine_power_filter_s: float = Field(ge=0)
-    fuel_cut_power_w: float = Field(ge=0)
-    fuel_cut_min_speed_mps: float = Field(ge=0)
-    regen_fraction_max: float = Field(ge=0, le=1)
-    regen_fade_low_mps: float = Field(ge=0)
-    regen_fade_high_mps: float = Field(gt=0)
-    gen_speed_kp_nm_per_radps: float = Field(gt=0)
-    gen_speed_ki_nm_per_rad: float = Field(ge=0)
-    gen_speed_margin_rpm: float = Field(ge=0)
-    engine_speed_margin_rpm: float = Field(ge=0)
-    soc_correction_path_efficiency: float = Field(gt=0, le=1)
-
-    @model_validator(mode="after")
-    def _consistent(self):
-        if self.engine_off_speed_mps > self.engine_on_speed_mps:
-            raise ValueError("'engine_off_speed_mps' must not exceed 'engine_on_speed_mps' "
-                             "(the hysteresis would make the engine oscillate)")
-        if self.engine_off_power_w > self.engine_on_power_w:
-            raise ValueError("'engine_off_power_w' must not exceed 'engine_on_power_w'")
-        if self.soc_force_on > self.soc_engine_on:
-            raise ValueError("'soc_force_on' must not exceed 'soc_engine_on'")
-        if self.regen_fade_low_mps >= self.regen_fade_high_mps:
-            raise ValueError("'regen_fade_low_mps' must be below 'regen_fade_high_mps'")
-        return self
 
 
 @njit(cache=True)

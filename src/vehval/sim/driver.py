@@ -10,22 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
-from pydantic import Field
 
-from vehval.sim.components.base import Block
 
 MPH = 0.44704  # [m/s per mph]
-
-
-class DriverParams(Block):
-    """Speed-follower gains and force bounds."""
-
-    response_time_s: float = Field(gt=0)
-    ki_n_per_m: float = Field(ge=0)
-    integrator_limit_n: float = Field(ge=0)
-    max_force_n: float = Field(gt=0)
-    tolerance_speed_mph: float = Field(gt=0)
-    tolerance_time_s: float = Field(ge=0)
 
 
 @njit(cache=True)

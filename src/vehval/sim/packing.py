@@ -1,4 +1,4 @@
-"""Pack a :class:`~vehval.sim.vehicle.Vehicle` into the flat arrays of the compiled loop."""
+"""Pack a :class:`~vehval.vehicle.Vehicle` into the flat arrays of the compiled loop."""
 
 from __future__ import annotations
 
@@ -6,9 +6,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehval.sim.components.base import RPM
+from vehval.vehicle.base import RPM
 from vehval.sim.layout import PARAMS
-from vehval.sim.vehicle import Vehicle
+from vehval.vehicle import Vehicle
 
 MAP_NAMES = ("eng_spd", "eng_trq", "eng_fuel", "eng_tmax", "opt_pwr", "opt_spd",
              "mot_spd", "mot_trq", "mot_loss", "gen_spd", "gen_trq", "gen_loss",

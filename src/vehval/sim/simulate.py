@@ -15,12 +15,12 @@ from typing import Any
 import numpy as np
 
 from vehval.errors import ConfigError
-from vehval.sim.cycles import Cycle, load_cycle
+from vehval.cycles import Cycle, load_cycle
 from vehval.sim.driver import MPH, tolerance_band
 from vehval.sim.kernel import run
 from vehval.sim.layout import SIGNALS, SUMMARY
 from vehval.sim.packing import pack
-from vehval.sim.vehicle import Vehicle, load_vehicle
+from vehval.vehicle import Vehicle, load_vehicle
 from vehval.test import Signal, Test, TestMeta
 
 GALLON_M3 = 3.785411784e-3  # [m^3 per US gallon]
@@ -155,9 +155,9 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
     Parameters
     ----------
     vehicle : Vehicle, name or path
-        Vehicle (see :func:`vehval.sim.vehicle.load_vehicle`).
+        Vehicle (see :func:`vehval.vehicle.load_vehicle`).
     cycle : Cycle, name or path
-        Drive cycle (see :func:`vehval.sim.cycles.load_cycle`).
+        Drive cycle (see :func:`vehval.cycles.load_cycle`).
     dt : float
         Step [s], in (0, 1].
     soc_initial : float, optional

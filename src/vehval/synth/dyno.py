@@ -113,8 +113,8 @@ def _faults_label(faults: str | Path | list) -> str:
 def _load_inputs(vehicle: str | Path, cycle: Any, controller_overrides: dict | None,
                  vehicle_overrides: dict | None) -> tuple[Any, Any]:
     """Load the vehicle (with overrides) and the cycle; raises VehvalError when unknown."""
-    from vehval.sim.cycles import Cycle, load_cycle
-    from vehval.sim.vehicle import load_vehicle
+    from vehval.cycles import Cycle, load_cycle
+    from vehval.vehicle import load_vehicle
 
     cyc = cycle if isinstance(cycle, Cycle) else load_cycle(cycle)
     veh = load_vehicle(vehicle)
@@ -163,7 +163,7 @@ def make_virtual_test(vehicle: str | Path = "prius_2004", cycle: Any = "udds", s
     vehicle : str or path
         Vehicle file name (``prius_2004``) or path.
     cycle : str, path or Cycle
-        Drive cycle name, CSV path or :class:`vehval.sim.cycles.Cycle`.
+        Drive cycle name, CSV path or :class:`vehval.cycles.Cycle`.
     seed : int
         Seed of every random draw (noise, jitter, spike positions...).
     faults : {'default', 'none'}, path or list

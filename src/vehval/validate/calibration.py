@@ -38,7 +38,7 @@ from scipy.optimize import differential_evolution, minimize
 from vehval.errors import ConfigError
 from vehval.io.atomic import write_text_atomic
 from vehval.sim.simulate import simulate
-from vehval.sim.vehicle import BLOCKS, Vehicle, load_vehicle
+from vehval.vehicle import BLOCKS, Vehicle, load_vehicle
 from vehval.test import Test
 from vehval.validate.compare import _clean
 from vehval.validate.conditions import full_name as _full_name

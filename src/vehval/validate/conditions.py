@@ -15,8 +15,8 @@ import numpy as np
 from pydantic import ValidationError
 
 from vehval.errors import ConfigError, SignalError
-from vehval.sim.cycles import Cycle
-from vehval.sim.vehicle import BLOCKS, Vehicle
+from vehval.cycles import Cycle
+from vehval.vehicle import BLOCKS, Vehicle
 from vehval.test import Test
 from vehval.validate.quantities import pick_signal
 

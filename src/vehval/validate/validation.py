@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from vehval.sim.simulate import SimResult, simulate
-from vehval.sim.vehicle import Vehicle, load_vehicle
+from vehval.vehicle import Vehicle, load_vehicle
 from vehval.test import Test
 from vehval.validate.compare import Comparison, _clean, compare, overlay_figures
 from vehval.validate.conditions import Conditions, simulation_conditions, vehicle_variant

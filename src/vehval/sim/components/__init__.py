@@ -1,7 +1,4 @@
-"""Powertrain components: pydantic parameter models and their physics as pure functions.
+"""Physics of the powertrain components as pure compiled functions (SI units).
 
-Every parameter block carries a ``sources`` mapping (parameter name -> where the value
-comes from); a block whose parameters are not all sourced is rejected at load time.
+Their parameter blocks are part of the vehicle definition (:mod:`vehval.vehicle.components`).
 """
-
-from vehval.sim.components.base import Block, bp_check, table_check  # noqa: F401

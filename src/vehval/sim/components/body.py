@@ -3,19 +3,6 @@
 from __future__ import annotations
 
 from numba import njit
-from pydantic import Field
-
-from vehval.sim.components.base import Block
-
-
-class BodyParams(Block):
-    """Test mass, dyno road-load coefficients and the electrical accessory load."""
-
-    mass_kg: float = Field(gt=0)
-    road_load_a_n: float = Field(ge=0)
-    road_load_b_n_per_mps: float = Field(ge=0)
-    road_load_c_n_per_mps2: float = Field(ge=0)
-    aux_power_w: float = Field(ge=0)
 
 
 @njit(cache=True)

@@ -3,24 +3,6 @@
 from __future__ import annotations
 
 from numba import njit
-from pydantic import Field, model_validator
-
-from vehval.sim.components.base import Block
-
-
-class BoostParams(Block):
-    """Constant-efficiency boost converter with a speed-scheduled output voltage."""
-
-    efficiency: float = Field(gt=0, le=1)
-    volt_out_max_v: float = Field(gt=0)
-    volt_out_min_v: float = Field(gt=0)
-    volt_full_speed_rpm: float = Field(gt=0)
-
-    @model_validator(mode="after")
-    def _range(self):
-        if self.volt_out_min_v > self.volt_out_max_v:
-            raise ValueError("'volt_out_min_v' must not exceed 'volt_out_max_v'")
-        return self
 
 
 @njit(cache=True)

@@ -3,19 +3,6 @@
 from __future__ import annotations
 
 from numba import njit
-from pydantic import Field
-
-from vehval.sim.components.base import Block
-
-
-class DrivelineParams(Block):
-    """Final drive, wheel and brake parameters."""
-
-    final_drive_ratio: float = Field(gt=0)
-    final_drive_efficiency: float = Field(gt=0, le=1)
-    wheel_radius_m: float = Field(gt=0)
-    wheel_inertia_kg_m2: float = Field(ge=0)
-    brake_max_force_n: float = Field(gt=0)
 
 
 @njit(cache=True)

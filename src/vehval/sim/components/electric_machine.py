@@ -6,39 +6,9 @@ DC bus = ``T·ω + loss(ω, T)`` with the loss map >= 0 in every quadrant.
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
-from pydantic import Field, model_validator
 
-from vehval.sim.components.base import RPM, Block, bp_check, table_check
 from vehval.sim.maps import interp2
-
-
-class MachineParams(Block):
-    """Electric machine parameters (loss map over speed x torque, limits, inertia)."""
-
-    speed_rpm: list[float]
-    torque_nm: list[float]
-    loss_w: list[list[float]]
-    max_torque_nm: float = Field(gt=0)
-    max_power_w: float = Field(gt=0)
-    max_speed_rpm: float = Field(gt=0)
-    inertia_kg_m2: float = Field(gt=0)
-
-    @model_validator(mode="after")
-    def _maps(self):
-        bp_check(self.speed_rpm, "speed_rpm")
-        bp_check(self.torque_nm, "torque_nm")
-        table_check(self.loss_w, len(self.speed_rpm), len(self.torque_nm), "loss_w")
-        if np.any(np.asarray(self.loss_w) < 0):
-            raise ValueError("'loss_w' must not be negative (losses are always >= 0)")
-        return self
-
-    def arrays(self) -> dict[str, np.ndarray]:
-        """Loss map in SI: speed [rad/s], torque [N·m], loss [W]."""
-        return {"spd": np.asarray(self.speed_rpm, float) * RPM,
-                "trq": np.asarray(self.torque_nm, float),
-                "loss": np.asarray(self.loss_w, float)}
 
 
 @njit(cache=True)

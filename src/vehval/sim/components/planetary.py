@@ -3,18 +3,6 @@
 from __future__ import annotations
 
 from numba import njit
-from pydantic import Field
-
-from vehval.sim.components.base import Block
-
-
-class PlanetaryParams(Block):
-    """Tooth numbers and the inertias of carrier and ring."""
-
-    sun_teeth: int = Field(gt=0)
-    ring_teeth: int = Field(gt=0)
-    carrier_inertia_kg_m2: float = Field(ge=0)
-    ring_inertia_kg_m2: float = Field(ge=0)
 
 
 @njit(cache=True)

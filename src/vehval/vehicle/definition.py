@@ -19,16 +19,11 @@ import yaml
 from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
 
 from vehval.errors import ConfigError
-from vehval.sim.components.base import RPM
-from vehval.sim.components.battery import BatteryParams
-from vehval.sim.components.body import BodyParams
-from vehval.sim.components.boost import BoostParams
-from vehval.sim.components.driveline import DrivelineParams
-from vehval.sim.components.electric_machine import MachineParams
-from vehval.sim.components.engine import EngineParams, best_efficiency_line
-from vehval.sim.components.planetary import PlanetaryParams
-from vehval.sim.control import ControllerParams
-from vehval.sim.driver import DriverParams
+from vehval.vehicle.base import RPM
+from vehval.vehicle.components import (BatteryParams, BodyParams, BoostParams, DrivelineParams,
+                                       EngineParams, MachineParams, PlanetaryParams)
+from vehval.vehicle.control import ControllerParams, DriverParams
+from vehval.vehicle.maps import best_efficiency_line
 
 BLOCKS = ("body", "engine", "mg1", "mg2", "battery", "boost", "planetary", "driveline",
           "controller", "driver")

@@ -1,0 +1,164 @@
+"""Parameter blocks of the powertrain components, as read from a vehicle file.
+
+Each block is a pydantic model that rejects unknown keys and requires a source for every
+parameter (:class:`~vehval.vehicle.base.Block`). Units are in the key names; maps are
+plain nested lists, converted to SI arrays by ``arrays()``. The simulator, QA, analysis and
+the report all read these blocks; the physics that uses them lives in :mod:`vehval.sim`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import Field, model_validator
+
+from vehval.vehicle.base import RPM, Block, bp_check, table_check
+
+
+class BodyParams(Block):
+    """Test mass, dyno road-load coefficients and the electrical accessory load."""
+
+    mass_kg: float = Field(gt=0)
+    road_load_a_n: float = Field(ge=0)
+    road_load_b_n_per_mps: float = Field(ge=0)
+    road_load_c_n_per_mps2: float = Field(ge=0)
+    aux_power_w: float = Field(ge=0)
+
+
+class EngineParams(Block):
+    """Engine parameters. Speeds in rpm in the file, converted to rad/s by :meth:`arrays`."""
+
+    speed_rpm: list[float]
+    torque_nm: list[float]
+    fuel_rate_g_per_s: list[list[float]]
+    max_torque_nm: list[float]
+    max_power_w: float = Field(gt=0)
+    max_speed_rpm: float = Field(gt=0)
+    idle_speed_rpm: float = Field(gt=0)
+    fire_speed_rpm: float = Field(gt=0)
+    motoring_torque_nm: float = Field(ge=0)
+    inertia_kg_m2: float = Field(gt=0)
+    fuel_density_kg_per_m3: float = Field(gt=0)
+    fuel_lhv_j_per_kg: float = Field(gt=0)
+
+    @model_validator(mode="after")
+    def _maps(self):
+        bp_check(self.speed_rpm, "speed_rpm")
+        bp_check(self.torque_nm, "torque_nm")
+        table_check(self.fuel_rate_g_per_s, len(self.speed_rpm), len(self.torque_nm),
+                    "fuel_rate_g_per_s")
+        table_check(self.max_torque_nm, len(self.speed_rpm), None, "max_torque_nm")
+        if np.any(np.asarray(self.fuel_rate_g_per_s) < 0):
+            raise ValueError("'fuel_rate_g_per_s' must not be negative")
+        if not self.idle_speed_rpm < self.max_speed_rpm:
+            raise ValueError("'idle_speed_rpm' must be below 'max_speed_rpm'")
+        return self
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Maps in SI: speed [rad/s], torque [N·m], fuel rate [kg/s], max torque [N·m]."""
+        return {
+            "spd": np.asarray(self.speed_rpm, float) * RPM,
+            "trq": np.asarray(self.torque_nm, float),
+            "fuel": np.asarray(self.fuel_rate_g_per_s, float) * 1e-3,
+            "tmax": np.asarray(self.max_torque_nm, float),
+        }
+
+
+class MachineParams(Block):
+    """Electric machine parameters (loss map over speed x torque, limits, inertia)."""
+
+    speed_rpm: list[float]
+    torque_nm: list[float]
+    loss_w: list[list[float]]
+    max_torque_nm: float = Field(gt=0)
+    max_power_w: float = Field(gt=0)
+    max_speed_rpm: float = Field(gt=0)
+    inertia_kg_m2: float = Field(gt=0)
+
+    @model_validator(mode="after")
+    def _maps(self):
+        bp_check(self.speed_rpm, "speed_rpm")
+        bp_check(self.torque_nm, "torque_nm")
+        table_check(self.loss_w, len(self.speed_rpm), len(self.torque_nm), "loss_w")
+        if np.any(np.asarray(self.loss_w) < 0):
+            raise ValueError("'loss_w' must not be negative (losses are always >= 0)")
+        return self
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Loss map in SI: speed [rad/s], torque [N·m], loss [W]."""
+        return {"spd": np.asarray(self.speed_rpm, float) * RPM,
+                "trq": np.asarray(self.torque_nm, float),
+                "loss": np.asarray(self.loss_w, float)}
+
+
+class BatteryParams(Block):
+    """Pack-level battery parameters (voltages and resistances of the whole pack)."""
+
+    soc: list[float]
+    ocv_v: list[float]
+    resistance_discharge_ohm: list[float]
+    resistance_charge_ohm: list[float]
+    discharge_power_limit_w: list[float]
+    charge_power_limit_w: list[float]
+    capacity_ah: float = Field(gt=0)
+    n_cells: int = Field(gt=0)
+    n_modules: int = Field(gt=0)
+    nominal_voltage_v: float = Field(gt=0)
+    soc_min: float = Field(ge=0, le=1)
+    soc_max: float = Field(ge=0, le=1)
+
+    @model_validator(mode="after")
+    def _maps(self):
+        bp_check(self.soc, "soc")
+        n = len(self.soc)
+        for key in ("ocv_v", "resistance_discharge_ohm", "resistance_charge_ohm",
+                    "discharge_power_limit_w", "charge_power_limit_w"):
+            table_check(getattr(self, key), n, None, key)
+            if np.any(np.asarray(getattr(self, key)) < 0):
+                raise ValueError(f"'{key}' must not be negative")
+        if np.any(np.asarray(self.resistance_discharge_ohm) <= 0) or \
+                np.any(np.asarray(self.resistance_charge_ohm) <= 0):
+            raise ValueError("battery resistances must be positive")
+        if not self.soc_min < self.soc_max:
+            raise ValueError("'soc_min' must be below 'soc_max'")
+        if self.n_cells % self.n_modules:
+            raise ValueError("'n_cells' must be a multiple of 'n_modules'")
+        return self
+
+    @property
+    def capacity_c(self) -> float:
+        """Charge capacity [C]."""
+        return self.capacity_ah * 3600.0
+
+
+class BoostParams(Block):
+    """Constant-efficiency boost converter with a speed-scheduled output voltage."""
+
+    efficiency: float = Field(gt=0, le=1)
+    volt_out_max_v: float = Field(gt=0)
+    volt_out_min_v: float = Field(gt=0)
+    volt_full_speed_rpm: float = Field(gt=0)
+
+    @model_validator(mode="after")
+    def _range(self):
+        if self.volt_out_min_v > self.volt_out_max_v:
+            raise ValueError("'volt_out_min_v' must not exceed 'volt_out_max_v'")
+        return self
+
+
+class PlanetaryParams(Block):
+    """Tooth numbers and the inertias of carrier and ring."""
+
+    sun_teeth: int = Field(gt=0)
+    ring_teeth: int = Field(gt=0)
+    carrier_inertia_kg_m2: float = Field(ge=0)
+    ring_inertia_kg_m2: float = Field(ge=0)
+
+
+class DrivelineParams(Block):
+    """Final drive, wheel and brake parameters."""
+
+    final_drive_ratio: float = Field(gt=0)
+    final_drive_efficiency: float = Field(gt=0, le=1)
+    wheel_radius_m: float = Field(gt=0)
+    wheel_inertia_kg_m2: float = Field(ge=0)
+    brake_max_force_n: float = Field(gt=0)
