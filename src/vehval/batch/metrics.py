@@ -13,12 +13,11 @@ from typing import Any
 import numpy as np
 
 from vehval.test import Signal, Test
+from vehval.constants import GALLON_US_M3 as _M3_PER_US_GAL, MILE_M as _M_PER_MILE
 
 #: Assumed when the template gives no constant [kg/m^3], [J/kg] (US test gasoline).
 DEFAULT_FUEL_DENSITY_KG_PER_M3 = 745.0
 DEFAULT_FUEL_LHV_J_PER_KG = 42.6e6
-_M_PER_MILE = 1609.344
-_M3_PER_US_GAL = 3.785411784e-3
 
 
 def _pick(test: Test, base: str, preferred: dict[str, str] | None = None) -> Signal | None:

@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from vehval.constants import MPH_M_PER_S as MPH
 
 
-MPH = 0.44704  # [m/s per mph]
 
 
 @njit(cache=True)

@@ -22,9 +22,8 @@ from vehval.sim.layout import SIGNALS, SUMMARY
 from vehval.sim.packing import pack
 from vehval.vehicle import Vehicle, load_vehicle
 from vehval.test import Signal, Test, TestMeta
+from vehval.constants import GALLON_US_M3 as GALLON_M3, MILE_M
 
-GALLON_M3 = 3.785411784e-3  # [m^3 per US gallon]
-MILE_M = 1609.344  # [m per mile]
 CHARGE_BALANCE_TOL = 0.005  # [-] |SOC_end - SOC_start| accepted by charge_balance
 _BALANCE_TOL_ITER = 0.004  # [-] iteration target, inside the accepted tolerance
 

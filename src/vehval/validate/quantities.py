@@ -14,10 +14,8 @@ import numpy as np
 from vehval.nomenclature import registry
 from vehval.test import Signal, Test
 from vehval.validate.metrics import energies, integrate, on_off_events
+from vehval.constants import GALLON_US_M3 as GALLON_M3, MILE_M, RPM_RAD_PER_S as RPM
 
-RPM = np.pi / 30.0          # [rad/s per rpm]
-MILE_M = 1609.344           # [m]
-GALLON_M3 = 3.785411784e-3  # US gallon [m^3]
 
 #: Preferred acquisition systems when a measured quantity exists from several sources.
 SOURCE_PREFERENCE = ("", "dyno", "direct", "daq", "bench", "modal", "can", "ecu", "obd", "pa",

@@ -6,6 +6,7 @@ from typing import Sequence
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, model_validator
+from vehval.constants import RPM_RAD_PER_S as RPM
 
 
 class Block(BaseModel):
@@ -54,4 +55,3 @@ def table_check(values, rows: int, cols: int | None, key: str) -> None:
         raise ValueError(f"'{key}' must contain finite numbers only")
 
 
-RPM = np.pi / 30.0  # [rad/s per rpm]
