@@ -15,10 +15,14 @@ from vehval.vehicle.base import RPM, Block, bp_check, table_check
 
 
 class BodyParams(Block):
-    """Test mass, dyno road-load coefficients and the electrical accessory load."""
+    """Test mass, dyno road-load coefficients and the electrical accessory load.
+
+    ``road_load_a_n`` may be negative: dyno *set* coefficients (the car's own losses on the
+    rollers taken out of the target) often are.
+    """
 
     mass_kg: float = Field(gt=0)
-    road_load_a_n: float = Field(ge=0)
+    road_load_a_n: float
     road_load_b_n_per_mps: float = Field(ge=0)
     road_load_c_n_per_mps2: float = Field(ge=0)
     aux_power_w: float = Field(ge=0)
