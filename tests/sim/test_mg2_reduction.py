@@ -29,7 +29,9 @@ def _behind_reduction(veh, r):
 
 def test_default_ratio_is_one_and_needs_no_source(prius):
     assert prius.driveline.mg2_reduction_ratio == 1.0
-    assert "mg2_reduction_ratio" not in prius.driveline.sources
+    data = prius.driveline.model_dump(exclude={"mg2_reduction_ratio"})
+    data["sources"].pop("mg2_reduction_ratio")
+    assert type(prius.driveline).model_validate(data).mg2_reduction_ratio == 1.0
 
 
 def test_equivalent_machine_behind_reduction_gives_same_run(prius):
