@@ -297,7 +297,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
             deps: set[str] = set()
             used: dict[str, str] = {}
             ok = True
-            for nm in ex.names:
+            for nm in sorted(ex.names):
                 if nm in pvals:
                     var[nm] = pvals[nm]
                 elif nm in calc.parameters:
@@ -351,7 +351,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
         for text in (chk.lhs, chk.rhs):
             ex = parse_expression(text, f"{calc.name}: check {chk.name}")
             var: dict[str, object] = {}
-            for nm in ex.names:
+            for nm in sorted(ex.names):
                 if nm in pvals:
                     var[nm] = pvals[nm]
                 elif nm in measured:
