@@ -15,10 +15,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
 
 from vehval.errors import ConfigError
+from vehval.safe_yaml import read_yaml
 from vehval.vehicle.base import RPM
 from vehval.vehicle.components import (BatteryParams, BodyParams, BoostParams, DrivelineParams,
                                        EngineParams, MachineParams, PlanetaryParams)
@@ -82,7 +82,8 @@ class Vehicle(BaseModel):
     def signal_limits(self) -> dict[str, tuple[float, float]]:
         """Physical limits per signal base name, SI units (for QA range checks)."""
         e, g1, g2, b, d = self.engine, self.mg1, self.mg2, self.battery, self.driveline
-        v_max = g2.max_speed_rpm * RPM * d.wheel_radius_m / d.final_drive_ratio
+        v_max = (g2.max_speed_rpm * RPM * d.wheel_radius_m
+                 / (d.final_drive_ratio * d.mg2_reduction_ratio))
         tmax = float(np.max(e.max_torque_nm))
         ring = self.planetary.ring_teeth / (self.planetary.ring_teeth + self.planetary.sun_teeth)
         return {
@@ -134,6 +135,8 @@ def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ..
     for blk, changes in per_block.items():
         old = getattr(veh, blk)
         data = {**old.model_dump(), **changes}
+        data["sources"] = {**{k: "override given by the caller" for k in changes},
+                           **old.sources}
         try:
             update[blk] = type(old).model_validate(data)
         except ValidationError as exc:
@@ -201,15 +204,7 @@ def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
         if not path.exists():
             raise ConfigError(f"unknown vehicle '{text}': known vehicles are "
                               f"{', '.join(list_vehicles())}, or give a path to a YAML file")
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read vehicle file ({exc.strerror})") from None
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}): save the vehicle file "
-                          "as UTF-8") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    data = read_yaml(path)
     veh = _validate(data, str(path))
     veh._file = str(path)
     return veh
