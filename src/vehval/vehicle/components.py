@@ -162,3 +162,6 @@ class DrivelineParams(Block):
     wheel_radius_m: float = Field(gt=0)
     wheel_inertia_kg_m2: float = Field(ge=0)
     brake_max_force_n: float = Field(gt=0)
+    mg2_reduction_ratio: float = Field(default=1.0, gt=0)
+    """MG2 shaft speed / ring gear speed [-]: 1 when MG2 sits on the ring (2004 THS II), the
+    motor reduction gear ratio in later power-split cars (about 2.6 in the 2010 Prius)."""

@@ -82,7 +82,8 @@ class Vehicle(BaseModel):
     def signal_limits(self) -> dict[str, tuple[float, float]]:
         """Physical limits per signal base name, SI units (for QA range checks)."""
         e, g1, g2, b, d = self.engine, self.mg1, self.mg2, self.battery, self.driveline
-        v_max = g2.max_speed_rpm * RPM * d.wheel_radius_m / d.final_drive_ratio
+        v_max = (g2.max_speed_rpm * RPM * d.wheel_radius_m
+                 / (d.final_drive_ratio * d.mg2_reduction_ratio))
         tmax = float(np.max(e.max_torque_nm))
         ring = self.planetary.ring_teeth / (self.planetary.ring_teeth + self.planetary.sun_teeth)
         return {
@@ -134,6 +135,8 @@ def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ..
     for blk, changes in per_block.items():
         old = getattr(veh, blk)
         data = {**old.model_dump(), **changes}
+        data["sources"] = {**{k: "override given by the caller" for k in changes},
+                           **old.sources}
         try:
             update[blk] = type(old).model_validate(data)
         except ValidationError as exc:
