@@ -51,7 +51,7 @@ def template_init_cmd(
         if not f.exists():
             raise InputFileError(f"{f}: file not found: check the path")
     template, unmatched = propose_template(files)
-    template.save(output)
+    template.save(output, placeholders=True)
     n = sum(len(f.channels) for f in template.files)
     typer.echo(f"wrote {output}: {len(template.files)} file entr{'y' if len(template.files) == 1 else 'ies'}, "
                f"{n} channels, {len(unmatched)} unmatched")

@@ -15,7 +15,7 @@ def _summary(d: dict, outdir: Path) -> dict:
     return {"test": d["test"], "outdir": str(outdir), "summary": d["summary"],
             "alignment": [{k: a[k] for k in ("source", "reference", "offset_s", "confidence",
                                              "applied")} for a in d["alignment"]],
-            "files": ["findings.json", "validated.parquet", "template_final.yaml"]}
+            "files": ["findings.json", "results.json", "validated.parquet", "template_final.yaml"]}
 
 
 @app.command("qa")
@@ -52,10 +52,13 @@ def qa_cmd(
         veh = load_vehicle(vname)
     test = import_test(files, tpl)
     result = run_qa(test, veh, tpl, max_offset_s=max_offset)
+    from vehval.cli.commands_results import run_results
+    results = run_results(result.validated, tpl)
     report_note = None
     doc = result.to_dict()  # findings.json
     with atomic_dir(outdir) as stage:
         write_text_atomic(stage / "findings.json", json.dumps(doc, indent=1))
+        write_text_atomic(stage / "results.json", json.dumps(results.to_dict(), indent=1))
         write_test(result.validated, stage / "validated.parquet")
         save_final_template(tpl, result.selection, stage / "template_final.yaml")
         if report:
@@ -82,6 +85,10 @@ def qa_cmd(
         typer.echo(json.dumps(full, indent=1))
         return
     s = summ["summary"]
+    from vehval.cli.commands_results import echo_results
+    echo_results(results)
+    for f in results.findings:
+        typer.echo(f"  {f.severity.value:7s} {f.kind.value:14s} {f.message}")
     typer.echo(f"{result.test_id}: {s['total']} findings ({s['by_severity']['error']} error, "
                f"{s['by_severity']['warning']} warning, {s['by_severity']['info']} info); "
                f"kept {s['kept']}, dropped {s['dropped']}, computed {s['computed']}")
