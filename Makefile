@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.vehval-installed
 DEMO_OUT ?= demo_out
 
-.PHONY: venv demo test bench browser clean lock
+.PHONY: venv demo test test-fast golden bench browser clean lock
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -23,6 +23,13 @@ browser:
 
 test: venv browser
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+
+test-fast: venv
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup -m "not slow"
+
+# regenerate tests/golden/ (outputs of the demo and Cruze tests) after an intended change
+golden: venv
+	$(BIN)/python scripts/golden.py --write
 
 bench: venv
 	@bash scripts/ensure_bench_deps.sh "$(BIN)"

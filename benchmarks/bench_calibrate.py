@@ -57,13 +57,13 @@ def _virtual(veh, cycle: str) -> Test:
 def _dyno(root: Path, cycle: str) -> Test:
     """The perturbed car through the virtual dyno's files, imported and QA'd."""
     from vehval.synth import make_virtual_test
-    from vehval.validate.loading import load_one
+    from vehval.workflow import TestRun
 
     d = root / cycle
     make_virtual_test("prius_2004", cycle, seed=3, faults="none", outdir=d,
                       controller_overrides={k.split(".", 1)[1]: TRUTH[k] for k in CONTROLLER},
                       vehicle_overrides=COMPONENT)
-    return load_one([d]).test
+    return TestRun.from_paths([d]).validated
 
 
 def _note(res, names, extra: str) -> str:

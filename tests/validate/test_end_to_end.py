@@ -14,7 +14,7 @@ from vehval.cycles import load_cycle
 from vehval.vehicle import load_vehicle
 from vehval.validate import validate_test, variability
 from vehval.validate.calibration import calibrate
-from vehval.validate.loading import group_args, load_one
+from vehval.workflow import TestRun, group_args
 
 from .conftest import HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
 
@@ -48,7 +48,7 @@ def _hand_totals(test, dt=0.1):
 
 
 def test_variability_of_five_virtual_repeats(repeats):
-    tests = [load_one([d], qa=False).test for d in repeats]
+    tests = [TestRun.from_paths([d], use_qa=False).validated for d in repeats]
     v = variability(tests)
     hand = np.array([_hand_totals(t) for t in tests])
     # same grid, same trapezoidal rule: equal to float rounding (rtol 1e-9)
@@ -67,10 +67,11 @@ def test_variability_of_five_virtual_repeats(repeats):
 def test_virtual_dyno_files_replayed_on_the_measured_speed(dyno_dirs, nominal):
     # files -> import_test + QA -> validate_test: the driver follows the dyno's speed sensor
     # (10 Hz, noise, 0.05 s lag) and the battery starts at the OBD SOC (0.5 % steps)
-    lt = load_one([dyno_dirs["udds"]])
-    assert lt.qa is not None and "veh_spd_test" in lt.test and "ess_soc_obd_test" in lt.test
-    true = validate_test(lt.test, nominal, dt=0.1, overrides=TRUTH)
-    nom = validate_test(lt.test, nominal, dt=0.1)
+    run = TestRun.from_paths([dyno_dirs["udds"]])
+    test = run.validated
+    assert run.qa_outcome is not None and "veh_spd_test" in test and "ess_soc_obd_test" in test
+    true = validate_test(test, nominal, dt=0.1, overrides=TRUTH)
+    nom = validate_test(test, nominal, dt=0.1)
     cyc = true.conditions.cycle
     assert "veh_spd_test" in cyc.source  # the measured trace, not the nominal UDDS
     udds = load_cycle("udds")
@@ -86,7 +87,7 @@ def test_virtual_dyno_files_replayed_on_the_measured_speed(dyno_dirs, nominal):
     # a zero-phase 1 Hz low-pass of the driver's input removes most of it (measured: 28
     # starts, 99.4 % agreement, fuel +0.6 %, final SOC +0.5 %); the comparison still uses
     # the measured signals
-    sm = validate_test(lt.test, nominal, dt=0.1, overrides=TRUTH, smooth_hz=1.0)
+    sm = validate_test(test, nominal, dt=0.1, overrides=TRUTH, smooth_hz=1.0)
     cs = sm.comparison
     assert cs.on_agreement > ct.on_agreement + 0.05 and cs.on_agreement > 0.97
     assert abs(cs.starts.n_sim - cs.starts.n_test) <= 1 < abs(ct.starts.n_sim - ct.starts.n_test)
@@ -94,7 +95,7 @@ def test_virtual_dyno_files_replayed_on_the_measured_speed(dyno_dirs, nominal):
     assert any("low-passed" in n for n in sm.conditions.notes)
     assert cs.totals_test["fuel_mass_kg"] == ct.totals_test["fuel_mass_kg"]
     with pytest.raises(ConfigError, match="Nyquist"):
-        validate_test(lt.test, nominal, dt=0.1, smooth_hz=6.0)  # 10 Hz samples
+        validate_test(test, nominal, dt=0.1, smooth_hz=6.0)  # 10 Hz samples
 
 
 def test_calibration_through_virtual_dyno_files(dyno_dirs, nominal):
@@ -102,8 +103,8 @@ def test_calibration_through_virtual_dyno_files(dyno_dirs, nominal):
     # parameters on two cycles at the data's resolution (dt = 0.1 s, measured speed
     # low-passed at 1 Hz) -> check on two held-out cycles. A shortened search (8
     # generations) to keep the test fast; docs/validation.md has the full run.
-    tune = [load_one([dyno_dirs[c]]).test for c in TUNE_CYCLES]
-    hold = [load_one([dyno_dirs[c]]).test for c in HOLDOUT_CYCLES]
+    tune = [TestRun.from_paths([dyno_dirs[c]]).validated for c in TUNE_CYCLES]
+    hold = [TestRun.from_paths([dyno_dirs[c]]).validated for c in HOLDOUT_CYCLES]
     res = calibrate(tune, nominal, list(TRUTH), holdout_tests=hold, dt=0.1, seed=0,
                     maxiter=8, smooth_hz=1.0)
     # acceptance: fuel and final SOC within 2 % on the held-out cycles (measured: fuel
@@ -146,8 +147,7 @@ def test_cli_calibrate_from_analysis_start(dyno_dirs, nominal, tmp_path, capsys)
     from vehval.analysis import analyze
 
     # start values from the control-strategy analysis of the tuning test (control.json)
-    lt = load_one([dyno_dirs["ece15"]])
-    control = analyze(lt.test, nominal).to_dict()
+    control = analyze(TestRun.from_paths([dyno_dirs["ece15"]]).validated, nominal).to_dict()
     est = control["controller"]["engine_on_power_w"]
     start = tmp_path / "control.json"
     start.write_text(json.dumps(control))

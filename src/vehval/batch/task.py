@@ -8,9 +8,6 @@ one bad test never stops the others. The result dict is also written, last, as
 
 from __future__ import annotations
 
-import importlib
-import json
-import math
 import shutil
 import time
 import traceback
@@ -21,74 +18,34 @@ from typing import Any, Callable
 
 from vehval.errors import ConfigError, VehvalError
 from vehval.io.atomic import atomic_dir, write_text_atomic
+from vehval.jsonsafe import clean as jsonable
+from vehval.jsonsafe import dumps
+from vehval.workflow import TestRun
 
 RESULT_NAME = "result.json"
 RESULT_SCHEMA = 1
 
-#: Step name -> (module, function). Order of execution is the order here.
-STEPS: dict[str, tuple[str, str]] = {
-    "qa": ("vehval.qa.pipeline", "run_qa"),
-    "analyze": ("vehval.analysis", "analyze"),
-    "validate": ("vehval.validate", "validate_test"),
+#: Step name -> the :class:`TestRun` method it runs (in the order the job lists the steps).
+STEPS: dict[str, Callable[[TestRun], Any]] = {
+    "qa": TestRun.qa,
+    "analyze": TestRun.analyze,
+    "validate": TestRun.validate,
 }
 #: Output file of each step.
 STEP_OUTPUT = {"qa": "findings.json", "analyze": "control.json", "validate": "validation.json"}
-_REPORT = ("vehval.report", "build_reports")
 #: Directory of OUTDIR holding the one plotly.js copy the test reports share.
 ASSETS_DIR = "assets"
 
 
-def _resolve(module: str, func: str, what: str) -> Callable:
-    try:
-        mod = importlib.import_module(module)
-    except ModuleNotFoundError as exc:
-        if exc.name and (module == exc.name or module.startswith(exc.name + ".")):
-            raise ConfigError(f"{what} is not available in this version (no module {module})") from None
-        raise
-    fn = getattr(mod, func, None)
-    if fn is None:
-        raise ConfigError(f"{what} is not available in this version ({module}.{func} is missing)")
-    return fn
-
-
-def step_function(step: str) -> Callable:
-    """The library function of a batch step; :class:`ConfigError` when unknown or absent."""
-    if step not in STEPS:
-        raise ConfigError(f"unknown step '{step}': choose from {', '.join(STEPS)}")
-    return _resolve(*STEPS[step], what=f"step '{step}'")
-
-
-def check_steps(steps: list[str], report: bool) -> None:
-    """Fail early, in the driver, when a requested step or the report is not available."""
+def check_steps(steps: list[str], report: bool = False) -> None:
+    """Fail early, in the driver, on an unknown step name."""
     for s in steps:
-        step_function(s)
-    if report:
-        _resolve(*_REPORT, what="the HTML report (use --no-report)")
-
-
-def jsonable(value: Any) -> Any:
-    """A JSON-safe copy: NaN/inf -> None, numpy -> Python, dataclasses/objects -> dict/str."""
-    if hasattr(value, "to_dict") and callable(value.to_dict) and not isinstance(value, dict):
-        value = value.to_dict()
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, set)):
-        return [jsonable(v) for v in value]
-    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
-        return jsonable(value.tolist())
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, (str, int, bool)) or value is None:
-        return value
-    if hasattr(value, "value") and isinstance(getattr(value, "value"), (str, int)):  # Enum
-        return value.value
-    if isinstance(value, Path):
-        return str(value)
-    return str(value)
+        if s not in STEPS:
+            raise ConfigError(f"unknown step '{s}': choose from {', '.join(STEPS)}")
 
 
 def dump_json(value: Any) -> str:
-    return json.dumps(jsonable(value), indent=1, sort_keys=False, allow_nan=False)
+    return dumps(value).rstrip("\n")
 
 
 @lru_cache(maxsize=8)
@@ -165,45 +122,36 @@ def _clear_stale(test_dir: Path, keep: set[str]) -> None:
 
 def _run_steps(job: dict, stage: Path, result: dict) -> None:
     from vehval.batch.metrics import test_metrics
-    from vehval.io.importer import import_test
 
     template = _template(job["template"], job.get("template_hash", ""))
     vehicle = _vehicle(job.get("vehicle"), job.get("vehicle_hash", ""))
-    test = import_test([Path(f) for f in job["files"]], template, test_id=job["test_id"])
+    if "validate" in job["steps"] and vehicle is None:
+        raise ConfigError("step 'validate' needs a vehicle model: pass --vehicle or set "
+                          f"'vehicle:' in {Path(job['template']).name}")
+    # the later steps see QA's validated test when QA is one of the steps
+    run = TestRun.load([Path(f) for f in job["files"]], template, vehicle,
+                       test_id=job["test_id"], use_qa="qa" in job["steps"])
+    test = run.test
     if not test.meta.test_id:
         test.meta.test_id = job["test_id"]
     result["vehicle"] = job.get("vehicle_name") or test.meta.vehicle or None
     result["cycle"] = test.meta.cycle or job.get("cycle") or None
     outputs: dict[str, Any] = {}
     report_parts: dict[str, Any] = {}
-    qa = None
-    work = test  # what the later steps see: the QA-validated test once QA ran
     for step in job["steps"]:
-        fn = step_function(step)
-        if step == "qa":
-            qa = fn(test, vehicle, template)
-            work = getattr(qa, "validated", None) or test
-            out = jsonable(qa)
-        elif step == "analyze":
-            if qa is not None:
-                from vehval.analysis.inputs import after_qa
-                res = fn(after_qa(qa, test)[0], vehicle)
-            else:
-                res = fn(work, vehicle)
-            out = jsonable(res)
+        outcome = STEPS[step](run)
+        out = jsonable(outcome.validation if step == "validate" else outcome.result)
+        if step == "analyze":
             report_parts["control"] = out
-        else:
-            if vehicle is None:
-                raise ConfigError("step 'validate' needs a vehicle model: pass --vehicle or set "
-                                  f"'vehicle:' in {Path(job['template']).name}")
-            res = fn(work, vehicle)
-            out = jsonable(res)
-            report_parts["validation"] = (jsonable(res.payload()) if hasattr(res, "payload")
-                                          else out)
+        elif step == "validate":
+            report_parts["validation"] = jsonable(outcome.payload())
         outputs[step] = out
         write_text_atomic(stage / STEP_OUTPUT[step], dump_json(out))
     qa_dict = outputs.get("qa") or {}
-    result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None)
+    res = run.results().results
+    write_text_atomic(stage / "results.json", dump_json(res.to_dict()))
+    result["results"] = results_summary(res)
+    result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None, fuel=res.fuel)
     if qa_dict:
         result["findings"] = _compact_findings(qa_dict)
         result["findings_by_severity"] = _by_severity(result["findings"])
@@ -211,16 +159,40 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     if "validate" in outputs and isinstance(outputs["validate"], dict):
         result["validation"] = _validation_summary(outputs["validate"])
     if job.get("report"):
-        build = _resolve(*_REPORT, what="the HTML report (use --no-report)")
         from vehval.report import write_plotly_asset
 
         # one plotly.js for the whole batch (OUTDIR/assets/), not 4.8 MB in every report;
         # written here rather than by the driver so a remote worker's plotly version is used
         asset = write_plotly_asset(Path(job["outdir"]) / ASSETS_DIR)
-        build(stage, work, qa, template=template, vehicle=vehicle,
-              control=report_parts.get("control"), validation=report_parts.get("validation"),
-              title=f"vehval test {job['test_id']}",
-              plotly_js=f"../../{ASSETS_DIR}/{asset.name}")  # from tests/<test_id>/
+        run.report(stage, control=report_parts.get("control"),
+                   validation=report_parts.get("validation"),
+                   title=f"vehval test {job['test_id']}",
+                   plotly_js=f"../../{ASSETS_DIR}/{asset.name}")  # from tests/<test_id>/
+
+
+#: Per-phase quantities of results.json kept in the catalog's ``phase_results`` table.
+PHASE_FIELDS = ("duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
+                "fuel_consumption_l_per_100km", "co2_g_per_km", "ess_energy_net_j")
+
+
+def results_summary(res: Any) -> dict:
+    """The catalog's view of a test's results: conditions and one row per phase, whole test
+    and composite (``scope``, ``kind``, figures [SI/mpg], fuel economy U (k = 2), drive
+    quality)."""
+    rows = []
+    scopes = ([(p.name, "phase", p.part, p.run) for p in res.phases] + [("test", "test", "", 0)]
+              + [(c.name, "composite", "", 0) for c in res.composites])
+    for name, kind, part, run in scopes:
+        vals = res.values.get(name, {})
+        dq = res.drive_quality.get(name) or {}
+        row = {"scope": name, "kind": kind, "part": part or None, "run": run or None,
+               **{k: vals.get(k) for k in PHASE_FIELDS},
+               "fuel_economy_u_mpg": res.expanded(name, "fuel_economy_mpg"),
+               "iwr_pct": dq.get("iwr_pct"), "rmsse_mps": dq.get("rmsse_mps")}
+        rows.append(row)
+    return {"phase_source": res.phase_source, "fuel": res.fuel.name if res.fuel else None,
+            "cell_temp_c": res.conditions.get("cell_temp_c"), "start": res.conditions.get("start"),
+            "rows": rows}
 
 
 def process_test(job: dict) -> dict:
@@ -253,7 +225,7 @@ def process_test(job: dict) -> dict:
         "cycle": None, "steps": list(job["steps"]), "vehval_version": __version__,
         "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "metrics": {}, "findings": [], "findings_by_severity": {}, "qa_summary": None,
-        "validation": None, "outputs": [],
+        "validation": None, "results": None, "outputs": [],
     }
     try:
         with atomic_dir(test_dir) as stage:

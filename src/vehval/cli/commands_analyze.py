@@ -21,33 +21,14 @@ def analyze_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print control.json."),
 ) -> None:
     """Estimate the engine on/off rule, SOC regulation, modes and braking split of a test."""
-    from vehval.analysis import analyze
-    from vehval.errors import InputFileError
     from vehval.io.atomic import write_text_atomic
-    from vehval.io.importer import import_test
-    from vehval.io.template import load_template
+    from vehval.workflow import TestRun
 
-    for f in files:
-        if not f.exists():
-            raise InputFileError(f"{f}: file not found: check the path")
-    tpl = load_template(template)
-    test = import_test(files, tpl)
-    veh = None
-    veh_name = vehicle or tpl.vehicle
-    if veh_name:
-        from vehval.vehicle import load_vehicle
-        veh = load_vehicle(veh_name)
-    if qa:
-        try:
-            from vehval.qa.pipeline import run_qa
-        except ImportError:  # pragma: no cover - QA not installed
-            run_qa = None
-        if run_qa is not None:
-            from vehval.analysis.inputs import after_qa
-            test, restored = after_qa(run_qa(test, veh, tpl), test)
-            for note in restored:
-                typer.echo(f"note: {note}", err=True)
-    result = analyze(test, veh)
+    run = TestRun.load(files, template, vehicle, use_qa=qa)
+    outcome = run.analyze()
+    for note in outcome.notes:
+        typer.echo(f"note: {note}", err=True)
+    result = outcome.result
     text = json.dumps(result.to_dict(), indent=1) + "\n"
     outdir.mkdir(parents=True, exist_ok=True)
     write_text_atomic(outdir / "control.json", text)

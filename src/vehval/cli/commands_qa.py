@@ -8,7 +8,6 @@ from pathlib import Path
 import typer
 
 from vehval.cli import app
-from vehval.errors import InputFileError
 
 
 def _summary(d: dict, outdir: Path) -> dict:
@@ -35,53 +34,27 @@ def qa_cmd(
     with --report also report.html and tables.xlsx.
     """
     from vehval.io.atomic import atomic_dir, write_text_atomic
-    from vehval.io.importer import import_test
     from vehval.io.parquet import write_test
-    from vehval.io.template import load_template
-    from vehval.qa.pipeline import run_qa
     from vehval.qa.select import save_final_template
+    from vehval.workflow import TestRun
 
-    for f in files:
-        if not f.exists():
-            raise InputFileError(f"{f}: file not found: check the path")
-    tpl = load_template(template)
-    veh = None
-    vname = vehicle or tpl.vehicle
-    if vname:
-        from vehval.vehicle import load_vehicle
-        veh = load_vehicle(vname)
-    test = import_test(files, tpl)
-    result = run_qa(test, veh, tpl, max_offset_s=max_offset)
-    from vehval.cli.commands_results import run_results
-    results = run_results(result.validated, tpl)
-    report_note = None
-    doc = result.to_dict()  # findings.json
+    run = TestRun.load(files, template, vehicle)
+    qa = run.qa(max_offset_s=max_offset)
+    result, doc = qa.result, qa.document  # doc: findings.json
+    results = run.results().results
     with atomic_dir(outdir) as stage:
         write_text_atomic(stage / "findings.json", json.dumps(doc, indent=1))
         write_text_atomic(stage / "results.json", json.dumps(results.to_dict(), indent=1))
         write_test(result.validated, stage / "validated.parquet")
-        save_final_template(tpl, result.selection, stage / "template_final.yaml")
+        save_final_template(run.template, result.selection, stage / "template_final.yaml")
         if report:
-            try:
-                from vehval.report import render_report, write_tables
-            except ImportError:
-                report_note = ("--report: the HTML report module (vehval.report) is not "
-                               "available in this version; findings.json has the same content")
-            else:
-                html = render_report(result.validated, result, template=tpl, vehicle=veh, raw=test)
-                write_text_atomic(stage / "report.html", html)
-                write_tables(stage / "tables.xlsx", result, result.validated)
+            run.report(stage, raw=run.test)
     summ = _summary(doc, outdir)
-    if report and not report_note:
+    if report:
         summ["files"] += ["report.html", "tables.xlsx"]
-    if report_note:
-        summ["report"] = report_note
-        typer.echo(f"vehval: note: {report_note}", err=True)
     if as_json:
         # the public contract: findings.json's keys, plus where the files went
         full = dict(doc, outdir=summ["outdir"], files=summ["files"])
-        if report_note:
-            full["report"] = report_note
         typer.echo(json.dumps(full, indent=1))
         return
     s = summ["summary"]

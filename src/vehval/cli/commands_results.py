@@ -29,15 +29,6 @@ def hot_start_bag1(files: list[Path], template) -> dict[str, float]:
     return {k: vals[k] for k in ("fuel_mass_kg", "distance_m", "co2_kg") if vals.get(k) is not None}
 
 
-def run_results(validated, template, *, monte_carlo: int = 0, hot_start=None):
-    """The results of a QA-validated test with the template's declarations."""
-    from vehval.results import results_from_template
-
-    method = "monte_carlo" if monte_carlo else "first_order"
-    return results_from_template(validated, template, method=method,
-                                 draws=monte_carlo or 1000, hot_start_bag1=hot_start)
-
-
 def echo_results(res) -> None:
     """Headline lines: phases and composites with their expanded uncertainty."""
     def fe(scope: str) -> str:
@@ -81,23 +72,12 @@ def results_cmd(
     """Results per phase, whole test and regulatory composites, with uncertainty (k = 2),
     SOC correction and drive quality. Writes results.json into OUTDIR (atomically)."""
     from vehval.io.atomic import atomic_dir, write_text_atomic
-    from vehval.io.importer import import_test
-    from vehval.io.template import load_template
-    from vehval.qa.pipeline import run_qa
+    from vehval.workflow import TestRun
 
-    for f in files:
-        if not f.exists():
-            raise InputFileError(f"{f}: file not found: check the path")
-    tpl = load_template(template)
-    veh = None
-    vname = vehicle or tpl.vehicle
-    if vname:
-        from vehval.vehicle import load_vehicle
-        veh = load_vehicle(vname)
-    hot = hot_start_bag1(list(hot_start), tpl) if hot_start else None
-    test = import_test(files, tpl)
-    qa = run_qa(test, veh, tpl)
-    res = run_results(qa.validated, tpl, monte_carlo=monte_carlo, hot_start=hot)
+    run = TestRun.load(files, template, vehicle)
+    hot = hot_start_bag1(list(hot_start), run.template) if hot_start else None
+    res = run.results(method="monte_carlo" if monte_carlo else "first_order",
+                      draws=monte_carlo or 1000, hot_start_bag1=hot).results
     doc = res.to_dict()
     with atomic_dir(outdir) as stage:
         write_text_atomic(stage / "results.json", json.dumps(doc, indent=1))

@@ -1,6 +1,6 @@
 """`vehval validate` and `vehval calibrate`: the model against test data.
 
-Test grouping (see :mod:`vehval.validate.loading`): each directory is one test, each
+Test grouping (see :mod:`vehval.workflow`): each directory is one test, each
 ``.parquet`` file is one validated test, loose files together are one test, and
 ``--test A,B`` (repeatable) groups files explicitly.
 """
@@ -53,64 +53,33 @@ def validate_cmd(
     """Simulate VEHICLE on each test's own conditions and compare: writes validation.json
     (report tables and overlay figures), metrics.json and overlays_<test>.parquet."""
     from vehval.io.atomic import atomic_dir
-    from vehval.vehicle import load_vehicle
-    from vehval.validate import error_vs_repeatability, ladder, validate_test, variability
-    from vehval.validate.compare import _clean
-    from vehval.validate.loading import load_tests
+    from vehval.jsonsafe import dumps
+    from vehval.workflow import runs_from_args, validate_runs
 
     if not files and not test_group:
         raise ConfigError("no test given: name test directories or files, or use --test A,B")
-    veh = load_vehicle(vehicle)
-    tol = _tolerances(fuel_tol, soc_tol, soc_points)
-    loaded = load_tests(files or [], test_group, template, veh, qa=not no_qa)
-    vals = [validate_test(lt.test, veh, dt=dt, window_s=window_s, smooth_hz=smooth_hz) for lt in loaded]
-    lad = ladder([v.comparison for v in vals], tol)
-    payload = {"title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "
-               "initial SOC, mass and road load", "tables": [], "figures": [], "notes": []}
-    for v in vals:
-        p = v.payload()
-        payload["tables"] += p["tables"]
-        payload["figures"] += p["figures"]
-        payload["notes"] += [f"{v.comparison.test_id}: {n}" for n in p["notes"]]
-    payload["tables"] += lad.tables()
-    metrics = {"vehicle": veh.name, "vehicle_file": veh.file, "dt_s": dt, "speed_smoothing_hz": smooth_hz,
-               "tests": [v.to_dict() for v in vals], "ladder": lad.to_dict()}
-    by_cycle: dict[str, list[int]] = {}
-    for i, lt in enumerate(loaded):
-        by_cycle.setdefault(lt.test.meta.cycle or "", []).append(i)
-    reps = []
-    for cyc, idx in by_cycle.items():
-        if len(idx) >= 2:
-            var = variability([loaded[i].test for i in idx])
-            payload["tables"] += var.tables()
-            rows = []
-            for i in idx:
-                for r in error_vs_repeatability(vals[i].comparison, var):
-                    rows.append([vals[i].comparison.test_id, r["quantity"], r["error"], r["test_std"],
-                                 r["ratio"], r["verdict"]])
-            payload["tables"].append({"title": f"Model error against test repeatability ({cyc})",
-                                      "columns": ["test", "quantity", "error (SI)", "test std (SI)",
-                                                  "|error| / std", "verdict"], "rows": rows})
-            reps.append(var.to_dict())
-    metrics["variability"] = reps
+    runs = runs_from_args(files or [], test_group, template, vehicle, use_qa=not no_qa)
+    suite = validate_runs(runs, _tolerances(fuel_tol, soc_tol, soc_points), dt=dt,
+                          window_s=window_s, smooth_hz=smooth_hz)
+    metrics, lad = suite.metrics, suite.ladder
     with atomic_dir(output) as stage:
-        (stage / "validation.json").write_text(json.dumps(_clean(payload), indent=1) + "\n", encoding="utf-8")
-        (stage / "metrics.json").write_text(json.dumps(_clean(metrics), indent=1) + "\n", encoding="utf-8")
-        for v in vals:
-            v.comparison.overlays.to_parquet(stage / f"overlays_{_slug(v.comparison.test_id)}.parquet",
-                                             index=False)
+        (stage / "validation.json").write_text(dumps(suite.payload), encoding="utf-8")
+        (stage / "metrics.json").write_text(dumps(metrics), encoding="utf-8")
+        for v in suite.validations:
+            comp = v.validation.comparison
+            comp.overlays.to_parquet(stage / f"overlays_{_slug(comp.test_id)}.parquet", index=False)
     if report:
-        from vehval.report import build_reports, results_beside
+        from vehval.report import results_beside
 
-        for lt, v in zip(loaded, vals):
-            sub = output if len(vals) == 1 else output / _slug(v.comparison.test_id)
+        for run, v in zip(runs, suite.validations):
+            tid = v.validation.comparison.test_id
+            sub = output if len(runs) == 1 else output / _slug(tid)
             # a validated test from `vehval qa` / `analyze`: its findings and control.json
-            found = results_beside(lt.origin) if lt.qa is None else {}
-            build_reports(sub, lt.test, lt.qa if lt.qa is not None else found.get("findings"),
-                          lt.template, veh, control=found.get("control"), validation=v.payload(),
-                          title=f"Validation report: {v.comparison.test_id}")
+            found = results_beside(run.origin) if run.qa_outcome is None else {}
+            run.report(sub, qa=found.get("findings"), control=found.get("control"),
+                       validation=v.payload(), title=f"Validation report: {tid}")
     if as_json:
-        typer.echo(json.dumps(_clean(metrics), indent=1))
+        typer.echo(dumps(metrics), nl=False)
         return
     for e in lad.entries:
         typer.echo(f"{e.test_id} ({e.cycle}, {e.rung}): fuel {e.errors['fuel_pct']:.2f} %, "
@@ -142,18 +111,19 @@ def calibrate_cmd(
     """Tune vehicle parameters on several tests and check them on held-out tests: writes
     calibration.json and vehicle_calibrated.yaml (tuned values with their provenance)."""
     from vehval.io.atomic import atomic_dir
-    from vehval.vehicle import load_vehicle
+    from vehval.jsonsafe import dumps
     from vehval.validate.calibration import calibrate
-    from vehval.validate.compare import _clean
-    from vehval.validate.loading import load_one, load_tests
+    from vehval.vehicle import load_vehicle
+    from vehval.workflow import TestRun, runs_from_args
 
     if not files and not test_group:
         raise ConfigError("no tuning test given: name test directories or files, or use --test A,B")
     names = _params(params)
     veh = load_vehicle(vehicle)
-    tests = [lt.test for lt in load_tests(files or [], test_group, template, veh, qa=not no_qa)]
-    hold = [load_one([Path(x.strip()) for x in h.split(",") if x.strip()], template, veh, qa=not no_qa).test
-            for h in holdout]
+    tests = [r.validated for r in runs_from_args(files or [], test_group, template, veh,
+                                                 use_qa=not no_qa)]
+    hold = [TestRun.from_paths([Path(x.strip()) for x in h.split(",") if x.strip()], template, veh,
+                               use_qa=not no_qa).validated for h in holdout]
     start_values = None
     if start is not None:
         try:
@@ -167,7 +137,7 @@ def calibrate_cmd(
         (stage / "calibration.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
         res.write_vehicle(stage / "vehicle_calibrated.yaml")
     if as_json:
-        typer.echo(json.dumps(_clean(doc), indent=1))
+        typer.echo(dumps(doc), nl=False)
         return
     for note in res.notes:
         typer.echo(f"note: {note}")

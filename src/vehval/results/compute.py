@@ -228,8 +228,10 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     test : Test
         Imported (and preferably QA-validated) test, SI signals.
     fuel : str, dict, FuelSpec or Fuel, optional
-        The test fuel; without it no volume, energy or carbon-based result is given and a
-        mass-flow fuel channel gets a warning finding.
+        The test fuel; default the explicit fuel of the test constants
+        ``fuel_density_kg_per_m3`` / ``fuel_lhv_j_per_kg`` when set. Without either, no
+        volume, energy or carbon-based result is given and a mass-flow fuel channel gets a
+        warning finding.
     accuracy : dict, optional
         Signal name -> ``AccuracySpec`` (template ``accuracy:``).
     phase_channel : str, optional
@@ -252,6 +254,12 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     """
     findings: list[Finding] = []
     notes: list[str] = []
+    c = test.meta.constants or {}
+    if fuel is None and c.get("fuel_density_kg_per_m3"):
+        fuel = {"density_kg_per_m3": c["fuel_density_kg_per_m3"],
+                "lhv_j_per_kg": c.get("fuel_lhv_j_per_kg")}
+        notes.append("fuel: properties from the template constants (fuel_density_kg_per_m3, "
+                     "fuel_lhv_j_per_kg); declare 'fuel:' for CO2 and the property sources")
     fuel_obj = fuel if isinstance(fuel, Fuel) else fuel_properties(fuel)
     accuracy = dict(accuracy or {})
     for name in accuracy:
@@ -472,12 +480,8 @@ def _registry_bases() -> set[str]:
 
 def results_from_template(test: Test, template: Any, **kw: Any) -> TestResults:
     """:func:`compute_results` with the template's ``fuel``, ``accuracy`` and
-    ``phase_channel``; a template that gives only ``constants.fuel_density_kg_per_m3`` (and
-    ``fuel_lhv_j_per_kg``) declares an explicit fuel with those properties."""
+    ``phase_channel``."""
     fuel = template.fuel
-    if fuel is None and template.constants.fuel_density_kg_per_m3:
-        fuel = {"density_kg_per_m3": template.constants.fuel_density_kg_per_m3,
-                "lhv_j_per_kg": template.constants.fuel_lhv_j_per_kg}
     kw.setdefault("soc_factor", getattr(template.constants, "soc_correction_fuel_j_per_battery_j",
                                         None))
     return compute_results(test, fuel=fuel, accuracy=template.accuracy,

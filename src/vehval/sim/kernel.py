@@ -43,7 +43,24 @@ def _bus_allowed(batt_power, eff):
 
 
 @njit(cache=True)
-def _resplit(te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL, boost_eff, aux):
+def _mot_power(mS, mT, mL, rg, w_ring, t_ring_side):
+    """MG2 DC power [W] for a ring-side speed [rad/s] and ring-side torque [N·m].
+
+    ``rg`` is the MG2 reduction ratio (MG2 shaft speed / ring speed); the map is read at
+    the shaft speed and torque.
+    """
+    return electrical_power(mS, mT, mL, rg * w_ring, t_ring_side / rg)
+
+
+@njit(cache=True)
+def _mot_torque_for_power(mS, mT, mL, rg, w_ring, p_target, t_lo, t_hi):
+    """Ring-side MG2 torque [N·m] in [t_lo, t_hi] drawing at most ``p_target`` [W]."""
+    return rg * torque_for_power(mS, mT, mL, rg * w_ring, p_target, t_lo / rg, t_hi / rg)
+
+
+@njit(cache=True)
+def _resplit(te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL, rg, boost_eff,
+             aux):
     """Torque split again after the engine left its best line for a battery limit.
 
     Returns the generator feed-forward torque [N·m] (-te/k1), the motor torque [N·m] from
@@ -53,7 +70,7 @@ def _resplit(te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL, bo
     tg_ff = -te / k1
     t_m = min(max(t_fd - t_ring, -tm_lim), tm_lim)
     p_gen = electrical_power(gS, gT, gL, wg0, tg_ff)
-    p_mot = electrical_power(mS, mT, mL, wr_e, t_m)
+    p_mot = _mot_power(mS, mT, mL, rg, wr_e, t_m)
     return tg_ff, t_m, p_gen, battery_side_power(p_mot + p_gen, boost_eff) + aux
 
 
@@ -104,16 +121,17 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
     gen_kp = prm[P_GEN_KP]; ki_gen = min(prm[P_GEN_KI], 0.5 * gen_kp / dt)
     drv_tau = prm[P_DRV_TAU]; drv_ki = prm[P_DRV_KI]; drv_lim = prm[P_DRV_INT_LIM]
 
+    rg = prm[P_MG2_RATIO]  # MG2 shaft speed / ring speed
     k1 = (nr + ns) / ns
     k2 = nr / ns
     g = fd / rw
     j_gen = prm[P_J_GEN]
     m11 = prm[P_J_ENG] + prm[P_J_CARRIER] + j_gen * k1 * k1
     m12 = -j_gen * k1 * k2 * g
-    m22 = (mass + prm[P_J_WHEEL] / (rw * rw) + (prm[P_J_MOT] + prm[P_J_RING]) * g * g
+    m22 = (mass + prm[P_J_WHEEL] / (rw * rw) + (prm[P_J_MOT] * rg * rg + prm[P_J_RING]) * g * g
            + j_gen * k2 * k2 * g * g)
     det = m11 * m22 - m12 * m12
-    f_min = -(brk_max + mot_tmax * fd / rw)
+    f_min = -(brk_max + mot_tmax * rg * fd / rw)
     wg_lim = gen_max - prm[P_GEN_SPD_MARGIN]
 
     v = vt[0]
@@ -135,7 +153,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
         for k in range(N_S):
             out[0, k] = 0.0
         out[0, S_VEH_SPD] = v; out[0, S_VEH_SPD_TARGET] = vt[0]; out[0, S_WHL_SPD] = v / rw
-        out[0, S_MOT_SPD_OUT] = g * v; out[0, S_GEN_SPD_OUT] = -k2 * g * v
+        out[0, S_MOT_SPD_OUT] = rg * g * v; out[0, S_GEN_SPD_OUT] = -k2 * g * v
         out[0, S_ESS_SOC] = soc; out[0, S_ESS_VOLT] = ocv0
         out[0, S_BOOST_VOLT_OUT] = output_voltage(ocv0, 0.0, prm[P_BOOST_VMIN], prm[P_BOOST_VMAX])
         out[0, S_ESS_PWR_LIM_DIS] = interp1(bSoc, bPd, soc)
@@ -229,7 +247,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
         t_ring = 0.0 if locked else te * k2 / k1
         t_wh = f_dem * rw
         t_fd = t_wh / (fd * fd_eff) if t_wh >= 0.0 else t_wh * fd_eff / fd
-        tm_lim = torque_limit(mot_tmax, mot_pmax, wr0)
+        tm_lim = rg * torque_limit(mot_tmax, mot_pmax, rg * wr0)  # ring side
         braking = f_dem < 0.0
         t_req = t_fd - t_ring
         if braking and t_req < 0.0:
@@ -238,7 +256,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             t_m = t_req
         t_m = min(max(t_m, -tm_lim), tm_lim)
         p_gen_est = 0.0 if locked else electrical_power(gS, gT, gL, wg0, tg_ff)
-        p_mot_est = electrical_power(mS, mT, mL, wr_e, t_m)
+        p_mot_est = _mot_power(mS, mT, mL, rg, wr_e, t_m)
         p_b_est = battery_side_power(p_mot_est + p_gen_est, boost_eff) + aux
         pstate = PROPEL_BRAKING if braking else PROPEL_NORMAL
         if p_b_est > pdis_av:
@@ -250,11 +268,11 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                     t_ring += (te_new - te) * k2 / k1
                     te = te_new
                     tg_ff, t_m, p_gen_est, p_b_est = _resplit(
-                        te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL,
+                        te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL, rg,
                         boost_eff, aux)
             if p_b_est > pdis_av:
                 p_allow = _bus_allowed(pdis_av - aux, boost_eff) - p_gen_est
-                t_m = torque_for_power(mS, mT, mL, wr_e, p_allow, -tm_lim, t_m)
+                t_m = _mot_torque_for_power(mS, mT, mL, rg, wr_e, p_allow, -tm_lim, t_m)
         elif p_b_est < -pchg_av:
             pstate = PROPEL_CHARGE_LIMIT
             if fired and (not fuelcut) and te > 0.0:
@@ -263,11 +281,11 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                 t_ring += (te_new - te) * k2 / k1
                 te = te_new
                 tg_ff, t_m, p_gen_est, p_b_est = _resplit(
-                    te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL,
+                    te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL, rg,
                     boost_eff, aux)
             if p_b_est < -pchg_av:
                 p_allow = _bus_allowed(-pchg_av - aux, boost_eff) - p_gen_est
-                t_m = max(t_m, torque_for_power(mS, mT, mL, wr_e, p_allow, t_m, max(t_m, 0.0)))
+                t_m = max(t_m, _mot_torque_for_power(mS, mT, mL, rg, wr_e, p_allow, t_m, max(t_m, 0.0)))
         f_pt_est = (t_m + t_ring) * g
         f_pt_est = f_pt_est * fd_eff if f_pt_est >= 0.0 else f_pt_est / fd_eff
         f_brk = min(max(f_pt_est - f_dem, 0.0), brk_max) if braking else 0.0
@@ -307,11 +325,11 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             t_m_hi = tm_lim
             t_m_lo = -tm_lim
             p_m_hi = _bus_allowed(pdis_lim - aux, boost_eff) - p_g_act
-            if electrical_power(mS, mT, mL, wr_e, t_m) > p_m_hi:
-                t_m_hi = torque_for_power(mS, mT, mL, wr_e, p_m_hi, -tm_lim, t_m)
+            if _mot_power(mS, mT, mL, rg, wr_e, t_m) > p_m_hi:
+                t_m_hi = _mot_torque_for_power(mS, mT, mL, rg, wr_e, p_m_hi, -tm_lim, t_m)
             p_m_lo = _bus_allowed(-pchg_lim - aux, boost_eff) - p_g_act
-            if electrical_power(mS, mT, mL, wr_e, t_m) < p_m_lo:
-                t_m_lo = torque_for_power(mS, mT, mL, wr_e, p_m_lo, t_m, max(t_m, 0.0))
+            if _mot_power(mS, mT, mL, rg, wr_e, t_m) < p_m_lo:
+                t_m_lo = _mot_torque_for_power(mS, mT, mL, rg, wr_e, p_m_lo, t_m, max(t_m, 0.0))
             if t_m > t_m_hi or t_m < t_m_lo:
                 t_m = min(max(t_m, t_m_lo), t_m_hi)
                 f2 = -k2 * g * eta_d
@@ -325,7 +343,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             # charge limit: MG1 slowing the engine gives way too (scaled generating torque)
             wg_m = k1 * 0.5 * (we0 + we1) - k2 * wr0
             p_g_min = (_bus_allowed(-pchg_lim - aux, boost_eff)
-                       - electrical_power(mS, mT, mL, wr_e, t_m))
+                       - _mot_power(mS, mT, mL, rg, wr_e, t_m))
             p_g_now = electrical_power(gS, gT, gL, wg_m, t_g)
             if p_g_now < p_g_min and p_g_now < 0.0:
                 t_g *= min(p_g_min, 0.0) / p_g_now
@@ -349,7 +367,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
         fuel = fuel_rate(eS, eT, eF, we_a, te) if (fired and not fuelcut) else 0.0
         p_eng_mech = te * we_a
         p_gen_e = electrical_power(gS, gT, gL, wg_a, t_g)
-        p_mot_e = electrical_power(mS, mT, mL, wr_a, t_m)
+        p_mot_e = _mot_power(mS, mT, mL, rg, wr_a, t_m)
         t_fd_act = t_m - k2 * t_g
         f_fd = eta_d * g * t_fd_act
         fl_app = min(fl, max(r_eff, 0.0))
@@ -403,7 +421,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
         wg1 = k1 * we1 - k2 * g * v1
         ys[Y_ENG_SPD_MAX] = max(ys[Y_ENG_SPD_MAX], we1)
         ys[Y_GEN_SPD_MAX_ABS] = max(ys[Y_GEN_SPD_MAX_ABS], abs(wg1))
-        ys[Y_MOT_SPD_MAX] = max(ys[Y_MOT_SPD_MAX], g * v1)
+        ys[Y_MOT_SPD_MAX] = max(ys[Y_MOT_SPD_MAX], rg * g * v1)
         ys[Y_SOC_MIN_SEEN] = min(ys[Y_SOC_MIN_SEEN], soc)
         ys[Y_SOC_MAX_SEEN] = max(ys[Y_SOC_MAX_SEEN], soc)
         miss = max(band_lo[i + 1] - v1, v1 - band_hi[i + 1], 0.0)
@@ -429,8 +447,8 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             out[j, S_GEN_SPD_OUT] = wg1
             out[j, S_GEN_TRQ_OUT] = t_g
             out[j, S_GEN_PWR_IN] = p_gen_e
-            out[j, S_MOT_SPD_OUT] = g * v1
-            out[j, S_MOT_TRQ_OUT] = t_m
+            out[j, S_MOT_SPD_OUT] = rg * g * v1
+            out[j, S_MOT_TRQ_OUT] = t_m / rg
             out[j, S_MOT_PWR_IN] = p_mot_e
             out[j, S_ESS_VOLT] = vb
             out[j, S_ESS_CURR] = cur
@@ -439,7 +457,7 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             out[j, S_ESS_PWR_LIM_DIS] = pdis_lim
             out[j, S_ESS_PWR_LIM_CHG] = pchg_lim
             out[j, S_BOOST_VOLT_OUT] = output_voltage(
-                vb, max(abs(wg1), g * v1) / prm[P_BOOST_FULL_SPD], prm[P_BOOST_VMIN],
+                vb, max(abs(wg1), rg * g * v1) / prm[P_BOOST_FULL_SPD], prm[P_BOOST_VMIN],
                 prm[P_BOOST_VMAX])
             out[j, S_BRK_FRC] = brk_app
             out[j, S_DRV_PWR_DEMAND] = p_wh

@@ -64,7 +64,7 @@ def param_vector(veh: Vehicle, soc_initial: float) -> np.ndarray:
         "eng_spd_margin": c.engine_speed_margin_rpm * RPM,
         "drv_tau": dr.response_time_s, "drv_ki": dr.ki_n_per_m,
         "drv_int_lim": dr.integrator_limit_n, "drv_fmax": dr.max_force_n,
-        "soc_init": soc_initial,
+        "soc_init": soc_initial, "mg2_ratio": d.mg2_reduction_ratio,
     }
     return np.array([float(val[k]) for k in PARAMS])
 

@@ -174,6 +174,8 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
     t, vt = time_grid(cyc, dt)
     if t.size < 2:
         raise ConfigError(f"cycle '{cyc.name}' is shorter than one step of {dt:g} s")
+    if veh.architecture == "conventional":
+        return _simulate_conventional(veh, cyc, t, vt, dt)
     bt = veh.battery
     soc0 = veh.controller.soc_target if soc_initial is None else float(soc_initial)
     if not (bt.soc_min <= soc0 <= bt.soc_max):
@@ -195,6 +197,24 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
     for k, base in enumerate(SIGNALS):
         test.add(Signal.standard(f"{base}_simu", t, out[:, k], source="simu"))
     return SimResult(test=test, summary=summary, vehicle=veh, cycle=cyc, dt=dt, iterations=iters)
+
+
+def _simulate_conventional(veh, cyc: Cycle, t: np.ndarray, vt: np.ndarray,
+                           dt: float) -> SimResult:
+    """Conventional powertrain (no battery: SOC options do not apply)."""
+    from vehval.sim.conventional import run_conventional_once, summarise_conventional
+    from vehval.sim.conventional_kernel import CONV_SIGNALS
+    out, ys = run_conventional_once(veh, t, vt, dt)
+    summary = summarise_conventional(veh, ys)
+    summary.update({"vehicle": veh.name, "cycle": cyc.name, "dt_s": dt,
+                    "architecture": "conventional"})
+    meta = TestMeta(test_id=f"simu_{veh.name}_{cyc.name}", vehicle=veh.name, cycle=cyc.name,
+                    notes=[f"vehval forward-looking conventional simulation, dt = {dt:g} s"],
+                    synthetic=True)
+    test = Test(meta=meta)
+    for k, base in enumerate(CONV_SIGNALS):
+        test.add(Signal.standard(f"{base}_simu", t, out[:, k], source="simu"))
+    return SimResult(test=test, summary=summary, vehicle=veh, cycle=cyc, dt=dt)
 
 
 def _balance(veh: Vehicle, t, vt, dt, soc0: float, iters: list) -> float:

@@ -12,14 +12,19 @@ from vehval.constants import RPM_RAD_PER_S as RPM
 class Block(BaseModel):
     """A parameter block. ``sources`` maps every parameter name to its source (text)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=False, validate_assignment=False)
+    model_config = ConfigDict(extra="forbid", frozen=False, validate_assignment=False,
+                              allow_inf_nan=False)
 
     sources: dict[str, str]
 
     @model_validator(mode="after")
     def _every_parameter_has_a_source(self):
-        params = set(type(self).model_fields) - {"sources"}
-        missing = sorted(params - set(self.sources))
+        fields = type(self).model_fields
+        params = set(fields) - {"sources"}
+        # a parameter left at its structural default (e.g. no reduction gear) needs no source
+        needed = {k for k in params
+                  if fields[k].is_required() or getattr(self, k) != fields[k].default}
+        missing = sorted(needed - set(self.sources))
         if missing:
             raise ValueError(f"parameters without a source: {', '.join(missing)} "
                              "(add them under 'sources:' with where the value comes from)")

@@ -12,17 +12,18 @@ import copy
 from functools import cached_property
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
 
 from vehval.errors import ConfigError
+from vehval.safe_yaml import read_yaml
 from vehval.vehicle.base import RPM
 from vehval.vehicle.components import (BatteryParams, BodyParams, BoostParams, DrivelineParams,
                                        EngineParams, MachineParams, PlanetaryParams)
 from vehval.vehicle.control import ControllerParams, DriverParams
+from vehval.vehicle.conventional import ConventionalVehicle
 from vehval.vehicle.maps import best_efficiency_line
 
 BLOCKS = ("body", "engine", "mg1", "mg2", "battery", "boost", "planetary", "driveline",
@@ -34,6 +35,7 @@ class Vehicle(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
 
+    architecture: Literal["power_split"] = "power_split"
     name: str
     description: str = ""
     body: BodyParams
@@ -71,43 +73,17 @@ class Vehicle(BaseModel):
 
         ``__`` may stand for ``.`` (``controller__soc_target``) so paths can be keyword names.
         """
-        if not overrides:
-            return self
-        per_block: dict[str, dict[str, Any]] = {}
-        for raw_key, value in overrides.items():
-            key = raw_key.replace("__", ".")
-            parts = key.split(".")
-            if len(parts) != 2 or parts[0] not in BLOCKS:
-                raise ConfigError(f"override '{raw_key}': use <block>.<parameter> with block one "
-                                  f"of {', '.join(BLOCKS)}")
-            blk, name = parts
-            fields = type(getattr(self, blk)).model_fields
-            if name == "sources" or name not in fields:
-                raise ConfigError(f"override '{raw_key}': '{blk}' has no parameter '{name}' "
-                                  f"(known: {', '.join(k for k in fields if k != 'sources')})")
-            per_block.setdefault(blk, {})[name] = value
-        update = {}
-        where = f"{self._file or self.name} with overrides"
-        for blk, changes in per_block.items():
-            old = getattr(self, blk)
-            data = {**old.model_dump(), **changes}
-            try:
-                update[blk] = type(old).model_validate(data)
-            except ValidationError as exc:
-                msgs = "; ".join(f"key '{blk}.{'.'.join(str(x) for x in e['loc']) or '?'}': "
-                                 f"{e['msg'].removeprefix('Value error, ')}"
-                                 for e in exc.errors()[:5])
-                raise ConfigError(f"{where}: invalid override: {msgs}") from None
-        new = self.model_copy(update=update)
-        if "engine" in update:
+        new = apply_overrides(self, overrides, BLOCKS)
+        if new is not self and "engine" in {k.replace("__", ".").split(".")[0]
+                                            for k in overrides}:
             new.__dict__.pop("best_line", None)  # cached from the engine block
-        new._file = self._file
         return new
 
     def signal_limits(self) -> dict[str, tuple[float, float]]:
         """Physical limits per signal base name, SI units (for QA range checks)."""
         e, g1, g2, b, d = self.engine, self.mg1, self.mg2, self.battery, self.driveline
-        v_max = g2.max_speed_rpm * RPM * d.wheel_radius_m / d.final_drive_ratio
+        v_max = (g2.max_speed_rpm * RPM * d.wheel_radius_m
+                 / (d.final_drive_ratio * d.mg2_reduction_ratio))
         tmax = float(np.max(e.max_torque_nm))
         ring = self.planetary.ring_teeth / (self.planetary.ring_teeth + self.planetary.sun_teeth)
         return {
@@ -137,6 +113,45 @@ class Vehicle(BaseModel):
         return best_efficiency_line(self.engine)
 
 
+def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ...]):
+    """Validated copy of ``veh`` with parameters replaced by dotted path ``<block>.<name>``."""
+    if not overrides:
+        return veh
+    per_block: dict[str, dict[str, Any]] = {}
+    for raw_key, value in overrides.items():
+        key = raw_key.replace("__", ".")
+        parts = key.split(".")
+        if len(parts) != 2 or parts[0] not in blocks:
+            raise ConfigError(f"override '{raw_key}': use <block>.<parameter> with block one "
+                              f"of {', '.join(blocks)}")
+        blk, name = parts
+        fields = type(getattr(veh, blk)).model_fields
+        if name == "sources" or name not in fields:
+            raise ConfigError(f"override '{raw_key}': '{blk}' has no parameter '{name}' "
+                              f"(known: {', '.join(k for k in fields if k != 'sources')})")
+        per_block.setdefault(blk, {})[name] = value
+    update = {}
+    where = f"{veh.file or veh.name} with overrides"
+    for blk, changes in per_block.items():
+        old = getattr(veh, blk)
+        data = {**old.model_dump(), **changes}
+        data["sources"] = {**{k: "override given by the caller" for k in changes},
+                           **old.sources}
+        try:
+            update[blk] = type(old).model_validate(data)
+        except ValidationError as exc:
+            msgs = "; ".join(f"key '{blk}.{'.'.join(str(x) for x in e['loc']) or '?'}': "
+                             f"{e['msg'].removeprefix('Value error, ')}"
+                             for e in exc.errors()[:5])
+            raise ConfigError(f"{where}: invalid override: {msgs}") from None
+    new = veh.model_copy(update=update)
+    new._file = veh._file
+    return new
+
+
+ARCHITECTURES = {"power_split": Vehicle, "conventional": ConventionalVehicle}
+
+
 def _vehicles_dir() -> Path:
     return Path(str(resources.files("vehval") / "data" / "vehicles"))
 
@@ -146,12 +161,17 @@ def list_vehicles() -> list[str]:
     return sorted(p.stem for p in _vehicles_dir().glob("*.yaml"))
 
 
-def _validate(data: Any, where: str) -> Vehicle:
+def _validate(data: Any, where: str):
     if not isinstance(data, dict):
         raise ConfigError(f"{where}: a vehicle file must be a mapping of blocks "
                           f"({', '.join(BLOCKS)})")
+    arch = data.get("architecture", "power_split")
+    model = ARCHITECTURES.get(arch) if isinstance(arch, str) else None
+    if model is None:
+        raise ConfigError(f"{where}: key 'architecture': unknown architecture {arch!r} "
+                          f"(known: {', '.join(ARCHITECTURES)})")
     try:
-        veh = Vehicle.model_validate(copy.deepcopy(data))
+        veh = model.model_validate(copy.deepcopy(data))
     except ValidationError as exc:
         lines = []
         for err in exc.errors()[:8]:
@@ -166,7 +186,7 @@ def _validate(data: Any, where: str) -> Vehicle:
     return veh
 
 
-def load_vehicle(name_or_path: str | Path | Vehicle) -> Vehicle:
+def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
     """Load a vehicle by name (shipped file) or from a YAML path.
 
     Raises
@@ -175,7 +195,7 @@ def load_vehicle(name_or_path: str | Path | Vehicle) -> Vehicle:
         Unknown name, unreadable file, or any invalid / missing / unknown key (the message
         names the key and the file).
     """
-    if isinstance(name_or_path, Vehicle):
+    if isinstance(name_or_path, (Vehicle, ConventionalVehicle)):
         return name_or_path
     text = str(name_or_path)
     path = Path(text)
@@ -184,15 +204,7 @@ def load_vehicle(name_or_path: str | Path | Vehicle) -> Vehicle:
         if not path.exists():
             raise ConfigError(f"unknown vehicle '{text}': known vehicles are "
                               f"{', '.join(list_vehicles())}, or give a path to a YAML file")
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read vehicle file ({exc.strerror})") from None
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}): save the vehicle file "
-                          "as UTF-8") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    data = read_yaml(path)
     veh = _validate(data, str(path))
     veh._file = str(path)
     return veh

@@ -1,0 +1,460 @@
+"""The workflow of one test, in one place: load -> qa -> results -> analyze -> validate -> report.
+
+:class:`TestRun` owns the sequence every command and the batch runner follow (in the
+spirit of pvlib's ``ModelChain``): each step is a method that runs the earlier steps it
+needs once, keeps its outcome on the run, and returns a typed outcome. The command line
+and :mod:`vehval.batch` only parse arguments and write files.
+
+Policies decided here, once:
+
+* time stamps that go backwards or repeat are repaired with a note (``REPAIR_TIME``), in
+  every command: the same files pass or fail alike in ``qa``, ``analyze``, ``validate``,
+  ``calibrate`` and ``batch``;
+* the analysis runs on QA's validated test (plus the battery signals QA dropped only for
+  their sign, which the analysis checks itself);
+* validation runs on QA's validated test.
+
+Grouping of command-line paths into tests (:func:`group_args`, :func:`runs_from_args`):
+
+* a directory is one test: its ``validated.parquet`` (output of ``vehval qa``) when present,
+  else the raw files matching the template's ``files[].match`` globs;
+* a ``.parquet`` file is one already validated test;
+* all other loose files given together form one test (its acquisition files);
+* ``--test A,B`` (repeatable) is one test made of the comma-separated files or directory.
+
+Raw tests are imported with the template (``-t``, else the directory's ``template.yaml``).
+"""
+
+from __future__ import annotations
+
+import fnmatch
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
+
+from vehval.errors import ConfigError, InputFileError
+from vehval.test import Test
+
+#: One policy for time stamps that go backwards or repeat: sort/drop them with a note.
+REPAIR_TIME = True
+#: Extensions read as data when a directory's template has no ``match`` globs.
+RAW_EXT = {".txt", ".csv", ".tsv", ".dat", ".mf4", ".mdf", ".parquet"}
+#: File names in a test directory that are never data.
+NOT_DATA = {"clean.parquet", "validated.parquet", "template.yaml", "truth.json", "readme.txt"}
+
+
+@dataclass
+class QAOutcome:
+    """The ``qa`` step: the QA result and its ``findings.json`` document."""
+
+    result: Any  # vehval.qa.pipeline.QAResult
+    document: dict
+
+    @property
+    def validated(self) -> Test:
+        """The validated test (aligned, calculated, selected)."""
+        return self.result.validated
+
+
+@dataclass
+class ResultsOutcome:
+    """The ``results`` step: per-phase, whole-test and regulatory results with uncertainty."""
+
+    results: Any  # vehval.results.TestResults
+
+    @property
+    def document(self) -> dict:
+        """The ``results.json`` document (contract in docs/results.md)."""
+        return self.results.to_dict()
+
+
+@dataclass
+class AnalysisOutcome:
+    """The ``analyze`` step: the control-strategy analysis and notes on its inputs."""
+
+    result: Any  # vehval.analysis.summary.AnalysisResult
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def document(self) -> dict:
+        """The ``control.json`` document."""
+        return self.result.to_dict()
+
+
+@dataclass
+class ValidationOutcome:
+    """The ``validate`` step: simulation on the test's conditions compared with the test."""
+
+    validation: Any  # vehval.validate.validation.Validation
+
+    @property
+    def document(self) -> dict:
+        """The per-test validation summary (``validation.json`` of a batch test)."""
+        return self.validation.to_dict()
+
+    def payload(self, figures: bool = True) -> dict:
+        """The report's validation section: ``{tables, figures, notes}``."""
+        return self.validation.payload(figures=figures)
+
+
+@dataclass
+class ReportOutcome:
+    """The ``report`` step: the files written (``report`` and ``tables`` when present)."""
+
+    paths: dict[str, Path]
+
+
+def load_template_arg(template: Any) -> Any:
+    """A template from a path (loaded) or an already loaded template (unchanged)."""
+    from vehval.io.template import load_template
+
+    return load_template(template) if isinstance(template, (str, Path)) else template
+
+
+def load_vehicle_arg(vehicle: Any) -> Any:
+    """A vehicle from a name or path (loaded), None, or an already loaded vehicle."""
+    if vehicle is None or not isinstance(vehicle, (str, Path)):
+        return vehicle
+    from vehval.vehicle import load_vehicle
+
+    return load_vehicle(vehicle)
+
+
+class TestRun:
+    """One test through the workflow: ``load``, ``qa``, ``results``, ``analyze``, ``validate``,
+    ``report``.
+
+    Each step runs once per run; later steps use the outcome of earlier ones (``analyze``
+    and ``validate`` run ``qa`` first unless the run was built with ``use_qa=False`` or
+    from an already validated test). The ``results`` step (test results from the
+    validated signals) joins the sequence between ``qa`` and ``analyze``.
+
+    Attributes
+    ----------
+    test : Test
+        The test as loaded (imported, or read back validated).
+    template, vehicle : optional
+        Import template and vehicle model (loaded objects).
+    origin : str
+        Where the test came from (paths), for messages and for results stored beside it.
+    validated_input : bool
+        True when the test was read back already validated (``validated.parquet``): QA is
+        not run again.
+    """
+
+    __test__ = False  # not a pytest test class
+
+    def __init__(self, test: Test, template: Any = None, vehicle: Any = None, *,
+                 origin: str = "", validated_input: bool = False, use_qa: bool = True,
+                 qa: QAOutcome | None = None) -> None:
+        self.test = test
+        self.template = template
+        self.vehicle = vehicle
+        self.origin = origin
+        self.validated_input = validated_input
+        self.use_qa = use_qa and not validated_input
+        self._qa = qa
+        self._analysis: AnalysisOutcome | None = None
+        self._results: ResultsOutcome | None = None
+        self._validation: ValidationOutcome | None = None
+
+    # ------------------------------------------------------------------ load
+    @classmethod
+    def load(cls, files: Sequence[str | Path], template: Any, vehicle: Any = None, *,
+             repair_time: bool = REPAIR_TIME, test_id: str | None = None,
+             use_qa: bool = True) -> "TestRun":
+        """Import the raw files of one test with a template.
+
+        Parameters
+        ----------
+        files : list of paths
+            Raw files of the test (one per acquisition system).
+        template : Template or path
+            Import template.
+        vehicle : Vehicle or name/path, optional
+            Vehicle model; default the template's ``vehicle:`` when it names one.
+        repair_time : bool
+            Repair backwards/repeated time stamps with a note (the policy of every command).
+        test_id : str, optional
+            Test identifier (default: stem of the first file).
+        use_qa : bool
+            Later steps use QA's validated test (default) or the imported signals as they are.
+        """
+        from vehval.io.importer import import_test
+
+        paths = [Path(f) for f in files]
+        for p in paths:
+            if not p.exists():
+                raise InputFileError(f"{p}: file not found: check the path")
+        tpl = load_template_arg(template)
+        if vehicle is None and getattr(tpl, "vehicle", None):
+            vehicle = tpl.vehicle
+        veh = load_vehicle_arg(vehicle)
+        test = import_test(paths, tpl, repair_time=repair_time, test_id=test_id)
+        return cls(test, tpl, veh, origin=", ".join(map(str, paths)), use_qa=use_qa)
+
+    @classmethod
+    def from_paths(cls, paths: Sequence[str | Path], template: Any = None, vehicle: Any = None,
+                   *, use_qa: bool = True, repair_time: bool = REPAIR_TIME) -> "TestRun":
+        """One test from a directory, a validated Parquet test or a group of raw files
+        (the grouping rule of the module docstring)."""
+        from vehval.io.parquet import read_test
+
+        paths = [Path(p) for p in paths]
+        for p in paths:
+            if not p.exists():
+                raise InputFileError(f"{p}: not found")
+        veh = load_vehicle_arg(vehicle)
+        one = paths[0] if len(paths) == 1 else None
+        if one is not None and one.is_dir() and (one / "validated.parquet").is_file():
+            return cls(read_test(one / "validated.parquet"), None, veh, origin=str(one),
+                       validated_input=True)
+        if one is not None and one.is_file() and one.suffix.lower() == ".parquet":
+            return cls(read_test(one), None, veh, origin=str(one), validated_input=True)
+        if one is not None and one.is_dir():
+            tpl = _template_for(one, template)
+            return cls.load(_dir_files(one, tpl), tpl, veh, repair_time=repair_time,
+                            test_id=one.name, use_qa=use_qa)
+        if any(p.is_dir() for p in paths):
+            raise InputFileError("a test group mixes directories and files: give one directory "
+                                 "or the files of one test")
+        tpl = _template_for(None, template) if template is not None else _template_for(paths[0].parent, None)
+        return cls.load(paths, tpl, veh, repair_time=repair_time, use_qa=use_qa)
+
+    # ------------------------------------------------------------------ steps
+    def qa(self, **options: Any) -> QAOutcome:
+        """Alignment, QA levels 1-3, calculations and selection (once per run).
+
+        ``options`` go to :func:`vehval.qa.pipeline.run_qa` (e.g. ``max_offset_s``).
+        """
+        if self._qa is None:
+            if self.validated_input:
+                raise ConfigError(f"{self.origin}: already a validated test: QA is not run again")
+            from vehval.qa.pipeline import run_qa
+
+            res = run_qa(self.test, self.vehicle, self.template, **options)
+            self._qa = QAOutcome(res, res.to_dict())
+        return self._qa
+
+    @property
+    def qa_outcome(self) -> QAOutcome | None:
+        """The QA outcome when QA ran, else None."""
+        return self._qa
+
+    @property
+    def validated(self) -> Test:
+        """The test the later steps use: QA's validated test (QA runs when needed), the
+        validated test read back, or the imported test when QA is off."""
+        if self.use_qa:
+            return self.qa().validated
+        return self.test
+
+    def results(self, *, method: str = "first_order", draws: int = 1000, seed: int = 0,
+                hot_start_bag1: dict | None = None) -> ResultsOutcome:
+        """Test results from the validated signals with the template's ``fuel``, ``accuracy``
+        and ``phase_channel`` (see :func:`vehval.results.compute_results`); runs once per run
+        unless called again with other options."""
+        from vehval.results import compute_results, results_from_template
+
+        opts = {"method": method, "draws": draws, "seed": seed, "hot_start_bag1": hot_start_bag1}
+        if self._results is None or getattr(self, "_results_opts", None) != opts:
+            test = self.validated
+            if self.template is not None:
+                res = results_from_template(test, self.template, **opts)
+            else:
+                res = compute_results(test, **opts)
+            self._results = ResultsOutcome(res)
+            self._results_opts = opts
+        return self._results
+
+    @property
+    def results_outcome(self) -> ResultsOutcome | None:
+        """The results outcome when the step ran, else None."""
+        return self._results
+
+    def analyze(self) -> AnalysisOutcome:
+        """Control-strategy analysis (engine on/off rule, SOC regulation, modes, braking)."""
+        if self._analysis is None:
+            from vehval.analysis import analyze
+
+            notes: list[str] = []
+            if self.use_qa:
+                from vehval.analysis.inputs import after_qa
+
+                work, notes = after_qa(self.qa().result, self.test)
+            else:
+                work = self.test
+            self._analysis = AnalysisOutcome(analyze(work, self.vehicle), notes)
+        return self._analysis
+
+    def validate(self, *, dt: float = 0.1, window_s: float = 2.0,
+                 smooth_hz: float | None = None, overrides: dict | None = None) -> ValidationOutcome:
+        """Simulate the vehicle on the test's own conditions and compare with the test."""
+        if self.vehicle is None:
+            raise ConfigError("validation needs a vehicle model: pass --vehicle or set "
+                              "'vehicle:' in the template")
+        from vehval.validate import validate_test
+
+        self._validation = ValidationOutcome(validate_test(
+            self.validated, self.vehicle, dt=dt, window_s=window_s, smooth_hz=smooth_hz,
+            overrides=overrides))
+        return self._validation
+
+    def report(self, outdir: str | Path, *, control: Any = None, validation: Any = None,
+               qa: Any = None, title: str | None = None, raw: Test | None = None,
+               html_name: str = "report.html", excel: bool = True,
+               plotly_js: str | None = None) -> ReportOutcome:
+        """Write ``report.html`` (and ``tables.xlsx``) with every step that ran.
+
+        ``control``, ``validation`` and ``qa`` override the run's own outcomes (e.g. the
+        documents of earlier commands read back from disk).
+        """
+        from vehval.report import build_reports, write_report
+
+        if qa is None and self._qa is not None:
+            qa = self._qa.result
+        if control is None and self._analysis is not None:
+            control = self._analysis.document
+        if validation is None and self._validation is not None:
+            validation = self._validation.payload()
+        kw: dict[str, Any] = {"vehicle": self.vehicle, "control": control,
+                              "validation": validation, "title": title, "raw": raw}
+        if plotly_js is not None:
+            kw["plotly_js"] = plotly_js
+        test = self.validated
+        if excel:
+            paths = build_reports(Path(outdir), test, qa, self.template, html_name=html_name, **kw)
+        else:
+            paths = {"report": write_report(Path(outdir) / html_name, test=test, qa=qa,
+                                            template=self.template, **kw)}
+        return ReportOutcome(paths)
+
+
+# ---------------------------------------------------------------------- grouping of paths
+def _template_for(path: Path | None, template: Any) -> Any:
+    if template is not None:
+        return load_template_arg(template)
+    if path is not None and path.is_dir() and (path / "template.yaml").is_file():
+        return load_template_arg(path / "template.yaml")
+    raise ConfigError(f"no template for {path}: give -t TEMPLATE.yaml (or put template.yaml in "
+                      "the test directory)")
+
+
+def _dir_files(d: Path, template: Any) -> list[Path]:
+    files = sorted(p for p in d.iterdir() if p.is_file())
+    globs = [f.match for f in template.files if f.match]
+    if globs and len(globs) == len(template.files):
+        out = [p for p in files if any(fnmatch.fnmatch(p.name, g) for g in globs)]
+    else:
+        out = [p for p in files if p.suffix.lower() in RAW_EXT and p.name.lower() not in NOT_DATA]
+    if not out:
+        raise InputFileError(f"{d}: no data file matches the template "
+                             f"({', '.join(globs) or 'any data file'})")
+    return out
+
+
+def group_args(files: Sequence[Path], groups: Sequence[str]) -> list[list[Path]]:
+    """Apply the grouping rule of the module docstring to positional paths and ``--test`` groups."""
+    out: list[list[Path]] = []
+    loose: list[Path] = []
+    for f in files:
+        f = Path(f)
+        if f.is_dir() or f.suffix.lower() == ".parquet":
+            out.append([f])
+        else:
+            loose.append(f)
+    if loose:
+        out.append(loose)
+    for g in groups:
+        items = [Path(x.strip()) for x in str(g).split(",") if x.strip()]
+        if items:
+            out.append(items)
+    return out
+
+
+def runs_from_args(files: Sequence[Path], groups: Sequence[str] = (), template: Any = None,
+                   vehicle: Any = None, *, use_qa: bool = True) -> list[TestRun]:
+    """One :class:`TestRun` per test named on the command line, with unique test ids."""
+    veh = load_vehicle_arg(vehicle)
+    out = [TestRun.from_paths(g, template, veh, use_qa=use_qa) for g in group_args(files, groups)]
+    seen: dict[str, int] = {}
+    for run in out:  # test ids must be unique: they key the results
+        tid = run.test.meta.test_id or "test"
+        if tid in seen:
+            seen[tid] += 1
+            run.test.meta.test_id = f"{tid}_{seen[tid]}"
+        else:
+            seen[tid] = 1
+            run.test.meta.test_id = tid
+    return out
+
+
+# ---------------------------------------------------------------------- several tests
+@dataclass
+class SuiteOutcome:
+    """Several tests validated together: ladder, repeatability and the documents.
+
+    Attributes
+    ----------
+    runs, validations : list
+        The runs and their validation outcomes, in the same order.
+    ladder : vehval.validate.ladder.Ladder
+        Pass/fail of every test against the tolerances.
+    payload : dict
+        ``validation.json``: report tables, figures and notes of every test.
+    metrics : dict
+        ``metrics.json``: per-test errors, ladder and test-to-test variability.
+    """
+
+    runs: list[TestRun]
+    validations: list[ValidationOutcome]
+    ladder: Any
+    payload: dict
+    metrics: dict
+
+
+def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
+                  window_s: float = 2.0, smooth_hz: float | None = None) -> SuiteOutcome:
+    """Validate each run, rank them on the tolerance ladder and compare the model error with
+    the test-to-test variability of repeated cycles."""
+    from vehval.validate import error_vs_repeatability, ladder, variability
+
+    if not runs:
+        raise ConfigError("no test to validate")
+    veh = runs[0].vehicle
+    vals = [r.validate(dt=dt, window_s=window_s, smooth_hz=smooth_hz) for r in runs]
+    lad = ladder([v.validation.comparison for v in vals], tolerances)
+    payload: dict[str, Any] = {
+        "title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "
+        "initial SOC, mass and road load", "tables": [], "figures": [], "notes": []}
+    for v in vals:
+        p = v.payload()
+        payload["tables"] += p["tables"]
+        payload["figures"] += p["figures"]
+        payload["notes"] += [f"{v.validation.comparison.test_id}: {n}" for n in p["notes"]]
+    payload["tables"] += lad.tables()
+    metrics: dict[str, Any] = {
+        "vehicle": veh.name, "vehicle_file": veh.file, "dt_s": dt,
+        "speed_smoothing_hz": smooth_hz, "tests": [v.validation.to_dict() for v in vals],
+        "ladder": lad.to_dict()}
+    by_cycle: dict[str, list[int]] = {}
+    for i, run in enumerate(runs):
+        by_cycle.setdefault(run.validated.meta.cycle or "", []).append(i)
+    reps = []
+    for cyc, idx in by_cycle.items():
+        if len(idx) < 2:
+            continue
+        var = variability([runs[i].validated for i in idx])
+        payload["tables"] += var.tables()
+        rows = []
+        for i in idx:
+            comp = vals[i].validation.comparison
+            for r in error_vs_repeatability(comp, var):
+                rows.append([comp.test_id, r["quantity"], r["error"], r["test_std"],
+                             r["ratio"], r["verdict"]])
+        payload["tables"].append({"title": f"Model error against test repeatability ({cyc})",
+                                  "columns": ["test", "quantity", "error (SI)", "test std (SI)",
+                                              "|error| / std", "verdict"], "rows": rows})
+        reps.append(var.to_dict())
+    metrics["variability"] = reps
+    return SuiteOutcome(list(runs), vals, lad, payload, metrics)
