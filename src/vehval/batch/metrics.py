@@ -12,9 +12,10 @@ from typing import Any
 
 import numpy as np
 
+from vehval.conditions import TestConditions
+from vehval.constants import GALLON_US_M3 as _M3_PER_US_GAL
+from vehval.constants import MILE_M as _M_PER_MILE
 from vehval.test import Signal, Test
-from vehval.constants import GALLON_US_M3 as _M3_PER_US_GAL, MILE_M as _M_PER_MILE
-
 
 
 def _pick(test: Test, base: str, preferred: dict[str, str] | None = None) -> Signal | None:
@@ -28,8 +29,7 @@ def _pick(test: Test, base: str, preferred: dict[str, str] | None = None) -> Sig
         return None
     if preferred is not None:
         return next((s for s in cands if s.name == preferred.get(base)), None)
-    cands.sort(key=lambda s: (s.name != f"{base}_test", s.name))
-    return cands[0]
+    return test.best(base, ("test",))
 
 
 def _finite(sig: Signal) -> tuple[np.ndarray, np.ndarray]:
@@ -73,8 +73,8 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None,
         those signals are used; a quantity QA kept in no source gives None.
     fuel : vehval.results.Fuel, optional
         The declared fuel (template ``fuel:``); else the constants ``fuel_density_kg_per_m3``
-        and ``fuel_lhv_j_per_kg``. With neither, fuel economy and energy are None: no fuel
-        is ever assumed.
+        and ``fuel_lhv_j_per_kg`` (or the vehicle's). With neither, fuel economy and energy
+        are None: the gasoline default of :mod:`vehval.conditions` is never used here.
 
     Returns
     -------
@@ -85,9 +85,15 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None,
         positive discharged), ``eng_energy_j`` (positive brake energy),
         ``tractive_energy_j`` (positive) [J]; None where the signals are missing.
     """
-    c = test.meta.constants or {}
-    density = (fuel.density_kg_per_m3 if fuel is not None else None) or c.get("fuel_density_kg_per_m3")
-    lhv = (fuel.lhv_j_per_kg if fuel is not None else None) or c.get("fuel_lhv_j_per_kg")
+    cond = TestConditions.resolve(test)
+
+    def declared(name: str) -> float | None:
+        # the gasoline default of TestConditions is never used for a result
+        return cond.get(name) if cond.source(name) not in (None, "default") else None
+
+    density = (fuel.density_kg_per_m3 if fuel is not None else None) or declared(
+        "fuel_density_kg_per_m3")
+    lhv = (fuel.lhv_j_per_kg if fuel is not None else None) or declared("fuel_lhv_j_per_kg")
     out: dict[str, Any] = {k: None for k in (
         "duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
         "fuel_consumption_l_per_100km", "soc_initial", "soc_final", "soc_change",
