@@ -60,7 +60,7 @@ CASES = {
                         None, ["d.txt", "duplicate channel name 'Dyno_Speed'"]),
     "no time column": (lambda p: write_d3(p / "nt.txt", header=["Tim[s]", "Dyno_Speed[mph]", "Engine_Speed[rpm]",
                                                                  "Cell_Temp[F]", "Phase_#"]),
-                       lambda t: t.replace("time: {column: Time, unit: s}", "format: d3"),
+                       lambda t: t.replace("format: auto\n    time: {column: Time, unit: s}", "format: d3"),
                        ["nt.txt", "no time column", "rate_hz"]),
     "unknown unit": (lambda p: write_d3(p / "u.txt"), lambda t: t.replace("unit: rpm", "unit: rpmm"),
                      ["T.yaml", "Engine_Speed", "unknown unit 'rpmm'"]),

@@ -65,7 +65,7 @@ def test_missing_and_extra_channels_reported(tmp_path, d3_template):
 def test_no_time_column_without_rate_is_an_error(tmp_path):
     f = tmp_path / "x.txt"
     f.write_text("Dyno_Speed[mph]\tEngine_Speed[rpm]\r\n1\t2\r\n3\t4\r\n")
-    tmpl = _tmpl(tmp_path, D3_TEMPLATE.replace("time: {column: Time, unit: s}", "format: d3"))
+    tmpl = _tmpl(tmp_path, D3_TEMPLATE.replace("format: auto\n    time: {column: Time, unit: s}", "format: d3"))
     with pytest.raises(InputFileError, match=r"x\.txt: no time column found .* set "
                                              r"files\[0\]\.time\.column or files\[0\]\.time\.rate_hz"):
         import_test([f], tmpl)

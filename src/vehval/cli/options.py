@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import yaml
-
 from vehval.errors import ConfigError
+from vehval.safe_yaml import load_yaml
 
 
 def parse_assignments(items: list[str], option: str, example: str) -> dict:
@@ -25,7 +24,8 @@ def parse_assignments(items: list[str], option: str, example: str) -> dict:
         if not sep or not key.strip():
             raise ConfigError(f"{option} '{item}': expected KEY=VALUE (for example {option} {example})")
         try:
-            out[key.strip()] = yaml.safe_load(value)
-        except yaml.YAMLError:
-            raise ConfigError(f"{option} '{item}': the value is not a number, list or text") from None
+            out[key.strip()] = load_yaml(value, f"{option} '{item}'")
+        except ConfigError as exc:
+            raise ConfigError(f"{option} '{item}': the value is not a finite number, list or "
+                              f"text ({exc})") from None
     return out

@@ -19,12 +19,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from vehval.equations.expr import parse_expression
 from vehval.errors import ConfigError, SignalError
 from vehval.nomenclature import registry
+from vehval.safe_yaml import load_yaml
 from vehval.qa.level2 import preference_rank
 from vehval.test import Signal, Test
 
@@ -88,7 +88,27 @@ def _load_package_calculations(name: str) -> CalculationFile:
     return _load_calculations(name)
 
 
+#: Calculation files being loaded (outermost first), to detect include cycles.
+_INCLUDING: list[str] = []
+#: Deepest include chain accepted.
+MAX_INCLUDE_DEPTH = 16
+
+
 def _load_calculations(name_or_path: str | Path) -> CalculationFile:
+    p = Path(str(name_or_path))
+    key = str(p.resolve()) if p.suffix in (".yaml", ".yml") and p.exists() else str(name_or_path)
+    if key in _INCLUDING or len(_INCLUDING) >= MAX_INCLUDE_DEPTH:
+        chain = " -> ".join([*_INCLUDING, key])
+        raise ConfigError(f"calculation files include each other in a cycle or too deeply "
+                          f"({chain}): remove the include that closes it")
+    _INCLUDING.append(key)
+    try:
+        return _load_calculations_file(name_or_path)
+    finally:
+        _INCLUDING.pop()
+
+
+def _load_calculations_file(name_or_path: str | Path) -> CalculationFile:
     """Load a calculation file (package name like ``power_split`` or a path), with includes.
 
     Raises
@@ -107,10 +127,8 @@ def _load_calculations(name_or_path: str | Path) -> CalculationFile:
             raise ConfigError(f"calculation set '{name_or_path}' not found; known: {', '.join(known)}")
         text, where = res.read_text(encoding="utf-8"), f"calculations/{name_or_path}.yaml"
     try:
-        data = yaml.safe_load(text)
+        data = load_yaml(text, where)
         calc = CalculationFile.model_validate(data)
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{where}: invalid YAML: {exc}") from None
     except ValidationError as exc:
         err = exc.errors()[0]
         raise ConfigError(f"{where}: {'.'.join(str(x) for x in err['loc'])}: {err['msg']}") from None

@@ -20,6 +20,7 @@ from pydantic import (BaseModel, ConfigDict, Field, PositiveFloat, PrivateAttr, 
 from vehval.errors import ConfigError, SignalError, UnitError
 from vehval.io.atomic import write_text_atomic
 from vehval.nomenclature import registry
+from vehval.safe_yaml import read_yaml
 from vehval.units import conversion, parse_unit, ureg
 
 __all__ = ["ChannelSpec", "TimeSpec", "ReadOptions", "FileSpec", "Constants", "Selection",
@@ -27,7 +28,7 @@ __all__ = ["ChannelSpec", "TimeSpec", "ReadOptions", "FileSpec", "Constants", "S
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
 
 class TimeSpec(_Strict):
@@ -333,15 +334,7 @@ def load_template(path: str | Path) -> Template:
     path = Path(path)
     if not path.exists():
         raise ConfigError(f"{path}: template file not found")
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" line {mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{path}{where}: YAML syntax error: "
-                          f"{getattr(exc, 'problem', None) or exc}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a UTF-8 text file") from None
+    data = read_yaml(path)
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a template must be a YAML mapping with 'files:' "
                           "(see docs/templates.md)")

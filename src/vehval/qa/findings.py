@@ -42,6 +42,7 @@ class Kind(str, Enum):
     NEGATIVE = "negative"                # impossible sign
     ALL_ZERO = "all_zero"                # the whole channel is zero
     UNRECOGNISED = "unrecognised"        # name not in the nomenclature
+    SPARSE = "sparse"                    # too few samples for the test's duration
     # level 2: the same quantity from several sources
     LOW_AGREEMENT = "low_agreement"
     GAIN = "gain"
@@ -59,7 +60,7 @@ class Kind(str, Enum):
 LEVEL_OF_KIND = {
     **{k: 1 for k in (Kind.RANGE, Kind.VEHICLE_LIMIT, Kind.NAN_GAP, Kind.TIME_GAP,
                       Kind.RATE_IRREGULAR, Kind.STUCK, Kind.CONSTANT, Kind.SPIKE,
-                      Kind.NEGATIVE, Kind.ALL_ZERO, Kind.UNRECOGNISED)},
+                      Kind.NEGATIVE, Kind.ALL_ZERO, Kind.UNRECOGNISED, Kind.SPARSE)},
     **{k: 2 for k in (Kind.LOW_AGREEMENT, Kind.GAIN, Kind.OFFSET, Kind.SIGN_FLIP,
                       Kind.UNIT, Kind.LAG)},
     Kind.ALIGNMENT: 0,

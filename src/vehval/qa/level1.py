@@ -54,6 +54,9 @@ class Level1Options:
     jitter_info: float = 0.05         # std(dt)/median(dt) above this -> info
     vehicle_limit_tolerance: float = 0.03  # margin: this x the larger |limit|
     max_findings_per_kind: int = 10   # per signal; further runs are merged into one
+    out_of_range_fraction: float = 0.1  # above: the whole channel is out of range (error)
+    sparse_min_samples: int = 10      # fewer finite samples: too few for any test
+    sparse_max_period_s: float = 10.0  # fewer samples than one per this over the test: sparse
 
 
 def _parse(name: str):
@@ -234,8 +237,24 @@ def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options,
     return found[:opts.max_findings_per_kind]
 
 
+def _sparse(sig: Signal, fin: np.ndarray, test_span: tuple[float, float] | None,
+            opts: Level1Options) -> Finding | None:
+    """A finding when ``sig`` has too few samples for the test (a one-row file beside a
+    20-minute log): such a source is never preferred over a complete one."""
+    n = int(fin.sum())
+    t = sig.time[fin]
+    dur = (test_span[1] - test_span[0]) if test_span else 0.0
+    if n >= max(opts.sparse_min_samples, dur / opts.sparse_max_period_s):
+        return None
+    sev = Severity.ERROR if n < 2 else Severity.WARNING
+    return Finding(sig.name, Kind.SPARSE, float(t[0]) if n else 0.0, float(t[-1]) if n else 0.0,
+                   sev, f"{sig.name} has only {n} valid sample(s) for a test of {dur:.1f} s: too "
+                   "few to trust; another source is preferred", {"samples": n, "duration_s": dur})
+
+
 def check_signal(test: Test, sig: Signal, limits: dict | None = None,
-                 opts: Level1Options | None = None, range_cache: dict | None = None) -> list[Finding]:
+                 opts: Level1Options | None = None, range_cache: dict | None = None,
+                 test_span: tuple[float, float] | None = None) -> list[Finding]:
     """All level-1 findings of one signal.
 
     Parameters
@@ -250,9 +269,14 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
         Thresholds.
     range_cache : dict, optional
         Robust ranges of partner signals by name, shared within one run.
+    test_span : (float, float), optional
+        Start and end of the whole test [s] (default: ``test.span()``), for the
+        too-few-samples check.
     """
     opts = opts or Level1Options()
     out: list[Finding] = []
+    if test_span is None:
+        test_span = test.span()
     parsed = _parse(sig.name)
     if parsed is None:
         out.append(Finding(sig.name, Kind.UNRECOGNISED, float(sig.time[0]) if sig.time.size else 0.0,
@@ -312,21 +336,9 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
                    lambda i0, i1: f"{sig.name} has isolated missing samples near {t[i0]:.1f} s",
                    nan_nums, opts)
     vf = v[fin]
-
-    # all zero / constant -------------------------------------------------------------------
-    qty = base.split("_")[1] if "_" in base else ""
-    if np.all(vf == 0):
-        sev = Severity.INFO if sig.resample == "previous" else Severity.ERROR
-        out.append(Finding(sig.name, Kind.ALL_ZERO, t_start, t_end, sev,
-                           f"{sig.name} is zero over the whole test: the channel was probably "
-                           "not measured or not connected", {"samples": int(vf.size)}))
-        return out
-    if vf.size > 10 and np.all(vf == vf[0]):
-        sev = Severity.WARNING if qty in DYNAMIC_QUANTITIES and sig.resample == "linear" else Severity.INFO
-        out.append(Finding(sig.name, Kind.CONSTANT, t_start, t_end, sev,
-                           f"{sig.name} is constant at {vf[0]:.6g} {sig.unit} over the whole test",
-                           {"value": float(vf[0])}))
-        return out
+    sparse = _sparse(sig, fin, test_span, opts)
+    if sparse is not None:
+        out.append(sparse)
 
     # range against the registry and the vehicle ------------------------------------------
     lo, hi = spec.range
@@ -350,6 +362,21 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
                                    f"beyond the vehicle's limit [{vlo:.6g}, {vhi:.6g}] {sig.unit}"),
                    lambda i0, i1: {"value": _extreme(v, i0, i1, vlo, vhi), "limit_min": vlo,
                                    "limit_max": vhi}, opts)
+
+    # all zero / constant -------------------------------------------------------------------
+    qty = base.split("_")[1] if "_" in base else ""
+    if np.all(vf == 0):
+        sev = Severity.INFO if sig.resample == "previous" else Severity.ERROR
+        out.append(Finding(sig.name, Kind.ALL_ZERO, t_start, t_end, sev,
+                           f"{sig.name} is zero over the whole test: the channel was probably "
+                           "not measured or not connected", {"samples": int(vf.size)}))
+        return out
+    if vf.size > 10 and np.all(vf == vf[0]):
+        sev = Severity.WARNING if qty in DYNAMIC_QUANTITIES and sig.resample == "linear" else Severity.INFO
+        out.append(Finding(sig.name, Kind.CONSTANT, t_start, t_end, sev,
+                           f"{sig.name} is constant at {vf[0]:.6g} {sig.unit} over the whole test",
+                           {"value": float(vf[0])}))
+        return out
 
     # spikes (Hampel) -------------------------------------------------------------------
     sigma, resid = robust_noise(v, opts.spike_window)
@@ -505,10 +532,11 @@ def run_level1(test: Test, limits: dict | None = None,
     opts = opts or Level1Options()
     out: list[Finding] = []
     ranges: dict[str, float] = {}
+    span = test.span()
     for sig in test:
         if sig.name.endswith("_calc") or sig.name.endswith("_simu"):
             continue
-        out.extend(check_signal(test, sig, limits, opts, ranges))
+        out.extend(check_signal(test, sig, limits, opts, ranges, span))
     _corroborate_spikes(test, out, opts)
     return out
 

@@ -7,7 +7,7 @@ Rules (SAE 2006-01-0667, section "signal selection"), applied in this order:
 2. names outside the nomenclature are dropped;
 3. signals with a disqualifying finding are dropped: all zero, all NaN, constant dynamic
    quantity, stuck against a duplicate, sign flip, wrong unit, gain error, out of range
-   over more than 10 % of the test;
+   over more than 10 % of the test (or on more than 10 % of its samples), a single sample;
 4. when several sources measure the same quantity, the preferred source is kept (facility
    sensor without qualifier, then facility qualifiers, then OBD/CAN) if they agree; if they
    disagree, the one closer to the calculated signal (QA3) or with fewer warnings wins;
@@ -60,11 +60,19 @@ def _disqualified(sig_name: str, findings: list[Finding], duration: float) -> st
             return f"{f.kind.value}: {f.message}"
         if f.kind == Kind.GAIN and f.severity == Severity.ERROR:
             return f"{f.kind.value}: {f.message}"
+        if f.kind == Kind.RANGE and f.severity == Severity.ERROR and "fraction" in f.numbers:
+            return f"{f.kind.value}: {f.message}"
+        if f.kind == Kind.SPARSE and f.severity == Severity.ERROR:
+            return f"{f.kind.value}: {f.message}"
         if f.kind in (Kind.RANGE, Kind.VEHICLE_LIMIT):
             range_s += max(f.end_s - f.start_s, 0.0)
     if duration > 0 and range_s > 0.1 * duration:
         return f"out of range over {100 * range_s / duration:.0f} % of the test"
     return None
+
+
+def _sparse(sig_name: str, findings: list[Finding]) -> bool:
+    return any(f.signal == sig_name and f.kind == Kind.SPARSE for f in findings)
 
 
 def _warnings(sig_name: str, findings: list[Finding]) -> int:
@@ -140,6 +148,14 @@ def select_signals(test: Test, findings: list[Finding], table2: list[PairCompari
     for base, names in groups.items():
         forced = [n for n in user_keep if n in test and reg.parse(n).base == base]
         names = sorted(names, key=preference_rank)
+        # a source with too few samples for the test is never preferred over a complete one
+        complete = [n for n in names if not _sparse(n, findings)]
+        if complete and len(complete) < len(names):
+            for n in names:
+                if n not in complete and not forced:
+                    sel.dropped[n] = (f"too few samples for the test; {complete[0]} covers "
+                                      f"{base} better")
+            names = complete
         if forced:
             for n in names:
                 sel.dropped[n] = f"the user keeps {forced[0]} for {base}"

@@ -21,6 +21,7 @@ import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from vehval.errors import ConfigError
+from vehval.safe_yaml import read_yaml
 from vehval.synth.sensors import FileSpec, rng_for
 
 FaultKind = Literal["clock_offset", "stuck", "dropout", "spikes", "gain_error", "offset_drift",
@@ -129,10 +130,7 @@ def load_fault_specs(faults: str | Path | list) -> list[FaultSpec]:
         if not path.is_file():
             raise ConfigError(f"fault file '{path}' does not exist: give 'default', 'none' or "
                               "the path of a fault YAML file")
-        try:
-            data = yaml.safe_load(path.read_text(encoding="utf-8"))
-        except (yaml.YAMLError, UnicodeDecodeError) as exc:
-            raise ConfigError(f"fault file '{path}': not valid YAML ({exc})") from None
+        data = read_yaml(path)
     if isinstance(data, dict):
         extra = set(data) - {"version", "faults"}
         if extra:

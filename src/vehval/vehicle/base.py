@@ -12,7 +12,8 @@ from vehval.constants import RPM_RAD_PER_S as RPM
 class Block(BaseModel):
     """A parameter block. ``sources`` maps every parameter name to its source (text)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=False, validate_assignment=False)
+    model_config = ConfigDict(extra="forbid", frozen=False, validate_assignment=False,
+                              allow_inf_nan=False)
 
     sources: dict[str, str]
 

@@ -2,7 +2,9 @@
 
 Each block is a pydantic model that rejects unknown keys and requires a source for every
 parameter (:class:`~vehval.vehicle.base.Block`). Units are in the key names; maps are
-plain nested lists, converted to SI arrays by ``arrays()``. The simulator, QA, analysis and
+plain nested lists, converted to SI arrays by ``arrays()``. Scalar parameters carry
+plausibility bounds (a mass of 1e308 kg or a wheel radius of 1 km is refused with its key),
+wide enough for any road vehicle on a chassis dyno. The simulator, QA, analysis and
 the report all read these blocks; the physics that uses them lives in :mod:`vehval.sim`.
 """
 
@@ -17,11 +19,11 @@ from vehval.vehicle.base import RPM, Block, bp_check, table_check
 class BodyParams(Block):
     """Test mass, dyno road-load coefficients and the electrical accessory load."""
 
-    mass_kg: float = Field(gt=0)
-    road_load_a_n: float = Field(ge=0)
-    road_load_b_n_per_mps: float = Field(ge=0)
-    road_load_c_n_per_mps2: float = Field(ge=0)
-    aux_power_w: float = Field(ge=0)
+    mass_kg: float = Field(ge=50, le=60_000)  # plausible: a 50 kg kart to a 60 t truck
+    road_load_a_n: float = Field(ge=0, le=20_000)
+    road_load_b_n_per_mps: float = Field(ge=0, le=2_000)
+    road_load_c_n_per_mps2: float = Field(ge=0, le=200)
+    aux_power_w: float = Field(ge=0, le=200_000)
 
 
 class EngineParams(Block):
@@ -31,14 +33,14 @@ class EngineParams(Block):
     torque_nm: list[float]
     fuel_rate_g_per_s: list[list[float]]
     max_torque_nm: list[float]
-    max_power_w: float = Field(gt=0)
-    max_speed_rpm: float = Field(gt=0)
-    idle_speed_rpm: float = Field(gt=0)
-    fire_speed_rpm: float = Field(gt=0)
-    motoring_torque_nm: float = Field(ge=0)
-    inertia_kg_m2: float = Field(gt=0)
-    fuel_density_kg_per_m3: float = Field(gt=0)
-    fuel_lhv_j_per_kg: float = Field(gt=0)
+    max_power_w: float = Field(gt=0, le=5e6)
+    max_speed_rpm: float = Field(gt=0, le=30_000)
+    idle_speed_rpm: float = Field(gt=0, le=30_000)
+    fire_speed_rpm: float = Field(gt=0, le=30_000)
+    motoring_torque_nm: float = Field(ge=0, le=1e5)
+    inertia_kg_m2: float = Field(gt=0, le=1e3)
+    fuel_density_kg_per_m3: float = Field(gt=0, le=2_000)
+    fuel_lhv_j_per_kg: float = Field(ge=5e6, le=1.5e8)  # methanol to hydrogen
 
     @model_validator(mode="after")
     def _maps(self):
@@ -69,10 +71,10 @@ class MachineParams(Block):
     speed_rpm: list[float]
     torque_nm: list[float]
     loss_w: list[list[float]]
-    max_torque_nm: float = Field(gt=0)
-    max_power_w: float = Field(gt=0)
-    max_speed_rpm: float = Field(gt=0)
-    inertia_kg_m2: float = Field(gt=0)
+    max_torque_nm: float = Field(gt=0, le=1e5)
+    max_power_w: float = Field(gt=0, le=5e6)
+    max_speed_rpm: float = Field(gt=0, le=50_000)
+    inertia_kg_m2: float = Field(gt=0, le=1e3)
 
     @model_validator(mode="after")
     def _maps(self):
@@ -99,10 +101,10 @@ class BatteryParams(Block):
     resistance_charge_ohm: list[float]
     discharge_power_limit_w: list[float]
     charge_power_limit_w: list[float]
-    capacity_ah: float = Field(gt=0)
-    n_cells: int = Field(gt=0)
-    n_modules: int = Field(gt=0)
-    nominal_voltage_v: float = Field(gt=0)
+    capacity_ah: float = Field(gt=0, le=1e4)
+    n_cells: int = Field(gt=0, le=100_000)
+    n_modules: int = Field(gt=0, le=100_000)
+    nominal_voltage_v: float = Field(gt=0, le=2_000)
     soc_min: float = Field(ge=0, le=1)
     soc_max: float = Field(ge=0, le=1)
 
@@ -134,9 +136,9 @@ class BoostParams(Block):
     """Constant-efficiency boost converter with a speed-scheduled output voltage."""
 
     efficiency: float = Field(gt=0, le=1)
-    volt_out_max_v: float = Field(gt=0)
-    volt_out_min_v: float = Field(gt=0)
-    volt_full_speed_rpm: float = Field(gt=0)
+    volt_out_max_v: float = Field(gt=0, le=3_000)
+    volt_out_min_v: float = Field(gt=0, le=3_000)
+    volt_full_speed_rpm: float = Field(gt=0, le=50_000)
 
     @model_validator(mode="after")
     def _range(self):
@@ -148,20 +150,20 @@ class BoostParams(Block):
 class PlanetaryParams(Block):
     """Tooth numbers and the inertias of carrier and ring."""
 
-    sun_teeth: int = Field(gt=0)
-    ring_teeth: int = Field(gt=0)
-    carrier_inertia_kg_m2: float = Field(ge=0)
-    ring_inertia_kg_m2: float = Field(ge=0)
+    sun_teeth: int = Field(gt=0, le=1_000)
+    ring_teeth: int = Field(gt=0, le=1_000)
+    carrier_inertia_kg_m2: float = Field(ge=0, le=1e3)
+    ring_inertia_kg_m2: float = Field(ge=0, le=1e3)
 
 
 class DrivelineParams(Block):
     """Final drive, wheel and brake parameters."""
 
-    final_drive_ratio: float = Field(gt=0)
+    final_drive_ratio: float = Field(ge=0.5, le=50)
     final_drive_efficiency: float = Field(gt=0, le=1)
-    wheel_radius_m: float = Field(gt=0)
-    wheel_inertia_kg_m2: float = Field(ge=0)
-    brake_max_force_n: float = Field(gt=0)
-    mg2_reduction_ratio: float = Field(default=1.0, gt=0)
+    wheel_radius_m: float = Field(ge=0.1, le=2.0)
+    wheel_inertia_kg_m2: float = Field(ge=0, le=1e3)
+    brake_max_force_n: float = Field(gt=0, le=1e6)
+    mg2_reduction_ratio: float = Field(default=1.0, gt=0, le=20)
     """MG2 shaft speed / ring gear speed [-]: 1 when MG2 sits on the ring (2004 THS II), the
     motor reduction gear ratio in later power-split cars (about 2.6 in the 2010 Prius)."""

@@ -15,10 +15,10 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
 
 from vehval.errors import ConfigError
+from vehval.safe_yaml import read_yaml
 from vehval.vehicle.base import RPM
 from vehval.vehicle.components import (BatteryParams, BodyParams, BoostParams, DrivelineParams,
                                        EngineParams, MachineParams, PlanetaryParams)
@@ -204,15 +204,7 @@ def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
         if not path.exists():
             raise ConfigError(f"unknown vehicle '{text}': known vehicles are "
                               f"{', '.join(list_vehicles())}, or give a path to a YAML file")
-    try:
-        data = yaml.safe_load(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read vehicle file ({exc.strerror})") from None
-    except UnicodeDecodeError as exc:
-        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}): save the vehicle file "
-                          "as UTF-8") from None
-    except yaml.YAMLError as exc:
-        raise ConfigError(f"{path}: not valid YAML ({exc})") from None
+    data = read_yaml(path)
     veh = _validate(data, str(path))
     veh._file = str(path)
     return veh

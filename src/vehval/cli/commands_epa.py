@@ -1,0 +1,84 @@
+"""`vehval epa list|tests|validate`: the EPA Test Car List and validation against it."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import typer
+
+from vehval.cli import app
+
+epa_app = typer.Typer(help="EPA Test Car List: certification dyno results per test.",
+                      no_args_is_help=True)
+app.add_typer(epa_app, name="epa")
+
+_PATHS_HELP = "EPA Test Car List CSV files (e.g. 16tstcar.csv) or directories holding them."
+
+
+def _fmt(x: float | None, spec: str = ".1f") -> str:
+    return "-" if x is None or (isinstance(x, float) and math.isnan(x)) else format(x, spec)
+
+
+def _load(paths: list[Path], make, model, year):
+    from vehval.epa import read_lists, select_tests
+
+    return select_tests(read_lists(paths), make, model, year)
+
+
+@epa_app.command("list")
+def list_cmd(
+    paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
+    make: str | None = typer.Option(None, "--make", help="Make, e.g. TOYOTA."),
+    model: str | None = typer.Option(None, "--model", help="Model name or part of it."),
+    year: int | None = typer.Option(None, "--year", help="Model year."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+) -> None:
+    """Vehicles (make, model, year) in the list with their test vehicles and test counts."""
+    from vehval.epa import vehicles
+
+    rows = vehicles(_load(paths, make, model, year))
+    if as_json:
+        typer.echo(json.dumps([r.to_dict() for r in rows], indent=1))
+        return
+    typer.echo(f"{'year':>4}  {'make':12s} {'model':32s} {'tests':>5}  {'ETW [kg]':>16}  "
+               "test vehicles")
+    for r in rows:
+        mass = "/".join(f"{m:.0f}" for m in r.mass_kg[:3]) + ("..." if len(r.mass_kg) > 3
+                                                              else "")
+        ids = ", ".join(r.vehicle_ids[:4]) + (" ..." if len(r.vehicle_ids) > 4 else "")
+        typer.echo(f"{r.year:>4}  {r.make[:12]:12s} {r.model[:32]:32s} {r.n_tests:>5}  "
+                   f"{mass:>16}  {ids}")
+    typer.echo(f"{len(rows)} vehicles, {sum(r.n_tests for r in rows)} tests")
+
+
+@epa_app.command("tests")
+def tests_cmd(
+    paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
+    make: str | None = typer.Option(None, "--make", help="Make, e.g. TOYOTA."),
+    model: str | None = typer.Option(None, "--model", help="Model name or part of it."),
+    year: int | None = typer.Option(None, "--year", help="Model year."),
+    as_json: bool = typer.Option(False, "--json", help="Print JSON (SI units, keys as the "
+                                 "EpaTest fields)."),
+) -> None:
+    """Tests of a vehicle: weight, N/V, axle ratio, road load (SI), cycle, originator, results."""
+    from vehval.epa import procedure_key
+
+    tests = _load(paths, make, model, year)
+    if as_json:
+        typer.echo(json.dumps([{**t.to_dict(), "procedure_key": procedure_key(t)}
+                               for t in tests], indent=1))
+        return
+    typer.echo(f"{'test':14s} {'vehicle':9s} {'cfg':>3} {'orig':4s} {'proc':7s} "
+               f"{'ETW kg':>7} {'N/V':>5} {'axle':>5} {'A N':>6} {'B N/(m/s)':>9} "
+               f"{'C N/(m/s)2':>10} {'FE mpg':>6}  bags 1-4 [mpg]")
+    for t in tests:
+        bags = " ".join(f"{_fmt(b):>6}" for b in t.bags)
+        typer.echo(f"{t.label[:14]:14s} {t.vehicle_id[:9]:9s} {t.config[:3]:>3} "
+                   f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
+                   f"{_fmt(t.mass_kg, '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
+                   f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(t.target_a_n):>6} "
+                   f"{_fmt(t.target_b_n_per_mps, '.3f'):>9} "
+                   f"{_fmt(t.target_c_n_per_mps2, '.4f'):>10} {_fmt(t.fe):>6}  {bags}")
+    typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients in --json)")

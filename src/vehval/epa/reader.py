@@ -1,0 +1,287 @@
+"""Read the US EPA Test Car List (certification chassis-dynamometer results, one row a test).
+
+The list is published per model year as CSV (``16tstcar.csv``, ``17tstcar.csv``...):
+latin-1 text, CR or CRLF line endings, and in some years a reduced column set (no test
+number, originator or displacement). :func:`read_test_car_list` reads any of them into
+:class:`EpaTest` records with the road-load coefficients, test weight and rated power in SI;
+fuel economy stays in the list's unit (``FE_UNIT``, miles per US gallon for gasoline).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from vehval.constants import LB_KG, LBF_N, MILE_M, MPH_M_PER_S
+from vehval.errors import InputFileError
+
+#: One mechanical horsepower [W] (550 ft·lbf/s).
+HP_W = 745.69987158227022
+
+#: list column -> record field, for the columns every year of the list has.
+REQUIRED = {
+    "Represented Test Veh Make": "make",
+    "Represented Test Veh Model": "model",
+    "Test Vehicle ID": "vehicle_id",
+    "Equivalent Test Weight (lbs.)": "weight_lb",
+    "Axle Ratio": "axle_ratio",
+    "N/V Ratio": "n_v_ratio",
+    "Test Procedure Cd": "procedure_code",
+    "Test Procedure Description": "procedure",
+    "Test Fuel Type Cd": "fuel_code",
+    "RND_ADJ_FE": "fe",
+    "FE_UNIT": "fe_unit",
+    "FE Bag 1": "bag1", "FE Bag 2": "bag2", "FE Bag 3": "bag3", "FE Bag 4": "bag4",
+    "Target Coef A (lbf)": "target_a", "Target Coef B (lbf/mph)": "target_b",
+    "Target Coef C (lbf/mph**2)": "target_c",
+    "Set Coef A (lbf)": "set_a", "Set Coef B (lbf/mph)": "set_b",
+    "Set Coef C (lbf/mph**2)": "set_c",
+}
+#: columns some years lack (the record then holds '' or NaN)
+OPTIONAL = {
+    "Test Number": "test_number",
+    "Test Originator": "originator",
+    "Test Veh Configuration #": "config",
+    "Test Veh Displacement (L)": "displacement_l",
+    "Rated Horsepower": "rated_hp",
+    "Vehicle Manufacturer Name": "manufacturer",
+    "CO2 (g/mi)": "co2_g_per_mi",
+    "Test Fuel Type Description": "fuel",
+}
+#: the model-year column is named differently across years
+YEAR_COLUMNS = ("Model Year", "Year")
+
+_LBF_PER_MPH = LBF_N / MPH_M_PER_S  # lbf/mph -> N/(m/s)
+_LBF_PER_MPH2 = LBF_N / MPH_M_PER_S**2  # lbf/mph^2 -> N/(m/s)^2
+
+
+@dataclass(frozen=True)
+class EpaTest:
+    """One certification test of the EPA Test Car List, in SI.
+
+    Attributes
+    ----------
+    year : int
+        Model year.
+    make, model : str
+        Represented test vehicle make and model (as the list spells them).
+    vehicle_id : str
+        Test vehicle ID (one physical car; several configurations may share it).
+    config : str
+        Test vehicle configuration number ('' when the list lacks the column).
+    test_number : str
+        Test number ('' when absent).
+    originator : str
+        ``EPA`` or ``MFR`` (manufacturer); '' when the list lacks the column.
+    procedure_code : int
+        EPA test procedure code (21 FTP-75 2-day, 3 HWFET, 90 US06, 95 SC03, 11 cold CO...).
+    procedure : str
+        Procedure description as listed.
+    fuel_code : str
+        Test fuel code (61 Tier 2 certification gasoline, 26 cold CO fuel...).
+    mass_kg : float
+        Equivalent test weight (inertia class) [kg].
+    axle_ratio, n_v_ratio : float
+        Axle ratio [-] and engine-speed to vehicle-speed ratio [rpm/mph] as listed.
+    target_a_n, target_b_n_per_mps, target_c_n_per_mps2 : float
+        Road-load target coefficients F = A + B v + C v^2 [N, N/(m/s), N/(m/s)^2].
+    set_a_n, set_b_n_per_mps, set_c_n_per_mps2 : float
+        Dynamometer set coefficients (same units).
+    fe : float
+        Whole-test lab fuel economy ``RND_ADJ_FE`` in ``fe_unit`` (not label-adjusted).
+    fe_unit : str
+        Unit of ``fe`` and ``bags`` (``MPG`` for gasoline).
+    bags : tuple of float
+        ``FE Bag 1..4`` (NaN when empty). FTP: bags 1-3 (or 4 for a 4-bag hybrid test);
+        US06: bag 1 city part, bag 2 highway part.
+    co2_g_per_km : float
+        CO2 [g/km] (NaN when absent).
+    displacement_l : float
+        Engine displacement [L] (NaN when absent).
+    rated_power_w : float
+        Rated engine power [W] (NaN when absent).
+    source : str
+        ``file:line`` of the row.
+    """
+
+    year: int
+    make: str
+    model: str
+    vehicle_id: str
+    config: str
+    test_number: str
+    originator: str
+    procedure_code: int
+    procedure: str
+    fuel_code: str
+    fuel: str
+    mass_kg: float
+    axle_ratio: float
+    n_v_ratio: float
+    target_a_n: float
+    target_b_n_per_mps: float
+    target_c_n_per_mps2: float
+    set_a_n: float
+    set_b_n_per_mps: float
+    set_c_n_per_mps2: float
+    fe: float
+    fe_unit: str
+    bags: tuple[float, ...]
+    co2_g_per_km: float
+    displacement_l: float
+    rated_power_w: float
+    manufacturer: str
+    source: str
+
+    @property
+    def label(self) -> str:
+        """Short identification: test number, or vehicle id + procedure code + line."""
+        return self.test_number or f"{self.vehicle_id}/{self.procedure_code}@{self.source}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict (NaN -> None)."""
+        out = asdict(self)
+        out["bags"] = [None if math.isnan(b) else b for b in self.bags]
+        return {k: (None if isinstance(v, float) and math.isnan(v) else v)
+                for k, v in out.items()}
+
+
+def _num(text: str) -> float:
+    text = (text or "").strip()
+    if not text:
+        return math.nan
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
+def _cell(row: list[str], index: dict[str, int], col: str) -> str:
+    k = index.get(col)
+    return row[k].strip() if k is not None else ""
+
+
+def _decode(path: Path) -> str:
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot read the test car list ({exc.strerror})") from None
+    # latin-1 maps every byte: decoding never fails; normalise CR / CRLF line endings
+    return raw.decode("latin-1").replace("\r\n", "\n").replace("\r", "\n")
+
+
+def read_test_car_list(path: str | Path) -> list[EpaTest]:
+    """Read one EPA Test Car List CSV file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``*tstcar.csv`` file (latin-1; CR, LF or CRLF line endings).
+
+    Returns
+    -------
+    list of EpaTest
+        One record per row, in file order.
+
+    Raises
+    ------
+    InputFileError
+        Unreadable file, no header, or a required column missing (the message names the
+        file and the columns).
+    """
+    path = Path(path)
+    text = _decode(path)
+    reader = csv.reader(io.StringIO(text))
+    try:
+        header = [h.strip() for h in next(reader)]
+    except StopIteration:
+        raise InputFileError(f"{path}: empty file: expected an EPA Test Car List CSV with a "
+                             "header row") from None
+    index = {name: k for k, name in enumerate(header)}
+    year_col = next((c for c in YEAR_COLUMNS if c in index), None)
+    missing = [c for c in REQUIRED if c not in index]
+    if year_col is None:
+        missing.insert(0, " or ".join(f"'{c}'" for c in YEAR_COLUMNS))
+    if missing:
+        shown = ", ".join(m if m.startswith("'") else f"'{m}'" for m in missing[:6])
+        more = f" (+{len(missing) - 6} more)" if len(missing) > 6 else ""
+        raise InputFileError(f"{path}: line 1: missing column(s) {shown}{more}: not an EPA "
+                             "Test Car List file, or a column was renamed; the list needs "
+                             "make, model, test weight, procedure, results and road-load "
+                             "coefficients")
+    tests: list[EpaTest] = []
+    for lineno, row in enumerate(reader, start=2):
+        if not any(cell.strip() for cell in row):
+            continue
+        row = row + [""] * (len(header) - len(row))
+
+        f = {field: _cell(row, index, col) for col, field in {**REQUIRED, **OPTIONAL}.items()}
+        year = _num(_cell(row, index, year_col))
+        code = _num(f["procedure_code"])
+        tests.append(EpaTest(
+            year=int(year) if not math.isnan(year) else 0,
+            make=f["make"], model=f["model"], vehicle_id=f["vehicle_id"], config=f["config"],
+            test_number=f["test_number"], originator=f["originator"].upper(),
+            procedure_code=int(code) if not math.isnan(code) else -1,
+            procedure=f["procedure"], fuel_code=f["fuel_code"], fuel=f["fuel"],
+            mass_kg=_num(f["weight_lb"]) * LB_KG,
+            axle_ratio=_num(f["axle_ratio"]), n_v_ratio=_num(f["n_v_ratio"]),
+            target_a_n=_num(f["target_a"]) * LBF_N,
+            target_b_n_per_mps=_num(f["target_b"]) * _LBF_PER_MPH,
+            target_c_n_per_mps2=_num(f["target_c"]) * _LBF_PER_MPH2,
+            set_a_n=_num(f["set_a"]) * LBF_N,
+            set_b_n_per_mps=_num(f["set_b"]) * _LBF_PER_MPH,
+            set_c_n_per_mps2=_num(f["set_c"]) * _LBF_PER_MPH2,
+            fe=_num(f["fe"]), fe_unit=f["fe_unit"].upper(),
+            bags=tuple(_num(f[f"bag{k}"]) for k in range(1, 5)),
+            co2_g_per_km=_num(f["co2_g_per_mi"]) / (MILE_M / 1000.0),
+            displacement_l=_num(f["displacement_l"]),
+            rated_power_w=_num(f["rated_hp"]) * HP_W,
+            manufacturer=f["manufacturer"],
+            source=f"{path.name}:{lineno}",
+        ))
+    return tests
+
+
+def find_list_files(paths: list[str | Path]) -> list[Path]:
+    """Expand files and directories (``*tstcar*.csv`` inside) into list files, sorted."""
+    files: list[Path] = []
+    for p in map(Path, paths):
+        if p.is_dir():
+            found = sorted(q for q in p.iterdir()
+                           if q.suffix.lower() == ".csv" and "tstcar" in q.name.lower())
+            if not found:
+                raise InputFileError(f"{p}: no EPA Test Car List file (*tstcar*.csv) in this "
+                                     "directory; give the file itself or its directory")
+            files.extend(found)
+        elif p.exists():
+            files.append(p)
+        else:
+            raise InputFileError(f"{p}: no such file or directory (give an EPA Test Car List "
+                                 "CSV, e.g. 16tstcar.csv, or the directory holding it)")
+    return files
+
+
+def read_lists(paths: list[str | Path]) -> list[EpaTest]:
+    """Read every list file in ``paths`` (files or directories) into one list of tests.
+
+    A test that appears in several years' lists (same test number, or the same vehicle,
+    procedure and results when the list has no test numbers) is kept once, from the
+    earliest list read.
+    """
+    seen: set[tuple] = set()
+    out: list[EpaTest] = []
+    for f in find_list_files(paths):
+        for t in read_test_car_list(f):
+            key = ((t.make.upper(), t.vehicle_id, t.procedure_code, round(t.fe, 3),
+                    tuple(round(b, 3) if not math.isnan(b) else None for b in t.bags),
+                    round(t.target_a_n, 3)))
+            if key in seen:
+                continue
+            seen.add(key)
+            out.append(t)
+    return out

@@ -1,0 +1,137 @@
+"""One strict loader for every YAML and JSON document the user gives vehval.
+
+Rules (each breach is a :class:`~vehval.errors.ConfigError` naming the file and line):
+
+- a key defined twice in one mapping is an error naming both lines (YAML's "last one wins"
+  silently imported km/h where the first definition said mph);
+- ``.inf``/``.nan`` are refused: every number of a template, vehicle or calculation file must
+  be finite (a ``scale: .inf`` or a mass of 1e308 x 10 gives no meaningful result);
+- nesting deeper than :data:`MAX_DEPTH` and documents larger than :data:`MAX_BYTES` are
+  refused before they are built (no recursion error, no minutes of parsing).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import yaml
+
+from vehval.errors import ConfigError
+
+#: Deepest nesting of mappings/sequences accepted (real files use fewer than 10).
+MAX_DEPTH = 64
+#: Largest YAML/JSON document accepted [bytes] (vehicle files with maps are ~100 kB).
+MAX_BYTES = 20_000_000
+
+
+class _StrictLoader(yaml.SafeLoader):
+    """SafeLoader that refuses duplicate keys and non-finite numbers."""
+
+
+def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool = False):
+    loader.flatten_mapping(node)
+    seen: dict = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        try:
+            hash(key)
+        except TypeError:
+            raise ConfigError(f"{loader.where} line {key_node.start_mark.line + 1}: a mapping key "
+                              "must be a plain value") from None
+        if key in seen:
+            raise ConfigError(f"{loader.where} line {key_node.start_mark.line + 1}: key '{key}' "
+                              f"is defined twice (first on line {seen[key] + 1}): keep one")
+        seen[key] = key_node.start_mark.line
+    return yaml.SafeLoader.construct_mapping(loader, node, deep=deep)
+
+
+def _construct_float(loader: _StrictLoader, node: yaml.ScalarNode) -> float:
+    value = yaml.SafeLoader.construct_yaml_float(loader, node)
+    if not math.isfinite(value):
+        raise ConfigError(f"{loader.where} line {node.start_mark.line + 1}: '{node.value}' is not "
+                          "a finite number: give a finite value")
+    return value
+
+
+_StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+_StrictLoader.add_constructor("tag:yaml.org,2002:float", _construct_float)
+
+
+def _check_size(text: str, where: str) -> None:
+    if len(text) > MAX_BYTES:
+        raise ConfigError(f"{where}: {len(text) / 1e6:.0f} MB is too large for a configuration "
+                          f"document (limit {MAX_BYTES / 1e6:.0f} MB)")
+
+
+def _check_depth(text: str, where: str) -> None:
+    """Refuse deep nesting from the event stream (no recursion involved)."""
+    depth = 0
+    try:
+        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+            if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
+                depth += 1
+                if depth > MAX_DEPTH:
+                    raise ConfigError(f"{where} line {event.start_mark.line + 1}: nesting deeper "
+                                      f"than {MAX_DEPTH} levels: not a vehval document")
+            elif isinstance(event, (yaml.MappingEndEvent, yaml.SequenceEndEvent)):
+                depth -= 1
+    except yaml.YAMLError:
+        return      # the loader reports the syntax error with its line
+
+
+def load_yaml(text: str, where: str = "document"):
+    """Parse YAML ``text`` strictly (see module doc); ``where`` names it in errors."""
+    _check_size(text, where)
+    _check_depth(text, where)
+    loader = None
+    try:
+        loader = _StrictLoader(text)
+        loader.where = where
+        return loader.get_single_data()
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        line = f" line {mark.line + 1}" if mark is not None else ""
+        raise ConfigError(f"{where}{line}: YAML syntax error (not valid YAML): "
+                          f"{getattr(exc, 'problem', None) or exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{where}: nesting too deep: not a vehval document") from None
+    finally:
+        if loader is not None:
+            loader.dispose()
+
+
+def read_yaml(path: str | Path):
+    """Read and parse a YAML file strictly; unreadable or non-UTF-8 files are a ConfigError."""
+    path = Path(path)
+    try:
+        if path.stat().st_size > MAX_BYTES:
+            raise ConfigError(f"{path}: {path.stat().st_size / 1e6:.0f} MB is too large for a "
+                              f"configuration file (limit {MAX_BYTES / 1e6:.0f} MB)")
+        text = path.read_text(encoding="utf-8")
+    except IsADirectoryError:
+        raise ConfigError(f"{path}: is a directory, a YAML file is expected") from None
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}): save it as UTF-8") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from None
+    return load_yaml(text, str(path))
+
+
+def load_json(text: str, where: str = "document", *, finite: bool = False):
+    """Parse JSON ``text``; syntax errors, deep nesting and (with ``finite``) NaN/Infinity
+    are a :class:`ConfigError` naming ``where``."""
+    _check_size(text, where)
+
+    def _constant(name: str):
+        if finite:
+            raise ConfigError(f"{where}: '{name}' is not a finite number")
+        return float(name.replace("Infinity", "inf"))
+
+    try:
+        return json.loads(text, parse_constant=_constant)
+    except json.JSONDecodeError as exc:
+        raise ConfigError(f"{where} line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    except RecursionError:
+        raise ConfigError(f"{where}: JSON nesting too deep: not a vehval document") from None

@@ -1,0 +1,117 @@
+"""EPA Test Car List reader, selection and CLI list/tests (synthetic list files)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from tests.epa.conftest import FULL_HEADER, row, write_list
+from vehval.cli import main
+from vehval.constants import LB_KG, LBF_N, MPH_M_PER_S
+from vehval.epa import (
+    apply_selector,
+    plan_for,
+    read_lists,
+    read_test_car_list,
+    select_tests,
+)
+from vehval.errors import ConfigError, InputFileError
+
+
+def test_units_converted_to_si(prius_list):
+    t = read_test_car_list(prius_list)[0]
+    # hand-computed: 3375 lb, 18.272 lbf, 0.29545 lbf/mph, 0.013793 lbf/mph^2
+    assert t.mass_kg == pytest.approx(3375 * 0.45359237, rel=1e-12)
+    assert t.target_a_n == pytest.approx(18.272 * 4.4482216152605, rel=1e-12)
+    assert t.target_b_n_per_mps == pytest.approx(0.29545 * LBF_N / MPH_M_PER_S, rel=1e-12)
+    assert t.target_c_n_per_mps2 == pytest.approx(0.013793 * LBF_N / MPH_M_PER_S**2, rel=1e-12)
+    # round trip: the road load at 50 mph is the same force in both unit systems
+    v_mph = 50.0
+    f_lbf = 18.272 + 0.29545 * v_mph + 0.013793 * v_mph**2
+    v = v_mph * MPH_M_PER_S
+    f_n = t.target_a_n + t.target_b_n_per_mps * v + t.target_c_n_per_mps2 * v**2
+    assert f_n / LBF_N == pytest.approx(f_lbf, rel=1e-12)
+    assert t.mass_kg / LB_KG == pytest.approx(3375, rel=1e-12)
+    assert t.originator == "EPA" and t.procedure_code == 3 and t.fe == 71.2
+    assert all(math.isnan(b) for b in t.bags)
+    assert t.source == "16tstcar.csv:2"
+
+
+@pytest.mark.parametrize("newline", ["\r", "\n", "\r\n"])
+def test_line_endings_and_latin1(tmp_path, newline):
+    path = write_list(tmp_path / "x.csv", [row(model="PRIUS Caf\u00e9")], newline=newline)
+    t = read_test_car_list(path)
+    assert len(t) == 1 and t[0].model == "PRIUS Caf\u00e9"
+
+
+def test_reduced_column_set(tmp_path):
+    # the 2017 list: 'Year' instead of 'Model Year', no test number / originator / displacement
+    header = ["Year" if h == "Model Year" else h for h in FULL_HEADER
+              if h not in ("Test Number", "Test Originator", "Test Veh Displacement (L)",
+                           "Vehicle Manufacturer Name", "Test Veh Configuration #")]
+    r = row(year=2017)
+    r["Year"] = "2017"
+    t = read_test_car_list(write_list(tmp_path / "17tstcar.csv", [r], header=header))[0]
+    assert t.year == 2017 and t.test_number == "" and t.originator == ""
+    assert math.isnan(t.displacement_l) and t.label.startswith("16-ZV1H/3@")
+
+
+def test_missing_column_named(tmp_path):
+    header = [h for h in FULL_HEADER if h != "Target Coef B (lbf/mph)"]
+    path = write_list(tmp_path / "bad.csv", [row()], header=header)
+    with pytest.raises(InputFileError, match=r"bad\.csv: line 1: missing column.*Target Coef B"):
+        read_test_car_list(path)
+    assert main(["epa", "list", str(path)]) == 2
+
+
+def test_duplicates_across_years_kept_once(tmp_path, prius_list):
+    other = tmp_path / "more"
+    other.mkdir()
+    write_list(other / "17tstcar.csv", [row(year=2017, number="")])
+    tests = read_lists([prius_list, other])
+    assert len(tests) == 8
+
+
+def test_select_and_suggest(prius_list):
+    tests = read_lists([prius_list.parent])
+    assert len(select_tests(tests, "toyota", "prius")) == 6  # exact model only
+    assert len(select_tests(tests, model="CAMRY")) == 1  # substring fallback
+    with pytest.raises(InputFileError, match="unknown model 'PRIUSS'.*'PRIUS'"):
+        select_tests(tests, model="PRIUSS")
+    with pytest.raises(InputFileError, match="unknown make 'TOYTA'.*'TOYOTA'"):
+        select_tests(tests, make="TOYTA")
+    with pytest.raises(InputFileError, match="model year 2015"):
+        select_tests(tests, year=2015)
+    sel = apply_selector(tests, "model=PRIUS,originator=EPA")
+    assert [t.test_number for t in sel] == ["T1", "T2", "T3"]
+    assert [t.test_number for t in apply_selector(tests, "PRIUS,procedure=us06")] == ["T2"]
+    with pytest.raises(ConfigError, match="unknown key 'colour'"):
+        apply_selector(tests, "colour=red")
+
+
+def test_unrunnable_procedures_named(prius_list):
+    tests = {t.test_number: t for t in read_test_car_list(prius_list)}
+    assert plan_for(tests["T1"])[0].key == "hwfet"
+    assert plan_for(tests["T3"])[0].key == "ftp75"
+    proc, why = plan_for(tests["T5"])
+    assert proc is None and "A/C" in why
+    proc, why = plan_for(tests["T6"])
+    assert proc is None and "thermal" in why
+
+
+def test_cli_list_and_tests(prius_list, capsys):
+    assert main(["epa", "list", str(prius_list), "--make", "TOYOTA", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert {r["model"] for r in rows} == {"PRIUS", "PRIUS c", "CAMRY HYBRID LE"}
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert len(rows) == 6 and rows[2]["bags"] == [50.7, 126.3, 62.7, 114.4]
+    assert rows[0]["mass_kg"] == pytest.approx(1530.874, abs=1e-3)
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
+    out = capsys.readouterr().out
+    assert "T3" in out and "126.3" in out and "6 tests" in out
+    assert main(["epa", "list", str(prius_list), "--model", "PRIUSS"]) == 2
+    assert "did you mean" in capsys.readouterr().err
+    assert main(["epa", "list", str(prius_list.parent / "nope.csv")]) == 2
