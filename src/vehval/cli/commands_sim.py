@@ -93,13 +93,13 @@ def simulate_cmd(
     if audit:
         from vehval.sim.audit import energy_audit
 
-        if "fuel_energy_j" not in s:
+        if "gen_loss_j" not in s:
             raise ConfigError(f"--audit: vehicle '{s.get('vehicle', vehicle)}' has no energy "
                               "audit (power-split vehicles only)")
         aud = energy_audit(s)
     written = _write_outputs(res, outdir, aud) if outdir is not None else []
     if as_json:
-        keys = list(SUMMARY_KEYS) + [k for k in s if k not in SUMMARY_KEYS]
+        keys = [k for k in SUMMARY_KEYS if k in s] + [k for k in s if k not in SUMMARY_KEYS]
         doc = _jsonable({k: s[k] for k in keys})
         if aud is not None:
             doc["audit"] = aud
@@ -110,6 +110,16 @@ def simulate_cmd(
     typer.echo(f"  fuel                {s['fuel_mass_kg'] * 1000:8.1f} g")
     typer.echo(f"  fuel economy        {s['fuel_economy_mpg']:8.1f} mpg "
                f"({s['fuel_consumption_l_per_100km']:.2f} L/100 km)")
+    if s.get("architecture") == "conventional":
+        typer.echo(f"  gear shifts         {s['gear_shifts']:8d}")
+        typer.echo(f"  fuel cut            {s['fuel_cut_time_s']:8.1f} s, idle "
+                   f"{s['idle_time_s']:.1f} s, converter open {s['unlocked_time_s']:.1f} s")
+        typer.echo(f"  trace max miss      {s['trace_max_miss_mps']:8.3f} m/s "
+                   "(outside ±2 mph / ±1 s)")
+        typer.echo(f"  energy balance      {s['energy_balance_rel']:8.1e} (relative residual)")
+        if written:
+            typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
+        return
     typer.echo(f"  SOC-corrected       {s['fuel_economy_soc_corrected_mpg']:8.1f} mpg")
     typer.echo(f"  SOC                 {s['soc_initial']:.3f} -> {s['soc_final']:.3f}")
     typer.echo(f"  engine on           {100 * s['engine_on_fraction']:8.1f} % "
