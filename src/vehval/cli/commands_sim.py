@@ -4,13 +4,13 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Optional
 
 import typer
 
 from vehval.cli import app
+from vehval.jsonsafe import clean
 
 vehicle_app = typer.Typer(help="Vehicle parameter files.", no_args_is_help=True)
 app.add_typer(vehicle_app, name="vehicle")
@@ -20,22 +20,13 @@ SUMMARY_KEYS = ("fuel_mass_kg", "distance_m", "fuel_economy_mpg", "fuel_consumpt
                 "engine_on_fraction", "engine_starts", "trace_max_miss_mps")
 
 
-def _jsonable(d: dict) -> dict:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, float) and not math.isfinite(v):
-            v = None
-        out[k] = v
-    return out
-
-
 def _write_outputs(result, outdir: Path, audit: dict | None = None) -> list[str]:
     from vehval.io.atomic import atomic_dir
 
     written = []
     with atomic_dir(outdir) as stage:
         (stage / "summary.json").write_text(
-            json.dumps(_jsonable(result.summary), indent=2, sort_keys=True), encoding="utf-8")
+            json.dumps(clean(result.summary), indent=2, sort_keys=True), encoding="utf-8")
         written.append("summary.json")
         if audit is not None:
             from vehval.sim.audit import audit_lines
@@ -100,7 +91,7 @@ def simulate_cmd(
     written = _write_outputs(res, outdir, aud) if outdir is not None else []
     if as_json:
         keys = [k for k in SUMMARY_KEYS if k in s] + [k for k in s if k not in SUMMARY_KEYS]
-        doc = _jsonable({k: s[k] for k in keys})
+        doc = clean({k: s[k] for k in keys})
         if aud is not None:
             doc["audit"] = aud
         typer.echo(json.dumps(doc))
