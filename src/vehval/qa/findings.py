@@ -56,6 +56,7 @@ class Kind(str, Enum):
     # level 3: measured vs calculated
     CALC_MISMATCH = "calc_mismatch"
     FUEL_MAP = "fuel_map"                # fuel meter against the engine fuel map
+    UNIT_SUSPECT = "unit_suspect"        # physics points at a wrong unit in the template
     # results stage (level 4): results and their inputs
     RESULTS = "results"                  # a result cannot be given or needs attention
     DRIVE_QUALITY = "drive_quality"      # driver outside the SAE J2951 tolerances
@@ -70,6 +71,7 @@ LEVEL_OF_KIND = {
     Kind.ALIGNMENT: 0,
     Kind.CALC_MISMATCH: 3,
     Kind.FUEL_MAP: 3,
+    Kind.UNIT_SUSPECT: 3,
     Kind.RESULTS: 4,
     Kind.DRIVE_QUALITY: 4,
 }
