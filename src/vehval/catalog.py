@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from vehval.errors import ConfigError, InputFileError, VehvalError
+from vehval.jsonsafe import clean
 
 SCHEMA_VERSION = 1
 
@@ -77,29 +78,11 @@ def _duckdb():
     return duckdb
 
 
-def _clean(value: Any) -> Any:
-    """JSON-safe copy: NaN/inf become None, numpy scalars become Python numbers."""
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    if hasattr(value, "item") and callable(value.item) and not isinstance(value, (str, bytes)):
-        try:
-            value = value.item()
-        except (TypeError, ValueError):
-            return str(value)
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, (str, int, float, bool)) or value is None:
-        return value
-    return str(value)
-
-
 def to_json(value: Any) -> str | None:
     """Serialise ``value`` to a JSON string for a JSON column (None stays NULL)."""
     if value is None:
         return None
-    return json.dumps(_clean(value), sort_keys=True)
+    return json.dumps(clean(value), sort_keys=True)
 
 
 def _num(value: Any) -> float | None:

@@ -20,6 +20,12 @@ from vehval.errors import SignalError
 ResampleMethod = Literal["linear", "previous"]
 ORIGINS = ("test", "calc", "simu")
 
+#: Source qualifiers of the facility's own instrumentation, in order of preference (after
+#: no qualifier at all, the facility's main sensor).
+FACILITY_QUALIFIERS = ("daq", "direct", "bench", "modal", "dyno", "pa")
+#: Vehicle-network sources, trusted after the facility's sensors.
+NETWORK_QUALIFIERS = ("obd", "can", "ecu")
+
 
 @dataclass(frozen=True)
 class SignalSpec:
@@ -142,3 +148,24 @@ def registry() -> Registry:
     """The package registry (loaded once)."""
     text = resources.files("vehval").joinpath("data/signals.yaml").read_text(encoding="utf-8")
     return Registry(yaml.safe_load(text))
+
+
+def preference_rank(name: str) -> tuple[float, str]:
+    """Which source to trust first when a quantity is measured several times (sort key).
+
+    The one policy of the package: the facility sensor with no qualifier first, then the
+    facility qualifiers (:data:`FACILITY_QUALIFIERS` in order), then the vehicle network
+    (OBD/CAN/ECU), then anything else (targets, unknown qualifiers); ties by name. Names
+    outside the nomenclature come last.
+    """
+    try:
+        q = registry().parse(name).source
+    except SignalError:
+        return (9, name)
+    if q is None:
+        return (0, name)
+    if q in FACILITY_QUALIFIERS:
+        return (1 + FACILITY_QUALIFIERS.index(q) / 10, name)
+    if q in NETWORK_QUALIFIERS:
+        return (3, name)
+    return (4, name)

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from vehval.errors import SignalError
-from vehval.nomenclature import ResampleMethod, registry
+from vehval.nomenclature import ResampleMethod, preference_rank, registry
 
 
 @dataclass
@@ -190,6 +190,24 @@ class Test:
             if parsed.base == base and (origin is None or parsed.origin == origin):
                 out.append(sig)
         return out
+
+    def best(self, base: str, origins: Iterable[str] = ("test", "calc"), *,
+             usable: bool = False) -> Signal | None:
+        """The signal of ``base`` to use: the first origin of ``origins`` that has one, and
+        in it the most trusted source (:func:`vehval.nomenclature.preference_rank`).
+
+        The package's one answer to "which signal of this quantity": QA, calculations,
+        analysis, validation, batch metrics and report plots all ask here. With
+        ``usable=True`` signals with fewer than two samples or no finite value are skipped.
+        None when the test has no such signal.
+        """
+        for origin in origins:
+            cands = self.by_base(base, origin)
+            if usable:
+                cands = [s for s in cands if s.time.size >= 2 and np.any(np.isfinite(s.values))]
+            if cands:
+                return min(cands, key=lambda s: preference_rank(s.name))
+        return None
 
     @property
     def sources(self) -> list[str]:

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from vehval.qa.findings import Kind, Severity
-from vehval.qa.level2 import compare_pair, preference_rank, run_level2
+from vehval.nomenclature import preference_rank
+from vehval.qa.level2 import compare_pair, run_level2
 from vehval.test import Signal, Test
 
 from .conftest import make_test

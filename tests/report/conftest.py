@@ -107,7 +107,7 @@ def _control_json() -> str:
 def _validation_json() -> str:
     from vehval.vehicle import load_vehicle
     from vehval.validate import validate_test
-    from vehval.validate.compare import _clean
+    from vehval.jsonsafe import clean as _clean
 
     payload = validate_test(make_test(), load_vehicle("prius_2004"), dt=0.1).payload()
     return json.dumps(_clean(payload))

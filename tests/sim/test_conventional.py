@@ -72,3 +72,13 @@ def test_coupling_and_gear_selection_hand_cases():
     assert select_gear(1, 5.0, 1.0, up0, up1, dn0, dn1) == 1      # full load holds the gear
     assert select_gear(2, 2.9, 0.5, up0, up1, dn0, dn1) == 1      # below 2 + 0.5 * 2 = 3 m/s
     assert select_gear(2, 3.1, 0.5, up0, up1, dn0, dn1) == 2
+
+
+def test_packaged_cruze_loads_and_simulates():
+    res = simulate("cruze_diesel_2014", "hwfet", dt=0.1)
+    s = res.summary
+    assert res.vehicle.architecture == "conventional"
+    assert s["trace_max_miss_mps"] == 0.0
+    assert abs(s["energy_balance_rel"]) < 1e-9
+    # a compact diesel on the highway cycle: 3.5-6 L/100 km
+    assert 3.5 < s["fuel_consumption_l_per_100km"] < 6.0

@@ -92,34 +92,21 @@ class AnalysisInputs:
         return bool(np.any(np.isfinite(getattr(self, name))))
 
 
-def pick_signal(test: Test, base: str, prefer_source: tuple[str, ...] = ()) -> Signal | None:
-    """The preferred signal of a base name: measured before calculated, then the preferred
-    sources in order, then the highest sample rate; ``None`` when the test has none."""
-    for origin in ORIGINS:
-        cands = [s for s in test.by_base(base, origin) if s.time.size >= 2
-                 and np.any(np.isfinite(s.values))]
-        if not cands:
-            continue
-
-        def rank(s: Signal) -> tuple:
-            pref = prefer_source.index(s.source) if s.source in prefer_source else len(prefer_source)
-            return (pref, s.sample_period, s.name)
-
-        return min(cands, key=rank)
-    return None
+def pick_signal(test: Test, base: str) -> Signal | None:
+    """The signal of a base name the analysis uses: measured before calculated, then the
+    most trusted source (:meth:`vehval.test.Test.best`); ``None`` when the test has none."""
+    return test.best(base, ORIGINS, usable=True)
 
 
 def _constants(test: Test, vehicle: Any, constants: dict | None) -> dict[str, float]:
-    """Merge constants: explicit argument > test template constants > vehicle file."""
-    out: dict[str, float] = {}
-    if vehicle is not None:
-        b, d = vehicle.body, vehicle.driveline
-        out.update(test_mass_kg=b.mass_kg, road_load_a_n=b.road_load_a_n,
-                   road_load_b_n_per_mps=b.road_load_b_n_per_mps,
-                   road_load_c_n_per_mps2=b.road_load_c_n_per_mps2,
-                   wheel_radius_m=d.wheel_radius_m, final_drive_ratio=d.final_drive_ratio)
+    """Mass, road load, wheel radius... (:class:`vehval.conditions.TestConditions`: explicit
+    argument > template constants > vehicle file), plus the test's other constants."""
+    from vehval.conditions import TestConditions
+
+    cond = TestConditions.resolve(test, None, vehicle, constants)
+    out = {k: v for k, v in cond.as_dict().items() if cond.source(k) != "default"}
     for src in (test.meta.constants or {}, constants or {}):
-        out.update({k: float(v) for k, v in src.items() if v is not None})
+        out.update({k: float(v) for k, v in src.items() if v is not None and k not in out})
     return out
 
 
@@ -207,7 +194,7 @@ def prepare_inputs(test: Test, vehicle: Any = None, constants: dict | None = Non
     """
     from vehval.errors import SignalError
 
-    spd = pick_signal(test, "veh_spd", ("dyno", "", "obd"))
+    spd = pick_signal(test, "veh_spd")
     if spd is None:
         raise SignalError(f"test '{test.meta.test_id}': the control-strategy analysis needs a "
                           "vehicle speed signal (veh_spd_*_test); map one in the template")
@@ -220,8 +207,8 @@ def prepare_inputs(test: Test, vehicle: Any = None, constants: dict | None = Non
     sources: dict[str, str] = {}
     nan = np.full(n, np.nan)
 
-    def grab(base: str, quantity: str, prefer=("dyno", "", "obd")) -> np.ndarray:
-        sig = pick_signal(test, base, prefer)
+    def grab(base: str, quantity: str) -> np.ndarray:
+        sig = pick_signal(test, base)
         if sig is None:
             return nan.copy()
         findings.extend(_invalid_findings(sig, quantity))
@@ -251,7 +238,7 @@ def prepare_inputs(test: Test, vehicle: Any = None, constants: dict | None = Non
     # delivered wheel power, most direct first (the driver's demand is not measured: the
     # rule's demand is rebuilt from these by vehval.analysis.demand)
     p_whl = nan.copy()
-    frc = pick_signal(test, "veh_frc_in", ("dyno", ""))
+    frc = pick_signal(test, "veh_frc_in")
     if frc is not None:
         p_whl = grab("veh_frc_in", "tractive force") * v
         sources["wheel power"] = f"{frc.name} x {sources['vehicle speed']} (measured)"

@@ -34,6 +34,7 @@ from vehval.analysis.operating import (
 from vehval.analysis.replay import base_params, rule_vector, score_rule
 from vehval.analysis.soc import fit_soc_regulation
 from vehval.analysis.thresholds import ESTIMATED, fit_rule, lag_grids
+from vehval.jsonsafe import clean
 from vehval.test import Test
 
 CONTROL_VERSION = 1
@@ -79,7 +80,7 @@ class AnalysisResult:
                    for a in la for b in lb)
 
     def to_dict(self) -> dict:
-        return _clean({
+        return clean({
             "control_version": CONTROL_VERSION, "test_id": self.test_id,
             "controller": self.controller, "uncertainty": self.uncertainty,
             "rule_agreement": self.rule_agreement, "rule": self.rule, "engine": self.engine,
@@ -131,24 +132,6 @@ class AnalysisResult:
         return {"title": "Control strategy", "tables": tables, "figures": figs}
 
 
-def _clean(x: Any) -> Any:
-    """JSON-safe copy: numpy scalars -> float/int, NaN/inf -> None."""
-    if isinstance(x, dict):
-        return {str(k): _clean(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_clean(v) for v in x]
-    if isinstance(x, (np.bool_, bool)):
-        return bool(x)
-    if isinstance(x, (np.integer,)):
-        return int(x)
-    if isinstance(x, (float, np.floating)):
-        f = float(x)
-        return f if np.isfinite(f) else None
-    if isinstance(x, np.ndarray):
-        return _clean(x.tolist())
-    return x
-
-
 def _battery_limits(soc: np.ndarray, vehicle: Any) -> tuple:
     """(available discharge power, discharge limit, charge limit) [W] at the SOC, or Nones."""
     if vehicle is None or not np.any(np.isfinite(soc)):
@@ -190,7 +173,7 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
     aux = float(vehicle.body.aux_power_w) if vehicle is not None else 0.0
     base = base_params(vehicle)
     # state of charge (coulomb counting anchored to the logged SOC) and battery power sign
-    soc_sig = pick_signal(test, "ess_soc", ("obd", "", "dyno"))
+    soc_sig = pick_signal(test, "ess_soc")
     res_step = quantisation_step(soc_sig.values) if soc_sig is not None else None
     curr, curr_label = inp.ess_curr, inp.sources.get("battery current", "battery current")
     if not inp.has("ess_curr") and inp.has("ess_pwr") and inp.has("ess_volt"):

@@ -12,12 +12,10 @@ from typing import Any
 
 import numpy as np
 
+from vehval.conditions import TestConditions
+from vehval.constants import GALLON_US_M3 as _M3_PER_US_GAL
+from vehval.constants import MILE_M as _M_PER_MILE
 from vehval.test import Signal, Test
-from vehval.constants import GALLON_US_M3 as _M3_PER_US_GAL, MILE_M as _M_PER_MILE
-
-#: Assumed when the template gives no constant [kg/m^3], [J/kg] (US test gasoline).
-DEFAULT_FUEL_DENSITY_KG_PER_M3 = 745.0
-DEFAULT_FUEL_LHV_J_PER_KG = 42.6e6
 
 
 def _pick(test: Test, base: str, preferred: dict[str, str] | None = None) -> Signal | None:
@@ -31,8 +29,7 @@ def _pick(test: Test, base: str, preferred: dict[str, str] | None = None) -> Sig
         return None
     if preferred is not None:
         return next((s for s in cands if s.name == preferred.get(base)), None)
-    cands.sort(key=lambda s: (s.name != f"{base}_test", s.name))
-    return cands[0]
+    return test.best(base, ("test",))
 
 
 def _finite(sig: Signal) -> tuple[np.ndarray, np.ndarray]:
@@ -83,9 +80,9 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None) -> dict[str
         positive discharged), ``eng_energy_j`` (positive brake energy),
         ``tractive_energy_j`` (positive) [J]; None where the signals are missing.
     """
-    c = test.meta.constants or {}
-    density = float(c.get("fuel_density_kg_per_m3") or DEFAULT_FUEL_DENSITY_KG_PER_M3)
-    lhv = float(c.get("fuel_lhv_j_per_kg") or DEFAULT_FUEL_LHV_J_PER_KG)
+    cond = TestConditions.resolve(test)
+    density = cond["fuel_density_kg_per_m3"]
+    lhv = cond["fuel_lhv_j_per_kg"]
     out: dict[str, Any] = {k: None for k in (
         "duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
         "fuel_consumption_l_per_100km", "soc_initial", "soc_final", "soc_change",

@@ -82,3 +82,54 @@ def tests_cmd(
                    f"{_fmt(t.target_b_n_per_mps, '.3f'):>9} "
                    f"{_fmt(t.target_c_n_per_mps2, '.4f'):>10} {_fmt(t.fe):>6}  {bags}")
     typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients in --json)")
+
+
+@epa_app.command("validate")
+def validate_cmd(
+    paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
+    vehicle: str = typer.Option(..., "--vehicle", help="Vehicle name or YAML path (one file "
+                                "for every test)."),
+    tests: str = typer.Option(..., "--tests", help="Test selector, e.g. "
+                              "model=PRIUS,year=2016,originator=EPA (keys: make, model, year, "
+                              "vehicle, originator, procedure, number, config)."),
+    dt: float = typer.Option(1.0, "--dt", help="Simulation step [s]."),
+    as_json: bool = typer.Option(False, "--json", help="Print the validation JSON."),
+    outdir: Path | None = typer.Option(None, "-o", "--output",
+                                       help="Directory for report.html, epa_validation.json "
+                                            "and epa_validation.csv."),
+) -> None:
+    """Simulate each selected EPA test with its own weight and road load; compare per bag."""
+    from vehval.epa import apply_selector, read_lists
+    from vehval.epa.validation import validate_tests
+    from vehval.errors import InputFileError
+    from vehval.sim.simulate import _check_dt
+
+    _check_dt(dt)
+    selected = apply_selector(read_lists(paths), tests)
+    if not selected:
+        raise InputFileError(f"the selector '{tests}' matches no test")
+    val = validate_tests(vehicle, selected, dt=dt)
+    written = []
+    if outdir is not None:
+        from vehval.report.epa import write_epa_report
+
+        written = write_epa_report(val, outdir)
+    if as_json:
+        typer.echo(json.dumps(val.to_dict(), indent=1))
+        return
+    typer.echo(f"{'test':14s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
+               f"{'err %':>6}  judged")
+    for c in val.comparisons:
+        typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
+                   f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f}  "
+                   f"{'yes' if c.judged else 'no (cold start)'}")
+    st = val.stats()
+    for s in val.skipped:
+        typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
+    r = st["spread_correlation"]["pooled"]
+    typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped; "
+               f"{st['n_within_tolerance']}/{st['n_judged']} judged figures within "
+               f"{100 * st['tolerance']:.0f} %; mean error {100 * (st['mean_error'] or 0):+.1f} %"
+               f"; r = {'-' if r is None else f'{r:.3f}'}")
+    if written:
+        typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")

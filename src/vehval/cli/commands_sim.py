@@ -4,13 +4,13 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Optional
 
 import typer
 
 from vehval.cli import app
+from vehval.jsonsafe import clean
 
 vehicle_app = typer.Typer(help="Vehicle parameter files.", no_args_is_help=True)
 app.add_typer(vehicle_app, name="vehicle")
@@ -20,22 +20,13 @@ SUMMARY_KEYS = ("fuel_mass_kg", "distance_m", "fuel_economy_mpg", "fuel_consumpt
                 "engine_on_fraction", "engine_starts", "trace_max_miss_mps")
 
 
-def _jsonable(d: dict) -> dict:
-    out = {}
-    for k, v in d.items():
-        if isinstance(v, float) and not math.isfinite(v):
-            v = None
-        out[k] = v
-    return out
-
-
 def _write_outputs(result, outdir: Path) -> list[str]:
     from vehval.io.atomic import atomic_dir
 
     written = []
     with atomic_dir(outdir) as stage:
         (stage / "summary.json").write_text(
-            json.dumps(_jsonable(result.summary), indent=2, sort_keys=True), encoding="utf-8")
+            json.dumps(clean(result.summary), indent=2, sort_keys=True), encoding="utf-8")
         written.append("summary.json")
         try:
             from vehval.io.parquet import write_test
@@ -83,14 +74,24 @@ def simulate_cmd(
     s = res.summary
     written = _write_outputs(res, outdir) if outdir is not None else []
     if as_json:
-        keys = list(SUMMARY_KEYS) + [k for k in s if k not in SUMMARY_KEYS]
-        typer.echo(json.dumps(_jsonable({k: s[k] for k in keys})))
+        keys = [k for k in SUMMARY_KEYS if k in s] + [k for k in s if k not in SUMMARY_KEYS]
+        typer.echo(json.dumps(clean({k: s[k] for k in keys})))
         return
     typer.echo(f"{s['vehicle']} on {s['cycle']} (dt = {s['dt_s']:g} s)")
     typer.echo(f"  distance            {s['distance_m'] / 1000:8.3f} km")
     typer.echo(f"  fuel                {s['fuel_mass_kg'] * 1000:8.1f} g")
     typer.echo(f"  fuel economy        {s['fuel_economy_mpg']:8.1f} mpg "
                f"({s['fuel_consumption_l_per_100km']:.2f} L/100 km)")
+    if s.get("architecture") == "conventional":
+        typer.echo(f"  gear shifts         {s['gear_shifts']:8d}")
+        typer.echo(f"  fuel cut            {s['fuel_cut_time_s']:8.1f} s, idle "
+                   f"{s['idle_time_s']:.1f} s, converter open {s['unlocked_time_s']:.1f} s")
+        typer.echo(f"  trace max miss      {s['trace_max_miss_mps']:8.3f} m/s "
+                   "(outside ±2 mph / ±1 s)")
+        typer.echo(f"  energy balance      {s['energy_balance_rel']:8.1e} (relative residual)")
+        if written:
+            typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
+        return
     typer.echo(f"  SOC-corrected       {s['fuel_economy_soc_corrected_mpg']:8.1f} mpg")
     typer.echo(f"  SOC                 {s['soc_initial']:.3f} -> {s['soc_final']:.3f}")
     typer.echo(f"  engine on           {100 * s['engine_on_fraction']:8.1f} % "

@@ -21,11 +21,11 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from vehval.conditions import vehicle_value
 from vehval.equations.expr import parse_expression
 from vehval.errors import ConfigError, SignalError
-from vehval.nomenclature import registry
+from vehval.nomenclature import preference_rank, registry
 from vehval.safe_yaml import load_yaml
-from vehval.qa.level2 import preference_rank
 from vehval.test import Signal, Test
 
 
@@ -132,6 +132,11 @@ def _load_calculations_file(name_or_path: str | Path) -> CalculationFile:
     except ValidationError as exc:
         err = exc.errors()[0]
         raise ConfigError(f"{where}: {'.'.join(str(x) for x in err['loc'])}: {err['msg']}") from None
+    for pname, spec in calc.parameters.items():
+        for key in spec.vehicle:
+            if "." not in key:
+                raise ConfigError(f"{where}: parameters.{pname}.vehicle: '{key}' is not a dotted "
+                                  "vehicle path: name the block (e.g. body.mass_kg)")
     reg = registry()
     for i, rel in enumerate(calc.relations):
         if rel.output not in reg:
@@ -151,33 +156,6 @@ def _load_calculations_file(name_or_path: str | Path) -> CalculationFile:
     return calc
 
 
-def _find_key(obj: Any, key: str, depth: int = 0) -> Any:
-    """Breadth-first search of ``key`` (or a dotted path) in a nested model/dict."""
-    if depth > 6 or obj is None:
-        return None
-    if "." in key:
-        cur = obj
-        for part in key.split("."):
-            cur = cur.get(part) if isinstance(cur, dict) else getattr(cur, part, None)
-            if cur is None:
-                return None
-        return cur
-    if isinstance(obj, BaseModel):
-        obj = obj.model_dump()
-    elif not isinstance(obj, dict) and hasattr(obj, "__dict__"):
-        obj = vars(obj)
-    if not isinstance(obj, dict):
-        return None
-    if key in obj and isinstance(obj[key], (int, float)) and not isinstance(obj[key], bool):
-        return obj[key]
-    for v in obj.values():
-        if isinstance(v, (dict, BaseModel)) or hasattr(v, "__dict__"):
-            r = _find_key(v, key, depth + 1)
-            if r is not None:
-                return r
-    return None
-
-
 def resolve_parameters(calc: CalculationFile, constants: dict[str, float] | None = None,
                        vehicle: Any = None) -> tuple[dict[str, float], dict[str, str], dict[str, str]]:
     """Parameter values, their provenance, and the reason each missing one is missing."""
@@ -190,7 +168,9 @@ def resolve_parameters(calc: CalculationFile, constants: dict[str, float] | None
             continue
         found = None
         for key in spec.vehicle:
-            found = _find_key(vehicle, key) if vehicle is not None else None
+            found = vehicle_value(vehicle, key) if vehicle is not None else None
+            if isinstance(found, bool) or not isinstance(found, (int, float)):
+                found = None
             if found is not None:
                 origin[name] = f"vehicle {key}"
                 break
@@ -232,7 +212,7 @@ class CalcResult:
 def choose_calc_set(test: Test, vehicle: Any = None) -> str:
     """``power_split`` when the vehicle or the signals show a planetary hybrid, else
     ``conventional``."""
-    if vehicle is not None and _find_key(vehicle, "ring_teeth") is not None:
+    if vehicle is not None and vehicle_value(vehicle, "planetary.ring_teeth") is not None:
         return "power_split"
     for sig in test:
         if sig.name.startswith(("gen_", "mot_", "pg_")):
@@ -281,7 +261,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
         if p.origin == "test":
             by_base.setdefault(p.base, []).append(sig)
     for base, sigs in by_base.items():
-        measured[base] = sorted(sigs, key=lambda s: preference_rank(s.name))[0]
+        measured[base] = min(sigs, key=lambda s: preference_rank(s.name))
     if dt is None:
         periods = [s.sample_period for s in measured.values() if np.isfinite(s.sample_period)]
         dt = max(0.01, min(periods)) if periods else 0.1

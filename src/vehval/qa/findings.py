@@ -6,12 +6,13 @@ sentence and the numbers behind it. Findings serialise to plain dicts (``finding
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Iterable
 
 import numpy as np
+
+from vehval.jsonsafe import clean
 
 
 class Severity(str, Enum):
@@ -69,28 +70,6 @@ LEVEL_OF_KIND = {
 }
 
 
-def json_number(value):
-    """A float as JSON allows it (NaN/inf -> None, numpy -> Python); other values unchanged."""
-    if isinstance(value, (float, np.floating)):
-        v = float(value)
-        return v if math.isfinite(v) else None
-    return value
-
-
-def _clean(value):
-    """JSON-safe number: NaN/inf become None, numpy scalars become Python floats."""
-    if isinstance(value, (np.floating, float)):
-        v = float(value)
-        return v if math.isfinite(v) else None
-    if isinstance(value, (np.integer,)):
-        return int(value)
-    if isinstance(value, (list, tuple)):
-        return [_clean(v) for v in value]
-    if isinstance(value, dict):
-        return {str(k): _clean(v) for k, v in value.items()}
-    return value
-
-
 @dataclass
 class Finding:
     """One QA finding.
@@ -140,10 +119,10 @@ class Finding:
             "kind": self.kind.value,
             "level": self.level,
             "severity": self.severity.value,
-            "start_s": _clean(self.start_s),
-            "end_s": _clean(self.end_s),
+            "start_s": clean(self.start_s),
+            "end_s": clean(self.end_s),
             "message": self.message,
-            "numbers": _clean(self.numbers),
+            "numbers": clean(self.numbers),
             "related": list(self.related),
         }
 

@@ -36,10 +36,8 @@ from typing import Any
 
 import numpy as np
 
-from vehval.errors import SignalError
-from vehval.nomenclature import registry
+from vehval.nomenclature import preference_rank
 from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
-from vehval.qa.level2 import preference_rank
 from vehval.test import Signal, Test
 
 RPM = 2.0 * np.pi / 60.0
@@ -99,16 +97,7 @@ def map_fuel_rate(fmap: dict, speed: np.ndarray, torque: np.ndarray) -> np.ndarr
 
 def _candidates(test: Test, base: str) -> list[Signal]:
     """Measured signals of a base, preferred source first, then ``<base>_calc``."""
-    reg = registry()
-    out = []
-    for sig in test:
-        try:
-            p = reg.parse(sig.name)
-        except SignalError:
-            continue
-        if p.base == base and p.origin == "test":
-            out.append(sig)
-    out.sort(key=lambda s: preference_rank(s.name))
+    out = sorted(test.by_base(base, "test"), key=lambda s: preference_rank(s.name))
     if f"{base}_calc" in test:
         out.append(test[f"{base}_calc"])
     return out

@@ -18,8 +18,9 @@ import numpy as np
 
 from vehval.align import estimate_pair
 from vehval.errors import SignalError
-from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity, json_number, untrusted_mask
+from vehval.nomenclature import preference_rank, registry
+from vehval.jsonsafe import finite_or_none
+from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
 from vehval.test import Signal, Test
 
 #: Unit factors a wrong unit typically produces (slope of other vs ref).
@@ -30,10 +31,6 @@ UNIT_FACTORS: dict[str, float] = {
     "lbf·ft vs N·m": 1.3558179,
 }
 
-#: Source qualifiers of the facility's own instrumentation (after no qualifier at all).
-FACILITY_QUALIFIERS = ("daq", "direct", "bench", "modal", "dyno", "pa")
-
-
 #: Bases measured per instance (module, cell...): different qualifiers are not duplicates.
 PER_INSTANCE = frozenset({"ess_volt_module", "ess_res_module"})
 
@@ -41,22 +38,6 @@ PER_INSTANCE = frozenset({"ess_volt_module", "ess_res_module"})
 def is_instance_qualifier(q: str | None) -> bool:
     """``m1``, ``bt3``, ``d12``: a numbered instance (module, sensor), not a source."""
     return bool(q) and re.fullmatch(r"[a-z]+\d+", q) is not None
-
-
-def preference_rank(name: str) -> tuple[int, str]:
-    """Sort key: facility sensor (no qualifier) first, then facility qualifiers, then
-    OBD/CAN/ECU, then anything else."""
-    try:
-        q = registry().parse(name).source
-    except SignalError:
-        return (9, name)
-    if q is None:
-        return (0, name)
-    if q in FACILITY_QUALIFIERS:
-        return (1 + FACILITY_QUALIFIERS.index(q) / 10, name)
-    if q in ("obd", "can", "ecu"):
-        return (3, name)
-    return (4, name)
 
 
 @dataclass
@@ -97,7 +78,7 @@ class PairComparison:
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        return {k: json_number(v) for k, v in self.__dict__.items()}
+        return {k: finite_or_none(v) for k, v in self.__dict__.items()}
 
 
 def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None,

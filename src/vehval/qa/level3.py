@@ -30,7 +30,8 @@ import numpy as np
 from vehval.equations.calc import CalcResult
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity, json_number, untrusted_mask
+from vehval.jsonsafe import finite_or_none
+from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
 from vehval.test import Test
 
 #: Cumulative outputs: a drift shows in them, a correlation is meaningless.
@@ -72,7 +73,7 @@ class CalcComparison:
     samples: str = "all"           # "all" or "quasi-steady" (steady-state relations)
 
     def to_dict(self) -> dict:
-        return {k: json_number(v) for k, v in self.__dict__.items()}
+        return {k: finite_or_none(v) for k, v in self.__dict__.items()}
 
 
 def quasi_steady_mask(test: Test, grid: np.ndarray, acc_max: float = 20.0,
@@ -91,19 +92,9 @@ def quasi_steady_mask(test: Test, grid: np.ndarray, acc_max: float = 20.0,
     """
     from scipy.ndimage import maximum_filter1d, uniform_filter1d
 
-    from vehval.qa.level2 import preference_rank
-    reg = registry()
-    cands = []
-    for sig in test:
-        try:
-            p = reg.parse(sig.name)
-        except SignalError:
-            continue
-        if p.base == "eng_spd_out" and p.origin in ("test", "calc"):
-            cands.append(((p.origin == "calc",) + preference_rank(sig.name), sig))
-    if not cands or grid.size < 3:
+    sig = test.best("eng_spd_out", ("test", "calc"))
+    if sig is None or grid.size < 3:
         return None
-    sig = min(cands, key=lambda c: c[0])[1]
     w = sig.at(grid)
     ok = np.isfinite(w)
     if ok.sum() < 3:

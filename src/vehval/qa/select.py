@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from vehval.errors import SignalError
-from vehval.nomenclature import registry
+from vehval.nomenclature import preference_rank, registry
 from vehval.qa.findings import Finding, Kind, Severity
-from vehval.qa.level2 import PairComparison, preference_rank
+from vehval.qa.level2 import PairComparison
 from vehval.qa.level3 import CalcComparison
 from vehval.test import Test
 

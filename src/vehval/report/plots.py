@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
+from vehval.conditions import DEFAULT_FUEL_LHV_J_PER_KG, TestConditions
 from vehval.test import Test
 
 RPM = 2.0 * np.pi / 60.0  # [rad/s] per rpm
-DEFAULT_LHV_J_PER_KG = 42.6e6
 MAX_POINTS = 4000
 #: Engine speed above which the engine counts as running [rad/s] (~480 rpm: above cranking).
 ENGINE_RUNNING_RAD_S = 50.0
@@ -27,13 +27,8 @@ class PlotSkipped(Exception):
 
 # ----------------------------------------------------------------------------- helpers
 def pick(test: Test, base: str, origins: tuple[str, ...] = ("test", "calc", "simu")):
-    """The first signal of ``base`` by origin preference (sourceless name first), or None."""
-    for origin in origins:
-        sigs = test.by_base(base, origin)
-        if sigs:
-            sigs.sort(key=lambda s: (s.name != f"{base}_{origin}", s.name))
-            return sigs[0]
-    return None
+    """The signal of ``base`` to plot (:meth:`vehval.test.Test.best`), or None."""
+    return test.best(base, origins)
 
 
 def common(test: Test, bases: tuple[str, ...], origins: tuple[str, ...] = ("test", "calc", "simu"),
@@ -107,7 +102,7 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
     spd = np.asarray(eng.speed_rpm, float)
     trq = np.asarray(eng.torque_nm, float)
     fuel = np.asarray(eng.fuel_rate_g_per_s, float) * 1e-3  # [kg/s], rows = speed
-    lhv = float(getattr(eng, "fuel_lhv_j_per_kg", DEFAULT_LHV_J_PER_KG))
+    lhv = float(getattr(eng, "fuel_lhv_j_per_kg", DEFAULT_FUEL_LHV_J_PER_KG))
     pw = (spd[:, None] * RPM) * trq[None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
         eff = np.where((fuel > 0) & (pw > 0), pw / (fuel * lhv), np.nan) * 100.0
@@ -251,7 +246,7 @@ def willans(test: Test, lhv_j_per_kg: float | None = None) -> dict:
         (inverse marginal efficiency), ``intercept`` [W] (fuel power at zero output),
         ``marginal_efficiency`` [-] and ``r2`` [-].
     """
-    lhv = lhv_j_per_kg or test.meta.constants.get("fuel_lhv_j_per_kg") or DEFAULT_LHV_J_PER_KG
+    lhv = lhv_j_per_kg or TestConditions.resolve(test)["fuel_lhv_j_per_kg"]
     fp = pick(test, "fuel_pwr")
     if fp is not None:
         t, fuel = fp.time, fp.values
@@ -314,7 +309,7 @@ def energy_flows(test: Test, origin: str = "test", lhv_j_per_kg: float | None = 
     Battery power is positive when discharging.
     """
     origins = (origin, "calc") if origin == "test" else (origin,)
-    lhv = lhv_j_per_kg or test.meta.constants.get("fuel_lhv_j_per_kg") or DEFAULT_LHV_J_PER_KG
+    lhv = lhv_j_per_kg or TestConditions.resolve(test)["fuel_lhv_j_per_kg"]
     out: dict[str, float] = {}
     fuel = _energy(test, "fuel_pwr", origins) or _energy(test, "fuel_rate", origins, scale=lhv)
     eng = _energy(test, "eng_pwr_out", origins, sign=+1)

@@ -124,7 +124,7 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
         f_dem = driver_force(v0, vnow, vnext, dt, m_eq, fl_ff, i_drv, prm[C_DRV_TAU], f_min,
                              prm[C_DRV_FMAX])
         p_dem = f_dem * max(v0, 0.0)
-        standstill = v0 < STANDSTILL_MPS and vnext <= 0.0
+        standstill = v0 < STANDSTILL_MPS and vnext < STANDSTILL_MPS
         # ---------------- gear
         t_shift += dt
         if standstill:
@@ -157,9 +157,12 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
         t_acc = acc / max(we_a, idle)
         # ---------------- engine torque, limits, overrun
         t_full = max_torque(eS, eTm, we_a)
-        t_pump = t_in if locked else k_tc * we_a * (we_a - w_t)
-        if not locked and t_pump > t_in and t_in > 0.0:
+        if locked:
             t_pump = t_in
+        else:
+            # open converter: it passes the coupling torque up to the demand; without a
+            # drive demand the engine idles (creep against the brakes is in the idle fuel)
+            t_pump = min(k_tc * we_a * (we_a - w_t), max(t_in, 0.0))
         t_e = t_pump + t_acc + t_inertia
         if t_e > t_full:
             t_e = t_full

@@ -37,16 +37,22 @@ from scipy.optimize import differential_evolution, minimize
 
 from vehval.errors import ConfigError
 from vehval.io.atomic import write_text_atomic
+from vehval.jsonsafe import clean
 from vehval.sim.simulate import simulate
-from vehval.vehicle import BLOCKS, Vehicle, load_vehicle
 from vehval.test import Test
-from vehval.validate.compare import _clean
 from vehval.validate.conditions import full_name as _full_name
 from vehval.validate.conditions import vehicle_variant as variant
 from vehval.validate.ladder import errors_of
-from vehval.validate.objective import (DEFAULT_SIGNALS, Target, errors, errors_from_summary,
-                                      make_target, objective)
+from vehval.validate.objective import (
+    DEFAULT_SIGNALS,
+    Target,
+    errors,
+    errors_from_summary,
+    make_target,
+    objective,
+)
 from vehval.validate.validation import validate_test
+from vehval.vehicle import BLOCKS, Vehicle, load_vehicle
 
 PENALTY = 1e6  # objective of an invalid parameter combination
 MODES = ("traces", "batch")
@@ -189,7 +195,7 @@ class CalibrationResult:
         ]
 
     def to_dict(self) -> dict[str, Any]:
-        return _clean({
+        return clean({
             "parameters": self.parameters, "start": self.start,
             "bounds": {k: list(v) for k, v in self.bounds.items()}, "best": self.best,
             "objective_start": self.objective_start, "objective_best": self.objective_best,

@@ -17,11 +17,20 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from vehval.conditions import DEFAULT_FUEL_DENSITY_KG_PER_M3, DEFAULT_FUEL_LHV_J_PER_KG
 from vehval.errors import SignalError
+from vehval.jsonsafe import clean
 from vehval.test import Test
 from vehval.validate import metrics as M
-from vehval.validate.quantities import (POWERS, engine_on, engine_on_method, on_grid,
-                                        pick_signal, totals, uniform_grid)
+from vehval.validate.quantities import (
+    POWERS,
+    engine_on,
+    engine_on_method,
+    on_grid,
+    pick_signal,
+    totals,
+    uniform_grid,
+)
 
 #: Effort and flow signals compared pointwise: base name -> (label, display unit, scale SI->display).
 COMPONENT_SIGNALS: dict[str, tuple[str, str, float]] = {
@@ -189,7 +198,7 @@ class Comparison:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (NaN become None)."""
-        return _clean({
+        return clean({
             "test_id": self.test_id, "cycle": self.cycle,
             "fuel_error": self.fuel_error, "soc_delta_error": self.soc_delta_error,
             "soc_final_error": self.soc_final_error,
@@ -201,23 +210,8 @@ class Comparison:
         })
 
 
-def _clean(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, (np.floating, float)):
-        f = float(obj)
-        return f if math.isfinite(f) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    return obj
-
-
 def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float = 2.0,
-            fuel_density_kg_per_m3: float = 745.0, fuel_lhv_j_per_kg: float = 42.6e6,
+            fuel_density_kg_per_m3: float = DEFAULT_FUEL_DENSITY_KG_PER_M3, fuel_lhv_j_per_kg: float = DEFAULT_FUEL_LHV_J_PER_KG,
             on_speed_rpm: float = 400.0, bases: tuple[str, ...] | None = None) -> Comparison:
     """Compare a measured test with a simulation on the test's clock.
 

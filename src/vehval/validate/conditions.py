@@ -11,14 +11,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-
 from pydantic import ValidationError
 
-from vehval.errors import ConfigError, SignalError
+from vehval.conditions import TestConditions
 from vehval.cycles import Cycle
-from vehval.vehicle import BLOCKS, Vehicle
+from vehval.errors import ConfigError, SignalError
 from vehval.test import Test
 from vehval.validate.quantities import pick_signal
+from vehval.vehicle import BLOCKS, Vehicle
 
 #: Template constants -> vehicle parameters they override.
 CONSTANT_OVERRIDES = {
@@ -224,13 +224,13 @@ def simulation_conditions(test: Test, vehicle: Any, *, use_constants: bool = Tru
         notes.append(f"measured initial SOC {soc0:.4f} outside the model's window "
                      f"[{bt.soc_min:g}, {bt.soc_max:g}]: clamped to {clamped:.4f}")
         soc0 = clamped
-    c = test.meta.constants or {}
+    cond = TestConditions.resolve(test, None, vehicle)
     overrides = {}
     if use_constants:
         for key, path in CONSTANT_OVERRIDES.items():
-            if key in c and c[key] is not None and np.isfinite(c[key]):
-                overrides[path] = float(c[key])
-    rho = float(c.get("fuel_density_kg_per_m3") or vehicle.engine.fuel_density_kg_per_m3)
-    lhv = float(c.get("fuel_lhv_j_per_kg") or vehicle.engine.fuel_lhv_j_per_kg)
+            if (cond.source(key) or "").startswith("template"):
+                overrides[path] = cond[key]
+    rho = cond["fuel_density_kg_per_m3"]
+    lhv = cond["fuel_lhv_j_per_kg"]
     return Conditions(cycle=cyc, soc_initial=soc0, overrides=overrides,
                       fuel_density_kg_per_m3=rho, fuel_lhv_j_per_kg=lhv, notes=notes)

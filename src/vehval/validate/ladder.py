@@ -25,7 +25,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from vehval.errors import ConfigError
-from vehval.validate.compare import Comparison, _clean
+from vehval.jsonsafe import clean
+from vehval.validate.compare import Comparison
 
 RUNGS = ("steady", "low_transient", "high_transient", "other")
 RUNG_LABELS = {"steady": "1 steady-state speeds", "low_transient": "2 low-transient cycles",
@@ -178,7 +179,7 @@ class LadderResult:
                          f"{t.engine_on_agreement_min_pct} % (None = not checked)"}]
 
     def to_dict(self) -> dict[str, Any]:
-        return _clean({"passed": self.passed, "tolerances": asdict(self.tolerances),
+        return clean({"passed": self.passed, "tolerances": asdict(self.tolerances),
                        "rung_passed": self.rung_passed(),
                        "highest_rung_passed": self.highest_rung_passed(),
                        "entries": [asdict(e) for e in self.entries], "tables": self.tables()})

@@ -11,15 +11,12 @@ from typing import Any
 
 import numpy as np
 
-from vehval.nomenclature import registry
+from vehval.conditions import DEFAULT_FUEL_DENSITY_KG_PER_M3, DEFAULT_FUEL_LHV_J_PER_KG
+from vehval.constants import GALLON_US_M3 as GALLON_M3
+from vehval.constants import MILE_M
+from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.test import Signal, Test
 from vehval.validate.metrics import energies, integrate, on_off_events
-from vehval.constants import GALLON_US_M3 as GALLON_M3, MILE_M, RPM_RAD_PER_S as RPM
-
-
-#: Preferred acquisition systems when a measured quantity exists from several sources.
-SOURCE_PREFERENCE = ("", "dyno", "direct", "daq", "bench", "modal", "can", "ecu", "obd", "pa",
-                     "target")
 
 #: Component powers [W] and the (torque, speed) pair that gives them when not recorded.
 POWERS: dict[str, tuple[str, str] | None] = {
@@ -34,30 +31,11 @@ POWERS: dict[str, tuple[str, str] | None] = {
 def pick_signal(test: Test, base: str, origin: str) -> Signal | None:
     """The signal of ``base`` to use for one side of a comparison.
 
-    ``origin='simu'`` takes ``<base>_simu``. ``origin='test'`` takes ``<base>_test``, else the
-    measured signal of the most preferred source (:data:`SOURCE_PREFERENCE`), else the
-    calculated ``<base>_calc`` (a quantity derived from measured signals by QA). None when
-    the test has none of them.
+    ``origin='simu'`` takes ``<base>_simu``; ``origin='test'`` the measured signal of the
+    most trusted source, else the calculated ``<base>_calc`` (:meth:`vehval.test.Test.best`).
+    None when the test has none of them.
     """
-    origins = ("simu",) if origin == "simu" else ("test", "calc")
-    reg = registry()
-    for org in origins:
-        exact = f"{base}_{org}"
-        if exact in test:
-            return test[exact]
-        found = []
-        for sig in test:
-            try:
-                parsed = reg.parse(sig.name)
-            except Exception:  # noqa: BLE001 - names outside the nomenclature are skipped
-                continue
-            if parsed.base == base and parsed.origin == org:
-                src = parsed.source or ""
-                rank = SOURCE_PREFERENCE.index(src) if src in SOURCE_PREFERENCE else len(SOURCE_PREFERENCE)
-                found.append((rank, sig.name, sig))
-        if found:
-            return sorted(found, key=lambda x: (x[0], x[1]))[0][2]
-    return None
+    return test.best(base, ("simu",) if origin == "simu" else ("test", "calc"))
 
 
 def on_grid(test: Test, base: str, origin: str, grid: np.ndarray) -> np.ndarray | None:
@@ -124,7 +102,7 @@ def _first_last(v: np.ndarray | None) -> tuple[float, float]:
 
 
 def totals(test: Test, origin: str, grid: np.ndarray, *,
-                    fuel_density_kg_per_m3: float = 745.0, fuel_lhv_j_per_kg: float = 42.6e6,
+                    fuel_density_kg_per_m3: float = DEFAULT_FUEL_DENSITY_KG_PER_M3, fuel_lhv_j_per_kg: float = DEFAULT_FUEL_LHV_J_PER_KG,
                     on_method: str | None = None, on_speed_rpm: float = 400.0) -> dict[str, Any]:
     """Whole-test quantities of one side (``origin`` test or simu) over ``grid`` [s].
 

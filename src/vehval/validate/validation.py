@@ -10,11 +10,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from vehval.jsonsafe import clean
 from vehval.sim.simulate import SimResult, simulate
-from vehval.vehicle import Vehicle, load_vehicle
 from vehval.test import Test
-from vehval.validate.compare import Comparison, _clean, compare, overlay_figures
-from vehval.validate.conditions import Conditions, simulation_conditions, vehicle_variant
+from vehval.validate.compare import Comparison, compare, overlay_figures
+from vehval.validate.conditions import (
+    Conditions,
+    simulation_conditions,
+    vehicle_variant,
+)
+from vehval.vehicle import Vehicle, load_vehicle
 
 
 @dataclass
@@ -42,7 +47,7 @@ class Validation:
         d["dt_s"] = self.sim.dt
         d["sim_summary"] = {k: v for k, v in self.sim.summary.items()
                             if isinstance(v, (int, float, str, bool))}
-        return _clean(d)
+        return clean(d)
 
 
 def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,

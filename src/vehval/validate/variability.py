@@ -16,10 +16,17 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from vehval.conditions import DEFAULT_FUEL_DENSITY_KG_PER_M3, DEFAULT_FUEL_LHV_J_PER_KG
 from vehval.errors import VehvalError
+from vehval.jsonsafe import clean
 from vehval.test import Test
-from vehval.validate.compare import SUMMARY_ROWS, Comparison, _clean
-from vehval.validate.quantities import engine_on_method, pick_signal, totals, uniform_grid
+from vehval.validate.compare import SUMMARY_ROWS, Comparison
+from vehval.validate.quantities import (
+    engine_on_method,
+    pick_signal,
+    totals,
+    uniform_grid,
+)
 
 #: Quantities reported by default (keys of ``totals``).
 DEFAULT_QUANTITIES = ("fuel_mass_kg", "fuel_economy_mpg", "fuel_consumption_l_per_100km",
@@ -86,13 +93,13 @@ class Variability:
                  "note": "tests: " + ", ".join(self.test_ids)}]
 
     def to_dict(self) -> dict[str, Any]:
-        return _clean({"cycle": self.cycle, "test_ids": self.test_ids, "values": self.values,
+        return clean({"cycle": self.cycle, "test_ids": self.test_ids, "values": self.values,
                        "stats": self.stats, "tables": self.tables(), "notes": self.notes})
 
 
 def variability(tests: Sequence[Test], *, quantities: Sequence[str] = DEFAULT_QUANTITIES,
-                dt: float = 0.1, fuel_density_kg_per_m3: float = 745.0,
-                fuel_lhv_j_per_kg: float = 42.6e6) -> Variability:
+                dt: float = 0.1, fuel_density_kg_per_m3: float = DEFAULT_FUEL_DENSITY_KG_PER_M3,
+                fuel_lhv_j_per_kg: float = DEFAULT_FUEL_LHV_J_PER_KG) -> Variability:
     """Compare repeated tests of one cycle with each other.
 
     Parameters

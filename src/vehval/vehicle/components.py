@@ -17,10 +17,14 @@ from vehval.vehicle.base import RPM, Block, bp_check, table_check
 
 
 class BodyParams(Block):
-    """Test mass, dyno road-load coefficients and the electrical accessory load."""
+    """Test mass, dyno road-load coefficients and the electrical accessory load.
+
+    ``road_load_a_n`` may be negative: dyno *set* coefficients (the car's own losses on the
+    rollers taken out of the target) often are.
+    """
 
     mass_kg: float = Field(ge=50, le=60_000)  # plausible: a 50 kg kart to a 60 t truck
-    road_load_a_n: float = Field(ge=0, le=20_000)
+    road_load_a_n: float = Field(ge=-2_000, le=20_000)
     road_load_b_n_per_mps: float = Field(ge=0, le=2_000)
     road_load_c_n_per_mps2: float = Field(ge=0, le=200)
     aux_power_w: float = Field(ge=0, le=200_000)

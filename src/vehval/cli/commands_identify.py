@@ -1,0 +1,90 @@
+"""`vehval identify` (a conventional car from its dyno tests) and `vehval predict`
+(a vehicle model against measured tests, fuel per test and phase)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import typer
+
+from vehval.cli import app
+from vehval.errors import ConfigError
+
+
+def _table(rows: list[dict]) -> str:
+    lines = [f"{'test':<22} {'cycle':<10} {'T [C]':>6} {'measured g':>11} {'predicted g':>12} "
+             f"{'error %':>8}"]
+    for r in rows:
+        lines.append(f"{r['test']:<22} {r['cycle']:<10} {r['amb_temp_c']:>6.1f} "
+                     f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f} "
+                     f"{100 * r['error_rel']:>+8.2f}")
+    return "\n".join(lines)
+
+
+def _public(r: dict) -> dict:
+    return {k: v for k, v in r.items() if k not in ("sim", "trace")}
+
+
+@app.command("identify")
+def identify_cmd(
+    files: list[Path] = typer.Argument(..., help="Raw test files (one test per file)."),
+    template: Path = typer.Option(..., "-t", "--template", help="Import template."),
+    architecture: str = typer.Option("conventional", "--architecture", help="Model to identify (conventional)."),
+    output: Path = typer.Option(..., "-o", "--output", help="Vehicle YAML to write (atomically)."),
+    name: str = typer.Option(None, "--name", help="Vehicle name (default: the output file stem)."),
+    report: Path = typer.Option(None, "--report", help="Also write an HTML report (fitted map with the measured points, traces)."),
+    as_json: bool = typer.Option(False, "--json", help="Print the identification summary as JSON."),
+) -> None:
+    """Identify a conventional car (road load, gears, converter, shifts, fuel map) from dyno tests."""
+    if architecture != "conventional":
+        raise ConfigError(f"--architecture {architecture}: identification from dyno data exists "
+                          "for 'conventional' cars only")
+    from vehval.identify.build import identify_conventional, write_vehicle
+    from vehval.identify.traces import load_traces
+    traces = load_traces(files, template)
+    idf = identify_conventional(traces, name or output.stem)
+    if report is not None:
+        from vehval.identify.report import write_identification_report
+        from vehval.identify.predict import predict_trace
+        preds = [predict_trace(idf.vehicle, t) for t in traces]
+        write_identification_report(idf, preds, report)
+    write_vehicle(idf.vehicle, output)
+    if as_json:
+        typer.echo(json.dumps(idf.summary(), indent=2))
+        return
+    rl = idf.road_load
+    typer.echo(f"wrote {output}")
+    typer.echo(f"road load: A {rl.values['road_load_a_n']:.1f} N, B "
+               f"{rl.values['road_load_b_n_per_mps']:.2f} N/(m/s), C "
+               f"{rl.values['road_load_c_n_per_mps2']:.4f} N/(m/s)^2, mass "
+               f"{rl.values['mass_kg']:.0f} kg (R^2 {rl.r2:.4f})")
+    typer.echo("gear ratios (engine/wheel): " + ", ".join(f"{r:.3f}" for r in idf.gears.ratios))
+    fm = idf.fuel_map
+    typer.echo(f"fuel map: R^2 {fm.r2:.3f} (5 s means {fm.r2_5s:.3f}), idle "
+               f"{fm.idle_fuel_kg_s * 1e3:.3f} g/s, fuel cut above "
+               f"{fm.fuel_cut_speed_rad_s * 30 / 3.141592653589793:.0f} rpm")
+    if report is not None:
+        typer.echo(f"wrote {report}")
+
+
+@app.command("predict")
+def predict_cmd(
+    vehicle: str = typer.Argument(..., help="Vehicle name or YAML path (conventional)."),
+    files: list[Path] = typer.Argument(..., help="Raw test files to predict (one test per file)."),
+    template: Path = typer.Option(..., "-t", "--template", help="Import template."),
+    as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
+) -> None:
+    """Drive each test's measured speed with the model; fuel measured vs predicted, per phase."""
+    from vehval.identify.predict import predict_trace
+    from vehval.identify.traces import load_traces
+    from vehval.vehicle import load_vehicle
+    veh = load_vehicle(vehicle)
+    if veh.architecture != "conventional":
+        raise ConfigError(f"{vehicle}: predict compares fuel of conventional cars; this vehicle "
+                          f"is '{veh.architecture}' (use vehval validate)")
+    rows = [_public(predict_trace(veh, t)) for t in load_traces(files, template)]
+    if as_json:
+        typer.echo(json.dumps(rows, indent=2))
+    else:
+        typer.echo(_table(rows))

@@ -1,0 +1,171 @@
+"""Engine fuel map from measured fuel flow: a smooth Willans surface with idle and fuel cut.
+
+Engine power is rebuilt from the roller force: pump torque = gearbox input torque
+``T_in = F r / (i η)`` (driving; ``F r η / i`` overrun; torque ratio 1 in the converter),
+``P_e = T_in ω_e + P_acc + J_e ω_e dω_e/dt``. Every sample is one of three states:
+
+- standing (speed < 0.05 m/s): fuel = idle fuel rate (a constant);
+- overrun (``P_e <= 0`` and ``ω_e`` >= the fuel-cut speed): fuel = residual overrun rate;
+- fired: fuel = c0 + c1 ω + c2 ω² + (d0 + d1 ω) P + e P²  (Willans lines whose intercept
+  and slope vary smoothly with speed, plus a curvature term).
+
+The fuel meter (modal bench) is slow: the measured rate is the true rate delayed by ``d``
+and smoothed by a first-order lag ``τ``. Both are identified: every regressor column goes
+through the same delay and lag, so the model stays linear in its coefficients, and
+(d, τ) and the fuel-cut speed are chosen on a grid by the best R².
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.signal import lfilter
+
+from vehval.identify.traces import IdentificationError, Trace, smooth
+
+STANDING_MPS = 0.05
+DELAYS_S = np.round(np.arange(0.0, 4.01, 0.2), 2)
+TAUS_S = (0.0, 0.5, 1.0, 1.5, 2.0, 3.0)
+W_SCALE = 100.0    # [rad/s] regressors scaled for conditioning
+P_SCALE = 1e4      # [W]
+MIN_FIRED_S = 300.0  # [s] of fired driving needed to fit the surface
+
+
+@dataclass
+class FuelMapFit:
+    """Coefficients (SI: kg/s, rad/s, W), meter dynamics, fuel-cut speed and fit quality."""
+
+    willans: dict[str, float]
+    idle_fuel_kg_s: float
+    overrun_fuel_kg_s: float
+    fuel_cut_speed_rad_s: float
+    delay_s: float
+    tau_s: float
+    r2: float
+    r2_5s: float
+    total_error_rel: dict[str, float]
+    n_fired: int
+    power_range_w: tuple[float, float]
+    speed_range_rad_s: tuple[float, float]
+    points: dict[str, np.ndarray]
+
+    def rate(self, w: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Fired fuel rate [kg/s] at engine speed [rad/s] and power [W] (>= 0)."""
+        c = self.willans
+        return np.maximum(c["c0"] + c["c1"] * w + c["c2"] * w * w + (c["d0"] + c["d1"] * w) * p
+                          + c["e"] * p * p, 0.0)
+
+    def to_dict(self) -> dict:
+        return {"willans": self.willans, "idle_fuel_g_per_s": 1e3 * self.idle_fuel_kg_s,
+                "overrun_fuel_g_per_s": 1e3 * self.overrun_fuel_kg_s,
+                "fuel_cut_speed_rpm": self.fuel_cut_speed_rad_s * 30 / np.pi,
+                "meter_delay_s": self.delay_s, "meter_tau_s": self.tau_s, "r2": self.r2,
+                "r2_5s_means": self.r2_5s, "total_error_rel": self.total_error_rel,
+                "n_fired": self.n_fired, "power_range_w": list(self.power_range_w),
+                "speed_range_rad_s": list(self.speed_range_rad_s)}
+
+
+def engine_power(tr: Trace, gear: np.ndarray, ratios: np.ndarray, wheel_radius_m: float,
+                 efficiency: float, lag_s: float, acc_w: float, j_eng: float) -> np.ndarray:
+    """Engine brake power [W] rebuilt from roller force and engine speed (see module doc)."""
+    f = np.interp(tr.t + lag_s, tr.t, tr.force)
+    r = ratios[np.maximum(gear, 1) - 1]
+    t_in = np.where(f >= 0, f * wheel_radius_m / (r * efficiency), f * wheel_radius_m * efficiency / r)
+    t_in = np.where(gear > 0, t_in, 0.0)
+    dw = np.gradient(smooth(tr.w_eng, 5), tr.dt)
+    return t_in * tr.w_eng + acc_w + j_eng * tr.w_eng * dw
+
+
+def _meter(x: np.ndarray, dt: float, delay_s: float, tau_s: float) -> np.ndarray:
+    """Columns of ``x`` through a first-order lag ``tau_s`` then a delay ``delay_s``."""
+    y = x.copy()
+    if tau_s > 0:
+        a = dt / (tau_s + dt)
+        y = lfilter([a], [1.0, a - 1.0], x, axis=0, zi=(1 - a) * x[:1])[0]
+    k = int(round(delay_s / dt))
+    if k:
+        y = np.vstack([np.repeat(y[:1], k, axis=0), y[:-k]])
+    return y
+
+
+def _columns(w, p, standing, overrun, fired):
+    ws = w / W_SCALE
+    ps = np.maximum(p, 0.0) / P_SCALE  # the engine's map starts at zero torque
+    f = fired.astype(float)
+    return np.column_stack([f, f * ws, f * ws * ws, f * ps, f * ps * ws, f * ps * ps,
+                            overrun.astype(float), standing.astype(float)])
+
+
+def _unscale(th) -> dict[str, float]:
+    return {"c0": th[0], "c1": th[1] / W_SCALE, "c2": th[2] / W_SCALE ** 2,
+            "d0": th[3] / P_SCALE, "d1": th[4] / (P_SCALE * W_SCALE), "e": th[5] / P_SCALE ** 2}
+
+
+def fit_fuel_map(traces: list[Trace], powers: list[np.ndarray], idle_rad_s: float) -> FuelMapFit:
+    """Fit the fuel model on ``traces`` with rebuilt engine ``powers`` [W] (see module doc)."""
+    on = [tr.w_eng > 0.5 * idle_rad_s for tr in traces]
+    fired_s = sum(float(np.count_nonzero(o & (tr.v > STANDING_MPS) & (p > 0)) * tr.dt)
+                  for tr, p, o in zip(traces, powers, on))
+    if fired_s < MIN_FIRED_S:
+        raise IdentificationError(
+            f"fuel map: only {fired_s:.0f} s of driving with the engine pulling in "
+            f"{', '.join(t.test_id for t in traces)}; the map needs at least {MIN_FIRED_S:.0f} s "
+            "(give a longer test or a second one)")
+
+    cache: dict = {}
+
+    def design(cut, delay, tau):
+        key = (float(cut), float(tau))
+        if key not in cache:
+            cols = []
+            for tr, p, o in zip(traces, powers, on):
+                standing = o & (tr.v < STANDING_MPS)
+                moving = o & ~standing
+                overrun = moving & (p <= 0) & (tr.w_eng >= cut)
+                fired = moving & ~overrun
+                cols.append(_meter(_columns(tr.w_eng, p, standing, overrun, fired), tr.dt,
+                                   0.0, tau))
+            cache.clear()
+            cache[key] = cols
+        xs = [_meter(x, tr.dt, delay, 0.0) for x, tr in zip(cache[key], traces)]
+        return xs, [tr.fuel for tr in traces], on
+
+    def solve(cut, delay, tau):
+        xs, ys, masks = design(cut, delay, tau)
+        x = np.vstack([a[m] for a, m in zip(xs, masks)])
+        y = np.concatenate([b[m] for b, m in zip(ys, masks)])
+        th = np.linalg.solve(x.T @ x + 1e-12 * np.eye(x.shape[1]), x.T @ y)
+        r = y - x @ th
+        return th, float(1 - (r @ r) / np.sum((y - y.mean()) ** 2))
+
+    cut0 = idle_rad_s * 1.3
+    best = max(((d, t) for t in TAUS_S for d in DELAYS_S), key=lambda dt_: solve(cut0, *dt_)[1])
+    cuts = idle_rad_s * np.arange(1.05, 2.01, 0.05)
+    cut = max(cuts, key=lambda c: solve(c, *best)[1])
+    th, r2 = solve(cut, *best)
+    xs, ys, masks = design(cut, *best)
+    err, means_m, means_p = {}, [], []
+    for tr, x, y, m in zip(traces, xs, ys, masks):
+        pred = x @ th
+        err[tr.test_id] = float((pred.sum() - y.sum()) / y.sum())
+        n5 = int(round(5.0 / tr.dt))
+        k = (y.size // n5) * n5
+        means_m.append(y[:k].reshape(-1, n5).mean(axis=1))
+        means_p.append(pred[:k].reshape(-1, n5).mean(axis=1))
+    mm, mp = np.concatenate(means_m), np.concatenate(means_p)
+    r2_5 = float(1 - np.sum((mm - mp) ** 2) / np.sum((mm - mm.mean()) ** 2))
+    fired_w = np.concatenate([tr.w_eng[(p > 0) & (tr.v > STANDING_MPS)]
+                              for tr, p in zip(traces, powers)])
+    fired_p = np.concatenate([p[(p > 0) & (tr.v > STANDING_MPS)] for tr, p in zip(traces, powers)])
+    k = int(round(best[0] / traces[0].dt))
+    pts_f = np.concatenate([np.r_[tr.fuel[k:], np.full(k, np.nan)][(p > 0) & (tr.v > STANDING_MPS)]
+                            for tr, p in zip(traces, powers)])
+    return FuelMapFit(willans={k_: float(v) for k_, v in _unscale(th).items()},
+                      idle_fuel_kg_s=float(th[7]), overrun_fuel_kg_s=float(max(th[6], 0.0)),
+                      fuel_cut_speed_rad_s=float(cut), delay_s=float(best[0]),
+                      tau_s=float(best[1]), r2=r2, r2_5s=r2_5, total_error_rel=err,
+                      n_fired=int(fired_w.size),
+                      power_range_w=(float(fired_p.min()), float(np.percentile(fired_p, 99.5))),
+                      speed_range_rad_s=(float(fired_w.min()), float(fired_w.max())),
+                      points={"w": fired_w, "p": fired_p, "fuel": pts_f})

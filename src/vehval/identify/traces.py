@@ -1,0 +1,121 @@
+"""Measured traces of a conventional-car test on one uniform grid, checked for identification.
+
+A :class:`Trace` holds what identification needs from one imported test: vehicle speed and
+acceleration, tractive force, engine speed and fuel rate (SI, 10 Hz by default), the phase
+number and the template constants. :func:`trace_from_test` refuses, in one line, tests
+that cannot identify a conventional car (a hybrid, no engine speed, no fuel rate).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vehval.errors import SignalError
+from vehval.test import Test
+
+REQUIRED = {
+    "veh_spd": "vehicle speed",
+    "veh_frc_in": "tractive force at the wheels (dyno force)",
+    "eng_spd_out": "engine speed",
+    "fuel_rate": "fuel mass rate",
+}
+HYBRID_BASES = ("mot_", "gen_", "ess_", "pg_", "boost_")
+
+
+class IdentificationError(SignalError):
+    """The tests given cannot identify the requested model (the message says what is missing)."""
+
+
+@dataclass
+class Trace:
+    """One test on a uniform grid (SI): time [s], speed [m/s], acceleration [m/s^2],
+    tractive force [N], engine speed [rad/s], fuel rate [kg/s], phase number."""
+
+    test_id: str
+    cycle: str
+    t: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    force: np.ndarray
+    w_eng: np.ndarray
+    fuel: np.ndarray
+    phase: np.ndarray
+    constants: dict = field(default_factory=dict)
+    amb_temp_c: float = float("nan")
+    file: str = ""
+
+    @property
+    def dt(self) -> float:
+        return float(self.t[1] - self.t[0])
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1] - self.t[0])
+
+
+def smooth(x: np.ndarray, n: int) -> np.ndarray:
+    """Centred moving average over ``n`` samples (edges use the available samples)."""
+    if n <= 1:
+        return np.asarray(x, float)
+    k = np.ones(n)
+    num = np.convolve(x, k, mode="same")
+    den = np.convolve(np.ones_like(x), k, mode="same")
+    return num / den
+
+
+def acceleration(v: np.ndarray, dt: float, window_s: float = 0.5) -> np.ndarray:
+    """Acceleration [m/s^2]: centred average over ``window_s``, then central difference."""
+    return np.gradient(smooth(v, max(int(round(window_s / dt)), 1)), dt)
+
+
+def _pick(test: Test, base: str):
+    sigs = test.by_base(base, origin="test")
+    return sigs[0] if sigs else None
+
+
+def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
+    """Trace of ``test`` on a ``dt`` grid from time 0 (the start of the drive) to its end.
+
+    Raises
+    ------
+    IdentificationError
+        The test is a hybrid, or lacks one of the signals in :data:`REQUIRED`.
+    """
+    where = test.meta.files[0] if test.meta.files else test.meta.test_id
+    hybrid = sorted({s.name for s in test if s.name.startswith(HYBRID_BASES)})
+    if hybrid:
+        raise IdentificationError(
+            f"{where}: this is a hybrid test (it has {', '.join(hybrid[:3])}): conventional "
+            "identification needs a car whose engine alone drives the wheels")
+    sig = {}
+    for base, what in REQUIRED.items():
+        s = _pick(test, base)
+        if s is None:
+            raise IdentificationError(
+                f"{where}: no {what} signal ({base}_test): identification of a conventional "
+                f"car needs it; map the channel to {base}_test in the template")
+        sig[base] = s
+    t0 = max(0.0, max(float(s.time[0]) for s in sig.values()))
+    t1 = min(float(s.time[-1]) for s in sig.values())
+    if t1 - t0 < 10 * dt:
+        raise IdentificationError(f"{where}: the signals overlap for {t1 - t0:.1f} s only")
+    t = t0 + dt * np.arange(int(np.floor((t1 - t0) / dt + 1e-9)) + 1)
+    v = np.maximum(sig["veh_spd"].at(t), 0.0)
+    ph = _pick(test, "test_phase")
+    amb = _pick(test, "amb_temp")
+    return Trace(test_id=test.meta.test_id, cycle=test.meta.cycle or "", t=t, v=v,
+                 a=acceleration(v, dt), force=sig["veh_frc_in"].at(t),
+                 w_eng=np.maximum(sig["eng_spd_out"].at(t), 0.0), fuel=sig["fuel_rate"].at(t),
+                 phase=np.round(ph.at(t, "previous")) if ph is not None else np.ones_like(t),
+                 constants=dict(test.meta.constants or {}),
+                 amb_temp_c=float(np.nanmean(amb.values)) if amb is not None else float("nan"),
+                 file=str(where))
+
+
+def load_traces(files: list[str | Path], template, dt: float = 0.1) -> list[Trace]:
+    """Import every file as one test with ``template`` and return their traces."""
+    from vehval.io.importer import import_test
+    return [trace_from_test(import_test([f], template), dt) for f in files]

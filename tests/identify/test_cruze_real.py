@@ -1,0 +1,59 @@
+"""Identification of the 2014 Cruze diesel from its own D3 files (skipped without them).
+
+Identified from the hot UDDS (61410013) and the WLTC (61410004) only; the other hot tests
+are held out.
+"""
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+HERE = Path(__file__).resolve().parent
+REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
+CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
+TEMPLATE = HERE.parent / "qa" / "templates" / "cruze.yaml"
+
+pytestmark = [pytest.mark.realdata, pytest.mark.slow,
+              pytest.mark.skipif(not CRUZE.is_dir(), reason="real data not available")]
+
+
+def _traces(*ids):
+    from vehval.identify import load_traces
+    return load_traces([CRUZE / f"{i} Test Data.txt" for i in ids], TEMPLATE)
+
+
+@pytest.fixture(scope="module")
+def identified():
+    from vehval.identify import identify_conventional
+    return identify_conventional(_traces("61410013", "61410004"), "cruze_diesel_2014")
+
+
+def test_gear_ratios_match_the_data_within_1_percent(identified):
+    for row in identified.gear_ratio_check:
+        if row["locked_samples"] >= 100:          # gears the converter locks in
+            assert abs(row["rel_diff"]) < 0.01, row
+    assert len(identified.gears.ratios) == 6
+
+
+def test_road_load_reproduces_held_out_force(identified):
+    from vehval.identify.roadload import check_road_load
+    for tr in _traces("61410015", "61410016", "61410005", "61410026"):
+        chk = check_road_load(identified.road_load, tr)
+        # acceptance: R^2 > 0.97 and no steady offset beyond 30 N
+        assert chk["r2"] > 0.97, chk
+        assert abs(chk["mean_offset_n"]) < 30.0, chk
+    # effective inertia agrees with the test mass of the template within 1 %
+    rl = identified.road_load
+    assert rl.values["mass_kg"] == pytest.approx(rl.template["mass_kg"], rel=0.01)
+
+
+def test_identified_file_round_trips(identified, tmp_path):
+    from vehval.identify import write_vehicle
+    from vehval.vehicle import load_vehicle
+    p = write_vehicle(identified.vehicle, tmp_path / "cruze.yaml")
+    veh = load_vehicle(p)
+    assert veh.architecture == "conventional"
+    np.testing.assert_allclose(veh.gearbox.ratios, identified.gears.ratios, rtol=1e-12)
+    assert "61410013" in veh.sources()["gearbox.ratios"]

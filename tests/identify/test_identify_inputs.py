@@ -1,0 +1,60 @@
+"""Identification refuses bad input with one clear line (library and CLI)."""
+
+import numpy as np
+import pytest
+
+from vehval.cli import main
+from vehval.identify import IdentificationError, identify_conventional, trace_from_test
+from vehval.test import Signal, TestMeta
+from vehval.test import Test as VTest
+
+
+def _test(duration_s=200.0, with_engine=True, hybrid=False) -> VTest:
+    t = np.arange(0.0, duration_s, 0.1)
+    v = np.clip(10 * np.sin(np.pi * t / 100.0), 0, None)
+    test = VTest(meta=TestMeta(test_id="t1", files=["t1.txt"]))
+    test.add(Signal.standard("veh_spd_test", t, v))
+    test.add(Signal.standard("veh_frc_in_test", t, 200 + 1500 * np.gradient(v, t)))
+    test.add(Signal.standard("fuel_rate_test", t, 1e-3 * (0.2 + 0.1 * v)))
+    if with_engine:
+        test.add(Signal.standard("eng_spd_out_test", t, 90 + 10 * v))
+    if hybrid:
+        test.add(Signal.standard("mot_spd_out_test", t, 30 * v))
+    return test
+
+
+def test_no_engine_speed_is_named():
+    with pytest.raises(IdentificationError, match=r"t1.txt: no engine speed signal \(eng_spd_out_test\)"):
+        trace_from_test(_test(with_engine=False))
+
+
+def test_hybrid_test_is_refused():
+    with pytest.raises(IdentificationError, match="t1.txt: this is a hybrid test"):
+        trace_from_test(_test(hybrid=True))
+
+
+def test_single_short_test_says_how_much_is_missing():
+    tr = trace_from_test(_test(duration_s=200.0))
+    with pytest.raises(IdentificationError, match=r"only \d+ s of driving.*at least 600 s"):
+        identify_conventional([tr])
+
+
+def test_cli_bad_input_one_line_exit_2(tmp_path, capsys):
+    raw = tmp_path / "t1.txt"
+    t = np.arange(0.0, 100.0, 0.1)
+    rows = ["Time[sec]\tDyno_Speed[mph]\tDyno_Tractive_Effort[N]\tFuel_Flow_Bench_Modal[g/s]"]
+    rows += [f"{x:.1f}\t{5.0:.3f}\t{100.0:.1f}\t{0.5:.3f}" for x in t]
+    raw.write_text("\n".join(rows) + "\n")
+    tpl = tmp_path / "tpl.yaml"
+    tpl.write_text(
+        "template_version: 1\nfiles:\n  - match: '*.txt'\n    source: dyno\n    format: d3\n"
+        "    time: {column: Time, unit: s}\n    channels:\n"
+        "      Dyno_Speed: {name: veh_spd_test, unit: mph}\n"
+        "      Dyno_Tractive_Effort: {name: veh_frc_in_test, unit: N}\n"
+        "      Fuel_Flow_Bench_Modal: {name: fuel_rate_test, unit: g/s}\n")
+    out = tmp_path / "veh.yaml"
+    rc = main(["identify", str(raw), "-t", str(tpl), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2
+    assert len(err) == 1 and "no engine speed signal" in err[0]
+    assert not out.exists()
