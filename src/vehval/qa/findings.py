@@ -56,6 +56,7 @@ class Kind(str, Enum):
     # level 3: measured vs calculated
     CALC_MISMATCH = "calc_mismatch"
     FUEL_MAP = "fuel_map"                # fuel meter against the engine fuel map
+    UNIT_SUSPECT = "unit_suspect"        # physics points at a wrong unit in the template
 
 
 LEVEL_OF_KIND = {
@@ -67,6 +68,7 @@ LEVEL_OF_KIND = {
     Kind.ALIGNMENT: 0,
     Kind.CALC_MISMATCH: 3,
     Kind.FUEL_MAP: 3,
+    Kind.UNIT_SUSPECT: 3,
 }
 
 
