@@ -34,10 +34,14 @@ def qa_cmd(
     with --report also report.html and tables.xlsx.
     """
     from vehval.io.atomic import atomic_dir, write_text_atomic
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.io.parquet import write_test
     from vehval.qa.select import save_final_template
     from vehval.workflow import TestRun
 
+    check_outputs(outdir=outdir, inputs=[*files, template, vehicle_path(vehicle)],
+                  writes=["findings.json", "validated.parquet", "template_final.yaml",
+                          "report.html", "tables.xlsx"])
     run = TestRun.load(files, template, vehicle)
     qa = run.qa(max_offset_s=max_offset)
     result, doc = qa.result, qa.document  # doc: findings.json

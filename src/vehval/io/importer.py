@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from vehval.errors import ConfigError, InputFileError, UnitError
+from vehval.io.paths import check_input_file
 from vehval.io.propose import entry_for_file, find_channel
 from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
@@ -295,8 +296,7 @@ def import_test(files: list[str | Path] | str | Path, template: Template | str |
     test = Test(meta=meta)
     used: dict[int, Path] = {}
     for path in paths:
-        if not path.exists():
-            raise InputFileError(f"{path}: file not found: check the path")
+        check_input_file(path)       # a directory, unreadable file or PDF: one clear line
         idx = entry_for_file(t, path)
         if idx is None:
             globs = ", ".join(repr(f.match) for f in t.files)

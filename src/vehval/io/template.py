@@ -466,6 +466,8 @@ def load_template(path: str | Path) -> Template:
     path = Path(path)
     if not path.exists():
         raise ConfigError(f"{path}: template file not found")
+    if path.is_dir():
+        raise ConfigError(f"{path}: is a directory, a template YAML file is expected")
     data = read_yaml(path)
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a template must be a YAML mapping with 'files:' "
