@@ -58,3 +58,19 @@ def test_cli_bad_input_one_line_exit_2(tmp_path, capsys):
     assert rc == 2
     assert len(err) == 1 and "no engine speed signal" in err[0]
     assert not out.exists()
+
+
+def test_synth_conventional_cli_writes_an_identifiable_test(tmp_path, capsys):
+    out = tmp_path / "v"
+    rc = main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "ece15", "--seed", "1",
+               "-o", str(out)])
+    assert rc == 0
+    assert "VIRTUAL" in capsys.readouterr().out
+    files = sorted(out.glob("*_d3.txt"))
+    assert len(files) == 1 and (out / "truth.json").is_file()
+    from vehval.identify import load_traces
+    tr = load_traces(files, out / "template.yaml")[0]
+    assert tr.w_eng.max() > 100          # engine speed channel came through [rad/s]
+    # one 195 s ECE cycle is too short to identify a fuel map: one clear refusal
+    with pytest.raises(IdentificationError, match="at least 600 s"):
+        identify_conventional([tr])

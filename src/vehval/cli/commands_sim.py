@@ -20,7 +20,7 @@ SUMMARY_KEYS = ("fuel_mass_kg", "distance_m", "fuel_economy_mpg", "fuel_consumpt
                 "engine_on_fraction", "engine_starts", "trace_max_miss_mps")
 
 
-def _write_outputs(result, outdir: Path) -> list[str]:
+def _write_outputs(result, outdir: Path, audit: dict | None = None) -> list[str]:
     from vehval.io.atomic import atomic_dir
 
     written = []
@@ -28,6 +28,16 @@ def _write_outputs(result, outdir: Path) -> list[str]:
         (stage / "summary.json").write_text(
             json.dumps(clean(result.summary), indent=2, sort_keys=True), encoding="utf-8")
         written.append("summary.json")
+        if audit is not None:
+            from vehval.sim.audit import audit_lines
+
+            (stage / "audit.json").write_text(json.dumps(audit, indent=2), encoding="utf-8")
+            s = result.summary
+            head = [f"# Energy audit: {s['vehicle']} on {s['cycle']} (dt = {s['dt_s']:g} s)", "",
+                    "```"]
+            (stage / "audit.md").write_text("\n".join(head + audit_lines(audit) + ["```", ""]),
+                                            encoding="utf-8")
+            written += ["audit.json", "audit.md"]
         try:
             from vehval.io.parquet import write_test
         except ImportError:  # pragma: no cover - depends on the I/O package
@@ -53,14 +63,20 @@ def simulate_cmd(
     set_: list[str] = typer.Option([], "--set", help="Override a parameter: block.key=value "
                                    "(repeatable), e.g. controller.soc_target=0.55."),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
+    audit: bool = typer.Option(False, "--audit", help="Energy audit: where fuel and battery "
+                               "energy went (JSON key 'audit', audit.json/audit.md with -o)."),
     outdir: Optional[Path] = typer.Option(None, "-o", "--output",
                                           help="Directory for summary.json and the signals."),
 ) -> None:
     """Simulate a vehicle over a drive cycle (forward-looking, state-machine controller)."""
     from vehval.cli.options import parse_assignments
     from vehval.errors import ConfigError
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.sim.simulate import simulate
 
+    if outdir is not None:
+        check_outputs(outdir=outdir, inputs=[vehicle_path(vehicle), vehicle_path(cycle)],
+                      writes=["summary.json", "signals.parquet"])
     overrides = parse_assignments(set_, "--set", "controller.soc_target=0.55")
     for key, val in overrides.items():
         if isinstance(val, bool) or not isinstance(val, (int, float)):
@@ -68,10 +84,21 @@ def simulate_cmd(
     res = simulate(vehicle, cycle, dt=dt, soc_initial=soc_initial,
                    charge_balance=charge_balance, **overrides)
     s = res.summary
-    written = _write_outputs(res, outdir) if outdir is not None else []
+    aud = None
+    if audit:
+        from vehval.sim.audit import energy_audit
+
+        if "gen_loss_j" not in s:
+            raise ConfigError(f"--audit: vehicle '{s.get('vehicle', vehicle)}' has no energy "
+                              "audit (power-split vehicles only)")
+        aud = energy_audit(s)
+    written = _write_outputs(res, outdir, aud) if outdir is not None else []
     if as_json:
         keys = [k for k in SUMMARY_KEYS if k in s] + [k for k in s if k not in SUMMARY_KEYS]
-        typer.echo(json.dumps(clean({k: s[k] for k in keys})))
+        doc = clean({k: s[k] for k in keys})
+        if aud is not None:
+            doc["audit"] = aud
+        typer.echo(json.dumps(doc))
         return
     typer.echo(f"{s['vehicle']} on {s['cycle']} (dt = {s['dt_s']:g} s)")
     typer.echo(f"  distance            {s['distance_m'] / 1000:8.3f} km")
@@ -95,6 +122,12 @@ def simulate_cmd(
     typer.echo(f"  trace max miss      {s['trace_max_miss_mps']:8.3f} m/s "
                "(outside ±2 mph / ±1 s)")
     typer.echo(f"  energy balance      {s['energy_balance_rel']:8.1e} (relative residual)")
+    if aud is not None:
+        from vehval.sim.audit import audit_lines
+
+        typer.echo("energy audit:")
+        for line in audit_lines(aud):
+            typer.echo(f"  {line}")
     if written:
         typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
 

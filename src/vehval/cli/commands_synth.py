@@ -36,9 +36,17 @@ def synth_cmd(
     OBD logger file, an import template and truth.json (every injected offset and fault)."""
     from vehval.synth import make_virtual_test
     from vehval.synth.dyno import is_virtual_test_dir
+    from vehval.vehicle import load_vehicle
 
-    if out.exists() and not out.is_dir():
-        raise VehvalError(f"output '{out}' exists and is not a directory: choose another -o")
+    veh = load_vehicle(vehicle)
+    if veh.architecture == "conventional":
+        _synth_conventional(veh, cycle, seed, faults, out, control, param, as_json)
+        return
+
+    from vehval.io.paths import check_outputs, vehicle_path
+
+    check_outputs(outdir=out, inputs=[vehicle_path(vehicle), vehicle_path(cycle),
+                                      vehicle_path(faults)])
     if out.is_dir() and any(out.iterdir()) and not is_virtual_test_dir(out) and not force:
         raise VehvalError(f"output directory '{out}' is not empty and holds no virtual test: "
                           "choose an empty directory or pass --force")
@@ -63,3 +71,26 @@ def synth_cmd(
                f"offsets {truth['offsets_s']}")
     typer.echo(f"import it with: vehval import {' '.join(str(p) for p in res.files)} "
                f"-t {res.template_path}")
+
+
+def _synth_conventional(veh, cycle, seed, faults, out, control, param, as_json) -> None:
+    """Conventional car: dyno channels with a slow fuel bench and noise (no fault mix)."""
+    from vehval.cycles import load_cycle
+    from vehval.synth.conventional import make_conventional_test
+
+    if control:
+        raise ConfigError("--control: a conventional vehicle has no supervisory controller")
+    if faults not in ("default", "none"):
+        raise ConfigError("--faults: fault files apply to power-split virtual tests only")
+    if out.exists() and not out.is_dir():
+        raise VehvalError(f"output '{out}' exists and is not a directory: choose another -o")
+    veh = veh.with_overrides(_pairs(param, "--param") or None)
+    truth = make_conventional_test(veh, load_cycle(cycle), seed, out)
+    if as_json:
+        typer.echo(json.dumps({"files": truth["files"], "template": truth["template"],
+                               "truth": str(out / "truth.json")}, indent=1))
+        return
+    typer.echo(f"virtual conventional test '{truth['test_id']}' (VIRTUAL: synthetic, not a "
+               f"measurement) in {out}")
+    typer.echo(f"identify it with: vehval identify {' '.join(truth['files'])} -t "
+               f"{truth['template']} --architecture conventional -o VEHICLE.yaml")

@@ -91,7 +91,7 @@ def _check_inputs(traces: list[Trace]) -> None:
 
 
 def _fuel_table(fm: FuelMapFit, a: Assumptions):
-    spd = [600.0] + list(np.arange(800.0, a.max_speed_rpm + 1, 250.0))
+    spd = [600.0, 750.0] + list(np.arange(1000.0, a.max_speed_rpm + 1, 250.0))
     trq = list(np.arange(0.0, max(a.full_load_nm) + 21, 20.0))
     table = [[round(float(fm.rate(np.array(s * RPM), np.array(t * s * RPM))) * 1e3, 5)
               for t in trq] for s in spd]

@@ -393,6 +393,18 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
         ys[Y_UNMET_ENERGY_J] += (p_bt - vb * cur) * dt
         if fired and not fuelcut and p_eng_mech > 0.0:
             ys[Y_ENG_OUT_ENERGY_J] += p_eng_mech * dt
+        else:
+            ys[Y_IDLE_FUEL_ENERGY_J] += fuel * lhv * dt
+        # audit: wheel work of the powertrain, and engine power recirculated through MG1
+        # (MG1 motoring while the engine delivers power: MG2 generates it back)
+        p_whl = f_fd * v_a
+        if p_whl >= 0.0:
+            ys[Y_TRACTIVE_ENERGY_J] += p_whl * dt
+        else:
+            ys[Y_REGEN_WHEEL_ENERGY_J] -= p_whl * dt
+        if p_eng_mech > 0.0 and t_g * wg_a > 0.0:
+            ys[Y_RECIRC_ENERGY_J] += t_g * wg_a * dt
+            ys[Y_GEN_MOTORING_LOSS_J] += (p_gen_e - t_g * wg_a) * dt
         ys[Y_DISTANCE_M] += v_a * dt
         # ---------------- engine stop / reverse clamp (kinetic energy removed is booked)
         if we1 < 0.0 or ((not cmd_on) and we1 < LOCK_SPEED):
@@ -403,10 +415,19 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
                 locked = True
                 i_gen = 0.0
         # ---------------- controller memories
-        # conditional integration: only near the target and when MG1 is not saturated
-        if (not locked) and (not clipped) and abs(w_tgt - we1) < 0.2 * eng_idle:
-            i_gen += ki_gen * k1 * (w_tgt - we1) * dt
-            i_gen = min(max(i_gen, -gen_tmax), gen_tmax)
+        # generator speed PI, anti-windup whatever the state: integrate only near the target
+        # and with MG1 unsaturated; elsewhere the integral is frozen, and dropped when it
+        # opposes the proportional correction or the engine is beyond its speed window (a
+        # launch winds it up; a stale integral would hold MG1 against pulling the engine back
+        # and let MG1 pass its speed limit)
+        if not locked:
+            err_w = w_tgt - we1
+            beyond = we1 > w_hi  # engine above its window (MG1 or engine near its limit)
+            if (not clipped) and (not beyond) and abs(err_w) < 0.2 * eng_idle:
+                i_gen += ki_gen * k1 * err_w * dt
+                i_gen = min(max(i_gen, -gen_tmax), gen_tmax)
+            elif i_gen * err_w < 0.0:
+                i_gen = 0.0
         f_real = f_fd - brk_app
         if abs(f_real - f_dem) <= max(100.0, 0.05 * abs(f_dem)):
             i_drv += drv_ki * (vnext - v1) * dt

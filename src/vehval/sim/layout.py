@@ -37,6 +37,8 @@ SUMMARY = (
     "eng_out_energy_j", "distance_m", "eng_on_time_s", "engine_starts", "soc_final",
     "soc_min_seen", "soc_max_seen", "eng_spd_max", "gen_spd_max_abs", "mot_spd_max",
     "trace_max_miss_mps", "trace_n_miss", "state_switches", "duration_s",
+    "tractive_energy_j", "regen_wheel_energy_j", "recirc_energy_j", "idle_fuel_energy_j",
+    "gen_motoring_loss_j",
 )
 P = {n: i for i, n in enumerate(PARAMS)}
 S = {n: i for i, n in enumerate(SIGNALS)}
