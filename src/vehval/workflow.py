@@ -57,6 +57,18 @@ class QAOutcome:
 
 
 @dataclass
+class ResultsOutcome:
+    """The ``results`` step: per-phase, whole-test and regulatory results with uncertainty."""
+
+    results: Any  # vehval.results.TestResults
+
+    @property
+    def document(self) -> dict:
+        """The ``results.json`` document (contract in docs/results.md)."""
+        return self.results.to_dict()
+
+
+@dataclass
 class AnalysisOutcome:
     """The ``analyze`` step: the control-strategy analysis and notes on its inputs."""
 
@@ -143,6 +155,7 @@ class TestRun:
         self.use_qa = use_qa and not validated_input
         self._qa = qa
         self._analysis: AnalysisOutcome | None = None
+        self._results: ResultsOutcome | None = None
         self._validation: ValidationOutcome | None = None
 
     # ------------------------------------------------------------------ load
@@ -235,6 +248,29 @@ class TestRun:
         if self.use_qa:
             return self.qa().validated
         return self.test
+
+    def results(self, *, method: str = "first_order", draws: int = 1000, seed: int = 0,
+                hot_start_bag1: dict | None = None) -> ResultsOutcome:
+        """Test results from the validated signals with the template's ``fuel``, ``accuracy``
+        and ``phase_channel`` (see :func:`vehval.results.compute_results`); runs once per run
+        unless called again with other options."""
+        from vehval.results import compute_results, results_from_template
+
+        opts = {"method": method, "draws": draws, "seed": seed, "hot_start_bag1": hot_start_bag1}
+        if self._results is None or getattr(self, "_results_opts", None) != opts:
+            test = self.validated
+            if self.template is not None:
+                res = results_from_template(test, self.template, **opts)
+            else:
+                res = compute_results(test, **opts)
+            self._results = ResultsOutcome(res)
+            self._results_opts = opts
+        return self._results
+
+    @property
+    def results_outcome(self) -> ResultsOutcome | None:
+        """The results outcome when the step ran, else None."""
+        return self._results
 
     def analyze(self) -> AnalysisOutcome:
         """Control-strategy analysis (engine on/off rule, SOC regulation, modes, braking)."""

@@ -153,10 +153,10 @@ def test_internal_error_is_recorded_and_retried(tmp_path, template_path, monkeyp
     write_d3(inp / "b" / "b.txt", seed=2)
     real = metrics_mod.test_metrics
 
-    def flaky(test, selected=None):
+    def flaky(test, selected=None, **kw):
         if test.meta.test_id == "b":
             raise ZeroDivisionError("boom")
-        return real(test, selected)
+        return real(test, selected, **kw)
 
     monkeypatch.setattr(metrics_mod, "test_metrics", flaky)
     s1 = run_batch(inp, template_path, out, steps=[], workers=0, report=False, progress=False)

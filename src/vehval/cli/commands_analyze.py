@@ -22,8 +22,11 @@ def analyze_cmd(
 ) -> None:
     """Estimate the engine on/off rule, SOC regulation, modes and braking split of a test."""
     from vehval.io.atomic import write_text_atomic
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.workflow import TestRun
 
+    check_outputs(outdir=outdir, writes=["control.json"],
+                  inputs=[*files, template, vehicle_path(vehicle)])
     run = TestRun.load(files, template, vehicle, use_qa=qa)
     outcome = run.analyze()
     for note in outcome.notes:

@@ -37,6 +37,10 @@ def batch_cmd(
 ) -> None:
     """Process many tests at once; rerun to resume: unchanged tests are skipped."""
     from vehval.batch import run_batch
+    from vehval.io.paths import check_outputs, vehicle_path
+
+    check_outputs(outdir=outdir, inputs=[template, vehicle_path(vehicle)],
+                  writes=["index.html", "catalog.duckdb"])
 
     res = run_batch(target, template, outdir, vehicle=vehicle, steps=steps.split(","),
                     workers=workers, scheduler=scheduler, report=report, force=force,

@@ -80,6 +80,10 @@ def report_cmd(
     from vehval.io.parquet import read_test
     from vehval.report import build_reports, load_json, write_report
 
+    from vehval.io.paths import check_outputs
+
+    if output is not None:
+        check_outputs(outfile=output, inputs=[*inputs, control, validation, raw])
     found = collect_inputs(list(inputs))
     for kind, path in (("control", _existing(control, "control.json")),
                        ("validation", _existing(validation, "validation.json"))):

@@ -9,17 +9,13 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from pathlib import Path
 
 import typer
 
 from vehval.cli import app
 from vehval.errors import ConfigError
-
-
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "test"
+from vehval.io.paths import check_outputs, sanitize_id, vehicle_path
 
 
 def _pct(value, digits: int, unit: str = " %") -> str:
@@ -72,26 +68,29 @@ def validate_cmd(
 
     if not files and not test_group:
         raise ConfigError("no test given: name test directories or files, or use --test A,B")
+    check_outputs(outdir=output, inputs=[*(files or []), template, vehicle_path(vehicle)],
+                  writes=["validation.json", "metrics.json", "report.html", "tables.xlsx"])
     runs = runs_from_args(files or [], test_group, template, vehicle, use_qa=not no_qa)
     suite = validate_runs(runs, _tolerances(fuel_tol, soc_tol, soc_points), dt=dt,
                           window_s=window_s, smooth_hz=smooth_hz)
     metrics, lad = suite.metrics, suite.ladder
-    with atomic_dir(output) as stage:
+    with atomic_dir(output) as stage:      # every output of the run, reports included
         (stage / "validation.json").write_text(dumps(suite.payload), encoding="utf-8")
         (stage / "metrics.json").write_text(dumps(metrics), encoding="utf-8")
         for v in suite.validations:
             comp = v.validation.comparison
-            comp.overlays.to_parquet(stage / f"overlays_{_slug(comp.test_id)}.parquet", index=False)
-    if report:
-        from vehval.report import results_beside
+            comp.overlays.to_parquet(stage / f"overlays_{sanitize_id(comp.test_id)}.parquet",
+                                     index=False)
+        if report:
+            from vehval.report import results_beside
 
-        for run, v in zip(runs, suite.validations):
-            tid = v.validation.comparison.test_id
-            sub = output if len(runs) == 1 else output / _slug(tid)
-            # a validated test from `vehval qa` / `analyze`: its findings and control.json
-            found = results_beside(run.origin) if run.qa_outcome is None else {}
-            run.report(sub, qa=found.get("findings"), control=found.get("control"),
-                       validation=v.payload(), title=f"Validation report: {tid}")
+            for run, v in zip(runs, suite.validations):
+                tid = v.validation.comparison.test_id
+                sub = stage if len(runs) == 1 else stage / sanitize_id(tid)
+                # a validated test from `vehval qa` / `analyze`: its findings and control.json
+                found = results_beside(run.origin) if run.qa_outcome is None else {}
+                run.report(sub, qa=found.get("findings"), control=found.get("control"),
+                           validation=v.payload(), title=f"Validation report: {tid}")
     if as_json:
         typer.echo(dumps(metrics), nl=False)
         return
@@ -136,6 +135,8 @@ def calibrate_cmd(
 
     if not files and not test_group:
         raise ConfigError("no tuning test given: name test directories or files, or use --test A,B")
+    check_outputs(outdir=output, inputs=[*(files or []), template, vehicle_path(vehicle), start],
+                  writes=["calibration.json", "vehicle_calibrated.yaml"])
     names = _params(params)
     veh = load_vehicle(vehicle)
     tests = [r.validated for r in runs_from_args(files or [], test_group, template, veh,

@@ -62,7 +62,7 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
     outdir = Path(outdir)
     html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
                          validation=validation, title=title, raw=raw, plotly_js=plotly_js)
-    with atomic_dir(outdir) as stage:
+    with atomic_dir(outdir, whole=False) as stage:
         (stage / html_name).write_text(html, encoding="utf-8")
         write_tables(stage / excel_name, qa, test, control=control, validation=validation)
     return {"report": outdir / html_name, "tables": outdir / excel_name}
