@@ -8,6 +8,7 @@ Test grouping (see :mod:`vehval.workflow`): each directory is one test, each
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import typer
@@ -15,6 +16,19 @@ import typer
 from vehval.cli import app
 from vehval.errors import ConfigError
 from vehval.io.paths import check_outputs, sanitize_id, vehicle_path
+
+
+def _pct(value, digits: int, unit: str = " %") -> str:
+    """A percentage for the terminal; ``n/a`` when the test cannot give it (no fuel, no SOC)."""
+    if value is None or not math.isfinite(float(value)):
+        return "n/a"
+    return f"{float(value):.{digits}f}{unit}"
+
+
+def _cycle(cycle: str | None, rung: str | None = None) -> str:
+    """``udds, high_transient``; ``no cycle identified`` instead of an empty name."""
+    name = cycle or "no cycle identified"
+    return f"{name}, {rung}" if rung and cycle else name
 
 
 def _params(text: str | None) -> list[str]:
@@ -80,10 +94,14 @@ def validate_cmd(
     if as_json:
         typer.echo(dumps(metrics), nl=False)
         return
+    for v in suite.validations:
+        m = v.validation.match
+        if m is not None and not m.matches:
+            typer.echo(f"warning: {m.message()}", err=True)
     for e in lad.entries:
-        typer.echo(f"{e.test_id} ({e.cycle}, {e.rung}): fuel {e.errors['fuel_pct']:.2f} %, "
-                   f"SOC {e.errors['soc_pct']:.2f} %, engine state agreement "
-                   f"{e.errors['engine_on_agreement_pct']:.1f} %: {'pass' if e.passed else 'FAIL'}")
+        typer.echo(f"{e.test_id} ({_cycle(e.cycle, e.rung)}): fuel {_pct(e.errors['fuel_pct'], 2)}, "
+                   f"SOC {_pct(e.errors['soc_pct'], 2)}, engine state agreement "
+                   f"{_pct(e.errors['engine_on_agreement_pct'], 1)}: {'pass' if e.passed else 'FAIL'}")
     typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
 
 
@@ -149,8 +167,8 @@ def calibrate_cmd(
     for n in res.parameters:
         typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}")
     for row in res.rows():
-        typer.echo(f"{row[0]} ({row[1]}): fuel error {row[2]:.2f} -> {row[3]:.2f} %, "
-                   f"SOC error {row[4]:.2f} -> {row[5]:.2f} %")
+        typer.echo(f"{row[0]} ({_cycle(row[1])}): fuel error {_pct(row[2], 2, '')} -> "
+                   f"{_pct(row[3], 2)}, SOC error {_pct(row[4], 2, '')} -> {_pct(row[5], 2)}")
     typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
                f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
     typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")
