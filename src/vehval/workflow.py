@@ -307,11 +307,12 @@ class TestRun:
 
     def report(self, outdir: str | Path, *, control: Any = None, validation: Any = None,
                qa: Any = None, title: str | None = None, raw: Test | None = None,
+               results: Any = None,
                html_name: str = "report.html", excel: bool = True,
                plotly_js: str | None = None) -> ReportOutcome:
         """Write ``report.html`` (and ``tables.xlsx``) with every step that ran.
 
-        ``control``, ``validation`` and ``qa`` override the run's own outcomes (e.g. the
+        ``control``, ``validation``, ``qa`` and ``results`` override the run's own outcomes (e.g. the
         documents of earlier commands read back from disk).
         """
         from vehval.report import build_reports, write_report
@@ -322,8 +323,11 @@ class TestRun:
             control = self._analysis.document
         if validation is None and self._validation is not None:
             validation = self._validation.payload()
+        if results is None and self._results is not None:
+            results = self._results.document
         kw: dict[str, Any] = {"vehicle": self.vehicle, "control": control,
-                              "validation": validation, "title": title, "raw": raw}
+                              "validation": validation, "title": title, "raw": raw,
+                              "results": results}
         if plotly_js is not None:
             kw["plotly_js"] = plotly_js
         test = self.validated

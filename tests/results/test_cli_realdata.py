@@ -124,3 +124,17 @@ def test_cruze_cold_udds_bags_and_ftp_weighting(cruze_template):
     assert b1 < b2                                  # the cold bag costs fuel
     assert res.value("udds", "fuel_economy_mpg") == pytest.approx(30.9, rel=0.02)
     assert b1 < ftp < hot.value("udds", "fuel_economy_mpg")
+
+
+def test_report_shows_results_first(tmp_path, cli):
+    raw, tpl = _files(tmp_path)
+    code, out, err = cli("qa", raw, "-t", tpl, "-o", tmp_path / "r", "--report")
+    assert code == 0, err
+    html = (tmp_path / "r" / "report.html").read_text()
+    i = html.find("Test results")
+    assert 0 < i < html.find("QA findings") and "Results per phase" in html
+    assert "Regulatory composites" in html and "± " in html and "Drive quality (SAE J2951)" in html
+    # `vehval report` on the output directory reads results.json again
+    code, out, err = cli("report", tmp_path / "r", "-o", tmp_path / "again.html", "--no-excel")
+    assert code == 0, err
+    assert "Results per phase" in (tmp_path / "again.html").read_text()
