@@ -278,13 +278,18 @@ class TestRun:
             from vehval.analysis import analyze
 
             notes: list[str] = []
+            excluded: list = []
             if self.use_qa:
-                from vehval.analysis.inputs import after_qa
+                from vehval.analysis.inputs import after_qa, mask_flagged_samples
 
                 work, notes = after_qa(self.qa().result, self.test)
+                # samples QA flagged are not analysed (a SOC of 0 is not the minimum SOC)
+                excluded = mask_flagged_samples(work, self.qa().result.findings)
             else:
                 work = self.test
-            self._analysis = AnalysisOutcome(analyze(work, self.vehicle), notes)
+            result = analyze(work, self.vehicle)
+            result.findings[:0] = [f.to_dict() for f in excluded]
+            self._analysis = AnalysisOutcome(result, notes)
         return self._analysis
 
     def validate(self, *, dt: float = 0.1, window_s: float = 2.0,

@@ -56,3 +56,27 @@ def test_cli_says_the_vehicle_does_not_match(tmp_path, capsys):
     assert "vehicle prius_2004 does not match test 61410007" in err
     assert "nan" not in out and "(, other)" not in out
     assert "(no cycle identified): fuel n/a" in out
+
+
+def test_analysis_of_a_conventional_car_prints_no_hybrid_rule(tmp_path, capsys):
+    """Reported: a conventional car's analysis printed "rule agreement 99.4 %" and on/off bounds."""
+    import numpy as np
+
+    from vehval.cli import main
+
+    t = np.arange(0.0, 300.0, 0.1)
+    v = np.clip(10 * np.sin(t / 30.0), 0, None) * 1.0
+    data = tmp_path / "conv.csv"
+    lines = ["time,speed,rpm,fuel"] + [f"{a:.1f},{b:.4f},{800 + 200 * b:.1f},{0.3 + 0.1 * b:.4f}"
+                                       for a, b in zip(t, v)]
+    data.write_text("\n".join(lines) + "\n")
+    tpl = tmp_path / "t.yaml"
+    tpl.write_text("template_version: 1\nfiles:\n  - source: dyno\n    format: csv\n"
+                   "    time: {column: time, unit: s}\n    channels:\n"
+                   "      speed: {name: veh_spd_test, unit: m/s}\n"
+                   "      rpm: {name: eng_spd_out_test, unit: rpm}\n"
+                   "      fuel: {name: fuel_rate_test, unit: g/s}\n")
+    assert main(["analyze", str(data), "-t", str(tpl), "-o", str(tmp_path / "a")]) == 0
+    out = capsys.readouterr().out
+    assert "conventional vehicle" in out and "rule agreement" not in out and "bound" not in out
+    assert (tmp_path / "a" / "control.json").is_file()

@@ -46,6 +46,11 @@ class VehicleMatch:
                 + "; ".join(self.problems) + ": the validation compares different cars")
 
 
+def has_hybrid_signals(test: Test) -> bool:
+    """True when the test measured a battery, motor or generator quantity."""
+    return any(test.by_base(b, "test") for b in HYBRID_BASES)
+
+
 def _fuel_kind(rho: float) -> str:
     return "diesel" if rho > 800 else "gasoline" if 700 <= rho <= 780 else "fuel"
 
@@ -55,7 +60,7 @@ def vehicle_match(test: Test, vehicle: Any) -> VehicleMatch:
     name = str(getattr(vehicle, "name", vehicle))
     out = VehicleMatch(name, test.meta.test_id or "test")
     hybrid_model = getattr(vehicle, "architecture", "power_split") != "conventional"
-    hybrid_test = any(test.by_base(b, "test") for b in HYBRID_BASES)
+    hybrid_test = has_hybrid_signals(test)
     if hybrid_model and not hybrid_test:
         out.problems.append("the model is a hybrid but the test has no battery, motor or "
                             "generator signal (a conventional car?)")
