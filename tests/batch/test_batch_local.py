@@ -102,8 +102,10 @@ def test_index_and_report_links(tmp_path, template_path):
     run_batch(inp, template_path, out, steps=[], workers=0, report=True, progress=False, force=True)
     assert (out / "assets" / plotly_asset_name()).stat().st_mtime_ns == asset_mtime
     assert 'href="tests/garbage/report.html"' not in html
-    # plotly.js embedded exactly once, nothing loaded from the network
-    assert html.count("Plotly.newPlot") == 1 and "<script src=" not in html
+    # plotly.js embedded exactly once, nothing loaded from the network; two plots: fuel
+    # economy per test and phase, fuel economy against SOC change
+    assert html.count("Plotly.newPlot") == 2 and "<script src=" not in html
+    assert "Fuel economy by cycle and test conditions" in html and 'id="fe_phase"' in html
     assert html.count("* plotly.js v") == 1
     assert "Test-to-test variability" in html
 
