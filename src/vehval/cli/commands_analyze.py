@@ -38,8 +38,17 @@ def analyze_cmd(
     if as_json:
         typer.echo(text, nl=False)
         return
+    from vehval.validate.match import has_hybrid_signals
+
     c = result.controller
     agree = result.rule_agreement
+    conventional = (getattr(run.vehicle, "architecture", None) == "conventional"
+                    or not has_hybrid_signals(run.test))
+    if conventional:
+        # the engine on/off rule, SOC regulation and modes are the hybrid's control strategy
+        typer.echo(f"wrote {outdir / 'control.json'}: a conventional vehicle (no battery, motor "
+                   "or generator signal): no hybrid control strategy to estimate")
+        return
     typer.echo(f"wrote {outdir / 'control.json'}: {len(c)} controller parameter(s) estimated, "
                f"rule agreement {f'{agree:.1%} of steps' if agree is not None else 'n/a'}")
     for k, v in c.items():

@@ -42,6 +42,10 @@ def identify_cmd(
                           "for 'conventional' cars only")
     from vehval.identify.build import identify_conventional, write_vehicle
     from vehval.identify.traces import load_traces
+    from vehval.io.paths import check_outputs
+    check_outputs(outfile=output, inputs=[*files, template])
+    if report is not None:
+        check_outputs(outfile=report, inputs=[*files, template, output])
     traces = load_traces(files, template)
     idf = identify_conventional(traces, name or output.stem)
     if report is not None:

@@ -53,7 +53,7 @@ def template_init_cmd(
     for f in files:
         check_input_file(f)
     template, unmatched = propose_template(files)
-    template.save(output)
+    template.save(output, placeholders=True)
     n = sum(len(f.channels) for f in template.files)
     typer.echo(f"wrote {output}: {len(template.files)} file entr{'y' if len(template.files) == 1 else 'ies'}, "
                f"{n} channels, {len(unmatched)} unmatched")

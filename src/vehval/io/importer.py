@@ -187,6 +187,9 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
     meta = test.meta
     notes = [f"{path.name}: {n}" for n in raw.notes]
     density = t.constants.fuel_density_kg_per_m3
+    if density is None and t.fuel is not None:
+        from vehval.results.fuels import fuel_properties
+        density = fuel_properties(t.fuel).density_kg_per_m3
     t_shared, order, time_col = _shared_time(raw, spec, idx, path, repair, notes)
     mapped: set[str] = set()
     missing: list[str] = []
