@@ -281,8 +281,8 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
 
 def _compare(pred: TestPrediction, proc: Procedure) -> list[Comparison]:
     t = pred.test
-    base = dict(test=t.label, vehicle_id=t.vehicle_id, originator=t.originator or "?",
-                procedure=proc.key)
+    base = {"test": t.label, "vehicle_id": t.vehicle_id,
+            "originator": t.originator or "?", "procedure": proc.key}
     rows = []
     cold_in_overall = any(b.cold_start for b in proc.bags)
     if not math.isnan(t.fe):
