@@ -49,8 +49,8 @@ def identify_cmd(
     traces = load_traces(files, template)
     idf = identify_conventional(traces, name or output.stem)
     if report is not None:
-        from vehval.identify.report import write_identification_report
         from vehval.identify.predict import predict_trace
+        from vehval.identify.report import write_identification_report
         preds = [predict_trace(idf.vehicle, t) for t in traces]
         write_identification_report(idf, preds, report)
     write_vehicle(idf.vehicle, output)

@@ -68,7 +68,7 @@ def smooth(x: np.ndarray, n: int) -> np.ndarray:
 
 def acceleration(v: np.ndarray, dt: float, window_s: float = 0.5) -> np.ndarray:
     """Acceleration [m/s^2]: centred average over ``window_s``, then central difference."""
-    return np.gradient(smooth(v, max(int(round(window_s / dt)), 1)), dt)
+    return np.gradient(smooth(v, max(round(window_s / dt), 1)), dt)
 
 
 def _pick(test: Test, base: str):
