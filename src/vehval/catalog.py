@@ -11,6 +11,8 @@ Tables
 ``tests``        one row per test and run (status ``ok``, ``failed`` or ``skipped``),
                  with input hashes, key metrics [SI and mpg], QA summary and validation.
 ``findings``     one row per QA finding of a test in a run.
+``phase_results`` one row per phase, whole test and regulatory composite of a test in a run
+                 (results stage: fuel economy with its expanded uncertainty, drive quality).
 View ``latest_tests``: the most recent row of every test id.
 """
 
@@ -24,7 +26,7 @@ from typing import Any, Iterable
 from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.jsonsafe import clean
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 #: Key metrics stored as DOUBLE columns of ``tests`` (name -> description [unit]).
 METRIC_COLUMNS: dict[str, str] = {
@@ -40,6 +42,20 @@ METRIC_COLUMNS: dict[str, str] = {
     "ess_energy_j": "net battery terminal energy, positive discharged [J]",
     "eng_energy_j": "positive engine brake energy [J]",
     "tractive_energy_j": "positive tractive energy at the wheels [J]",
+}
+
+#: Per-phase results stored as DOUBLE columns of ``phase_results`` (name -> description).
+PHASE_COLUMNS: dict[str, str] = {
+    "duration_s": "phase duration [s]",
+    "distance_m": "distance [m]",
+    "fuel_mass_kg": "fuel mass [kg]",
+    "fuel_economy_mpg": "fuel economy [mile/US gal]",
+    "fuel_economy_u_mpg": "its expanded uncertainty U, k = 2 [mile/US gal]",
+    "fuel_consumption_l_per_100km": "fuel consumption [L/100 km]",
+    "co2_g_per_km": "CO2 per distance [g/km]",
+    "ess_energy_net_j": "battery net energy, positive discharged [J]",
+    "iwr_pct": "SAE J2951 inertial work rating [%]",
+    "rmsse_mps": "SAE J2951 RMS speed error [m/s]",
 }
 
 #: Metrics summarised by :func:`summary` (variability per vehicle and cycle).
@@ -59,12 +75,18 @@ _DDL = [
     "    vehicle VARCHAR, cycle VARCHAR, files VARCHAR[], file_hashes JSON,\n"
     "    input_hash VARCHAR, elapsed_s DOUBLE,\n"
     + "".join(f"    {c} DOUBLE,\n" for c in METRIC_COLUMNS)
-    + "    n_findings INTEGER, n_findings_by_severity JSON, qa_summary JSON,\n"
+    + "    fuel VARCHAR, cell_temp_c DOUBLE, start_condition VARCHAR,\n"
+    "    n_findings INTEGER, n_findings_by_severity JSON, qa_summary JSON,\n"
     "    validation JSON, validation_errors JSON, outputs VARCHAR[],\n"
     "    PRIMARY KEY (test_id, run_id))",
     """CREATE TABLE IF NOT EXISTS findings (
         test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, signal VARCHAR, kind VARCHAR,
         severity VARCHAR, start_s DOUBLE, end_s DOUBLE, message VARCHAR)""",
+    "CREATE TABLE IF NOT EXISTS phase_results (\n"
+    "    test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, scope VARCHAR NOT NULL,\n"
+    "    kind VARCHAR NOT NULL, part VARCHAR, run INTEGER,\n"
+    + "".join(f"    {c} DOUBLE,\n" for c in PHASE_COLUMNS)
+    + "    PRIMARY KEY (test_id, run_id, scope))",
     """CREATE OR REPLACE VIEW latest_tests AS
         SELECT t.* FROM tests t JOIN runs r USING (run_id)
         QUALIFY row_number() OVER (PARTITION BY t.test_id
@@ -194,17 +216,27 @@ class Catalog:
                to_json(result.get("file_hashes")), result.get("input_hash"),
                _num(result.get("elapsed_s"))]
         row += [_num(metrics.get(c)) for c in METRIC_COLUMNS]
+        res = result.get("results") or {}
+        row += [res.get("fuel"), _num(res.get("cell_temp_c")), res.get("start")]
         row += [len(findings), to_json(result.get("findings_by_severity") or {}),
                 to_json(result.get("qa_summary")), to_json(validation), to_json(val_errors),
                 [str(o) for o in result.get("outputs", [])]]
         cols = (["test_id", "run_id", "status", "error", "error_type", "source_run_id", "vehicle",
                  "cycle", "files", "file_hashes", "input_hash", "elapsed_s"] + list(METRIC_COLUMNS)
-                + ["n_findings", "n_findings_by_severity", "qa_summary", "validation",
+                + ["fuel", "cell_temp_c", "start_condition", "n_findings", "n_findings_by_severity", "qa_summary", "validation",
                    "validation_errors", "outputs"])
         self.con.execute("BEGIN TRANSACTION")
         try:
             self.con.execute("DELETE FROM tests WHERE test_id = ? AND run_id = ?", [row[0], run_id])
             self.con.execute("DELETE FROM findings WHERE test_id = ? AND run_id = ?", [row[0], run_id])
+            self.con.execute("DELETE FROM phase_results WHERE test_id = ? AND run_id = ?",
+                             [row[0], run_id])
+            prow = [[row[0], run_id, r.get("scope"), r.get("kind"), r.get("part"), r.get("run")]
+                    + [_num(r.get(c)) for c in PHASE_COLUMNS]
+                    for r in res.get("rows") or [] if r.get("scope")]
+            if prow:
+                self.con.executemany(
+                    f"INSERT INTO phase_results VALUES ({', '.join('?' * len(prow[0]))})", prow)
             self.con.execute(f"INSERT INTO tests ({', '.join(cols)}, recorded) VALUES "
                              f"({', '.join('?' * len(cols))}, current_timestamp)", row)
             if findings:
@@ -252,6 +284,38 @@ class Catalog:
                 out.append({"vehicle": veh, "cycle": cyc, "metric": m, "n": int(n), "mean": mean,
                             "std": std, "cv": cv, "min": lo, "max": hi})
         return out
+
+
+#: Cell temperature bands of the variability grouping [degC]: the US ambient test conditions
+#: (cold FTP -7 degC, standard 20-30 degC, SC03 35 degC).
+TEMPERATURE_BANDS_SQL = ("CASE WHEN t.cell_temp_c IS NULL THEN 'unknown' "
+                         "WHEN t.cell_temp_c < 10 THEN 'cold (< 10 degC)' "
+                         "WHEN t.cell_temp_c <= 30 THEN 'standard (10-30 degC)' "
+                         "ELSE 'hot (> 30 degC)' END")
+
+
+def results_variability(catalog: "Catalog") -> list[dict]:
+    """Fuel economy variability of the latest result of every test, grouped by vehicle,
+    cycle, cell temperature band, cold or hot start and result scope (phase, whole test,
+    composite): ``n``, ``mean``, ``std`` (ddof 1), ``cv``, ``mean_u`` (mean expanded
+    uncertainty of one test, k = 2) [mpg]."""
+    _, rows = catalog.query(
+        f"""SELECT coalesce(t.vehicle, ''), coalesce(t.cycle, ''), {TEMPERATURE_BANDS_SQL},
+                   coalesce(t.start_condition, 'unknown'), p.scope, p.kind, count(*),
+                   avg(p.fuel_economy_mpg), stddev_samp(p.fuel_economy_mpg),
+                   avg(p.fuel_economy_u_mpg)
+            FROM latest_tests t JOIN phase_results p
+              ON p.test_id = t.test_id AND p.run_id = t.run_id
+            WHERE t.status IN ('ok', 'skipped') AND t.error IS NULL
+              AND p.fuel_economy_mpg IS NOT NULL
+            GROUP BY 1, 2, 3, 4, 5, 6 ORDER BY 1, 2, 3, 4, 6 DESC, 5""")
+    out = []
+    for veh, cyc, band, start, scope, kind, n, mean, std, mu in rows:
+        out.append({"vehicle": veh, "cycle": cyc, "temperature_band": band, "start": start,
+                    "scope": scope, "kind": kind, "n": int(n), "mean": mean, "std": std,
+                    "cv": (std / abs(mean)) if (std is not None and mean) else None,
+                    "mean_u": mu})
+    return out
 
 
 def open_catalog(path: str | Path, *, read_only: bool = False) -> Catalog:

@@ -57,6 +57,18 @@ class QAOutcome:
 
 
 @dataclass
+class ResultsOutcome:
+    """The ``results`` step: per-phase, whole-test and regulatory results with uncertainty."""
+
+    results: Any  # vehval.results.TestResults
+
+    @property
+    def document(self) -> dict:
+        """The ``results.json`` document (contract in docs/results.md)."""
+        return self.results.to_dict()
+
+
+@dataclass
 class AnalysisOutcome:
     """The ``analyze`` step: the control-strategy analysis and notes on its inputs."""
 
@@ -143,6 +155,7 @@ class TestRun:
         self.use_qa = use_qa and not validated_input
         self._qa = qa
         self._analysis: AnalysisOutcome | None = None
+        self._results: ResultsOutcome | None = None
         self._validation: ValidationOutcome | None = None
 
     # ------------------------------------------------------------------ load
@@ -236,19 +249,47 @@ class TestRun:
             return self.qa().validated
         return self.test
 
+    def results(self, *, method: str = "first_order", draws: int = 1000, seed: int = 0,
+                hot_start_bag1: dict | None = None) -> ResultsOutcome:
+        """Test results from the validated signals with the template's ``fuel``, ``accuracy``
+        and ``phase_channel`` (see :func:`vehval.results.compute_results`); runs once per run
+        unless called again with other options."""
+        from vehval.results import compute_results, results_from_template
+
+        opts = {"method": method, "draws": draws, "seed": seed, "hot_start_bag1": hot_start_bag1}
+        if self._results is None or getattr(self, "_results_opts", None) != opts:
+            test = self.validated
+            if self.template is not None:
+                res = results_from_template(test, self.template, **opts)
+            else:
+                res = compute_results(test, **opts)
+            self._results = ResultsOutcome(res)
+            self._results_opts = opts
+        return self._results
+
+    @property
+    def results_outcome(self) -> ResultsOutcome | None:
+        """The results outcome when the step ran, else None."""
+        return self._results
+
     def analyze(self) -> AnalysisOutcome:
         """Control-strategy analysis (engine on/off rule, SOC regulation, modes, braking)."""
         if self._analysis is None:
             from vehval.analysis import analyze
 
             notes: list[str] = []
+            excluded: list = []
             if self.use_qa:
-                from vehval.analysis.inputs import after_qa
+                from vehval.analysis.inputs import after_qa, mask_flagged_samples
 
                 work, notes = after_qa(self.qa().result, self.test)
+                # samples QA flagged are not analysed (a SOC of 0 is not the minimum SOC)
+                excluded = mask_flagged_samples(work, self.qa().result.findings)
             else:
                 work = self.test
-            self._analysis = AnalysisOutcome(analyze(work, self.vehicle), notes)
+            result = analyze(work, self.vehicle)
+            result.findings[:0] = [f.to_dict() for f in excluded]
+            self._analysis = AnalysisOutcome(result, notes)
         return self._analysis
 
     def validate(self, *, dt: float = 0.1, window_s: float = 2.0,
@@ -266,11 +307,12 @@ class TestRun:
 
     def report(self, outdir: str | Path, *, control: Any = None, validation: Any = None,
                qa: Any = None, title: str | None = None, raw: Test | None = None,
+               results: Any = None,
                html_name: str = "report.html", excel: bool = True,
                plotly_js: str | None = None) -> ReportOutcome:
         """Write ``report.html`` (and ``tables.xlsx``) with every step that ran.
 
-        ``control``, ``validation`` and ``qa`` override the run's own outcomes (e.g. the
+        ``control``, ``validation``, ``qa`` and ``results`` override the run's own outcomes (e.g. the
         documents of earlier commands read back from disk).
         """
         from vehval.report import build_reports, write_report
@@ -281,8 +323,11 @@ class TestRun:
             control = self._analysis.document
         if validation is None and self._validation is not None:
             validation = self._validation.payload()
+        if results is None and self._results is not None:
+            results = self._results.document
         kw: dict[str, Any] = {"vehicle": self.vehicle, "control": control,
-                              "validation": validation, "title": title, "raw": raw}
+                              "validation": validation, "title": title, "raw": raw,
+                              "results": results}
         if plotly_js is not None:
             kw["plotly_js"] = plotly_js
         test = self.validated

@@ -102,8 +102,10 @@ def test_index_and_report_links(tmp_path, template_path):
     run_batch(inp, template_path, out, steps=[], workers=0, report=True, progress=False, force=True)
     assert (out / "assets" / plotly_asset_name()).stat().st_mtime_ns == asset_mtime
     assert 'href="tests/garbage/report.html"' not in html
-    # plotly.js embedded exactly once, nothing loaded from the network
-    assert html.count("Plotly.newPlot") == 1 and "<script src=" not in html
+    # plotly.js embedded exactly once, nothing loaded from the network; two plots: fuel
+    # economy per test and phase, fuel economy against SOC change
+    assert html.count("Plotly.newPlot") == 2 and "<script src=" not in html
+    assert "Fuel economy by cycle and test conditions" in html and 'id="fe_phase"' in html
     assert html.count("* plotly.js v") == 1
     assert "Test-to-test variability" in html
 
@@ -153,10 +155,10 @@ def test_internal_error_is_recorded_and_retried(tmp_path, template_path, monkeyp
     write_d3(inp / "b" / "b.txt", seed=2)
     real = metrics_mod.test_metrics
 
-    def flaky(test, selected=None):
+    def flaky(test, selected=None, **kw):
         if test.meta.test_id == "b":
             raise ZeroDivisionError("boom")
-        return real(test, selected)
+        return real(test, selected, **kw)
 
     monkeypatch.setattr(metrics_mod, "test_metrics", flaky)
     s1 = run_batch(inp, template_path, out, steps=[], workers=0, report=False, progress=False)

@@ -74,3 +74,12 @@ def test_synth_conventional_cli_writes_an_identifiable_test(tmp_path, capsys):
     # one 195 s ECE cycle is too short to identify a fuel map: one clear refusal
     with pytest.raises(IdentificationError, match="at least 600 s"):
         identify_conventional([tr])
+
+
+def test_cli_refuses_to_overwrite_an_input(tmp_path, capsys):
+    raw = tmp_path / "t1.txt"
+    raw.write_text("Time[sec]\tDyno_Speed[mph]\n0.0\t0.0\n0.1\t0.0\n")
+    rc = main(["identify", str(raw), "-t", str(raw), "-o", str(raw)])
+    assert rc == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    assert raw.read_text().startswith("Time[sec]")

@@ -138,3 +138,17 @@ def test_check_template_report(tmp_path, d3_template):
                                  channels={"Extra": ChannelSpec(name="eng_spd_out_test")})])
     rep = check_template(t, [f])
     assert not rep.ok and "cannot convert 'V'" in rep.errors[0]
+
+
+def test_check_template_says_each_problem_once(tmp_path):
+    """Reported: `template check` repeated each error once per file (126 lines on 42 files)."""
+    files = [write_d3(tmp_path / f"x{i}.txt", header=["Time[s]", "Extra[V]"],
+                      rows=[[0.0, 1.0], [1.0, 2.0], [2.0, 3.0]]) for i in range(5)]
+    t = Template(files=[FileSpec(source="obd", match="x*.txt", time={"rate_hz": 1.0},
+                                 channels={"Extra": ChannelSpec(name="eng_spd_out_test")})])
+    rep = check_template(t, files)
+    assert len(rep.errors) == 5                       # per file in the report object
+    lines = [ln for ln in rep.format().splitlines() if ln.startswith("error:")]
+    assert len(lines) == 1, lines
+    assert lines[0].startswith("error: x0.txt, x1.txt, x2.txt and 2 more file(s): channel 'Extra'")
+    assert rep.format().splitlines()[-1].startswith("1 error(s)")

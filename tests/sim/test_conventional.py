@@ -3,13 +3,12 @@
 import numpy as np
 import pytest
 import yaml
+from conventional_vehicle import conventional_dict, conventional_vehicle
 
 from vehval.errors import ConfigError
 from vehval.sim.conventional_kernel import coupling_pump_speed, select_gear
 from vehval.sim.simulate import simulate
 from vehval.vehicle import load_vehicle
-
-from conventional_vehicle import conventional_dict, conventional_vehicle
 
 
 def test_architecture_key_dispatches(tmp_path):

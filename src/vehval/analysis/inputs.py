@@ -9,6 +9,7 @@ constants), so the results can say what they rest on.
 from __future__ import annotations
 
 import copy
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -316,6 +317,32 @@ def after_qa(qa_result: Any, imported: Test) -> tuple[Test, list[str]]:
     validated = qa_result.validated
     test = Test(list(validated), meta=copy.deepcopy(validated.meta))
     return test, restore_sign_checked(test, imported, qa_result.selection.dropped)
+
+
+#: Bases whose samples QA flagged are not used by the analysis, and the per-sample kinds.
+MASKED_BASES = ("ess_soc",)
+MASKED_KINDS = ("range", "spike", "negative", "vehicle_limit", "stuck")
+
+
+def mask_flagged_samples(test: Test, findings: list) -> list[Finding]:
+    """Set to NaN the SOC samples inside a QA warning/error of a per-sample kind (range,
+    spike...): a SOC of 0 QA flagged must not become the analysis's minimum SOC. Modifies
+    ``test`` in place; returns one ``excluded`` finding per signal changed."""
+    from vehval.qa.findings import untrusted_mask
+
+    per_sample = [f for f in findings if str(getattr(f.kind, "value", f.kind)) in MASKED_KINDS]
+    out = []
+    for base in MASKED_BASES:
+        for sig in test.by_base(base, "test"):
+            bad = untrusted_mask({sig.name}, sig.time, per_sample) & np.isfinite(sig.values)
+            if not bad.any():
+                continue
+            test.add(dataclasses.replace(sig, values=np.where(bad, np.nan, sig.values)),
+                     replace_existing=True)
+            why = "; ".join(f.message for f in per_sample if f.signal == sig.name)
+            out.append(Finding("excluded", sig.name, f"{int(bad.sum())} sample(s) QA flagged "
+                               f"are not used ({why})", int(bad.sum())))
+    return out
 
 
 def restore_sign_checked(validated: Test, imported: Test, dropped: dict[str, str]) -> list[str]:

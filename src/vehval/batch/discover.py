@@ -19,14 +19,13 @@ import fnmatch
 import glob
 import hashlib
 import json
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from vehval.errors import InputFileError
+from vehval.io.paths import sanitize_id
 
-_ID_BAD = re.compile(r"[^A-Za-z0-9._-]+")
 _GLOB_CHARS = set("*?[")
 
 
@@ -58,11 +57,6 @@ def _matching_files(directory: Path, patterns: list[str | None]) -> list[Path]:
     if not pats:  # single entry without match: every file
         return files
     return [f for f in files if any(fnmatch.fnmatch(f.name, pat) for pat in pats)]
-
-
-def _sanitize(name: str) -> str:
-    s = _ID_BAD.sub("_", name).strip("._") or "test"
-    return s[:120]
 
 
 def discover_tests(target: str | Path, template: Any) -> list[TestSpec]:
@@ -117,7 +111,7 @@ def discover_tests(target: str | Path, template: Any) -> list[TestSpec]:
     specs: list[TestSpec] = []
     seen: set[str] = set()
     for name, files in found:
-        base = _sanitize(name)
+        base = sanitize_id(name)
         tid, i = base, 2
         while tid in seen:
             tid, i = f"{base}-{i}", i + 1

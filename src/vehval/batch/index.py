@@ -10,7 +10,7 @@ import html
 import json
 from pathlib import Path
 
-from vehval.catalog import Catalog
+from vehval.catalog import Catalog, results_variability
 from vehval.io.atomic import write_text_atomic
 
 _COLS = [("distance_m", "distance [km]", 1e-3, "{:.2f}"),
@@ -85,6 +85,8 @@ def render_index(catalog: Catalog, run_id: str) -> str:
         body.append("</table>")
     else:
         body.append("<p>No successful test yet.</p>")
+    body += _results_tables(catalog)
+    fe_plot = _phase_plot(catalog, run_id, go)
     fig = go.Figure()
     groups: dict[tuple, list[dict]] = {}
     for r in recs:
@@ -101,7 +103,55 @@ def render_index(catalog: Catalog, run_id: str) -> str:
     return ("<!DOCTYPE html><html><head><meta charset='utf-8'><title>vehval batch "
             f"{html.escape(run_id)}</title><style>{_CSS}</style>"
             f"<script type='text/javascript'>{get_plotlyjs()}</script></head><body>"
-            + "\n".join(body) + "<h2>Fuel economy vs SOC change</h2>" + plot + "</body></html>")
+            + "\n".join(body) + fe_plot + "<h2>Fuel economy vs SOC change</h2>" + plot
+            + "</body></html>")
+
+
+def _results_tables(catalog: Catalog) -> list[str]:
+    """Fuel economy variability by cycle and test conditions (cell temperature band, cold or
+    hot start), per result scope, from the catalog's ``phase_results``."""
+    var = results_variability(catalog)
+    out = ["<h2>Fuel economy by cycle and test conditions (latest result of every test)</h2>"]
+    if not var:
+        return out + ["<p>No per-phase results (no fuel declared, or no successful test).</p>"]
+    out.append("<table><tr><th>vehicle</th><th>cycle</th><th>cell temperature</th><th>start</th>"
+               "<th>result</th><th>n</th><th>mean [mpg]</th><th>std [mpg]</th><th>CV [%]</th>"
+               "<th>mean U (k = 2) [mpg]</th></tr>")
+    for v in var:
+        cv = "" if v["cv"] is None else f"{100 * v['cv']:.2f}"
+        label = v["scope"] if v["kind"] != "test" else "whole test"
+        out.append("<tr>" + "".join(f"<td>{html.escape(str(v[k]))}</td>" for k in
+                                    ("vehicle", "cycle", "temperature_band", "start"))
+                   + f"<td>{html.escape(label)} ({v['kind']})</td><td class=num>{v['n']}</td>"
+                   + "".join(f"<td class=num>{_fmt(v[k], 1.0, '{:.2f}')}</td>"
+                             for k in ("mean", "std"))
+                   + f"<td class=num>{cv}</td><td class=num>{_fmt(v['mean_u'], 1.0, '{:.2f}')}</td></tr>")
+    out.append("</table>")
+    return out
+
+
+def _phase_plot(catalog: Catalog, run_id: str, go) -> str:
+    """Fuel economy per test and per phase (error bars: U, k = 2) of run ``run_id``."""
+    names, rows = catalog.query(
+        "SELECT test_id, scope, kind, fuel_economy_mpg, fuel_economy_u_mpg FROM phase_results "
+        "WHERE run_id = ? AND fuel_economy_mpg IS NOT NULL AND kind IN ('phase', 'test') "
+        "ORDER BY test_id", [run_id])
+    if not rows:
+        return ""
+    fig = go.Figure()
+    by_scope: dict[str, list[tuple]] = {}
+    for tid, scope, kind, fe, u in rows:
+        by_scope.setdefault("whole test" if kind == "test" else scope, []).append((tid, fe, u))
+    for scope, pts in by_scope.items():
+        fig.add_trace(go.Scatter(x=[p[0] for p in pts], y=[p[1] for p in pts], mode="markers",
+                                 name=scope, error_y={"type": "data", "visible": True,
+                                                      "array": [p[2] or 0.0 for p in pts]},
+                                 marker={"size": 10 if scope == "whole test" else 7}))
+    fig.update_layout(title="Fuel economy per test and per phase (± U, k = 2)",
+                      xaxis_title="test", yaxis_title="fuel economy [mpg]", height=450,
+                      margin=dict(l=60, r=20, t=50, b=80))
+    return ("<h2>Fuel economy per test and per phase</h2>"
+            + fig.to_html(full_html=False, include_plotlyjs=False, div_id="fe_phase"))
 
 
 def write_index(path: str | Path, catalog: Catalog, run_id: str) -> Path:

@@ -60,7 +60,8 @@ def _power(test: Test, pwr: str, effort: str, flow: str, pref) -> tuple[np.ndarr
     return None
 
 
-def test_metrics(test: Test, selected: dict[str, str] | None = None) -> dict[str, Any]:
+def test_metrics(test: Test, selected: dict[str, str] | None = None,
+                 fuel: Any = None) -> dict[str, Any]:
     """Key metrics of a test.
 
     Parameters
@@ -70,6 +71,10 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None) -> dict[str
     selected : dict, optional
         Base name -> full name of the signal QA selection kept. When given (QA ran), only
         those signals are used; a quantity QA kept in no source gives None.
+    fuel : vehval.results.Fuel, optional
+        The declared fuel (template ``fuel:``); else the constants ``fuel_density_kg_per_m3``
+        and ``fuel_lhv_j_per_kg`` (or the vehicle's). With neither, fuel economy and energy
+        are None: the gasoline default of :mod:`vehval.conditions` is never used here.
 
     Returns
     -------
@@ -81,8 +86,14 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None) -> dict[str
         ``tractive_energy_j`` (positive) [J]; None where the signals are missing.
     """
     cond = TestConditions.resolve(test)
-    density = cond["fuel_density_kg_per_m3"]
-    lhv = cond["fuel_lhv_j_per_kg"]
+
+    def declared(name: str) -> float | None:
+        # the gasoline default of TestConditions is never used for a result
+        return cond.get(name) if cond.source(name) not in (None, "default") else None
+
+    density = (fuel.density_kg_per_m3 if fuel is not None else None) or declared(
+        "fuel_density_kg_per_m3")
+    lhv = (fuel.lhv_j_per_kg if fuel is not None else None) or declared("fuel_lhv_j_per_kg")
     out: dict[str, Any] = {k: None for k in (
         "duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
         "fuel_consumption_l_per_100km", "soc_initial", "soc_final", "soc_change",
@@ -98,8 +109,8 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None) -> dict[str
         out["fuel_mass_kg"] = _integral(*_finite(fuel))
     fm, dist = out["fuel_mass_kg"], out["distance_m"]
     if fm is not None:
-        out["fuel_energy_j"] = fm * lhv
-        if dist is not None and fm > 0 and dist > 0:
+        out["fuel_energy_j"] = fm * lhv if lhv else None
+        if density and dist is not None and fm > 0 and dist > 0:
             gal = fm / density / _M3_PER_US_GAL
             out["fuel_economy_mpg"] = dist / _M_PER_MILE / gal
             out["fuel_consumption_l_per_100km"] = fm / density * 1e3 / (dist / 1e5)

@@ -148,7 +148,10 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
         outputs[step] = out
         write_text_atomic(stage / STEP_OUTPUT[step], dump_json(out))
     qa_dict = outputs.get("qa") or {}
-    result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None)
+    res = run.results().results
+    write_text_atomic(stage / "results.json", dump_json(res.to_dict()))
+    result["results"] = results_summary(res)
+    result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None, fuel=res.fuel)
     if qa_dict:
         result["findings"] = _compact_findings(qa_dict)
         result["findings_by_severity"] = _by_severity(result["findings"])
@@ -165,6 +168,31 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
                    validation=report_parts.get("validation"),
                    title=f"vehval test {job['test_id']}",
                    plotly_js=f"../../{ASSETS_DIR}/{asset.name}")  # from tests/<test_id>/
+
+
+#: Per-phase quantities of results.json kept in the catalog's ``phase_results`` table.
+PHASE_FIELDS = ("duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
+                "fuel_consumption_l_per_100km", "co2_g_per_km", "ess_energy_net_j")
+
+
+def results_summary(res: Any) -> dict:
+    """The catalog's view of a test's results: conditions and one row per phase, whole test
+    and composite (``scope``, ``kind``, figures [SI/mpg], fuel economy U (k = 2), drive
+    quality)."""
+    rows = []
+    scopes = ([(p.name, "phase", p.part, p.run) for p in res.phases] + [("test", "test", "", 0)]
+              + [(c.name, "composite", "", 0) for c in res.composites])
+    for name, kind, part, run in scopes:
+        vals = res.values.get(name, {})
+        dq = res.drive_quality.get(name) or {}
+        row = {"scope": name, "kind": kind, "part": part or None, "run": run or None,
+               **{k: vals.get(k) for k in PHASE_FIELDS},
+               "fuel_economy_u_mpg": res.expanded(name, "fuel_economy_mpg"),
+               "iwr_pct": dq.get("iwr_pct"), "rmsse_mps": dq.get("rmsse_mps")}
+        rows.append(row)
+    return {"phase_source": res.phase_source, "fuel": res.fuel.name if res.fuel else None,
+            "cell_temp_c": res.conditions.get("cell_temp_c"), "start": res.conditions.get("start"),
+            "rows": rows}
 
 
 def process_test(job: dict) -> dict:
@@ -197,7 +225,7 @@ def process_test(job: dict) -> dict:
         "cycle": None, "steps": list(job["steps"]), "vehval_version": __version__,
         "started": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "metrics": {}, "findings": [], "findings_by_severity": {}, "qa_summary": None,
-        "validation": None, "outputs": [],
+        "validation": None, "results": None, "outputs": [],
     }
     try:
         with atomic_dir(test_dir) as stage:

@@ -40,6 +40,7 @@ def _register() -> None:
     from vehval.cli import commands_report  # noqa: F401
     from vehval.cli import commands_analyze  # noqa: F401
     from vehval.cli import commands_qa  # noqa: F401
+    from vehval.cli import commands_results  # noqa: F401
     from vehval.cli import commands_sim  # noqa: F401
     from vehval.cli import commands_validate  # noqa: F401
     from vehval.cli import commands_identify  # noqa: F401

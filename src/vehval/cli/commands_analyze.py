@@ -22,8 +22,11 @@ def analyze_cmd(
 ) -> None:
     """Estimate the engine on/off rule, SOC regulation, modes and braking split of a test."""
     from vehval.io.atomic import write_text_atomic
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.workflow import TestRun
 
+    check_outputs(outdir=outdir, writes=["control.json"],
+                  inputs=[*files, template, vehicle_path(vehicle)])
     run = TestRun.load(files, template, vehicle, use_qa=qa)
     outcome = run.analyze()
     for note in outcome.notes:
@@ -35,8 +38,17 @@ def analyze_cmd(
     if as_json:
         typer.echo(text, nl=False)
         return
+    from vehval.validate.match import has_hybrid_signals
+
     c = result.controller
     agree = result.rule_agreement
+    conventional = (getattr(run.vehicle, "architecture", None) == "conventional"
+                    or not has_hybrid_signals(run.test))
+    if conventional:
+        # the engine on/off rule, SOC regulation and modes are the hybrid's control strategy
+        typer.echo(f"wrote {outdir / 'control.json'}: a conventional vehicle (no battery, motor "
+                   "or generator signal): no hybrid control strategy to estimate")
+        return
     typer.echo(f"wrote {outdir / 'control.json'}: {len(c)} controller parameter(s) estimated, "
                f"rule agreement {f'{agree:.1%} of steps' if agree is not None else 'n/a'}")
     for k, v in c.items():

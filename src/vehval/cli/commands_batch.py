@@ -37,6 +37,10 @@ def batch_cmd(
 ) -> None:
     """Process many tests at once; rerun to resume: unchanged tests are skipped."""
     from vehval.batch import run_batch
+    from vehval.io.paths import check_outputs, vehicle_path
+
+    check_outputs(outdir=outdir, inputs=[template, vehicle_path(vehicle)],
+                  writes=["index.html", "catalog.duckdb"])
 
     res = run_batch(target, template, outdir, vehicle=vehicle, steps=steps.split(","),
                     workers=workers, scheduler=scheduler, report=report, force=force,
@@ -75,22 +79,18 @@ def catalog_query(
     _print_table(cols, [[_cell(v) for v in r] for r in rows])
 
 
-def _cell(v) -> str:
+def _cell(v, digits: int = 6) -> str:
     if v is None:
         return ""
     if isinstance(v, float):
-        return f"{v:.6g}"
+        return f"{v:.{digits}g}"
     return str(v)
 
 
-def _print_table(cols: list[str], rows: list[list[str]]) -> None:
-    from rich.console import Console
-    from rich.table import Table
+def _print_table(cols: list[str], rows: list[list[str]], group_by: tuple[str, ...] = ()) -> None:
+    from vehval.cli.table import render
 
-    t = Table(*cols, show_lines=False)
-    for r in rows:
-        t.add_row(*r)
-    Console(width=max(100, sum(len(c) + 3 for c in cols))).print(t)
+    typer.echo(render(cols, rows, group_by=group_by))
 
 
 @catalog_app.command("summary")
@@ -107,6 +107,7 @@ def catalog_summary(
         typer.echo(json.dumps(rows, indent=1))
         return
     cols = ["vehicle", "cycle", "metric", "n", "mean", "std", "cv [%]", "min", "max"]
-    _print_table(cols, [[r["vehicle"], r["cycle"], r["metric"], str(r["n"]), _cell(r["mean"]),
-                         _cell(r["std"]), "" if r["cv"] is None else f"{100 * r['cv']:.2f}",
-                         _cell(r["min"]), _cell(r["max"])] for r in rows])
+    _print_table(cols, [[r["vehicle"], r["cycle"], r["metric"], str(r["n"]), _cell(r["mean"], 5),
+                         _cell(r["std"], 4), "" if r["cv"] is None else f"{100 * r['cv']:.2f}",
+                         _cell(r["min"], 5), _cell(r["max"], 5)] for r in rows],
+                 group_by=("vehicle", "cycle"))

@@ -21,20 +21,13 @@ def list_cmd(as_json: bool = typer.Option(False, "--json", help="Print JSON.")) 
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
         return
-    from rich.console import Console
-    from rich.markup import escape
-    from rich.table import Table
+    from vehval.cli.table import render
 
-    table = Table(title="vehval drive cycles", show_lines=False)
-    for col, just in (("name", "left"), ("duration [s]", "right"), ("distance [km]", "right"),
-                      ("max [km/h]", "right"), ("mean [km/h]", "right"),
-                      ("regulation", "left")):
-        table.add_column(escape(col), justify=just, no_wrap=col != "regulation")
-    for r in rows:
-        table.add_row(r["name"], f"{r['duration_s']:g}", f"{r['distance_km']:.2f}",
-                      f"{r['max_speed_kph']:.1f}", f"{r['mean_speed_kph']:.1f}",
-                      escape(r["regulation"]))
-    Console().print(table)
+    cols = ["name", "duration [s]", "distance [km]", "max [km/h]", "mean [km/h]", "regulation"]
+    typer.echo(render(cols, [[r["name"], f"{r['duration_s']:g}", f"{r['distance_km']:.2f}",
+                              f"{r['max_speed_kph']:.1f}", f"{r['mean_speed_kph']:.1f}",
+                              r["regulation"]] for r in rows],
+                      shrink=["regulation"], title="vehval drive cycles"))
 
 
 @cycles_app.command("show")

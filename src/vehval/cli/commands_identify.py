@@ -42,11 +42,15 @@ def identify_cmd(
                           "for 'conventional' cars only")
     from vehval.identify.build import identify_conventional, write_vehicle
     from vehval.identify.traces import load_traces
+    from vehval.io.paths import check_outputs
+    check_outputs(outfile=output, inputs=[*files, template])
+    if report is not None:
+        check_outputs(outfile=report, inputs=[*files, template, output])
     traces = load_traces(files, template)
     idf = identify_conventional(traces, name or output.stem)
     if report is not None:
-        from vehval.identify.report import write_identification_report
         from vehval.identify.predict import predict_trace
+        from vehval.identify.report import write_identification_report
         preds = [predict_trace(idf.vehicle, t) for t in traces]
         write_identification_report(idf, preds, report)
     write_vehicle(idf.vehicle, output)

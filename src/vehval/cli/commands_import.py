@@ -45,13 +45,15 @@ def template_init_cmd(
     """Propose a template: standard names, units and source tags for every channel."""
     from vehval.io.template import propose_template
 
+    from vehval.io.paths import check_input_file, check_outputs
+
+    check_outputs(outfile=output, inputs=files)
     if output.exists() and not force:
         raise InputFileError(f"{output}: already exists: choose another name or pass --force")
     for f in files:
-        if not f.exists():
-            raise InputFileError(f"{f}: file not found: check the path")
+        check_input_file(f)
     template, unmatched = propose_template(files)
-    template.save(output)
+    template.save(output, placeholders=True)
     n = sum(len(f.channels) for f in template.files)
     typer.echo(f"wrote {output}: {len(template.files)} file entr{'y' if len(template.files) == 1 else 'ies'}, "
                f"{n} channels, {len(unmatched)} unmatched")
@@ -86,7 +88,9 @@ def import_cmd(
     """Import raw files with a template into one Test Parquet file (SI units, provenance)."""
     from vehval.io.importer import import_test
     from vehval.io.parquet import write_test
+    from vehval.io.paths import check_outputs
 
+    check_outputs(outfile=output, inputs=[*files, template])
     test = import_test(files, template, repair_time=repair_time)
     write_test(test, output)
     typer.echo(f"wrote {output}: {len(test)} signals from {len(files)} file(s), "

@@ -14,7 +14,7 @@ def _summary(d: dict, outdir: Path) -> dict:
     return {"test": d["test"], "outdir": str(outdir), "summary": d["summary"],
             "alignment": [{k: a[k] for k in ("source", "reference", "offset_s", "confidence",
                                              "applied")} for a in d["alignment"]],
-            "files": ["findings.json", "validated.parquet", "template_final.yaml"]}
+            "files": ["findings.json", "results.json", "validated.parquet", "template_final.yaml"]}
 
 
 @app.command("qa")
@@ -34,15 +34,21 @@ def qa_cmd(
     with --report also report.html and tables.xlsx.
     """
     from vehval.io.atomic import atomic_dir, write_text_atomic
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.io.parquet import write_test
     from vehval.qa.select import save_final_template
     from vehval.workflow import TestRun
 
+    check_outputs(outdir=outdir, inputs=[*files, template, vehicle_path(vehicle)],
+                  writes=["findings.json", "validated.parquet", "template_final.yaml",
+                          "report.html", "tables.xlsx"])
     run = TestRun.load(files, template, vehicle)
     qa = run.qa(max_offset_s=max_offset)
     result, doc = qa.result, qa.document  # doc: findings.json
+    results = run.results().results
     with atomic_dir(outdir) as stage:
         write_text_atomic(stage / "findings.json", json.dumps(doc, indent=1))
+        write_text_atomic(stage / "results.json", json.dumps(results.to_dict(), indent=1))
         write_test(result.validated, stage / "validated.parquet")
         save_final_template(run.template, result.selection, stage / "template_final.yaml")
         if report:
@@ -56,6 +62,10 @@ def qa_cmd(
         typer.echo(json.dumps(full, indent=1))
         return
     s = summ["summary"]
+    from vehval.cli.commands_results import echo_results
+    echo_results(results)
+    for f in results.findings:
+        typer.echo(f"  {f.severity.value:7s} {f.kind.value:14s} {f.message}")
     typer.echo(f"{result.test_id}: {s['total']} findings ({s['by_severity']['error']} error, "
                f"{s['by_severity']['warning']} warning, {s['by_severity']['info']} info); "
                f"kept {s['kept']}, dropped {s['dropped']}, computed {s['computed']}")

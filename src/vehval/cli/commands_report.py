@@ -17,8 +17,8 @@ def collect_inputs(paths: list[Path]) -> dict[str, Path]:
     """Find findings.json, the validated Parquet test and optional control/validation JSON.
 
     ``paths`` are output directories (of ``vehval qa``, ``analyze``, ``validate``) and/or
-    files. In a directory only ``validated.parquet``, ``findings.json``, ``control.json`` and
-    ``validation.json`` are read (other Parquet files, e.g. ``overlays_*.parquet`` of
+    files. In a directory only ``validated.parquet``, ``findings.json``, ``control.json``,
+    ``validation.json`` and ``results.json`` are read (other Parquet files, e.g. ``overlays_*.parquet`` of
     ``vehval validate``, are not tests). A file given by name is recognised by its name
     (``*findings*.json``, ``*control*.json``, ``*validation*.json``) or, for the test, by
     its ``.parquet`` extension; later paths override earlier ones.
@@ -30,7 +30,8 @@ def collect_inputs(paths: list[Path]) -> dict[str, Path]:
                                  f"(with {FINDINGS} and {VALIDATED}) or those files")
         if p.is_dir():
             for kind, name in (("findings", FINDINGS), ("test", VALIDATED),
-                               ("control", "control.json"), ("validation", "validation.json")):
+                               ("control", "control.json"), ("validation", "validation.json"),
+                               ("results", "results.json")):
                 if (p / name).is_file():
                     found[kind] = p / name
             continue
@@ -38,9 +39,9 @@ def collect_inputs(paths: list[Path]) -> dict[str, Path]:
         if name.endswith(".parquet"):
             found["test"] = p
         elif name.endswith(".json"):
-            kind = next((k for k in ("findings", "control", "validation") if k in name), None)
+            kind = next((k for k in ("findings", "control", "validation", "results") if k in name), None)
             if kind is None:
-                raise InputFileError(f"{p}: unknown JSON input: name it *findings*.json, "
+                raise InputFileError(f"{p}: unknown JSON input: name it *findings*.json, *results*.json, "
                                      "*control*.json or *validation*.json, or use --control / "
                                      "--validation")
             found[kind] = p
@@ -80,6 +81,10 @@ def report_cmd(
     from vehval.io.parquet import read_test
     from vehval.report import build_reports, load_json, write_report
 
+    from vehval.io.paths import check_outputs
+
+    if output is not None:
+        check_outputs(outfile=output, inputs=[*inputs, control, validation, raw])
     found = collect_inputs(list(inputs))
     for kind, path in (("control", _existing(control, "control.json")),
                        ("validation", _existing(validation, "validation.json"))):
@@ -90,10 +95,12 @@ def report_cmd(
     qa = load_json(found["findings"]) if "findings" in found else None
     ctl = load_json(found["control"]) if "control" in found else None
     val = load_json(found["validation"]) if "validation" in found else None
+    res = load_json(found["results"]) if "results" in found else None
     if output is None:
         base = inputs[0] if inputs[0].is_dir() else found["test"].parent
         output = base / "report.html"
-    kw = {"vehicle": vehicle, "control": ctl, "validation": val, "title": title, "raw": raw_test}
+    kw = {"vehicle": vehicle, "control": ctl, "validation": val, "title": title, "raw": raw_test,
+          "results": res}
     if excel:
         paths = build_reports(output.parent, test, qa, html_name=output.name, **kw)
     else:

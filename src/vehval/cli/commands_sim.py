@@ -71,8 +71,12 @@ def simulate_cmd(
     """Simulate a vehicle over a drive cycle (forward-looking, state-machine controller)."""
     from vehval.cli.options import parse_assignments
     from vehval.errors import ConfigError
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.sim.simulate import simulate
 
+    if outdir is not None:
+        check_outputs(outdir=outdir, inputs=[vehicle_path(vehicle), vehicle_path(cycle)],
+                      writes=["summary.json", "signals.parquet"])
     overrides = parse_assignments(set_, "--set", "controller.soc_target=0.55")
     for key, val in overrides.items():
         if isinstance(val, bool) or not isinstance(val, (int, float)):

@@ -43,8 +43,10 @@ def synth_cmd(
         _synth_conventional(veh, cycle, seed, faults, out, control, param, as_json)
         return
 
-    if out.exists() and not out.is_dir():
-        raise VehvalError(f"output '{out}' exists and is not a directory: choose another -o")
+    from vehval.io.paths import check_outputs, vehicle_path
+
+    check_outputs(outdir=out, inputs=[vehicle_path(vehicle), vehicle_path(cycle),
+                                      vehicle_path(faults)])
     if out.is_dir() and any(out.iterdir()) and not is_virtual_test_dir(out) and not force:
         raise VehvalError(f"output directory '{out}' is not empty and holds no virtual test: "
                           "choose an empty directory or pass --force")

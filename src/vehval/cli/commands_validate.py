@@ -8,17 +8,27 @@ Test grouping (see :mod:`vehval.workflow`): each directory is one test, each
 from __future__ import annotations
 
 import json
-import re
+import math
 from pathlib import Path
 
 import typer
 
 from vehval.cli import app
 from vehval.errors import ConfigError
+from vehval.io.paths import check_outputs, sanitize_id, vehicle_path
 
 
-def _slug(text: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]+", "_", text).strip("_") or "test"
+def _pct(value, digits: int, unit: str = " %") -> str:
+    """A percentage for the terminal; ``n/a`` when the test cannot give it (no fuel, no SOC)."""
+    if value is None or not math.isfinite(float(value)):
+        return "n/a"
+    return f"{float(value):.{digits}f}{unit}"
+
+
+def _cycle(cycle: str | None, rung: str | None = None) -> str:
+    """``udds, high_transient``; ``no cycle identified`` instead of an empty name."""
+    name = cycle or "no cycle identified"
+    return f"{name}, {rung}" if rung and cycle else name
 
 
 def _params(text: str | None) -> list[str]:
@@ -58,33 +68,40 @@ def validate_cmd(
 
     if not files and not test_group:
         raise ConfigError("no test given: name test directories or files, or use --test A,B")
+    check_outputs(outdir=output, inputs=[*(files or []), template, vehicle_path(vehicle)],
+                  writes=["validation.json", "metrics.json", "report.html", "tables.xlsx"])
     runs = runs_from_args(files or [], test_group, template, vehicle, use_qa=not no_qa)
     suite = validate_runs(runs, _tolerances(fuel_tol, soc_tol, soc_points), dt=dt,
                           window_s=window_s, smooth_hz=smooth_hz)
     metrics, lad = suite.metrics, suite.ladder
-    with atomic_dir(output) as stage:
+    with atomic_dir(output) as stage:      # every output of the run, reports included
         (stage / "validation.json").write_text(dumps(suite.payload), encoding="utf-8")
         (stage / "metrics.json").write_text(dumps(metrics), encoding="utf-8")
         for v in suite.validations:
             comp = v.validation.comparison
-            comp.overlays.to_parquet(stage / f"overlays_{_slug(comp.test_id)}.parquet", index=False)
-    if report:
-        from vehval.report import results_beside
+            comp.overlays.to_parquet(stage / f"overlays_{sanitize_id(comp.test_id)}.parquet",
+                                     index=False)
+        if report:
+            from vehval.report import results_beside
 
-        for run, v in zip(runs, suite.validations):
-            tid = v.validation.comparison.test_id
-            sub = output if len(runs) == 1 else output / _slug(tid)
-            # a validated test from `vehval qa` / `analyze`: its findings and control.json
-            found = results_beside(run.origin) if run.qa_outcome is None else {}
-            run.report(sub, qa=found.get("findings"), control=found.get("control"),
-                       validation=v.payload(), title=f"Validation report: {tid}")
+            for run, v in zip(runs, suite.validations):
+                tid = v.validation.comparison.test_id
+                sub = stage if len(runs) == 1 else stage / sanitize_id(tid)
+                # a validated test from `vehval qa` / `analyze`: its findings and control.json
+                found = results_beside(run.origin) if run.qa_outcome is None else {}
+                run.report(sub, qa=found.get("findings"), control=found.get("control"),
+                           validation=v.payload(), title=f"Validation report: {tid}")
     if as_json:
         typer.echo(dumps(metrics), nl=False)
         return
+    for v in suite.validations:
+        m = v.validation.match
+        if m is not None and not m.matches:
+            typer.echo(f"warning: {m.message()}", err=True)
     for e in lad.entries:
-        typer.echo(f"{e.test_id} ({e.cycle}, {e.rung}): fuel {e.errors['fuel_pct']:.2f} %, "
-                   f"SOC {e.errors['soc_pct']:.2f} %, engine state agreement "
-                   f"{e.errors['engine_on_agreement_pct']:.1f} %: {'pass' if e.passed else 'FAIL'}")
+        typer.echo(f"{e.test_id} ({_cycle(e.cycle, e.rung)}): fuel {_pct(e.errors['fuel_pct'], 2)}, "
+                   f"SOC {_pct(e.errors['soc_pct'], 2)}, engine state agreement "
+                   f"{_pct(e.errors['engine_on_agreement_pct'], 1)}: {'pass' if e.passed else 'FAIL'}")
     typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
 
 
@@ -118,8 +135,14 @@ def calibrate_cmd(
 
     if not files and not test_group:
         raise ConfigError("no tuning test given: name test directories or files, or use --test A,B")
-    names = _params(params)
+    check_outputs(outdir=output, inputs=[*(files or []), template, vehicle_path(vehicle), start],
+                  writes=["calibration.json", "vehicle_calibrated.yaml"])
     veh = load_vehicle(vehicle)
+    if veh.architecture == "conventional":
+        _calibrate_conventional(veh, files, test_group, holdout, template, params, output,
+                                as_json)
+        return
+    names = _params(params)
     tests = [r.validated for r in runs_from_args(files or [], test_group, template, veh,
                                                  use_qa=not no_qa)]
     hold = [TestRun.from_paths([Path(x.strip()) for x in h.split(",") if x.strip()], template, veh,
@@ -144,8 +167,46 @@ def calibrate_cmd(
     for n in res.parameters:
         typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}")
     for row in res.rows():
-        typer.echo(f"{row[0]} ({row[1]}): fuel error {row[2]:.2f} -> {row[3]:.2f} %, "
-                   f"SOC error {row[4]:.2f} -> {row[5]:.2f} %")
+        typer.echo(f"{row[0]} ({_cycle(row[1])}): fuel error {_pct(row[2], 2, '')} -> "
+                   f"{_pct(row[3], 2)}, SOC error {_pct(row[4], 2, '')} -> {_pct(row[5], 2)}")
+    typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
+               f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
+    typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")
+
+
+def _calibrate_conventional(veh, files, test_group, holdout, template, params, output,
+                            as_json) -> None:
+    """Conventional car: every file (or --test group) is one test; fuel is the objective."""
+    from vehval.identify.build import write_vehicle
+    from vehval.identify.calibrate import DEFAULT_PARAMS, calibrate_conventional
+    from vehval.identify.traces import trace_from_test
+    from vehval.io.atomic import atomic_dir
+    from vehval.jsonsafe import dumps
+    from vehval.workflow import TestRun
+
+    if template is None:
+        raise ConfigError("calibrate: give the import template with -t for a conventional car")
+    groups = [[f] for f in (files or [])] + [[Path(x.strip()) for x in g.split(",") if x.strip()]
+                                            for g in test_group]
+    hybrid_default = "controller.engine_on_power_w"
+    names = (list(DEFAULT_PARAMS) if params.startswith(hybrid_default)
+             else [p.strip() for p in params.split(",") if p.strip()])
+    tune = [trace_from_test(TestRun.load(g, template, use_qa=False).test) for g in groups]
+    hold = [trace_from_test(TestRun.load([Path(x.strip()) for x in h.split(",") if x.strip()],
+                                         template, use_qa=False).test) for h in holdout]
+    res = calibrate_conventional(veh, tune, names, hold)
+    doc = res.to_dict()
+    with atomic_dir(output) as stage:
+        (stage / "calibration.json").write_text(dumps(doc) + "\n", encoding="utf-8")
+        write_vehicle(res.vehicle, stage / "vehicle_calibrated.yaml")
+    if as_json:
+        typer.echo(dumps(doc), nl=False)
+        return
+    for n in res.parameters:
+        typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}")
+    for row in res.tests:
+        typer.echo(f"{row['test']} ({row['role']}): fuel error {100 * row['error_rel_before']:+.2f}"
+                   f" -> {100 * row['error_rel_after']:+.2f} %")
     typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
                f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
     typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")

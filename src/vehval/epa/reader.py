@@ -18,6 +18,7 @@ from typing import Any
 
 from vehval.constants import LB_KG, LBF_N, MILE_M, MPH_M_PER_S
 from vehval.errors import InputFileError
+from vehval.io.paths import check_input_file
 
 #: One mechanical horsepower [W] (550 ft·lbf/s).
 HP_W = 745.69987158227022
@@ -166,6 +167,7 @@ def _cell(row: list[str], index: dict[str, int], col: str) -> str:
 
 
 def _decode(path: Path) -> str:
+    check_input_file(path, "test car list (CSV)")
     try:
         raw = path.read_bytes()
     except OSError as exc:

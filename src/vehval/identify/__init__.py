@@ -7,7 +7,12 @@ tests with the model; :mod:`.report` shows the fits. Above the simulator in the 
 
 from vehval.identify.build import Identification, identify_conventional, write_vehicle
 from vehval.identify.predict import predict_trace
-from vehval.identify.traces import IdentificationError, Trace, load_traces, trace_from_test
+from vehval.identify.traces import (
+           IdentificationError,
+           Trace,
+           load_traces,
+           trace_from_test,
+)
 
 __all__ = ["Identification", "IdentificationError", "Trace", "identify_conventional",
            "load_traces", "predict_trace", "trace_from_test", "write_vehicle"]

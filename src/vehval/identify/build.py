@@ -9,6 +9,7 @@ curve above the measured envelope, inertias, efficiencies) name their documented
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -17,8 +18,15 @@ import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.identify.fuelmap import FuelMapFit, engine_power, fit_fuel_map
-from vehval.identify.gears import (GearFit, assign_gears, converter_capacity, find_gears,
-                                   lockup_speeds, shift_events, shift_lines)
+from vehval.identify.gears import (
+    GearFit,
+    assign_gears,
+    converter_capacity,
+    find_gears,
+    lockup_speeds,
+    shift_events,
+    shift_lines,
+)
 from vehval.identify.roadload import RoadLoadFit, fit_road_load
 from vehval.identify.traces import IdentificationError, Trace
 from vehval.io.atomic import write_text_atomic
@@ -247,7 +255,7 @@ def _shift_time(traces, gears, locks) -> float:
     durs = []
     for t, g, lk in zip(traces, gears, locks):
         idx = np.nonzero(lk)[0]
-        for i, j in zip(idx[:-1], idx[1:]):
+        for i, j in itertools.pairwise(idx):
             if g[j] == g[i] + 1 and j - i > 1:
                 durs.append((j - i) * t.dt)
     durs = [d for d in durs if d <= 3.0]

@@ -83,7 +83,7 @@ def _meter(x: np.ndarray, dt: float, delay_s: float, tau_s: float) -> np.ndarray
     if tau_s > 0:
         a = dt / (tau_s + dt)
         y = lfilter([a], [1.0, a - 1.0], x, axis=0, zi=(1 - a) * x[:1])[0]
-    k = int(round(delay_s / dt))
+    k = round(delay_s / dt)
     if k:
         y = np.vstack([np.repeat(y[:1], k, axis=0), y[:-k]])
     return y
@@ -149,7 +149,7 @@ def fit_fuel_map(traces: list[Trace], powers: list[np.ndarray], idle_rad_s: floa
     for tr, x, y, m in zip(traces, xs, ys, masks):
         pred = x @ th
         err[tr.test_id] = float((pred.sum() - y.sum()) / y.sum())
-        n5 = int(round(5.0 / tr.dt))
+        n5 = round(5.0 / tr.dt)
         k = (y.size // n5) * n5
         means_m.append(y[:k].reshape(-1, n5).mean(axis=1))
         means_p.append(pred[:k].reshape(-1, n5).mean(axis=1))
@@ -158,7 +158,7 @@ def fit_fuel_map(traces: list[Trace], powers: list[np.ndarray], idle_rad_s: floa
     fired_w = np.concatenate([tr.w_eng[(p > 0) & (tr.v > STANDING_MPS)]
                               for tr, p in zip(traces, powers)])
     fired_p = np.concatenate([p[(p > 0) & (tr.v > STANDING_MPS)] for tr, p in zip(traces, powers)])
-    k = int(round(best[0] / traces[0].dt))
+    k = round(best[0] / traces[0].dt)
     pts_f = np.concatenate([np.r_[tr.fuel[k:], np.full(k, np.nan)][(p > 0) & (tr.v > STANDING_MPS)]
                             for tr, p in zip(traces, powers)])
     return FuelMapFit(willans={k_: float(v) for k_, v in _unscale(th).items()},

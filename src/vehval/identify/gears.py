@@ -140,7 +140,7 @@ def assign_gears(tr: Trace, ratios: np.ndarray, wheel_radius_m: float,
         else:
             last = 0
     # remove short dwells (transients while the ratio sweeps across a gear during a shift)
-    n_min = int(round(MIN_DWELL_S / tr.dt))
+    n_min = round(MIN_DWELL_S / tr.dt)
     i = 0
     while i < gear.size:
         j = i
@@ -205,10 +205,10 @@ def shift_events(tr: Trace, gear: np.ndarray, p_max_w: float, lag_s: float,
     bands while the engine idles is no shift).
     """
     f = np.interp(tr.t + lag_s, tr.t, tr.force)
-    load = np.clip(smooth(f * tr.v, int(round(1.0 / tr.dt))) / p_max_w, 0.0, 1.0)
+    load = np.clip(smooth(f * tr.v, round(1.0 / tr.dt)) / p_max_w, 0.0, 1.0)
     ev = []
     idx = np.nonzero((gear[1:] != gear[:-1]) & (gear[1:] > 0) & (gear[:-1] > 0))[0]
-    n2 = int(round(2.0 / tr.dt))
+    n2 = round(2.0 / tr.dt)
     for i in idx:
         if locked is not None:
             before = slice(max(i - n2, 0), i + 1)
@@ -216,7 +216,7 @@ def shift_events(tr: Trace, gear: np.ndarray, p_max_w: float, lag_s: float,
             if not (np.any(locked[before] & (gear[before] == gear[i]))
                     and np.any(locked[after] & (gear[after] == gear[i + 1]))):
                 continue
-        k = max(i - int(round(0.5 / tr.dt)), 0)   # load just before the shift
+        k = max(i - round(0.5 / tr.dt), 0)   # load just before the shift
         ev.append((int(gear[i]), int(gear[i + 1]), float(tr.v[i]), float(load[k])))
     return ev
 

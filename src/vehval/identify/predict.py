@@ -1,7 +1,8 @@
 """Predict a measured test with a vehicle model: its own speed trace, fuel per phase.
 
 The model drives the test's measured speed trace (from time 0) at the trace's step; the
-fuel it burns is compared with the measured fuel over the whole test and per phase.
+fuel it burns is compared with the measured fuel over the test proper (every numbered
+phase; samples of phase 0, a soak between runs, are left out) and per phase.
 Measured fuel is the integral of the fuel-rate signal; the meter's delay (a second or
 two) moves a few grams across phase borders, which is why the whole-test figure is the
 headline.
@@ -41,7 +42,10 @@ def predict_trace(vehicle, trace: Trace) -> dict:
         mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
         phases.append({"phase": int(p), "measured_g": mg, "predicted_g": pg,
                        "error_rel": pg / mg - 1 if mg > 0 else float("nan")})
-    mg, pg = float(fuel_meas.sum() * dt * 1e3), float(fuel_sim.sum() * dt * 1e3)
+    # the test proper: its phases when the file numbers them (phase 0 between runs is a
+    # soak, often with the engine off, which the model cannot know), else everything
+    sel = phase > 0 if np.any(phase > 0) else np.ones(phase.size, dtype=bool)
+    mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
     return {"test": trace.test_id, "cycle": trace.cycle, "amb_temp_c": trace.amb_temp_c,
             "fuel_measured_g": mg, "fuel_predicted_g": pg,
             "error_rel": pg / mg - 1 if mg > 0 else float("nan"), "phases": phases,

@@ -68,7 +68,7 @@ def smooth(x: np.ndarray, n: int) -> np.ndarray:
 
 def acceleration(v: np.ndarray, dt: float, window_s: float = 0.5) -> np.ndarray:
     """Acceleration [m/s^2]: centred average over ``window_s``, then central difference."""
-    return np.gradient(smooth(v, max(int(round(window_s / dt)), 1)), dt)
+    return np.gradient(smooth(v, max(round(window_s / dt), 1)), dt)
 
 
 def _pick(test: Test, base: str):
@@ -116,6 +116,10 @@ def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
 
 
 def load_traces(files: list[str | Path], template, dt: float = 0.1) -> list[Trace]:
-    """Import every file as one test with ``template`` and return their traces."""
-    from vehval.io.importer import import_test
-    return [trace_from_test(import_test([f], template), dt) for f in files]
+    """Load every file as one test with ``template`` (the workflow's
+    :meth:`~vehval.workflow.TestRun.load`, its time-repair policy included) and return
+    their traces. Identification reads the imported signals as they are (no QA selection):
+    the fuel and force channels it needs must not be dropped for a QA finding."""
+    from vehval.workflow import TestRun
+    return [trace_from_test(TestRun.load([f], template, use_qa=False).test, dt)
+            for f in files]

@@ -363,7 +363,8 @@ def identify_cycle(time_s: Any, speed_mps: Any, *, cycles: list[str] | None = No
         moving time on plateaus for a steady test, 0 when nothing matched.
     details : dict
         ``method`` ("cycle", "steady" or None), ``cycle``, ``repeats``, ``rms_mps``,
-        ``offset_s`` (record time of the cycle's t = 0 [s]), ``offsets_s``, ``coverage``,
+        ``offset_s`` (record time of the cycle's t = 0 [s]), ``offsets_s``, ``windows_s``
+        (record-time [start, end] of each matched piece, 1 s resolution), ``coverage``,
         ``explained``, ``split_by_soak``, ``plateaus`` ([start s, end s, speed m/s]),
         ``candidates`` (the best few cycles tried, with their figures) and ``reason`` (why
         nothing matched).
@@ -396,7 +397,8 @@ def identify_cycle(time_s: Any, speed_mps: Any, *, cycles: list[str] | None = No
                    key=lambda m: (m.repeats, m.rms_mps))
         score = best.explained * max(0.0, 1.0 - best.rms_mps / max_rms_mps)
         details.update(best.summary())
-        details.update(method="cycle", offset_s=_r(best.offsets_s[0], 1))
+        details.update(method="cycle", offset_s=_r(best.offsets_s[0], 1),
+                       windows_s=[[_r(g.t0 + a, 1), _r(g.t0 + b, 1)] for a, b in best.windows])
         return best.name, _r(score, 3), details
     name, frac, plats = _steady(g)
     details["plateaus"] = [[_r(a, 1), _r(b, 1), _r(v, 3)] for a, b, v in plats]

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from vehval.errors import ConfigError, InputFileError, UnitError
+from vehval.io.paths import check_input_file
 from vehval.io.propose import entry_for_file, find_channel
 from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
@@ -134,6 +135,9 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
     meta = test.meta
     notes = [f"{path.name}: {n}" for n in raw.notes]
     density = t.constants.fuel_density_kg_per_m3
+    if density is None and t.fuel is not None:
+        from vehval.results.fuels import fuel_properties
+        density = fuel_properties(t.fuel).density_kg_per_m3
     t_shared, order, time_col = _shared_time(raw, spec, idx, path, repair, notes)
     mapped: set[str] = set()
     missing: list[str] = []
@@ -292,8 +296,7 @@ def import_test(files: list[str | Path] | str | Path, template: Template | str |
     test = Test(meta=meta)
     used: dict[int, Path] = {}
     for path in paths:
-        if not path.exists():
-            raise InputFileError(f"{path}: file not found: check the path")
+        check_input_file(path)       # a directory, unreadable file or PDF: one clear line
         idx = entry_for_file(t, path)
         if idx is None:
             globs = ", ".join(repr(f.match) for f in t.files)

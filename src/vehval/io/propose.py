@@ -326,9 +326,32 @@ class CheckReport:
         return not self.errors
 
     def format(self) -> str:
-        lines = [f"error: {e}" for e in self.errors] + [f"warning: {w}" for w in self.warnings]
-        lines.append(f"{len(self.errors)} error(s), {len(self.warnings)} warning(s)")
+        """One line per distinct problem: the same problem in several files is said once,
+        with the files it concerns."""
+        errors, warnings = _merge_files(self.errors), _merge_files(self.warnings)
+        lines = [f"error: {e}" for e in errors] + [f"warning: {w}" for w in warnings]
+        lines.append(f"{len(errors)} error(s), {len(warnings)} warning(s)")
         return "\n".join(lines)
+
+
+def _merge_files(messages: list[str], shown: int = 3) -> list[str]:
+    """``a.txt: X`` and ``b.txt: X`` -> ``a.txt, b.txt: X`` (order of first appearance)."""
+    by_text: dict[str, list[str]] = {}
+    for m in messages:
+        name, sep, text = m.partition(": ")
+        key = text if sep else m
+        by_text.setdefault(key, [])
+        if sep and name not in by_text[key]:
+            by_text[key].append(name)
+    out = []
+    for text, names in by_text.items():
+        if not names:
+            out.append(text)
+            continue
+        head = ", ".join(names[:shown]) + (f" and {len(names) - shown} more file(s)"
+                                           if len(names) > shown else "")
+        out.append(f"{head}: {text}")
+    return out
 
 
 def check_template(template: Template | str | Path, files: list[str | Path]) -> CheckReport:

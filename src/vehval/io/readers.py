@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from vehval.errors import InputFileError
+from vehval.io.paths import check_input_file
 from vehval.io.raw import RawTable
 
 __all__ = ["RawTable", "read_raw", "detect_format", "FORMATS"]
@@ -81,8 +82,7 @@ def read_raw(path: str | Path, fmt: str = "auto", **opts) -> RawTable:
     path = Path(path)
     if fmt not in FORMATS:
         raise InputFileError(f"{path}: unknown format '{fmt}': use one of {', '.join(FORMATS)}")
-    if not path.exists():
-        raise InputFileError(f"{path}: file not found: check the path")
+    check_input_file(path)
     if fmt == "auto":
         fmt = detect_format(path)
     opts = {k: v for k, v in opts.items() if v is not None}

@@ -14,8 +14,17 @@ from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import (BaseModel, ConfigDict, Field, PositiveFloat, PrivateAttr, ValidationError,
-                      field_validator, model_validator)
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    NonNegativeFloat,
+    PositiveFloat,
+    PrivateAttr,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from vehval.errors import ConfigError, SignalError, UnitError
 from vehval.io.atomic import write_text_atomic
@@ -23,8 +32,20 @@ from vehval.nomenclature import registry
 from vehval.safe_yaml import read_yaml
 from vehval.units import conversion, parse_unit, ureg
 
-__all__ = ["ChannelSpec", "TimeSpec", "ReadOptions", "FileSpec", "Constants", "Selection",
-           "Template", "load_template", "format_loc", "semantic_errors"]
+__all__ = [
+    "AccuracySpec",
+    "ChannelSpec",
+    "Constants",
+    "FileSpec",
+    "FuelSpec",
+    "ReadOptions",
+    "Selection",
+    "Template",
+    "TimeSpec",
+    "format_loc",
+    "load_template",
+    "semantic_errors",
+]
 
 
 class _Strict(BaseModel):
@@ -52,7 +73,7 @@ class TimeSpec(_Strict):
     start_s: float = 0.0
 
     @model_validator(mode="after")
-    def _one_source(self) -> "TimeSpec":
+    def _one_source(self) -> TimeSpec:
         if self.column is not None and self.rate_hz is not None:
             raise ValueError("give either 'column' or 'rate_hz', not both")
         return self
@@ -86,7 +107,7 @@ class ChannelSpec(_Strict):
     reason: str | None = None
 
     @model_validator(mode="after")
-    def _named(self) -> "ChannelSpec":
+    def _named(self) -> ChannelSpec:
         if not self.delete and not self.name:
             raise ValueError("give the standard 'name' or set 'delete: true' with a 'reason'")
         return self
@@ -123,6 +144,7 @@ class Constants(_Strict):
     wheel_radius_m: PositiveFloat | None = None
     final_drive_ratio: PositiveFloat | None = None
     inertia_fraction: float | None = None
+    soc_correction_fuel_j_per_battery_j: PositiveFloat | None = None
 
 
 class Selection(_Strict):
@@ -130,6 +152,57 @@ class Selection(_Strict):
 
     keep: list[str] = Field(default_factory=list)
     drop: dict[str, str] = Field(default_factory=dict)
+
+
+class FuelSpec(_Strict):
+    """Explicit fuel properties (or a table ``name`` whose values the explicit ones override).
+
+    Attributes
+    ----------
+    name : str, optional
+        A fuel of the packaged table (``vehval/data/fuels.yaml``).
+    density_kg_per_m3 : float, optional
+        Density [kg/m^3].
+    lhv_j_per_kg : float, optional
+        Lower heating value [J/kg].
+    carbon_mass_fraction : float, optional
+        Carbon mass per fuel mass, 0 < x <= 1 [-].
+    """
+
+    name: str | None = None
+    density_kg_per_m3: PositiveFloat | None = None
+    lhv_j_per_kg: PositiveFloat | None = None
+    carbon_mass_fraction: float | None = Field(default=None, gt=0.0, le=1.0)
+
+
+class AccuracySpec(_Strict):
+    """Declared accuracy of one channel: a limit of error held over the test.
+
+    Attributes
+    ----------
+    reading_pct : float
+        Error limit proportional to the reading [% of reading].
+    full_scale_pct : float
+        Error limit as a share of ``full_scale`` [% of full scale].
+    full_scale : float, optional
+        Full scale of the instrument, in ``unit``.
+    offset : float
+        Zero-offset error limit, in ``unit``.
+    unit : str, optional
+        Unit of ``full_scale`` and ``offset`` (default: the signal's SI unit).
+    """
+
+    reading_pct: NonNegativeFloat = 0.0
+    full_scale_pct: NonNegativeFloat = 0.0
+    full_scale: NonNegativeFloat | None = None
+    offset: NonNegativeFloat = 0.0
+    unit: str | None = None
+
+    @model_validator(mode="after")
+    def _scale_given(self) -> AccuracySpec:
+        if self.full_scale_pct and self.full_scale is None:
+            raise ValueError("'full_scale_pct' needs 'full_scale' (in 'unit')")
+        return self
 
 
 class Template(_Strict):
@@ -145,6 +218,15 @@ class Template(_Strict):
     synthetic : bool
         The files are virtual-dyno output (``vehval synth``), not measurements: sets
         ``Test.meta.synthetic`` so reports show the virtual-test banner.
+    fuel : str or FuelSpec, optional
+        The test fuel: a name of the fuel table (``diesel``, ``gasoline_e10``...) or explicit
+        properties. Without it, no volume-based result (mpg, L/100 km) is given.
+    accuracy : dict
+        Standard signal name -> :class:`AccuracySpec`; signals without one get the documented
+        default of their class, flagged as assumed (docs/results.md).
+    phase_channel : str, optional
+        Standard name of the signal holding the test phase (bag) number; default
+        ``test_phase_test`` when the template maps it.
     """
 
     template_version: Literal[1] = 1
@@ -155,6 +237,9 @@ class Template(_Strict):
     constants: Constants = Field(default_factory=Constants)
     files: list[FileSpec] = Field(min_length=1)
     selection: Selection = Field(default_factory=Selection)
+    fuel: str | FuelSpec | None = None
+    accuracy: dict[str, AccuracySpec] = Field(default_factory=dict)
+    phase_channel: str | None = None
     _path: Path | None = PrivateAttr(default=None)
     _todo: list[str] = PrivateAttr(default_factory=list)
 
@@ -185,20 +270,39 @@ class Template(_Strict):
         """YAML text of the template (defaults left out, one flow mapping per channel)."""
         data = self.model_dump(mode="json", exclude_defaults=True)
         out: dict[str, Any] = {"template_version": 1}
-        for key in ("vehicle", "cycle", "synthetic", "description", "constants", "files",
-                    "selection"):
+        for key in ("vehicle", "cycle", "synthetic", "description", "fuel", "phase_channel",
+                    "constants", "accuracy", "files", "selection"):
             if key in data:
                 out[key] = data[key]
         for f in out.get("files", []):
             f["channels"] = {k: _Flow(v) for k, v in f.get("channels", {}).items()}
             if "time" in f:
                 f["time"] = _Flow(f["time"])
+        if "accuracy" in out:
+            out["accuracy"] = {k: _Flow(v) for k, v in out["accuracy"].items()}
         return yaml.dump(out, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
 
-    def save(self, path: str | Path) -> Path:
-        """Write the template as YAML (no comments), atomically."""
+    def mapped_names(self) -> set[str]:
+        """Standard names the template's channels map to (deleted channels left out)."""
+        return {ch.name for f in self.files for ch in f.channels.values()
+                if not ch.delete and ch.name}
+
+    def save(self, path: str | Path, *, placeholders: bool = False) -> Path:
+        """Write the template as YAML, atomically.
+
+        With ``placeholders``, keys the user should fill in and the template leaves out
+        (``fuel:``) are written as commented lines saying what to put there.
+        """
         path = Path(path)
-        write_text_atomic(path, self.to_yaml())
+        text = self.to_yaml()
+        if placeholders and self.fuel is None:
+            from vehval.results.fuels import known_fuels
+            text = ("# fuel: declare the test fuel, e.g. 'fuel: diesel' (known: "
+                    f"{', '.join(known_fuels())}),\n"
+                    "# or 'fuel: {density_kg_per_m3: ..., lhv_j_per_kg: ..., carbon_mass_fraction: ...}'.\n"
+                    "# Without it no volume-based result (mpg, L/100 km) is given.\n"
+                    "# fuel: diesel\n") + text
+        write_text_atomic(path, text)
         return path
 
 
@@ -319,6 +423,34 @@ def semantic_errors(t: Template) -> list[str]:
             reg.parse(name)
         except SignalError as exc:
             errors.append(f"selection: {exc}")
+    errors.extend(_results_errors(t, seen))
+    return errors
+
+
+def _results_errors(t: Template, mapped: dict[str, str]) -> list[str]:
+    """Checks of the results keys: fuel known, accuracy and phase channel on mapped signals."""
+    from vehval.errors import VehvalError
+    from vehval.results.fuels import fuel_properties
+
+    errors: list[str] = []
+    try:
+        fuel_properties(t.fuel)
+    except VehvalError as exc:
+        errors.append(str(exc))
+    names = ", ".join(sorted(mapped)) or "none"
+    for name, acc in t.accuracy.items():
+        if name not in mapped:
+            errors.append(f"accuracy.{name}: the template maps no channel to '{name}' "
+                          f"(mapped: {names}): use one of those names or remove the entry")
+            continue
+        if acc.unit is not None:
+            try:
+                conversion(acc.unit, registry().spec_of(name).unit)
+            except (UnitError, SignalError) as exc:
+                errors.append(f"accuracy.{name}.unit: {exc}")
+    if t.phase_channel is not None and t.phase_channel not in mapped:
+        errors.append(f"phase_channel: the template maps no channel to '{t.phase_channel}' "
+                      f"(mapped: {names})")
     return errors
 
 
@@ -334,6 +466,8 @@ def load_template(path: str | Path) -> Template:
     path = Path(path)
     if not path.exists():
         raise ConfigError(f"{path}: template file not found")
+    if path.is_dir():
+        raise ConfigError(f"{path}: is a directory, a template YAML file is expected")
     data = read_yaml(path)
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a template must be a YAML mapping with 'files:' "
@@ -369,4 +503,4 @@ def __getattr__(name: str):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-__all__ += ["propose_template", "check_template"]
+__all__ += ["check_template", "propose_template"]

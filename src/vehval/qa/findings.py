@@ -56,6 +56,10 @@ class Kind(str, Enum):
     # level 3: measured vs calculated
     CALC_MISMATCH = "calc_mismatch"
     FUEL_MAP = "fuel_map"                # fuel meter against the engine fuel map
+    UNIT_SUSPECT = "unit_suspect"        # physics points at a wrong unit in the template
+    # results stage (level 4): results and their inputs
+    RESULTS = "results"                  # a result cannot be given or needs attention
+    DRIVE_QUALITY = "drive_quality"      # driver outside the SAE J2951 tolerances
 
 
 LEVEL_OF_KIND = {
@@ -67,6 +71,9 @@ LEVEL_OF_KIND = {
     Kind.ALIGNMENT: 0,
     Kind.CALC_MISMATCH: 3,
     Kind.FUEL_MAP: 3,
+    Kind.UNIT_SUSPECT: 3,
+    Kind.RESULTS: 4,
+    Kind.DRIVE_QUALITY: 4,
 }
 
 
@@ -89,7 +96,7 @@ class Finding:
     numbers : dict
         The numbers behind it (e.g. ``value``, ``limit``, ``count``), SI units.
     level : int
-        QA level (0 alignment, 1, 2, 3).
+        QA level (0 alignment, 1, 2, 3; 4 the results stage).
     related : list of str
         Other signals involved (the other source, the calculated signal...).
     """

@@ -18,6 +18,7 @@ from vehval.qa.fuelmap import FuelMapOptions, fuel_map_check
 from vehval.qa.level1 import Level1Options, corroborate_spikes_with_calc, run_level1
 from vehval.qa.level2 import Level2Options, PairComparison, run_level2
 from vehval.qa.level3 import CalcComparison, Level3Options, run_checks, run_level3
+from vehval.qa.plausibility import run_plausibility
 from vehval.qa.select import Selection, select_signals
 from vehval.test import Test
 
@@ -229,6 +230,7 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     fuel_rows, ff = fuel_map_check(work, vehicle, findings, calc.computed, fuel_map)
     checks += fuel_rows
     findings += ff
+    findings += run_plausibility(work, table3, template, vehicle)
     pvals = {k: v["value"] for k, v in calc.parameters.items() if v.get("value") is not None}
     selection = select_signals(work, findings, table2, table3, user_keep, user_drop, pvals)
     validated = _validated_test(work, selection, calc, vehicle, calc_set, constants, bad, notes)

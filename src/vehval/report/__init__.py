@@ -36,7 +36,7 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
                   vehicle: Any = None, control: Any = None, validation: dict | None = None,
                   *, title: str | None = None, html_name: str = "report.html",
                   excel_name: str = "tables.xlsx", raw: Test | None = None,
-                  plotly_js: str = INLINE) -> dict[str, Path]:
+                  plotly_js: str = INLINE, results: Any = None) -> dict[str, Path]:
     """Write ``report.html`` and ``tables.xlsx`` into ``outdir``.
 
     Both files are staged and moved in only when both succeeded, so a failed run leaves
@@ -50,7 +50,7 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
         Validated test.
     qa : dict or QAResult or None
         QA result (``findings.json`` structure).
-    template, vehicle, control, validation, title, raw, plotly_js
+    template, vehicle, control, validation, title, raw, plotly_js, results
         As for :func:`write_report`; the control and validation tables also get their own
         sheets in the workbook.
 
@@ -61,8 +61,9 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
     """
     outdir = Path(outdir)
     html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
-                         validation=validation, title=title, raw=raw, plotly_js=plotly_js)
-    with atomic_dir(outdir) as stage:
+                         validation=validation, title=title, raw=raw, plotly_js=plotly_js,
+                         results=results)
+    with atomic_dir(outdir, whole=False) as stage:
         (stage / html_name).write_text(html, encoding="utf-8")
         write_tables(stage / excel_name, qa, test, control=control, validation=validation)
     return {"report": outdir / html_name, "tables": outdir / excel_name}

@@ -40,10 +40,10 @@ def scatter_svg(val: EpaValidation, size: int = 420) -> str:
     def sy(y):
         return size - m - (y - lo) / (hi - lo) * (size - 2 * m)
 
-    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" '
-           'font-family="sans-serif" font-size="11">',
-           f'<rect x="{m}" y="{m}" width="{size - 2 * m}" height="{size - 2 * m}" '
-           'fill="none" stroke="#888"/>']
+    out = [(f'<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" '
+            'font-family="sans-serif" font-size="11">'),
+           (f'<rect x="{m}" y="{m}" width="{size - 2 * m}" height="{size - 2 * m}" '
+            'fill="none" stroke="#888"/>')]
     for k, dash in ((1.0, ""), (1 + TOLERANCE, "4,3"), (1 - TOLERANCE, "4,3")):
         out.append(f'<line x1="{sx(lo):.1f}" y1="{sy(lo * k):.1f}" x2="{sx(hi):.1f}" '
                    f'y2="{sy(hi * k):.1f}" stroke="#999" stroke-dasharray="{dash}"/>')

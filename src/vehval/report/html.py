@@ -193,7 +193,8 @@ def _is_virtual(test: Test, template: Any) -> bool:
 
 def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle: Any = None,
                    control: dict | None = None, validation: dict | None = None,
-                   title: str = "", raw: Test | None = None) -> list[S.Section]:
+                   title: str = "", raw: Test | None = None,
+                   results: Any = None) -> list[S.Section]:
     """All sections of the report, in order (see :func:`write_report`)."""
     q = as_dict(qa)
     veh, vnote = resolve_vehicle(vehicle, test)
@@ -208,6 +209,9 @@ def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle:
             S.alignment_section(qt, q), S.findings_section(qt, q, limits),
             S.table2_section(qt, q), S.calculations_section(q), S.table3_section(qt, q),
             S.selection_section(q), S.signals_section(test), engineering_section(test, veh, vnote)]
+    if results is not None:
+        from vehval.report.results_view import results_section
+        secs.insert(0, results_section(as_dict(results)))
     if control is not None:
         secs.append(control_section(as_dict(control)))
     if validation is not None:
@@ -218,7 +222,7 @@ def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle:
 def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: Any = None,
                   control: dict | None = None, validation: dict | None = None,
                   title: str | None = None, raw: Test | None = None,
-                  plotly_js: str = INLINE) -> str:
+                  plotly_js: str = INLINE, results: Any = None) -> str:
     """The report as one HTML string (see :func:`write_report`)."""
     from vehval import __version__
 
@@ -226,7 +230,7 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
     m = test.meta
     title = title or f"Test report: {m.test_id or 'unnamed test'}"
     secs = build_sections(test, qa, template=template, vehicle=vehicle, control=control,
-                          validation=validation, title=title, raw=raw)
+                          validation=validation, title=title, raw=raw, results=results)
     n = 0
     for sec in secs:
         for f in sec.figures:
@@ -259,7 +263,7 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
 def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any = None,
                  vehicle: Any = None, control: dict | None = None, validation: dict | None = None,
                  title: str | None = None, raw: Test | None = None,
-                 plotly_js: str = INLINE) -> Path:
+                 plotly_js: str = INLINE, results: Any = None) -> Path:
     """Write one self-contained HTML report of a test.
 
     Parameters
@@ -291,6 +295,9 @@ def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any 
         written by :func:`write_plotly_asset`, e.g. ``"../../assets/plotly-3.1.0.min.js"``:
         the report is then ~4.8 MB smaller but needs that file beside it. URLs and
         absolute paths are refused (:class:`ConfigError`): the report must stay offline.
+    results : dict or TestResults, optional
+        ``results.json`` of the results stage: shown first (results per phase and composite
+        with their uncertainty, drive quality), before the QA sections.
 
     Returns
     -------
@@ -298,6 +305,7 @@ def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any 
         The written file.
     """
     html = render_report(test, qa, template=template, vehicle=vehicle, control=control,
-                         validation=validation, title=title, raw=raw, plotly_js=plotly_js)
+                         validation=validation, title=title, raw=raw, plotly_js=plotly_js,
+                         results=results)
     write_text_atomic(path, html)
     return Path(path)

@@ -11,8 +11,12 @@ from __future__ import annotations
 import numpy as np
 
 from vehval.constants import GALLON_US_M3, MILE_M, MPH_M_PER_S
-from vehval.sim.conventional_kernel import (CONV_PARAMS, CONV_SIGNALS, CONV_SUMMARY,
-                                            run_conventional)
+from vehval.sim.conventional_kernel import (
+    CONV_PARAMS,
+    CONV_SIGNALS,
+    CONV_SUMMARY,
+    run_conventional,
+)
 from vehval.sim.driver import tolerance_band
 from vehval.vehicle.base import RPM
 from vehval.vehicle.conventional import ConventionalVehicle
@@ -85,8 +89,8 @@ def summarise_conventional(veh: ConventionalVehicle, ys: np.ndarray) -> dict:
         "fuel_consumption_l_per_100km": float(fuel / rho * 1e3 / (dist / 1e5)) if dist > 0
         else float("nan"),
         "engine_mean_efficiency": pos / s["fuel_energy_j"] if s["fuel_energy_j"] > 0 else 0.0,
-        "trace_n_miss": int(round(s["trace_n_miss"])),
-        "gear_shifts": int(round(s["gear_shifts"])),
+        "trace_n_miss": round(s["trace_n_miss"]),
+        "gear_shifts": round(s["gear_shifts"]),
         "energy_balance_residual_j": s["fuel_energy_j"] - sinks,
         "energy_balance_rel": (s["fuel_energy_j"] - sinks) / scale,
     })

@@ -50,11 +50,11 @@ def make_conventional_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
     fuel = test["fuel_rate_simu"].values * 1e3
     a = dt / (FUEL_TAU_S + dt)
     fuel_meas = _delay(lfilter([a], [1.0, a - 1.0], fuel, zi=[(1 - a) * fuel[0]])[0],
-                       int(round(FUEL_DELAY_S / dt)))
+                       round(FUEL_DELAY_S / dt))
     cols = {
         "Dyno_Speed": test["veh_spd_simu"].values / MPH_M_PER_S,
         "Dyno_Tractive_Effort": _delay(test["veh_frc_in_simu"].values,
-                                       int(round(FORCE_DELAY_S / dt))),
+                                       round(FORCE_DELAY_S / dt)),
         "Engine_Speed": test["eng_spd_out_simu"].values * RPM,
         "Fuel_Flow_Bench_Modal": fuel_meas,
     }

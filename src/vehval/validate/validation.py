@@ -14,6 +14,7 @@ from vehval.jsonsafe import clean
 from vehval.sim.simulate import SimResult, simulate
 from vehval.test import Test
 from vehval.validate.compare import Comparison, compare, overlay_figures
+from vehval.validate.match import VehicleMatch, vehicle_match
 from vehval.validate.conditions import (
     Conditions,
     simulation_conditions,
@@ -30,6 +31,7 @@ class Validation:
     sim: SimResult
     comparison: Comparison
     overrides: dict[str, Any]
+    match: VehicleMatch | None = None
 
     def payload(self, figures: bool = True) -> dict[str, Any]:
         """The ``validation`` dict of the report: ``{tables, figures, notes}``."""
@@ -44,6 +46,8 @@ class Validation:
         d["overrides"] = dict(self.overrides)
         d["vehicle"] = self.sim.vehicle.name
         d["vehicle_file"] = self.sim.vehicle.file
+        if self.match is not None:
+            d["vehicle_match"] = self.match.to_dict()
         d["dt_s"] = self.sim.dt
         d["sim_summary"] = {k: v for k, v in self.sim.summary.items()
                             if isinstance(v, (int, float, str, bool))}
@@ -86,4 +90,7 @@ def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
     comp = compare(test, sim.test, dt=dt, window_s=window_s, on_speed_rpm=on_speed_rpm,
                    fuel_density_kg_per_m3=cond.fuel_density_kg_per_m3,
                    fuel_lhv_j_per_kg=cond.fuel_lhv_j_per_kg)
-    return Validation(conditions=cond, sim=sim, comparison=comp, overrides=ov)
+    match = vehicle_match(test, veh)
+    if not match.matches:
+        cond.notes.insert(0, f"warning: {match.message()}")
+    return Validation(conditions=cond, sim=sim, comparison=comp, overrides=ov, match=match)

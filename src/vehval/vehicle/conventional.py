@@ -139,7 +139,7 @@ class ConventionalVehicle(BaseModel):
         """Engine-to-wheel speed ratio of every gear [-] (gearbox x final drive)."""
         return np.asarray(self.gearbox.ratios, float) * self.driveline.final_drive_ratio
 
-    def with_overrides(self, overrides: dict | None) -> "ConventionalVehicle":
+    def with_overrides(self, overrides: dict | None) -> ConventionalVehicle:
         """A validated copy with parameters replaced by dotted path (``gearbox.efficiency``)."""
         from vehval.vehicle.definition import apply_overrides
         return apply_overrides(self, overrides, CONVENTIONAL_BLOCKS)

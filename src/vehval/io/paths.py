@@ -1,0 +1,167 @@
+"""One home for path policy: what a command may read, where it may write, how an id
+becomes a file name.
+
+- :func:`sanitize_id` is the only way a test id (from a folder name, a file name or any
+  metadata) becomes part of a path: ``[A-Za-z0-9._-]`` only, no leading dot, never ``..``.
+- :func:`check_input_file` / :func:`check_input_dir` refuse a directory where a file is
+  expected (and the reverse), an unreadable file and a document that is not data (PDF,
+  image, spreadsheet, archive), with one line naming the path.
+- :func:`check_outputs` refuses an output that would overwrite an input or the template in
+  use, and an output directory that is an existing file (or the reverse).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from typing import Iterable
+
+from vehval.errors import InputFileError, VehvalError
+
+_ID_BAD = re.compile(r"[^A-Za-z0-9._-]+")
+#: Longest id kept [characters] (file systems allow 255 bytes per name).
+MAX_ID_LENGTH = 120
+
+#: Leading bytes of documents that are not data files, with the name shown to the user.
+NON_DATA_MAGIC: tuple[tuple[bytes, str], ...] = (
+    (b"%PDF", "a PDF document"),
+    (b"\x89PNG", "a PNG image"),
+    (b"\xff\xd8\xff", "a JPEG image"),
+    (b"GIF8", "a GIF image"),
+    (b"PK\x03\x04", "a ZIP archive (or an XLSX/DOCX document)"),
+    (b"PK\x05\x06", "an empty ZIP archive"),
+    (b"\xd0\xcf\x11\xe0", "an MS Office document (XLS/DOC)"),
+    (b"\x1f\x8b", "a gzip archive"),
+    (b"7z\xbc\xaf", "a 7-Zip archive"),
+    (b"Rar!", "a RAR archive"),
+    (b"\x7fELF", "an executable"),
+    (b"DUCK", "a DuckDB database"),
+    (b"SQLite format 3", "an SQLite database"),
+)
+
+
+def sanitize_id(name: object, default: str = "test") -> str:
+    """A test id safe as one path component: ``[A-Za-z0-9._-]``, no leading or trailing
+    ``.``/``_``, at most :data:`MAX_ID_LENGTH` characters; ``default`` when nothing is left.
+
+    ``'..'`` becomes ``default``, ``'../../etc'`` becomes ``'etc'``, ``'Prius c #3'`` becomes
+    ``'Prius_c_3'``.
+    """
+    s = _ID_BAD.sub("_", str(name or "")).strip("._")[:MAX_ID_LENGTH].strip("._")
+    return s or default
+
+
+def non_data_kind(path: str | Path) -> str | None:
+    """What ``path`` is when its first bytes say it is not a data file (else None)."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(16)
+    except OSError:
+        return None
+    for magic, kind in NON_DATA_MAGIC:
+        if head.startswith(magic):
+            return kind
+    return None
+
+
+def check_input_file(path: str | Path, what: str = "data file", *, data: bool = True) -> Path:
+    """``path`` as a readable regular file, or one clear :class:`InputFileError`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file given by the user.
+    what : str
+        What the file is for, in the message (``data file``, ``template``...).
+    data : bool
+        Also refuse documents that are not data (PDF, PNG, XLSX, ZIP...).
+    """
+    p = Path(path)
+    if not p.exists():
+        raise InputFileError(f"{p}: {what} not found: check the path")
+    if p.is_dir():
+        raise InputFileError(f"{p}: is a directory, a {what} is expected")
+    if not p.is_file():
+        raise InputFileError(f"{p}: not a regular file, a {what} is expected")
+    try:
+        with open(p, "rb") as fh:
+            fh.read(1)
+    except OSError as exc:
+        raise InputFileError(f"{p}: cannot read the {what} ({exc.strerror or 'permission denied'})"
+                             ) from None
+    if data:
+        kind = non_data_kind(p)
+        if kind:
+            raise InputFileError(f"{p}: is {kind}, not a {what}: give the test's data files "
+                                 "(D3/CSV text, MDF4 or Parquet)")
+    return p
+
+
+def check_input_dir(path: str | Path, what: str = "directory") -> Path:
+    """``path`` as a readable directory, or one clear :class:`InputFileError`."""
+    p = Path(path)
+    if not p.exists():
+        raise InputFileError(f"{p}: {what} not found: check the path")
+    if not p.is_dir():
+        raise InputFileError(f"{p}: is a file, a {what} is expected")
+    if not os.access(p, os.R_OK | os.X_OK):
+        raise InputFileError(f"{p}: cannot read the {what} (permission denied)")
+    return p
+
+
+def inside(child: str | Path, parent: str | Path) -> bool:
+    """Is ``child`` (resolved) ``parent`` or below it?"""
+    try:
+        Path(child).resolve().relative_to(Path(parent).resolve())
+        return True
+    except ValueError:
+        return False
+
+
+def check_outputs(*, outdir: str | Path | None = None, writes: Iterable[str] = (),
+                  outfile: str | Path | None = None,
+                  inputs: Iterable[str | Path | None] = ()) -> None:
+    """Refuse outputs that would destroy what the run reads, before anything is computed.
+
+    Parameters
+    ----------
+    outdir : path, optional
+        An output directory: must not be an existing file nor one of the inputs.
+    writes : names
+        The files the run writes into ``outdir``; none of them may be an input (a
+        ``template_final.yaml`` given as ``-t``).
+    outfile : path, optional
+        An output file: must not be an existing directory nor one of the inputs.
+    inputs : paths
+        Every file or directory the run reads (None entries are ignored).
+    """
+    resolved = [(Path(p), Path(p).resolve()) for p in inputs
+                if p is not None and Path(p).exists()]
+    targets: list[Path] = []
+    if outdir is not None:
+        d = Path(outdir)
+        if d.exists() and not d.is_dir():
+            raise VehvalError(f"output '{d}' exists and is not a directory: choose a directory "
+                              "for -o")
+        targets += [d] + [d / name for name in writes]
+    if outfile is not None:
+        f = Path(outfile)
+        if f.is_dir():
+            raise VehvalError(f"output '{f}' is a directory, a file name is expected for -o")
+        targets.append(f)
+    for t in targets:
+        rt = t.resolve()
+        for p, rp in resolved:
+            if rp == rt:
+                raise VehvalError(f"output '{t}' is also an input ('{p}'): writing it would "
+                                  "replace the input; choose another -o")
+
+
+def vehicle_path(name: str | Path | None) -> Path | None:
+    """The file behind a ``--vehicle``/``--cycle`` value when it names an existing file
+    (a shipped name such as ``prius_2004`` is not a path: None)."""
+    if name is None:
+        return None
+    p = Path(str(name))
+    return p if p.exists() else None

@@ -1,0 +1,132 @@
+"""The report's first section: the test results as a laboratory reports them.
+
+Built from ``results.json`` (:meth:`vehval.results.TestResults.to_dict`). Data stay SI in
+the document; this view shows engineering units (mi, mph, mpg, L/100 km, g/km, kWh) and
+every value with its expanded uncertainty (k = 2).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from vehval.constants import KWH_J, MILE_M, MPH_M_PER_S
+from vehval.report.figures import FigSpec
+from vehval.report.sections import Section
+from vehval.report.tables import Table
+
+__all__ = ["results_section"]
+
+
+def _r(x: Any, nd: int) -> Any:
+    return None if x is None else round(float(x), nd)
+
+
+def _pm(block: dict, key: str, scale: float = 1.0, nd: int = 2) -> str:
+    v = (block.get("values") or {}).get(key)
+    if v is None:
+        return "—"
+    u = (block.get("uncertainty") or {}).get(key)
+    txt = f"{v * scale:.{nd}f}"
+    return txt + (f" ± {u['U'] * scale:.{nd}f}" if u else "")
+
+
+def _row(name: str, block: dict) -> list:
+    v = block.get("values") or {}
+    dq = block.get("drive_quality") or {}
+    d = v.get("distance_m")
+    return [name, _r(d / MILE_M if d is not None else None, 3), _r(v.get("duration_s"), 1),
+            _r((v.get("mean_speed_mps") or 0) / MPH_M_PER_S, 2) if v.get("mean_speed_mps") else None,
+            _r((v.get("max_speed_mps") or 0) / MPH_M_PER_S, 2) if v.get("max_speed_mps") else None,
+            _r(v["fuel_mass_kg"] * 1e3, 1) if v.get("fuel_mass_kg") is not None else None,
+            _pm(block, "fuel_economy_mpg"), _pm(block, "fuel_consumption_l_per_100km"),
+            _pm(block, "co2_g_per_km", nd=1),
+            _r(v["ess_energy_net_j"] / KWH_J, 4) if v.get("ess_energy_net_j") is not None else None,
+            _r(dq.get("iwr_pct"), 2), _r(dq.get("rmsse_mph"), 3), dq.get("violations")]
+
+
+def _dq_row(name: str, dq: dict | None) -> list:
+    dq = dq or {}
+    return [name] + [_r(dq.get(k), 2) for k in ("er_pct", "dr_pct", "eer_pct", "ascr_pct",
+                                                 "iwr_pct")] + [
+        _r(dq.get("rmsse_mph"), 3), dq.get("violations"), _r(dq.get("violation_s"), 1),
+        {True: "yes", False: "NO", None: "—"}[dq.get("within_tolerance")]]
+
+
+def results_section(doc: dict) -> Section:
+    """The results section (first in the report) from a ``results.json`` document."""
+    fuel = doc.get("fuel") or {}
+    cond = doc.get("conditions") or {}
+    unc = doc.get("uncertainty") or {}
+    sec = Section("results", "Test results",
+                  intro=("Results per phase, for the whole test and as the regulatory composites, "
+                         "each with its expanded uncertainty (k = 2, about 95 %) propagated from the "
+                         "declared sensor accuracies. Drive quality per SAE J2951."))
+    head = None
+    for c in doc.get("composites") or []:
+        if (c.get("values") or {}).get("fuel_economy_mpg") is not None:
+            head = c
+            break
+    sec.facts = [
+        ("Cycle", str((doc.get("test") or {}).get("cycle") or "not identified")),
+        ("Headline", f"{head['name']}: {_pm(head, 'fuel_economy_mpg')} mpg, "
+                     f"{_pm(head, 'fuel_consumption_l_per_100km')} L/100 km" if head else
+         f"whole test: {_pm(doc.get('test_total') or {}, 'fuel_economy_mpg')} mpg"),
+        ("Fuel", f"{fuel.get('name')} ({fuel.get('density_kg_per_m3')} kg/m³, "
+                 f"{(fuel.get('lhv_j_per_kg') or 0) / 1e6:.2f} MJ/kg)" if fuel else
+         "not declared: no volume-based result"),
+        ("Phases from", str(doc.get("phase_source"))),
+        ("Conditions", f"cell {cond.get('cell_temp_c')} °C, {cond.get('start') or 'unknown'} start"),
+        ("Uncertainty", f"{str(unc.get('method', '')).replace('_', ' ')}, k = 2"
+                        + (f", {unc['draws']} draws" if unc.get("draws") else "")),
+        ("SOC correction (SAE J1711)", str((doc.get("soc_correction") or {}).get("message", "—"))),
+    ]
+    cols = ["phase", "distance [mi]", "duration [s]", "mean speed [mph]", "max speed [mph]",
+            "fuel [g]", "fuel economy [mpg]", "consumption [L/100 km]", "CO2 [g/km]",
+            "battery net [kWh]", "IWR [%]", "RMSSE [mph]", "violations"]
+    rows = [_row(p["name"], p) for p in doc.get("phases") or []]
+    rows.append(_row("whole test", doc.get("test_total") or {}))
+    sec.tables.append(Table("Results per phase", cols, rows, key="results-phases",
+                            note="value ± expanded uncertainty U (k = 2)"))
+    crow = [[c["name"], _pm(c, "fuel_economy_mpg"), _pm(c, "fuel_consumption_l_per_100km"),
+             _pm(c, "co2_g_per_km", nd=1), c.get("rule"), c.get("substitute") or ""]
+            for c in doc.get("composites") or []]
+    if crow:
+        sec.tables.append(Table("Regulatory composites", ["composite", "fuel economy [mpg]",
+                                "consumption [L/100 km]", "CO2 [g/km]", "rule", "substitute"],
+                                crow, key="results-composites"))
+    dq_rows = [_dq_row(p["name"], p.get("drive_quality")) for p in doc.get("phases") or []]
+    if any(r[1:] != [None] * 6 + [None, None, "—"] for r in dq_rows):
+        sec.tables.append(Table(
+            "Drive quality (SAE J2951)", ["phase", "ER [%]", "DR [%]", "EER [%]", "ASCR [%]",
+                                          "IWR [%]", "RMSSE [mph]", "violations", "violation [s]",
+                                          "within tolerance"], dq_rows, key="results-dq",
+            note="tolerances of 40 CFR 1066.425(j): IWR -2.0..+4.0 %, RMSSE <= 0.8 mph; "
+                 "violations: outside +-2 mph / +-1 s of the trace"))
+    budget = []
+    src = head or doc.get("test_total") or {}
+    for key in ("fuel_economy_mpg", "co2_g_per_km"):
+        u = (src.get("uncertainty") or {}).get(key)
+        for c in (u or {}).get("contributors", []):
+            budget.append([key, c["parameter"], _r(100 * c["share"], 1),
+                           "assumed (class default)" if c.get("assumed") else "declared"])
+    if budget:
+        sec.tables.append(Table(f"Largest uncertainty contributors ({src.get('name', 'whole test')})",
+                                ["result", "input", "share of variance [%]", "accuracy"], budget,
+                                key="results-budget"))
+    acc = unc.get("accuracy") or {}
+    if acc:
+        sec.tables.append(Table("Channel accuracies", ["signal", "reading [%]", "offset [SI]", "basis"],
+                                [[k, a.get("reading_pct"), a.get("offset_si"), a.get("basis")]
+                                 for k, a in acc.items()], key="results-accuracy"))
+    names = [p["name"] for p in doc.get("phases") or []]
+    fe = [(p.get("values") or {}).get("fuel_economy_mpg") for p in doc.get("phases") or []]
+    if any(v is not None for v in fe):
+        err = [((p.get("uncertainty") or {}).get("fuel_economy_mpg") or {}).get("U")
+               for p in doc.get("phases") or []]
+        fig = {"data": [{"type": "bar", "x": names, "y": fe, "name": "fuel economy",
+                         "error_y": {"type": "data", "array": err, "visible": True}}],
+               "layout": {"title": {"text": "Fuel economy per phase (± U, k = 2)"},
+                          "yaxis": {"title": {"text": "mpg"}}, "height": 360}}
+        sec.figures.append(FigSpec("Fuel economy per phase", fig))
+    sec.notes = [f.get("message") for f in doc.get("findings") or []] + list(doc.get("notes") or [])
+    return sec

@@ -1,0 +1,488 @@
+"""The results stage: per-phase, whole-test and regulatory results with their uncertainty.
+
+:func:`compute_results` takes a test (after QA, or straight from import) and returns a
+:class:`TestResults` whose :meth:`TestResults.to_dict` is ``results.json`` (contract in
+docs/results.md). Data stay SI; display units are the report's business.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vehval.constants import GALLON_US_M3, LITRE_M3, MILE_M
+from vehval.qa.findings import Finding, Kind, Severity
+from vehval.results.composites import Composite, composites_for
+from vehval.results.drive_quality import drive_quality
+from vehval.results.fuels import CO2_PER_C, Fuel, fuel_properties
+from vehval.results.phases import (
+    Phase,
+    match_cycle,
+    phases_from_channel,
+    phases_from_cycle,
+    reference_speed,
+)
+from vehval.results.soc import soc_correction
+from vehval.results.uncertainty import (
+    ChannelAccuracy,
+    Parameter,
+    channel_accuracy,
+    propagate,
+)
+from vehval.test import Signal, Test
+
+__all__ = [
+    "QUANTITIES",
+    "RESULTS_VERSION",
+    "TestResults",
+    "compute_results",
+    "results_from_template",
+]
+
+#: Version of the results.json contract.
+RESULTS_VERSION = 1
+#: Quantity key -> SI unit, for every phase and the whole test.
+QUANTITIES: dict[str, str] = {
+    "duration_s": "s", "distance_m": "m", "mean_speed_mps": "m/s", "max_speed_mps": "m/s",
+    "fuel_mass_kg": "kg", "fuel_volume_m3": "m^3", "fuel_economy_mpg": "mile/US gal",
+    "fuel_consumption_l_per_100km": "L/100 km", "fuel_energy_j": "J", "co2_kg": "kg",
+    "co2_g_per_km": "g/km", "ess_energy_net_j": "J",
+}
+#: Composite quantity key -> unit.
+COMPOSITE_QUANTITIES = {"fuel_economy_mpg": "mile/US gal",
+                        "fuel_consumption_l_per_100km": "L/100 km",
+                        "fuel_per_distance_kg_per_m": "kg/m", "co2_g_per_km": "g/km",
+                        "fuel_energy_per_distance_j_per_m": "J/m"}
+#: Coolant within this many kelvin of the cell temperature at the start: a cold start.
+COLD_START_BAND_K = 10.0
+_SCOPE_TEST = "test"
+
+
+def _pick(test: Test, base: str, selected: dict[str, str] | None) -> Signal | None:
+    if selected and selected.get(base) in test:
+        return test[selected[base]]
+    cands = [s for s in test.by_base(base, "test") if s.values.size]
+    if not cands:
+        return None
+    cands.sort(key=lambda s: (s.name != f"{base}_test", s.name))
+    return cands[0]
+
+
+class _Integrator:
+    """Integrals of a signal over record-time segments from its cumulative trapezoid."""
+
+    def __init__(self, time: np.ndarray, values: np.ndarray) -> None:
+        ok = np.isfinite(time) & np.isfinite(values)
+        self.t, self.v = time[ok], values[ok]
+        if self.t.size < 2:
+            self.c = np.zeros(self.t.size)
+            return
+        self.c = np.concatenate([[0.0], np.cumsum(0.5 * (self.v[1:] + self.v[:-1]) * np.diff(self.t))])
+
+    def integral(self, segments: list[tuple[float, float]]) -> float:
+        if self.t.size < 2:
+            return float("nan")
+        return float(sum(np.interp(b, self.t, self.c) - np.interp(a, self.t, self.c)
+                         for a, b in segments))
+
+    def covered(self, segments: list[tuple[float, float]]) -> float:
+        if self.t.size < 2:
+            return 0.0
+        t0, t1 = self.t[0], self.t[-1]
+        return float(sum(max(0.0, min(b, t1) - max(a, t0)) for a, b in segments))
+
+    def extreme(self, segments: list[tuple[float, float]]) -> float:
+        vals = [self.v[(self.t >= a) & (self.t <= b)] for a, b in segments]
+        vals = [v for v in vals if v.size]
+        return float(max(v.max() for v in vals)) if vals else float("nan")
+
+
+@dataclass
+class TestResults:
+    """Results of one test (the content of ``results.json``)."""
+
+    test_id: str
+    cycle: str
+    fuel: Fuel | None
+    phase_source: str
+    phases: list[Phase]
+    values: dict[str, dict[str, float | None]]
+    uncertainty: dict[str, dict[str, dict]]
+    composites: list[Composite]
+    drive_quality: dict[str, dict | None]
+    soc: dict[str, Any]
+    accuracy: dict[str, ChannelAccuracy]
+    parameters: list[Parameter]
+    conditions: dict[str, Any]
+    method: str
+    draws: int | None = None
+    findings: list[Finding] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    def value(self, scope: str, quantity: str) -> float | None:
+        """A result value [SI] of a scope (``test``, a phase name or a composite name)."""
+        return self.values.get(scope, {}).get(quantity)
+
+    def expanded(self, scope: str, quantity: str) -> float | None:
+        """Its expanded uncertainty U (k = 2), same unit, or None."""
+        u = self.uncertainty.get(scope, {}).get(quantity)
+        return None if u is None else u["U"]
+
+    def _block(self, scope: str) -> dict:
+        return {"values": self.values.get(scope, {}),
+                "uncertainty": self.uncertainty.get(scope, {}),
+                "drive_quality": self.drive_quality.get(scope)}
+
+    def to_dict(self) -> dict[str, Any]:
+        return _clean({
+            "results_version": RESULTS_VERSION,
+            "test": {"id": self.test_id, "cycle": self.cycle or None},
+            "fuel": self.fuel.to_dict() if self.fuel else None,
+            "conditions": self.conditions,
+            "phase_source": self.phase_source,
+            "phases": [dict(p.to_dict(), **self._block(p.name)) for p in self.phases],
+            "test_total": self._block(_SCOPE_TEST),
+            "composites": [dict(c.to_dict(), values=self.values.get(c.name, {}),
+                                uncertainty=self.uncertainty.get(c.name, {}))
+                           for c in self.composites],
+            "soc_correction": self.soc,
+            "uncertainty": {"method": self.method, "k": 2, "draws": self.draws,
+                            "accuracy": {k: a.to_dict() for k, a in self.accuracy.items()},
+                            "parameters": [{"name": p.name, "limit": p.limit, "kind": p.kind,
+                                            "assumed": p.assumed} for p in self.parameters]},
+            "units": {**QUANTITIES, **COMPOSITE_QUANTITIES},
+            "findings": [f.to_dict() for f in self.findings],
+            "notes": list(self.notes),
+        })
+
+
+def _clean(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {str(k): _clean(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_clean(v) for v in x]
+    if isinstance(x, (float, np.floating)):
+        v = float(x)
+        return v if math.isfinite(v) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+def _conditions(test: Test, selected: dict[str, str] | None) -> dict[str, Any]:
+    out: dict[str, Any] = {"cell_temp_c": None, "start": None, "start_basis": None}
+    amb = _pick(test, "amb_temp", selected)
+    if amb is not None and np.isfinite(amb.values).any():
+        out["cell_temp_c"] = round(float(np.nanmean(amb.values)), 2)
+    cool = _pick(test, "eng_temp_coolant", selected)
+    if cool is not None and out["cell_temp_c"] is not None:
+        v = cool.values[np.isfinite(cool.values)]
+        if v.size:
+            c0 = float(np.median(v[: max(1, min(v.size, 20))]))
+            cold = abs(c0 - out["cell_temp_c"]) <= COLD_START_BAND_K
+            out["start"] = "cold" if cold else "hot"
+            out["start_basis"] = (f"coolant {c0:.1f} degC at the start, cell "
+                                  f"{out['cell_temp_c']:.1f} degC (cold when within "
+                                  f"{COLD_START_BAND_K:g} K)")
+    return out
+
+
+def _finding(message: str, signal: str = "", severity: Severity = Severity.WARNING,
+             kind: Kind = Kind.RESULTS, **numbers: Any) -> Finding:
+    return Finding(signal=signal, kind=kind, start_s=float("nan"), end_s=float("nan"),
+                   severity=severity, message=message, numbers=numbers)
+
+
+def _phases(test: Test, speed: Signal | None, phase_channel: str | None,
+            findings: list[Finding]) -> tuple[list[Phase], str, Any]:
+    match = match_cycle(speed, test.meta.cycle) if speed is not None else None
+    name = phase_channel or ("test_phase_test" if "test_phase_test" in test else None)
+    if name is not None:
+        if name not in test:
+            findings.append(_finding(f"phase channel '{name}' is not in the test: phases "
+                                     "taken from the identified cycle", name))
+        else:
+            phases = phases_from_channel(test[name], match)
+            if phases:
+                return phases, f"phase channel {name}", match
+            findings.append(_finding(
+                f"phase channel '{name}' holds no phase (no positive whole number): phases "
+                "taken from the identified cycle instead; check the channel mapping", name))
+    if match is not None:
+        return phases_from_cycle(match), f"cycle {match.cycle} part boundaries", match
+    return [], "whole test only (no phase channel, no cycle with known phases)", None
+
+
+def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | None = None,
+                    phase_channel: str | None = None, selected: dict[str, str] | None = None,
+                    method: str = "first_order", draws: int = 1000, seed: int = 0,
+                    hot_start_bag1: dict[str, float] | None = None,
+                    soc_factor: float | None = None) -> TestResults:
+    """Results of a test per phase, for the whole test and as regulatory composites.
+
+    Parameters
+    ----------
+    test : Test
+        Imported (and preferably QA-validated) test, SI signals.
+    fuel : str, dict, FuelSpec or Fuel, optional
+        The test fuel; default the explicit fuel of the test constants
+        ``fuel_density_kg_per_m3`` / ``fuel_lhv_j_per_kg`` when set. Without either, no
+        volume, energy or carbon-based result is given and a mass-flow fuel channel gets a
+        warning finding.
+    accuracy : dict, optional
+        Signal name -> ``AccuracySpec`` (template ``accuracy:``).
+    phase_channel : str, optional
+        Signal numbering the phases (default ``test_phase_test`` when present).
+    selected : dict, optional
+        Base name -> signal kept by QA selection.
+    method : {'first_order', 'monte_carlo'}
+        Uncertainty propagation.
+    draws, seed : int
+        Monte Carlo draws and seed.
+    hot_start_bag1 : dict, optional
+        ``fuel_mass_kg`` [kg], ``distance_m`` [m] (and ``co2_kg``) of a hot-start UDDS
+        bag 1, standing in for the FTP bag 3 of a cold-start UDDS.
+    soc_factor : float, optional
+        Charge-balance factor [J fuel per J battery] for the SAE J1711 correction.
+
+    Returns
+    -------
+    TestResults
+    """
+    findings: list[Finding] = []
+    notes: list[str] = []
+    c = test.meta.constants or {}
+    if fuel is None and c.get("fuel_density_kg_per_m3"):
+        fuel = {"density_kg_per_m3": c["fuel_density_kg_per_m3"],
+                "lhv_j_per_kg": c.get("fuel_lhv_j_per_kg")}
+        notes.append("fuel: properties from the template constants (fuel_density_kg_per_m3, "
+                     "fuel_lhv_j_per_kg); declare 'fuel:' for CO2 and the property sources")
+    fuel_obj = fuel if isinstance(fuel, Fuel) else fuel_properties(fuel)
+    accuracy = dict(accuracy or {})
+    for name in accuracy:
+        if name not in test:
+            findings.append(_finding(f"accuracy declared for '{name}', which the test does "
+                                     "not hold: not used", name))
+    speed = _pick(test, "veh_spd", selected)
+    fuel_sig = _pick(test, "fuel_rate", selected)
+    co2_sig = _pick(test, "co2_rate", selected) if "co2_rate" in _registry_bases() else None
+    pwr = _pick(test, "ess_pwr", selected)
+    volt = curr = None
+    if pwr is None:
+        volt, curr = _pick(test, "ess_volt", selected), _pick(test, "ess_curr", selected)
+        if volt is None or curr is None:
+            volt = curr = None
+    if fuel_sig is not None and fuel_obj is None:
+        findings.append(_finding(
+            f"fuel mass flow '{fuel_sig.name}' but no fuel declared: no volume-based result "
+            "(mpg, L/100 km), fuel energy or CO2; declare 'fuel:' in the template "
+            "(e.g. fuel: diesel)", fuel_sig.name))
+    phases, phase_source, match = _phases(test, speed, phase_channel, findings)
+    t0, t1 = test.span()
+    scopes = [p.name for p in phases] + [_SCOPE_TEST]
+    segs = [p.segments for p in phases] + [[(t0, t1)]]
+    cond = _conditions(test, selected)
+
+    # -------- accuracies and parameters
+    used = [s for s in (speed, fuel_sig, co2_sig, pwr, volt, curr) if s is not None]
+    acc = {s.name: channel_accuracy(s.name, accuracy.get(s.name)) for s in used}
+    params = [p for a in acc.values() for p in a.parameters()]
+    if fuel_obj is not None:
+        for prop in ("density_kg_per_m3", "lhv_j_per_kg", "carbon_mass_fraction"):
+            lim = fuel_obj.uncertainty.get(prop, 0.0)
+            if lim > 0 and getattr(fuel_obj, prop) is not None:
+                params.append(Parameter(f"fuel {prop}", lim, "property"))
+
+    # -------- integrals per scope
+    def base(sig: Signal | None) -> tuple[np.ndarray, np.ndarray] | None:
+        if sig is None:
+            return None
+        itg = _Integrator(sig.time, sig.values)
+        return (np.array([itg.integral(s) for s in segs]), np.array([itg.covered(s) for s in segs]))
+
+    dur = np.array([sum(b - a for a, b in s) for s in segs])
+    b_v, b_f, b_c = base(speed), base(fuel_sig), base(co2_sig)
+    vmax = (np.array([_Integrator(speed.time, speed.values).extreme(s) for s in segs])
+            if speed is not None else None)
+    b_p = base(pwr)
+    b_vi = None
+    if volt is not None:
+        vi = Signal(name="ess_pwr_calc", time=curr.time, values=curr.values * volt.at(curr.time),
+                    unit="W")
+        volt_on_curr = Signal(name="ess_volt_calc", time=curr.time, values=volt.at(curr.time), unit="V")
+        b_vi = (base(vi), base(volt_on_curr), base(curr))
+    hot = hot_start_bag1
+
+    def g(theta: dict[str, np.ndarray], sig: Signal | None, kind: str) -> np.ndarray:
+        n = len(next(iter(theta.values())))
+        key = f"{sig.name} {'reading' if kind == 'gain' else 'offset'}" if sig else ""
+        v = theta.get(key)
+        return np.zeros((n, 1)) if v is None else v[:, None]
+
+    def prop(theta: dict[str, np.ndarray], name: str) -> np.ndarray:
+        n = len(next(iter(theta.values())))
+        v = theta.get(f"fuel {name}")
+        return np.zeros((n, 1)) if v is None else v[:, None]
+
+    def evaluate(theta: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        n = len(next(iter(theta.values()))) if theta else 1
+        nan = np.full((n, len(scopes)), np.nan)
+        q: dict[str, np.ndarray] = {"duration_s": np.broadcast_to(dur, (n, len(scopes)))}
+
+        def lin(b, sig):
+            if b is None:
+                return nan
+            return (1.0 + g(theta, sig, "gain")) * b[0] + g(theta, sig, "offset") * b[1]
+
+        dist = lin(b_v, speed)
+        q["distance_m"] = dist
+        q["mean_speed_mps"] = dist / dur
+        q["max_speed_mps"] = (nan if vmax is None else
+                              (1.0 + g(theta, speed, "gain")) * vmax + g(theta, speed, "offset"))
+        mass = lin(b_f, fuel_sig)
+        q["fuel_mass_kg"] = mass
+        have_fuel = fuel_obj is not None
+        rho = (fuel_obj.density_kg_per_m3 + prop(theta, "density_kg_per_m3")
+               if have_fuel and fuel_obj.density_kg_per_m3 else None)
+        lhv = (fuel_obj.lhv_j_per_kg + prop(theta, "lhv_j_per_kg")
+               if have_fuel and fuel_obj.lhv_j_per_kg else None)
+        cf = (fuel_obj.carbon_mass_fraction + prop(theta, "carbon_mass_fraction")
+              if have_fuel and fuel_obj.carbon_mass_fraction else None)
+        vol = mass / rho if rho is not None else nan
+        q["fuel_volume_m3"] = vol
+        with np.errstate(divide="ignore", invalid="ignore"):
+            q["fuel_economy_mpg"] = np.where(vol > 0, dist / vol * GALLON_US_M3 / MILE_M, np.nan)
+            q["fuel_consumption_l_per_100km"] = np.where(dist > 0, vol / LITRE_M3 / dist * 1e5, np.nan)
+            q["fuel_energy_j"] = mass * lhv if lhv is not None else nan
+            if b_c is not None:
+                co2 = lin(b_c, co2_sig)
+            else:
+                co2 = mass * cf * CO2_PER_C if cf is not None else nan
+            q["co2_kg"] = co2
+            q["co2_g_per_km"] = np.where(dist > 0, co2 / dist * 1e6, np.nan)
+        if b_p is not None:
+            q["ess_energy_net_j"] = lin(b_p, pwr)
+        elif b_vi is not None:
+            (s_vi, tt), (s_v, _), (s_i, _) = b_vi
+            gv, ov = 1.0 + g(theta, volt, "gain"), g(theta, volt, "offset")
+            gi, oi = 1.0 + g(theta, curr, "gain"), g(theta, curr, "offset")
+            q["ess_energy_net_j"] = gv * gi * s_vi + gv * oi * s_v + ov * gi * s_i + ov * oi * tt
+        else:
+            q["ess_energy_net_j"] = nan
+        out = {f"{sc}|{k}": v[:, i] for k, v in q.items() for i, sc in enumerate(scopes)}
+        idx = {sc: i for i, sc in enumerate(scopes)}
+        for comp in composites:
+            fpd = np.zeros(n)
+            cpd = np.zeros(n)
+            for w, names in comp.groups:
+                fm = np.zeros(n)
+                dd = np.zeros(n)
+                cc = np.zeros(n)
+                for nm in names:
+                    if nm == "__hot_bag1__":
+                        fm += hot["fuel_mass_kg"]
+                        dd += hot["distance_m"]
+                        cc += hot.get("co2_kg", np.nan) if b_c is not None else (
+                            hot["fuel_mass_kg"] * cf[:, 0] * CO2_PER_C if cf is not None else np.nan)
+                        continue
+                    i = idx[nm]
+                    fm += mass[:, i]
+                    dd += dist[:, i]
+                    cc += q["co2_kg"][:, i]
+                fpd += w * fm / dd
+                cpd += w * cc / dd
+            pre = f"{comp.name}|"
+            out[pre + "fuel_per_distance_kg_per_m"] = fpd
+            vpd = fpd / rho[:, 0] if rho is not None else np.full(n, np.nan)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                out[pre + "fuel_economy_mpg"] = np.where(vpd > 0, GALLON_US_M3 / MILE_M / vpd, np.nan)
+            out[pre + "fuel_consumption_l_per_100km"] = vpd / LITRE_M3 * 1e5
+            out[pre + "co2_g_per_km"] = cpd * 1e6
+            out[pre + "fuel_energy_per_distance_j_per_m"] = (
+                fpd * lhv[:, 0] if lhv is not None else np.full(n, np.nan))
+        return out
+
+    cold = None if cond["start"] is None else cond["start"] == "cold"
+    composites = composites_for(match.cycle if match else None, phases, cold_start=cold,
+                                hot_bag1=hot is not None)
+    theta_params = params
+
+    def evaluate_full(theta):
+        if not theta:
+            theta = {"__none__": np.zeros(1)}
+        return evaluate(theta)
+
+    nominal, unc = propagate(evaluate_full, theta_params, method=method, draws=draws, seed=seed)
+    values: dict[str, dict[str, float | None]] = {}
+    uncertainty: dict[str, dict[str, dict]] = {}
+    for key, v in nominal.items():
+        scope, qty = key.split("|", 1)
+        values.setdefault(scope, {})[qty] = v if math.isfinite(v) else None
+        if key in unc:
+            uncertainty.setdefault(scope, {})[qty] = _round_unc(unc[key])
+
+    # -------- drive quality
+    dq: dict[str, dict | None] = {}
+    if speed is not None and match is not None:
+        c = test.meta.constants or {}
+        road = None
+        if all(c.get(k) is not None for k in ("road_load_a_n", "road_load_b_n_per_mps",
+                                              "road_load_c_n_per_mps2")):
+            road = (c["road_load_a_n"], c["road_load_b_n_per_mps"], c["road_load_c_n_per_mps2"])
+        ref = reference_speed(speed.time, match)
+        all_segs = [s for p in phases for s in p.segments]
+        for sc, sg in zip(scopes, [p.segments for p in phases] + [all_segs]):
+            res = drive_quality(speed.time, speed.values, ref, mass_kg=c.get("test_mass_kg"),
+                                road_load=road, segments=sg)
+            dq[sc] = res.to_dict() if res is not None else None
+            if res is not None and res.within_tolerance is False and sc != _SCOPE_TEST:
+                findings.append(_finding(
+                    f"drive quality of {sc} outside the SAE J2951 tolerances applied by "
+                    f"40 CFR 1066.425(j): IWR {res.iwr_pct:+.2f} % (allowed -2.0..+4.0), "
+                    f"RMSSE {res.rmsse_mps / 0.44704:.2f} mph (allowed 0.8)", speed.name,
+                    kind=Kind.DRIVE_QUALITY, iwr_pct=res.iwr_pct, rmsse_mps=res.rmsse_mps,
+                    phase=sc))
+        if road is None:
+            notes.append("drive quality: ER and EER need test_mass_kg and road_load_a/b/c "
+                         "constants in the template")
+    else:
+        notes.append("drive quality: no reference trace (the cycle was not identified or has "
+                     "no known phases)")
+
+    soc = soc_correction(values, scopes, composites=[c.name for c in composites],
+                         battery=pwr is not None or volt is not None, factor=soc_factor)
+    if soc.get("status") == "beyond_tolerance_uncorrected":
+        findings.append(_finding(soc["message"], (pwr or curr).name))
+    return TestResults(test_id=test.meta.test_id, cycle=test.meta.cycle, fuel=fuel_obj,
+                       phase_source=phase_source, phases=phases, values=values,
+                       uncertainty=uncertainty, composites=composites, drive_quality=dq,
+                       soc=soc, accuracy=acc, parameters=params, conditions=cond,
+                       method=method, draws=draws if method == "monte_carlo" else None,
+                       findings=findings, notes=notes)
+
+
+def _round_unc(d: dict) -> dict:
+    out = dict(d)
+    for k in ("u", "U"):
+        out[k] = float(f"{out[k]:.6g}")
+    if "interval_95" in out:
+        out["interval_95"] = [float(f"{x:.8g}") for x in out["interval_95"]]
+    return out
+
+
+def _registry_bases() -> set[str]:
+    from vehval.nomenclature import registry
+    return set(registry().specs)
+
+
+def results_from_template(test: Test, template: Any, **kw: Any) -> TestResults:
+    """:func:`compute_results` with the template's ``fuel``, ``accuracy`` and
+    ``phase_channel``."""
+    fuel = template.fuel
+    kw.setdefault("soc_factor", getattr(template.constants, "soc_correction_fuel_j_per_battery_j",
+                                        None))
+    return compute_results(test, fuel=fuel, accuracy=template.accuracy,
+                           phase_channel=template.phase_channel, **kw)

@@ -1,0 +1,193 @@
+"""Uncertainty of results: declared channel accuracies propagated through the calculation.
+
+Error model. A channel's declared accuracy (template ``accuracy:``) is a limit of error held
+over the whole test: the measured value is ``x (1 + g) + o`` with a gain error ``g`` within
++-``reading_pct`` % and an offset ``o`` within +-(``full_scale_pct`` % of ``full_scale`` +
+``offset``). Both are taken as rectangular distributions (GUM 4.3.7: a limit with no stated
+confidence), standard uncertainty = limit / sqrt(3). Sample-to-sample noise averages out over
+the thousands of samples of a phase and is left out. Fuel properties of the table carry their
+batch-to-batch spread the same way. Signals without a declared accuracy get the default of
+their class (:data:`DEFAULT_ACCURACY`), flagged ``assumed``.
+
+Propagation. Every result is a function of a small set of phase integrals (distance, fuel
+mass, battery energy...) that are linear in ``g`` and ``o``; the results (fuel economy is a
+ratio, the FTP-75 weighting is harmonic) are evaluated through that calculation graph for a
+vector of parameter sets at once:
+
+* ``first_order``: central differences, one pair per parameter, step = its standard
+  uncertainty; u(R)^2 = sum of (c_i u_i)^2 (GUM law of propagation, uncorrelated inputs).
+* ``monte_carlo``: N draws of every parameter from its distribution (GUM Supplement 1);
+  u(R) = standard deviation, and the 2.5-97.5 % interval of the draws.
+
+The expanded uncertainty is U = k u(R) with k = 2 (about 95 %). Contributors are the shares
+(c_i u_i)^2 / u(R)^2 of the first-order budget.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from vehval.nomenclature import registry
+from vehval.units import conversion
+
+__all__ = [
+    "COVERAGE_K",
+    "DEFAULT_ACCURACY",
+    "ChannelAccuracy",
+    "Parameter",
+    "channel_accuracy",
+    "propagate",
+]
+
+#: Coverage factor of the expanded uncertainty.
+COVERAGE_K = 2.0
+_SQRT3 = math.sqrt(3.0)
+
+#: Default accuracy per signal class (base name): reading [%], offset [SI unit], and why.
+DEFAULT_ACCURACY: dict[str, tuple[float, float, str]] = {
+    "veh_spd": (0.1, 0.01, "chassis-dyno roll speed: 0.1 % of reading, 0.01 m/s"),
+    "fuel_rate": (1.0, 2e-6, "fuel flow meter or modal bench: 1 % of reading, 0.002 g/s"),
+    "co2_rate": (2.0, 0.0, "modal CO2 from the exhaust bench: 2 % of reading"),
+    "ess_curr": (0.5, 0.05, "battery current (power analyser or clamp): 0.5 % of reading, 0.05 A"),
+    "ess_volt": (0.2, 0.0, "battery voltage: 0.2 % of reading"),
+    "ess_pwr": (0.5, 20.0, "battery power (power analyser): 0.5 % of reading, 20 W"),
+}
+#: Class used for base names not listed above: 1 % of reading.
+FALLBACK_ACCURACY = (1.0, 0.0, "no class default: 1 % of reading")
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One uncertain input: a rectangular error of half-width ``limit`` around zero.
+
+    ``kind`` is ``gain`` (relative, -), ``offset`` (in the signal's SI unit) or ``property``
+    (absolute, in the property's unit).
+    """
+
+    name: str
+    limit: float
+    kind: str
+    assumed: bool = False
+
+    @property
+    def std(self) -> float:
+        return self.limit / _SQRT3
+
+
+@dataclass(frozen=True)
+class ChannelAccuracy:
+    """Resolved accuracy of one signal: gain limit [-], offset limit [SI], provenance."""
+
+    signal: str
+    gain_limit: float
+    offset_limit: float
+    assumed: bool
+    basis: str
+
+    def parameters(self) -> list[Parameter]:
+        out = []
+        if self.gain_limit > 0:
+            out.append(Parameter(f"{self.signal} reading", self.gain_limit, "gain", self.assumed))
+        if self.offset_limit > 0:
+            out.append(Parameter(f"{self.signal} offset", self.offset_limit, "offset",
+                                 self.assumed))
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"reading_pct": round(self.gain_limit * 100, 6), "offset_si": self.offset_limit,
+                "assumed": self.assumed, "basis": self.basis}
+
+
+def channel_accuracy(signal: str, spec: Any | None) -> ChannelAccuracy:
+    """The accuracy of ``signal``: the template's ``AccuracySpec`` or its class default."""
+    base = registry().parse(signal).base
+    if spec is None:
+        pct, off, why = DEFAULT_ACCURACY.get(base, FALLBACK_ACCURACY)
+        return ChannelAccuracy(signal, pct / 100.0, off, True, f"assumed class default: {why}")
+    unit = spec.unit
+    si = registry().spec_of(signal).unit
+    scale = 1.0
+    if unit is not None:
+        scale, _ = conversion(unit, si)
+    fs = (spec.full_scale or 0.0) * spec.full_scale_pct / 100.0
+    off = (fs + spec.offset) * abs(scale)
+    basis = (f"template: {spec.reading_pct:g} % of reading"
+             + (f", {spec.full_scale_pct:g} % of {spec.full_scale:g} {unit or si}" if fs else "")
+             + (f", offset {spec.offset:g} {unit or si}" if spec.offset else ""))
+    return ChannelAccuracy(signal, spec.reading_pct / 100.0, off, False, basis)
+
+
+def _summary(values: np.ndarray, nominal: float) -> tuple[float, float]:
+    return float(nominal), float(np.std(values, ddof=1))
+
+
+def propagate(evaluate: Callable[[dict[str, np.ndarray]], dict[str, np.ndarray]],
+              params: list[Parameter], *, method: str = "first_order", draws: int = 1000,
+              seed: int = 0, top: int = 3) -> tuple[dict[str, float], dict[str, dict]]:
+    """Nominal results and their uncertainty.
+
+    Parameters
+    ----------
+    evaluate : callable
+        Maps parameter arrays (name -> shape (n,) errors) to result arrays (key -> (n,)).
+    params : list of Parameter
+    method : {'first_order', 'monte_carlo'}
+    draws : int
+        Monte Carlo draws.
+    seed : int
+        Seed of the Monte Carlo generator (reproducible results).
+    top : int
+        Contributors listed per result.
+
+    Returns
+    -------
+    nominal : dict
+        Result key -> value.
+    uncertainty : dict
+        Result key -> ``{"U": k u, "k": 2, "u": u, "method", "contributors": [{"parameter",
+        "share", "assumed"}], "interval_95": [lo, hi] (Monte Carlo only)}``.
+    """
+    if method not in ("first_order", "monte_carlo"):
+        from vehval.errors import VehvalError
+        raise VehvalError(f"uncertainty method '{method}': use first_order or monte_carlo")
+    m = len(params)
+    n = 1 + 2 * m
+    theta = {p.name: np.zeros(n) for p in params}
+    for i, p in enumerate(params):
+        theta[p.name][1 + 2 * i] = p.std
+        theta[p.name][2 + 2 * i] = -p.std
+    res = evaluate(theta)
+    nominal = {k: float(v[0]) for k, v in res.items()}
+    unc: dict[str, dict] = {}
+    for key, v in res.items():
+        if not math.isfinite(nominal[key]):
+            continue
+        ci = np.array([(v[1 + 2 * i] - v[2 + 2 * i]) / 2.0 for i in range(m)]) if m else np.zeros(0)
+        ci = np.where(np.isfinite(ci), ci, 0.0)
+        var = float(np.sum(ci ** 2))
+        u = math.sqrt(var)
+        order = np.argsort(-ci ** 2)[:top] if m else []
+        contrib = [{"parameter": params[j].name, "share": round(float(ci[j] ** 2 / var), 4),
+                    "assumed": params[j].assumed} for j in order if var > 0 and ci[j] != 0]
+        unc[key] = {"u": u, "U": COVERAGE_K * u, "k": COVERAGE_K, "method": method,
+                    "contributors": contrib}
+    if method == "monte_carlo" and m:
+        rng = np.random.default_rng(seed)
+        draw = {p.name: rng.uniform(-p.limit, p.limit, draws) for p in params}
+        mc = evaluate(draw)
+        for key, v in mc.items():
+            if key not in unc:
+                continue
+            ok = v[np.isfinite(v)]
+            if ok.size < 2:
+                continue
+            u = float(np.std(ok, ddof=1))
+            lo, hi = np.percentile(ok, [2.5, 97.5])
+            unc[key].update(u=u, U=COVERAGE_K * u, interval_95=[float(lo), float(hi)],
+                            draws=int(draws))
+    return nominal, unc

@@ -1,0 +1,70 @@
+"""Batch: results.json per test, the catalog's phase_results table and the index grouping."""
+
+import json
+
+import numpy as np
+import pytest
+import yaml
+
+from vehval.batch import run_batch
+from vehval.catalog import SCHEMA_VERSION, open_catalog, results_variability
+
+from .helpers import true_signals
+
+TEMPLATE = {"template_version": 1, "files": [{"match": "*.csv", "source": "dyno", "channels": {
+    "Speed": {"name": "veh_spd_test", "unit": "mph"},
+    "Fuel": {"name": "fuel_rate_test", "unit": "g/s"},
+    "Phase": {"name": "test_phase_test"},
+    "Cell": {"name": "amb_temp_test", "unit": "degC"}}}]}
+
+
+def _write(root, n=2, fuel="diesel"):
+    t, s = true_signals()
+    for i in range(n):
+        d = root / f"u{i}"
+        d.mkdir(parents=True)
+        cols = np.column_stack([t, s["veh_spd"] / 0.44704, s["fuel_rate"] * 1e3 * (1 + 0.01 * i),
+                                s["test_phase"], np.full(t.size, 24.0)])
+        np.savetxt(d / "run.csv", cols, delimiter=",", fmt="%.6f",
+                   header="Time[s],Speed[mph],Fuel[g/s],Phase,Cell[degC]", comments="")
+    tpl = dict(TEMPLATE, **({"fuel": fuel} if fuel else {}))
+    p = root / "t.yaml"
+    p.write_text(yaml.safe_dump(tpl))
+    return p
+
+
+def test_batch_writes_phase_results_and_groups_them(tmp_path):
+    inp, out = tmp_path / "in", tmp_path / "out"
+    tpl = _write(inp)
+    s = run_batch(inp, tpl, out, steps=["qa"], workers=0, report=False, progress=False)
+    assert s.n_ok == 2
+    doc = json.loads((out / "tests" / "u0" / "results.json").read_text())
+    assert [p["name"] for p in doc["phases"]] == ["bag1", "bag2"]
+    with open_catalog(out / "catalog.duckdb", read_only=True) as cat:
+        assert cat.query("SELECT version FROM schema_info")[1] == [(SCHEMA_VERSION,)] == [(2,)]
+        _, rows = cat.query("SELECT test_id, scope, kind, fuel_economy_mpg, fuel_economy_u_mpg "
+                            "FROM phase_results WHERE run_id = ? ORDER BY 1, 3, 2", [s.run_id])
+        scopes = {(r[0], r[1], r[2]) for r in rows}
+        assert ("u0", "bag1", "phase") in scopes and ("u0", "udds", "composite") in scopes
+        assert all(r[3] > 0 and r[4] > 0 for r in rows)
+        _, trow = cat.query("SELECT fuel, cell_temp_c, fuel_economy_mpg FROM tests "
+                            "WHERE test_id = 'u0' AND run_id = ?", [s.run_id])
+        assert trow[0][0] == "diesel" and trow[0][1] == pytest.approx(24.0)
+        whole = [r for r in rows if r[0] == "u0" and r[2] == "test"][0]
+        assert trow[0][2] == pytest.approx(whole[3], rel=1e-9)   # same figure both places
+        var = results_variability(cat)
+    udds = [v for v in var if v["scope"] == "udds"][0]
+    assert udds["n"] == 2 and udds["temperature_band"] == "standard (10-30 degC)"
+    assert udds["cv"] == pytest.approx(0.01 / np.sqrt(2) / 1.005, rel=0.05)  # 1 % apart
+    html = (out / "index.html").read_text()
+    assert "Fuel economy by cycle and test conditions" in html and "fe_phase" in html
+
+
+def test_batch_without_fuel_gives_no_fuel_economy(tmp_path):
+    inp, out = tmp_path / "in", tmp_path / "out"
+    tpl = _write(inp, n=1, fuel=None)
+    s = run_batch(inp, tpl, out, steps=["qa"], workers=0, report=False, progress=False)
+    with open_catalog(out / "catalog.duckdb", read_only=True) as cat:
+        _, rows = cat.query("SELECT fuel_economy_mpg, fuel_mass_kg FROM tests WHERE run_id = ?",
+                            [s.run_id])
+    assert rows[0][0] is None and rows[0][1] > 0         # never a silent gasoline density

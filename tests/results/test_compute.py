@@ -1,0 +1,184 @@
+"""The results stage on synthetic tests: phases, composites, fuel handling, uncertainty."""
+
+import numpy as np
+import pytest
+
+from vehval.constants import GALLON_US_M3, MILE_M
+from vehval.qa.findings import Kind, Severity
+from vehval.results import compute_results
+from vehval.results.fuels import fuel_properties
+from vehval.results.soc import regression_correction, soc_correction
+from vehval.test import Signal
+
+from .helpers import make_test, true_signals
+
+EXPLICIT = {"density_kg_per_m3": 800.0, "lhv_j_per_kg": 42e6, "carbon_mass_fraction": 0.86}
+
+
+def _hand(t, v, f, lo, hi):
+    m = (t >= lo) & (t <= hi)
+    return np.trapezoid(v[m], t[m]), np.trapezoid(f[m], t[m])
+
+
+def test_phases_from_channel_and_hand_computed_fuel_economy():
+    t, s = true_signals()
+    res = compute_results(make_test(t, s), fuel=EXPLICIT)
+    assert [p.name for p in res.phases] == ["bag1", "bag2"]
+    assert res.phase_source == "phase channel test_phase_test"
+    d, m = _hand(t, s["veh_spd"], s["fuel_rate"], 0.0, 504.95)
+    mpg = d / MILE_M / (m / 800.0 / GALLON_US_M3)
+    # the phase ends half a sample after its last sample: tolerance one sample of 1400
+    assert res.value("bag1", "fuel_economy_mpg") == pytest.approx(mpg, rel=2e-3)
+    whole_d, whole_m = _hand(t, s["veh_spd"], s["fuel_rate"], -1, 1e9)
+    assert res.value("test", "distance_m") == pytest.approx(whole_d, rel=1e-12)
+    assert res.value("test", "co2_kg") == pytest.approx(whole_m * 0.86 * 44.009 / 12.011, rel=1e-12)
+    assert res.value("test", "fuel_energy_j") == pytest.approx(whole_m * 42e6, rel=1e-12)
+    udds = next(c for c in res.composites if c.name == "udds")
+    assert udds.groups == [(1.0, ["bag1", "bag2"])]
+    # drive quality of a perfectly driven trace: zero ratings, no violation
+    dq = res.drive_quality["bag2"]
+    assert abs(dq["dr_pct"]) < 0.05 and dq["violations"] == 0 and dq["rmsse_mps"] < 0.05
+
+
+def test_phases_from_cycle_without_channel():
+    t, s = true_signals()
+    res = compute_results(make_test(t, s, phase=False), fuel="diesel")
+    assert [p.part for p in res.phases] == ["bag1", "bag2"]
+    assert res.phase_source.startswith("cycle udds")
+    assert res.phases[0].segments[0][1] == pytest.approx(505.0, abs=1.0)
+
+
+def test_phase_channel_with_no_phases_is_a_finding_not_a_silent_number():
+    t, s = true_signals()
+    s["test_phase"] = np.zeros_like(t)
+    res = compute_results(make_test(t, s), fuel="diesel")
+    f = [f for f in res.findings if f.signal == "test_phase_test"]
+    assert f and f[0].severity == Severity.WARNING and "holds no phase" in f[0].message
+    assert res.phase_source.startswith("cycle udds")      # fell back, and says so
+
+
+def test_mass_flow_without_fuel_gives_a_warning_and_no_volume_result():
+    t, s = true_signals()
+    res = compute_results(make_test(t, s), fuel=None)
+    warn = [f for f in res.findings if f.kind == Kind.RESULTS and f.signal == "fuel_rate_test"]
+    assert warn and "no fuel declared" in warn[0].message
+    assert res.value("test", "fuel_economy_mpg") is None
+    assert res.value("test", "fuel_volume_m3") is None
+    assert res.value("test", "fuel_mass_kg") > 0               # mass is still measured
+
+
+def test_ftp_weighting_from_a_cold_udds_with_a_hot_bag1():
+    t, s = true_signals()
+    hot = {"fuel_mass_kg": 0.2, "distance_m": 5800.0}
+    res = compute_results(make_test(t, s, constants={}), fuel=EXPLICIT, hot_start_bag1=hot)
+    ftp = next(c for c in res.composites if c.name == "ftp75_from_udds")
+    v = res.values
+    f12 = (v["bag1"]["fuel_mass_kg"] + v["bag2"]["fuel_mass_kg"]) / (
+        v["bag1"]["distance_m"] + v["bag2"]["distance_m"])
+    f32 = (0.2 + v["bag2"]["fuel_mass_kg"]) / (5800.0 + v["bag2"]["distance_m"])
+    fpd = 0.43 * f12 + 0.57 * f32
+    assert v["ftp75_from_udds"]["fuel_per_distance_kg_per_m"] == pytest.approx(fpd, rel=1e-12)
+    mpg = GALLON_US_M3 / MILE_M / (fpd / 800.0)
+    assert v["ftp75_from_udds"]["fuel_economy_mpg"] == pytest.approx(mpg, rel=1e-12)
+    # harmonic weighting of the two halves' fuel economies
+    fe = [GALLON_US_M3 / MILE_M / (x / 800.0) for x in (f12, f32)]
+    assert mpg == pytest.approx(1 / (0.43 / fe[0] + 0.57 / fe[1]), rel=1e-12)
+    assert "hot-start UDDS" in ftp.substitute
+
+
+def _one_percent_meter():
+    from vehval.io.template import AccuracySpec
+    return {"fuel_rate_test": AccuracySpec(reading_pct=1.0),
+            "veh_spd_test": AccuracySpec(reading_pct=0.0)}
+
+
+def test_a_one_percent_fuel_meter_gives_about_one_percent():
+    t, s = true_signals()
+    res = compute_results(make_test(t, s), fuel=EXPLICIT, accuracy=_one_percent_meter())
+    rel = res.expanded("test", "fuel_economy_mpg") / res.value("test", "fuel_economy_mpg")
+    # rectangular +-1 %: u = 1 %/sqrt(3), U = 2u = 1.155 % (first order in 1/(1+g))
+    assert rel == pytest.approx(0.02 / np.sqrt(3), rel=0.01)
+    top = res.uncertainty["test"]["fuel_economy_mpg"]["contributors"][0]
+    assert top["parameter"] == "fuel_rate_test reading" and top["share"] > 0.99
+    assert top["assumed"] is False
+
+
+def test_monte_carlo_agrees_with_first_order():
+    t, s = true_signals()
+    acc = _one_percent_meter()
+    fo = compute_results(make_test(t, s), fuel="diesel", accuracy=acc)
+    mc = compute_results(make_test(t, s), fuel="diesel", accuracy=acc, method="monte_carlo",
+                         draws=4000, seed=3)
+    u_fo = fo.expanded("bag2", "fuel_economy_mpg")
+    u_mc = mc.expanded("bag2", "fuel_economy_mpg")
+    assert u_mc == pytest.approx(u_fo, rel=0.06)              # 4000 draws: ~2 % scatter of u
+    lo, hi = mc.uncertainty["bag2"]["fuel_economy_mpg"]["interval_95"]
+    assert lo < mc.value("bag2", "fuel_economy_mpg") < hi
+    # defaults are flagged as assumed, declared ones are not
+    assert mc.accuracy["fuel_rate_test"].assumed is False
+    assert fo.parameters and any(p.name.startswith("fuel density") for p in fo.parameters)
+
+
+def _seeded_run(t, s, seed, acc_pct):
+    """Measured signals: systematic errors drawn within the declared limits, plus noise."""
+    rng = np.random.default_rng(seed)
+    meas = dict(s)
+    g_v, o_v = rng.uniform(-1, 1, 2) * np.array([acc_pct["v_gain"], acc_pct["v_off"]])
+    g_f, o_f = rng.uniform(-1, 1, 2) * np.array([acc_pct["f_gain"], acc_pct["f_off"]])
+    meas["veh_spd"] = s["veh_spd"] * (1 + g_v) + o_v + rng.normal(0, 0.02, t.size)
+    meas["fuel_rate"] = s["fuel_rate"] * (1 + g_f) + o_f + rng.normal(0, 2e-5, t.size)
+    return meas
+
+
+def test_coverage_of_the_95_percent_interval_over_100_seeded_runs():
+    from vehval.io.template import AccuracySpec
+    t, s = true_signals()
+    lim = {"v_gain": 0.005, "v_off": 0.02, "f_gain": 0.01, "f_off": 5e-6}
+    acc = {"veh_spd_test": AccuracySpec(reading_pct=0.5, offset=0.02),
+           "fuel_rate_test": AccuracySpec(reading_pct=1.0, offset=0.005, unit="g/s")}
+    fuel = dict(EXPLICIT)
+    truth = compute_results(make_test(t, s), fuel=fuel, accuracy=acc).value("test",
+                                                                             "fuel_economy_mpg")
+    covered, widths = 0, []
+    for seed in range(100):
+        res = compute_results(make_test(t, _seeded_run(t, s, seed, lim)), fuel=fuel, accuracy=acc)
+        v, u = res.value("test", "fuel_economy_mpg"), res.expanded("test", "fuel_economy_mpg")
+        covered += abs(v - truth) <= u
+        widths.append(u / v)
+    print(f"\ncoverage {covered} % of 100 runs, mean U {100 * np.mean(widths):.2f} %")
+    assert 88 <= covered <= 100
+    assert 0.005 < np.mean(widths) < 0.03
+
+
+def test_soc_correction_statuses():
+    vals = {"test": {"ess_energy_net_j": 0.5e6, "fuel_energy_j": 100e6, "fuel_economy_mpg": 50.0}}
+    ok = soc_correction(vals, ["test"], battery=True)
+    assert ok["status"] == "within_tolerance" and "uncorrected" in ok["message"]
+    vals["test"]["ess_energy_net_j"] = 3e6
+    bad = soc_correction(vals, ["test"], battery=True)
+    assert bad["status"] == "beyond_tolerance_uncorrected" and "NOT corrected" in bad["message"]
+    fixed = soc_correction(vals, ["test"], battery=True, factor=2.5)
+    sc = fixed["scopes"]["test"]
+    assert fixed["method"] == "charge_balance_factor"
+    assert sc["fuel_energy_corrected_j"] == pytest.approx(107.5e6)
+    assert sc["fuel_economy_mpg_corrected"] == pytest.approx(50.0 / 1.075)
+    assert soc_correction(vals, ["test"], battery=False)["status"] == "not_applicable"
+
+
+def test_soc_regression_recovers_the_intercept():
+    x = [-0.03, -0.01, 0.02, 0.04]
+    y = [5e-5 * (1 - 0.8 * xi) for xi in x]
+    r = regression_correction(x, y)
+    assert r["corrected"] == pytest.approx(5e-5, rel=1e-9) and r["r2"] == pytest.approx(1.0)
+
+
+def test_battery_energy_from_voltage_and_current():
+    t, s = true_signals()
+    test = make_test(t, s)
+    test.add(Signal.standard("ess_volt_test", t, np.full(t.size, 200.0)))
+    test.add(Signal.standard("ess_curr_test", t, 5.0 * np.sin(t / 50.0)))
+    res = compute_results(test, fuel=fuel_properties("gasoline_e10"))
+    expect = np.trapezoid(200.0 * 5.0 * np.sin(t / 50.0), t)
+    assert res.value("test", "ess_energy_net_j") == pytest.approx(expect, rel=1e-9)
+    assert res.soc["status"] in ("within_tolerance", "beyond_tolerance_uncorrected")
+    assert "ess_curr_test offset" in {p.name for p in res.parameters}
