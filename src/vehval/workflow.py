@@ -300,9 +300,12 @@ class TestRun:
                               "'vehicle:' in the template")
         from vehval.validate import validate_test
 
+        if self._results is None and self.template is not None:
+            self.results()  # the verdicts use the template's declared accuracies
+        res = self._results.results if self._results is not None else None
         self._validation = ValidationOutcome(validate_test(
             self.validated, self.vehicle, dt=dt, window_s=window_s, smooth_hz=smooth_hz,
-            overrides=overrides))
+            overrides=overrides, results=res))
         return self._validation
 
     def report(self, outdir: str | Path, *, control: Any = None, validation: Any = None,

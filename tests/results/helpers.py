@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from vehval.cycles import load_cycle
-from vehval.test import Signal, Test, TestMeta
+from vehval.test import Signal, Test
+from vehval.test import TestMeta as Meta
 
 #: Fuel model of the synthetic car: idle rate [kg/s] + energy at the wheel / efficiency / LHV.
 IDLE_KG_S = 0.12e-3
@@ -25,7 +26,7 @@ def true_signals(cycle: str = "udds", dt: float = 0.1) -> tuple[np.ndarray, dict
 
 def make_test(t: np.ndarray, sig: dict[str, np.ndarray], *, cycle: str = "udds",
               phase: bool = True, constants: dict | None = None) -> Test:
-    test = Test(meta=TestMeta(test_id="synthetic", cycle=cycle, constants=constants or {}))
+    test = Test(meta=Meta(test_id="synthetic", cycle=cycle, constants=constants or {}))
     test.add(Signal.standard("veh_spd_test", t, sig["veh_spd"], source="dyno"))
     test.add(Signal.standard("fuel_rate_test", t, sig["fuel_rate"], source="dyno"))
     if phase:

@@ -138,6 +138,8 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     result["cycle"] = test.meta.cycle or job.get("cycle") or None
     outputs: dict[str, Any] = {}
     report_parts: dict[str, Any] = {}
+    # the results stage (after QA when QA is a step): validation verdicts use its uncertainty
+    res = run.results().results
     for step in job["steps"]:
         outcome = STEPS[step](run)
         out = jsonable(outcome.validation if step == "validate" else outcome.result)
@@ -148,7 +150,6 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
         outputs[step] = out
         write_text_atomic(stage / STEP_OUTPUT[step], dump_json(out))
     qa_dict = outputs.get("qa") or {}
-    res = run.results().results
     write_text_atomic(stage / "results.json", dump_json(res.to_dict()))
     result["results"] = results_summary(res)
     result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None, fuel=res.fuel)

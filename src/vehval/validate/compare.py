@@ -6,6 +6,11 @@ the test's clock, reduces both with the same formulas over the same time grid an
 (quantity, test, simulation, absolute and relative difference), pointwise metrics of every
 component's effort and flow (MAD, RMSE, bias, R^2), positive and negative energies, engine
 on/off agreement and start/stop events matched within a tolerance window.
+
+When the measurement uncertainty of the test's results is known (the results stage,
+:mod:`vehval.results`), each model-vs-test difference gets a verdict
+(:func:`uncertainty_verdict`): ``within measurement uncertainty`` (|d| <= 2 u),
+``model error`` (|d| > 3 u) or ``undecidable`` (in between, or u unknown).
 """
 
 from __future__ import annotations
@@ -77,6 +82,56 @@ SUMMARY_ROWS: tuple[tuple[str, str, str, float], ...] = (
 )
 
 
+#: Coverage factors of the verdicts: within when |d| <= K_WITHIN u, model error when |d| > K_ERROR u.
+K_WITHIN = 2.0
+K_ERROR = 3.0
+#: Whole-test quantities that get a verdict when their uncertainty is known.
+VERDICT_KEYS = ("fuel_mass_kg", "fuel_economy_mpg", "fuel_consumption_l_per_100km",
+                "fuel_energy_j", "distance_m")
+
+
+def uncertainty_verdict(test_value: float | None, sim_value: float | None,
+                        u_test: float | None) -> dict[str, Any]:
+    """Whether a model-vs-test difference is explained by the measurement uncertainty.
+
+    Parameters
+    ----------
+    test_value, sim_value : float
+        Measured and simulated value (same unit).
+    u_test : float or None
+        Standard uncertainty of the measured value (same unit); the simulation is exact
+        for given inputs, so u(d) = u_test.
+
+    Returns
+    -------
+    dict
+        ``verdict`` (``within measurement uncertainty``: |d| <= 2 u, the difference may be
+        measurement error alone; ``model error``: |d| > 3 u, beyond what the measurement
+        explains at 99.7 %; ``undecidable``: 2 u < |d| <= 3 u, or u unknown), ``difference``
+        (sim - test), ``U`` (2 u), ``ratio`` (|d| / u) and ``message`` with the numbers.
+    """
+    out: dict[str, Any] = {"difference": None, "U": None, "ratio": None}
+    if test_value is None or sim_value is None or not (
+            math.isfinite(test_value) and math.isfinite(sim_value)):
+        return dict(out, verdict="undecidable", message="a value is missing")
+    d = sim_value - test_value
+    out["difference"] = d
+    if u_test is None or not math.isfinite(u_test) or u_test <= 0:
+        return dict(out, verdict="undecidable",
+                    message=f"difference {d:+.4g}; measurement uncertainty unknown")
+    ratio = abs(d) / u_test
+    out.update(U=K_WITHIN * u_test, ratio=ratio)
+    if ratio <= K_WITHIN:
+        verdict = "within measurement uncertainty"
+    elif ratio > K_ERROR:
+        verdict = "model error"
+    else:
+        verdict = "undecidable"
+    out.update(verdict=verdict, message=(f"difference {d:+.4g} against U = {K_WITHIN * u_test:.4g} "
+                                         f"(k = 2): |d| = {ratio:.2f} u"))
+    return out
+
+
 @dataclass
 class Comparison:
     """Result of :func:`compare` (all values SI unless a field says otherwise).
@@ -113,6 +168,22 @@ class Comparison:
     overlays: pd.DataFrame
     window_s: float = 2.0
     notes: list[str] = field(default_factory=list)
+    #: Relative standard uncertainty of measured whole-test quantities (key -> u / value).
+    uncertainty_rel: dict[str, float] = field(default_factory=dict)
+    #: Where the uncertainty comes from (declared accuracies, class defaults...).
+    uncertainty_basis: str = ""
+
+    def verdicts(self) -> dict[str, dict[str, Any]]:
+        """Verdict of every whole-test quantity with a known uncertainty (see
+        :func:`uncertainty_verdict`)."""
+        out = {}
+        for key in VERDICT_KEYS:
+            if key not in self.uncertainty_rel:
+                continue
+            a, b = self.totals_test.get(key), self.totals_sim.get(key)
+            u = abs(a) * self.uncertainty_rel[key] if a is not None else None
+            out[key] = uncertainty_verdict(a, b, u)
+        return out
 
     # ------------------------------------------------------------------ headline errors
     @property
@@ -194,7 +265,27 @@ class Comparison:
              "columns": ["power", "E+ test [kJ]", "E+ sim [kJ]", "E+ rel. [%]",
                          "E- test [kJ]", "E- sim [kJ]", "E- rel. [%]"],
              "rows": self.energy_rows()},
-        ]
+        ] + self._verdict_table(name)
+
+    def _verdict_table(self, name: str) -> list[dict]:
+        v = self.verdicts()
+        if not v:
+            return []
+        units = {k: (label, unit, scale) for k, label, unit, scale in SUMMARY_ROWS}
+        rows = []
+        for key, r in v.items():
+            label, unit, k = units.get(key, (key, "SI", 1.0))
+            a, b = self.totals_test.get(key), self.totals_sim.get(key)
+            rows.append([label, unit, None if a is None else a * k, None if b is None else b * k,
+                         None if r["difference"] is None else r["difference"] * k,
+                         None if r["U"] is None else r["U"] * k,
+                         r["ratio"], r["verdict"]])
+        return [{"title": f"Model against measurement uncertainty{name}",
+                 "columns": ["quantity", "unit", "test", "simulation", "difference",
+                             "U of the test (k = 2)", "|d| / u", "verdict"],
+                 "rows": rows,
+                 "note": ("within measurement uncertainty: |d| <= 2u; model error: |d| > 3u; "
+                          "undecidable: in between. " + self.uncertainty_basis).strip()}]
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dict (NaN become None)."""
@@ -202,6 +293,8 @@ class Comparison:
             "test_id": self.test_id, "cycle": self.cycle,
             "fuel_error": self.fuel_error, "soc_delta_error": self.soc_delta_error,
             "soc_final_error": self.soc_final_error,
+            "verdicts": self.verdicts(), "uncertainty_rel": dict(self.uncertainty_rel),
+            "uncertainty_basis": self.uncertainty_basis,
             "totals_test": self.totals_test, "totals_sim": self.totals_sim,
             "signals": self.signals, "on_method": self.on_method, "on_agreement": self.on_agreement,
             "starts": self.starts.to_dict() if self.starts else None,
@@ -212,7 +305,9 @@ class Comparison:
 
 def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float = 2.0,
             fuel_density_kg_per_m3: float = DEFAULT_FUEL_DENSITY_KG_PER_M3, fuel_lhv_j_per_kg: float = DEFAULT_FUEL_LHV_J_PER_KG,
-            on_speed_rpm: float = 400.0, bases: tuple[str, ...] | None = None) -> Comparison:
+            on_speed_rpm: float = 400.0, bases: tuple[str, ...] | None = None,
+            uncertainty_rel: dict[str, float] | None = None,
+            uncertainty_basis: str = "") -> Comparison:
     """Compare a measured test with a simulation on the test's clock.
 
     Parameters
@@ -231,6 +326,11 @@ def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float =
         Engine-on speed threshold [rpm] when the engine state comes from engine speed.
     bases : tuple of str, optional
         Base names compared pointwise (default :data:`COMPONENT_SIGNALS`).
+    uncertainty_rel : dict, optional
+        Relative standard uncertainty (u / value) of the measured whole-test quantities
+        (:data:`VERDICT_KEYS`), for the verdicts; none given: no verdict.
+    uncertainty_basis : str
+        Where that uncertainty comes from (shown with the verdicts).
 
     Raises
     ------
@@ -282,7 +382,9 @@ def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float =
     return Comparison(test_id=test.meta.test_id, cycle=test.meta.cycle, totals_test=tot_t,
                       totals_sim=tot_s, signals=sig_metrics, on_method=method,
                       on_agreement=agreement, starts=starts, stops=stops, overlays=overlays,
-                      window_s=window_s, notes=notes)
+                      window_s=window_s, notes=notes,
+                      uncertainty_rel=dict(uncertainty_rel or {}),
+                      uncertainty_basis=uncertainty_basis)
 
 
 # ----------------------------------------------------------------------------- figures

@@ -57,7 +57,8 @@ class Validation:
 def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
                   overrides: dict[str, Any] | None = None, window_s: float = 2.0,
                   use_constants: bool = True, on_speed_rpm: float = 400.0,
-                  smooth_hz: float | None = None) -> Validation:
+                  smooth_hz: float | None = None,
+                  results: Any = None) -> Validation:
     """Simulate ``vehicle`` on the conditions of ``test`` and compare the two.
 
     Parameters
@@ -80,6 +81,10 @@ def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
         Zero-phase low-pass cut-off [Hz] of the measured speed given to the driver
         (:func:`vehval.validate.conditions.smooth_speed`); default None, the trace as measured.
         The comparison itself always uses the measured signals.
+    results : vehval.results.TestResults, optional
+        Results of the test (with the template's declared accuracies) whose whole-test
+        uncertainties give the verdicts; default: computed here from the test with the
+        class-default accuracies (flagged assumed in the verdict note).
     """
     veh = load_vehicle(vehicle)
     cond = simulation_conditions(test, veh, use_constants=use_constants, smooth_hz=smooth_hz)
@@ -87,10 +92,35 @@ def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
     ov.update(overrides or {})
     sim = simulate(vehicle_variant(veh, ov) if ov else veh, cond.cycle, dt=dt,
                    soc_initial=cond.soc_initial)
+    unc, basis = _relative_uncertainty(test, results, cond)
     comp = compare(test, sim.test, dt=dt, window_s=window_s, on_speed_rpm=on_speed_rpm,
                    fuel_density_kg_per_m3=cond.fuel_density_kg_per_m3,
-                   fuel_lhv_j_per_kg=cond.fuel_lhv_j_per_kg)
+                   fuel_lhv_j_per_kg=cond.fuel_lhv_j_per_kg, uncertainty_rel=unc,
+                   uncertainty_basis=basis)
     match = vehicle_match(test, veh)
     if not match.matches:
         cond.notes.insert(0, f"warning: {match.message()}")
     return Validation(conditions=cond, sim=sim, comparison=comp, overrides=ov, match=match)
+
+
+def _relative_uncertainty(test: Test, results: Any, cond: Conditions) -> tuple[dict[str, float], str]:
+    """Relative standard uncertainty of the whole-test quantities, and its basis."""
+    from vehval.results import compute_results
+    from vehval.validate.compare import VERDICT_KEYS
+
+    if results is None:
+        fuel = {"density_kg_per_m3": cond.fuel_density_kg_per_m3,
+                "lhv_j_per_kg": cond.fuel_lhv_j_per_kg}
+        try:
+            results = compute_results(test, fuel=fuel)
+        except Exception:  # noqa: BLE001 - no verdict rather than no validation
+            return {}, ""
+    out = {}
+    for key in VERDICT_KEYS:
+        v, u = results.value("test", key), results.uncertainty.get("test", {}).get(key)
+        if v and u:
+            out[key] = u["u"] / abs(v)
+    assumed = sorted(k for k, a in results.accuracy.items() if a.assumed)
+    basis = ("measurement uncertainty from the results stage (" + results.method.replace("_", " ")
+             + ")" + (f"; class-default accuracies assumed for {', '.join(assumed)}" if assumed else ""))
+    return out, basis
