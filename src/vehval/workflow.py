@@ -287,6 +287,7 @@ class TestRun:
                 excluded = mask_flagged_samples(work, self.qa().result.findings)
             else:
                 work = self.test
+            _require_power_split(self.vehicle, "the control-strategy analysis")
             result = analyze(work, self.vehicle)
             result.findings[:0] = [f.to_dict() for f in excluded]
             self._analysis = AnalysisOutcome(result, notes)
@@ -300,6 +301,7 @@ class TestRun:
                               "'vehicle:' in the template")
         from vehval.validate import validate_test
 
+        _require_power_split(self.vehicle, "validation")
         if self._results is None and self.template is not None:
             self.results()  # the verdicts use the template's declared accuracies
         res = self._results.results if self._results is not None else None
@@ -343,6 +345,15 @@ class TestRun:
 
 
 # ---------------------------------------------------------------------- grouping of paths
+def _require_power_split(vehicle: Any, what: str) -> None:
+    """One clear line when a step written for the power-split model gets another one."""
+    arch = getattr(vehicle, "architecture", "power_split")
+    if vehicle is not None and arch != "power_split":
+        raise ConfigError(f"vehicle '{vehicle.name}' is '{arch}': {what} is written for the "
+                          "power-split model; for a conventional car use vehval predict "
+                          "(fuel per phase) or vehval calibrate")
+
+
 def _template_for(path: Path | None, template: Any) -> Any:
     if template is not None:
         return load_template_arg(template)

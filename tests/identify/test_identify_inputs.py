@@ -101,3 +101,18 @@ def test_predict_cli_table_json_and_report(tmp_path, capsys):
     assert abs(rows[0]["error_rel"]) < 0.01
     assert [p["phase"] for p in rows[0]["phases"]] == [1, 2]
     assert "engine speed, model" in rep.read_text()
+
+
+@pytest.mark.parametrize("command", ["validate", "analyze"])
+def test_power_split_steps_refuse_a_conventional_vehicle(tmp_path, capsys, command):
+    out = tmp_path / "v"
+    assert main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "ece15", "--seed", "2",
+                 "-o", str(out)]) == 0
+    capsys.readouterr()
+    f = str(next(out.glob("*_d3.txt")))
+    rc = main([command, f, "-t", str(out / "template.yaml"), "--vehicle", "cruze_diesel_2014",
+               "-o", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2
+    assert len(err) == 1 and "is 'conventional'" in err[0] and "vehval predict" in err[0]
+    assert not (tmp_path / "o").exists()
