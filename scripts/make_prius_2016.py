@@ -37,6 +37,8 @@ sys.path.insert(0, str(REPO / "src"))
 
 from vehval.epa import apply_selector, read_test_car_list
 from vehval.vehicle import load_vehicle
+from vehval.vehicle.scaling import (fit_loss_surface, machine_scale, peak_efficiency,
+                                    scale_engine_map, scale_machine_map)
 
 SPECS = "2016 Prius gen-4 specification sheet"
 HP_W = 745.69987158227022
@@ -61,120 +63,73 @@ ORNL_CAVEAT_TORQUE_NM = 300.0  # rows at or above it unreliable (SOURCE.txt of t
 MG2_2004 = {"max_torque_nm": 400.0, "max_speed_rpm": 6500.0, "max_power_w": 50e3}
 
 
-def _loss_basis(w: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Physically shaped loss terms: inverter conduction ~|T|, copper ~T^2, iron/eddy ~w^2,
-    windage ~w^3, switching/iron under load ~|T| w [W per coefficient]."""
-    t = np.abs(t)
-    return np.column_stack([t, t**2, w**2 / 1e2, w**3 / 1e5, t * w / 1e2])
-
-
-def fit_ornl_mg2(source: Path) -> tuple[np.ndarray, str]:
-    """Non-negative least-squares loss surface of the measured 2004 MG2 + inverter.
-
-    ORNL/TM-2006/423 Table B-1 (motoring, DC link about 500 V); rows at or above 300 N·m
-    excluded (unreliable, see the table's SOURCE.txt).
-    """
-    from scipy.optimize import nnls
-
+def fit_ornl_mg2(source: Path):
+    """Loss surface of the measured 2004 MG2 + inverter (ORNL/TM-2006/423 Table B-1,
+    motoring, DC link about 500 V), rows at or above 300 N·m excluded (unreliable, see the
+    table's SOURCE.txt), net of the open-circuit rotor spin loss (ORNL/TM-2004/247 Table 3.7)
+    which the coast-down road load already contains (the rotor turns with the wheels)."""
     path = source / "reference" / "ornl_2004_prius" / "mg2_inverter_map_tableB1.csv"
     data = np.genfromtxt(path, delimiter=",", names=True)
     keep = data["torque_Nm"] < ORNL_CAVEAT_TORQUE_NM
-    w = data["speed_rpm"][keep] * math.pi / 30.0
-    t = data["torque_Nm"][keep]
-    # the open-circuit spin loss of the MG2 rotor (ORNL/TM-2004/247 Table 3.7) is in the
-    # coast-down road load of the car (the rotor turns with the wheels): not counted twice
     spin_tab = np.genfromtxt(source / "reference" / "ornl_2004_prius" /
                              "drivetrain_spin_losses_table3_7_25C.csv", delimiter=",",
                              names=True)
     spin = np.interp(data["speed_rpm"][keep], spin_tab["speed_rpm"], spin_tab["p_rotor_W"])
     loss = (data["p_dc_W"] - data["p_mech_W"])[keep] - spin
-    coef, _ = nnls(_loss_basis(w, t), loss)
-    rms = float(np.sqrt(np.mean((_loss_basis(w, t) @ coef - loss) ** 2)))
-    note = (f"ORNL/TM-2006/423 Table B-1 (2004 MG2 + inverter, {keep.sum()} motoring points "
-            f"below 300 N·m), less the open-circuit rotor spin loss of ORNL/TM-2004/247 Table "
-            f"3.7 (already in the coast-down road load), fitted by non-negative least squares with loss = "
-            f"{coef[0]:.4g}|T| + {coef[1]:.4g}T^2 + {coef[2]:.4g}e-2 w^2 + {coef[3]:.4g}e-5 w^3 "
-            f"+ {coef[4]:.4g}e-2 |T| w [W; T N·m, w rad/s] (rms residual {rms:.0f} W, mean "
-            f"loss {loss.mean():.0f} W); generating assumed symmetric to motoring")
-    return coef, note
+    surf = fit_loss_surface(data["speed_rpm"][keep], data["torque_Nm"][keep], loss)
+    note = ("ORNL/TM-2006/423 Table B-1 (2004 MG2 + inverter, motoring points below 300 N·m) "
+            "less the open-circuit rotor spin loss of ORNL/TM-2004/247 Table 3.7 (already in "
+            "the coast-down road load), fitted by non-negative least squares "
+            f"(vehval.vehicle.scaling): {surf.describe()}; generating assumed symmetric to "
+            "motoring")
+    return surf, note
 
 
-def _ornl_machine(coef: np.ndarray, note: str, t_new: float, n_new: float, p_new: float,
+def _ornl_machine(surf, note: str, t_new: float, n_new: float, p_new: float,
                   src: dict, name: str, j_ref: float, signed_speed: bool,
                   p_max: float | None = None) -> dict:
-    """Machine from the fitted ORNL 2004 MG2 surface, scaled to new ratings.
-
-    ADVISOR/Autonomie scaling by rated power and maximum speed: speed x k_n = n_new / 6500,
-    power and losses x k_p = p_new / 50 kW, torque x k_p / k_n (efficiency kept at
-    corresponding points). The machine's own torque limit then caps the scaled envelope.
-    """
-    k_n = n_new / MG2_2004["max_speed_rpm"]
-    k_t = (p_new / MG2_2004["max_power_w"]) / k_n
+    """Machine from the fitted ORNL 2004 MG2 surface, scaled (vehval.vehicle.scaling) by
+    rated power and maximum speed; the machine's own torque limit caps the envelope."""
+    k = machine_scale(MG2_2004["max_speed_rpm"], MG2_2004["max_power_w"], n_new, p_new)
     n_ref = np.linspace(0.0, MG2_2004["max_speed_rpm"], 14)
     if signed_speed:
         n_ref = np.concatenate([-n_ref[:0:-1], n_ref])
     t_ref = np.concatenate([-np.linspace(400, 0, 11)[:-1], np.linspace(0, 400, 11)])
-    ww, tt = np.meshgrid(np.abs(n_ref) * math.pi / 30.0, t_ref, indexing="ij")
-    loss = (_loss_basis(ww.ravel(), tt.ravel()) @ coef).reshape(ww.shape)
+    loss = surf(n_ref[:, None], t_ref[None, :])
+    spd, trq, loss_s = scale_machine_map(n_ref, t_ref, loss, k)
     how = (f"{note}; evaluated on the 2004 MG2 envelope (400 N·m, 6500 rpm, 50 kW) and "
            f"scaled by rated power and maximum speed (ADVISOR/Autonomie machine scaling): "
-           f"speed x {k_n:.4f}, loss x {k_t * k_n:.4f} (power ratio), torque x {k_t:.4f}; no "
-           f"measured gen-4 map is public")
+           f"speed x {k.speed:.4f}, loss x {k.loss:.4f} (power ratio), torque x {k.torque:.4f}; "
+           f"no measured gen-4 map is public")
     return {
-        "speed_rpm": [round(float(x) * k_n, 1) for x in n_ref],
-        "torque_nm": [round(float(x) * k_t, 3) for x in t_ref],
-        "loss_w": [[round(float(x) * k_t * k_n, 1) for x in r] for r in loss],
+        "speed_rpm": [round(x, 1) for x in spd],
+        "torque_nm": [round(x, 3) for x in trq],
+        "loss_w": [[round(x, 1) for x in r] for r in loss_s],
         "max_torque_nm": t_new, "max_power_w": round(p_max or p_new, 1),
-        "max_speed_rpm": n_new, "inertia_kg_m2": round(j_ref * k_t, 5),
+        "max_speed_rpm": n_new, "inertia_kg_m2": round(j_ref * k.torque, 5),
         "sources": {"speed_rpm": how, "torque_nm": how, "loss_w": how,
                     "max_torque_nm": src["t"], "max_power_w": src["p"],
                     "max_speed_rpm": src["n"],
                     "inertia_kg_m2": f"2004 MG2 inertia (prius_2004.yaml) x torque ratio "
-                                     f"{k_t:.4f} (rotor volume follows torque); no public "
+                                     f"{k.torque:.4f} (rotor volume follows torque); no public "
                                      f"figure for the {name}"},
     }
-
-
-def _scale_machine(block: dict, t_new: float, n_new: float, p_new: float, src: dict,
-                   name: str, reason: str) -> dict:
-    k_t = t_new / block["max_torque_nm"]
-    k_n = n_new / block["max_speed_rpm"]
-    out = {
-        "speed_rpm": [round(x * k_n, 1) for x in block["speed_rpm"]],
-        "torque_nm": [round(x * k_t, 3) for x in block["torque_nm"]],
-        "loss_w": [[round(x * k_t * k_n, 1) for x in r] for r in block["loss_w"]],
-        "max_torque_nm": t_new, "max_power_w": p_new, "max_speed_rpm": n_new,
-        "inertia_kg_m2": round(block["inertia_kg_m2"] * k_t, 5),
-    }
-    how = (f"2004 {name} map (prius_2004.yaml) scaled: speed x {k_n:.4f}, torque x {k_t:.4f}, "
-           f"loss x {k_t * k_n:.4f} (efficiency kept at corresponding points; ADVISOR/"
-           f"Autonomie machine scaling); no measured gen-4 map is public")
-    out["sources"] = {"speed_rpm": how, "torque_nm": how, "loss_w": how,
-                      "max_torque_nm": src["t"], "max_power_w": src["p"],
-                      "max_speed_rpm": src["n"],
-                      "inertia_kg_m2": f"2004 {name} inertia x torque ratio {k_t:.4f} "
-                                       f"(rotor volume follows torque); {reason}"}
-    return out
 
 
 def _engine(e: dict, rated_power_w: float, displacement_l: float,
             fast_curve: tuple[np.ndarray, np.ndarray] | None = None) -> dict:
     spd = np.asarray(e["speed_rpm"], float)
     trq = np.asarray(e["torque_nm"], float)
-    fuel = np.asarray(e["fuel_rate_g_per_s"], float)  # [speed, torque]
-    lhv = float(e["fuel_lhv_j_per_kg"])
-    w = spd[:, None] * math.pi / 30.0
-    p = w * trq[None, :]
     tmax = np.asarray(e["max_torque_nm"], float)
-    inside = trq[None, :] <= tmax[:, None] + 1e-9
-    with np.errstate(divide="ignore", invalid="ignore"):
-        eff = np.where(inside & (fuel > 0), p / (fuel * 1e-3 * lhv), 0.0)
-    eff_old = float(eff.max())
+    lhv = float(e["fuel_lhv_j_per_kg"])
+    eff_old = peak_efficiency(spd, trq, e["fuel_rate_g_per_s"], tmax, lhv)
     k_n = ENGINE_SPEED_RATED_RPM / e["max_speed_rpm"]
     k_t = ENGINE_TORQUE_MAX_NM / max(e["max_torque_nm"])
+    _, _, fuel_s, _ = scale_engine_map(spd, trq, e["fuel_rate_g_per_s"], tmax, k_n, k_t,
+                                       ENGINE_PEAK_EFF / eff_old)
     k_f = k_n * k_t * eff_old / ENGINE_PEAK_EFF
     k_d = displacement_l / 1.497  # 1NZ-FXE 1497 cm^3
-    fuel_new = fuel * k_f
+    fuel_new = np.asarray(fuel_s, float)
     floor_note = ""
     if fast_curve is not None:
         # FASTSim's 1-D gen-4 efficiency vs engine power is a floor along the best line: at
@@ -224,6 +179,7 @@ def _engine(e: dict, rated_power_w: float, displacement_l: float,
         "inertia_kg_m2": round(e["inertia_kg_m2"] * k_d, 4),
         "fuel_density_kg_per_m3": e["fuel_density_kg_per_m3"],
         "fuel_lhv_j_per_kg": lhv,
+        "displacement_l": displacement_l,
         "sources": {
             "speed_rpm": how, "torque_nm": how,
             "fuel_rate_g_per_s": (f"2004 map scaled with the same speed and torque factors; "
@@ -244,6 +200,8 @@ def _engine(e: dict, rated_power_w: float, displacement_l: float,
             "inertia_kg_m2": f"2004 value x displacement ratio {k_d:.3f}",
             "fuel_density_kg_per_m3": "DESIGN.md public fact: US test gasoline about 0.74 kg/L",
             "fuel_lhv_j_per_kg": "DESIGN.md public fact: 42.6-43 MJ/kg",
+            "displacement_l": "EPA Test Car List 2016, 'Test Veh Displacement (L)' of the PRIUS "
+                              f"rows; {SPECS}: kfz-tech.de 1798 cm^3",
         },
     }
 
@@ -286,10 +244,10 @@ def build(source: Path) -> dict:
     fast_curve = (np.asarray(fast["fc_pwr_out_perc"]["data"], float),
                   np.asarray(fast["fc_eff_map"]["data"], float))
     veh["engine"] = _engine(base["engine"], t0.rated_power_w, t0.displacement_l, fast_curve)
-    coef, note = fit_ornl_mg2(source)
+    surf, note = fit_ornl_mg2(source)
     j2 = base["mg2"]["inertia_kg_m2"]
     veh["mg1"] = _ornl_machine(
-        coef, note, MG1_TORQUE_NM, MG1_SPEED_RPM, MG1_POWER_W,
+        surf, note, MG1_TORQUE_NM, MG1_SPEED_RPM, MG1_POWER_W,
         {"t": f"{SPECS}: openinverter P610 40 N·m; MathWorks model trqMax_Nm 40 (no OEM figure)",
          "p": (f"{SPECS} gives only openinverter's 23 kW (no OEM figure), used as the "
                f"machine's size in the loss scaling. As a peak limit it contradicts the car's "
@@ -301,7 +259,7 @@ def build(source: Path) -> dict:
          "n": f"{SPECS}: openinverter P610 17000 rpm"}, "MG1", j2, True,
         p_max=MG1_TORQUE_NM * MG1_SPEED_RPM * math.pi / 30.0)
     veh["mg2"] = _ornl_machine(
-        coef, note, MG2_TORQUE_NM, MG2_SPEED_RPM, MG2_POWER_W,
+        surf, note, MG2_TORQUE_NM, MG2_SPEED_RPM, MG2_POWER_W,
         {"t": f"{SPECS}: Nikkei xTECH (Toyota JSAE lecture) 163 N·m",
          "p": f"{SPECS}: 53 kW (steeringnews, openinverter); {fast_src} mc_max_kw "
               f"{fast['mc_max_kw']}",
@@ -313,6 +271,10 @@ def build(source: Path) -> dict:
                           f"mostreliablecarbrands.com, techanics.com, kfz-tech.de): "
                           f"prius_2004.yaml -- {v}")
                       for k, v in base["battery"]["sources"].items()}
+    bat["chemistry"] = "nimh"
+    bat["sources"]["chemistry"] = (f"{SPECS}: the Prius Two is the only gen-4 trim with a NiMH "
+                                   "pack (autoblog.com, tflcar.com); FASTSim's parameter set is "
+                                   "the Prius Two")
     veh["battery"] = bat
     boost = dict(base["boost"])
     k_n2 = MG2_SPEED_RPM / base["mg2"]["max_speed_rpm"]

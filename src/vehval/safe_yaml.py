@@ -23,7 +23,7 @@ from vehval.errors import ConfigError
 #: Deepest nesting of mappings/sequences accepted (real files use fewer than 10).
 MAX_DEPTH = 64
 #: Largest YAML/JSON document accepted [bytes] (vehicle files with maps are ~100 kB).
-MAX_BYTES = 20_000_000
+MAX_BYTES = 5_000_000
 
 
 class _StrictLoader(yaml.SafeLoader):
@@ -59,10 +59,14 @@ _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _c
 _StrictLoader.add_constructor("tag:yaml.org,2002:float", _construct_float)
 
 
-def _check_size(text: str, where: str) -> None:
-    if len(text) > MAX_BYTES:
+#: Largest JSON document accepted [bytes] (validation.json with overlays of many tests).
+MAX_JSON_BYTES = 500_000_000
+
+
+def _check_size(text: str, where: str, limit: int = MAX_BYTES) -> None:
+    if len(text) > limit:
         raise ConfigError(f"{where}: {len(text) / 1e6:.0f} MB is too large for a configuration "
-                          f"document (limit {MAX_BYTES / 1e6:.0f} MB)")
+                          f"document (limit {limit / 1e6:.0f} MB)")
 
 
 def _check_depth(text: str, where: str) -> None:
@@ -122,7 +126,7 @@ def read_yaml(path: str | Path):
 def load_json(text: str, where: str = "document", *, finite: bool = False):
     """Parse JSON ``text``; syntax errors, deep nesting and (with ``finite``) NaN/Infinity
     are a :class:`ConfigError` naming ``where``."""
-    _check_size(text, where)
+    _check_size(text, where, MAX_JSON_BYTES)
 
     def _constant(name: str):
         if finite:

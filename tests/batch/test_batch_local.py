@@ -170,3 +170,27 @@ def test_internal_error_is_recorded_and_retried(tmp_path, template_path, monkeyp
     s2 = run_batch(inp, template_path, out, steps=[], workers=0, report=False, progress=False)
     assert (s2.n_ok, s2.n_skipped) == (1, 1)          # b retried and now ok, a unchanged
     assert _rows(out / "catalog.duckdb", s2.run_id)["b"]["status"] == "ok"
+
+
+def test_shutdown_ignores_a_closed_connection(caplog):
+    """Reported: about one batch run in twenty ended with a CommClosedError traceback."""
+    import logging
+
+    from distributed.comm.core import CommClosedError
+
+    from vehval.batch.runner import shutdown
+
+    class Closing:
+        def __init__(self):
+            self.closed = False
+
+        def close(self):
+            self.closed = True
+            logging.getLogger("distributed.comm").error("CommClosedError: in <TCP (closed)>")
+            raise CommClosedError("in <TCP (closed)>: Stream is closed")
+
+    client, cluster = Closing(), Closing()
+    with caplog.at_level(logging.WARNING):
+        shutdown(client, cluster)           # no exception
+    assert client.closed and cluster.closed
+    assert not [r for r in caplog.records if "CommClosedError" in r.getMessage()]

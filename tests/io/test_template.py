@@ -152,3 +152,31 @@ def test_check_template_says_each_problem_once(tmp_path):
     assert len(lines) == 1, lines
     assert lines[0].startswith("error: x0.txt, x1.txt, x2.txt and 2 more file(s): channel 'Extra'")
     assert rep.format().splitlines()[-1].startswith("1 error(s)")
+
+
+def test_template_init_never_maps_distinct_columns_to_one_quantity(tmp_path):
+    """Reported on an OBD log: three DTC counters became one signal, B+ and a second voltage
+    one, ap1/ap2 one; QA then compared them as sources ("gain differs by +198310 %")."""
+    from vehval.io.propose import propose_template
+    from vehval.nomenclature import registry
+
+    cols = ["RPM", "B+", "B2+", "bt1", "bt2", "eng2ap1", "eng2ap2", "eng2dtcw", "eng2dtcd",
+            "eng2dtct", "eng2bp"]
+    f = tmp_path / "log.csv"
+    f.write_text(",".join(cols) + "\n" + "\n".join(",".join(str(i + k) for k in range(len(cols)))
+                                                    for i in range(5)) + "\n")
+    t, _ = propose_template([f])
+    ch = t.files[0].channels
+    kept = {k: c.name for k, c in ch.items() if not c.delete}
+    reg = registry()
+    parsed = {k: reg.parse(n) for k, n in kept.items()}
+    sources_by_base: dict[str, list] = {}
+    for k, p in parsed.items():
+        sources_by_base.setdefault(p.base, []).append(p.source)
+    for base, srcs in sources_by_base.items():
+        if len(srcs) > 1:   # only numbered instances share a quantity within one file
+            assert all(s and s[-1].isdigit() for s in srcs), (base, srcs)
+    assert kept["bt1"].endswith("_bt1_test") and kept["bt2"].endswith("_bt2_test")
+    assert kept["eng2ap1"].endswith("_ap1_test") and kept["eng2ap2"].endswith("_ap2_test")
+    assert ch["eng2dtcd"].delete and "already mapped from 'eng2dtcw'" in ch["eng2dtcd"].reason
+    assert ch["B2+"].delete and ch["eng2bp"].delete

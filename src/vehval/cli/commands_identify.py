@@ -19,6 +19,12 @@ def _table(rows: list[dict]) -> str:
         lines.append(f"{r['test']:<22} {r['cycle']:<10} {r['amb_temp_c']:>6.1f} "
                      f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f} "
                      f"{100 * r['error_rel']:>+8.2f}")
+        for p in r["phases"]:
+            u = p.get("results_fuel_U_g")
+            unc = f"  (results stage: {p['results_fuel_g']:.1f} ± {u:.1f} g)" if u else ""
+            lines.append(f"  {p.get('results_name', 'phase ' + str(p['phase'])):<38} "
+                         f"{p['measured_g']:>11.1f} {p['predicted_g']:>12.1f} "
+                         f"{100 * p['error_rel']:>+8.2f}{unc}")
     return "\n".join(lines)
 
 

@@ -24,8 +24,10 @@ def predict_trace(vehicle, trace: Trace) -> dict:
     -------
     dict with ``test``, ``cycle``, ``amb_temp_c``, ``fuel_measured_g``,
     ``fuel_predicted_g``, ``error_rel`` (predicted / measured - 1), ``phases`` (list of
-    {phase, measured_g, predicted_g, error_rel}), ``trace_max_miss_mps`` and ``sim`` (the
-    :class:`~vehval.sim.simulate.SimResult`).
+    {phase, measured_g, predicted_g, error_rel} plus, from the results stage,
+    ``results_name``, ``results_fuel_g``, ``results_fuel_U_g``), the same three keys for the
+    whole test, ``trace_max_miss_mps``, ``sim`` (the
+    :class:`~vehval.sim.simulate.SimResult`) and ``trace``.
     """
     m = trace.t >= 0.0
     t = trace.t[m] - trace.t[m][0]
@@ -36,17 +38,42 @@ def predict_trace(vehicle, trace: Trace) -> dict:
     fuel_meas = trace.fuel[m][: fuel_sim.size]
     phase = trace.phase[m][: fuel_sim.size]
     dt = trace.dt
+    stage = _results_stage(trace)
     phases = []
     for p in np.unique(phase[phase > 0]):
         sel = phase == p
         mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
-        phases.append({"phase": int(p), "measured_g": mg, "predicted_g": pg,
-                       "error_rel": pg / mg - 1 if mg > 0 else float("nan")})
+        row = {"phase": int(p), "measured_g": mg, "predicted_g": pg,
+               "error_rel": pg / mg - 1 if mg > 0 else float("nan")}
+        row.update(stage.get(int(p), {}))
+        phases.append(row)
     # the test proper: its phases when the file numbers them (phase 0 between runs is a
     # soak, often with the engine off, which the model cannot know), else everything
     sel = phase > 0 if np.any(phase > 0) else np.ones(phase.size, dtype=bool)
     mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
-    return {"test": trace.test_id, "cycle": trace.cycle, "amb_temp_c": trace.amb_temp_c,
+    out = {"test": trace.test_id, "cycle": trace.cycle, "amb_temp_c": trace.amb_temp_c,
             "fuel_measured_g": mg, "fuel_predicted_g": pg,
             "error_rel": pg / mg - 1 if mg > 0 else float("nan"), "phases": phases,
             "trace_max_miss_mps": res.summary["trace_max_miss_mps"], "sim": res, "trace": trace}
+    out.update(stage.get("test", {}))
+    return out
+
+
+def _results_stage(trace: Trace) -> dict:
+    """Fuel mass [g] and its expanded uncertainty U (k = 2) [g] from the results stage, per
+    phase number and for the test (keys ``results_name``, ``results_fuel_g``,
+    ``results_fuel_U_g``); empty without results."""
+    res = trace.results
+    if res is None:
+        return {}
+    out: dict = {}
+    scopes = [(p.number, p.name) for p in res.phases if p.number is not None] + [("test", "test")]
+    for key, name in scopes:
+        val = res.value(name, "fuel_mass_kg")
+        if val is None:
+            continue
+        u = res.expanded(name, "fuel_mass_kg")
+        out[int(key) if key != "test" else key] = {
+            "results_name": name, "results_fuel_g": 1e3 * val,
+            "results_fuel_U_g": None if u is None else 1e3 * u}
+    return out

@@ -46,6 +46,7 @@ class Trace:
     constants: dict = field(default_factory=dict)
     amb_temp_c: float = float("nan")
     file: str = ""
+    results: object = None  # vehval.results.TestResults of the test, when computed
 
     @property
     def dt(self) -> float:
@@ -119,7 +120,15 @@ def load_traces(files: list[str | Path], template, dt: float = 0.1) -> list[Trac
     """Load every file as one test with ``template`` (the workflow's
     :meth:`~vehval.workflow.TestRun.load`, its time-repair policy included) and return
     their traces. Identification reads the imported signals as they are (no QA selection):
-    the fuel and force channels it needs must not be dropped for a QA finding."""
+    the fuel and force channels it needs must not be dropped for a QA finding. The results
+    stage (:func:`vehval.results.compute_results`) runs on each test: predictions are
+    compared with its per-phase fuel and uncertainty."""
+    from vehval.results import compute_results
     from vehval.workflow import TestRun
-    return [trace_from_test(TestRun.load([f], template, use_qa=False).test, dt)
-            for f in files]
+    out = []
+    for f in files:
+        test = TestRun.load([f], template, use_qa=False).test
+        tr = trace_from_test(test, dt)
+        tr.results = compute_results(test)
+        out.append(tr)
+    return out

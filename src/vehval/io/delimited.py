@@ -27,6 +27,11 @@ _NUMBER = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
 _NULLS = set(pacsv.ConvertOptions().null_values)
 
 
+#: Most columns a data file may have (dyno and CAN logs have hundreds): refused before any
+#: per-column allocation.
+MAX_COLUMNS = 20_000
+
+
 def check_exists(path: Path) -> None:
     """Raise :class:`InputFileError` when ``path`` is missing, a directory or empty."""
     if not path.exists():
@@ -224,6 +229,10 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     sample = [s for s in sample if s != ""] or [""]
     header_line = sample[0]
     delim = delimiter or sniff_delimiter(sample)
+    ncols = header_line.count(delim) + 1
+    if ncols > MAX_COLUMNS:
+        raise InputFileError(f"{path} line {skipped + 1}: {ncols} columns, more than the "
+                             f"{MAX_COLUMNS} a test file may have: not a test's data file")
     try:
         headers = _tokens(header_line, delim)
     except InputFileError as exc:

@@ -32,8 +32,60 @@ def _conv(raw_unit: str | None, si_unit: str, density: float | None) -> tuple[fl
     return conversion(raw_unit, si_unit, fuel_density_kg_per_m3=density)
 
 
+#: A first/last timestamp further than this many median periods (and STRAY_MIN_GAP_S) from
+#: its neighbour is a stray value (a clock glitch), dropped with a warning.
+STRAY_GAP_PERIODS = 1000.0
+STRAY_MIN_GAP_S = 3600.0
+#: Longest accepted time span per sample: beyond, the time base cannot be a test's (one row
+#: per hour on average); refused before any grid over the span is built.
+MAX_SPAN_PER_SAMPLE_S = 3600.0
+#: Shortest accepted median sample period [s] (1 µs: far beyond any dyno logger).
+MIN_PERIOD_S = 1e-6
+
+
 def check_time(t: np.ndarray, *, path: Path, raw: RawTable | None, label: str,
                repair: bool) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
+    """Strictly increasing time (see :func:`_ordered_time`) with stray end samples removed
+    and the span checked against the number of samples."""
+    ts, order, notes = _ordered_time(t, path=path, raw=raw, label=label, repair=repair)
+    keep = _stray_free(ts)
+    if keep is not None:
+        dropped = [f"{x:.6g} s" for x in ts[~keep]]
+        notes.append(f"warning: {path.name}: {label}: stray timestamp(s) {', '.join(dropped)} "
+                     f"far from the others (more than {STRAY_GAP_PERIODS:g} sample periods and "
+                     f"{STRAY_MIN_GAP_S:g} s): row(s) dropped")
+        base = order if order is not None else np.arange(t.size)
+        ts, order = ts[keep], base[keep]
+    if ts.size >= 2:
+        span, med = float(ts[-1] - ts[0]), float(np.median(np.diff(ts)))
+        if span / ts.size > MAX_SPAN_PER_SAMPLE_S:
+            raise InputFileError(f"{path}: {label} spans {span:.3g} s with only {ts.size} samples:"
+                                 " not the time base of a test; check the time column and unit")
+        if med < MIN_PERIOD_S:
+            raise InputFileError(f"{path}: {label} has a median step of {med:.3g} s (below "
+                                 f"{MIN_PERIOD_S:g} s): check the time unit in the template")
+    return ts, order, notes
+
+
+def _stray_free(ts: np.ndarray) -> np.ndarray | None:
+    """Mask of the samples to keep when the first or last ones are strays (else None)."""
+    if ts.size < 4:
+        return None
+    d = np.diff(ts)
+    thr = max(STRAY_GAP_PERIODS * float(np.median(d)), STRAY_MIN_GAP_S)
+    keep = np.ones(ts.size, bool)
+    i, j = 0, ts.size - 1
+    while i < j - 2 and d[i] > thr:        # leading strays
+        keep[i] = False
+        i += 1
+    while j > i + 2 and d[j - 1] > thr:    # trailing strays
+        keep[j] = False
+        j -= 1
+    return None if keep.all() else keep
+
+
+def _ordered_time(t: np.ndarray, *, path: Path, raw: RawTable | None, label: str,
+                  repair: bool) -> tuple[np.ndarray, np.ndarray | None, list[str]]:
     """Check that a time array [s] is finite and strictly increasing.
 
     Parameters

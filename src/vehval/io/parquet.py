@@ -16,11 +16,12 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from vehval.errors import InputFileError
+from vehval.errors import ConfigError, InputFileError
 from vehval.io.atomic import atomic_path
-from vehval.io.delimited import check_exists
+from vehval.io.delimited import MAX_COLUMNS, check_exists
 from vehval.io.raw import RawTable, find_time_column
 from vehval.test import Signal, Test, TestMeta
+from vehval.safe_yaml import load_json
 from vehval.units import split_header
 
 FORMAT = "vehval-test"
@@ -88,18 +89,35 @@ def write_test(test: Test, path: str | Path) -> Path:
     return path
 
 
-def _vehval_meta(schema: pa.Schema) -> dict | None:
+def _vehval_meta(schema: pa.Schema, path: Path | str = "Parquet file") -> dict | None:
     raw = (schema.metadata or {}).get(_META_KEY)
     if raw is None:
         return None
-    meta = json.loads(raw)
-    return meta if meta.get("format") == FORMAT else None
+    try:
+        meta = load_json(raw.decode("utf-8", errors="replace"), f"{path}: vehval metadata")
+    except ConfigError as exc:
+        raise InputFileError(str(exc)) from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        return None
+    groups = meta.get("groups")
+    ok = isinstance(groups, dict) and isinstance(meta.get("meta", {}), dict) and all(
+        isinstance(g, dict) and isinstance(g.get("n"), int) and g["n"] >= 0
+        and isinstance(g.get("signals"), list) and all(isinstance(s, str) for s in g["signals"])
+        for g in groups.values())
+    if not ok:
+        raise InputFileError(f"{path}: damaged vehval metadata (groups of signals): re-import "
+                             "the test from its raw files")
+    return meta
 
 
 def _open(path: str | Path) -> tuple[Path, pa.Table]:
     path = Path(path)
     check_exists(path)
     try:
+        n = len(pq.read_schema(path))
+        if n > MAX_COLUMNS:
+            raise InputFileError(f"{path}: {n} columns, more than the {MAX_COLUMNS} a test file "
+                                 "may have: not a test's data file")
         return path, pq.read_table(path)
     except (pa.ArrowException, OSError) as exc:
         raise InputFileError(f"{path}: not a readable Parquet file ({exc})") from None
@@ -114,15 +132,25 @@ def read_test(path: str | Path) -> Test:
         When the file is missing, unreadable or not a vehval Test file.
     """
     path, table = _open(path)
-    info = _vehval_meta(table.schema)
+    info = _vehval_meta(table.schema, path)
     if info is None:
         raise InputFileError(f"{path}: not a vehval Test file (no 'vehval' metadata): import it "
                              "with `vehval import FILE -t TEMPLATE`")
-    if int(info.get("format_version", 0)) > FORMAT_VERSION:
+    version = info.get("format_version", 0)
+    if not isinstance(version, int) or version > FORMAT_VERSION:
         raise InputFileError(f"{path}: written by a newer vehval (format version "
                              f"{info['format_version']}): upgrade vehval")
+    try:
+        return _test_from(table, info)
+    except (KeyError, ValueError, TypeError, IndexError, pa.ArrowException) as exc:
+        raise InputFileError(f"{path}: damaged vehval metadata ({type(exc).__name__}: "
+                             f"{str(exc)[:100]}): re-import the test from its raw files") from None
+
+
+def _test_from(table: pa.Table, info: dict) -> Test:
     meta_d = info.get("meta", {})
     meta = TestMeta(**{k: v for k, v in meta_d.items() if k in TestMeta.__dataclass_fields__})
+    meta.test_id = str(meta.test_id or "")
     test = Test(meta=meta)
     for label, g in info["groups"].items():
         n = int(g["n"])
@@ -147,7 +175,7 @@ def read_parquet_raw(path: str | Path, **_opts) -> RawTable:
     first sample; other non-numeric columns are skipped with a note.
     """
     path, table = _open(path)
-    info = _vehval_meta(table.schema)
+    info = _vehval_meta(table.schema, path)
     notes: list[str] = []
     if info is not None:
         names, units, data, times = [], [], {}, {}

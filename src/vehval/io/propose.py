@@ -193,6 +193,21 @@ def source_tag(raw: RawTable) -> str:
     return stem[:16]
 
 
+def _instance(raw_name: str) -> str | None:
+    """``eng2ap1`` -> ``ap1``, ``bt3`` -> ``bt3``: the numbered instance at the end of a
+    channel name (letters then digits), or None."""
+    m = re.search(r"([a-z]+\d+)$", re.sub(r"[^a-z0-9]", "", raw_name.lower()))
+    return m.group(1) if m else None
+
+
+def _instance_name(base: str, inst: str, source: str, used: set[str]) -> str:
+    """``<base>_<inst>_test``, or with the file's source in front when another file took it."""
+    for qual in (inst, re.sub(r"[^a-z0-9]", "", f"{source}{inst}")):
+        if f"{base}_{qual}_test" not in used:
+            return f"{base}_{qual}_test"
+    return _unique_name(base, source, inst, used)
+
+
 def _unique_name(base: str, source: str, raw_name: str, used: set[str]) -> str:
     qual = re.sub(r"[^a-z0-9]", "", raw_name.lower())
     cands = [f"{base}_test"]
@@ -248,6 +263,8 @@ def propose_template(files: list[str | Path]) -> tuple[Template, list[str]]:
             time = TimeSpec(rate_hz=1.0)
             todo.append(f"{path.name}: no time column; time.rate_hz 1.0 assumed: set the real rate")
         channels: dict[str, ChannelSpec] = {}
+        first_of: dict[str, str] = {}       # base -> first column of this file mapped to it
+        renamed: set[str] = set()
         for name, unit in zip(raw.names, raw.units):
             if name == raw.time_name:
                 continue
@@ -257,7 +274,27 @@ def propose_template(files: list[str | Path]) -> tuple[Template, list[str]]:
                 channels[name] = ChannelSpec(delete=True, reason=UNMATCHED_REASON)
                 unmatched.append(f"{path.name}: {name}" + ("" if known_unit else f" [{unit}]"))
                 continue
-            full = _unique_name(base, src, name, used)
+            if base in first_of:
+                # one file, two columns, one quantity: numbered instances (ap1/ap2, bt1..bt4)
+                # get their number as an instance qualifier; anything else is not guessed
+                first = first_of[base]
+                inst, inst_first = _instance(name), _instance(first)
+                if inst is None or inst_first is None or inst == inst_first:
+                    channels[name] = ChannelSpec(delete=True, reason=(
+                        f"also looks like {base}, already mapped from '{first}': map it by hand"))
+                    todo.append(f"{path.name}: channel '{name}' also looks like {base} (mapped "
+                                f"from '{first}'): not mapped; name it by hand if it is needed")
+                    continue
+                if channels[first].name and first not in renamed:
+                    used.discard(channels[first].name)
+                    channels[first] = channels[first].model_copy(
+                        update={"name": _instance_name(base, inst_first, src, used)})
+                    used.add(channels[first].name)
+                    renamed.add(first)
+                full = _instance_name(base, inst, src, used)
+            else:
+                first_of[base] = name
+                full = _unique_name(base, src, name, used)
             used.add(full)
             spec = reg[base]
             if not known_unit:

@@ -48,6 +48,10 @@ __all__ = [
 ]
 
 
+#: Longest free text accepted in a template (description, reasons) [characters].
+MAX_TEXT = 20_000
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
 
@@ -104,7 +108,7 @@ class ChannelSpec(_Strict):
     offset: float = 0.0
     invalid_values: list[float] = Field(default_factory=list)
     delete: bool = False
-    reason: str | None = None
+    reason: str | None = Field(default=None, max_length=MAX_TEXT)
 
     @model_validator(mode="after")
     def _named(self) -> ChannelSpec:
@@ -233,7 +237,7 @@ class Template(_Strict):
     vehicle: str | None = None
     cycle: str | None = None
     synthetic: bool = False
-    description: str = ""
+    description: str = Field(default="", max_length=MAX_TEXT)
     constants: Constants = Field(default_factory=Constants)
     files: list[FileSpec] = Field(min_length=1)
     selection: Selection = Field(default_factory=Selection)

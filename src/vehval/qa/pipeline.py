@@ -196,7 +196,8 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     QAResult
     """
     work = Test([copy.copy(s) for s in test], meta=copy.deepcopy(test.meta))
-    notes: list[str] = []
+    # repairs made at import that change the data (a stray timestamp dropped) stay visible
+    notes: list[str] = [n for n in test.meta.notes if n.startswith("warning")]
     constants = dict(work.meta.constants)
     if template is not None and hasattr(template, "constants_dict"):
         for k, v in template.constants_dict().items():

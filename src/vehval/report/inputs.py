@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
-from vehval.errors import InputFileError
+from vehval.errors import ConfigError, InputFileError
+from vehval.io.paths import check_input_file
+from vehval.safe_yaml import load_json as load_json_text
 
 #: Result files the report reads from an output directory, by kind.
 RESULT_FILES = {"findings": "findings.json", "control": "control.json", "validation": "validation.json"}
@@ -14,13 +15,13 @@ RESULT_FILES = {"findings": "findings.json", "control": "control.json", "validat
 def load_json(path: str | Path) -> dict:
     """A JSON result file as a dict; :class:`InputFileError` naming the file and line."""
     path = Path(path)
+    check_input_file(path, "JSON result file", data=False)
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        doc = load_json_text(path.read_text(encoding="utf-8"), str(path))
     except (OSError, UnicodeDecodeError) as exc:
         raise InputFileError(f"{path}: cannot be read ({exc})") from None
-    except json.JSONDecodeError as exc:
-        raise InputFileError(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg}): "
-                             "re-run the command that wrote it") from None
+    except ConfigError as exc:
+        raise InputFileError(f"{exc}: re-run the command that wrote it") from None
     if not isinstance(doc, dict):
         raise InputFileError(f"{path}: expected a JSON object, found {type(doc).__name__}")
     return doc

@@ -59,6 +59,66 @@ def _mot_torque_for_power(mS, mT, mL, rg, w_ring, p_target, t_lo, t_hi):
 
 
 @njit(cache=True)
+def _system_cost(w, p_eng, wr, t_fd, aux, eS, eT, eF, eTm, gS, gT, gL, mS, mT, mL, rg, k1, k2,
+                 gen_tmax, gen_pmax, boost_eff, ocv, r_dis, r_chg, lhv, s_eq):
+    """Fuel power plus the fuel-equivalent of the battery power [W] for engine speed ``w``.
+
+    The engine gives ``p_eng`` [W] at ``w`` [rad/s]; MG1 reacts it (T_g = -T_e/k1) and MG2
+    completes the wheel torque (eq. 1); the battery supplies the bus (MG1 + MG2 + losses),
+    the boost losses and the accessories. ``s_eq`` [-] converts battery chemical power to
+    fuel power. Returns inf where the engine or MG1 cannot hold the point.
+    """
+    te = p_eng / w
+    if te > max_torque(eS, eTm, w):
+        return np.inf
+    wg = k1 * w - k2 * wr
+    tg = -te / k1
+    if -tg > torque_limit(gen_tmax, gen_pmax, wg):
+        return np.inf
+    t_m = t_fd - te * k2 / k1
+    p_bus = electrical_power(gS, gT, gL, wg, tg) + _mot_power(mS, mT, mL, rg, wr, t_m)
+    p_bt = battery_side_power(p_bus, boost_eff) + aux
+    cur = current_from_power(p_bt, ocv, r_dis if p_bt >= 0.0 else r_chg)
+    return fuel_rate(eS, eT, eF, w, te) * lhv + s_eq * ocv * cur
+
+
+@njit(cache=True)
+def _system_speed(p_eng, w_lo, w_hi, w_fallback, wr, t_fd, aux, eS, eT, eF, eTm, gS, gT, gL,
+                  mS, mT, mL, rg, k1, k2, gen_tmax, gen_pmax, boost_eff, ocv, r_dis, r_chg,
+                  lhv, s_eq):
+    """Engine speed [rad/s] in [w_lo, w_hi] of least :func:`_system_cost` (grid + refine).
+
+    ``w_fallback`` is returned when no speed can hold the point.
+    """
+    if w_hi <= w_lo:
+        return w_fallback
+    n = 9
+    step = (w_hi - w_lo) / (n - 1)
+    best = np.inf
+    w_best = w_fallback
+    for j in range(n):
+        w = w_lo + step * j
+        c = _system_cost(w, p_eng, wr, t_fd, aux, eS, eT, eF, eTm, gS, gT, gL, mS, mT, mL, rg,
+                         k1, k2, gen_tmax, gen_pmax, boost_eff, ocv, r_dis, r_chg, lhv, s_eq)
+        if c < best:
+            best = c
+            w_best = w
+    if best == np.inf:
+        return w_fallback
+    w0 = w_best
+    for j in (-3, -2, -1, 1, 2, 3):  # refine between the neighbours of the grid optimum
+        w = w0 + 0.25 * step * j
+        if w < w_lo or w > w_hi:
+            continue
+        c = _system_cost(w, p_eng, wr, t_fd, aux, eS, eT, eF, eTm, gS, gT, gL, mS, mT, mL, rg,
+                         k1, k2, gen_tmax, gen_pmax, boost_eff, ocv, r_dis, r_chg, lhv, s_eq)
+        if c < best:
+            best = c
+            w_best = w
+    return w_best
+
+
+@njit(cache=True)
 def _resplit(te, t_ring, k1, t_fd, tm_lim, wg0, wr_e, gS, gT, gL, mS, mT, mL, rg, boost_eff,
              aux):
     """Torque split again after the engine left its best line for a battery limit.
@@ -122,6 +182,8 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
     drv_tau = prm[P_DRV_TAU]; drv_ki = prm[P_DRV_KI]; drv_lim = prm[P_DRV_INT_LIM]
 
     rg = prm[P_MG2_RATIO]  # MG2 shaft speed / ring speed
+    op_system = prm[P_OP_SYSTEM] > 0.5  # engine speed for the system, else the best line
+    s_eq = prm[P_EQ_FACTOR]  # fuel J per J of battery chemical energy
     k1 = (nr + ns) / ns
     k2 = nr / ns
     g = fd / rw
@@ -205,7 +267,8 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
         cmd_on = engine_commanded_on(st)
         if cmd_on:
             locked = False
-        # ---------------- engine operating point (best line, inside the MG1 speed window)
+        # ---------------- engine operating point (best line or system optimum, inside the
+        # MG1 speed window)
         w_lo = max((k2 * wr0 - wg_lim) / k1, 0.0)
         w_hi = min(eng_max - prm[P_ENG_SPD_MARGIN], (wg_lim + k2 * wr0) / k1)
         fuelcut = False
@@ -215,6 +278,14 @@ def run(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, oP, oS, mS, mT, mL, gS, 
             if p_eng > fuel_cut_pwr:
                 p_eng = min(max(p_eng, eng_min_pwr), eng_pmax)
                 w_tgt = interp1(oP, oS, p_eng)
+                if op_system:
+                    # speed of least fuel + fuel-equivalent of the electrical path
+                    t_wh_e = f_dem * rw
+                    t_fd_e = t_wh_e / (fd * fd_eff) if t_wh_e >= 0.0 else t_wh_e * fd_eff / fd
+                    w_tgt = _system_speed(
+                        p_eng, max(w_lo, eng_idle), w_hi, w_tgt, wr_e, t_fd_e, aux, eS, eT, eF,
+                        eTm, gS, gT, gL, mS, mT, mL, rg, k1, k2, gen_tmax, gen_pmax, boost_eff,
+                        ocv, interp1(bSoc, bRd, soc), interp1(bSoc, bRc, soc), lhv, s_eq)
             else:
                 p_eng = 0.0
                 fuelcut = v0 >= fuel_cut_spd

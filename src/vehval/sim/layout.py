@@ -20,7 +20,7 @@ PARAMS = (
     "eng_min_pwr", "fuel_cut_pwr", "fuel_cut_spd", "regen_frac", "fade_lo", "fade_hi",
     "gen_kp", "gen_ki", "eng_pwr_tau", "gen_spd_margin", "eng_spd_margin",
     "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax",
-    "soc_init", "mg2_ratio",
+    "soc_init", "mg2_ratio", "op_system", "eq_factor",
 )
 SIGNALS = (
     "veh_spd", "veh_spd_target", "veh_acc", "veh_frc_in", "veh_frc_loss", "whl_trq_out",

@@ -23,6 +23,17 @@ class Packed:
     maps: tuple[np.ndarray, ...]
 
 
+def best_engine_efficiency(veh: Vehicle) -> float:
+    """Highest efficiency [-] on the engine's best-efficiency line (from the fuel map)."""
+    from vehval.vehicle.maps import bilinear
+
+    p, w, t = veh.best_line
+    a = veh.engine.arrays()
+    fuel = bilinear(a["spd"], a["trq"], a["fuel"], w, t)
+    ok = (p > 0) & (fuel > 0)
+    return float(np.max(p[ok] / (fuel[ok] * veh.engine.fuel_lhv_j_per_kg)))
+
+
 def param_vector(veh: Vehicle, soc_initial: float) -> np.ndarray:
     """Scalar parameters of ``veh`` in SI, in the order of :data:`vehval.sim.layout.PARAMS`."""
     b, e, g1, g2, bt = veh.body, veh.engine, veh.mg1, veh.mg2, veh.battery
@@ -65,6 +76,8 @@ def param_vector(veh: Vehicle, soc_initial: float) -> np.ndarray:
         "drv_tau": dr.response_time_s, "drv_ki": dr.ki_n_per_m,
         "drv_int_lim": dr.integrator_limit_n, "drv_fmax": dr.max_force_n,
         "soc_init": soc_initial, "mg2_ratio": d.mg2_reduction_ratio,
+        "op_system": 1.0 if c.operating_point == "system" else 0.0,
+        "eq_factor": 1.0 / (best_engine_efficiency(veh) * c.soc_correction_path_efficiency),
     }
     return np.array([float(val[k]) for k in PARAMS])
 

@@ -10,6 +10,8 @@ the report all read these blocks; the physics that uses them lives in :mod:`vehv
 
 from __future__ import annotations
 
+from typing import Literal
+
 import numpy as np
 from pydantic import Field, model_validator
 
@@ -45,6 +47,8 @@ class EngineParams(Block):
     inertia_kg_m2: float = Field(gt=0, le=1e3)
     fuel_density_kg_per_m3: float = Field(gt=0, le=2_000)
     fuel_lhv_j_per_kg: float = Field(ge=5e6, le=1.5e8)  # methanol to hydrogen
+    displacement_l: float | None = Field(default=None, gt=0, le=20)
+    """Swept volume [L]; informative (scaling, reports), not used by the simulation."""
 
     @model_validator(mode="after")
     def _maps(self):
@@ -111,6 +115,9 @@ class BatteryParams(Block):
     nominal_voltage_v: float = Field(gt=0, le=2_000)
     soc_min: float = Field(ge=0, le=1)
     soc_max: float = Field(ge=0, le=1)
+    chemistry: Literal["nimh", "li_ion"] = "nimh"
+    """Cell chemistry: ``nimh`` (nickel-metal hydride, the 2004 pack) or ``li_ion``; the
+    pack's behaviour is in its OCV, resistance and power-limit tables."""
 
     @model_validator(mode="after")
     def _maps(self):

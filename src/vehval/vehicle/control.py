@@ -6,6 +6,8 @@ The state machine and the driver that use them are in :mod:`vehval.sim.control` 
 
 from __future__ import annotations
 
+from typing import Literal
+
 from pydantic import Field, model_validator
 
 from vehval.vehicle.base import Block
@@ -46,6 +48,10 @@ class ControllerParams(Block):
     gen_speed_margin_rpm: float = Field(ge=0)
     engine_speed_margin_rpm: float = Field(ge=0)
     soc_correction_path_efficiency: float = Field(gt=0, le=1)
+    operating_point: Literal["system", "best_line"] = "best_line"
+    """Engine speed choice while the engine delivers power: ``best_line`` places the power on
+    the engine's own best-efficiency line; ``system`` picks the speed of least fuel plus the
+    fuel-equivalent of the electrical path (MG1, MG2, boost, battery) at each step."""
 
     @model_validator(mode="after")
     def _consistent(self):

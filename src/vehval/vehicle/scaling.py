@@ -1,0 +1,123 @@
+"""Scale measured component maps to another machine or engine (later power-split generations).
+
+The method is the one ADVISOR and Autonomie use to size components from a reference map:
+
+* electric machine, by rated power and maximum speed: speed breakpoints x ``k_n`` (new /
+  reference maximum speed), losses x ``k_p`` (new / reference rated power), torque
+  breakpoints x ``k_p / k_n``. Efficiency is kept at corresponding points of the
+  normalised map: a point at the same fraction of maximum speed and torque has the same
+  efficiency.
+* engine, by rated speed and peak torque: speed x ``k_n``, torque x ``k_t``, fuel rate x
+  ``k_n k_t`` (efficiency kept), then x ``eta_ref / eta_new`` to move the peak efficiency to
+  a published figure (every point improved by the same ratio).
+
+:func:`fit_loss_surface` turns scattered measured machine points (speed, torque, loss) into a
+physically shaped surface (non-negative terms in |T|, T^2, w^2, w^3 and |T| w) that can be
+evaluated on any grid and then scaled.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vehval.constants import RPM_RAD_PER_S
+
+
+def loss_basis(speed_rad_s: np.ndarray, torque_nm: np.ndarray) -> np.ndarray:
+    """Loss terms [W per unit coefficient]: inverter conduction ~|T|, copper ~T^2, iron
+    ~w^2 (x 1e-2), windage ~w^3 (x 1e-5), switching/iron under load ~|T| w (x 1e-2)."""
+    w = np.asarray(speed_rad_s, float)
+    t = np.abs(np.asarray(torque_nm, float))
+    return np.column_stack([t, t**2, w**2 / 1e2, w**3 / 1e5, t * w / 1e2])
+
+
+@dataclass(frozen=True)
+class LossSurface:
+    """A fitted loss surface ``loss = loss_basis(w, T) @ coef`` [W]."""
+
+    coef: np.ndarray
+    rms_w: float
+    n_points: int
+
+    def __call__(self, speed_rpm, torque_nm) -> np.ndarray:
+        """Loss [W] at speed [rpm] (sign ignored) and torque [N·m]; any broadcastable shape."""
+        w, t = np.broadcast_arrays(np.abs(np.asarray(speed_rpm, float)) * RPM_RAD_PER_S,
+                                   np.asarray(torque_nm, float))
+        return (loss_basis(w.ravel(), t.ravel()) @ self.coef).reshape(w.shape)
+
+    def describe(self) -> str:
+        c = self.coef
+        return (f"loss = {c[0]:.4g}|T| + {c[1]:.4g}T^2 + {c[2]:.4g}e-2 w^2 + {c[3]:.4g}e-5 w^3 "
+                f"+ {c[4]:.4g}e-2 |T| w [W; T N·m, w rad/s], {self.n_points} points, rms "
+                f"residual {self.rms_w:.0f} W")
+
+
+def fit_loss_surface(speed_rpm, torque_nm, loss_w) -> LossSurface:
+    """Non-negative least-squares fit of :func:`loss_basis` to measured points.
+
+    Parameters
+    ----------
+    speed_rpm, torque_nm, loss_w : array_like
+        Measured operating points: shaft speed [rpm], torque [N·m], loss [W] (electrical
+        minus mechanical power for a motoring machine).
+    """
+    from scipy.optimize import nnls
+
+    w = np.abs(np.asarray(speed_rpm, float)) * RPM_RAD_PER_S
+    t = np.asarray(torque_nm, float)
+    y = np.asarray(loss_w, float)
+    basis = loss_basis(w, t)
+    coef, _ = nnls(basis, y)
+    rms = float(np.sqrt(np.mean((basis @ coef - y) ** 2)))
+    return LossSurface(coef=coef, rms_w=rms, n_points=int(y.size))
+
+
+@dataclass(frozen=True)
+class MachineScale:
+    """Factors of :func:`machine_scale`: speed, torque and loss (power) multipliers."""
+
+    speed: float
+    torque: float
+    loss: float
+
+
+def machine_scale(ref_max_speed_rpm: float, ref_power_w: float, new_max_speed_rpm: float,
+                  new_power_w: float) -> MachineScale:
+    """ADVISOR/Autonomie machine scaling by rated power and maximum speed."""
+    k_n = new_max_speed_rpm / ref_max_speed_rpm
+    k_p = new_power_w / ref_power_w
+    return MachineScale(speed=k_n, torque=k_p / k_n, loss=k_p)
+
+
+def scale_machine_map(speed_rpm, torque_nm, loss_w, k: MachineScale):
+    """Scaled breakpoints and loss map (lists): speed x k.speed, torque x k.torque, loss x k.loss.
+
+    Efficiency at corresponding points is unchanged: output power and loss both scale by
+    ``k.speed * k.torque = k.loss``.
+    """
+    return ([float(x) * k.speed for x in speed_rpm], [float(x) * k.torque for x in torque_nm],
+            (np.asarray(loss_w, float) * k.loss).tolist())
+
+
+def scale_engine_map(speed_rpm, torque_nm, fuel_g_per_s, max_torque_nm, k_speed: float,
+                     k_torque: float, efficiency_ratio: float = 1.0):
+    """Scaled engine map: speed x k_speed, torque x k_torque, fuel x k_speed k_torque /
+    efficiency_ratio (``efficiency_ratio`` = new / reference peak efficiency)."""
+    k_f = k_speed * k_torque / efficiency_ratio
+    return ([float(x) * k_speed for x in speed_rpm], [float(x) * k_torque for x in torque_nm],
+            (np.asarray(fuel_g_per_s, float) * k_f).tolist(),
+            [float(x) * k_torque for x in max_torque_nm])
+
+
+def peak_efficiency(speed_rpm, torque_nm, fuel_g_per_s, max_torque_nm, lhv_j_per_kg: float):
+    """Peak brake efficiency [-] of an engine map over its points inside the full-load curve."""
+    spd = np.asarray(speed_rpm, float)
+    trq = np.asarray(torque_nm, float)
+    fuel = np.asarray(fuel_g_per_s, float)
+    p = spd[:, None] * RPM_RAD_PER_S * trq[None, :]
+    inside = trq[None, :] <= np.asarray(max_torque_nm, float)[:, None] + 1e-9
+    with np.errstate(divide="ignore", invalid="ignore"):
+        eff = np.where(inside & (fuel > 0), p / (fuel * 1e-3 * lhv_j_per_kg), 0.0)
+    return float(eff.max())
