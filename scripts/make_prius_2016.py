@@ -37,8 +37,13 @@ sys.path.insert(0, str(REPO / "src"))
 
 from vehval.epa import apply_selector, read_test_car_list
 from vehval.vehicle import load_vehicle
-from vehval.vehicle.scaling import (fit_loss_surface, machine_scale, peak_efficiency,
-                                    scale_engine_map, scale_machine_map)
+from vehval.vehicle.scaling import (
+    fit_loss_surface,
+    machine_scale,
+    peak_efficiency,
+    scale_engine_map,
+    scale_machine_map,
+)
 
 SPECS = "2016 Prius gen-4 specification sheet"
 HP_W = 745.69987158227022
