@@ -75,3 +75,10 @@ def test_validation_needs_a_vehicle(virtual):
     run.vehicle = None
     with pytest.raises(ConfigError, match="needs a vehicle"):
         run.validate()
+
+
+def test_loaded_objects_satisfy_the_protocols(virtual):
+    from vehval.protocols import TemplateLike, VehicleLike
+
+    run = TestRun.from_paths([virtual], vehicle="prius_2004")
+    assert isinstance(run.template, TemplateLike) and isinstance(run.vehicle, VehicleLike)

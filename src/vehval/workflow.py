@@ -33,6 +33,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from vehval.errors import ConfigError, InputFileError
+from vehval.protocols import TemplateLike, VehicleLike
 from vehval.test import Test
 
 #: One policy for time stamps that go backwards or repeat: sort/drop them with a note.
@@ -144,12 +145,13 @@ class TestRun:
 
     __test__ = False  # not a pytest test class
 
-    def __init__(self, test: Test, template: Any = None, vehicle: Any = None, *,
+    def __init__(self, test: Test, template: TemplateLike | None = None,
+                 vehicle: VehicleLike | None = None, *,
                  origin: str = "", validated_input: bool = False, use_qa: bool = True,
                  qa: QAOutcome | None = None) -> None:
         self.test = test
-        self.template = template
-        self.vehicle = vehicle
+        self.template: TemplateLike | None = template
+        self.vehicle: VehicleLike | None = vehicle
         self.origin = origin
         self.validated_input = validated_input
         self.use_qa = use_qa and not validated_input

@@ -6,9 +6,8 @@ import pytest
 
 from iohelpers import D3_TEMPLATE, write_d3
 from vehval.errors import ConfigError
-from vehval.io.template import (ChannelSpec, FileSpec, Template, check_template, load_template,
-                                propose_template)
-from vehval.io.propose import UNMATCHED_REASON, match_channel
+from vehval.io.propose import UNMATCHED_REASON, check_template, match_channel, propose_template
+from vehval.io.template import ChannelSpec, FileSpec, Template, load_template
 
 
 def _write(tmp_path, text, name="T.yaml"):

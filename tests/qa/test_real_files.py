@@ -61,7 +61,7 @@ def _propose_and_qa(path):
     fuel channels and channels with no unit anywhere deleted."""
     from vehval.io.importer import import_test
     from vehval.io.readers import read_raw
-    from vehval.io.template import propose_template
+    from vehval.io.propose import propose_template
     from vehval.nomenclature import registry
     tpl, _ = propose_template([path])
     if tpl.constants.fuel_density_kg_per_m3 is None:

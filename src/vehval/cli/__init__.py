@@ -17,22 +17,11 @@ except ImportError:  # pragma: no cover
 
 from vehval.errors import VehvalError
 
-app = typer.Typer(
-    name="vehval",
-    help="Vehicle test data to trusted knowledge: import, QA, simulate, validate.",
-    no_args_is_help=True,
-    add_completion=False,
-    pretty_exceptions_enable=False,
-)
-
-
-@app.callback()
-def _root() -> None:
-    """Vehicle test data to trusted knowledge: import, QA, simulate, validate."""
+from vehval.cli.app import app  # noqa: E402 - the application the commands register on
 
 
 def _register() -> None:
-    # Imported here so that each module can import `app` from this package.
+    # Imported on first use: each module registers its commands on `app` (vehval.cli.app).
     from vehval.cli import commands_import  # noqa: F401
     from vehval.cli import commands_synth  # noqa: F401
     from vehval.cli import commands_cycles  # noqa: F401

@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 
 catalog_app = typer.Typer(help="Query the results catalog (OUTDIR/catalog.duckdb).",
                           no_args_is_help=True)

@@ -6,7 +6,7 @@ import json
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 from vehval.cycles import list_cycles, load_cycle
 
 cycles_app = typer.Typer(help="Drive cycles: regulatory speed traces and steady runs.",

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 
 epa_app = typer.Typer(help="EPA Test Car List: certification dyno results per test.",
                       no_args_is_help=True)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 from vehval.errors import ConfigError
 
 

@@ -7,7 +7,7 @@ import json
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 from vehval.nomenclature import registry
 
 
@@ -43,7 +43,7 @@ def template_init_cmd(
     force: bool = typer.Option(False, "--force", help="Overwrite an existing template."),
 ) -> None:
     """Propose a template: standard names, units and source tags for every channel."""
-    from vehval.io.template import propose_template
+    from vehval.io.propose import propose_template
 
     from vehval.io.paths import check_input_file, check_outputs
 
@@ -69,7 +69,7 @@ def template_check_cmd(
     files: list[Path] = typer.Argument(..., help="Raw files to check against it."),
 ) -> None:
     """Compare a template with raw files: missing/extra channels, unit problems."""
-    from vehval.io.template import check_template
+    from vehval.io.propose import check_template
 
     report = check_template(template, files)
     typer.echo(report.format())

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 
 
 def _summary(d: dict, outdir: Path) -> dict:

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 from vehval.errors import InputFileError
 
 FINDINGS = "findings.json"

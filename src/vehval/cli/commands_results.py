@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 from vehval.constants import MPH_M_PER_S
 from vehval.errors import InputFileError, VehvalError
 

@@ -9,7 +9,7 @@ from typing import Optional
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 from vehval.jsonsafe import clean
 
 vehicle_app = typer.Typer(help="Vehicle parameter files.", no_args_is_help=True)
@@ -38,16 +38,10 @@ def _write_outputs(result, outdir: Path, audit: dict | None = None) -> list[str]
             (stage / "audit.md").write_text("\n".join(head + audit_lines(audit) + ["```", ""]),
                                             encoding="utf-8")
             written += ["audit.json", "audit.md"]
-        try:
-            from vehval.io.parquet import write_test
-        except ImportError:  # pragma: no cover - depends on the I/O package
-            write_test = None
-        if write_test is not None:
-            write_test(result.test, stage / "signals.parquet")
-            written.append("signals.parquet")
-        else:  # pragma: no cover
-            result.frame().to_csv(stage / "signals.csv")
-            written.append("signals.csv")
+        from vehval.io.parquet import write_test
+
+        write_test(result.test, stage / "signals.parquet")
+        written.append("signals.parquet")
     return written
 
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 from vehval.cli.options import parse_assignments
 from vehval.errors import ConfigError, VehvalError
 

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 from vehval.errors import ConfigError
 from vehval.io.paths import check_outputs, sanitize_id, vehicle_path
 

@@ -497,14 +497,3 @@ def as_template(template: Template | str | Path) -> Template:
         return template
     return load_template(template)
 
-
-
-def __getattr__(name: str):
-    """``propose_template`` and ``check_template`` live in :mod:`vehval.io.propose`."""
-    if name in ("propose_template", "check_template"):
-        from vehval.io import propose
-        return getattr(propose, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-__all__ += ["check_template", "propose_template"]

@@ -125,10 +125,8 @@ def resolve_vehicle(vehicle: Any, test: Test) -> tuple[Any, str | None]:
     name = vehicle or test.meta.vehicle
     if not name:
         return None, "No vehicle file given: component-map plots are skipped."
-    try:
-        from vehval.vehicle import load_vehicle
-    except ImportError:
-        return None, "The vehicle model is not available: component-map plots are skipped."
+    from vehval.vehicle import load_vehicle
+
     try:
         return load_vehicle(name), None
     except Exception as exc:  # noqa: BLE001 - an unknown vehicle must not stop the report

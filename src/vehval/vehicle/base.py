@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, model_validator
+from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.errors import ConfigError
 
 
 class Block(BaseModel):
@@ -60,3 +61,37 @@ def table_check(values, rows: int, cols: int | None, key: str) -> None:
         raise ValueError(f"'{key}' must contain finite numbers only")
 
 
+def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ...]):
+    """Validated copy of ``veh`` with parameters replaced by dotted path ``<block>.<name>``."""
+    if not overrides:
+        return veh
+    per_block: dict[str, dict[str, Any]] = {}
+    for raw_key, value in overrides.items():
+        key = raw_key.replace("__", ".")
+        parts = key.split(".")
+        if len(parts) != 2 or parts[0] not in blocks:
+            raise ConfigError(f"override '{raw_key}': use <block>.<parameter> with block one "
+                              f"of {', '.join(blocks)}")
+        blk, name = parts
+        fields = type(getattr(veh, blk)).model_fields
+        if name == "sources" or name not in fields:
+            raise ConfigError(f"override '{raw_key}': '{blk}' has no parameter '{name}' "
+                              f"(known: {', '.join(k for k in fields if k != 'sources')})")
+        per_block.setdefault(blk, {})[name] = value
+    update = {}
+    where = f"{veh.file or veh.name} with overrides"
+    for blk, changes in per_block.items():
+        old = getattr(veh, blk)
+        data = {**old.model_dump(), **changes}
+        data["sources"] = {**{k: "override given by the caller" for k in changes},
+                           **old.sources}
+        try:
+            update[blk] = type(old).model_validate(data)
+        except ValidationError as exc:
+            msgs = "; ".join(f"key '{blk}.{'.'.join(str(x) for x in e['loc']) or '?'}': "
+                             f"{e['msg'].removeprefix('Value error, ')}"
+                             for e in exc.errors()[:5])
+            raise ConfigError(f"{where}: invalid override: {msgs}") from None
+    new = veh.model_copy(update=update)
+    new._file = veh._file
+    return new

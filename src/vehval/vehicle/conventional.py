@@ -23,7 +23,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
-from vehval.vehicle.base import RPM, Block
+from vehval.vehicle.base import RPM, Block, apply_overrides
 from vehval.vehicle.components import BodyParams, DrivelineParams, EngineParams
 from vehval.vehicle.control import DriverParams
 
@@ -141,7 +141,6 @@ class ConventionalVehicle(BaseModel):
 
     def with_overrides(self, overrides: dict | None) -> ConventionalVehicle:
         """A validated copy with parameters replaced by dotted path (``gearbox.efficiency``)."""
-        from vehval.vehicle.definition import apply_overrides
         return apply_overrides(self, overrides, CONVENTIONAL_BLOCKS)
 
     def signal_limits(self) -> dict[str, tuple[float, float]]:
