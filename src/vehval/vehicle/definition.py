@@ -135,8 +135,10 @@ def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ..
     for blk, changes in per_block.items():
         old = getattr(veh, blk)
         data = {**old.model_dump(), **changes}
-        data["sources"] = {**{k: "override given by the caller" for k in changes},
-                           **old.sources}
+        # an overridden value is the caller's: its file source and uncertainty no longer apply
+        data["sources"] = {**old.sources, **{k: "override given by the caller" for k in changes}}
+        if old.uncertainty is not None:
+            data["uncertainty"] = {k: v for k, v in old.uncertainty.items() if k not in changes}
         try:
             update[blk] = type(old).model_validate(data)
         except ValidationError as exc:
