@@ -7,8 +7,14 @@ import pytest
 
 from vehval.constants import RPM_RAD_PER_S
 from vehval.vehicle import load_vehicle
-from vehval.vehicle.scaling import (fit_loss_surface, loss_basis, machine_scale,
-                                    peak_efficiency, scale_engine_map, scale_machine_map)
+from vehval.vehicle.scaling import (
+    fit_loss_surface,
+    loss_basis,
+    machine_scale,
+    peak_efficiency,
+    scale_engine_map,
+    scale_machine_map,
+)
 
 
 def test_machine_scale_factors_by_hand():

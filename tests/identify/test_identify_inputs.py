@@ -83,3 +83,21 @@ def test_cli_refuses_to_overwrite_an_input(tmp_path, capsys):
     assert rc == 2
     assert len(capsys.readouterr().err.strip().splitlines()) == 1
     assert raw.read_text().startswith("Time[sec]")
+
+
+def test_predict_cli_table_json_and_report(tmp_path, capsys):
+    out = tmp_path / "v"
+    assert main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "ece15", "--seed", "2",
+                 "-o", str(out)]) == 0
+    capsys.readouterr()
+    f = str(next(out.glob("*_d3.txt")))
+    rep = tmp_path / "pred.html"
+    assert main(["predict", "cruze_diesel_2014", f, "-t", str(out / "template.yaml"),
+                 "--report", str(rep), "--json"]) == 0
+    import json
+    rows = json.loads(capsys.readouterr().out)
+    # the generating model predicts its own virtual test: fuel within 1 % (bench noise,
+    # and the 1.5 s meter delay pushes the last grams past the end of the file)
+    assert abs(rows[0]["error_rel"]) < 0.01
+    assert [p["phase"] for p in rows[0]["phases"]] == [1, 2]
+    assert "engine speed, model" in rep.read_text()

@@ -134,7 +134,18 @@ def test_report_shows_results_first(tmp_path, cli):
     i = html.find("Test results")
     assert 0 < i < html.find("QA findings") and "Results per phase" in html
     assert "Regulatory composites" in html and "± " in html and "Drive quality (SAE J2951)" in html
+    # time traces in engineering units, data SI: vehicle speed in mph, fuel rate in g/s
+    assert "veh_spd [mph]" in html and "fuel_rate [g/s]" in html and "veh_spd [m/s]" not in html
     # `vehval report` on the output directory reads results.json again
     code, out, err = cli("report", tmp_path / "r", "-o", tmp_path / "again.html", "--no-excel")
     assert code == 0, err
     assert "Results per phase" in (tmp_path / "again.html").read_text()
+
+
+def test_display_units_round_trip():
+    from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S, display_unit
+    assert display_unit("m/s") == ("mph", pytest.approx(1 / MPH_M_PER_S))
+    unit, k = display_unit("rad/s")
+    assert unit == "rpm" and 3000 / k * RPM_RAD_PER_S * k == pytest.approx(3000 * RPM_RAD_PER_S)
+    assert 104.71975511965977 * k == pytest.approx(1000.0)   # 1000 rpm in rad/s, shown as rpm
+    assert display_unit("N*m") == ("N*m", 1.0)

@@ -83,6 +83,7 @@ def predict_cmd(
     vehicle: str = typer.Argument(..., help="Vehicle name or YAML path (conventional)."),
     files: list[Path] = typer.Argument(..., help="Raw test files to predict (one test per file)."),
     template: Path = typer.Option(..., "-t", "--template", help="Import template."),
+    report: Path = typer.Option(None, "--report", help="Also write an HTML report (table, engine speed and fuel rate overlays)."),
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
 ) -> None:
     """Drive each test's measured speed with the model; fuel measured vs predicted, per phase."""
@@ -93,7 +94,14 @@ def predict_cmd(
     if veh.architecture != "conventional":
         raise ConfigError(f"{vehicle}: predict compares fuel of conventional cars; this vehicle "
                           f"is '{veh.architecture}' (use vehval validate)")
-    rows = [_public(predict_trace(veh, t)) for t in load_traces(files, template)]
+    if report is not None:
+        from vehval.io.paths import check_outputs
+        check_outputs(outfile=report, inputs=[*files, template])
+    preds = [predict_trace(veh, t) for t in load_traces(files, template)]
+    if report is not None:
+        from vehval.identify.report import write_prediction_report
+        write_prediction_report(veh.name, preds, report)
+    rows = [_public(p) for p in preds]
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
     else:

@@ -115,3 +115,31 @@ def write_identification_report(idf, preds: list[dict], path: str | Path) -> Pat
     path = Path(path)
     write_text_atomic(path, doc)
     return path
+
+
+def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Path) -> Path:
+    """Write the prediction table and the engine speed / fuel rate overlays of ``preds``
+    (from ``predict_trace``) to ``path`` (one self-contained HTML file)."""
+    rows = []
+    for p in preds:
+        rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", "test",
+                     f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
+                     f"{100 * p['error_rel']:+.2f}"])
+        for ph in p["phases"]:
+            u = ph.get("results_fuel_U_g")
+            rows.append(["", "", "", ph.get("results_name", f"phase {ph['phase']}"),
+                         f"{ph['measured_g']:.1f}" + (f" ± {u:.1f}" if u else ""),
+                         f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"])
+    body = (f"<h1>Predictions of {html.escape(vehicle_name)}</h1>"
+            + _table(rows, ["test", "cycle", "cell °C", "scope", "measured g (U, k = 2)",
+                            "predicted g", "error %"]))
+    figs = [trace_figure(p) for p in preds]
+    divs = "\n".join(f.to_html(full_html=False, include_plotlyjs=(i == 0))
+                     for i, f in enumerate(figs))
+    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'><title>vehval predictions"
+           "</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:"
+           "collapse}td,th{border:1px solid #ccc;padding:2px 8px}</style></head><body>"
+           f"{body}\n{divs}</body></html>")
+    path = Path(path)
+    write_text_atomic(path, doc)
+    return path

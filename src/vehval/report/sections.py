@@ -48,9 +48,22 @@ def label(test: Test, name: str) -> str:
     return f"{name} [{unit}]" if unit and unit != "dimensionless" else name
 
 
+def display_label(test: Test, name: str) -> tuple[str, float]:
+    """``name [display unit]`` for time-trace axes, and the factor SI -> display unit
+    (mph, rpm, g/s, kW, kJ: :data:`vehval.constants.DISPLAY_UNITS`)."""
+    from vehval.constants import display_unit
+
+    unit = test[name].unit if name in test else ""
+    shown, k = display_unit(unit)
+    return (f"{name} [{shown}]" if shown and shown != "dimensionless" else name), k
+
+
 def _trace(test: Test, name: str, i: int, **kw) -> dict:
+    """A time trace of ``name`` in its display unit."""
     sig = test[name]
-    return {"name": name, "t": sig.time, "y": sig.values, "color": PALETTE[i % len(PALETTE)], **kw}
+    k = display_label(test, name)[1]
+    return {"name": name, "t": sig.time, "y": sig.values * k if k != 1.0 else sig.values,
+            "color": PALETTE[i % len(PALETTE)], **kw}
 
 
 def duration_and_distance(test: Test) -> tuple[float, float | None]:
@@ -280,7 +293,10 @@ def findings_section(test: Test, qa: dict, limits: dict | None = None) -> Sectio
         if band is None and spec is not None:
             band = (limits or {}).get(spec.base) or registry()[spec.base].range
         checks = sorted({str(r.get("kind") or r.get("check") or r.get("test") or "?") for r in fr})
-        fig = time_traces_figure([{"ylabel": label(test, name), "traces": [_trace(test, name, 0)],
+        ylab, k = display_label(test, name)
+        if band is not None and k != 1.0:
+            band = tuple(None if b is None else b * k for b in band)
+        fig = time_traces_figure([{"ylabel": ylab, "traces": [_trace(test, name, 0)],
                                    "band": band, "spans": spans}], row_height=240)
         sec.figures.append(FigSpec(f"{name}: {', '.join(checks)}" + (" (dropped by the selection)" if name in dropped else ""),
                                    fig, linked=True))
@@ -329,7 +345,7 @@ def table3_section(test: Test, qa: dict) -> Section:
         calc = [n for n in names if _parse(n) and _parse(n).origin == "calc"]
         if not meas or not calc:
             continue
-        fig = time_traces_figure([{"ylabel": label(test, meas[0]),
+        fig = time_traces_figure([{"ylabel": display_label(test, meas[0])[0],
                                    "traces": [_trace(test, meas[0], 0), _trace(test, calc[0], 1)]}],
                                  row_height=260)
         _, _, r2 = qv.fit_of(r)
@@ -378,7 +394,8 @@ def signals_section(test: Test) -> Section:
             chunk = bases[k:k + PANELS_PER_FIGURE]
             panels = []
             for base, names in chunk:
-                unit = test[names[0]].unit
+                from vehval.constants import display_unit
+                unit = display_unit(test[names[0]].unit)[0]
                 panels.append({"ylabel": f"{base} [{unit}]" if unit != "dimensionless" else base,
                                "traces": [_trace(test, n, i) for i, n in enumerate(sorted(names))]})
             part = f" ({k // PANELS_PER_FIGURE + 1})" if len(bases) > PANELS_PER_FIGURE else ""

@@ -138,6 +138,8 @@ class CalibrationResult:
     history: list[float] = field(default_factory=list)
     smooth_hz: float | None = None
     notes: list[str] = field(default_factory=list)
+    #: Tuned values the over-fitting guard refused (empty when the tuned values were kept).
+    rejected: dict[str, float] = field(default_factory=dict)
 
     def provenance(self, name: str) -> str:
         """Source text recorded for a tuned parameter in the calibrated vehicle file."""
@@ -203,6 +205,7 @@ class CalibrationResult:
             "n_evaluations": self.n_evaluations, "n_simulations": self.n_simulations,
             "elapsed_s": self.elapsed_s, "method": self.method, "dt_s": self.dt, "date": self.date,
             "speed_smoothing_hz": self.smooth_hz, "notes": self.notes,
+            "rejected": self.rejected,
             "provenance": {n: self.provenance(n) for n in self.parameters},
             "history": self.history, "tables": self.tables()})
 
@@ -423,12 +426,48 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         for t, tid in zip(role_tests, role_ids):
             before[tid] = _errors(validate_test(t, veh0, dt=dt, overrides=dict(x0), smooth_hz=smooth_hz))
             after[tid] = _errors(validate_test(t, veh0, dt=dt, overrides=best, smooth_hz=smooth_hz))
+    rejected: dict[str, float] = {}
+    worse = holdout_worse(before, after, hold_ids)
+    if worse:
+        # over-fitting guard: tuned values that fit the tuning tests but make the held-out
+        # tests worse are not kept; the start values stay (with the tuned ones reported)
+        rejected, best, j_best = best, dict(x0), j0
+        after = {tid: dict(before[tid]) for tid in before}
+        notes.append(f"over-fitting guard: the tuned values made the held-out tests worse "
+                     f"({worse}): the start values are kept; tuned values in 'rejected'")
     return CalibrationResult(
         parameters=names, start=x0, bounds=bnds, best=best, objective_start=j0,
         objective_best=j_best, tests=ids, holdout=hold_ids, before=before, after=after,
         n_evaluations=prob.n_eval, n_simulations=prob.n_sim,
         elapsed_s=time.perf_counter() - t_start, method=method, dt=dt, vehicle=veh0,
-        date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz, notes=notes)
+        date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz, notes=notes,
+        rejected=rejected)
+
+
+#: Held-out error increase [percentage points] tolerated before the guard refuses the tuning.
+HOLDOUT_TOL_POINTS = 0.05
+
+
+def holdout_worse(before: dict[str, dict[str, float]], after: dict[str, dict[str, float]],
+                  holdout: Sequence[str], tol: float = HOLDOUT_TOL_POINTS) -> str:
+    """Why the tuned values are worse on the held-out tests ('' when they are not).
+
+    Worse means: the mean over the held-out tests of |fuel error| + |final SOC error| [%]
+    grew by more than ``tol`` points (quantities a test cannot give are left out).
+    """
+    def score(errs: dict[str, dict[str, float]]) -> float:
+        vals = [abs(errs[t][k]) for t in holdout for k in ("fuel_pct", "soc_pct")
+                if t in errs and errs[t].get(k) is not None and np.isfinite(errs[t][k])]
+        return float(np.mean(vals)) if vals else float("nan")
+
+    if not holdout:
+        return ""
+    b, a = score(before), score(after)
+    if not (np.isfinite(a) and np.isfinite(b)) or a <= b + tol:
+        return ""
+    parts = [f"{t}: fuel {before[t]['fuel_pct']:.2f} -> {after[t]['fuel_pct']:.2f} %"
+             for t in holdout if t in before and t in after]
+    return "; ".join(parts)
 
 
 def _errors(v) -> dict[str, float]:
