@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 from vehval.io.importer import import_test
-from vehval.io.propose import check_template, load_template, propose_template
+from vehval.io.propose import check_template, propose_template
+from vehval.io.template import load_template
 
 pytestmark = pytest.mark.realdata
 

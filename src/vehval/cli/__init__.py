@@ -31,6 +31,7 @@ def _register() -> None:
     from vehval.cli import commands_qa  # noqa: F401
     from vehval.cli import commands_results  # noqa: F401
     from vehval.cli import commands_sim  # noqa: F401
+    from vehval.cli import commands_sensitivity  # noqa: F401
     from vehval.cli import commands_validate  # noqa: F401
     from vehval.cli import commands_identify  # noqa: F401
     from vehval.cli import commands_epa  # noqa: F401

@@ -92,7 +92,7 @@ def _system_speed(p_eng, w_lo, w_hi, w_fallback, wr, t_fd, aux, eS, eT, eF, eTm,
     """
     if w_hi <= w_lo:
         return w_fallback
-    n = 9
+    n = 7
     step = (w_hi - w_lo) / (n - 1)
     best = np.inf
     w_best = w_fallback
@@ -106,8 +106,8 @@ def _system_speed(p_eng, w_lo, w_hi, w_fallback, wr, t_fd, aux, eS, eT, eF, eTm,
     if best == np.inf:
         return w_fallback
     w0 = w_best
-    for j in (-3, -2, -1, 1, 2, 3):  # refine between the neighbours of the grid optimum
-        w = w0 + 0.25 * step * j
+    for j in (-2, -1, 1, 2):  # refine between the neighbours of the grid optimum
+        w = w0 + step * j / 3.0
         if w < w_lo or w > w_hi:
             continue
         c = _system_cost(w, p_eng, wr, t_fd, aux, eS, eT, eF, eTm, gS, gT, gL, mS, mT, mL, rg,

@@ -10,18 +10,83 @@ from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.errors import ConfigError
 
 
+#: a source starting with one of these words marks a value without a public source
+UNSOURCED_PREFIXES = ("engineering",)
+
+
+def is_unsourced(source: str) -> bool:
+    """True when ``source`` declares an engineering estimate/choice rather than a reference."""
+    return str(source).strip().lower().startswith(UNSOURCED_PREFIXES)
+
+
+def uncertainty_bounds(nominal: Any, spec: dict[str, Any]) -> tuple[Any, Any]:
+    """Low and high ends of a parameter's uncertainty (``range``, ``rel_sd`` or ``scale``).
+
+    ``rel_sd`` gives nominal x (1 -+ 2 sd) (about a 95 % interval); ``scale`` multiplies
+    every entry of a curve or map by its two factors.
+    """
+    if "range" in spec:
+        return spec["range"][0], spec["range"][1]
+    if "rel_sd" in spec:
+        sd = float(spec["rel_sd"])
+        return nominal * (1 - 2 * sd), nominal * (1 + 2 * sd)
+    lo, hi = spec["scale"]
+    arr = np.asarray(nominal, float)
+    return (arr * lo).tolist(), (arr * hi).tolist()
+
+
+def _check_uncertainty(block: "Block", key: str, spec: Any) -> None:
+    where = f"uncertainty of '{key}'"
+    if not isinstance(spec, dict) or len(spec) != 1 or \
+            next(iter(spec)) not in ("range", "rel_sd", "scale"):
+        raise ValueError(f"{where}: give exactly one of range: [low, high], rel_sd: x "
+                         "(relative standard deviation) or scale: [low, high] (curves/maps)")
+    kind, val = next(iter(spec.items()))
+    nominal = getattr(block, key)
+    scalar = isinstance(nominal, (int, float)) and not isinstance(nominal, bool)
+    if kind == "rel_sd":
+        if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val):
+            raise ValueError(f"{where}: rel_sd must be a number")
+        if val < 0:
+            raise ValueError(f"{where}: negative standard deviation rel_sd = {val:g}")
+        if not scalar:
+            raise ValueError(f"{where}: rel_sd applies to a number; use scale for a curve")
+        return
+    if (not isinstance(val, (list, tuple)) or len(val) != 2
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in val)):
+        raise ValueError(f"{where}: {kind} must be [low, high]")
+    lo, hi = float(val[0]), float(val[1])
+    if lo > hi:
+        raise ValueError(f"{where}: {kind} [{lo:g}, {hi:g}] has low above high")
+    if kind == "range":
+        if not scalar:
+            raise ValueError(f"{where}: range applies to a number; use scale for a curve")
+        if not lo <= float(nominal) <= hi:
+            raise ValueError(f"{where}: range [{lo:g}, {hi:g}] excludes the nominal value "
+                             f"{float(nominal):g}")
+    elif scalar or not lo <= 1.0 <= hi or lo <= 0:
+        raise ValueError(f"{where}: scale [{lo:g}, {hi:g}] must be positive factors around 1 "
+                         "for a curve or map (use range or rel_sd for a number)")
+
+
 class Block(BaseModel):
-    """A parameter block. ``sources`` maps every parameter name to its source (text)."""
+    """A parameter block. ``sources`` maps every parameter name to its source (text).
+
+    ``uncertainty`` (optional) maps parameter names to ``{range: [low, high]}``,
+    ``{rel_sd: x}`` or, for curves and maps, ``{scale: [low, high]}``. A block that declares
+    it must give one for every parameter whose source is an engineering estimate or choice.
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=False, validate_assignment=False,
                               allow_inf_nan=False)
 
     sources: dict[str, str]
+    uncertainty: dict[str, Any] | None = None
 
     @model_validator(mode="after")
     def _every_parameter_has_a_source(self):
         fields = type(self).model_fields
-        params = set(fields) - {"sources"}
+        params = set(fields) - {"sources", "uncertainty"}
         # a parameter left at its structural default (e.g. no reduction gear) needs no source
         needed = {k for k in params
                   if fields[k].is_required() or getattr(self, k) != fields[k].default}
@@ -35,6 +100,16 @@ class Block(BaseModel):
         empty = sorted(k for k, v in self.sources.items() if not str(v).strip())
         if empty:
             raise ValueError(f"empty source for: {', '.join(empty)}")
+        if self.uncertainty is not None:
+            for key, spec in self.uncertainty.items():
+                if key not in params:
+                    raise ValueError(f"'uncertainty' names unknown parameter '{key}'")
+                _check_uncertainty(self, key, spec)
+            bare = sorted(k for k, v in self.sources.items()
+                          if is_unsourced(v) and k not in self.uncertainty)
+            if bare:
+                raise ValueError(f"unsourced parameters without an uncertainty: "
+                                 f"{', '.join(bare)} (add them under 'uncertainty:')")
         return self
 
 
@@ -83,8 +158,10 @@ def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ..
     for blk, changes in per_block.items():
         old = getattr(veh, blk)
         data = {**old.model_dump(), **changes}
-        data["sources"] = {**{k: "override given by the caller" for k in changes},
-                           **old.sources}
+        # an overridden value is the caller's: its file source and uncertainty no longer apply
+        data["sources"] = {**old.sources, **{k: "override given by the caller" for k in changes}}
+        if old.uncertainty is not None:
+            data["uncertainty"] = {k: v for k, v in old.uncertainty.items() if k not in changes}
         try:
             update[blk] = type(old).model_validate(data)
         except ValidationError as exc:
