@@ -18,7 +18,7 @@ SHIPPED = Path(load_vehicle("prius_2004").file)
 def test_every_parameter_has_a_source(prius):
     raw = yaml.safe_load(SHIPPED.read_text())
     for blk in BLOCKS:
-        params = set(raw[blk]) - {"sources"}
+        params = set(raw[blk]) - {"sources", "uncertainty"}
         assert params, blk
         assert set(raw[blk]["sources"]) == params, f"{blk}: unsourced or stray sources"
         assert all(str(v).strip() for v in raw[blk]["sources"].values())

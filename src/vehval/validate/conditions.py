@@ -19,6 +19,7 @@ from vehval.errors import ConfigError, SignalError
 from vehval.test import Test
 from vehval.validate.quantities import pick_signal
 from vehval.vehicle import BLOCKS, Vehicle
+from vehval.vehicle.base import block_with
 
 #: Template constants -> vehicle parameters they override.
 CONSTANT_OVERRIDES = {
@@ -55,7 +56,7 @@ def vehicle_variant(vehicle: Vehicle, overrides: dict[str, float]) -> Vehicle:
     for blk, upd in by_blk.items():
         block = getattr(vehicle, blk)
         try:
-            update[blk] = type(block).model_validate({**block.model_dump(), **upd})
+            update[blk] = block_with(block, upd)
         except ValidationError as exc:
             raise ConfigError(f"invalid {blk} parameters {upd}: {exc.errors()[0]['msg']}") from None
     if "engine" not in update:

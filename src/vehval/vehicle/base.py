@@ -136,6 +136,19 @@ def table_check(values, rows: int, cols: int | None, key: str) -> None:
         raise ValueError(f"'{key}' must contain finite numbers only")
 
 
+def block_with(block: Any, changes: dict[str, Any]) -> Any:
+    """Validated copy of a parameter block with ``changes`` applied.
+
+    An overridden value is the caller's: its file source is replaced and its file uncertainty
+    dropped. Raises pydantic's ``ValidationError`` when the block rejects the new values.
+    """
+    data = {**block.model_dump(), **changes}
+    data["sources"] = {**block.sources, **{k: "override given by the caller" for k in changes}}
+    if getattr(block, "uncertainty", None) is not None:
+        data["uncertainty"] = {k: v for k, v in block.uncertainty.items() if k not in changes}
+    return type(block).model_validate(data)
+
+
 def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ...]):
     """Validated copy of ``veh`` with parameters replaced by dotted path ``<block>.<name>``."""
     if not overrides:
@@ -156,14 +169,8 @@ def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ..
     update = {}
     where = f"{veh.file or veh.name} with overrides"
     for blk, changes in per_block.items():
-        old = getattr(veh, blk)
-        data = {**old.model_dump(), **changes}
-        # an overridden value is the caller's: its file source and uncertainty no longer apply
-        data["sources"] = {**old.sources, **{k: "override given by the caller" for k in changes}}
-        if old.uncertainty is not None:
-            data["uncertainty"] = {k: v for k, v in old.uncertainty.items() if k not in changes}
         try:
-            update[blk] = type(old).model_validate(data)
+            update[blk] = block_with(getattr(veh, blk), changes)
         except ValidationError as exc:
             msgs = "; ".join(f"key '{blk}.{'.'.join(str(x) for x in e['loc']) or '?'}': "
                              f"{e['msg'].removeprefix('Value error, ')}"
