@@ -92,7 +92,7 @@ def _system_speed(p_eng, w_lo, w_hi, w_fallback, wr, t_fd, aux, eS, eT, eF, eTm,
     """
     if w_hi <= w_lo:
         return w_fallback
-    n = 7
+    n = 9
     step = (w_hi - w_lo) / (n - 1)
     best = np.inf
     w_best = w_fallback
