@@ -9,6 +9,9 @@ Discovery rule (documented in ``docs/catalog.md``):
   ``DIR`` is also a test of its own.
 * A glob given (``"data/*/"``, ``"runs/*.txt"``): each matched directory is a test as above;
   each matched file is a test of that single file.
+* Never taken: hidden entries, the batch's own output folder (when it lies inside the
+  input folder), symlinks leading out of the input folder; a template without ``match``
+  takes only data files (by extension and content: no PDF, image, README or SOURCE.txt).
 * The test id is the directory name, or the file name without its extension; ids are made
   unique (``name-2``...) in sorted path order, and contain only ``[A-Za-z0-9._-]``.
 """
@@ -19,12 +22,13 @@ import fnmatch
 import glob
 import hashlib
 import json
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from vehval.errors import InputFileError
-from vehval.io.paths import sanitize_id
+from vehval.io.paths import inside, non_data_kind, sanitize_id
 
 _GLOB_CHARS = set("*?[")
 
@@ -47,19 +51,45 @@ def template_patterns(template: Any) -> list[str | None]:
     return [getattr(e, "match", None) for e in entries]
 
 
+#: Extensions of data files (a template without ``match`` takes only these).
+DATA_EXTENSIONS = frozenset({".txt", ".csv", ".tsv", ".tab", ".dat", ".asc", ".mf4", ".mdf",
+                             ".mf3", ".parquet", ".pq"})
+#: Names of documentation files shipped beside data (never a test of their own).
+_DOC_NAMES = re.compile(r"^(readme|source|license|licence|notes?|changelog|copying|authors)"
+                        r"([._-].*)?$", re.I)
+
+
 def _visible(p: Path) -> bool:
     return not p.name.startswith(".")
 
 
-def _matching_files(directory: Path, patterns: list[str | None]) -> list[Path]:
-    files = sorted(p for p in directory.iterdir() if p.is_file() and _visible(p))
+def _allowed(p: Path, root: Path, exclude: list[Path]) -> bool:
+    """Visible, not an excluded output folder, and no symlink leading out of ``root``."""
+    if not _visible(p):
+        return False
+    if p.is_symlink() and not inside(p, root):
+        return False
+    return not any(inside(p, e) for e in exclude)
+
+
+def _looks_like_data(p: Path) -> bool:
+    return (p.suffix.lower() in DATA_EXTENSIONS and not _DOC_NAMES.match(p.name)
+            and non_data_kind(p) is None)
+
+
+def _matching_files(directory: Path, patterns: list[str | None], root: Path | None = None,
+                    exclude: list[Path] = ()) -> list[Path]:
+    root = root or directory
+    files = sorted(p for p in directory.iterdir()
+                   if _allowed(p, root, list(exclude)) and p.is_file())
     pats = [p for p in patterns if p]
-    if not pats:  # single entry without match: every file
-        return files
+    if not pats:  # single entry without match: every data file (no PDF, README, SOURCE.txt)
+        return [f for f in files if _looks_like_data(f)]
     return [f for f in files if any(fnmatch.fnmatch(f.name, pat) for pat in pats)]
 
 
-def discover_tests(target: str | Path, template: Any) -> list[TestSpec]:
+def discover_tests(target: str | Path, template: Any,
+                   exclude: list[str | Path] = ()) -> list[TestSpec]:
     """Find the tests of a batch (see the module docstring for the rule).
 
     Parameters
@@ -68,6 +98,9 @@ def discover_tests(target: str | Path, template: Any) -> list[TestSpec]:
         A directory or a glob pattern.
     template : Template
         The import template (its ``files[].match`` patterns select the files).
+    exclude : paths
+        Folders never taken as tests (the batch's own output folder when it lies inside
+        the input folder).
 
     Returns
     -------
@@ -77,6 +110,7 @@ def discover_tests(target: str | Path, template: Any) -> list[TestSpec]:
     """
     patterns = template_patterns(template)
     single = len(patterns) == 1
+    excl = [Path(e) for e in exclude]
     target_s = str(target)
     found: list[tuple[str, list[Path]]] = []
     if any(c in target_s for c in _GLOB_CHARS) and not Path(target_s).exists():
@@ -84,11 +118,11 @@ def discover_tests(target: str | Path, template: Any) -> list[TestSpec]:
         if not paths:
             raise InputFileError(f"no file or directory matches '{target_s}'")
         for p in paths:
-            if not _visible(p):
+            if not _allowed(p, p.parent, excl):
                 continue
             if p.is_dir():
-                found.append((p.name, _matching_files(p, patterns)))
-            elif p.is_file():
+                found.append((p.name, _matching_files(p, patterns, p, excl)))
+            elif p.is_file() and (not single or any(patterns) or _looks_like_data(p)):
                 found.append((p.stem, [p]))
     else:
         root = Path(target_s)
@@ -96,12 +130,12 @@ def discover_tests(target: str | Path, template: Any) -> list[TestSpec]:
             raise InputFileError(f"batch input '{root}' is not a directory (give a directory or a "
                                  "quoted glob such as 'data/*/')")
         for p in sorted(root.iterdir()):
-            if not _visible(p):
+            if not _allowed(p, root, excl):
                 continue
             if p.is_dir():
-                found.append((p.name, _matching_files(p, patterns)))
+                found.append((p.name, _matching_files(p, patterns, root, excl)))
         if single:
-            for f in _matching_files(root, patterns):
+            for f in _matching_files(root, patterns, root, excl):
                 found.append((f.stem, [f]))
     if not found:
         rule = ("a subdirectory per test or one file per test" if single

@@ -19,10 +19,12 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
-from vehval.batch.discover import TestSpec, discover_tests, hash_spec, settings_hash
-from vehval.batch.task import RESULT_NAME, check_steps, jsonable, process_test
+from vehval.batch.discover import (TestSpec, discover_tests, file_sha256, hash_spec,
+                                   settings_hash)
+from vehval.batch.task import ASSETS_DIR, RESULT_NAME, check_steps, jsonable, process_test
 from vehval.catalog import open_catalog
 from vehval.errors import ConfigError, VehvalError
+from vehval.io.paths import inside
 
 CATALOG_NAME = "catalog.duckdb"
 INDEX_NAME = "index.html"
@@ -79,6 +81,20 @@ def _cached(outdir: Path, spec: TestSpec) -> dict | None:
         return None
     if not isinstance(res, dict) or res.get("input_hash") != spec.input_hash:
         return None
+    # the recorded outputs must still be there, unchanged (a deleted report.html or a
+    # corrupted findings.json means the test runs again)
+    hashes = res.get("output_hashes")
+    if not isinstance(hashes, dict) or set(hashes) != set(res.get("outputs") or []):
+        return None
+    for rel, digest in hashes.items():
+        f = path.parent / rel
+        if not inside(f, path.parent) or not f.is_file():
+            return None
+        try:
+            if file_sha256(f) != digest:
+                return None
+        except VehvalError:
+            return None
     if res.get("status") == "ok" or (res.get("status") == "failed" and res.get("error_kind") == "user"):
         return res  # an internal error may be transient (a killed worker...): retried
     return None
@@ -186,8 +202,13 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
 
     settings.update(steps=steps, report=bool(report), cycle=cycle, vehval_version=__version__)
     digest = settings_hash(settings)
-    specs = [hash_spec(s, digest) for s in discover_tests(target, tmpl)]
     out = Path(outdir).resolve()
+    # the batch's own outputs are never tests, even with OUTDIR inside (or equal to) DIR
+    own = [out / "tests", out / ASSETS_DIR, out / CATALOG_NAME, out / f"{CATALOG_NAME}.wal",
+           out / INDEX_NAME]
+    if not (Path(target).is_dir() and inside(target, out)):
+        own.append(out)
+    specs = [hash_spec(s, digest) for s in discover_tests(target, tmpl, exclude=own)]
     out.mkdir(parents=True, exist_ok=True)
     run_id = new_run_id()
     summary = BatchSummary(run_id=run_id, outdir=out)

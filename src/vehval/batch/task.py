@@ -16,6 +16,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable
 
+from vehval.batch.discover import file_sha256
 from vehval.errors import ConfigError, VehvalError
 from vehval.io.atomic import atomic_dir, write_text_atomic
 from vehval.jsonsafe import clean as jsonable
@@ -232,7 +233,9 @@ def process_test(job: dict) -> dict:
         with atomic_dir(test_dir) as stage:
             _run_steps(job, stage, result)
             outputs = sorted(str(p.relative_to(stage)) for p in stage.rglob("*") if p.is_file())
+            hashes = {o: file_sha256(stage / o) for o in outputs}
         result["outputs"] = outputs
+        result["output_hashes"] = hashes
         _clear_stale(test_dir, keep=set(outputs) | {p.split("/")[0] for p in outputs} | {RESULT_NAME})
     except VehvalError as exc:
         result.update(status="failed", error=str(exc), error_type=type(exc).__name__, error_kind="user")
@@ -243,6 +246,7 @@ def process_test(job: dict) -> dict:
     if result["status"] == "failed":
         _clear_stale(test_dir, keep={RESULT_NAME})
         result["outputs"] = []
+        result["output_hashes"] = {}
     result["elapsed_s"] = time.perf_counter() - t_start
     write_text_atomic(test_dir / RESULT_NAME, dump_json(result))
     return jsonable(result)

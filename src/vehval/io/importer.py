@@ -362,6 +362,13 @@ def import_test(files: list[str | Path] | str | Path, template: Template | str |
         spec = t.files[idx]
         raw = read_raw(path, spec.format, **spec.options.model_dump())
         _import_file(raw, spec, idx, t, test, repair_time)
+    missing = [i for i, f in enumerate(t.files) if i not in used and not f.optional]
+    if missing and len(t.files) > 1:
+        i = missing[0]
+        raise InputFileError(
+            f"this test has no file for files[{i}] of {tname} (source '{t.files[i].source}', "
+            f"match {t.files[i].match!r}); give its file, or mark the entry 'optional: true' "
+            "when tests may lack it")
     for name, reason in t.selection.drop.items():
         if name in test:
             test.drop(name)

@@ -129,6 +129,7 @@ class FileSpec(_Strict):
     """One acquisition system / raw file of a test."""
 
     match: str | None = None
+    optional: bool = False
     source: str = Field(pattern=r"^[a-z][a-z0-9]*$")
     format: Literal["auto", "d3", "csv", "mdf4", "parquet"] = "auto"
     time: TimeSpec = Field(default_factory=TimeSpec)
