@@ -182,3 +182,23 @@ def test_battery_energy_from_voltage_and_current():
     assert res.value("test", "ess_energy_net_j") == pytest.approx(expect, rel=1e-9)
     assert res.soc["status"] in ("within_tolerance", "beyond_tolerance_uncorrected")
     assert "ess_curr_test offset" in {p.name for p in res.parameters}
+
+
+def test_ftp75_with_a_hot_soak_gets_three_bags_and_the_weighting():
+    from vehval.cycles import load_cycle
+    udds = load_cycle("udds").resampled(0.1)
+    t1, v1 = np.asarray(udds.time_s), np.asarray(udds.speed_mps)
+    soak = np.arange(1369.1, 1969.0, 0.1)
+    m3 = t1 <= 505.0
+    t = np.concatenate([t1, soak, 1969.0 + t1[m3]])
+    v = np.concatenate([v1, np.zeros(soak.size), v1[m3]])
+    fuel = 0.15e-3 + 2e-4 * v
+    res = compute_results(make_test(t, {"veh_spd": v, "fuel_rate": fuel,
+                                        "test_phase": np.zeros_like(t)}, cycle="ftp75", phase=False),
+                          fuel=EXPLICIT)
+    assert [p.part for p in res.phases] == ["bag1", "bag2", "bag3"]
+    bag3 = res.phases[2].segments[0]
+    assert bag3[0] == pytest.approx(1969.0, abs=1.5) and bag3[1] - bag3[0] == pytest.approx(505, abs=1.5)
+    ftp = next(c for c in res.composites if c.name == "ftp75")
+    assert ftp.groups == [(0.43, ["bag1", "bag2"]), (0.57, ["bag3", "bag2"])]
+    assert res.value("bag3", "distance_m") == pytest.approx(res.value("bag1", "distance_m"), rel=0.01)
