@@ -13,6 +13,7 @@ import json
 import logging
 import os
 import secrets
+import sys
 import warnings
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -135,9 +136,37 @@ def shutdown(client: Any, cluster: Any = None) -> None:
             pass
 
 
-def _client(workers: int, scheduler: str | None):
-    """A Dask client on ``scheduler`` or on a new local process cluster; returns (client, cluster)."""
-    from distributed import Client, LocalCluster
+def local_cluster(workers: int, *, dashboard: bool = False):
+    """A private local Dask cluster: TLS on loopback with temporary credentials.
+
+    The scheduler and workers listen on 127.0.0.1 over ``tls://``; every connection must
+    present a certificate signed by a certificate authority created for this cluster only
+    (``distributed.Security.temporary()``: in memory, never written to disk), so another user
+    or process on the machine cannot submit work to it or read its results. The dashboard
+    (an HTTP server) is started only when ``dashboard`` is true, on a free loopback port.
+    Returns ``(client, cluster)``.
+    """
+    from distributed import Client, LocalCluster, Security
+
+    import dask
+
+    security = Security.temporary()
+    # the scheduler always runs a small HTTP server: bind it to loopback on a free port and,
+    # without --dashboard, give it no route at all (no /info, /health, /metrics)
+    routes = {} if dashboard else {"distributed.scheduler.http.routes": []}
+    with warnings.catch_warnings(), dask.config.set(routes):
+        warnings.filterwarnings("ignore", message="Port 8787 is already in use")
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               protocol="tls://", security=security, host="127.0.0.1",
+                               dashboard_address="127.0.0.1:0",
+                               scheduler_kwargs={"dashboard": dashboard},
+                               silence_logs=logging.ERROR)
+    return Client(cluster, security=security), cluster
+
+
+def _client(workers: int, scheduler: str | None, dashboard: bool = False):
+    """A Dask client on ``scheduler`` or on a new private local cluster; returns (client, cluster)."""
+    from distributed import Client
 
     if scheduler:
         try:
@@ -145,20 +174,15 @@ def _client(workers: int, scheduler: str | None):
         except (OSError, TimeoutError, ValueError) as exc:
             raise VehvalError(f"cannot connect to the Dask scheduler at '{scheduler}': {exc} "
                               "(check the address, e.g. tcp://127.0.0.1:8786)") from None
-    with warnings.catch_warnings():
-        # the scheduler's small HTTP server falls back to a free port when 8787 is taken
-        warnings.filterwarnings("ignore", message="Port 8787 is already in use")
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, host="127.0.0.1",
-                               silence_logs=logging.ERROR)
-    return Client(cluster), cluster
+    return local_cluster(workers, dashboard=dashboard)
 
 
 def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
               vehicle: str | None = None, steps: list[str] | tuple[str, ...] = ("qa",),
               workers: int | None = None, scheduler: str | None = None, report: bool = True,
               force: bool = False, progress: bool = True, cycle: str | None = None,
-              on_result: Callable[[dict], None] | None = None) -> BatchSummary:
+              on_result: Callable[[dict], None] | None = None,
+              dashboard: bool = False) -> BatchSummary:
     """Run many tests at once.
 
     Parameters
@@ -189,6 +213,9 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
         know the cycle of a raw file).
     on_result : callable, optional
         Called with each result dict as it lands (driver side).
+    dashboard : bool
+        Start the Dask dashboard of the local cluster (loopback, free port; its address is
+        printed). Off by default: the cluster then opens no HTTP port at all.
     """
     steps = [s.strip() for s in steps if s and s.strip()]
     if len(set(steps)) != len(steps):
@@ -241,7 +268,8 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
                 on_result(res)
 
         try:
-            _execute(jobs, record, workers, scheduler, progress, len(specs), summary.n_skipped)
+            _execute(jobs, record, workers, scheduler, progress, len(specs), summary.n_skipped,
+                     dashboard)
         except BaseException as exc:  # record how the run ended, then let it propagate
             summary.status = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
             catalog.finish_run(run_id, summary.status)
@@ -256,7 +284,8 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
 
 
 def _execute(jobs: list[dict], record: Callable[[dict], None], workers: int | None,
-             scheduler: str | None, progress: bool, total: int, done: int) -> None:
+             scheduler: str | None, progress: bool, total: int, done: int,
+             dashboard: bool = False) -> None:
     from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
                                TimeElapsedColumn, TimeRemainingColumn)
 
@@ -283,7 +312,9 @@ def _execute(jobs: list[dict], record: Callable[[dict], None], workers: int | No
             return
         from distributed import as_completed
 
-        client, cluster = _client(workers, scheduler)
+        client, cluster = _client(workers, scheduler, dashboard)
+        if dashboard and getattr(client, "dashboard_link", None):
+            print(f"Dask dashboard: {client.dashboard_link}", file=sys.stderr)
         try:
             futs = {client.submit(process_test, job, key=f"vehval-{job['run_id']}-{job['test_id']}",
                                   pure=False): job for job in jobs}

@@ -34,17 +34,23 @@ def batch_cmd(
                                         "for tests whose metadata names none."),
     force: bool = typer.Option(False, "--force", help="Recompute unchanged tests too."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
+    dashboard: bool = typer.Option(False, "--dashboard", help="Start the Dask dashboard of the "
+                                   "local cluster (loopback, free port; off by default)."),
 ) -> None:
     """Process many tests at once; rerun to resume: unchanged tests are skipped."""
     from vehval.batch import run_batch
     from vehval.io.paths import check_outputs, vehicle_path
+    from vehval.io.template import check_cycle_name
+
+    if cycle is not None:
+        check_cycle_name(cycle, "--cycle")
 
     check_outputs(outdir=outdir, inputs=[template, vehicle_path(vehicle)],
                   writes=["index.html", "catalog.duckdb"])
 
     res = run_batch(target, template, outdir, vehicle=vehicle, steps=steps.split(","),
                     workers=workers, scheduler=scheduler, report=report, force=force,
-                    progress=not quiet, cycle=cycle)
+                    progress=not quiet, cycle=cycle, dashboard=dashboard)
     typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged "
                f"-> {res.outdir / 'index.html'}")
     failed = [r for r in res.results if r.get("status") == "failed"]

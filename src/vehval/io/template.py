@@ -125,6 +125,22 @@ class ReadOptions(_Strict):
     encoding: str | None = None
 
 
+#: A cycle name: what a template's ``cycle`` and ``vehval batch --cycle`` accept.
+CYCLE_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.:+\-]{0,63}")
+
+
+def _cycle_name_error(v: str) -> str:
+    return (f"'{v[:80]}' is not a cycle name: use up to 64 letters, digits and _ . : + - "
+            "(e.g. udds, hwfet_x2, steady_60kph)")
+
+
+def check_cycle_name(v: str, where: str = "cycle") -> str:
+    """``v`` when it is a valid cycle name, else a :class:`ConfigError` naming ``where``."""
+    if not CYCLE_NAME.fullmatch(v):
+        raise ConfigError(f"{where}: {_cycle_name_error(v)}")
+    return v
+
+
 class FileSpec(_Strict):
     """One acquisition system / raw file of a test."""
 
@@ -251,10 +267,9 @@ class Template(_Strict):
     @field_validator("cycle")
     @classmethod
     def _cycle_name(cls, v: str | None) -> str | None:
-        if v is not None and not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.:+\-]*", v):
-            raise ValueError(f"'{v}' is not a cycle name: use letters, digits and _ . : + - "
-                             "(e.g. udds, hwfet_x2, steady_60kph), or leave 'cycle' out to have "
-                             "the cycle identified from the vehicle speed")
+        if v is not None and not CYCLE_NAME.fullmatch(v):
+            raise ValueError(_cycle_name_error(v) + ", or leave 'cycle' out to have the cycle "
+                             "identified from the vehicle speed")
         return v
 
     @property
