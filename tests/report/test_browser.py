@@ -190,3 +190,65 @@ def check_batch_report_with_shared_plotly(page_report):
     assert len(b["state"]) >= 3, b["state"]
     for s in b["state"]:
         assert s["rendered"] and s["svg"] >= 1 and s["traces"] >= 1, s
+
+
+def _hostile_validation() -> dict:
+    """A validation.json written by a hostile tool: every way a plotly figure or a table could
+    make the page reach the network or link out of it."""
+    url = "http://203.0.113.7/leak"
+    return {
+        "tables": [{"title": f"<img src='{url}.png'> results", "columns": ["a", "<b>b</b>"],
+                    "rows": [[f"<script>fetch('{url}')</script>", f"<a href='{url}'>x</a>"]]}],
+        "figures": [
+            {"title": f"<a href='{url}'>click</a>", "figure": {
+                "data": [{"type": "scatter", "x": [0, 1, 2], "y": [1, 3, 2],
+                          "name": f"<a href='{url}'>trace</a>",
+                          "text": [f"<img src='{url}.gif'>", "b", "c"]},
+                         {"type": "scattergeo", "lon": [0], "lat": [0]},
+                         {"type": "scattermapbox", "lon": [0], "lat": [0]},
+                         {"type": "image", "source": f"{url}.png"}],
+                "layout": {"title": {"text": f"<a href='{url}'>t</a>"},
+                           "images": [{"source": f"{url}.jpg", "xref": "paper", "yref": "paper",
+                                       "x": 0, "y": 1, "sizex": 1, "sizey": 1}],
+                           "mapbox": {"style": f"{url}/style.json"},
+                           "geo": {"projection": {"type": "mercator"}},
+                           "annotations": [{"text": f"<span style='background:url({url})'>n</span>",
+                                            "x": 1, "y": 1}],
+                           "xaxis": {"title": {"text": "time [s]"}}}}},
+        ],
+        "notes": [f"<iframe src='{url}'></iframe>"],
+    }
+
+
+def test_hostile_validation_json_makes_no_request(tmp_path):
+    """A report built from a hostile validation.json: Chromium records zero network requests,
+    and the page holds no link or image pointing out of it."""
+    if not Path(CHROMIUM).exists():
+        pytest.skip("chromium not installed (run `make browser`)")
+    sync_api = pytest.importorskip("playwright.sync_api")
+    path = tmp_path / "report.html"
+    write_report(path, test=make_test(), qa=make_qa(), validation=_hostile_validation())
+    html = path.read_text(encoding="utf-8")
+    assert "Content-Security-Policy" in html and "203.0.113.7" in html  # shown as text, inert
+    requests, errors = [], []
+    with sync_api.sync_playwright() as p:
+        try:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        except Exception as exc:  # noqa: BLE001 - a broken browser install is a skip, not a failure
+            pytest.skip(f"chromium does not start: {exc}")
+        page = browser.new_page()
+        page.on("request", lambda r: None if r.url.startswith(LOCAL) else requests.append(r.url))
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.route("**/*", lambda r: r.continue_() if r.request.url.startswith(LOCAL) else r.abort())
+        page.goto(path.as_uri())
+        page.evaluate("window.vehvalReport.renderAll()")
+        page.wait_for_timeout(500)
+        out_links = page.evaluate("""() => Array.from(document.querySelectorAll(
+            'a[href], img[src], image, iframe, link[href], script[src]')).map(
+            e => e.getAttribute('href') || e.getAttribute('src') || e.getAttribute('xlink:href')
+                 || '').filter(u => /^(https?:|\\/\\/)/.test(u))""")
+        rendered = page.evaluate("document.querySelectorAll('.vv-fig .main-svg').length")
+        browser.close()
+    assert requests == []
+    assert out_links == []
+    assert rendered > 0 and not errors

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from vehval.catalog import Catalog, results_variability
 from vehval.io.atomic import write_text_atomic
+from vehval.report.safety import CSP_META
 
 _COLS = [("distance_m", "distance [km]", 1e-3, "{:.2f}"),
          ("fuel_mass_kg", "fuel [kg]", 1.0, "{:.3f}"),
@@ -100,7 +101,7 @@ def render_index(catalog: Catalog, run_id: str) -> str:
                       xaxis_title="ΔSOC [%]", yaxis_title="fuel economy [mpg]", height=450,
                       margin=dict(l=60, r=20, t=50, b=50))
     plot = fig.to_html(full_html=False, include_plotlyjs=False, div_id="fe_soc")
-    return ("<!DOCTYPE html><html><head><meta charset='utf-8'><title>vehval batch "
+    return ("<!DOCTYPE html><html><head><meta charset='utf-8'>" + CSP_META + "<title>vehval batch "
             f"{html.escape(run_id)}</title><style>{_CSS}</style>"
             f"<script type='text/javascript'>{get_plotlyjs()}</script></head><body>"
             + "\n".join(body) + fe_plot + "<h2>Fuel economy vs SOC change</h2>" + plot

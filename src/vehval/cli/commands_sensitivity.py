@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from vehval.cli import app
+from vehval.report.safety import CSP_META
 
 
 def _report_html(result: dict, plotly_src: str) -> str:
@@ -35,7 +36,7 @@ def _report_html(result: dict, plotly_src: str) -> str:
         mc = "<h2>Monte Carlo (all parameters at once)</h2><ul>" + "".join(
             f"<li>{escape(c)}: {m['p5']:.1f} / {m['p50']:.1f} / {m['p95']:.1f} mpg "
             f"(5/50/95 %, n = {m['n']})</li>" for c, m in result["monte_carlo"].items()) + "</ul>"
-    return (f"<!doctype html><html><head><meta charset='utf-8'><title>Sensitivity "
+    return (f"<!doctype html><html><head><meta charset='utf-8'>{CSP_META}<title>Sensitivity "
             f"{escape(result['vehicle'])}</title><script src='{plotly_src}'></script>"
             "<style>body{font-family:sans-serif;margin:2em}td,th{border:1px solid #ccc;"
             "padding:2px 6px;font-size:13px}table{border-collapse:collapse}</style></head><body>"

@@ -13,6 +13,7 @@ import numpy as np
 import plotly.graph_objects as go
 
 from vehval.io.atomic import write_text_atomic
+from vehval.report.safety import CSP_META
 
 MAX_POINTS = 4000
 RPM = 30.0 / np.pi
@@ -108,7 +109,7 @@ def write_identification_report(idf, preds: list[dict], path: str | Path) -> Pat
     body = "\n".join(parts)
     divs = "\n".join(f.to_html(full_html=False, include_plotlyjs=(i == 0))
                      for i, f in enumerate(figs))
-    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'><title>vehval identification"
+    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'>" + CSP_META + "<title>vehval identification"
            "</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:"
            "collapse}td,th{border:1px solid #ccc;padding:2px 8px}</style></head><body>"
            f"{body}\n{divs}</body></html>")
@@ -136,7 +137,7 @@ def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Pa
     figs = [trace_figure(p) for p in preds]
     divs = "\n".join(f.to_html(full_html=False, include_plotlyjs=(i == 0))
                      for i, f in enumerate(figs))
-    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'><title>vehval predictions"
+    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'>" + CSP_META + "<title>vehval predictions"
            "</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:"
            "collapse}td,th{border:1px solid #ccc;padding:2px 8px}</style></head><body>"
            f"{body}\n{divs}</body></html>")

@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 
 from vehval.epa.validation import TOLERANCE, EpaValidation
+from vehval.report.safety import CSP_META
 
 _COLORS = {"ftp75": "#1f77b4", "hwfet": "#2ca02c", "us06": "#d62728"}
 
@@ -90,7 +91,7 @@ def render_html(val: EpaValidation) -> str:
     skipped = "".join(f"<li>{html.escape(s['test'])} ({html.escape(s['description'])}): "
                       f"{html.escape(s['reason'])}</li>" for s in val.skipped)
     pooled = corr["pooled"]
-    return f"""<!DOCTYPE html><html><head><meta charset="utf-8">
+    return f"""<!DOCTYPE html><html><head><meta charset="utf-8">{CSP_META}
 <title>vehval EPA validation: {html.escape(val.vehicle)}</title>
 <style>body{{font-family:sans-serif;margin:2em}}table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}td:nth-child(-n+4){{text-align:left}}

@@ -15,6 +15,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from vehval.report.decimate import DEFAULT_BUCKETS, decimate_minmax
+from vehval.report.safety import safe_figure
 
 PALETTE = ("#1f5fa8", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c", "#0b7285", "#e67700",
            "#495057")
@@ -97,6 +98,9 @@ def _clean(obj: Any) -> Any:
 def figure_json(fig: Any) -> str:
     """Compact JSON of a figure (dict or plotly Figure), safe to embed in a ``<script>``.
 
+    The figure is sanitised first (:func:`vehval.report.safety.safe_figure`): nothing in it
+    can load a resource or link out of the report.
+
     The per-figure ``layout.template`` is dropped: the page applies one shared template.
     """
     if hasattr(fig, "to_plotly_json"):
@@ -105,6 +109,7 @@ def figure_json(fig: Any) -> str:
     layout = dict(fig.get("layout") or {})
     layout.pop("template", None)
     fig["layout"] = layout
+    fig = safe_figure(fig)
     text = json.dumps(_clean(fig), default=_default, separators=(",", ":"), allow_nan=False)
     return text.replace("</", "<\\/").replace("<!--", "<\\!--")
 

@@ -28,6 +28,7 @@ from vehval.report import sections as S
 from vehval.report.figures import FigSpec, figure_json
 from vehval.report.plugins import control_section, normalise_figure, validation_section
 from vehval.report.qa_view import as_dict
+from vehval.report.safety import CSP_META
 from vehval.report.tables import fmt_cell, slug
 from vehval.test import Test, TestMeta
 
@@ -255,7 +256,7 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
         version=__version__, synthetic=_is_virtual(test, template), sections=secs, fmt=fmt_cell,
         css=_read_asset("report.css"), plotly_js=js if src is None else "", plotly_src=src,
         plotly_version=pver, template_json=tmpl,
-        render_js=_read_asset("render.js"))
+        render_js=_read_asset("render.js"), csp_meta=CSP_META)
 
 
 def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any = None,
