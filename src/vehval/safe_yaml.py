@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import math
+import stat
 from pathlib import Path
 
 import yaml
@@ -110,10 +111,16 @@ def read_yaml(path: str | Path):
     """Read and parse a YAML file strictly; unreadable or non-UTF-8 files are a ConfigError."""
     path = Path(path)
     try:
-        if path.stat().st_size > MAX_BYTES:
-            raise ConfigError(f"{path}: {path.stat().st_size / 1e6:.0f} MB is too large for a "
-                              f"configuration file (limit {MAX_BYTES / 1e6:.0f} MB)")
-        text = path.read_text(encoding="utf-8")
+        if path.is_dir():
+            raise IsADirectoryError
+        if not stat.S_ISREG(path.stat().st_mode):  # a device or a pipe (/dev/zero never ends)
+            raise ConfigError(f"{path}: not a regular file, a YAML file is expected")
+        with path.open("rb") as fh:  # bounded read: the size on disk may lie (procfs, growing)
+            raw = fh.read(MAX_BYTES + 1)
+        if len(raw) > MAX_BYTES:
+            raise ConfigError(f"{path}: too large for a configuration file (limit "
+                              f"{MAX_BYTES / 1e6:.0f} MB)")
+        text = raw.decode("utf-8")
     except IsADirectoryError:
         raise ConfigError(f"{path}: is a directory, a YAML file is expected") from None
     except UnicodeDecodeError as exc:

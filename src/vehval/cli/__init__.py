@@ -61,6 +61,12 @@ def main(argv: list[str] | None = None) -> int:
         return code if isinstance(code, int) else (0 if code is None else 1)
     except BrokenPipeError:
         return 0
+    except OSError as exc:  # the file system refused: a path too long, no space, no permission
+        name = str(exc.filename or "")
+        name = name if len(name) <= 120 else name[:117] + "..."
+        typer.echo(f"vehval: error: {name + ': ' if name else ''}{exc.strerror or exc} "
+                   "(check the path, its permissions and the free space)", err=True)
+        return 2
     except KeyboardInterrupt:
         typer.echo("vehval: interrupted", err=True)
         return 130
