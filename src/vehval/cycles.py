@@ -218,6 +218,10 @@ def _frozen(values: Any) -> np.ndarray:
     return arr
 
 
+#: Longest drive cycle accepted [s]: a day (a longer time base is a unit or file error).
+MAX_CYCLE_S = 86_400.0
+
+
 def _validate(t: np.ndarray, v: np.ndarray, label: str,
               lines: np.ndarray | None = None) -> None:
     """Check shape, finiteness and monotonic time; ``lines`` maps samples to file lines."""
@@ -233,6 +237,10 @@ def _validate(t: np.ndarray, v: np.ndarray, label: str,
         bad = np.flatnonzero(~np.isfinite(arr))
         if bad.size:
             raise VehvalError(f"{label}: {what} is not a finite number{where(bad[0])}")
+    if t[-1] - t[0] > MAX_CYCLE_S:
+        raise VehvalError(f"{label}: the cycle spans {t[-1] - t[0]:.4g} s; a drive cycle longer "
+                          f"than {MAX_CYCLE_S / 3600:.0f} h is not supported (check the time "
+                          "column and its unit)")
     back = np.flatnonzero(np.diff(t) <= 0)
     if back.size:
         i = back[0] + 1
@@ -472,6 +480,9 @@ def steady_cycle(speed_mps: float, duration_s: float, ramp_mps2: float = 1.0) ->
     if not (ramp_mps2 > 0 and math.isfinite(ramp_mps2)):
         raise VehvalError(f"steady cycle: ramp must be > 0 m/s^2, got {ramp_mps2!r}")
     t_ramp = speed_mps / ramp_mps2
+    if duration_s + 2 * t_ramp > MAX_CYCLE_S:
+        raise VehvalError(f"steady cycle: {duration_s + 2 * t_ramp:.4g} s long; a drive cycle "
+                          f"longer than {MAX_CYCLE_S / 3600:.0f} h is not supported")
     corners = np.array([0.0, t_ramp, t_ramp + duration_s, 2 * t_ramp + duration_s])
     total = corners[-1]
     if total <= 0:

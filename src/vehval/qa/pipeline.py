@@ -8,11 +8,13 @@ selected measured signals plus the ``_calc`` signals.
 from __future__ import annotations
 
 import copy
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
 from vehval import align as _align
 from vehval.equations.calc import CalcResult, compute
+from vehval.errors import ConfigError
 from vehval.qa.findings import Finding, Kind, Severity, summarise
 from vehval.qa.fuelmap import FuelMapOptions, fuel_map_check
 from vehval.qa.level1 import Level1Options, corroborate_spikes_with_calc, run_level1
@@ -195,6 +197,9 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,
     -------
     QAResult
     """
+    if not (math.isfinite(max_offset_s) and max_offset_s >= 0):
+        raise ConfigError(f"max offset {max_offset_s!r} s: the alignment search range must be "
+                          "a finite number >= 0 s (--max-offset)")
     work = Test([copy.copy(s) for s in test], meta=copy.deepcopy(test.meta))
     # repairs made at import that change the data (a stray timestamp dropped) stay visible
     notes: list[str] = [n for n in test.meta.notes if n.startswith("warning")]
