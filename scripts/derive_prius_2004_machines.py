@@ -94,15 +94,17 @@ def replace_block_maps(text: str, block: str, new_lines: list[str],
     out: list[str] = []
     skip = False
     inserted = False
+    section = ""  # the two-space key a four-space line belongs to (sources, uncertainty...)
     for ln in body:
         key = re.match(r"^  (\w+):", ln)
         if key:
+            section = key.group(1)
             skip = key.group(1) in ("speed_rpm", "torque_nm", "loss_w")
             if skip and not inserted:
                 out += new_lines
                 inserted = True
         src = re.match(r"^    (\w+): ", ln)
-        if not skip and src and src.group(1) in sources:
+        if not skip and src and section == "sources" and src.group(1) in sources:
             out.append(f'    {src.group(1)}: "{sources[src.group(1)]}"')
             continue
         if not skip:
