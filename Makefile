@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.vehval-installed
 DEMO_OUT ?= demo_out
 
-.PHONY: venv demo test test-fast golden bench browser clean lock
+.PHONY: venv demo test test-fast lint golden bench browser clean lock
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -21,7 +21,11 @@ demo: venv
 browser:
 	@bash scripts/ensure_chromium.sh
 
-test: venv browser
+# ruff: pyflakes, statement errors and import order (config in pyproject.toml)
+lint: venv
+	$(BIN)/ruff check -q .
+
+test: venv browser lint
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 test-fast: venv

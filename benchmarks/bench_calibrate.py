@@ -27,8 +27,8 @@ from pathlib import Path
 
 from benchmarks.common import best_of, row
 from vehval.sim.simulate import simulate
-from vehval.vehicle import load_vehicle
 from vehval.test import Signal, Test, TestMeta
+from vehval.vehicle import load_vehicle
 
 TRUTH = {"controller.engine_on_power_w": 11000.0, "controller.soc_gain_w": 100000.0,
          "controller.regen_fraction_max": 0.75, "body.aux_power_w": 400.0,

@@ -19,8 +19,8 @@ import pyarrow.parquet as pq
 from benchmarks.common import best_of, make_d3_file, row
 from vehval.io.importer import import_test
 from vehval.io.parquet import write_test
-from vehval.io.readers import read_raw
 from vehval.io.propose import propose_template
+from vehval.io.readers import read_raw
 
 DURATION_S = 1500.0
 RATE_HZ = 10.0

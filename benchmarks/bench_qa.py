@@ -19,8 +19,8 @@ from benchmarks.common import best_of, make_d3_file, row
 
 def _test_and_template(path: Path):
     from vehval.io.importer import import_test
-    from vehval.io.readers import read_raw
     from vehval.io.propose import propose_template
+    from vehval.io.readers import read_raw
     from vehval.io.template import ChannelSpec
     from vehval.test import Signal
 

@@ -22,8 +22,8 @@ import warnings
 import numpy as np
 
 from benchmarks.common import best_of, row
-from vehval.sim.batch import simulate_batch
 from vehval.cycles import load_cycle
+from vehval.sim.batch import simulate_batch
 from vehval.sim.simulate import simulate
 from vehval.vehicle import load_vehicle
 

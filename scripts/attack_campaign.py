@@ -183,7 +183,7 @@ def cases(root: Path):
             elif bad == "missing":
                 x = c / "nothing_d3.txt"
             else:
-                x = non_data(bad, c / f"doc_d3.txt")
+                x = non_data(bad, c / "doc_d3.txt")
             yield "wrong input", f"{cmd} / {bad}", build(x, t, c / "out"), {}
     # 2. hostile option values
     for i, v in enumerate(HOSTILE):

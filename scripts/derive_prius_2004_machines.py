@@ -36,8 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
 from vehval.constants import RPM_RAD_PER_S as RPM  # noqa: E402
-from vehval.vehicle.machine_fit import (TERMS, LossSurface, fit_loss_surface,  # noqa: E402
-                                        loss_table, scaled_losses)
+from vehval.vehicle.machine_fit import TERMS, LossSurface, fit_loss_surface, loss_table, scaled_losses  # noqa: E402
 
 VEHICLE = ROOT / "src" / "vehval" / "data" / "vehicles" / "prius_2004.yaml"
 UNRELIABLE_NM = 300.0  # SOURCE.txt of the ORNL table: rows at or above are unreliable

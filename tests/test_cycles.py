@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from vehval.cli import main
-from vehval.errors import VehvalError
 from vehval.cycles import Cycle, list_cycles, load_cycle, steady_cycle
+from vehval.errors import VehvalError
 
 # Published duration [s] and distance [km] of each regulatory cycle. The tolerance on the
 # distance is half a unit of the last published digit (0.005 km) plus the trapezoid vs

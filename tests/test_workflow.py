@@ -8,8 +8,7 @@ from pathlib import Path
 import pytest
 
 from vehval.cli import main
-from vehval.workflow import (AnalysisOutcome, QAOutcome, TestRun, ValidationOutcome, group_args,
-                             runs_from_args)
+from vehval.workflow import AnalysisOutcome, QAOutcome, TestRun, ValidationOutcome, group_args, runs_from_args
 
 
 @pytest.fixture(scope="module")

@@ -92,7 +92,7 @@ def test_bad_data_file(tmp_path, small_test, capsys, monkeypatch, cmd, bad):
     elif bad == "unreadable":
         f.chmod(0)
     else:
-        f = _non_data(bad, tmp_path / "in" / f"doc_d3.txt")
+        f = _non_data(bad, tmp_path / "in" / "doc_d3.txt")
     before = _snapshot(tmp_path)
     if bad == "unreadable" and os.geteuid() == 0:  # root reads every file: emulate EACCES
         _deny_reading(monkeypatch, f)

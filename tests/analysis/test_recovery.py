@@ -28,11 +28,11 @@ import numpy as np
 import pytest
 
 from vehval.analysis import analyze
+from vehval.cycles import Cycle
 from vehval.io.importer import import_test
 from vehval.io.template import load_template
-from vehval.cycles import Cycle
-from vehval.vehicle import load_vehicle
 from vehval.synth import make_virtual_test
+from vehval.vehicle import load_vehicle
 
 TOL = {"_w": 600.0, "_mps": 0.5, "_s": 1.0}
 KEYS = ("engine_on_power_w", "engine_off_power_w", "engine_on_speed_mps",

@@ -117,7 +117,8 @@ def parquet_bytes(columns: dict[str, np.ndarray] | None = None) -> bytes:
 @pytest.fixture(scope="session")
 def mdf_bytes(tmp_path_factory) -> bytes:
     """A small valid MDF4 file (two channels at 10 Hz, one at 1 Hz)."""
-    from asammdf import MDF, Signal as MSig
+    from asammdf import MDF
+    from asammdf import Signal as MSig
 
     t10 = np.arange(50) * 0.1
     t1 = np.arange(5) * 1.0

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
 from iohelpers import D3_TEMPLATE, write_d3
+
 from vehval.cli import main
 
 

@@ -10,8 +10,8 @@ import json
 
 import numpy as np
 import pytest
-
 from iohelpers import D3_TEMPLATE, assert_clean_failure, d3_rows, write_d3
+
 from vehval.io.parquet import read_test
 
 

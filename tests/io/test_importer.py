@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
 from iohelpers import D3_TEMPLATE, d3_rows, write_d3
+
 from vehval.errors import ConfigError, InputFileError, SignalError, UnitError
 from vehval.io.importer import import_test
 from vehval.io.template import load_template

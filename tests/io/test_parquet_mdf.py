@@ -7,12 +7,12 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
+import vehval.test as vt
 from vehval.errors import InputFileError
 from vehval.io.importer import import_test
 from vehval.io.parquet import read_test, write_test
 from vehval.io.readers import read_raw
 from vehval.test import Signal, Test
-import vehval.test as vt
 
 
 def _multi_rate_test() -> Test:
@@ -70,7 +70,8 @@ def test_raw_read_of_test_parquet_keeps_per_channel_time(tmp_path):
 
 @pytest.fixture
 def mdf_file(tmp_path):
-    from asammdf import MDF, Signal as MSig
+    from asammdf import MDF
+    from asammdf import Signal as MSig
 
     t10 = np.arange(50) * 0.1
     t1 = np.arange(5) * 1.0

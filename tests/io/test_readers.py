@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from iohelpers import D3_HEADER, d3_rows, write_d3
 
 from vehval.errors import InputFileError
 from vehval.io.readers import detect_format, read_raw
-
-from iohelpers import D3_HEADER, d3_rows, write_d3
 
 
 def test_d3_basic(d3_file):
@@ -187,7 +186,8 @@ def test_utf32_unknown_encoding_cr_only_and_empty_last_cell(tmp_path):
 def test_corrupted_mdf_is_an_error_not_a_crash(tmp_path):
     """Flipped bytes in MDF blocks must give InputFileError (asammdf's C code would segfault
     on an out-of-record channel offset; the layout is checked first)."""
-    from asammdf import MDF, Signal as MSig
+    from asammdf import MDF
+    from asammdf import Signal as MSig
 
     t = np.arange(20) * 0.1
     mdf = MDF(version="4.10")

@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import pytest
-
 from iohelpers import D3_TEMPLATE, write_d3
+
 from vehval.errors import ConfigError
 from vehval.io.propose import UNMATCHED_REASON, check_template, match_channel, propose_template
 from vehval.io.template import ChannelSpec, FileSpec, Template, load_template

@@ -5,7 +5,7 @@ import pytest
 
 from vehval.align import align_test, estimate_pair, reference_source
 from vehval.errors import SignalError
-from vehval.test import Signal, Test
+from vehval.test import Signal
 
 from .conftest import make_test
 

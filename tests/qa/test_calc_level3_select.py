@@ -5,7 +5,7 @@ import pytest
 
 from vehval.equations.calc import compute, load_calculations
 from vehval.errors import ConfigError
-from vehval.qa.findings import Kind, Severity
+from vehval.qa.findings import Kind
 from vehval.qa.level3 import run_checks, run_level3
 from vehval.qa.pipeline import run_qa
 from vehval.qa.select import select_signals

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from vehval.qa.findings import Kind, Severity
 from vehval.nomenclature import preference_rank
+from vehval.qa.findings import Kind, Severity
 from vehval.qa.level2 import compare_pair, run_level2
-from vehval.test import Signal, Test
+from vehval.test import Signal
 
 from .conftest import make_test
 

@@ -49,8 +49,6 @@ def test_cruze_negative_fuel_at_idle_found():
         neg = [f for f in res.findings if f.kind == Kind.NEGATIVE and f.signal == "fuel_rate_test"]
         hits.append(bool(neg))
         if neg:
-            # where it is negative the engine idles or decelerates: speed is low
-            v = res.validated["veh_spd_test"]
             assert neg[0].numbers["value"] < 0
         json.dumps(res.to_dict())              # the document is JSON-serialisable
     assert all(hits)
@@ -60,8 +58,8 @@ def _propose_and_qa(path):
     """Proposed template, completed the way a user would: a fuel density for volumetric
     fuel channels and channels with no unit anywhere deleted."""
     from vehval.io.importer import import_test
-    from vehval.io.readers import read_raw
     from vehval.io.propose import propose_template
+    from vehval.io.readers import read_raw
     from vehval.nomenclature import registry
     tpl, _ = propose_template([path])
     if tpl.constants.fuel_density_kg_per_m3 is None:

@@ -19,13 +19,11 @@ import json
 import numpy as np
 import pytest
 
-synth = pytest.importorskip("vehval.synth")
-pytest.importorskip("vehval.sim.simulate")
-
+from vehval import synth
+from vehval.cycles import Cycle, load_cycle
 from vehval.io.importer import import_test
 from vehval.qa.findings import Severity
 from vehval.qa.pipeline import run_qa
-from vehval.cycles import Cycle, load_cycle
 from vehval.vehicle import load_vehicle
 
 #: OBD logger behind the dyno, a frozen OBD motor speed, a reversed OBD motor torque...

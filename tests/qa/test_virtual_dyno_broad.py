@@ -39,11 +39,11 @@ def _observable(fault: dict, truth: dict, clean: pd.DataFrame) -> bool:
 
 @pytest.mark.parametrize("name,cut", CYCLES, ids=[f"{n}{int(c) if c else ''}" for n, c in CYCLES])
 def test_broad_virtual_dyno_figures(name, cut, tmp_path):
+    from vehval.cycles import Cycle, load_cycle
     from vehval.io.importer import import_test
     from vehval.qa.pipeline import run_qa
-    from vehval.cycles import Cycle, load_cycle
-    from vehval.vehicle import load_vehicle
     from vehval.synth import make_virtual_test
+    from vehval.vehicle import load_vehicle
 
     veh = load_vehicle("prius_2004")
     errors, lines = [], []

@@ -105,9 +105,9 @@ def _control_json() -> str:
 
 @lru_cache(maxsize=1)
 def _validation_json() -> str:
-    from vehval.vehicle import load_vehicle
-    from vehval.validate import validate_test
     from vehval.jsonsafe import clean as _clean
+    from vehval.validate import validate_test
+    from vehval.vehicle import load_vehicle
 
     payload = validate_test(make_test(), load_vehicle("prius_2004"), dt=0.1).payload()
     return json.dumps(_clean(payload))

@@ -14,7 +14,6 @@ import shutil
 from pathlib import Path
 
 import numpy as np
-
 import pytest
 
 from vehval.report import write_report

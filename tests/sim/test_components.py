@@ -13,8 +13,12 @@ from vehval.sim.components.boost import battery_side_power, output_voltage
 from vehval.sim.components.driveline import ring_speed_from_vehicle, wheel_force_from_ring_torque
 from vehval.sim.components.electric_machine import electrical_power, torque_for_power, torque_limit
 from vehval.sim.components.engine import fuel_rate
-from vehval.sim.components.planetary import (ring_torque_from_engine, sun_speed,
-                                             sun_torque_from_engine, willis_residual)
+from vehval.sim.components.planetary import (
+    ring_torque_from_engine,
+    sun_speed,
+    sun_torque_from_engine,
+    willis_residual,
+)
 from vehval.sim.maps import interp1, interp2
 
 RPM = math.pi / 30

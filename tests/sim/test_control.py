@@ -6,9 +6,19 @@ import itertools
 
 import pytest
 
-from vehval.sim.control import (ENG_OFF, ENG_OFF_MINTIME, ENG_ON, ENG_ON_MINTIME, STATE_NAMES,
-                                engine_commanded_on, held, hold_timer, regen_fade,
-                                soc_power_demand, state_step)
+from vehval.sim.control import (
+    ENG_OFF,
+    ENG_OFF_MINTIME,
+    ENG_ON,
+    ENG_ON_MINTIME,
+    STATE_NAMES,
+    engine_commanded_on,
+    held,
+    hold_timer,
+    regen_fade,
+    soc_power_demand,
+    state_step,
+)
 
 DT, MIN_ON, MIN_OFF = 0.1, 5.0, 3.0
 

@@ -65,8 +65,8 @@ def test_locked_gear_engine_speed_is_ratio_times_wheel_speed():
 def test_coupling_and_gear_selection_hand_cases():
     # T = k w (w - wt): k = 0.01, wt = 100, T = 20 -> w = (100 + sqrt(1e4 + 8000)) / 2
     assert coupling_pump_speed(100.0, 20.0, 0.01) == pytest.approx((100 + np.sqrt(18000)) / 2)
-    up0 = np.array([4.0, 7.0]); up1 = np.array([7.0, 12.0])
-    dn0 = np.array([2.0, 4.5]); dn1 = np.array([4.0, 8.0])
+    up0, up1 = np.array([4.0, 7.0]), np.array([7.0, 12.0])
+    dn0, dn1 = np.array([2.0, 4.5]), np.array([4.0, 8.0])
     assert select_gear(1, 5.0, 0.0, up0, up1, dn0, dn1) == 2      # above the zero-load line
     assert select_gear(1, 5.0, 1.0, up0, up1, dn0, dn1) == 1      # full load holds the gear
     assert select_gear(2, 2.9, 0.5, up0, up1, dn0, dn1) == 1      # below 2 + 0.5 * 2 = 3 m/s

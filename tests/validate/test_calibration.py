@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from vehval.errors import ConfigError
-from vehval.vehicle import load_vehicle
 from vehval.validate import ladder, validate_test
 from vehval.validate.calibration import calibrate, default_bounds, start_values
 from vehval.validate.conditions import vehicle_variant
+from vehval.vehicle import load_vehicle
 
 from .conftest import CONSTANTS, HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
 

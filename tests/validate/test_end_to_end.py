@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from vehval.cli import main
-from vehval.errors import ConfigError
 from vehval.cycles import load_cycle
-from vehval.vehicle import load_vehicle
+from vehval.errors import ConfigError
 from vehval.validate import validate_test, variability
 from vehval.validate.calibration import calibrate
+from vehval.vehicle import load_vehicle
 from vehval.workflow import TestRun, group_args
 
 from .conftest import HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES

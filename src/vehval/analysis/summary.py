@@ -242,7 +242,9 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
                              fit.params, aux, fit.lag_s["start"])
         for n in fit.notes:
             findings.append(Finding("warning", "engine state", n))
-        f64 = lambda x: np.ascontiguousarray(x, dtype=np.float64)
+        def f64(x):
+            return np.ascontiguousarray(x, dtype=np.float64)
+
         valid = es.valid & np.isfinite(inp.v)
         replay_inputs = {
             "p": f64(dem.p), "v": f64(inp.v), "soc": f64(soc), "dt": float(inp.dt),

@@ -99,7 +99,9 @@ class _Problem:
     """The replay objective over one test."""
 
     def __init__(self, obs, valid, p_wh, v, soc, dt, base, aux_w, pdis_av):
-        f = lambda x: np.ascontiguousarray(x, dtype=np.float64)
+        def f(x):
+            return np.ascontiguousarray(x, dtype=np.float64)
+
         self.obs, self.valid = np.ascontiguousarray(obs, bool), np.ascontiguousarray(valid, bool)
         self.p_wh, self.v, self.soc, self.dt = f(p_wh), f(v), f(soc), float(dt)
         self.aux_w = float(aux_w)

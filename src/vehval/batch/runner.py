@@ -20,8 +20,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
-from vehval.batch.discover import (TestSpec, discover_tests, file_sha256, hash_spec,
-                                   settings_hash)
+from vehval.batch.discover import TestSpec, discover_tests, file_sha256, hash_spec, settings_hash
 from vehval.batch.task import ASSETS_DIR, RESULT_NAME, check_steps, jsonable, process_test
 from vehval.catalog import open_catalog
 from vehval.errors import ConfigError, VehvalError
@@ -146,9 +145,8 @@ def local_cluster(workers: int, *, dashboard: bool = False):
     (an HTTP server) is started only when ``dashboard`` is true, on a free loopback port.
     Returns ``(client, cluster)``.
     """
-    from distributed import Client, LocalCluster, Security
-
     import dask
+    from distributed import Client, LocalCluster, Security
 
     security = Security.temporary()
     # the scheduler always runs a small HTTP server: bind it to loopback on a free port and,
@@ -286,8 +284,14 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
 def _execute(jobs: list[dict], record: Callable[[dict], None], workers: int | None,
              scheduler: str | None, progress: bool, total: int, done: int,
              dashboard: bool = False) -> None:
-    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn,
-                               TimeElapsedColumn, TimeRemainingColumn)
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
 
     bar = Progress(TextColumn("[bold]batch"), BarColumn(), MofNCompleteColumn(),
                    TextColumn("{task.fields[last]}"), TimeElapsedColumn(), TimeRemainingColumn(),

@@ -15,26 +15,27 @@ try:  # typer >= 0.20 vendors click
 except ImportError:  # pragma: no cover
     from click import exceptions as _cx
 
-from vehval.errors import VehvalError
-
 from vehval.cli.app import app  # noqa: E402 - the application the commands register on
+from vehval.errors import VehvalError
 
 
 def _register() -> None:
     # Imported on first use: each module registers its commands on `app` (vehval.cli.app).
-    from vehval.cli import commands_import  # noqa: F401
-    from vehval.cli import commands_synth  # noqa: F401
-    from vehval.cli import commands_cycles  # noqa: F401
-    from vehval.cli import commands_batch  # noqa: F401
-    from vehval.cli import commands_report  # noqa: F401
-    from vehval.cli import commands_analyze  # noqa: F401
-    from vehval.cli import commands_qa  # noqa: F401
-    from vehval.cli import commands_results  # noqa: F401
-    from vehval.cli import commands_sim  # noqa: F401
-    from vehval.cli import commands_sensitivity  # noqa: F401
-    from vehval.cli import commands_validate  # noqa: F401
-    from vehval.cli import commands_identify  # noqa: F401
-    from vehval.cli import commands_epa  # noqa: F401
+    from vehval.cli import (
+        commands_analyze,  # noqa: F401
+        commands_batch,  # noqa: F401
+        commands_cycles,  # noqa: F401
+        commands_epa,  # noqa: F401
+        commands_identify,  # noqa: F401
+        commands_import,  # noqa: F401
+        commands_qa,  # noqa: F401
+        commands_report,  # noqa: F401
+        commands_results,  # noqa: F401
+        commands_sensitivity,  # noqa: F401
+        commands_sim,  # noqa: F401
+        commands_synth,  # noqa: F401
+        commands_validate,  # noqa: F401
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -43,9 +43,8 @@ def template_init_cmd(
     force: bool = typer.Option(False, "--force", help="Overwrite an existing template."),
 ) -> None:
     """Propose a template: standard names, units and source tags for every channel."""
-    from vehval.io.propose import propose_template
-
     from vehval.io.paths import check_input_file, check_outputs
+    from vehval.io.propose import propose_template
 
     check_outputs(outfile=output, inputs=files)
     if output.exists() and not force:

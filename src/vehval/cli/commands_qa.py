@@ -34,8 +34,8 @@ def qa_cmd(
     with --report also report.html and tables.xlsx.
     """
     from vehval.io.atomic import atomic_dir, write_text_atomic
-    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.io.parquet import write_test
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.qa.select import save_final_template
     from vehval.workflow import TestRun
 

@@ -79,9 +79,8 @@ def report_cmd(
 ) -> None:
     """Write a self-contained report.html (and tables.xlsx): QA, control strategy and validation."""
     from vehval.io.parquet import read_test
-    from vehval.report import build_reports, load_json, write_report
-
     from vehval.io.paths import check_outputs
+    from vehval.report import build_reports, load_json, write_report
 
     if output is not None:
         check_outputs(outfile=output, inputs=[*inputs, control, validation, raw])

@@ -16,8 +16,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from vehval.errors import InputFileError
-from vehval.io.raw import (RawTable, find_time_column, is_printable, is_time_header,
-                           split_headers)
+from vehval.io.raw import RawTable, find_time_column, is_printable, is_time_header, split_headers
 from vehval.units import split_header
 
 _DELIMS = ("\t", ";", ",")

@@ -20,8 +20,8 @@ from vehval.errors import ConfigError, InputFileError
 from vehval.io.atomic import atomic_path
 from vehval.io.delimited import MAX_COLUMNS, check_exists
 from vehval.io.raw import RawTable, find_time_column
-from vehval.test import Signal, Test, TestMeta
 from vehval.safe_yaml import load_json
+from vehval.test import Signal, Test, TestMeta
 from vehval.units import split_header
 
 FORMAT = "vehval-test"

@@ -18,8 +18,8 @@ import numpy as np
 
 from vehval.align import estimate_pair
 from vehval.errors import SignalError
-from vehval.nomenclature import preference_rank, registry
 from vehval.jsonsafe import finite_or_none
+from vehval.nomenclature import preference_rank, registry
 from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
 from vehval.test import Signal, Test
 

@@ -29,8 +29,8 @@ import numpy as np
 
 from vehval.equations.calc import CalcResult
 from vehval.errors import SignalError
-from vehval.nomenclature import registry
 from vehval.jsonsafe import finite_or_none
+from vehval.nomenclature import registry
 from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
 from vehval.test import Test
 

@@ -23,8 +23,7 @@ from typing import Any
 
 from vehval.io.atomic import atomic_dir
 from vehval.report.excel import write_tables
-from vehval.report.html import (INLINE, plotly_asset_name, render_report, write_plotly_asset,
-                                write_report)
+from vehval.report.html import INLINE, plotly_asset_name, render_report, write_plotly_asset, write_report
 from vehval.report.inputs import load_json, results_beside
 from vehval.test import Test
 

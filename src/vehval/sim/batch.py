@@ -13,8 +13,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from vehval.errors import ConfigError
 from vehval.cycles import Cycle, load_cycle
+from vehval.errors import ConfigError
 from vehval.sim.driver import MPH, tolerance_band
 from vehval.sim.kernel import run_batch
 from vehval.sim.packing import pack, param_vector

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 from numba import njit
 
-
 ENG_OFF = 0
 ENG_OFF_MINTIME = 1
 ENG_ON = 2

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from vehval.constants import GALLON_US_M3, MILE_M, MPH_M_PER_S
+from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.sim.conventional_kernel import (
     CONV_PARAMS,
     CONV_SIGNALS,
@@ -18,7 +19,6 @@ from vehval.sim.conventional_kernel import (
     run_conventional,
 )
 from vehval.sim.driver import tolerance_band
-from vehval.vehicle.base import RPM
 from vehval.vehicle.conventional import ConventionalVehicle
 
 

@@ -10,9 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
 from vehval.constants import MPH_M_PER_S as MPH
-
-
 
 
 @njit(cache=True)

@@ -24,9 +24,19 @@ from vehval.sim.components.body import road_load
 from vehval.sim.components.boost import battery_side_power, output_voltage
 from vehval.sim.components.electric_machine import electrical_power, torque_for_power, torque_limit
 from vehval.sim.components.engine import fuel_rate, max_torque
-from vehval.sim.control import (ENG_OFF, PROPEL_BRAKING, PROPEL_CHARGE_LIMIT,
-                                PROPEL_DISCHARGE_LIMIT, PROPEL_NORMAL, engine_commanded_on, held,
-                                hold_timer, regen_fade, soc_power_demand, state_step)
+from vehval.sim.control import (
+    ENG_OFF,
+    PROPEL_BRAKING,
+    PROPEL_CHARGE_LIMIT,
+    PROPEL_DISCHARGE_LIMIT,
+    PROPEL_NORMAL,
+    engine_commanded_on,
+    held,
+    hold_timer,
+    regen_fade,
+    soc_power_demand,
+    state_step,
+)
 from vehval.sim.driver import driver_force
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
 from vehval.sim.maps import interp1

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vehval.vehicle.base import RPM
+from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.sim.layout import PARAMS
 from vehval.vehicle import Vehicle
 

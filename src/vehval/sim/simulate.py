@@ -14,15 +14,16 @@ from typing import Any
 
 import numpy as np
 
-from vehval.errors import ConfigError
+from vehval.constants import GALLON_US_M3 as GALLON_M3
+from vehval.constants import MILE_M
 from vehval.cycles import Cycle, load_cycle
+from vehval.errors import ConfigError
 from vehval.sim.driver import MPH, tolerance_band
 from vehval.sim.kernel import run
 from vehval.sim.layout import SIGNALS, SUMMARY
 from vehval.sim.packing import pack
-from vehval.vehicle import Vehicle, load_vehicle
 from vehval.test import Signal, Test, TestMeta
-from vehval.constants import GALLON_US_M3 as GALLON_M3, MILE_M
+from vehval.vehicle import Vehicle, load_vehicle
 
 CHARGE_BALANCE_TOL = 0.005  # [-] |SOC_end - SOC_start| accepted by charge_balance
 _BALANCE_TOL_ITER = 0.004  # [-] iteration target, inside the accepted tolerance

@@ -14,12 +14,12 @@ from vehval.jsonsafe import clean
 from vehval.sim.simulate import SimResult, simulate
 from vehval.test import Test
 from vehval.validate.compare import Comparison, compare, overlay_figures
-from vehval.validate.match import VehicleMatch, vehicle_match
 from vehval.validate.conditions import (
     Conditions,
     simulation_conditions,
     vehicle_variant,
 )
+from vehval.validate.match import VehicleMatch, vehicle_match
 from vehval.vehicle import Vehicle, load_vehicle
 
 

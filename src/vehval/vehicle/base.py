@@ -6,9 +6,8 @@ from typing import Any, Sequence
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
-from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.errors import ConfigError
 
+from vehval.errors import ConfigError
 
 #: a source starting with one of these words marks a value without a public source
 UNSOURCED_PREFIXES = ("engineering",)

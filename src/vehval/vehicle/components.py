@@ -15,7 +15,8 @@ from typing import Literal
 import numpy as np
 from pydantic import Field, model_validator
 
-from vehval.vehicle.base import RPM, Block, bp_check, table_check
+from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.vehicle.base import Block, bp_check, table_check
 
 
 class BodyParams(Block):

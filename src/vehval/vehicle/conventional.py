@@ -23,7 +23,8 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
-from vehval.vehicle.base import RPM, Block, apply_overrides
+from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.vehicle.base import Block, apply_overrides
 from vehval.vehicle.components import BodyParams, DrivelineParams, EngineParams
 from vehval.vehicle.control import DriverParams
 

@@ -17,11 +17,19 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
 
+from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.errors import ConfigError
 from vehval.safe_yaml import read_yaml
-from vehval.vehicle.base import RPM, apply_overrides
-from vehval.vehicle.components import (BatteryParams, BodyParams, BoostParams, DrivelineParams,
-                                       EngineParams, MachineParams, PlanetaryParams)
+from vehval.vehicle.base import apply_overrides
+from vehval.vehicle.components import (
+    BatteryParams,
+    BodyParams,
+    BoostParams,
+    DrivelineParams,
+    EngineParams,
+    MachineParams,
+    PlanetaryParams,
+)
 from vehval.vehicle.control import ControllerParams, DriverParams
 from vehval.vehicle.conventional import ConventionalVehicle
 from vehval.vehicle.maps import best_efficiency_line

@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.errors import ConfigError
-from vehval.vehicle.base import RPM
 
 if TYPE_CHECKING:
     from vehval.vehicle.components import EngineParams
