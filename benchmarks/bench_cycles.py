@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from benchmarks.common import best_of, make_d3_file, peak_memory, row
-from vehval.sim import cycles as cyc_mod
+from vehval import cycles as cyc_mod
 
 
 def _load_all_uncached() -> None:
