@@ -9,6 +9,7 @@ app = typer.Typer(
     help="Vehicle test data to trusted knowledge: import, QA, simulate, validate.",
     no_args_is_help=True,
     add_completion=False,
+    rich_markup_mode=None,  # units in help texts are written "[s]": not rich markup
     pretty_exceptions_enable=False,
 )
 
