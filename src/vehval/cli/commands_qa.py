@@ -76,4 +76,7 @@ def qa_cmd(
     for f in doc["findings"]:
         if f["severity"] != "info":
             typer.echo(f"  {f['severity']:7s} {f['kind']:14s} {f['message']}")
+    for note in doc.get("notes") or []:  # repairs made at import (a stray timestamp dropped...)
+        if str(note).startswith("warning"):
+            typer.echo(f"  {note}", err=True)
     typer.echo(f"wrote {outdir}/: {', '.join(summ['files'])}")
