@@ -107,15 +107,7 @@ def write_identification_report(idf, preds: list[dict], path: str | Path) -> Pat
                         ["test", "cycle", "cell °C", "measured g", "predicted g", "error %"]))
     figs += [trace_figure(p) for p in preds]
     body = "\n".join(parts)
-    divs = "\n".join(f.to_html(full_html=False, include_plotlyjs=(i == 0))
-                     for i, f in enumerate(figs))
-    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'>" + CSP_META + "<title>vehval identification"
-           "</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:"
-           "collapse}td,th{border:1px solid #ccc;padding:2px 8px}</style></head><body>"
-           f"{body}\n{divs}</body></html>")
-    path = Path(path)
-    write_text_atomic(path, doc)
-    return path
+    return _write_page(path, "vehval identification", body, figs)
 
 
 def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Path) -> Path:
@@ -134,13 +126,17 @@ def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Pa
     body = (f"<h1>Predictions of {html.escape(vehicle_name)}</h1>"
             + _table(rows, ["test", "cycle", "cell °C", "scope", "measured g (U, k = 2)",
                             "predicted g", "error %"]))
-    figs = [trace_figure(p) for p in preds]
+    return _write_page(path, "vehval predictions", body, [trace_figure(p) for p in preds])
+
+
+def _write_page(path: str | Path, title: str, body: str, figs: list) -> Path:
+    """One self-contained HTML page: ``body`` then the plotly figures (plotly.js once)."""
     divs = "\n".join(f.to_html(full_html=False, include_plotlyjs=(i == 0))
                      for i, f in enumerate(figs))
-    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'>" + CSP_META + "<title>vehval predictions"
-           "</title><style>body{font-family:sans-serif;margin:2em}table{border-collapse:"
-           "collapse}td,th{border:1px solid #ccc;padding:2px 8px}</style></head><body>"
-           f"{body}\n{divs}</body></html>")
+    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'>" + CSP_META
+           + f"<title>{html.escape(title)}</title><style>body{{font-family:sans-serif;"
+           "margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;"
+           f"padding:2px 8px}}</style></head><body>{body}\n{divs}</body></html>")
     path = Path(path)
     write_text_atomic(path, doc)
     return path
