@@ -21,9 +21,10 @@ demo: venv
 browser:
 	@bash scripts/ensure_chromium.sh
 
-# ruff: pyflakes, statement errors and import order (config in pyproject.toml)
+# ruff: pyflakes, statement errors and import order; mypy on the typed core (pyproject.toml)
 lint: venv
 	$(BIN)/ruff check -q .
+	$(BIN)/mypy
 
 test: venv browser lint
 	$(BIN)/python -m pytest -q -n 2 --dist loadgroup

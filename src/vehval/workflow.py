@@ -202,12 +202,12 @@ class TestRun:
         (the grouping rule of the module docstring)."""
         from vehval.io.parquet import read_test
 
-        paths = [Path(p) for p in paths]
-        for p in paths:
+        given = [Path(p) for p in paths]
+        for p in given:
             if not p.exists():
                 raise InputFileError(f"{p}: not found")
         veh = load_vehicle_arg(vehicle)
-        one = paths[0] if len(paths) == 1 else None
+        one = given[0] if len(given) == 1 else None
         if one is not None and one.is_dir() and (one / "validated.parquet").is_file():
             return cls(read_test(one / "validated.parquet"), None, veh, origin=str(one),
                        validated_input=True)
@@ -217,11 +217,12 @@ class TestRun:
             tpl = _template_for(one, template)
             return cls.load(_dir_files(one, tpl), tpl, veh, repair_time=repair_time,
                             test_id=one.name, use_qa=use_qa)
-        if any(p.is_dir() for p in paths):
+        if any(p.is_dir() for p in given):
             raise InputFileError("a test group mixes directories and files: give one directory "
                                  "or the files of one test")
-        tpl = _template_for(None, template) if template is not None else _template_for(paths[0].parent, None)
-        return cls.load(paths, tpl, veh, repair_time=repair_time, use_qa=use_qa)
+        tpl = (_template_for(None, template) if template is not None
+               else _template_for(given[0].parent, None))
+        return cls.load(given, tpl, veh, repair_time=repair_time, use_qa=use_qa)
 
     # ------------------------------------------------------------------ steps
     def qa(self, **options: Any) -> QAOutcome:
@@ -258,7 +259,8 @@ class TestRun:
         unless called again with other options."""
         from vehval.results import compute_results, results_from_template
 
-        opts = {"method": method, "draws": draws, "seed": seed, "hot_start_bag1": hot_start_bag1}
+        opts: dict[str, Any] = {"method": method, "draws": draws, "seed": seed,
+                                "hot_start_bag1": hot_start_bag1}
         if self._results is None or getattr(self, "_results_opts", None) != opts:
             test = self.validated
             if self.template is not None:
@@ -308,7 +310,8 @@ class TestRun:
             self.results()  # the verdicts use the template's declared accuracies
         res = self._results.results if self._results is not None else None
         self._validation = ValidationOutcome(validate_test(
-            self.validated, self.vehicle, dt=dt, window_s=window_s, smooth_hz=smooth_hz,
+            self.validated, self.vehicle,  # type: ignore[arg-type]  # power split checked
+            dt=dt, window_s=window_s, smooth_hz=smooth_hz,
             overrides=overrides, results=res))
         return self._validation
 
@@ -447,6 +450,9 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     if not runs:
         raise ConfigError("no test to validate")
     veh = runs[0].vehicle
+    if veh is None:
+        raise ConfigError("validation needs a vehicle model: pass --vehicle or set 'vehicle:' "
+                          "in the template")
     vals = [r.validate(dt=dt, window_s=window_s, smooth_hz=smooth_hz) for r in runs]
     lad = ladder([v.validation.comparison for v in vals], tolerances)
     payload: dict[str, Any] = {

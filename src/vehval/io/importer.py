@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -303,7 +304,7 @@ def set_cycle(test: Test, template: Template | None = None, *, identify: bool = 
     meta.notes.append(first)
 
 
-def import_test(files: list[str | Path] | str | Path, template: Template | str | Path, *,
+def import_test(files: Sequence[str | Path] | str | Path, template: Template | str | Path, *,
                 repair_time: bool = False, test_id: str | None = None,
                 identify: bool = True) -> Test:
     """Import the raw files of one test with a template.
@@ -335,9 +336,7 @@ def import_test(files: list[str | Path] | str | Path, template: Template | str |
     InputFileError, ConfigError, UnitError, SignalError
         Any bad input, with a message naming file, line and channel.
     """
-    if isinstance(files, (str, Path)):
-        files = [files]
-    paths = [Path(f) for f in files]
+    paths = [Path(files)] if isinstance(files, (str, Path)) else [Path(f) for f in files]
     if not paths:
         raise InputFileError("no input file given")
     t = as_template(template)

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from vehval.constants import GALLON_US_M3, LITRE_M3, MILE_M
+from vehval.constants import GALLON_US_M3, LITRE_M3, MILE_M, MPH_M_PER_S
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.results.composites import Composite, composites_for
 from vehval.results.drive_quality import drive_quality
@@ -62,8 +62,9 @@ _SCOPE_TEST = "test"
 
 
 def _pick(test: Test, base: str, selected: dict[str, str] | None) -> Signal | None:
-    if selected and selected.get(base) in test:
-        return test[selected[base]]
+    name = selected.get(base) if selected else None
+    if name is not None and name in test:
+        return test[name]
     cands = [s for s in test.by_base(base, "test") if s.values.size]
     if not cands:
         return None
@@ -291,10 +292,10 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     acc = {s.name: channel_accuracy(s.name, accuracy.get(s.name)) for s in used}
     params = [p for a in acc.values() for p in a.parameters()]
     if fuel_obj is not None:
-        for prop in ("density_kg_per_m3", "lhv_j_per_kg", "carbon_mass_fraction"):
-            lim = fuel_obj.uncertainty.get(prop, 0.0)
-            if lim > 0 and getattr(fuel_obj, prop) is not None:
-                params.append(Parameter(f"fuel {prop}", lim, "property"))
+        for key in ("density_kg_per_m3", "lhv_j_per_kg", "carbon_mass_fraction"):
+            lim = fuel_obj.uncertainty.get(key, 0.0)
+            if lim > 0 and getattr(fuel_obj, key) is not None:
+                params.append(Parameter(f"fuel {key}", lim, "property"))
 
     # -------- integrals per scope
     def base(sig: Signal | None) -> tuple[np.ndarray, np.ndarray] | None:
@@ -309,7 +310,7 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
             if speed is not None else None)
     b_p = base(pwr)
     b_vi = None
-    if volt is not None:
+    if volt is not None and curr is not None:
         vi = Signal(name="ess_pwr_calc", time=curr.time, values=curr.values * volt.at(curr.time),
                     unit="W")
         volt_on_curr = Signal(name="ess_volt_calc", time=curr.time, values=volt.at(curr.time), unit="V")
@@ -344,13 +345,13 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                               (1.0 + g(theta, speed, "gain")) * vmax + g(theta, speed, "offset"))
         mass = lin(b_f, fuel_sig)
         q["fuel_mass_kg"] = mass
-        have_fuel = fuel_obj is not None
-        rho = (fuel_obj.density_kg_per_m3 + prop(theta, "density_kg_per_m3")
-               if have_fuel and fuel_obj.density_kg_per_m3 else None)
-        lhv = (fuel_obj.lhv_j_per_kg + prop(theta, "lhv_j_per_kg")
-               if have_fuel and fuel_obj.lhv_j_per_kg else None)
-        cf = (fuel_obj.carbon_mass_fraction + prop(theta, "carbon_mass_fraction")
-              if have_fuel and fuel_obj.carbon_mass_fraction else None)
+        fo = fuel_obj
+        rho = (fo.density_kg_per_m3 + prop(theta, "density_kg_per_m3")
+               if fo is not None and fo.density_kg_per_m3 else None)
+        lhv = (fo.lhv_j_per_kg + prop(theta, "lhv_j_per_kg")
+               if fo is not None and fo.lhv_j_per_kg else None)
+        cf = (fo.carbon_mass_fraction + prop(theta, "carbon_mass_fraction")
+              if fo is not None and fo.carbon_mass_fraction else None)
         vol = mass / rho if rho is not None else nan
         q["fuel_volume_m3"] = vol
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -365,8 +366,8 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
             q["co2_g_per_km"] = np.where(dist > 0, co2 / dist * 1e6, np.nan)
         if b_p is not None:
             q["ess_energy_net_j"] = lin(b_p, pwr)
-        elif b_vi is not None:
-            (s_vi, tt), (s_v, _), (s_i, _) = b_vi
+        elif b_vi is not None and all(b is not None for b in b_vi):
+            (s_vi, tt), (s_v, _), (s_i, _) = b_vi  # type: ignore[misc]  # checked above
             gv, ov = 1.0 + g(theta, volt, "gain"), g(theta, volt, "offset")
             gi, oi = 1.0 + g(theta, curr, "gain"), g(theta, curr, "offset")
             q["ess_energy_net_j"] = gv * gi * s_vi + gv * oi * s_v + ov * gi * s_i + ov * oi * tt
@@ -383,6 +384,7 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                 cc = np.zeros(n)
                 for nm in names:
                     if nm == "__hot_bag1__":
+                        assert hot is not None, "a hot bag 1 composite needs hot_start_bag1"
                         fm += hot["fuel_mass_kg"]
                         dd += hot["distance_m"]
                         cc += hot.get("co2_kg", np.nan) if b_c is not None else (
@@ -442,7 +444,7 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                 findings.append(_finding(
                     f"drive quality of {sc} outside the SAE J2951 tolerances applied by "
                     f"40 CFR 1066.425(j): IWR {res.iwr_pct:+.2f} % (allowed -2.0..+4.0), "
-                    f"RMSSE {res.rmsse_mps / 0.44704:.2f} mph (allowed 0.8)", speed.name,
+                    f"RMSSE {(res.rmsse_mps or 0.0) / MPH_M_PER_S:.2f} mph (allowed 0.8)", speed.name,
                     kind=Kind.DRIVE_QUALITY, iwr_pct=res.iwr_pct, rmsse_mps=res.rmsse_mps,
                     phase=sc))
         if road is None:
@@ -455,7 +457,8 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     soc = soc_correction(values, scopes, composites=[c.name for c in composites],
                          battery=pwr is not None or volt is not None, factor=soc_factor)
     if soc.get("status") == "beyond_tolerance_uncorrected":
-        findings.append(_finding(soc["message"], (pwr or curr).name))
+        battery_sig = pwr or curr
+        findings.append(_finding(soc["message"], battery_sig.name if battery_sig else ""))
     return TestResults(test_id=test.meta.test_id, cycle=test.meta.cycle, fuel=fuel_obj,
                        phase_source=phase_source, phases=phases, values=values,
                        uncertainty=uncertainty, composites=composites, drive_quality=dq,

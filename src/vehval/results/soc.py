@@ -63,9 +63,9 @@ def soc_correction(values: dict[str, dict[str, float | None]], scopes: list[str]
         elif factor is not None:
             ef_c = ef + factor * nec
             scale = ef_c / ef
+            mpg = v.get("fuel_economy_mpg")
             entry.update(status="corrected", fuel_energy_corrected_j=ef_c,
-                         fuel_economy_mpg_corrected=(v["fuel_economy_mpg"] / scale
-                                                     if v.get("fuel_economy_mpg") else None))
+                         fuel_economy_mpg_corrected=mpg / scale if mpg else None)
             worst = "corrected" if worst == "within_tolerance" else worst
         else:
             entry["status"] = "beyond_tolerance_uncorrected"

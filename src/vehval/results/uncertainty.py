@@ -171,7 +171,7 @@ def propagate(evaluate: Callable[[dict[str, np.ndarray]], dict[str, np.ndarray]]
         ci = np.where(np.isfinite(ci), ci, 0.0)
         var = float(np.sum(ci ** 2))
         u = math.sqrt(var)
-        order = np.argsort(-ci ** 2)[:top] if m else []
+        order: list[int] = [int(j) for j in np.argsort(-ci ** 2)[:top]] if m else []
         contrib = [{"parameter": params[j].name, "share": round(float(ci[j] ** 2 / var), 4),
                     "assumed": params[j].assumed} for j in order if var > 0 and ci[j] != 0]
         unc[key] = {"u": u, "U": COVERAGE_K * u, "k": COVERAGE_K, "method": method,
