@@ -20,7 +20,7 @@ from vehval.vehicle import load_vehicle
 
 from .helpers import sim_as_test
 
-#: The perturbed ("true") parameters. The nominal file has 8000 W, 150 kW/SOC, 0.90 (controller),
+#: The perturbed ("true") parameters. The nominal file has 8000 W, 150 kW/SOC, 1.0 (controller),
 #: 300 W accessory load and a final-drive efficiency of 0.97 (components).
 TRUTH = {"controller.engine_on_power_w": 11000.0, "controller.soc_gain_w": 100000.0,
          "controller.regen_fraction_max": 0.75, "body.aux_power_w": 400.0,

@@ -118,7 +118,7 @@ def calibrate_cmd(
     start: Path = typer.Option(None, "--start", help="JSON with start values (e.g. control.json of the analysis: its 'controller' mapping)."),
     dt: float = typer.Option(1.0, "--dt", help="Simulation step during the search (s)."),
     popsize: int = typer.Option(8, "--popsize", help="Differential-evolution population multiplier."),
-    maxiter: int = typer.Option(20, "--maxiter", help="Differential-evolution generations."),
+    maxiter: int = typer.Option(40, "--maxiter", help="Differential-evolution generations (at most; it stops earlier once converged)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the search."),
     mode: str = typer.Option("traces", "--mode", help="Objective of the search: traces (recorded signals, default) or batch (summaries, parallel, faster)."),
     smooth_hz: float = typer.Option(None, "--smooth-hz", help="Low-pass the measured speed given to the driver at this cut-off (Hz; zero phase). Default: as measured."),

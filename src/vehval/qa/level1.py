@@ -54,6 +54,7 @@ class Level1Options:
     jitter_info: float = 0.05         # std(dt)/median(dt) above this -> info
     vehicle_limit_tolerance: float = 0.03  # margin: this x the larger |limit|
     max_findings_per_kind: int = 10   # per signal; further runs are merged into one
+    max_spikes_corroborated: int = 200  # spikes judged one by one before the cap applies
     out_of_range_fraction: float = 0.1  # above: the whole channel is out of range (error)
     sparse_min_samples: int = 10      # fewer finite samples: too few for any test
     sparse_max_period_s: float = 10.0  # fewer samples than one per this over the test: sparse
@@ -101,9 +102,11 @@ def _span(sig: Signal, i0: int, i1: int) -> tuple[float, float]:
 
 
 def _emit_runs(out: list[Finding], sig: Signal, rs: list[tuple[int, int]], kind: Kind,
-               severity: Severity, text, numbers, opts: Level1Options) -> None:
-    """One finding per run; beyond the cap the remaining runs are merged into one."""
-    cap = opts.max_findings_per_kind
+               severity: Severity, text, numbers, opts: Level1Options,
+               cap: int | None = None) -> None:
+    """One finding per run; beyond the cap (default ``max_findings_per_kind``) the
+    remaining runs are merged into one."""
+    cap = cap or opts.max_findings_per_kind
     head, tail = rs[:cap - 1], rs[cap - 1:]
     if len(rs) <= cap:
         head, tail = rs, []
@@ -406,7 +409,8 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
                    lambda i0, i1: (f"{sig.name} has a spike of {_peak(resid, i0, i1):+.4g} {sig.unit} "
                                    f"at {t[i0]:.1f} s (threshold {thr:.3g} {sig.unit})"),
                    lambda i0, i1: {"value": float(v[i0 + int(np.nanargmax(np.abs(resid[i0:i1 + 1])))]),
-                                   "deviation": _peak(resid, i0, i1), "threshold": thr}, opts)
+                                   "deviation": _peak(resid, i0, i1), "threshold": thr}, opts,
+                   cap=opts.max_spikes_corroborated)
 
     # impossible sign ---------------------------------------------------------------------
     if base in NON_NEGATIVE:
@@ -453,6 +457,11 @@ _EVENT_PARTNERS = (("ess_curr", "ess_volt"), ("eng_spd_target", "eng_spd_out"),
                    ("mot_trq_out", "ess_curr"), ("mot_trq_out", "ess_volt"),
                    ("gen_trq_out", "ess_curr"), ("gen_trq_out", "ess_volt"),
                    ("eng_trq_out", "eng_spd_out"), ("ess_pwr", "ess_volt"))
+#: Pairs where a fast change of the partner's level (not a spike of it) is the event: MG1
+#: stopping or cranking the engine draws or returns battery power at once, while the engine
+#: speed ramps (a ramp leaves no Hampel residual). Fraction of the partner's range that it
+#: must move within one of its samples either side of the spike.
+_STEP_PARTNERS = {("ess_curr", "eng_spd_out"): 0.05}
 
 
 def _corroborate_spikes(test: Test, found: list[Finding], opts: Level1Options) -> None:
@@ -524,6 +533,26 @@ def _corroborate_spikes(test: Test, found: list[Finding], opts: Level1Options) -
                 f.message += f"; {other.name} jumps at the same time: a real transient, not a sensor spike"
                 f.related.append(other.name)
                 break
+        if f.severity != Severity.INFO and p is not None:
+            _corroborate_by_step(test, f, p.base, sig.sample_period)
+
+
+def _corroborate_by_step(test: Test, f: Finding, base: str, period: float) -> None:
+    """Demote a spike to info when a :data:`_STEP_PARTNERS` partner, sampled at least as fast,
+    changes level by its fraction of range within one sample either side of the spike."""
+    for other in test:
+        q = _parse(other.name)
+        frac = _STEP_PARTNERS.get((base, q.base)) if q is not None and q.origin == "test" else None
+        if frac is None or other.sample_period > 1.5 * period:
+            continue
+        h = other.sample_period * 1.01
+        moved, share = _moves(other, f.start_s - h, f.end_s + h, frac)
+        if moved:
+            f.severity = Severity.INFO
+            f.message += (f"; {other.name} changes by {100 * share:.0f} % of its range at the "
+                          "same time: a real transient (engine stop or start), not a sensor spike")
+            f.related.append(other.name)
+            return
 
 
 def run_level1(test: Test, limits: dict | None = None,
@@ -538,7 +567,29 @@ def run_level1(test: Test, limits: dict | None = None,
             continue
         out.extend(check_signal(test, sig, limits, opts, ranges, span))
     _corroborate_spikes(test, out, opts)
-    return out
+    return _cap_spikes(out, opts.max_findings_per_kind)
+
+
+def _cap_spikes(found: list[Finding], cap: int) -> list[Finding]:
+    """Merge the spikes of a signal beyond ``cap`` per severity into one finding (after each
+    was judged: a sensor spike is never hidden among real transients)."""
+    groups: dict[tuple[str, Severity], list[Finding]] = {}
+    for f in found:
+        if f.kind == Kind.SPIKE:
+            groups.setdefault((f.signal, f.severity), []).append(f)
+    drop: set[int] = set()
+    for (name, sev), fs in groups.items():
+        if len(fs) <= cap:
+            continue
+        tail = fs[cap - 1:]
+        drop.update(id(f) for f in tail)
+        merged = sum(int(f.numbers.get("runs_merged", 1)) for f in tail)
+        s0, s1 = min(f.start_s for f in tail), max(f.end_s for f in tail)
+        what = "real transients" if sev == Severity.INFO else "more spikes"
+        found.append(Finding(name, Kind.SPIKE, s0, s1, sev,
+                             f"{merged} more occurrences between {s0:.1f} s and {s1:.1f} s "
+                             f"({what})", {**tail[0].numbers, "runs_merged": merged}))
+    return [f for f in found if id(f) not in drop]
 
 
 def corroborate_spikes_with_calc(test: Test, findings: list[Finding], computed: dict,

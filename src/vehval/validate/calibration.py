@@ -298,7 +298,7 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
               start: Any = None, bounds: dict[str, tuple[float, float]] | None = None,
               weights: dict[str, float] | None = None, scales: dict[str, float] | None = None,
               holdout_tests: Sequence[Test] = (), dt: float = 1.0, popsize: int = 8,
-              maxiter: int = 20, polish: bool = True, seed: int = 0,
+              maxiter: int = 40, polish: bool = True, seed: int = 0,
               signals: tuple[str, ...] = DEFAULT_SIGNALS, rel_bounds: float = 0.5,
               mode: str = "traces", workers: int = 2, smooth_hz: float | None = None,
               polish_evals: int | None = None,
