@@ -45,7 +45,7 @@ def test_no_machine_over_its_speed_limit(prius, cycle):
                             prius.driver.tolerance_time_s)
     socs = _soc_window(prius)
     prms = np.stack([param_vector(prius, s) for s in socs])
-    ys = run_batch(vt, lo, hi, 0.1, prms, *pack(prius, socs[0]).maps)
+    ys = run_batch(vt, lo, hi, 0.1, prms, pack(prius, socs[0]).maps)
     for k, soc0 in enumerate(socs):
         assert prms[k, P["soc_init"]] == soc0
         where = f"{cycle} SOC0 {soc0:.3f}"

@@ -195,7 +195,7 @@ def _run_plan(veh: Vehicle, grids: list[_Grid], dt: float, soc0: float):
     for g in grids:
         p = pack(veh, min(max(soc, lo_soc), hi_soc))
         out = np.zeros((g.t.size, len(S)))
-        ys = run(g.vt, g.lo, g.hi, dt, p.prm, *p.maps, out, True)
+        ys = run(g.vt, g.lo, g.hi, dt, p.prm, p.maps, out, True)
         res.append((out, ys))
         soc = float(ys[_I_SOC])
     return res

@@ -91,7 +91,7 @@ def simulate_batch(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path,
         old = numba.get_num_threads()
         numba.set_num_threads(min(workers, numba.config.NUMBA_NUM_THREADS))
         try:
-            ys_all = run_batch(vt, lo, hi, dt, prms, *maps)
+            ys_all = run_batch(vt, lo, hi, dt, prms, maps)
         finally:
             numba.set_num_threads(old)
         for j, k in enumerate(shared):

@@ -1,150 +1,23 @@
-"""Index constants generated from :mod:`vehval.sim.layout` (numba reads globals as constants)."""
+"""Index constants of the compiled loops, generated from :mod:`vehval.sim.layout`.
 
-# This file mirrors layout.py; tests check that it stays in sync.
+``P_<NAME>`` indexes the parameter vector (:data:`~vehval.sim.layout.PARAMS`), ``S_<NAME>``
+the recorded signals (:data:`~vehval.sim.layout.SIGNALS`), ``Y_<NAME>`` the summary
+(:data:`~vehval.sim.layout.SUMMARY`); ``N_P``, ``N_S``, ``N_Y`` are their lengths. numba reads
+module globals as compile-time constants, so the kernels index with literals; the compiled
+cache follows a change here through :mod:`vehval.numba_cache`.
+"""
 
-P_MASS = 0
-P_RL_A = 1
-P_RL_B = 2
-P_RL_C = 3
-P_AUX_W = 4
-P_R_WHEEL = 5
-P_FD_RATIO = 6
-P_FD_EFF = 7
-P_J_WHEEL = 8
-P_BRK_MAX = 9
-P_N_SUN = 10
-P_N_RING = 11
-P_J_CARRIER = 12
-P_J_RING = 13
-P_J_ENG = 14
-P_ENG_IDLE = 15
-P_ENG_MAX_SPD = 16
-P_ENG_FIRE = 17
-P_ENG_DRAG = 18
-P_ENG_PMAX = 19
-P_FUEL_LHV = 20
-P_MOT_TMAX = 21
-P_MOT_PMAX = 22
-P_MOT_MAX_SPD = 23
-P_J_MOT = 24
-P_GEN_TMAX = 25
-P_GEN_PMAX = 26
-P_GEN_MAX_SPD = 27
-P_J_GEN = 28
-P_BATT_CAP_C = 29
-P_BOOST_EFF = 30
-P_BOOST_VMAX = 31
-P_BOOST_VMIN = 32
-P_BOOST_FULL_SPD = 33
-P_SOC_TARGET = 34
-P_SOC_GAIN = 35
-P_SOC_PCHG_MAX = 36
-P_SOC_PDIS_MAX = 37
-P_ON_PWR = 38
-P_ON_PWR_HOLD = 39
-P_OFF_PWR = 40
-P_ON_SPD = 41
-P_ON_SPD_HOLD = 42
-P_OFF_SPD = 43
-P_BATT_HOLD = 44
-P_ELEC_EFF = 45
-P_OFF_HOLD = 46
-P_SOC_ON = 47
-P_SOC_ON_HOLD = 48
-P_SOC_FORCE = 49
-P_MIN_ON = 50
-P_MIN_OFF = 51
-P_DIS_MARGIN = 52
-P_CHG_MARGIN = 53
-P_ENG_MIN_PWR = 54
-P_FUEL_CUT_PWR = 55
-P_FUEL_CUT_SPD = 56
-P_REGEN_FRAC = 57
-P_FADE_LO = 58
-P_FADE_HI = 59
-P_GEN_KP = 60
-P_GEN_KI = 61
-P_ENG_PWR_TAU = 62
-P_GEN_SPD_MARGIN = 63
-P_ENG_SPD_MARGIN = 64
-P_DRV_TAU = 65
-P_DRV_KI = 66
-P_DRV_INT_LIM = 67
-P_DRV_FMAX = 68
-P_SOC_INIT = 69
-P_MG2_RATIO = 70
-P_OP_SYSTEM = 71
-P_EQ_FACTOR = 72
-N_P = 73
+from __future__ import annotations
 
-S_VEH_SPD = 0
-S_VEH_SPD_TARGET = 1
-S_VEH_ACC = 2
-S_VEH_FRC_IN = 3
-S_VEH_FRC_LOSS = 4
-S_WHL_TRQ_OUT = 5
-S_WHL_SPD = 6
-S_ENG_SPD_OUT = 7
-S_ENG_TRQ_OUT = 8
-S_ENG_PWR_OUT = 9
-S_ENG_SPD_TARGET = 10
-S_ENG_ON = 11
-S_ENG_FUEL_CUT = 12
-S_FUEL_RATE = 13
-S_GEN_SPD_OUT = 14
-S_GEN_TRQ_OUT = 15
-S_GEN_PWR_IN = 16
-S_MOT_SPD_OUT = 17
-S_MOT_TRQ_OUT = 18
-S_MOT_PWR_IN = 19
-S_ESS_VOLT = 20
-S_ESS_CURR = 21
-S_ESS_PWR = 22
-S_ESS_SOC = 23
-S_ESS_PWR_LIM_DIS = 24
-S_ESS_PWR_LIM_CHG = 25
-S_BOOST_VOLT_OUT = 26
-S_BRK_FRC = 27
-S_DRV_PWR_DEMAND = 28
-S_DRV_FRC_DEMAND = 29
-S_PG_TRQ_RING = 30
-S_ENG_CTRL_STATE = 31
-S_ESS_PWR_LIM_STATE = 32
-N_S = 33
+from vehval.sim.layout import PARAMS, SIGNALS, SUMMARY
 
-Y_FUEL_MASS_KG = 0
-Y_FUEL_ENERGY_J = 1
-Y_ESS_CHEM_ENERGY_J = 2
-Y_ESS_LOSS_J = 3
-Y_ENG_LOSS_J = 4
-Y_MOT_LOSS_J = 5
-Y_GEN_LOSS_J = 6
-Y_BOOST_LOSS_J = 7
-Y_AUX_ENERGY_J = 8
-Y_FD_LOSS_J = 9
-Y_BRAKE_ENERGY_J = 10
-Y_ROAD_ENERGY_J = 11
-Y_LOCK_LOSS_J = 12
-Y_KE_START_J = 13
-Y_KE_END_J = 14
-Y_UNMET_ENERGY_J = 15
-Y_ENG_OUT_ENERGY_J = 16
-Y_DISTANCE_M = 17
-Y_ENG_ON_TIME_S = 18
-Y_ENGINE_STARTS = 19
-Y_SOC_FINAL = 20
-Y_SOC_MIN_SEEN = 21
-Y_SOC_MAX_SEEN = 22
-Y_ENG_SPD_MAX = 23
-Y_GEN_SPD_MAX_ABS = 24
-Y_MOT_SPD_MAX = 25
-Y_TRACE_MAX_MISS_MPS = 26
-Y_TRACE_N_MISS = 27
-Y_STATE_SWITCHES = 28
-Y_DURATION_S = 29
-Y_TRACTIVE_ENERGY_J = 30
-Y_REGEN_WHEEL_ENERGY_J = 31
-Y_RECIRC_ENERGY_J = 32
-Y_IDLE_FUEL_ENERGY_J = 33
-Y_GEN_MOTORING_LOSS_J = 34
-N_Y = 35
+
+def constants(prefix: str, names: tuple[str, ...]) -> dict[str, int]:
+    """``{PREFIX_NAME: position}`` for a layout tuple."""
+    return {f"{prefix}_{n.upper()}": i for i, n in enumerate(names)}
+
+
+_ALL = {**constants("P", PARAMS), **constants("S", SIGNALS), **constants("Y", SUMMARY),
+        "N_P": len(PARAMS), "N_S": len(SIGNALS), "N_Y": len(SUMMARY)}
+globals().update(_ALL)
+__all__ = sorted(_ALL)

@@ -87,7 +87,7 @@ def run_once(veh: Vehicle, t: np.ndarray, vt: np.ndarray, dt: float, soc0: float
     lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH,
                             veh.driver.tolerance_time_s)
     out = np.zeros((t.size if record else 1, len(SIGNALS)))
-    ys = run(vt, lo, hi, dt, p.prm, *p.maps, out, record)
+    ys = run(vt, lo, hi, dt, p.prm, p.maps, out, record)
     return out, ys
 
 
