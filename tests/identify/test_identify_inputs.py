@@ -116,3 +116,49 @@ def test_power_split_steps_refuse_a_conventional_vehicle(tmp_path, capsys, comma
     assert rc == 2
     assert len(err) == 1 and "is 'conventional'" in err[0] and "vehval predict" in err[0]
     assert not (tmp_path / "o").exists()
+
+
+def test_ac_state_rules():
+    from vehval.errors import ConfigError
+    from vehval.identify.predict import ac_state
+    tr = trace_from_test(_test(duration_s=700.0))
+    tr.cycle, tr.amb_temp_c = "udds", 23.0
+    assert ac_state(tr) == (False, "auto: not an SC03 test, cell below 30 °C")
+    tr.amb_temp_c = 35.1
+    assert ac_state(tr)[0] and "35.1" in ac_state(tr)[1]
+    tr.cycle, tr.amb_temp_c = "sc03_x2", float("nan")
+    assert ac_state(tr) == (True, "SC03 (run with the A/C on)")
+    assert ac_state(tr, "off") == (False, "--ac off")
+    with pytest.raises(ConfigError, match="--ac maybe: give one of auto, on, off"):
+        ac_state(tr, "maybe")
+
+
+def test_predict_with_ac_switches_the_models_ac(tmp_path, capsys):
+    out = tmp_path / "v"
+    assert main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "ece15", "--seed", "2",
+                 "-o", str(out)]) == 0
+    capsys.readouterr()
+    f, tpl = str(next(out.glob("*_d3.txt"))), str(out / "template.yaml")
+    import json
+    got = {}
+    for mode in ("off", "on"):
+        assert main(["predict", "cruze_diesel_2014", f, "-t", tpl, "--ac", mode, "--json"]) == 0
+        got[mode] = json.loads(capsys.readouterr().out)[0]
+    assert not got["off"]["ac_on"] and got["on"]["ac_on"]
+    # the packaged Cruze carries its identified A/C load: on burns more
+    assert got["on"]["fuel_predicted_g"] > 1.05 * got["off"]["fuel_predicted_g"]
+    assert main(["predict", "cruze_diesel_2014", f, "-t", tpl, "--ac", "sometimes"]) == 2
+    assert "--ac sometimes" in capsys.readouterr().err
+
+
+def test_ac_test_must_not_be_an_identification_test(tmp_path, capsys):
+    raw = tmp_path / "t1.txt"
+    raw.write_text("Time[sec]\tDyno_Speed[mph]\n0.0\t0.0\n0.1\t0.0\n")
+    tpl = tmp_path / "tpl.yaml"
+    tpl.write_text("template_version: 1\n")
+    rc = main(["identify", str(raw), "-t", str(tpl), "-o", str(tmp_path / "o.yaml"),
+               "--ac-test", str(raw)])
+    assert rc == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--ac-test" in err[0] and "also an identification test" in err[0]
+    assert not (tmp_path / "o.yaml").exists()

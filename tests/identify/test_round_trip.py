@@ -71,3 +71,13 @@ def test_fuel_model(round_trip):
             a = interp2(m_t["spd"], m_t["trq"], m_t["fuel"], w, nm)
             b = interp2(m_i["spd"], m_i["trq"], m_i["fuel"], w, nm)
             assert b == pytest.approx(a, rel=0.06), (rpm, nm)
+
+
+def test_driveline_drag(round_trip):
+    # the virtual template states target = set + drag / share: the drag comes back within
+    # the road-load fit's uncertainty (A within 5 N, B within 3 %, both x share)
+    truth, idf = round_trip
+    g_t, g_i = truth.gearbox, idf.vehicle.gearbox
+    assert g_t.drag_force_n > 50.0
+    assert g_i.drag_force_n == pytest.approx(g_t.drag_force_n, abs=3.0)
+    assert g_i.drag_force_n_per_mps == pytest.approx(g_t.drag_force_n_per_mps, abs=0.2)

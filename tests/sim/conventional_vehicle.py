@@ -48,6 +48,7 @@ def conventional_dict(**changes) -> dict:
     for path, val in changes.items():
         blk, key = path.split(".")
         d[blk][key] = val
+        d[blk]["sources"].setdefault(key, "test value")
     return d
 
 

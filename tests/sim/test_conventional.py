@@ -81,3 +81,64 @@ def test_packaged_cruze_loads_and_simulates():
     assert abs(s["energy_balance_rel"]) < 1e-9
     # a compact diesel on the highway cycle: 3.5-6 L/100 km
     assert 3.5 < s["fuel_consumption_l_per_100km"] < 6.0
+
+
+def _steady(v_mps: float, seconds: float = 120.0):
+    from vehval.cycles import Cycle
+    t = np.arange(0.0, seconds + 0.05, 0.1)
+    v = np.full(t.size, v_mps)
+    if v_mps > 0:
+        v[: 300] = np.linspace(0.0, v_mps, 300)   # 30 s run-up, then steady
+    return Cycle(name="steady", time_s=t, speed_mps=v, description="hand case")
+
+
+def test_driveline_drag_loads_the_engine_not_the_roller():
+    """At a steady 20 m/s in top gear (locked), the engine delivers road load + drag through
+    the gearbox, while the force at the wheels (what a roller measures) is the road load."""
+    cyc = _steady(20.0)
+    base = simulate(conventional_vehicle(), cyc, dt=0.1).test
+    drag = simulate(conventional_vehicle(**{"gearbox.drag_force_n": 80.0,
+                                            "gearbox.drag_force_n_per_mps": 1.0}), cyc, dt=0.1)
+    t, s = drag.test, drag.summary
+    last = slice(-200, None)
+    v = t["veh_spd_simu"].values[last]
+    rl = 100.0 + 2.0 * v + 0.4 * v * v
+    veh = conventional_vehicle()
+    assert veh.body.road_load_a_n == 100.0 and veh.body.road_load_c_n_per_mps2 == 0.4
+    # roller (wheel) force unchanged: the road load
+    np.testing.assert_allclose(t["veh_frc_in_simu"].values[last], rl, rtol=2e-3)
+    # engine power up by (80 + 1 v) v / efficiency (gearbox x final drive)
+    eff = veh.gearbox.efficiency * veh.driveline.final_drive_efficiency
+    dp = t["eng_pwr_out_simu"].values[last] - base["eng_pwr_out_simu"].values[last]
+    np.testing.assert_allclose(dp, (80.0 + 1.0 * v) * v / eff, rtol=5e-3)
+    assert abs(s["energy_balance_rel"]) < 1e-9
+
+
+def test_ac_load_at_standstill_is_the_maps_marginal_fuel():
+    """Standing with the A/C on: idle fuel + map(idle, T_acc + T_ac) - map(idle, T_acc)."""
+    from vehval.sim.maps import interp2
+    cyc = _steady(0.0, 60.0)
+    veh = conventional_vehicle(**{"engine_control.ac_power_w": 2500.0,
+                                  "engine_control.ac_on": True})
+    off = conventional_vehicle(**{"engine_control.ac_power_w": 2500.0})
+    f_on = simulate(veh, cyc, dt=0.1).test["fuel_rate_simu"].values[-100:]
+    f_off = simulate(off, cyc, dt=0.1).test["fuel_rate_simu"].values[-100:]
+    w = veh.engine.idle_speed_rpm * np.pi / 30
+    acc = veh.engine_control.accessory_power_w + veh.body.aux_power_w
+    m = veh.engine.arrays()
+    extra = (interp2(m["spd"], m["trq"], m["fuel"], w, (acc + 2500.0) / w)
+             - interp2(m["spd"], m["trq"], m["fuel"], w, acc / w))
+    np.testing.assert_allclose(f_off, veh.engine_control.idle_fuel_rate_g_per_s * 1e-3)
+    np.testing.assert_allclose(f_on, f_off + extra, rtol=1e-9)
+    assert extra > 0
+
+
+def test_ac_on_costs_fuel_while_driving_and_is_not_a_parameter():
+    on = conventional_vehicle(**{"engine_control.ac_power_w": 2000.0, "engine_control.ac_on": True})
+    off = conventional_vehicle(**{"engine_control.ac_power_w": 2000.0})
+    f_on = simulate(on, "udds", dt=0.1).summary["fuel_mass_kg"]
+    f_off = simulate(off, "udds", dt=0.1).summary["fuel_mass_kg"]
+    # 2 kW over 1369 s at an engine efficiency of 20-45 %: 0.14-0.32 kg more
+    assert 0.14 < f_on - f_off < 0.32
+    assert "engine_control.ac_on" not in on.parameters()
+    assert "engine_control.ac_power_w" in on.parameters()

@@ -18,7 +18,8 @@ def _table(rows: list[dict]) -> str:
     for r in rows:
         lines.append(f"{r['test']:<22} {r['cycle']:<10} {r['amb_temp_c']:>6.1f} "
                      f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f} "
-                     f"{100 * r['error_rel']:>+8.2f}")
+                     f"{100 * r['error_rel']:>+8.2f}  A/C {'on' if r['ac_on'] else 'off'}: "
+                     f"{r['ac_reason']}")
         for p in r["phases"]:
             u = p.get("results_fuel_U_g")
             unc = f"  (results stage: {p['results_fuel_g']:.1f} ± {u:.1f} g)" if u else ""
@@ -40,20 +41,27 @@ def identify_cmd(
     output: Path = typer.Option(..., "-o", "--output", help="Vehicle YAML to write (atomically)."),
     name: str = typer.Option(None, "--name", help="Vehicle name (default: the output file stem)."),
     report: Path = typer.Option(None, "--report", help="Also write an HTML report (fitted map with the measured points, traces)."),
+    ac_test: Path = typer.Option(None, "--ac-test", help="A test run with the A/C on (not one of FILES): identifies the A/C compressor load from its phases after the first."),
     as_json: bool = typer.Option(False, "--json", help="Print the identification summary as JSON."),
 ) -> None:
-    """Identify a conventional car (road load, gears, converter, shifts, fuel map) from dyno tests."""
+    """Identify a conventional car (road load, gears, converter, shifts, driveline drag, fuel map,
+    and with --ac-test the A/C load) from dyno tests."""
     if architecture != "conventional":
         raise ConfigError(f"--architecture {architecture}: identification from dyno data exists "
                           "for 'conventional' cars only")
     from vehval.identify.build import identify_conventional, write_vehicle
     from vehval.identify.traces import load_traces
     from vehval.io.paths import check_outputs
-    check_outputs(outfile=output, inputs=[*files, template])
+    extra = [] if ac_test is None else [ac_test]
+    check_outputs(outfile=output, inputs=[*files, *extra, template])
     if report is not None:
-        check_outputs(outfile=report, inputs=[*files, template, output])
+        check_outputs(outfile=report, inputs=[*files, *extra, template, output])
+    if ac_test is not None and ac_test.resolve() in {f.resolve() for f in files}:
+        raise ConfigError(f"--ac-test {ac_test}: it is also an identification test; give a "
+                          "separate test run with the A/C on")
     traces = load_traces(files, template)
-    idf = identify_conventional(traces, name or output.stem)
+    ac_trace = load_traces([ac_test], template)[0] if ac_test is not None else None
+    idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace)
     if report is not None:
         from vehval.identify.predict import predict_trace
         from vehval.identify.report import write_identification_report
@@ -74,6 +82,12 @@ def identify_cmd(
     typer.echo(f"fuel map: R^2 {fm.r2:.3f} (5 s means {fm.r2_5s:.3f}), idle "
                f"{fm.idle_fuel_kg_s * 1e3:.3f} g/s, fuel cut above "
                f"{fm.fuel_cut_speed_rad_s * 30 / 3.141592653589793:.0f} rpm")
+    if idf.drag is not None:
+        typer.echo(f"driveline drag: {idf.drag.force_n:.1f} N + {idf.drag.force_n_per_mps:.3f} "
+                   f"N/(m/s) ({idf.drag.note})")
+    if idf.ac is not None:
+        typer.echo(f"A/C load: {idf.ac['ac_power_w']:.0f} W (from {idf.ac['test']}, phases "
+                   f"{', '.join(map(str, idf.ac['phases']))})")
     if report is not None:
         typer.echo(f"wrote {report}")
 
@@ -84,6 +98,7 @@ def predict_cmd(
     files: list[Path] = typer.Argument(..., help="Raw test files to predict (one test per file)."),
     template: Path = typer.Option(..., "-t", "--template", help="Import template."),
     report: Path = typer.Option(None, "--report", help="Also write an HTML report (table, engine speed and fuel rate overlays)."),
+    ac: str = typer.Option("auto", "--ac", help="A/C of the model: auto (on for SC03 or a cell at 30 C or more), on, off."),
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
 ) -> None:
     """Drive each test's measured speed with the model; fuel measured vs predicted, per phase."""
@@ -97,7 +112,7 @@ def predict_cmd(
     if report is not None:
         from vehval.io.paths import check_outputs
         check_outputs(outfile=report, inputs=[*files, template])
-    preds = [predict_trace(veh, t) for t in load_traces(files, template)]
+    preds = [predict_trace(veh, t, ac=ac) for t in load_traces(files, template)]
     if report is not None:
         from vehval.identify.report import write_prediction_report
         write_prediction_report(veh.name, preds, report)

@@ -17,7 +17,7 @@ import numpy as np
 import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.identify.fuelmap import FuelMapFit, engine_power, fit_fuel_map
+from vehval.identify.fuelmap import FuelMapFit, engine_power
 from vehval.identify.gears import (
     GearFit,
     assign_gears,
@@ -27,10 +27,12 @@ from vehval.identify.gears import (
     shift_events,
     shift_lines,
 )
+from vehval.identify.losses import DragFit, fit_ac_load, fit_drag
 from vehval.identify.roadload import RoadLoadFit, fit_road_load
 from vehval.identify.traces import IdentificationError, Trace
 from vehval.io.atomic import write_text_atomic
 from vehval.vehicle import ConventionalVehicle
+from vehval.vehicle.conventional import DRIVEN_AXLE_LOSS_SHARE
 
 MIN_DRIVE_S = 600.0  # [s] of moving data needed in total
 
@@ -48,6 +50,7 @@ class Assumptions:
     full_load_rpm: tuple = (600, 1000, 1500, 2000, 2750, 3500, 4000, 4500)
     full_load_nm: tuple = (150, 220, 320, 358, 358, 290, 269, 220)
     motoring_torque_nm: float = 30.0
+    driven_axle_loss_share: float = DRIVEN_AXLE_LOSS_SHARE
     fuel_density_kg_per_m3: float | None = None
     fuel_lhv_j_per_kg: float | None = None
     sources: dict = field(default_factory=lambda: {
@@ -66,6 +69,10 @@ class Assumptions:
         "full_load": "curve shape through the manufacturer ratings (264 lb·ft = 358 N·m, "
                      "151 hp at 4000 rpm): engineering estimate",
         "motoring_torque_nm": "engineering estimate of a 2.0 L diesel's motoring torque",
+        "driven_axle_loss_share": "engineering estimate: the share of the car's own losses on "
+                                  "the rollers (target - set coefficients) on the driven axle, "
+                                  "two of the four tyres plus the differential (the fuel data "
+                                  "cannot separate it)",
     })
 
 
@@ -80,11 +87,14 @@ class Identification:
     traces: list[Trace]
     gear_ratio_check: list[dict]
     shifts: list[tuple]
+    drag: DragFit | None = None
+    ac: dict | None = None
 
     def summary(self) -> dict:
         return {"tests": [t.test_id for t in self.traces], "road_load": self.road_load.to_dict(),
                 "gears": self.gears.to_dict(), "gear_ratio_check": self.gear_ratio_check,
-                "fuel_map": self.fuel_map.to_dict(), "n_shifts": len(self.shifts)}
+                "fuel_map": self.fuel_map.to_dict(), "n_shifts": len(self.shifts),
+                "drag": None if self.drag is None else self.drag.to_dict(), "ac": self.ac}
 
 
 def _check_inputs(traces: list[Trace]) -> None:
@@ -108,8 +118,10 @@ def _fuel_table(fm: FuelMapFit, a: Assumptions):
 
 
 def identify_conventional(traces: list[Trace], name: str = "identified_car",
-                          assumptions: Assumptions | None = None) -> Identification:
-    """Identify road load, gearbox, converter, shift schedule and fuel map from ``traces``."""
+                          assumptions: Assumptions | None = None,
+                          ac_trace: Trace | None = None) -> Identification:
+    """Identify road load, gearbox, converter, shift schedule, driveline drag and fuel map
+    from ``traces``; with ``ac_trace`` (a test run with the A/C on), the A/C load too."""
     _check_inputs(traces)
     a = assumptions or Assumptions()
     c0 = traces[0].constants
@@ -134,10 +146,14 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
               for e in shift_events(t, g, a.max_power_w, rl.lag_s, lk)]
     uz, uf, dz, df = shift_lines(events, gf.ratios, v_cap, a.max_speed_rpm * RPM, rw)
     shift_dur = _shift_time(traces, gears, locks)
-    powers = [engine_power(t, g, gf.ratios, rw, a.gearbox_efficiency, rl.lag_s,
-                           a.accessory_power_w, a.engine_inertia_kg_m2)
-              for t, g in zip(traces, gears)]
-    fm = fit_fuel_map(traces, powers, idle_w)
+
+    def power(t, g, drag):
+        return engine_power(t, g, gf.ratios, rw, a.gearbox_efficiency, rl.lag_s,
+                            a.accessory_power_w, a.engine_inertia_kg_m2, drag)
+
+    drag, fm = fit_drag(traces, lambda d: [power(t, g, d) for t, g in zip(traces, gears)],
+                        idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
+                        a.driven_axle_loss_share)
     spd, trq, table, tmax = _fuel_table(fm, a)
     check = []
     for k, r in enumerate(gf.ratios):
@@ -196,7 +212,9 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "fuel_cut_min_speed_rpm": fm.fuel_cut_speed_rad_s / RPM,
             "overrun_fuel_rate_g_per_s": fm.overrun_fuel_kg_s * 1e3,
             "accessory_power_w": a.accessory_power_w,
+            "ac_power_w": 0.0,
             "sources": {
+                "ac_power_w": "no A/C test given: no A/C model",
                 "idle_fuel_rate_g_per_s": f"identified (standing state of the fuel model) from {tests}: {fq}",
                 "fuel_cut_min_speed_rpm": f"identified (best R² over 1.05-2 x idle) from {tests}",
                 "overrun_fuel_rate_g_per_s": f"identified (overrun state of the fuel model) from {tests}",
@@ -207,7 +225,11 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "upshift_speed_mps": uz, "upshift_speed_full_load_mps": uf,
             "downshift_speed_mps": dz, "downshift_speed_full_load_mps": df,
             "shift_time_s": shift_dur,
+            "drag_force_n": drag.force_n, "drag_force_n_per_mps": drag.force_n_per_mps,
             "sources": {
+                "drag_force_n": f"from {tests} and the template's target coefficients: {drag.note}; "
+                                f"{a.sources['driven_axle_loss_share']}",
+                "drag_force_n_per_mps": f"identified with drag_force_n from {tests}",
                 "ratios": f"identified: engine-to-wheel speed ratio clusters in {tests} (final drive included); {ratio_src}",
                 "efficiency": a.sources["gearbox_efficiency"],
                 "upshift_speed_mps": f"identified from {sum(1 for e in events if e[1] == e[0] + 1)} observed upshifts in {tests} (line of speed on load)",
@@ -244,9 +266,19 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             }},
     }
     result = Identification(vehicle=None, road_load=rl, gears=gf, fuel_map=fm, traces=traces,
-                            gear_ratio_check=check, shifts=events)
+                            gear_ratio_check=check, shifts=events, drag=drag)
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
+    if ac_trace is not None:
+        ac = fit_ac_load(result.vehicle, ac_trace)
+        result.ac = ac
+        veh["engine_control"]["ac_power_w"] = ac["ac_power_w"]
+        veh["engine_control"]["sources"]["ac_power_w"] = (
+            f"identified from {ac['test']} (A/C on), phases {', '.join(map(str, ac['phases']))}: "
+            f"constant compressor power with which the model driving that test burns the "
+            f"measured {ac['fuel_measured_g']:.1f} g (without it {ac['fuel_model_without_ac_g']:.1f} g)")
+        veh["identification"] = _jsonable(result.summary())
+        result.vehicle = ConventionalVehicle.model_validate(veh)
     return result
 
 

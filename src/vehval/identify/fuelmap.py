@@ -1,8 +1,10 @@
 """Engine fuel map from measured fuel flow: a smooth Willans surface with idle and fuel cut.
 
-Engine power is rebuilt from the roller force: pump torque = gearbox input torque
-``T_in = F r / (i η)`` (driving; ``F r η / i`` overrun; torque ratio 1 in the converter),
-``P_e = T_in ω_e + P_acc + J_e ω_e dω_e/dt``. Every sample is one of three states:
+Engine power is rebuilt from the roller force plus the driveline drag ``F_d = A_d + B_d v``
+(the car's own losses on the rollers that the measured force leaves out; see
+:func:`vehval.identify.build.identify_conventional` for how much of them): pump torque =
+gearbox input torque ``T_in = (F + F_d) r / (i η)`` (driving; ``(F + F_d) r η / i``
+overrun; torque ratio 1 in the converter), ``P_e = T_in ω_e + P_acc + J_e ω_e dω_e/dt``. Every sample is one of three states:
 
 - standing (speed < 0.05 m/s): fuel = idle fuel rate (a constant);
 - overrun (``P_e <= 0`` and ``ω_e`` >= the fuel-cut speed): fuel = residual overrun rate;
@@ -67,9 +69,12 @@ class FuelMapFit:
 
 
 def engine_power(tr: Trace, gear: np.ndarray, ratios: np.ndarray, wheel_radius_m: float,
-                 efficiency: float, lag_s: float, acc_w: float, j_eng: float) -> np.ndarray:
-    """Engine brake power [W] rebuilt from roller force and engine speed (see module doc)."""
+                 efficiency: float, lag_s: float, acc_w: float, j_eng: float,
+                 drag: tuple[float, float] = (0.0, 0.0)) -> np.ndarray:
+    """Engine brake power [W] rebuilt from roller force and engine speed (see module doc);
+    ``drag`` = (A_d [N], B_d [N/(m/s)]), applied while the car moves."""
     f = np.interp(tr.t + lag_s, tr.t, tr.force)
+    f = f + np.where(tr.v >= STANDING_MPS, drag[0] + drag[1] * tr.v, 0.0)
     r = ratios[np.maximum(gear, 1) - 1]
     t_in = np.where(f >= 0, f * wheel_radius_m / (r * efficiency), f * wheel_radius_m * efficiency / r)
     t_in = np.where(gear > 0, t_in, 0.0)
@@ -102,8 +107,14 @@ def _unscale(th) -> dict[str, float]:
             "d0": th[3] / P_SCALE, "d1": th[4] / (P_SCALE * W_SCALE), "e": th[5] / P_SCALE ** 2}
 
 
-def fit_fuel_map(traces: list[Trace], powers: list[np.ndarray], idle_rad_s: float) -> FuelMapFit:
-    """Fit the fuel model on ``traces`` with rebuilt engine ``powers`` [W] (see module doc)."""
+def fit_fuel_map(traces: list[Trace], powers: list[np.ndarray], idle_rad_s: float,
+                 meter: tuple[float, float] | None = None,
+                 cut_rad_s: float | None = None) -> FuelMapFit:
+    """Fit the fuel model on ``traces`` with rebuilt engine ``powers`` [W] (see module doc).
+
+    ``meter`` (delay [s], lag [s]) and ``cut_rad_s`` (fuel-cut speed) are searched on their
+    grids unless given.
+    """
     on = [tr.w_eng > 0.5 * idle_rad_s for tr in traces]
     fired_s = sum(float(np.count_nonzero(o & (tr.v > STANDING_MPS) & (p > 0)) * tr.dt)
                   for tr, p, o in zip(traces, powers, on))
@@ -139,10 +150,11 @@ def fit_fuel_map(traces: list[Trace], powers: list[np.ndarray], idle_rad_s: floa
         r = y - x @ th
         return th, float(1 - (r @ r) / np.sum((y - y.mean()) ** 2))
 
-    cut0 = idle_rad_s * 1.3
-    best = max(((d, t) for t in TAUS_S for d in DELAYS_S), key=lambda dt_: solve(cut0, *dt_)[1])
+    cut0 = idle_rad_s * 1.3 if cut_rad_s is None else cut_rad_s
+    best = meter or max(((d, t) for t in TAUS_S for d in DELAYS_S),
+                        key=lambda dt_: solve(cut0, *dt_)[1])
     cuts = idle_rad_s * np.arange(1.05, 2.01, 0.05)
-    cut = max(cuts, key=lambda c: solve(c, *best)[1])
+    cut = cut_rad_s or max(cuts, key=lambda c: solve(c, *best)[1])
     th, r2 = solve(cut, *best)
     xs, ys, masks = design(cut, *best)
     err, means_m, means_p = {}, [], []

@@ -6,18 +6,48 @@ phase; samples of phase 0, a soak between runs, are left out) and per phase.
 Measured fuel is the integral of the fuel-rate signal; the meter's delay (a second or
 two) moves a few grams across phase borders, which is why the whole-test figure is the
 headline.
+
+The A/C (when the vehicle has an A/C load) runs as ``ac`` says: ``on``, ``off`` or
+``auto``: on for an SC03 test (the regulation runs it with the A/C on) or a test cell at
+``AC_AUTO_TEMP_C`` or more (hot-ambient tests are run with the A/C on), off otherwise.
 """
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 
 from vehval.cycles import Cycle
+from vehval.errors import ConfigError
 from vehval.identify.traces import Trace
 from vehval.sim.simulate import simulate
 
+AC_AUTO_TEMP_C = 30.0  # [°C] test cells at or above this run with the A/C on ("auto")
+AC_MODES = ("auto", "on", "off")
 
-def predict_trace(vehicle, trace: Trace) -> dict:
+
+def with_ac(vehicle, on: bool):
+    """A copy of a conventional ``vehicle`` with its A/C switched ``on`` (or off)."""
+    veh = copy.deepcopy(vehicle)
+    veh.engine_control.ac_on = bool(on)
+    return veh
+
+
+def ac_state(trace: Trace, mode: str = "auto") -> tuple[bool, str]:
+    """Whether the A/C runs in ``trace`` and why (see the module docstring)."""
+    if mode not in AC_MODES:
+        raise ConfigError(f"--ac {mode}: give one of {', '.join(AC_MODES)}")
+    if mode != "auto":
+        return mode == "on", f"--ac {mode}"
+    if trace.cycle.lower().startswith("sc03"):
+        return True, "SC03 (run with the A/C on)"
+    if np.isfinite(trace.amb_temp_c) and trace.amb_temp_c >= AC_AUTO_TEMP_C:
+        return True, f"cell {trace.amb_temp_c:.1f} °C >= {AC_AUTO_TEMP_C:.0f} °C"
+    return False, "auto: not an SC03 test, cell below {:.0f} °C".format(AC_AUTO_TEMP_C)
+
+
+def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     """Simulate ``vehicle`` over ``trace``'s speed and compare fuel.
 
     Returns
@@ -26,13 +56,20 @@ def predict_trace(vehicle, trace: Trace) -> dict:
     ``fuel_predicted_g``, ``error_rel`` (predicted / measured - 1), ``phases`` (list of
     {phase, measured_g, predicted_g, error_rel} plus, from the results stage,
     ``results_name``, ``results_fuel_g``, ``results_fuel_U_g``), the same three keys for the
-    whole test, ``trace_max_miss_mps``, ``sim`` (the
+    whole test, ``trace_max_miss_mps``, ``ac_on`` and ``ac_reason`` (the A/C state the
+    model ran with; see :func:`ac_state`), ``sim`` (the
     :class:`~vehval.sim.simulate.SimResult`) and ``trace``.
     """
     m = trace.t >= 0.0
     t = trace.t[m] - trace.t[m][0]
     cyc = Cycle(name=f"trace_{trace.test_id}", time_s=t, speed_mps=trace.v[m],
                 description=f"measured speed of {trace.test_id}")
+    ac_on, ac_reason = ac_state(trace, ac)
+    ctl = getattr(vehicle, "engine_control", None)
+    if ctl is not None and ctl.ac_power_w > 0 and ac_on != ctl.ac_on:
+        vehicle = with_ac(vehicle, ac_on)
+    if ctl is None or ctl.ac_power_w <= 0:
+        ac_reason += " (no A/C load in the vehicle)"
     res = simulate(vehicle, cyc, dt=trace.dt)
     fuel_sim = res.test["fuel_rate_simu"].values
     fuel_meas = trace.fuel[m][: fuel_sim.size]
@@ -54,7 +91,8 @@ def predict_trace(vehicle, trace: Trace) -> dict:
     out = {"test": trace.test_id, "cycle": trace.cycle, "amb_temp_c": trace.amb_temp_c,
             "fuel_measured_g": mg, "fuel_predicted_g": pg,
             "error_rel": pg / mg - 1 if mg > 0 else float("nan"), "phases": phases,
-            "trace_max_miss_mps": res.summary["trace_max_miss_mps"], "sim": res, "trace": trace}
+            "trace_max_miss_mps": res.summary["trace_max_miss_mps"], "ac_on": ac_on,
+            "ac_reason": ac_reason, "sim": res, "trace": trace}
     out.update(stage.get("test", {}))
     return out
 

@@ -38,7 +38,9 @@ def conv_param_vector(veh: ConventionalVehicle) -> np.ndarray:
         "fuel_lhv": e.fuel_lhv_j_per_kg, "idle_fuel": c.idle_fuel_rate_g_per_s * 1e-3,
         "fuel_cut_spd": c.fuel_cut_min_speed_rpm * RPM,
         "overrun_fuel": c.overrun_fuel_rate_g_per_s * 1e-3,
-        "acc_pwr": c.accessory_power_w + b.aux_power_w,
+        "acc_pwr": c.accessory_power_w + b.aux_power_w + (c.ac_power_w if c.ac_on else 0.0),
+        "idle_acc_pwr": c.accessory_power_w + b.aux_power_w,
+        "drag_a": g.drag_force_n, "drag_b": g.drag_force_n_per_mps,
         "drv_tau": dr.response_time_s, "drv_ki": dr.ki_n_per_m,
         "drv_int_lim": dr.integrator_limit_n, "drv_fmax": dr.max_force_n,
     }

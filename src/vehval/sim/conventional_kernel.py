@@ -14,7 +14,11 @@ the last shift. One step:
    with the time constant ``shift_time / 2``;
 4. engine: torque = pump torque + accessories + inertia, capped by the full-load curve;
    negative torque is overrun (fuel cut above the cut speed, motoring drag at most);
-5. vehicle: ``m_eq dv/dt = F_powertrain − F_brake − F_road``; powers at mid-step speed.
+   standing, the idle fuel rate plus the map's extra fuel for accessory load beyond the
+   one the idle rate was measured with (``idle_acc_pwr``; e.g. the A/C compressor);
+5. vehicle: ``m_eq dv/dt = F_powertrain − F_brake − F_road``, ``F_powertrain`` net of the
+   driveline drag ``drag_a + drag_b v`` (the car's own losses a dyno's set coefficients
+   leave out); powers at mid-step speed.
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ CONV_PARAMS = (
     "mass", "rl_a", "rl_b", "rl_c", "r_wheel", "fd_ratio", "fd_eff", "j_wheel", "brk_max",
     "gb_eff", "shift_time", "tc_k", "j_eng", "eng_idle", "eng_max_spd", "eng_drag",
     "eng_pmax", "fuel_lhv", "idle_fuel", "fuel_cut_spd", "overrun_fuel", "acc_pwr",
-    "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax",
+    "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax", "idle_acc_pwr", "drag_a", "drag_b",
 )
 CONV_SIGNALS = (
     "veh_spd", "veh_spd_target", "veh_acc", "veh_frc_in", "veh_frc_loss", "whl_trq_out",
@@ -51,7 +55,7 @@ CONV_SUMMARY = (
 (C_MASS, C_RL_A, C_RL_B, C_RL_C, C_R_WHEEL, C_FD_RATIO, C_FD_EFF, C_J_WHEEL, C_BRK_MAX,
  C_GB_EFF, C_SHIFT_TIME, C_TC_K, C_J_ENG, C_ENG_IDLE, C_ENG_MAX_SPD, C_ENG_DRAG, C_ENG_PMAX,
  C_FUEL_LHV, C_IDLE_FUEL, C_FUEL_CUT_SPD, C_OVERRUN_FUEL, C_ACC_PWR, C_DRV_TAU, C_DRV_KI,
- C_DRV_INT_LIM, C_DRV_FMAX) = range(26)
+ C_DRV_INT_LIM, C_DRV_FMAX, C_IDLE_ACC_PWR, C_DRAG_A, C_DRAG_B) = range(29)
 (O_VEH_SPD, O_VEH_SPD_TARGET, O_VEH_ACC, O_VEH_FRC_IN, O_VEH_FRC_LOSS, O_WHL_TRQ_OUT,
  O_WHL_SPD, O_ENG_SPD_OUT, O_ENG_TRQ_OUT, O_ENG_PWR_OUT, O_ENG_FUEL_CUT, O_FUEL_RATE,
  O_GB_GEAR, O_GB_SPD_IN, O_BRK_FRC, O_DRV_FRC_DEMAND, O_DRV_PWR_DEMAND) = range(17)
@@ -98,6 +102,7 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
     rl_a = prm[C_RL_A]; rl_b = prm[C_RL_B]; rl_c = prm[C_RL_C]
     idle = prm[C_ENG_IDLE]; j_e = prm[C_J_ENG]; k_tc = prm[C_TC_K]
     acc = prm[C_ACC_PWR]; pmax = prm[C_ENG_PMAX]; lhv = prm[C_FUEL_LHV]
+    acc_idle = prm[C_IDLE_ACC_PWR]
     shift_time = prm[C_SHIFT_TIME]
     a_eng = min(dt / max(0.5 * shift_time, dt), 1.0)
     f_min = -(prm[C_BRK_MAX] + 1e4)
@@ -136,7 +141,8 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
         w_t = ratio * v0 / rw
         locked = v0 >= lock_v[gear - 1] and w_t >= idle
         # ---------------- converter and engine speed
-        t_wh = f_dem * rw
+        f_drag = prm[C_DRAG_A] + prm[C_DRAG_B] * v0 if v0 >= STANDSTILL_MPS else 0.0
+        t_wh = (f_dem + f_drag) * rw
         t_in = t_wh / (ratio * eff) if t_wh >= 0.0 else t_wh * eff / ratio
         if locked:
             w_tgt = w_t
@@ -166,6 +172,10 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
             t_pump = t_e - t_acc - t_inertia
         if standstill:
             fuel = prm[C_IDLE_FUEL]
+            if acc != acc_idle:
+                t_base = t_e - t_acc + acc_idle / max(we_a, idle)
+                fuel += max(fuel_rate(eS, eT, eF, we_a, t_e) - fuel_rate(eS, eT, eF, we_a, t_base),
+                            0.0)
             cut = False
             ys[Y_IDLE] += dt
         elif t_e <= 0.0 and we_a >= prm[C_FUEL_CUT_SPD]:
@@ -177,7 +187,7 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
             cut = False
         # ---------------- vehicle
         f_pt = t_pump * ratio / rw
-        f_pt = f_pt * eff if f_pt >= 0.0 else f_pt / eff
+        f_pt = (f_pt * eff if f_pt >= 0.0 else f_pt / eff) - f_drag
         f_brk = min(max(f_pt - f_dem, 0.0), prm[C_BRK_MAX]) if f_dem < 0.0 else 0.0
         fl = road_load(v0, rl_a, rl_b, rl_c)
         v1 = v0 + dt * (f_pt - f_brk - fl) / m_eq

@@ -5,8 +5,11 @@ the same :class:`~vehval.vehicle.components.EngineParams` as the hybrid's (fuel 
 curve, idle, inertia, fuel); the blocks here add what a conventional car needs:
 
 - ``engine_control``: idle fuel rate at standstill, fuel cut on overrun (minimum engine
-  speed, residual fuel rate), engine-driven accessory power.
+  speed, residual fuel rate), engine-driven accessory power, the A/C compressor's load and
+  whether the A/C runs (a test condition: ``vehval predict`` sets it per test).
 - ``gearbox``: gear ratios (gearbox only; the final drive is in ``driveline``), efficiency,
+  driveline drag at the wheels ``A_d + B_d v`` (driven-axle losses, e.g. the tyres on the
+  rollers, that a dyno's set coefficients leave out of the measured force),
   shift schedule as straight up/down lines of vehicle speed against load (load = demanded
   power / engine maximum power, 0..1), minimum time between shifts.
 - ``converter``: a fluid coupling with lock-up, documented in docs/simulation.md: torque
@@ -28,6 +31,11 @@ from vehval.vehicle.base import Block, apply_overrides
 from vehval.vehicle.components import BodyParams, DrivelineParams, EngineParams
 from vehval.vehicle.control import DriverParams
 
+#: Share of a car's own losses on the dyno rollers (target - set coefficients) that its
+#: driven axle carries, i.e. that load the engine: two of the four tyres plus the
+#: differential (an engineering estimate; dyno fuel data cannot separate it).
+DRIVEN_AXLE_LOSS_SHARE = 0.5
+
 CONVENTIONAL_BLOCKS = ("body", "engine", "engine_control", "gearbox", "converter", "driveline",
                        "driver")
 
@@ -39,6 +47,8 @@ class EngineControlParams(Block):
     fuel_cut_min_speed_rpm: float = Field(ge=0)
     overrun_fuel_rate_g_per_s: float = Field(ge=0)
     accessory_power_w: float = Field(ge=0)
+    ac_power_w: float = Field(default=0.0, ge=0)  # [W] A/C compressor shaft power when on
+    ac_on: bool = False
 
 
 class GearboxParams(Block):
@@ -55,6 +65,8 @@ class GearboxParams(Block):
     downshift_speed_mps: list[float]
     downshift_speed_full_load_mps: list[float]
     shift_time_s: float = Field(ge=0)
+    drag_force_n: float = Field(default=0.0, ge=0)  # [N] driveline drag at the wheels
+    drag_force_n_per_mps: float = Field(default=0.0, ge=0)  # [N/(m/s)]
 
     @model_validator(mode="after")
     def _schedule(self):
@@ -127,7 +139,7 @@ class ConventionalVehicle(BaseModel):
         out = {}
         for blk in CONVENTIONAL_BLOCKS:
             for key, val in getattr(self, blk).model_dump(exclude={"sources"}).items():
-                if isinstance(val, (int, float)):
+                if isinstance(val, (int, float)) and not isinstance(val, bool):
                     out[f"{blk}.{key}"] = val
         return out
 
