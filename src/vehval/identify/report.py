@@ -100,11 +100,22 @@ def write_identification_report(idf, preds: list[dict], path: str | Path) -> Pat
                  f"{fm.delay_s:.1f} s, lag {fm.tau_s:.1f} s; idle {fm.idle_fuel_kg_s * 1e3:.3f} "
                  f"g/s; overrun {fm.overrun_fuel_kg_s * 1e3:.3f} g/s above "
                  f"{fm.fuel_cut_speed_rad_s * RPM:.0f} rpm</p>")
+    if idf.drag is not None:
+        parts.append(f"<h2>Driveline drag</h2><p>{idf.drag.force_n:.1f} N + "
+                     f"{idf.drag.force_n_per_mps:.3f} N/(m/s): {html.escape(idf.drag.note)}</p>")
+    if idf.ac is not None:
+        parts.append(f"<h2>A/C load</h2><p>{idf.ac['ac_power_w']:.0f} W from "
+                     f"{html.escape(idf.ac['test'])}, phases "
+                     f"{', '.join(map(str, idf.ac['phases']))} (measured "
+                     f"{idf.ac['fuel_measured_g']:.1f} g; model without A/C "
+                     f"{idf.ac['fuel_model_without_ac_g']:.1f} g)</p>")
     parts.append("<h2>Predictions</h2>")
     parts.append(_table([[p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}",
                           f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
-                          f"{100 * p['error_rel']:+.2f}"] for p in preds],
-                        ["test", "cycle", "cell °C", "measured g", "predicted g", "error %"]))
+                          f"{100 * p['error_rel']:+.2f}", "on" if p.get("ac_on") else "off"]
+                         for p in preds],
+                        ["test", "cycle", "cell °C", "measured g", "predicted g", "error %",
+                         "A/C"]))
     figs += [trace_figure(p) for p in preds]
     body = "\n".join(parts)
     return _write_page(path, "vehval identification", body, figs)
