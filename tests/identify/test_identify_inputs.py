@@ -100,7 +100,9 @@ def test_predict_cli_table_json_and_report(tmp_path, capsys):
     # and the 1.5 s meter delay pushes the last grams past the end of the file)
     assert abs(rows[0]["error_rel"]) < 0.01
     assert [p["phase"] for p in rows[0]["phases"]] == [1, 2]
-    assert "engine speed, model" in rep.read_text()
+    text = rep.read_text()
+    assert "engine speed, model" in text
+    assert "<th>A/C</th>" in text and "off (auto: not an SC03 test" in text
 
 
 @pytest.mark.parametrize("command", ["validate", "analyze"])

@@ -44,7 +44,9 @@ def ac_state(trace: Trace, mode: str = "auto") -> tuple[bool, str]:
         return True, "SC03 (run with the A/C on)"
     if np.isfinite(trace.amb_temp_c) and trace.amb_temp_c >= AC_AUTO_TEMP_C:
         return True, f"cell {trace.amb_temp_c:.1f} °C >= {AC_AUTO_TEMP_C:.0f} °C"
-    return False, "auto: not an SC03 test, cell below {:.0f} °C".format(AC_AUTO_TEMP_C)
+    if not np.isfinite(trace.amb_temp_c):
+        return False, "auto: not an SC03 test, no cell temperature in the file"
+    return False, f"auto: not an SC03 test, cell below {AC_AUTO_TEMP_C:.0f} °C"
 
 
 def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:

@@ -126,16 +126,17 @@ def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Pa
     (from ``predict_trace``) to ``path`` (one self-contained HTML file)."""
     rows = []
     for p in preds:
-        rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", "test",
+        ac = ("on" if p.get("ac_on") else "off") + f" ({p.get('ac_reason', '')})"
+        rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", ac, "test",
                      f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
                      f"{100 * p['error_rel']:+.2f}"])
         for ph in p["phases"]:
             u = ph.get("results_fuel_U_g")
-            rows.append(["", "", "", ph.get("results_name", f"phase {ph['phase']}"),
+            rows.append(["", "", "", "", ph.get("results_name", f"phase {ph['phase']}"),
                          f"{ph['measured_g']:.1f}" + (f" ± {u:.1f}" if u else ""),
                          f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"])
     body = (f"<h1>Predictions of {html.escape(vehicle_name)}</h1>"
-            + _table(rows, ["test", "cycle", "cell °C", "scope", "measured g (U, k = 2)",
+            + _table(rows, ["test", "cycle", "cell °C", "A/C", "scope", "measured g (U, k = 2)",
                             "predicted g", "error %"]))
     return _write_page(path, "vehval predictions", body, [trace_figure(p) for p in preds])
 
