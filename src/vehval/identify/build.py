@@ -270,15 +270,14 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
     if ac_trace is not None:
-        ac = fit_ac_load(result.vehicle, ac_trace)
-        result.ac = ac
-        veh["engine_control"]["ac_power_w"] = ac["ac_power_w"]
-        veh["engine_control"]["sources"]["ac_power_w"] = (
+        ac = result.ac = fit_ac_load(result.vehicle, ac_trace)
+        ctl = result.vehicle.engine_control
+        ctl.ac_power_w = ac["ac_power_w"]
+        ctl.sources["ac_power_w"] = (
             f"identified from {ac['test']} (A/C on), phases {', '.join(map(str, ac['phases']))}: "
             f"constant compressor power with which the model driving that test burns the "
             f"measured {ac['fuel_measured_g']:.1f} g (without it {ac['fuel_model_without_ac_g']:.1f} g)")
-        veh["identification"] = _jsonable(result.summary())
-        result.vehicle = ConventionalVehicle.model_validate(veh)
+        result.vehicle.identification = _jsonable(result.summary())
     return result
 
 

@@ -84,7 +84,8 @@ def fit_drag(traces: list[Trace], power_fn, idle_rad_s: float, set_a: float,
     da, db = max(loss[0], 0.0), max(loss[1], 0.0)
     fm = fit_fuel_map(traces, power_fn((share * da, share * db)), idle_rad_s)
     meter, cut = (fm.delay_s, fm.tau_s), fm.fuel_cut_speed_rad_s
-    curve = {s: fit_fuel_map(traces, power_fn((s * da, s * db)), idle_rad_s, meter, cut).r2_5s
+    curve = {s: fm.r2_5s if s == share else
+             fit_fuel_map(traces, power_fn((s * da, s * db)), idle_rad_s, meter, cut).r2_5s
              for s in DRAG_SHARES}
     lo, hi = min(curve.values()), max(curve.values())
     note = (f"assumed share {share:.2f} of the dyno losses (target - set: {da:.1f} N + "
@@ -104,8 +105,9 @@ def fit_ac_load(vehicle, tr: Trace) -> dict:
     if not used:
         raise IdentificationError(f"A/C load: {tr.test_id} has no numbered phases to fit on")
 
+    veh = with_ac(vehicle, True)
+
     def fuel(p_ac: float) -> tuple[float, float]:
-        veh = with_ac(vehicle, True)
         veh.engine_control.ac_power_w = p_ac
         rows = [r for r in predict_trace(veh, tr, ac="on")["phases"] if r["phase"] in used]
         return sum(r["predicted_g"] for r in rows), sum(r["measured_g"] for r in rows)

@@ -42,10 +42,10 @@ def ac_state(trace: Trace, mode: str = "auto") -> tuple[bool, str]:
         return mode == "on", f"--ac {mode}"
     if trace.cycle.lower().startswith("sc03"):
         return True, "SC03 (run with the A/C on)"
-    if np.isfinite(trace.amb_temp_c) and trace.amb_temp_c >= AC_AUTO_TEMP_C:
-        return True, f"cell {trace.amb_temp_c:.1f} °C >= {AC_AUTO_TEMP_C:.0f} °C"
     if not np.isfinite(trace.amb_temp_c):
         return False, "auto: not an SC03 test, no cell temperature in the file"
+    if trace.amb_temp_c >= AC_AUTO_TEMP_C:
+        return True, f"cell {trace.amb_temp_c:.1f} °C >= {AC_AUTO_TEMP_C:.0f} °C"
     return False, f"auto: not an SC03 test, cell below {AC_AUTO_TEMP_C:.0f} °C"
 
 

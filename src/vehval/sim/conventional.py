@@ -26,6 +26,7 @@ def conv_param_vector(veh: ConventionalVehicle) -> np.ndarray:
     """Scalar parameters of ``veh`` in SI, in the order of ``CONV_PARAMS``."""
     b, e, c, g, d, dr = (veh.body, veh.engine, veh.engine_control, veh.gearbox, veh.driveline,
                          veh.driver)
+    acc = c.accessory_power_w + b.aux_power_w  # [W] what the idle fuel rate includes
     val = {
         "mass": b.mass_kg, "rl_a": b.road_load_a_n, "rl_b": b.road_load_b_n_per_mps,
         "rl_c": b.road_load_c_n_per_mps2, "r_wheel": d.wheel_radius_m,
@@ -38,8 +39,7 @@ def conv_param_vector(veh: ConventionalVehicle) -> np.ndarray:
         "fuel_lhv": e.fuel_lhv_j_per_kg, "idle_fuel": c.idle_fuel_rate_g_per_s * 1e-3,
         "fuel_cut_spd": c.fuel_cut_min_speed_rpm * RPM,
         "overrun_fuel": c.overrun_fuel_rate_g_per_s * 1e-3,
-        "acc_pwr": c.accessory_power_w + b.aux_power_w + (c.ac_power_w if c.ac_on else 0.0),
-        "idle_acc_pwr": c.accessory_power_w + b.aux_power_w,
+        "acc_pwr": acc + (c.ac_power_w if c.ac_on else 0.0), "idle_acc_pwr": acc,
         "drag_a": g.drag_force_n, "drag_b": g.drag_force_n_per_mps,
         "drv_tau": dr.response_time_s, "drv_ki": dr.ki_n_per_m,
         "drv_int_lim": dr.integrator_limit_n, "drv_fmax": dr.max_force_n,
