@@ -38,6 +38,7 @@ sys.path.insert(0, str(REPO / "src"))
 from vehval.epa import apply_selector, read_test_car_list
 from vehval.vehicle import load_vehicle
 from vehval.vehicle.scaling import (
+    efficiency_floor_losses,
     fit_loss_surface,
     machine_scale,
     peak_efficiency,
@@ -92,9 +93,10 @@ def fit_ornl_mg2(source: Path):
 
 def _ornl_machine(surf, note: str, t_new: float, n_new: float, p_new: float,
                   src: dict, name: str, j_ref: float, signed_speed: bool,
-                  p_max: float | None = None) -> dict:
+                  fast_curve: tuple[np.ndarray, np.ndarray], p_max: float | None = None) -> dict:
     """Machine from the fitted ORNL 2004 MG2 surface, scaled (vehval.vehicle.scaling) by
-    rated power and maximum speed; the machine's own torque limit caps the envelope."""
+    rated power and maximum speed, its efficiency floored by FASTSim's gen-4 motor curve at
+    the machine's own rating; the machine's own torque limit caps the envelope."""
     k = machine_scale(MG2_2004["max_speed_rpm"], MG2_2004["max_power_w"], n_new, p_new)
     n_ref = np.linspace(0.0, MG2_2004["max_speed_rpm"], 14)
     if signed_speed:
@@ -102,14 +104,23 @@ def _ornl_machine(surf, note: str, t_new: float, n_new: float, p_new: float,
     t_ref = np.concatenate([-np.linspace(400, 0, 11)[:-1], np.linspace(0, 400, 11)])
     loss = surf(n_ref[:, None], t_ref[None, :])
     spd, trq, loss_s = scale_machine_map(n_ref, t_ref, loss, k)
+    p_frac, eta_fast = fast_curve
+    loss_f = efficiency_floor_losses(spd, trq, loss_s, p_new, p_frac, eta_fast)
+    share = 1.0 - float(loss_f.sum()) / float(np.sum(loss_s))
     how = (f"{note}; evaluated on the 2004 MG2 envelope (400 N·m, 6500 rpm, 50 kW) and "
            f"scaled by rated power and maximum speed (ADVISOR/Autonomie machine scaling): "
            f"speed x {k.speed:.4f}, loss x {k.loss:.4f} (power ratio), torque x {k.torque:.4f}; "
-           f"no measured gen-4 map is public")
+           f"then FASTSim's 1-D 2016 Prius Two motor efficiency curve (mc_eff_map over "
+           f"mc_pwr_out_perc, 0.83 at no load to 0.94 at 40-60 % of power) at this machine's "
+           f"rating of {p_new / 1e3:.0f} kW is a floor on the scaled map's efficiency (loss <= "
+           f"|P| (1/eta - 1) at every point, vehval.vehicle.scaling.efficiency_floor_losses; "
+           f"lowers the grid's summed loss by {100 * share:.0f} %; no loss is left at zero "
+           f"power, including the holding loss at standstill); no measured gen-4 map is "
+           f"public")
     return {
         "speed_rpm": [round(x, 1) for x in spd],
         "torque_nm": [round(x, 3) for x in trq],
-        "loss_w": [[round(x, 1) for x in r] for r in loss_s],
+        "loss_w": [[round(float(x), 1) for x in r] for r in loss_f],
         "max_torque_nm": t_new, "max_power_w": round(p_max or p_new, 1),
         "max_speed_rpm": n_new, "inertia_kg_m2": round(j_ref * k.torque, 5),
         "sources": {"speed_rpm": how, "torque_nm": how, "loss_w": how,
@@ -250,6 +261,8 @@ def build(source: Path) -> dict:
                   np.asarray(fast["fc_eff_map"]["data"], float))
     veh["engine"] = _engine(base["engine"], t0.rated_power_w, t0.displacement_l, fast_curve)
     surf, note = fit_ornl_mg2(source)
+    motor_curve = (np.asarray(fast["mc_pwr_out_perc"]["data"], float),
+                   np.asarray(fast["mc_eff_map"]["data"], float))
     j2 = base["mg2"]["inertia_kg_m2"]
     veh["mg1"] = _ornl_machine(
         surf, note, MG1_TORQUE_NM, MG1_SPEED_RPM, MG1_POWER_W,
@@ -261,7 +274,7 @@ def build(source: Path) -> dict:
                f"23 kW the wheel power is capped near 57 kW where US06 asks about 100 kW. "
                f"Peak power is therefore not limited below the stated torque and speed limits: "
                f"40 N·m x 17000 rpm"),
-         "n": f"{SPECS}: openinverter P610 17000 rpm"}, "MG1", j2, True,
+         "n": f"{SPECS}: openinverter P610 17000 rpm"}, "MG1", j2, True, motor_curve,
         p_max=MG1_TORQUE_NM * MG1_SPEED_RPM * math.pi / 30.0)
     veh["mg2"] = _ornl_machine(
         surf, note, MG2_TORQUE_NM, MG2_SPEED_RPM, MG2_POWER_W,
@@ -269,7 +282,7 @@ def build(source: Path) -> dict:
          "p": f"{SPECS}: 53 kW (steeringnews, openinverter); {fast_src} mc_max_kw "
               f"{fast['mc_max_kw']}",
          "n": f"{SPECS}: openinverter P610 17000 rpm; MathWorks model spdMax_rpm 17000"},
-        "MG2", j2, False)
+        "MG2", j2, False, motor_curve)
     bat = dict(base["battery"])
     bat["sources"] = {k: (f"same 168-cell 6.5 Ah NiMH pack as the 2004 car ({SPECS}: Prius "
                           f"Two NiMH, 168 cells, 201.6 V, 6.5 Ah, 1.31 kWh; "
@@ -336,7 +349,40 @@ def build(source: Path) -> dict:
     drv = dict(base["driver"])
     drv["sources"] = dict(base["driver"]["sources"])
     veh["driver"] = drv
+    _calibrate_controller(veh, epa_dir)
     return veh
+
+
+#: controller values Toyota does not publish, calibrated on the manufacturer-run tests
+#: (vehval.epa.calibrate) so that the EPA-run tests judge the model as held-out data
+CONTROLLER_GRID = {
+    "controller.soc_gain_w": [5000.0, 10000.0, 15000.0, 20000.0, 30000.0, 40000.0],
+    "controller.engine_on_power_w": [8000.0, 10000.0, 12000.0, 14000.0, 16000.0, 18000.0],
+    "controller.engine_min_power_w": [9000.0, 10000.0, 11000.0, 12000.0, 13000.0],
+}
+CALIBRATION_TESTS = "model=PRIUS,year=2016,originator=MFR"
+
+
+def _calibrate_controller(veh: dict, epa_dir: Path) -> None:
+    """Calibrate CONTROLLER_GRID's parameters on the manufacturer-run 2016 PRIUS tests."""
+    from vehval.epa.calibrate import calibrate_on_tests
+    from vehval.vehicle import Vehicle
+
+    tests = apply_selector(read_test_car_list(epa_dir / "16tstcar.csv"), CALIBRATION_TESTS)
+    cal = calibrate_on_tests(Vehicle.model_validate(veh), tests, CONTROLLER_GRID)
+    for name, value in cal.best.items():
+        key = name.split(".", 1)[1]
+        veh["controller"][key] = round(value, 1)
+        veh["controller"]["sources"][key] = (
+            cal.provenance(name).replace(f" on {cal.date}", "")
+            + "; the 2004 controller's other values kept")
+        # uncertainty: the values of every evaluated setting within 0.5 % RMS of the best
+        near = [e["values"][name] for e in cal.evaluations
+                if e["rms_error"] <= cal.best_rms + 0.005]
+        veh["controller"].setdefault("uncertainty", {})[key] = {
+            "range": [round(min(near), 1), round(max(near), 1)]}
+    print(f"controller calibrated on {len(cal.tests)} manufacturer-run tests: "
+          f"{cal.best}, RMS {100 * cal.start_rms:.1f} % -> {100 * cal.best_rms:.1f} %")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,4 +1,4 @@
-"""`vehval epa list|tests|validate`: the EPA Test Car List and validation against it."""
+"""`vehval epa list|tests|validate|calibrate`: the EPA Test Car List, validation and calibration against it."""
 
 from __future__ import annotations
 
@@ -134,3 +134,62 @@ def validate_cmd(
                f"; r = {'-' if r is None else f'{r:.3f}'}")
     if written:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _parse_param(text: str) -> tuple[str, list[float]]:
+    from vehval.errors import ConfigError
+
+    name, sep, values = text.partition("=")
+    try:
+        vals = [float(v) for v in values.split(",") if v.strip()]
+    except ValueError:
+        vals = []
+    if not sep or not name.strip() or not vals:
+        raise ConfigError(f"--param '{text}': write NAME=v1,v2,... with numbers, e.g. "
+                          "controller.soc_gain_w=10000,20000,40000")
+    return name.strip(), vals
+
+
+@epa_app.command("calibrate")
+def calibrate_cmd(
+    paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
+    vehicle: str = typer.Option(..., "--vehicle", help="Vehicle name or YAML path to start "
+                                "from."),
+    tests: str = typer.Option(..., "--tests", help="Calibration tests, e.g. "
+                              "model=PRIUS,year=2016,originator=MFR (judge the model on "
+                              "others with `vehval epa validate`)."),
+    param: list[str] = typer.Option(..., "--param", help="NAME=v1,v2,... candidate values of "
+                                    "a parameter (dotted name; a bare name is "
+                                    "controller.NAME); repeat for several."),
+    refine: int = typer.Option(2, "--refine", min=0, max=6, help="Rounds of coordinate "
+                               "refinement after the grid."),
+    dt: float = typer.Option(0.2, "--dt", help="Simulation step [s]."),
+    as_json: bool = typer.Option(False, "--json", help="Print the calibration JSON."),
+    output: Path | None = typer.Option(None, "-o", "--output", help="Write the calibrated "
+                                       "vehicle YAML here (values carry their provenance)."),
+) -> None:
+    """Choose unpublished parameters (controller thresholds, gains) on a set of EPA tests."""
+    from vehval.epa import apply_selector, read_lists
+    from vehval.epa.calibrate import calibrate_on_tests
+    from vehval.errors import InputFileError
+    from vehval.sim.simulate import _check_dt
+
+    _check_dt(dt)
+    grid = dict(_parse_param(p) for p in param)
+    selected = apply_selector(read_lists(paths), tests)
+    if not selected:
+        raise InputFileError(f"the selector '{tests}' matches no test")
+    cal = calibrate_on_tests(vehicle, selected, grid, dt=dt, refine_rounds=refine)
+    if output is not None:
+        cal.write_vehicle(output)
+    if as_json:
+        typer.echo(json.dumps(cal.to_dict(), indent=1))
+        return
+    start = cal.vehicle.parameters()
+    for name, value in cal.best.items():
+        typer.echo(f"{name:40s} {start[name]:>12g} -> {value:<12g}")
+    typer.echo(f"{len(cal.tests)} tests, {len(cal.evaluations)} settings evaluated; RMS error "
+               f"of the judged figures {100 * cal.start_rms:.1f} % -> {100 * cal.best_rms:.1f} "
+               f"% (max {100 * cal.best_max:.1f} %)")
+    if output is not None:
+        typer.echo(f"wrote {output}")

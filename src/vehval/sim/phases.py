@@ -381,10 +381,12 @@ def plant_phase(prm, locked, dt, we0, v0, te, tg_ff, t_ring, t_m, tm_lim, w_tgt,
     t_m_lo = -tm_lim
     p_m_hi = bus_allowed(pdis_lim - aux, boost_eff) - p_g_act
     if mot_power(mS, mT, mL, rg, wr_e, t_m) > p_m_hi:
-        t_m_hi = mot_torque_for_power(mS, mT, mL, rg, wr_e, p_m_hi, -tm_lim, t_m)
+        t_m_hi = mot_torque_for_power(mS, mT, mL, rg, wr_e, p_m_hi, -tm_lim,
+                                      min(t_m, tm_lim))
     p_m_lo = bus_allowed(-pchg_lim - aux, boost_eff) - p_g_act
     if mot_power(mS, mT, mL, rg, wr_e, t_m) < p_m_lo:
-        t_m_lo = mot_torque_for_power(mS, mT, mL, rg, wr_e, p_m_lo, t_m, max(t_m, 0.0))
+        t_m_lo = mot_torque_for_power(mS, mT, mL, rg, wr_e, p_m_lo, max(t_m, -tm_lim),
+                                      min(max(t_m, 0.0), tm_lim))
     if t_m > t_m_hi or t_m < t_m_lo:
         t_m = min(max(t_m, t_m_lo), t_m_hi)
         f2 = -k2 * g * eta_d

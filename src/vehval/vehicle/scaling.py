@@ -7,6 +7,10 @@ The method is the one ADVISOR and Autonomie use to size components from a refere
   breakpoints x ``k_p / k_n``. Efficiency is kept at corresponding points of the
   normalised map: a point at the same fraction of maximum speed and torque has the same
   efficiency.
+* a 1-D efficiency curve over the fraction of rated power (a published or modelled figure
+  for the newer machine) can be a floor on the scaled map's efficiency
+  (:func:`efficiency_floor_losses`): at every point the loss is at most what that curve
+  allows for the point's power.
 * engine, by rated speed and peak torque: speed x ``k_n``, torque x ``k_t``, fuel rate x
   ``k_n k_t`` (efficiency kept), then x ``eta_ref / eta_new`` to move the peak efficiency to
   a published figure (every point improved by the same ratio).
@@ -99,6 +103,22 @@ def scale_machine_map(speed_rpm, torque_nm, loss_w, k: MachineScale):
     """
     return ([float(x) * k.speed for x in speed_rpm], [float(x) * k.torque for x in torque_nm],
             (np.asarray(loss_w, float) * k.loss).tolist())
+
+
+def efficiency_floor_losses(speed_rpm, torque_nm, loss_w, rated_power_w: float,
+                            power_fraction, efficiency) -> np.ndarray:
+    """Loss map [W] limited by a 1-D efficiency floor ``efficiency(|P| / rated_power_w)``.
+
+    At each point of mechanical power P = T w the loss becomes
+    ``min(loss, |P| (1 / eta - 1))`` (motoring form, also used for generating, where it is
+    the larger bound). At P = 0 (zero torque or standstill) the allowed loss is 0: a curve of
+    efficiency over power cannot describe the holding loss at stall.
+    """
+    spd = np.asarray(speed_rpm, float) * RPM_RAD_PER_S
+    p = np.abs(spd[:, None] * np.asarray(torque_nm, float)[None, :])
+    eta = np.interp(p / rated_power_w, np.asarray(power_fraction, float),
+                    np.asarray(efficiency, float))
+    return np.minimum(np.asarray(loss_w, float), p * (1.0 / eta - 1.0))
 
 
 def scale_engine_map(speed_rpm, torque_nm, fuel_g_per_s, max_torque_nm, k_speed: float,

@@ -1,0 +1,95 @@
+"""EPA calibration: recovers a known controller value from virtual EPA results; provenance,
+written vehicle, CLI and bad input."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+from vehval.cli import main
+from vehval.epa import read_test_car_list
+from vehval.epa.calibrate import calibrate_on_tests, judged_errors
+from vehval.epa.validation import validate_tests
+from vehval.errors import ConfigError
+from vehval.vehicle import load_vehicle
+
+PARAM = "controller.engine_min_power_w"
+TRUTH = 10500.0
+
+
+@pytest.fixture(scope="module")
+def virtual(tmp_path_factory):
+    """The EPA HWFET and US06 rows with their results replaced by the model's own predictions
+    at PARAM = TRUTH (virtual lab results: the calibration must find TRUTH again)."""
+    from tests.epa.conftest import row, write_list
+
+    path = write_list(tmp_path_factory.mktemp("epa") / "16tstcar.csv", [
+        row(number="T1", code=3, desc="HWFE", fe=71.2),
+        row(number="T2", code=90, desc="US06", fe=48.6, bags=(35.4, 54.4, "", ""))])
+    tests = read_test_car_list(path)
+    base = load_vehicle("prius_2016")
+    truth = validate_tests(base.with_overrides({PARAM: TRUTH}), tests)
+    out = []
+    for t, p in zip(tests, truth.predictions):
+        bags = tuple(p.bags_mpg.get(k + 1, float("nan")) if t.bags[k] == t.bags[k] else t.bags[k]
+                     for k in range(4))
+        out.append(dataclasses.replace(t, fe=p.overall_mpg, bags=bags))
+    return base, out
+
+
+def test_recovers_the_value_that_made_the_results(virtual):
+    base, tests = virtual
+    grid = [9000.0, TRUTH, 12000.0]
+    cal = calibrate_on_tests(base.with_overrides({PARAM: 12000.0}), tests, {PARAM: grid},
+                             refine_rounds=0)
+    assert cal.best == {PARAM: TRUTH}
+    assert cal.best_rms < 1e-9 < cal.start_rms
+    others = [e["rms_error"] for e in cal.evaluations if e["values"][PARAM] != TRUTH]
+    assert len(others) == 2 and min(others) > 0.002  # the figures do depend on the value
+    assert cal.tests == ["T1", "T2"]
+    errs = judged_errors(validate_tests(cal.calibrated_vehicle(), tests))
+    assert errs.size == 4 and abs(errs).max() < 1e-9  # HWFET, US06 whole and both parts
+
+
+def test_written_vehicle_carries_the_value_and_its_provenance(virtual, tmp_path):
+    base, tests = virtual
+    cal = calibrate_on_tests(base, tests, {"engine_min_power_w": [TRUTH]}, refine_rounds=0)
+    path = cal.write_vehicle(tmp_path / "cal.yaml")
+    veh = load_vehicle(path)
+    assert veh.controller.engine_min_power_w == TRUTH
+    src = veh.controller.sources["engine_min_power_w"]
+    assert "T1, T2" in src and "vehval epa calibrate" in src and "RMS" in src
+    assert veh.engine == base.engine and veh.body == base.body
+
+
+def test_bad_parameters_refused(virtual):
+    base, tests = virtual
+    with pytest.raises(ConfigError, match="did you mean controller.soc_gain_w"):
+        calibrate_on_tests(base, tests, {"controller.soc_gan_w": [1.0]})
+    with pytest.raises(ConfigError, match="finite"):
+        calibrate_on_tests(base, tests, {"soc_gain_w": [float("nan")]})
+    with pytest.raises(ConfigError, match="at least one"):
+        calibrate_on_tests(base, tests, {})
+
+
+def test_cli(prius_list, tmp_path, capsys):
+    out = tmp_path / "v.yaml"
+    rc = main(["epa", "calibrate", str(prius_list), "--vehicle", "prius_2016", "--tests",
+               "model=PRIUS,originator=EPA,procedure=hwfet", "--param",
+               "engine_min_power_w=9000,11000", "--refine", "0", "--json", "-o", str(out)])
+    assert rc == 0
+    data = json.loads(capsys.readouterr().out)
+    assert set(data) >= {"vehicle", "tests", "grid", "best", "start", "start_rms_error",
+                         "best_rms_error", "best_max_abs_error", "n_evaluations"}
+    assert data["n_evaluations"] == 2 and data["tests"] == ["T1"]
+    assert load_vehicle(out).controller.engine_min_power_w == data["best"][PARAM]
+    # only SC03 / cold CO: nothing judged to calibrate on
+    assert main(["epa", "calibrate", str(prius_list), "--vehicle", "prius_2016", "--tests",
+                 "model=PRIUS,originator=MFR,procedure=sc03", "--param",
+                 "soc_gain_w=1e4"]) == 2
+    assert "no judged" in capsys.readouterr().err
+    assert main(["epa", "calibrate", str(prius_list), "--vehicle", "prius_2016", "--tests",
+                 "model=PRIUS", "--param", "soc_gain_w"]) == 2
+    assert "NAME=v1,v2" in capsys.readouterr().err
