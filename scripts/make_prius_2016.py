@@ -20,6 +20,12 @@ Where no measured gen-4 map exists, the 2004 components shipped with vehval
 * engine: speed x (rated speed ratio), torque x (peak torque ratio), fuel rate x the power
   ratio x (old peak efficiency / new published peak efficiency), i.e. the 2004 map's
   efficiency raised uniformly so its peak is the published 40 % of the 2ZR-FXE.
+
+FASTSim's 1-D gen-4 curves are floors: the engine's on its best line, the motor's on both
+machines' efficiency at every map point. The controller is the 2004 one with three values
+Toyota does not publish (SOC gain, engine-on power, minimum engine power) calibrated on the
+manufacturer-run 2016 PRIUS tests (vehval.epa.calibrate, about one minute); the EPA-run
+tests stay held out for ``vehval epa validate``.
 """
 
 from __future__ import annotations

@@ -73,3 +73,25 @@ def test_bag_definitions_reproduce_the_listed_whole_test_result():
             assert 1 / (0.43 / cold + 0.57 / hot) == pytest.approx(t.fe, rel=0.005)
             n += 1
     assert n == 8  # 4 FTP-75 and 4 US06 tests of the 2016 Prius
+
+
+def test_prius_2016_against_its_epa_run_tests():
+    """Held-out figures (the packaged controller is calibrated on the MFR tests only):
+    HWFET, US06 (whole and both parts) and FTP bags 2-3 of the EPA-run tests. One known miss, bag 2 after the
+    cold start (no thermal model, docs/validation.md): 11 of 12 within 5 %, none beyond 8 %;
+    the prediction spread follows the measured one over all originators."""
+    from vehval.epa.validation import validate_tests
+
+    tests = apply_selector(read_lists([EPA]), "model=PRIUS,year=2016")
+    val = validate_tests("prius_2016", tests)
+    acc = [c for c in val.comparisons if c.originator == "EPA" and c.judged
+           and (c.procedure, c.item) in {("hwfet", "overall"), ("us06", "overall"),
+                                         ("us06", "bag 1"),
+                                         ("us06", "bag 2"), ("ftp75", "bag 2"),
+                                         ("ftp75", "bag 3")}]
+    err = sorted(abs(c.error) for c in acc)
+    assert len(err) == 12
+    assert err[-2] <= 0.05 and err[-1] <= 0.08
+    assert val.stats()["spread_correlation"]["pooled"] >= 0.95
+    assert all(p.trace_n_miss == 0 and abs(p.energy_balance_rel) < 1e-9
+               for p in val.predictions)
