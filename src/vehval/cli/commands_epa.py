@@ -84,6 +84,19 @@ def tests_cmd(
     typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients in --json)")
 
 
+def _selected(paths: list[Path], selector: str, dt: float):
+    """Tests of the list files matching ``selector`` (refused if none; ``dt`` checked)."""
+    from vehval.epa import apply_selector, read_lists
+    from vehval.errors import InputFileError
+    from vehval.sim.simulate import _check_dt
+
+    _check_dt(dt)
+    selected = apply_selector(read_lists(paths), selector)
+    if not selected:
+        raise InputFileError(f"the selector '{selector}' matches no test")
+    return selected
+
+
 @epa_app.command("validate")
 def validate_cmd(
     paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
@@ -100,16 +113,9 @@ def validate_cmd(
                                             "and epa_validation.csv."),
 ) -> None:
     """Simulate each selected EPA test with its own weight and road load; compare per bag."""
-    from vehval.epa import apply_selector, read_lists
     from vehval.epa.validation import validate_tests
-    from vehval.errors import InputFileError
-    from vehval.sim.simulate import _check_dt
 
-    _check_dt(dt)
-    selected = apply_selector(read_lists(paths), tests)
-    if not selected:
-        raise InputFileError(f"the selector '{tests}' matches no test")
-    val = validate_tests(vehicle, selected, dt=dt)
+    val = validate_tests(vehicle, _selected(paths, tests, dt), dt=dt)
     written = []
     if outdir is not None:
         from vehval.report.epa import write_epa_report
@@ -169,17 +175,11 @@ def calibrate_cmd(
                                        "vehicle YAML here (values carry their provenance)."),
 ) -> None:
     """Choose unpublished parameters (controller thresholds, gains) on a set of EPA tests."""
-    from vehval.epa import apply_selector, read_lists
     from vehval.epa.calibrate import calibrate_on_tests
-    from vehval.errors import InputFileError
-    from vehval.sim.simulate import _check_dt
 
-    _check_dt(dt)
     grid = dict(_parse_param(p) for p in param)
-    selected = apply_selector(read_lists(paths), tests)
-    if not selected:
-        raise InputFileError(f"the selector '{tests}' matches no test")
-    cal = calibrate_on_tests(vehicle, selected, grid, dt=dt, refine_rounds=refine)
+    cal = calibrate_on_tests(vehicle, _selected(paths, tests, dt), grid, dt=dt,
+                             refine_rounds=refine)
     if output is not None:
         cal.write_vehicle(output)
     if as_json:

@@ -23,12 +23,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from vehval.epa.reader import EpaTest
 from vehval.epa.validation import EpaValidation, validate_tests
 from vehval.errors import ConfigError
-from vehval.io.atomic import write_text_atomic
+from vehval.validate.calibration import vehicle_with_values, write_vehicle_yaml
 from vehval.vehicle import Vehicle, load_vehicle
 
 
@@ -68,23 +67,11 @@ class EpaCalibration:
 
     def calibrated_vehicle(self) -> Vehicle:
         """The validated vehicle with the calibrated values and their provenance."""
-        veh = self.vehicle.with_overrides(self.best)
-        data = veh.model_dump()
-        for name in self.best:
-            blk, key = name.split(".", 1)
-            data[blk]["sources"][key] = self.provenance(name)
-        return Vehicle.model_validate(data)
+        return vehicle_with_values(self.vehicle, self.best, self.provenance)
 
     def write_vehicle(self, path: str | Path) -> Path:
         """Write the calibrated vehicle YAML atomically; it loads with ``load_vehicle``."""
-        from vehval.validate.calibration import _plain
-
-        data = _plain(self.calibrated_vehicle().model_dump())
-        write_text_atomic(path, "# Calibrated by vehval epa calibrate; calibrated values "
-                          "carry their provenance in the block's 'sources'.\n"
-                          + yaml.safe_dump(data, sort_keys=False, width=100,
-                                           allow_unicode=True))
-        return Path(path)
+        return write_vehicle_yaml(self.calibrated_vehicle(), path, "vehval epa calibrate")
 
     def to_dict(self) -> dict[str, Any]:
         return {"vehicle": self.vehicle.name, "tests": self.tests, "dt_s": self.dt,

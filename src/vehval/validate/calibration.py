@@ -152,24 +152,13 @@ class CalibrationResult:
 
     def calibrated_vehicle(self) -> Vehicle:
         """The fully validated vehicle with the tuned values and their provenance."""
-        veh = self.vehicle.with_overrides(self.best)
-        data = veh.model_dump()
-        for name in self.parameters:
-            blk, key = name.split(".", 1)
-            data[blk]["sources"][key] = self.provenance(name)
-        data["description"] = (data.get("description") or "").rstrip() + (
+        return vehicle_with_values(
+            self.vehicle, self.best, self.provenance,
             f" [calibrated by vehval on {self.date}: {', '.join(self.parameters)}]")
-        out = Vehicle.model_validate(data)
-        return out
 
     def write_vehicle(self, path: str | Path) -> Path:
         """Write the calibrated vehicle YAML atomically; it loads with ``load_vehicle``."""
-        data = _plain(self.calibrated_vehicle().model_dump())
-        text = ("# Calibrated by vehval calibrate; tuned values carry their provenance in "
-                "the block's 'sources'.\n" + yaml.safe_dump(data, sort_keys=False, width=100,
-                                                             allow_unicode=True))
-        write_text_atomic(path, text)
-        return Path(path)
+        return write_vehicle_yaml(self.calibrated_vehicle(), path, "vehval calibrate")
 
     def rows(self) -> list[list[Any]]:
         """[test, role, fuel err before %, after %, SOC err before %, after %, engine agreement before %, after %]."""
@@ -208,6 +197,28 @@ class CalibrationResult:
             "rejected": self.rejected,
             "provenance": {n: self.provenance(n) for n in self.parameters},
             "history": self.history, "tables": self.tables()})
+
+
+def vehicle_with_values(vehicle: Vehicle, values: dict[str, float],
+                        provenance: Callable[[str], str], note: str = "") -> Vehicle:
+    """Validated copy of ``vehicle`` with ``values`` (dotted names), each value's source set
+    to ``provenance(name)``, ``note`` appended to the description."""
+    data = vehicle.with_overrides(values).model_dump()
+    for name in values:
+        blk, key = name.split(".", 1)
+        data[blk]["sources"][key] = provenance(name)
+    if note:
+        data["description"] = (data.get("description") or "").rstrip() + note
+    return Vehicle.model_validate(data)
+
+
+def write_vehicle_yaml(vehicle: Vehicle, path: str | Path, by: str) -> Path:
+    """Write a calibrated vehicle YAML atomically; it loads with ``load_vehicle``."""
+    text = (f"# Calibrated by {by}; calibrated values carry their provenance in the block's "
+            "'sources'.\n" + yaml.safe_dump(_plain(vehicle.model_dump()), sort_keys=False,
+                                            width=100, allow_unicode=True))
+    write_text_atomic(path, text)
+    return Path(path)
 
 
 def _plain(obj: Any) -> Any:
