@@ -74,10 +74,19 @@ def test_unrunnable_named_skipped_counted(prius_list):
     assert st["n_tests_selected"] == 6 and st["n_tests_skipped"] == 2
     assert {s["procedure"] for s in val.skipped} == {"sc03", "coldco"}
     assert all(s["reason"] for s in val.skipped)
-    # cold-start figures are reported but not judged
+    # the packaged car models the cold start: its cold-start figures are judged
     cold = [c for c in val.comparisons if c.item == "bag 1" and c.procedure == "ftp75"]
-    assert cold and not any(c.judged for c in cold)
+    assert cold and all(c.judged and c.cold_start and "warm-up" in c.note for c in cold)
     assert plan_for(prius[0])[0] is not None
+    # without a cold-start model they are reported but not judged (and the FTP runs hot)
+    hot = load_vehicle("prius_2016").with_overrides({
+        "engine.warmup_fuel_fraction": 0.0, "controller.cold_start_engine_on_s": 0.0})
+    val0 = validate_tests(hot, prius, dt=1.0)
+    cold0 = [c for c in val0.comparisons if c.cold_start]
+    assert {c.item for c in cold0} == {"bag 1", "overall"}
+    assert not any(c.judged for c in cold0)
+    by = {(c.item, c.procedure): c.predicted_mpg for c in val0.comparisons}
+    assert by[("bag 1", "ftp75")] > cold[0].predicted_mpg  # warm-up burns fuel in bag 1
 
 
 def test_cli_validate(prius_list, tmp_path, capsys):

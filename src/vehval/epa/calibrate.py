@@ -8,8 +8,10 @@ then coordinate refinement (midpoints towards each neighbour, halving each round
 economy of a hybrid is a stepwise function of its thresholds, so a gradient method would
 stall on its plateaus.
 
-Objective: the root-mean-square relative error of the judged (hot-start) figures of the
-calibration tests, exactly those :func:`vehval.epa.validation.validate_tests` judges.
+Objective: the root-mean-square relative error of the judged figures of the calibration
+tests, exactly those :func:`vehval.epa.validation.validate_tests` judges; the cold-start
+figures are included at every grid point when a cold-start parameter is calibrated (or the
+vehicle already models the cold start), so every setting is scored on the same figures.
 """
 
 from __future__ import annotations
@@ -25,19 +27,26 @@ from typing import Any
 import numpy as np
 
 from vehval.epa.reader import EpaTest
-from vehval.epa.validation import EpaValidation, validate_tests
+from vehval.epa.validation import EpaValidation, has_cold_start_model, validate_tests
 from vehval.errors import ConfigError
 from vehval.validate.calibration import vehicle_with_values, write_vehicle_yaml
 from vehval.vehicle import Vehicle, load_vehicle
 
+#: parameters of the cold-start model: calibrating one of them puts the cold-start figures
+#: (FTP bag 1 and composite) in the objective at every grid point
+COLD_START_PARAMS = ("engine.warmup_fuel_fraction", "engine.warmup_time_constant_s",
+                     "controller.cold_start_engine_on_s")
 
-def judged_errors(val: EpaValidation) -> np.ndarray:
-    """Relative errors [-] of the judged figures of a validation."""
-    return np.array([c.error for c in val.comparisons if c.judged])
+
+def judged_errors(val: EpaValidation, with_cold: bool = False) -> np.ndarray:
+    """Relative errors [-] of the judged figures of a validation (``with_cold``: and of the
+    cold-start figures whether or not the vehicle models the cold start)."""
+    return np.array([c.error for c in val.comparisons
+                     if c.judged or (with_cold and c.cold_start)])
 
 
-def _score(val: EpaValidation) -> tuple[float, float]:
-    err = judged_errors(val)
+def _score(val: EpaValidation, with_cold: bool = False) -> tuple[float, float]:
+    err = judged_errors(val, with_cold)
     if err.size == 0 or not np.all(np.isfinite(err)):
         return math.inf, math.inf
     return float(np.sqrt(np.mean(err ** 2))), float(np.max(np.abs(err)))
@@ -133,18 +142,20 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
             except ConfigError:  # value outside the parameter's own constraints
                 cache[key] = (math.inf, math.inf)
             else:
-                cache[key] = _score(validate_tests(veh, tests, dt=dt))
-            evals.append({"values": dict(zip(names, values)), "rms_error": cache[key][0],
+                cache[key] = _score(validate_tests(veh, tests, dt=dt), with_cold)
+            evals.append({"values": {n: float(v) for n, v in zip(names, values)},
+                          "rms_error": cache[key][0],
                           "max_abs_error": cache[key][1]})
         return cache[key]
 
+    with_cold = has_cold_start_model(base) or any(n in COLD_START_PARAMS for n in names)
     start_val = validate_tests(base, tests, dt=dt)
-    if judged_errors(start_val).size == 0:
+    if judged_errors(start_val, with_cold).size == 0:
         raise ConfigError("the calibration tests have no judged (hot-start) figure: select "
                           "FTP-75, HWFET or US06 tests")
-    start_rms = _score(start_val)[0]
+    start_rms = _score(start_val, with_cold)[0]
     best = min(itertools.product(*grid.values()), key=score)
-    steps = {n: (min(np.diff(v)) if len(v) > 1 else abs(v[0]) * 0.1 or 1.0)
+    steps = {n: float(min(np.diff(v)) if len(v) > 1 else abs(v[0]) * 0.1 or 1.0)
              for n, v in grid.items()}
     for _ in range(refine_rounds):
         for i, n in enumerate(names):

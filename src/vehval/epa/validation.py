@@ -6,9 +6,10 @@ reproduces), runs the procedure's plan (:mod:`vehval.epa.procedures`) with the b
 charge carried from run to run, iterates the initial SOC until the whole test is charge
 balanced (SAE J1711 basis of the lab result) and integrates fuel and distance per bag.
 Like is compared with like: the whole-test result is charge balanced, the bags are raw
-(the lab's bags are not individually balanced either). The model has no thermal model, so
-cold-start figures (FTP bag 1 and the FTP composite that contains it) are reported as the
-cold-start gap and not judged; hot-start figures (bags 2-4, HWFET, US06) are judged.
+(the lab's bags are not individually balanced either). Hot-start figures (bags 2-4,
+HWFET, US06) are judged; the cold-start figures (FTP bag 1 and the FTP composite that
+contains it) only when the vehicle models the cold start (warm-up fuel, engine-on hold,
+applied to the FTP's first run), else they are reported as the cold-start gap.
 """
 
 from __future__ import annotations
@@ -56,8 +57,9 @@ class Comparison:
     name: str
     predicted_mpg: float
     measured_mpg: float
-    judged: bool  # hot-start figure, judged against the tolerance
+    judged: bool  # judged against the tolerance (hot start, or cold start with a model)
     note: str = ""
+    cold_start: bool = False  # the figure contains a cold start
 
     @property
     def error(self) -> float:
@@ -71,7 +73,8 @@ class Comparison:
                 "predicted_mpg": round(self.predicted_mpg, 3),
                 "measured_mpg": round(self.measured_mpg, 3),
                 "error": round(self.error, 5), "judged": self.judged,
-                "within_tolerance": abs(self.error) <= TOLERANCE, "note": self.note}
+                "within_tolerance": abs(self.error) <= TOLERANCE, "note": self.note,
+                "cold_start": self.cold_start}
 
 
 @dataclass
@@ -175,15 +178,17 @@ class _Grid:
     vt: np.ndarray
     lo: np.ndarray
     hi: np.ndarray
+    cold: bool  # the run starts with a cold engine
 
 
 def _grids(veh: Vehicle, proc: Procedure, dt: float) -> list[_Grid]:
     out = []
-    for name in proc.runs:
+    cold_runs = {b.run for b in proc.bags if b.cold_start}
+    for k, name in enumerate(proc.runs):
         t, vt = time_grid(load_cycle(name), dt)
         lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH,
                                 veh.driver.tolerance_time_s)
-        out.append(_Grid(t, vt, lo, hi))
+        out.append(_Grid(t, vt, lo, hi, k in cold_runs))
     return out
 
 
@@ -193,7 +198,7 @@ def _run_plan(veh: Vehicle, grids: list[_Grid], dt: float, soc0: float):
     soc = soc0
     lo_soc, hi_soc = veh.battery.soc_min, veh.battery.soc_max
     for g in grids:
-        p = pack(veh, min(max(soc, lo_soc), hi_soc))
+        p = pack(veh, min(max(soc, lo_soc), hi_soc), cold_start=g.cold)
         out = np.zeros((g.t.size, len(S)))
         ys = run(g.vt, g.lo, g.hi, dt, p.prm, p.maps, out, True)
         res.append((out, ys))
@@ -279,18 +284,25 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
         engine_on_fraction=float(summ["engine_on_fraction"]))
 
 
-def _compare(pred: TestPrediction, proc: Procedure) -> list[Comparison]:
+def has_cold_start_model(veh: Vehicle) -> bool:
+    """Whether the vehicle models a cold start (warm-up fuel or an engine-on hold)."""
+    return veh.engine.warmup_fuel_fraction > 0.0 or veh.controller.cold_start_engine_on_s > 0.0
+
+
+def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Comparison]:
+    """Figures of one test; cold-start figures are judged only with a cold-start model."""
     t = pred.test
     base = {"test": t.label, "vehicle_id": t.vehicle_id,
             "originator": t.originator or "?", "procedure": proc.key}
     rows = []
     cold_in_overall = any(b.cold_start for b in proc.bags)
     if not math.isnan(t.fe):
+        note = ("" if not cold_in_overall else "contains the cold start (warm-up model)"
+                if cold_model else "contains the cold start: cold-start gap, not judged")
         rows.append(Comparison(**base, item="overall", name=f"{proc.name} (J1711 balanced)",
                                predicted_mpg=pred.overall_mpg, measured_mpg=t.fe,
-                               judged=not cold_in_overall,
-                               note="contains the cold start: cold-start gap, not judged"
-                               if cold_in_overall else ""))
+                               judged=cold_model or not cold_in_overall, note=note,
+                               cold_start=cold_in_overall))
     if len(proc.bags) > 1:
         for bag in proc.bags:
             meas = t.bags[bag.number - 1]
@@ -299,9 +311,11 @@ def _compare(pred: TestPrediction, proc: Procedure) -> list[Comparison]:
             rows.append(Comparison(
                 **base, item=f"bag {bag.number}", name=bag.name,
                 predicted_mpg=pred.bags_mpg[bag.number], measured_mpg=meas,
-                judged=not bag.cold_start,
-                note="cold start (no thermal model): gap reported, not judged"
-                if bag.cold_start else "raw bag, not individually charge balanced"))
+                judged=cold_model or not bag.cold_start,
+                note=("cold start (warm-up model)" if cold_model else
+                      "cold start (no thermal model): gap reported, not judged")
+                if bag.cold_start else "raw bag, not individually charge balanced",
+                cold_start=bag.cold_start))
     if proc.composite == "ftp" and not any(math.isnan(t.bags[k]) for k in (2, 3)):
         # hot UDDS (bags 3 + 4): the hot start's two phases together, where the charge one
         # phase stores and the next spends cancels out (bags are not balanced one by one)
@@ -329,6 +343,7 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         Simulation step [s].
     """
     veh = load_vehicle(vehicle)
+    cold_model = has_cold_start_model(veh)
     res = EpaValidation(vehicle=veh.name)
     for t in tests:
         proc, why = plan_for(t)
@@ -339,5 +354,5 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
             continue
         pred = predict_test(veh, t, proc, dt)
         res.predictions.append(pred)
-        res.comparisons.extend(_compare(pred, proc))
+        res.comparisons.extend(_compare(pred, proc, cold_model))
     return res

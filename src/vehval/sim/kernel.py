@@ -86,6 +86,10 @@ def run(vt, band_lo, band_hi, dt, prm, maps, out, record):
     drv_tau = prm[P_DRV_TAU]; drv_ki = prm[P_DRV_KI]; drv_lim = prm[P_DRV_INT_LIM]
     drv_fmax = prm[P_DRV_FMAX]
 
+    cold = prm[P_COLD_START] > 0.5
+    hold_s = prm[P_COLD_HOLD] if cold else 0.0  # engine held on after a cold start [s]
+    warm_frac = prm[P_WARM_FRAC] if cold else 0.0  # warm-up extra fuel at t = 0 [-]
+    warm_tau = prm[P_WARM_TAU]
     rg = prm[P_MG2_RATIO]  # MG2 shaft speed / ring speed
     s_eq = prm[P_EQ_FACTOR]  # fuel J per J of battery chemical energy
     k1 = (nr + ns) / ns
@@ -145,7 +149,7 @@ def run(vt, band_lo, band_hi, dt, prm, maps, out, record):
         (ocv, pdis_lim, pchg_lim, pdis_av, pchg_av, p_filt, tm_pwr, tm_spd, tm_bat, tm_soc,
          tm_off, st_new, tst) = supervisor_phase(
             prm, soc, v0, p_wh, dt, p_filt, a_filt, tm_pwr, tm_spd, tm_bat, tm_soc, tm_off, st,
-            tst, bm)
+            tst, bm, i * dt < hold_s)
         if st_new != st:
             ys[Y_STATE_SWITCHES] += 1.0
         st = st_new
@@ -170,6 +174,8 @@ def run(vt, band_lo, band_hi, dt, prm, maps, out, record):
         wr_a = g * v_a
         wg_a = k1 * we_a - k2 * wr_a
         fuel = fuel_rate(eS, eT, eF, we_a, te) if (fired and not fuelcut) else 0.0
+        if warm_frac > 0.0:
+            fuel *= 1.0 + warm_frac * np.exp(-(i + 0.5) * dt / warm_tau)
         p_eng_mech = te * we_a
         p_gen_e = electrical_power(gS, gT, gL, wg_a, t_g)
         p_mot_e = mot_power(mS, mT, mL, rg, wr_a, t_m)

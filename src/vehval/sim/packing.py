@@ -34,8 +34,11 @@ def best_engine_efficiency(veh: Vehicle) -> float:
     return float(np.max(p[ok] / (fuel[ok] * veh.engine.fuel_lhv_j_per_kg)))
 
 
-def param_vector(veh: Vehicle, soc_initial: float) -> np.ndarray:
-    """Scalar parameters of ``veh`` in SI, in the order of :data:`vehval.sim.layout.PARAMS`."""
+def param_vector(veh: Vehicle, soc_initial: float, cold_start: bool = False) -> np.ndarray:
+    """Scalar parameters of ``veh`` in SI, in the order of :data:`vehval.sim.layout.PARAMS`.
+
+    ``cold_start``: the run starts with a cold engine (the vehicle's warm-up fuel and
+    engine-on hold apply; both are 0 in a vehicle without a cold-start model)."""
     b, e, g1, g2, bt = veh.body, veh.engine, veh.mg1, veh.mg2, veh.battery
     d, pg, bo, c, dr = veh.driveline, veh.planetary, veh.boost, veh.controller, veh.driver
     val = {
@@ -78,11 +81,13 @@ def param_vector(veh: Vehicle, soc_initial: float) -> np.ndarray:
         "soc_init": soc_initial, "mg2_ratio": d.mg2_reduction_ratio,
         "op_system": 1.0 if c.operating_point == "system" else 0.0,
         "eq_factor": 1.0 / (best_engine_efficiency(veh) * c.soc_correction_path_efficiency),
+        "cold_start": 1.0 if cold_start else 0.0, "cold_hold": c.cold_start_engine_on_s,
+        "warm_frac": e.warmup_fuel_fraction, "warm_tau": e.warmup_time_constant_s,
     }
     return np.array([float(val[k]) for k in PARAMS])
 
 
-def pack(veh: Vehicle, soc_initial: float) -> Packed:
+def pack(veh: Vehicle, soc_initial: float, cold_start: bool = False) -> Packed:
     """Parameter vector and SI map arrays for :func:`vehval.sim.kernel.run`."""
     e = veh.engine.arrays()
     m2 = veh.mg2.arrays()
@@ -94,4 +99,4 @@ def pack(veh: Vehicle, soc_initial: float) -> Packed:
             bt.soc, bt.ocv_v, bt.resistance_discharge_ohm, bt.resistance_charge_ohm,
             bt.discharge_power_limit_w, bt.charge_power_limit_w)
     maps = tuple(np.ascontiguousarray(np.asarray(a, dtype=np.float64)) for a in arrs)
-    return Packed(param_vector(veh, soc_initial), maps)
+    return Packed(param_vector(veh, soc_initial, cold_start), maps)

@@ -155,8 +155,9 @@ def driver_phase(v0, vnow, vnext, dt, m22, rl_a, rl_b, rl_c, i_drv, drv_tau, f_m
 
 @njit(cache=True, inline="always")
 def supervisor_phase(prm, soc, v0, p_wh, dt, p_filt, a_filt, tm_pwr, tm_spd, tm_bat, tm_soc,
-                     tm_off, st, tst, bm):
-    """Battery limits, total power demand and one step of the engine state machine.
+                     tm_off, st, tst, bm, hold_on):
+    """Battery limits, total power demand and one step of the engine state machine
+    (``hold_on``: engine held on, e.g. for catalyst heating after a cold start).
 
     Returns OCV [V], the discharge/charge limits and what is available inside the margins
     [W], the filtered demand [W], the five condition timers [s], the new state and its time.
@@ -185,7 +186,7 @@ def supervisor_phase(prm, soc, v0, p_wh, dt, p_filt, a_filt, tm_pwr, tm_spd, tm_
     off_raw = p_tot < off_pwr and v0 < off_spd and (not c_bat) and soc >= soc_on
     tm_off = hold_timer(tm_off, off_raw, dt)
     off_req = held(tm_off, prm[P_OFF_HOLD])
-    st_new, tst = state_step(st, tst, on_req, off_req, soc < soc_force, dt,
+    st_new, tst = state_step(st, tst, on_req, off_req, soc < soc_force or hold_on, dt,
                              prm[P_MIN_ON], prm[P_MIN_OFF])
     return (ocv, pdis_lim, pchg_lim, pdis_av, pchg_av, p_filt,
             tm_pwr, tm_spd, tm_bat, tm_soc, tm_off, st_new, tst)

@@ -81,9 +81,10 @@ def _check_dt(dt: float) -> float:
 
 
 def run_once(veh: Vehicle, t: np.ndarray, vt: np.ndarray, dt: float, soc0: float,
-             record: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """Run the compiled loop once; returns (signals[n, len(SIGNALS)], summary vector)."""
-    p = pack(veh, soc0)
+             record: bool = True, cold_start: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Run the compiled loop once; returns (signals[n, len(SIGNALS)], summary vector).
+    ``cold_start``: the run starts with a cold engine (the vehicle's cold-start model)."""
+    p = pack(veh, soc0, cold_start)
     lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH,
                             veh.driver.tolerance_time_s)
     out = np.zeros((t.size if record else 1, len(SIGNALS)))

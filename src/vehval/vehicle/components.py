@@ -50,6 +50,11 @@ class EngineParams(Block):
     fuel_lhv_j_per_kg: float = Field(ge=5e6, le=1.5e8)  # methanol to hydrogen
     displacement_l: float | None = Field(default=None, gt=0, le=20)
     """Swept volume [L]; informative (scaling, reports), not used by the simulation."""
+    warmup_fuel_fraction: float = Field(default=0.0, ge=0, le=5)
+    """Extra fuel [-] of a cold-started engine at the start of the run (the fuel rate of a
+    cold-start run is x (1 + fraction exp(-t / warmup_time_constant_s))); 0: no warm-up."""
+    warmup_time_constant_s: float = Field(default=300.0, gt=0, le=1e4)
+    """Decay time constant [s] of the warm-up extra fuel over the run time."""
 
     @model_validator(mode="after")
     def _maps(self):

@@ -48,6 +48,9 @@ class ControllerParams(Block):
     gen_speed_margin_rpm: float = Field(ge=0)
     engine_speed_margin_rpm: float = Field(ge=0)
     soc_correction_path_efficiency: float = Field(gt=0, le=1)
+    cold_start_engine_on_s: float = Field(default=0.0, ge=0, le=3600)
+    """A cold-start run holds the engine on for this long from its start [s] (catalyst
+    heating, warm-up); the controller sets its power as usual. 0: no hold."""
     operating_point: Literal["system", "best_line"] = "best_line"
     """Engine speed choice while the engine delivers power: ``best_line`` places the power on
     the engine's own best-efficiency line; ``system`` picks the speed of least fuel plus the
