@@ -57,3 +57,20 @@ def test_hot_run_ignores_the_model(udds):
     a, _ = run_once(base, t, vt, DT, 0.6, cold_start=True)  # no model: cold == hot
     b, _ = run_once(veh, t, vt, DT, 0.6)
     np.testing.assert_array_equal(a, b)
+
+
+def test_simulate_cli_cold_start(capsys):
+    """`vehval simulate --cold-start` on the 2016 Prius (which models the cold start)."""
+    import json
+
+    from vehval.cli import main
+
+    res = {}
+    for flag in ([], ["--cold-start"]):
+        assert main(["simulate", "--vehicle", "prius_2016", "--cycle", "udds", "--dt", "0.5",
+                     "--charge-balance", "--json", *flag]) == 0
+        s = json.loads(capsys.readouterr().out)
+        res[bool(flag)] = s
+    assert res[True]["cold_start"] is True and res[False]["cold_start"] is False
+    assert res[True]["fuel_mass_kg"] > 1.03 * res[False]["fuel_mass_kg"]
+    assert abs(res[True]["energy_balance_rel"]) < 1e-9

@@ -54,6 +54,9 @@ def simulate_cmd(
                                                 help="Initial SOC [-] (default: SOC target)."),
     charge_balance: bool = typer.Option(False, "--charge-balance",
                                         help="Iterate the initial SOC until SOC end = start."),
+    cold_start: bool = typer.Option(False, "--cold-start", help="Start with a cold engine: "
+                                    "the vehicle's cold-start model applies (engine-on hold, "
+                                    "warm-up fuel; hybrid vehicles)."),
     set_: list[str] = typer.Option([], "--set", help="Override a parameter: block.key=value "
                                    "(repeatable), e.g. controller.soc_target=0.55."),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
@@ -76,7 +79,7 @@ def simulate_cmd(
         if isinstance(val, bool) or not isinstance(val, (int, float)):
             raise ConfigError(f"--set '{key}={val}': value must be a number")
     res = simulate(vehicle, cycle, dt=dt, soc_initial=soc_initial,
-                   charge_balance=charge_balance, **overrides)
+                   charge_balance=charge_balance, cold_start=cold_start, **overrides)
     s = res.summary
     aud = None
     if audit:

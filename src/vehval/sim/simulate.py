@@ -150,7 +150,7 @@ def summarise(veh: Vehicle, ys: np.ndarray, soc0: float) -> dict[str, Any]:
 
 def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float = 0.1,
              soc_initial: float | None = None, charge_balance: bool = False,
-             **overrides: Any) -> SimResult:
+             cold_start: bool = False, **overrides: Any) -> SimResult:
     """Simulate ``vehicle`` over ``cycle``.
 
     Parameters
@@ -166,6 +166,9 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
     charge_balance : bool
         Iterate the initial SOC (secant method) until the final SOC is within 0.5 % SOC
         of the initial one; ``summary['charge_balance_iterations']`` tells how many runs.
+    cold_start : bool
+        Start with a cold engine: the vehicle's cold-start model applies (engine held on
+        for ``controller.cold_start_engine_on_s``, warm-up fuel ``engine.warmup_*``).
     **overrides
         Parameter overrides by dotted path, e.g. ``**{"controller.soc_target": 0.55}``
         or ``controller__soc_target=0.55``.
@@ -185,14 +188,14 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
                           f"[{bt.soc_min:g}, {bt.soc_max:g}] of {veh.file or veh.name}")
     iters: list[tuple[float, float]] = []
     if charge_balance:
-        soc0 = _balance(veh, t, vt, dt, soc0, iters)
-    out, ys = run_once(veh, t, vt, dt, soc0, record=True)
+        soc0 = _balance(veh, t, vt, dt, soc0, iters, cold_start)
+    out, ys = run_once(veh, t, vt, dt, soc0, record=True, cold_start=cold_start)
     summary = summarise(veh, ys, soc0)
     summary.update({"vehicle": veh.name, "cycle": cyc.name, "dt_s": dt,
                     "trace_max_miss_mps": summary["trace_max_miss_mps"],
                     "charge_balanced": bool(charge_balance and abs(summary["soc_delta"])
                                             <= CHARGE_BALANCE_TOL),
-                    "charge_balance_iterations": len(iters)})
+                    "charge_balance_iterations": len(iters), "cold_start": bool(cold_start)})
     meta = TestMeta(test_id=f"simu_{veh.name}_{cyc.name}", vehicle=veh.name, cycle=cyc.name,
                     notes=[f"vehval forward-looking simulation, dt = {dt:g} s"], synthetic=True)
     test = Test(meta=meta)
@@ -219,18 +222,19 @@ def _simulate_conventional(veh, cyc: Cycle, t: np.ndarray, vt: np.ndarray,
     return SimResult(test=test, summary=summary, vehicle=veh, cycle=cyc, dt=dt)
 
 
-def _balance(veh: Vehicle, t, vt, dt, soc0: float, iters: list) -> float:
+def _balance(veh: Vehicle, t, vt, dt, soc0: float, iters: list,
+             cold_start: bool = False) -> float:
     """Secant iteration on the initial SOC so that SOC_end - SOC_start -> 0."""
     lo, hi = veh.battery.soc_min + 0.02, veh.battery.soc_max - 0.02
     xa = soc0
-    fa = run_once(veh, t, vt, dt, xa, record=False)[1][SUMMARY.index("soc_final")] - xa
+    fa = run_once(veh, t, vt, dt, xa, False, cold_start)[1][SUMMARY.index("soc_final")] - xa
     iters.append((xa, fa))
     if abs(fa) <= _BALANCE_TOL_ITER:
         return xa
     xb = min(max(xa + fa, lo), hi)
     best = (abs(fa), xa)
     for _ in range(12):
-        fb = run_once(veh, t, vt, dt, xb, record=False)[1][SUMMARY.index("soc_final")] - xb
+        fb = run_once(veh, t, vt, dt, xb, False, cold_start)[1][SUMMARY.index("soc_final")] - xb
         iters.append((xb, fb))
         best = min(best, (abs(fb), xb))
         if abs(fb) <= _BALANCE_TOL_ITER:
