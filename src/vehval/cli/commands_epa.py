@@ -1,4 +1,5 @@
-"""`vehval epa list|tests|validate|calibrate`: the EPA Test Car List, validation and calibration against it."""
+"""`vehval epa list|tests|validate|calibrate`: the EPA Test Car List, validation and
+calibration against it."""
 
 from __future__ import annotations
 

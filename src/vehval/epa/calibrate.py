@@ -69,8 +69,9 @@ class EpaCalibration:
 
     def provenance(self, name: str) -> str:
         values = ", ".join(f"{v:g}" for v in self.grid[name])
-        return (f"calibrated by vehval epa calibrate on {self.date} on the EPA Test Car List tests "
-                f"{', '.join(self.tests)} (grid {values}, then coordinate refinement; RMS "
+        return (f"calibrated by vehval epa calibrate on {self.date} on the EPA Test Car "
+                f"List tests {', '.join(self.tests)} (grid {values}, then coordinate "
+                f"refinement; RMS "
                 f"error of the judged figures {100 * self.start_rms:.1f} % -> "
                 f"{100 * self.best_rms:.1f} %, dt {self.dt:g} s)")
 
@@ -151,8 +152,8 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     with_cold = has_cold_start_model(base) or any(n in COLD_START_PARAMS for n in names)
     start_val = validate_tests(base, tests, dt=dt)
     if judged_errors(start_val, with_cold).size == 0:
-        raise ConfigError("the calibration tests have no judged (hot-start) figure: select "
-                          "FTP-75, HWFET or US06 tests")
+        raise ConfigError("the calibration tests have no judged figure: select FTP-75, "
+                          "HWFET or US06 tests")
     start_rms = _score(start_val, with_cold)[0]
     best = min(itertools.product(*grid.values()), key=score)
     steps = {n: float(min(np.diff(v)) if len(v) > 1 else abs(v[0]) * 0.1 or 1.0)
@@ -168,5 +169,6 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     rms, mx = score(best)
     return EpaCalibration(vehicle=base, grid=grid,
                           tests=[p.test.label for p in start_val.predictions],
-                          best={n: float(v) for n, v in zip(names, best)}, start_rms=start_rms, best_rms=rms,
-                          best_max=mx, evaluations=evals, dt=dt)
+                          best={n: float(v) for n, v in zip(names, best)},
+                          start_rms=start_rms, best_rms=rms, best_max=mx, evaluations=evals,
+                          dt=dt)
