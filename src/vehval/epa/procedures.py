@@ -82,8 +82,8 @@ _CODES = {2: "ftp75", 21: "ftp75", 31: "ftp75", 25: "ftp75", 35: "ftp75", 3: "hw
 UNRUNNABLE = {
     "sc03": "SC03 is run at 35 degC with the air conditioning on; the model has no climate "
             "or A/C load model",
-    "coldco": "cold CO FTP is run at -7 degC on cold-CO fuel; the model has no thermal "
-              "(warm-up) model",
+    "coldco": "cold CO FTP is run at -7 degC on cold-CO fuel; the model's cold start (if "
+              "any) is the FTP's at 20-30 degC, with no dependence on temperature",
     "cd_udds": "charge-depleting test of a plug-in hybrid; the model is charge-sustaining",
     "cd_hwfet": "charge-depleting test of a plug-in hybrid; the model is charge-sustaining",
 }

@@ -26,7 +26,8 @@ def table_rows(val: EpaValidation) -> list[dict]:
 def scatter_svg(val: EpaValidation, size: int = 420) -> str:
     """Predicted vs measured fuel economy [mpg] as an SVG scatter with the 1:1 and ±5 % lines.
 
-    Judged (hot-start) figures are filled circles, cold-start figures open circles.
+    Judged figures are filled circles, figures not judged (cold start without a cold-start
+    model) open circles.
     """
     pts = [(c.measured_mpg, c.predicted_mpg, c) for c in val.comparisons]
     if not pts:
@@ -98,7 +99,7 @@ td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}td:nth-child(-n+4
 tr.ok td{{background:#e8f6e8}}tr.bad td{{background:#fbe9e9}}</style></head><body>
 <h1>EPA certification tests: {html.escape(val.vehicle)}</h1>
 <p>{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped;
-{st['n_within_tolerance']} of {st['n_judged']} judged (hot-start) figures within
+{st['n_within_tolerance']} of {st['n_judged']} judged figures within
 {100 * TOLERANCE:.0f} % ({st['n_within_3pct']} within 3 %); mean error
 {100 * (st['mean_error'] or 0):+.1f} %, mean |error| {100 * (st['mean_abs_error'] or 0):.1f} %.
 Correlation of predicted and measured judged figures: r = {'-' if pooled is None
