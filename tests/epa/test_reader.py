@@ -98,7 +98,7 @@ def test_unrunnable_procedures_named(prius_list):
     proc, why = plan_for(tests["T5"])
     assert proc is None and "A/C" in why
     proc, why = plan_for(tests["T6"])
-    assert proc is None and "thermal" in why
+    assert proc is None and "temperature" in why
 
 
 def test_cli_list_and_tests(prius_list, capsys):
