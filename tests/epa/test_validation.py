@@ -105,3 +105,24 @@ def test_cli_validate(prius_list, tmp_path, capsys):
     assert main(["epa", "validate", str(prius_list), "--vehicle", "prius_2016", "--tests",
                  "model=PRIUSS"]) == 2
     assert "did you mean" in capsys.readouterr().err
+
+
+def test_conventional_vehicle(prius_list):
+    """A conventional car runs its own loop: no battery to balance, HWFET equal to a plain
+    simulation with the test's weight and road load, hot and cold UDDS identical (no cold
+    start in the conventional model), cold-start figures not judged."""
+    from vehval.sim.simulate import simulate
+
+    tests = [t for t in read_test_car_list(prius_list) if t.model == "PRIUS"]
+    val = validate_tests("cruze_diesel_2014", tests, dt=0.5)
+    assert val.stats()["n_tests_simulated"] == 4
+    by = {(c.test, c.item): c for c in val.comparisons}
+    hw = next(p for p in val.predictions if p.procedure == "hwfet" and p.test.test_number == "T1")
+    assert math.isnan(hw.soc_initial) and hw.soc_delta == 0.0 and hw.trace_n_miss == 0
+    veh = vehicle_for_test(load_vehicle("cruze_diesel_2014"), hw.test)
+    ref = simulate(veh, "hwfet", dt=0.5).summary["fuel_economy_mpg"]
+    assert by[("T1", "overall")].predicted_mpg == pytest.approx(ref, rel=1e-12)
+    assert by[("T3", "bag 1")].predicted_mpg == pytest.approx(by[("T3", "bag 3")].predicted_mpg,
+                                                              rel=1e-12)
+    assert not by[("T3", "bag 1")].judged and by[("T3", "bag 2")].judged
+    assert all(abs(p.energy_balance_rel) < 1e-6 for p in val.predictions)

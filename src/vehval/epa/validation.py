@@ -246,26 +246,44 @@ def _mpg(distance_m: float, fuel_kg: float, rho: float) -> float:
 
 def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
                  dt: float = 1.0) -> TestPrediction:
-    """Simulate one test: charge-balanced whole test, raw bags."""
+    """Simulate one test: charge-balanced whole test (hybrid), raw bags.
+
+    A conventional vehicle (``architecture: conventional``) runs its own loop; it has no
+    battery, so nothing is balanced (``soc_initial`` NaN, ``soc_delta`` 0)."""
     from vehval.sim.simulate import summarise
 
     veh = vehicle_for_test(vehicle, test)
     grids = _grids(veh, proc, dt)
-    soc0, runs = _balance(veh, grids, dt)
+    conventional = veh.architecture == "conventional"
+    if conventional:
+        from vehval.sim.conventional import run_conventional_once, summarise_conventional
+        from vehval.sim.conventional_kernel import CONV_SIGNALS
+
+        runs = [run_conventional_once(veh, g.t, g.vt, dt) for g in grids]
+        col = {n: i for i, n in enumerate(CONV_SIGNALS)}
+        soc0 = math.nan
+    else:
+        soc0, runs = _balance(veh, grids, dt)
+        col = S
     rho = veh.engine.fuel_density_kg_per_m3
-    ifuel, ispd = S["fuel_rate"], S["veh_spd"]
     bag_fuel, bag_dist = {}, {}
     for bag in proc.bags:
         out = runs[bag.run][0]
         t = grids[bag.run].t
-        bag_fuel[bag.number] = _window_sum(t, out[:, ifuel], bag.windows, dt)
-        bag_dist[bag.number] = _window_sum(t, out[:, ispd], bag.windows, dt)
+        bag_fuel[bag.number] = _window_sum(t, out[:, col["fuel_rate"]], bag.windows, dt)
+        bag_dist[bag.number] = _window_sum(t, out[:, col["veh_spd"]], bag.windows, dt)
     bags = {k: _mpg(bag_dist[k], bag_fuel[k], rho) for k in bag_fuel}
     # whole-test figures from the run summaries (fuel, battery energy, closure)
     ys = np.sum([r[1] for r in runs], axis=0)
-    ys[_I_SOC] = runs[-1][1][_I_SOC]
-    summ = summarise(veh, ys, soc0)
-    corr = summ["fuel_mass_soc_corrected_kg"] / max(summ["fuel_mass_kg"], 1e-12)
+    if conventional:
+        summ = summarise_conventional(veh, ys)
+        summ.update(soc_delta=0.0, engine_on_fraction=1.0,
+                    fuel_economy_soc_corrected_mpg=summ["fuel_economy_mpg"])
+        corr = 1.0
+    else:
+        ys[_I_SOC] = runs[-1][1][_I_SOC]
+        summ = summarise(veh, ys, soc0)
+        corr = summ["fuel_mass_soc_corrected_kg"] / max(summ["fuel_mass_kg"], 1e-12)
     if proc.composite == "ftp":
         hot_b = 4 if not math.isnan(test.bags[3]) else 2
         cold = (bag_dist[1] + bag_dist[2]) / (bag_fuel[1] + bag_fuel[2])
@@ -286,6 +304,8 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
 
 def has_cold_start_model(veh: Vehicle) -> bool:
     """Whether the vehicle models a cold start (warm-up fuel or an engine-on hold)."""
+    if veh.architecture != "power_split":  # the conventional loop has no cold start
+        return False
     return veh.engine.warmup_fuel_fraction > 0.0 or veh.controller.cold_start_engine_on_s > 0.0
 
 
