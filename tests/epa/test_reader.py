@@ -101,13 +101,18 @@ def test_unrunnable_procedures_named(prius_list):
     assert proc is None and "temperature" in why
 
 
+def _no_nan(token):
+    raise AssertionError(f"non-standard JSON constant {token}")
+
+
 def test_cli_list_and_tests(prius_list, capsys):
     assert main(["epa", "list", str(prius_list), "--make", "TOYOTA", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert {r["model"] for r in rows} == {"PRIUS", "PRIUS c", "CAMRY HYBRID LE"}
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS", "--json"]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    rows = json.loads(capsys.readouterr().out, parse_constant=_no_nan)
     assert len(rows) == 6 and rows[2]["bags"] == [50.7, 126.3, 62.7, 114.4]
+    assert rows[0]["bags"] == [None] * 4  # empty bag columns: null (strict JSON, no NaN)
     assert rows[0]["mass_kg"] == pytest.approx(1530.874, abs=1e-3)
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
     out = capsys.readouterr().out

@@ -89,12 +89,16 @@ def test_unrunnable_named_skipped_counted(prius_list):
     assert by[("bag 1", "ftp75")] > cold[0].predicted_mpg  # warm-up burns fuel in bag 1
 
 
+def _no_nan(token):
+    raise AssertionError(f"non-standard JSON constant {token}")
+
+
 def test_cli_validate(prius_list, tmp_path, capsys):
     out = tmp_path / "out"
     rc = main(["epa", "validate", str(prius_list), "--vehicle", "prius_2016", "--tests",
                "model=PRIUS,originator=EPA", "--json", "-o", str(out)])
     assert rc == 0
-    data = json.loads(capsys.readouterr().out)
+    data = json.loads(capsys.readouterr().out, parse_constant=_no_nan)  # strict JSON
     assert data["stats"]["n_tests_simulated"] == 3
     items = {(c["procedure"], c["item"]) for c in data["comparisons"]}
     assert ("us06", "bag 1") in items and ("ftp75", "bag 4") in items

@@ -3,12 +3,12 @@ calibration against it."""
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import typer
 
+from vehval import jsonsafe
 from vehval.cli.app import app
 
 epa_app = typer.Typer(help="EPA Test Car List: certification dyno results per test.",
@@ -41,7 +41,7 @@ def list_cmd(
 
     rows = vehicles(_load(paths, make, model, year))
     if as_json:
-        typer.echo(json.dumps([r.to_dict() for r in rows], indent=1))
+        typer.echo(jsonsafe.dumps(rows), nl=False)
         return
     typer.echo(f"{'year':>4}  {'make':12s} {'model':32s} {'tests':>5}  {'ETW [kg]':>16}  "
                "test vehicles")
@@ -68,8 +68,8 @@ def tests_cmd(
 
     tests = _load(paths, make, model, year)
     if as_json:
-        typer.echo(json.dumps([{**t.to_dict(), "procedure_key": procedure_key(t)}
-                               for t in tests], indent=1))
+        typer.echo(jsonsafe.dumps([{**t.to_dict(), "procedure_key": procedure_key(t)}
+                                   for t in tests]), nl=False)
         return
     typer.echo(f"{'test':14s} {'vehicle':9s} {'cfg':>3} {'orig':4s} {'proc':7s} "
                f"{'ETW kg':>7} {'N/V':>5} {'axle':>5} {'A N':>6} {'B N/(m/s)':>9} "
@@ -123,7 +123,7 @@ def validate_cmd(
 
         written = write_epa_report(val, outdir)
     if as_json:
-        typer.echo(json.dumps(val.to_dict(), indent=1))
+        typer.echo(jsonsafe.dumps(val), nl=False)
         return
     typer.echo(f"{'test':14s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
                f"{'err %':>6}  judged")
@@ -184,7 +184,7 @@ def calibrate_cmd(
     if output is not None:
         cal.write_vehicle(output)
     if as_json:
-        typer.echo(json.dumps(cal.to_dict(), indent=1))
+        typer.echo(jsonsafe.dumps(cal), nl=False)
         return
     start = cal.vehicle.parameters()
     for name, value in cal.best.items():

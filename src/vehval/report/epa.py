@@ -9,9 +9,9 @@ from __future__ import annotations
 import csv
 import html
 import io
-import json
 from pathlib import Path
 
+from vehval import jsonsafe
 from vehval.epa.validation import TOLERANCE, EpaValidation
 from vehval.report.safety import CSP_META
 
@@ -123,7 +123,7 @@ def write_epa_report(val: EpaValidation, outdir: str | Path) -> list[str]:
         w.writerows(rows)
     with atomic_dir(Path(outdir)) as stage:
         (stage / "report.html").write_text(render_html(val), encoding="utf-8")
-        (stage / "epa_validation.json").write_text(json.dumps(val.to_dict(), indent=1),
+        (stage / "epa_validation.json").write_text(jsonsafe.dumps(val),
                                                    encoding="utf-8")
         (stage / "epa_validation.csv").write_text(buf.getvalue(), encoding="utf-8")
     return ["report.html", "epa_validation.json", "epa_validation.csv"]
