@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -385,7 +386,8 @@ def _calibrate(veh: dict, epa_dir: Path, selector: str, grid: dict, kept: str) -
     from vehval.vehicle import Vehicle
 
     tests = apply_selector(read_test_car_list(epa_dir / "16tstcar.csv"), selector)
-    cal = calibrate_on_tests(Vehicle.model_validate(veh), tests, grid)
+    cal = calibrate_on_tests(Vehicle.model_validate(veh), tests, grid,
+                             workers=min(os.cpu_count() or 1, 8))
     for name, value in cal.best.items():
         blk, key = name.split(".", 1)
         veh[blk][key] = round(value, 4)

@@ -53,6 +53,15 @@ def test_recovers_the_value_that_made_the_results(virtual):
     assert errs.size == 4 and abs(errs).max() < 1e-9  # HWFET, US06 whole and both parts
 
 
+def test_parallel_workers_give_the_same_result(virtual):
+    base, tests = virtual
+    grid = {PARAM: [9000.0, 12000.0]}
+    one = calibrate_on_tests(base, tests[:1], grid, refine_rounds=1)
+    two = calibrate_on_tests(base, tests[:1], grid, refine_rounds=1, workers=2)
+    assert one.best == two.best and one.best_rms == two.best_rms
+    assert one.evaluations == two.evaluations and len(one.evaluations) == 4
+
+
 def test_written_vehicle_carries_the_value_and_its_provenance(virtual, tmp_path):
     base, tests = virtual
     cal = calibrate_on_tests(base, tests, {"engine_min_power_w": [TRUTH]}, refine_rounds=0)
@@ -78,7 +87,8 @@ def test_cli(prius_list, tmp_path, capsys):
     out = tmp_path / "v.yaml"
     rc = main(["epa", "calibrate", str(prius_list), "--vehicle", "prius_2016", "--tests",
                "model=PRIUS,originator=EPA,procedure=hwfet", "--param",
-               "engine_min_power_w=9000,11000", "--refine", "0", "--json", "-o", str(out)])
+               "engine_min_power_w=9000,11000", "--refine", "0", "--workers", "1", "--json",
+               "-o", str(out)])
     assert rc == 0
     data = json.loads(capsys.readouterr().out)
     assert set(data) >= {"vehicle", "tests", "grid", "best", "start", "start_rms_error",

@@ -4,6 +4,7 @@ calibration against it."""
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 
 import typer
@@ -171,6 +172,9 @@ def calibrate_cmd(
     refine: int = typer.Option(2, "--refine", min=0, max=6, help="Rounds of coordinate "
                                "refinement after the grid."),
     dt: float = typer.Option(0.2, "--dt", help="Simulation step [s]."),
+    workers: int = typer.Option(0, "--workers", min=0, max=64, help="Processes evaluating "
+                                "settings in parallel (0: one per CPU, at most 8; the result "
+                                "does not depend on it)."),
     as_json: bool = typer.Option(False, "--json", help="Print the calibration JSON."),
     output: Path | None = typer.Option(None, "-o", "--output", help="Write the calibrated "
                                        "vehicle YAML here (values carry their provenance)."),
@@ -180,7 +184,8 @@ def calibrate_cmd(
 
     grid = dict(_parse_param(p) for p in param)
     cal = calibrate_on_tests(vehicle, _selected(paths, tests, dt), grid, dt=dt,
-                             refine_rounds=refine)
+                             refine_rounds=refine,
+                             workers=workers or min(os.cpu_count() or 1, 8))
     if output is not None:
         cal.write_vehicle(output)
     if as_json:

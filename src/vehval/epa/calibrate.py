@@ -111,9 +111,19 @@ def _check_grid(veh: Vehicle, grid: dict[str, list[float]]) -> dict[str, list[fl
     return out
 
 
+def _evaluate(args) -> tuple[float, float]:
+    """Score of one setting (module level so worker processes can run it)."""
+    base, names, values, tests, dt, with_cold = args
+    try:
+        veh = base.with_overrides(dict(zip(names, values)))
+    except ConfigError:  # value outside the parameter's own constraints
+        return math.inf, math.inf
+    return _score(validate_tests(veh, tests, dt=dt), with_cold)
+
+
 def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
                        grid: dict[str, list[float]], dt: float = 0.2,
-                       refine_rounds: int = 2) -> EpaCalibration:
+                       refine_rounds: int = 2, workers: int = 1) -> EpaCalibration:
     """Grid search, then coordinate refinement, of ``grid``'s parameters on ``tests``.
 
     Parameters
@@ -128,44 +138,65 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         Simulation step [s].
     refine_rounds : int
         Rounds of coordinate refinement after the grid (0: grid only).
+    workers : int
+        Processes evaluating settings in parallel (1: in this process). The result does not
+        depend on it.
     """
     base = load_vehicle(vehicle)
     grid = _check_grid(base, grid)
     names = list(grid)
     cache: dict[tuple[float, ...], tuple[float, float]] = {}
     evals: list[dict[str, Any]] = []
-
-    def score(values: tuple[float, ...]) -> tuple[float, float]:
-        key = tuple(round(v, 9) for v in values)
-        if key not in cache:
-            try:
-                veh = base.with_overrides(dict(zip(names, values)))
-            except ConfigError:  # value outside the parameter's own constraints
-                cache[key] = (math.inf, math.inf)
-            else:
-                cache[key] = _score(validate_tests(veh, tests, dt=dt), with_cold)
-            evals.append({"values": {n: float(v) for n, v in zip(names, values)},
-                          "rms_error": cache[key][0],
-                          "max_abs_error": cache[key][1]})
-        return cache[key]
-
     with_cold = has_cold_start_model(base) or any(n in COLD_START_PARAMS for n in names)
     start_val = validate_tests(base, tests, dt=dt)
     if judged_errors(start_val, with_cold).size == 0:
         raise ConfigError("the calibration tests have no judged figure: select FTP-75, "
                           "HWFET or US06 tests")
     start_rms = _score(start_val, with_cold)[0]
-    best = min(itertools.product(*grid.values()), key=score)
-    steps = {n: float(min(np.diff(v)) if len(v) > 1 else abs(v[0]) * 0.1 or 1.0)
-             for n, v in grid.items()}
-    for _ in range(refine_rounds):
-        for i, n in enumerate(names):
-            steps[n] /= 2.0
-            for sign in (-1.0, 1.0):
-                cand = list(best)
-                cand[i] = best[i] + sign * steps[n]
-                if score(tuple(cand)) < score(best):
-                    best = tuple(cand)
+    pool = None
+    if workers > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        pool = ProcessPoolExecutor(max_workers=workers,
+                                   mp_context=multiprocessing.get_context("spawn"))
+
+    def key(values) -> tuple[float, ...]:
+        return tuple(round(float(v), 9) for v in values)
+
+    def score_all(settings: list[tuple[float, ...]]) -> None:
+        todo = list(dict.fromkeys(key(v) for v in settings if key(v) not in cache))
+        jobs = [(base, names, v, tests, dt, with_cold) for v in todo]
+        scores = pool.map(_evaluate, jobs) if pool is not None else map(_evaluate, jobs)
+        for v, sc in zip(todo, scores):
+            cache[v] = sc
+            evals.append({"values": dict(zip(names, v)), "rms_error": sc[0],
+                          "max_abs_error": sc[1]})
+
+    def score(values) -> tuple[float, float]:
+        return cache[key(values)]
+
+    try:
+        combos = list(itertools.product(*grid.values()))
+        score_all(combos)
+        best = min(combos, key=score)
+        steps = {n: float(min(np.diff(v)) if len(v) > 1 else abs(v[0]) * 0.1 or 1.0)
+                 for n, v in grid.items()}
+        for _ in range(refine_rounds):
+            for i, n in enumerate(names):
+                steps[n] /= 2.0
+                cands = []
+                for sign in (-1.0, 1.0):
+                    cand = list(best)
+                    cand[i] = best[i] + sign * steps[n]
+                    cands.append(tuple(cand))
+                score_all(cands)
+                for cand in cands:  # minus first, then plus against the updated best
+                    if score(cand) < score(best):
+                        best = cand
+    finally:
+        if pool is not None:
+            pool.shutdown()
     rms, mx = score(best)
     return EpaCalibration(vehicle=base, grid=grid,
                           tests=[p.test.label for p in start_val.predictions],
