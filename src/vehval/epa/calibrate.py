@@ -140,7 +140,8 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         Rounds of coordinate refinement after the grid (0: grid only).
     workers : int
         Processes evaluating settings in parallel (1: in this process). The result does not
-        depend on it.
+        depend on it. Workers are spawned: a script calling this with ``workers > 1`` needs
+        the ``if __name__ == "__main__":`` guard.
     """
     base = load_vehicle(vehicle)
     grid = _check_grid(base, grid)
