@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 from pathlib import Path
 
@@ -357,7 +356,7 @@ def build(source: Path) -> dict:
     drv = dict(base["driver"])
     drv["sources"] = dict(base["driver"]["sources"])
     veh["driver"] = drv
-    _calibrate_controller(veh, epa_dir)
+    _calibrate_unpublished(veh, epa_dir)
     return veh
 
 
@@ -386,8 +385,7 @@ def _calibrate(veh: dict, epa_dir: Path, selector: str, grid: dict, kept: str) -
     from vehval.vehicle import Vehicle
 
     tests = apply_selector(read_test_car_list(epa_dir / "16tstcar.csv"), selector)
-    cal = calibrate_on_tests(Vehicle.model_validate(veh), tests, grid,
-                             workers=min(os.cpu_count() or 1, 8))
+    cal = calibrate_on_tests(Vehicle.model_validate(veh), tests, grid, workers=0)
     for name, value in cal.best.items():
         blk, key = name.split(".", 1)
         veh[blk][key] = round(value, 4)
@@ -400,7 +398,7 @@ def _calibrate(veh: dict, epa_dir: Path, selector: str, grid: dict, kept: str) -
           f"RMS {100 * cal.start_rms:.1f} % -> {100 * cal.best_rms:.1f} %")
 
 
-def _calibrate_controller(veh: dict, epa_dir: Path) -> None:
+def _calibrate_unpublished(veh: dict, epa_dir: Path) -> None:
     """The controller's unpublished values, then the cold-start model, on MFR tests."""
     _calibrate(veh, epa_dir, CALIBRATION_TESTS, CONTROLLER_GRID,
                "; the 2004 controller's other values kept")

@@ -4,7 +4,6 @@ calibration against it."""
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import typer
@@ -184,8 +183,7 @@ def calibrate_cmd(
 
     grid = dict(_parse_param(p) for p in param)
     cal = calibrate_on_tests(vehicle, _selected(paths, tests, dt), grid, dt=dt,
-                             refine_rounds=refine,
-                             workers=workers or min(os.cpu_count() or 1, 8))
+                             refine_rounds=refine, workers=workers)
     if output is not None:
         cal.write_vehicle(output)
     if as_json:

@@ -20,6 +20,7 @@ import datetime as _dt
 import difflib
 import itertools
 import math
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,15 +28,15 @@ from typing import Any
 import numpy as np
 
 from vehval.epa.reader import EpaTest
-from vehval.epa.validation import EpaValidation, has_cold_start_model, validate_tests
+from vehval.epa.validation import (
+    COLD_START_PARAMS,
+    EpaValidation,
+    has_cold_start_model,
+    validate_tests,
+)
 from vehval.errors import ConfigError
 from vehval.validate.calibration import vehicle_with_values, write_vehicle_yaml
 from vehval.vehicle import Vehicle, load_vehicle
-
-#: parameters of the cold-start model: calibrating one of them puts the cold-start figures
-#: (FTP bag 1 and composite) in the objective at every grid point
-COLD_START_PARAMS = ("engine.warmup_fuel_fraction", "engine.warmup_time_constant_s",
-                     "controller.cold_start_engine_on_s")
 
 
 def judged_errors(val: EpaValidation, with_cold: bool = False) -> np.ndarray:
@@ -139,8 +140,8 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     refine_rounds : int
         Rounds of coordinate refinement after the grid (0: grid only).
     workers : int
-        Processes evaluating settings in parallel (1: in this process). The result does not
-        depend on it. Workers are spawned: a script calling this with ``workers > 1`` needs
+        Processes evaluating settings in parallel (1: in this process; 0: one per CPU, at
+        most 8). The result does not depend on it. Workers are spawned: a script calling this with ``workers > 1`` needs
         the ``if __name__ == "__main__":`` guard.
     """
     base = load_vehicle(vehicle)
@@ -148,12 +149,15 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     names = list(grid)
     cache: dict[tuple[float, ...], tuple[float, float]] = {}
     evals: list[dict[str, Any]] = []
+    # calibrating a cold-start parameter scores the cold-start figures at every setting
     with_cold = has_cold_start_model(base) or any(n in COLD_START_PARAMS for n in names)
     start_val = validate_tests(base, tests, dt=dt)
     if judged_errors(start_val, with_cold).size == 0:
         raise ConfigError("the calibration tests have no judged figure: select FTP-75, "
                           "HWFET or US06 tests")
     start_rms = _score(start_val, with_cold)[0]
+    if workers <= 0:
+        workers = min(os.cpu_count() or 1, 8)
     pool = None
     if workers > 1:
         import multiprocessing

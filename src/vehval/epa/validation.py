@@ -302,6 +302,11 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
         engine_on_fraction=float(summ["engine_on_fraction"]))
 
 
+#: parameters of the power-split cold-start model (FTP-75 first run, ``simulate --cold-start``)
+COLD_START_PARAMS = ("engine.warmup_fuel_fraction", "engine.warmup_time_constant_s",
+                     "controller.cold_start_engine_on_s")
+
+
 def has_cold_start_model(veh: Vehicle) -> bool:
     """Whether the vehicle models a cold start (warm-up fuel or an engine-on hold)."""
     if veh.architecture != "power_split":  # the conventional loop has no cold start
