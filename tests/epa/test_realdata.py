@@ -92,9 +92,16 @@ def test_prius_2016_against_its_epa_run_tests():
     err = sorted(abs(c.error) for c in acc)
     assert len(err) == 12
     assert err[-2] <= 0.05 and err[-1] <= 0.09
-    # the cold start (model calibrated on the MFR FTPs): bag 1 and composite within 5 %
+    # the cold start (model calibrated on the MFR FTPs): bag 1, cold UDDS and composite
     cold = [c for c in val.comparisons if c.originator == "EPA" and c.cold_start]
-    assert len(cold) == 4 and all(c.judged and abs(c.error) <= 0.05 for c in cold)
+    assert len(cold) == 6 and all(c.judged and abs(c.error) <= 0.05 for c in cold)
+    # the miss is a raw bag fed by the battery (J1711 balances each UDDS, not each bag):
+    # both UDDS pairs of the EPA-run FTPs within 3 %
+    pairs = [c for c in val.comparisons if c.originator == "EPA" and c.item.startswith("bags")]
+    assert len(pairs) == 4 and all(abs(c.error) <= 0.03 for c in pairs)
+    bag2 = [c for c in val.comparisons if (c.procedure, c.item) == ("ftp75", "bag 2")]
+    assert all(c.battery_share > 0.05 for c in bag2)
+    assert all(abs(c.battery_share) < 0.01 for c in pairs)
     assert val.stats()["spread_correlation"]["pooled"] >= 0.95
     assert all(p.trace_n_miss == 0 and abs(p.energy_balance_rel) < 1e-9
                for p in val.predictions)

@@ -66,6 +66,47 @@ def test_ftp_composite_weights(prius_list, prius_2016):
     assert p.overall_mpg == pytest.approx(composite, rel=0.02)  # simulated vs target distance
 
 
+def test_bag_battery_energy_matches_the_kernel(prius_2016):
+    """Battery chemical energy integrated from the recorded signals equals the kernel's own
+    account of OCV x current (to 1e-4 of the fuel energy)."""
+    from vehval.epa import validation as v
+    from vehval.sim.layout import SUMMARY
+
+    grids = v._grids(prius_2016, FTP75, 1.0)
+    for g, (out, ys) in zip(grids, v._run_plan(prius_2016, grids, 1.0, 0.6)):
+        e = v._window_sum(g.t, v._chemical_power(prius_2016, out), ((0.0, None),), 1.0)
+        ref = ys[SUMMARY.index("ess_chem_energy_j")]
+        assert abs(e - ref) < 1e-4 * ys[SUMMARY.index("fuel_energy_j")]
+        assert abs(ref) > 1e4  # the battery does work in the run
+
+
+def test_udds_pairs_and_battery_share(prius_list, prius_2016):
+    """Cold and hot UDDS are the bag pairs combined by distance (hand check); the battery
+    share of a figure is its battery energy over its fuel energy, about 0 for the balanced
+    whole test and equal and opposite to the neighbour bag's within one UDDS pair."""
+    t = next(t for t in read_test_car_list(prius_list) if t.test_number == "T3")
+    val = validate_tests(prius_2016, [t], dt=1.0)
+    p = val.predictions[0]
+    by = {c.item: c for c in val.comparisons}
+    d, b = p.bag_distance_m, p.bags_mpg
+    for item, (i, j) in (("bags 1+2", (1, 2)), ("bags 3+4", (3, 4))):
+        c = by[item]
+        assert c.predicted_mpg == pytest.approx((d[i] + d[j]) / (d[i] / b[i] + d[j] / b[j]))
+        m = t.bags
+        assert c.measured_mpg == pytest.approx((d[i] + d[j]) / (d[i] / m[i - 1] + d[j] / m[j - 1]))
+        share = (p.bag_battery_j[i] + p.bag_battery_j[j]) / (p.bag_fuel_j[i] + p.bag_fuel_j[j])
+        assert c.battery_share == pytest.approx(share)
+    assert by["bags 1+2"].cold_start and by["bags 1+2"].judged  # the packaged cold model
+    assert not by["bags 3+4"].cold_start
+    for k in (1, 2):
+        assert by[f"bag {k}"].battery_share == pytest.approx(p.bag_battery_j[k] / p.bag_fuel_j[k])
+    total = sum(p.bag_battery_j.values()) / sum(p.bag_fuel_j.values())
+    assert by["overall"].battery_share == pytest.approx(total)
+    assert abs(total) < 0.01  # J1711: net energy change within 1 % of the fuel energy
+    fuel = sum(p.bag_fuel_j.values()) / prius_2016.engine.fuel_lhv_j_per_kg
+    assert fuel == pytest.approx(p.fuel_kg, rel=1e-9)
+
+
 def test_unrunnable_named_skipped_counted(prius_list):
     tests = read_test_car_list(prius_list)
     prius = [t for t in tests if t.model == "PRIUS"]
@@ -83,7 +124,7 @@ def test_unrunnable_named_skipped_counted(prius_list):
         "engine.warmup_fuel_fraction": 0.0, "controller.cold_start_engine_on_s": 0.0})
     val0 = validate_tests(hot, prius, dt=1.0)
     cold0 = [c for c in val0.comparisons if c.cold_start]
-    assert {c.item for c in cold0} == {"bag 1", "overall"}
+    assert {c.item for c in cold0} == {"bag 1", "bags 1+2", "overall"}
     assert not any(c.judged for c in cold0)
     by = {(c.item, c.procedure): c.predicted_mpg for c in val0.comparisons}
     assert by[("bag 1", "ftp75")] > cold[0].predicted_mpg  # warm-up burns fuel in bag 1

@@ -115,6 +115,7 @@ def validate_cmd(
 ) -> None:
     """Simulate each selected EPA test with its own weight and road load; compare per bag."""
     from vehval.epa.validation import validate_tests
+    from vehval.report.epa import share_text
 
     val = validate_tests(vehicle, _selected(paths, tests, dt), dt=dt)
     written = []
@@ -126,11 +127,12 @@ def validate_cmd(
         typer.echo(jsonsafe.dumps(val), nl=False)
         return
     typer.echo(f"{'test':14s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
-               f"{'err %':>6}  judged")
+               f"{'err %':>6} {'batt %':>6}  judged")
     for c in val.comparisons:
+        batt = share_text(c.battery_share)
         typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
-                   f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f}  "
-                   f"{'yes' if c.judged else 'no (cold start)'}")
+                   f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f} "
+                   f"{batt:>6}  {'yes' if c.judged else 'no (cold start)'}")
     st = val.stats()
     for s in val.skipped:
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
@@ -139,6 +141,8 @@ def validate_cmd(
                f"{st['n_within_tolerance']}/{st['n_judged']} judged figures within "
                f"{100 * st['tolerance']:.0f} %; mean error {100 * (st['mean_error'] or 0):+.1f} %"
                f"; r = {'-' if r is None else f'{r:.3f}'}")
+    typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
+               "(J1711 balances the whole test and each UDDS, not each bag)")
     if written:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
 

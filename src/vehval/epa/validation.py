@@ -60,6 +60,7 @@ class Comparison:
     judged: bool  # judged against the tolerance (hot start, or cold start with a model)
     note: str = ""
     cold_start: bool = False  # the figure contains a cold start
+    battery_share: float | None = None  # model: battery chemical / fuel energy [-]
 
     @property
     def error(self) -> float:
@@ -74,7 +75,9 @@ class Comparison:
                 "measured_mpg": round(self.measured_mpg, 3),
                 "error": round(self.error, 5), "judged": self.judged,
                 "within_tolerance": abs(self.error) <= TOLERANCE, "note": self.note,
-                "cold_start": self.cold_start}
+                "cold_start": self.cold_start,
+                "battery_share": (None if self.battery_share is None
+                                  else round(self.battery_share, 5))}
 
 
 @dataclass
@@ -86,6 +89,8 @@ class TestPrediction:
     overall_mpg: float
     bags_mpg: dict[int, float]
     bag_distance_m: dict[int, float]
+    bag_fuel_j: dict[int, float]  # fuel energy burnt in the bag [J]
+    bag_battery_j: dict[int, float]  # battery chemical energy spent in the bag [J] (> 0 out)
     soc_initial: float
     soc_delta: float
     trace_n_miss: int
@@ -231,6 +236,12 @@ def _balance(veh: Vehicle, grids, dt: float):
     return best[1], best[2]
 
 
+def _chemical_power(veh: Vehicle, out: np.ndarray) -> np.ndarray:
+    """Battery chemical power OCV(SOC) x current [W] of recorded signals (> 0 discharging)."""
+    b = veh.battery
+    return np.interp(out[:, S["ess_soc"]], b.soc, b.ocv_v) * out[:, S["ess_curr"]]
+
+
 def _window_sum(t: np.ndarray, y: np.ndarray, windows, dt: float) -> float:
     total = 0.0
     for a, b in windows:
@@ -266,12 +277,14 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
         soc0, runs = _balance(veh, grids, dt)
         col = S
     rho = veh.engine.fuel_density_kg_per_m3
-    bag_fuel, bag_dist = {}, {}
+    bag_fuel, bag_dist, bag_batt = {}, {}, {}
     for bag in proc.bags:
         out = runs[bag.run][0]
         t = grids[bag.run].t
         bag_fuel[bag.number] = _window_sum(t, out[:, col["fuel_rate"]], bag.windows, dt)
         bag_dist[bag.number] = _window_sum(t, out[:, col["veh_spd"]], bag.windows, dt)
+        bag_batt[bag.number] = 0.0 if conventional else _window_sum(
+            t, _chemical_power(veh, out), bag.windows, dt)
     bags = {k: _mpg(bag_dist[k], bag_fuel[k], rho) for k in bag_fuel}
     # whole-test figures from the run summaries (fuel, battery energy, closure)
     ys = np.sum([r[1] for r in runs], axis=0)
@@ -295,6 +308,8 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
     return TestPrediction(
         test=test, procedure=proc.key, overall_mpg=float(overall), bags_mpg=bags,
         bag_distance_m=bag_dist,
+        bag_fuel_j={k: f * veh.engine.fuel_lhv_j_per_kg for k, f in bag_fuel.items()},
+        bag_battery_j=bag_batt,
         soc_initial=float(soc0), soc_delta=float(summ["soc_delta"]),
         trace_n_miss=int(summ["trace_n_miss"]),
         energy_balance_rel=float(summ["energy_balance_rel"]),
@@ -314,6 +329,23 @@ def has_cold_start_model(veh: Vehicle) -> bool:
     return veh.engine.warmup_fuel_fraction > 0.0 or veh.controller.cold_start_engine_on_s > 0.0
 
 
+def _battery_share(pred: TestPrediction, bags) -> float | None:
+    """Battery chemical energy / fuel energy of the model over some bags [-] (J1711's
+    net-energy-change ratio; None for a vehicle without a battery)."""
+    if math.isnan(pred.soc_initial):
+        return None
+    fuel = sum(pred.bag_fuel_j[k] for k in bags)
+    return sum(pred.bag_battery_j[k] for k in bags) / fuel if fuel > 0 else None
+
+
+def _pair(pred: TestPrediction, t: EpaTest, first: int, second: int) -> tuple[float, float]:
+    """Predicted and measured mpg of two bags combined by distance (one UDDS)."""
+    d1, d2 = pred.bag_distance_m[first], pred.bag_distance_m[second]
+    meas = (d1 + d2) / (d1 / t.bags[first - 1] + d2 / t.bags[second - 1])
+    pred_mpg = (d1 + d2) / (d1 / pred.bags_mpg[first] + d2 / pred.bags_mpg[second])
+    return pred_mpg, meas
+
+
 def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Comparison]:
     """Figures of one test; cold-start figures are judged only with a cold-start model."""
     t = pred.test
@@ -327,7 +359,8 @@ def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Co
         rows.append(Comparison(**base, item="overall", name=f"{proc.name} (J1711 balanced)",
                                predicted_mpg=pred.overall_mpg, measured_mpg=t.fe,
                                judged=cold_model or not cold_in_overall, note=note,
-                               cold_start=cold_in_overall))
+                               cold_start=cold_in_overall,
+                               battery_share=_battery_share(pred, pred.bag_fuel_j)))
     if len(proc.bags) > 1:
         for bag in proc.bags:
             meas = t.bags[bag.number - 1]
@@ -340,17 +373,23 @@ def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Co
                 note=("cold start (warm-up model)" if cold_model else
                       "cold start (no thermal model): gap reported, not judged")
                 if bag.cold_start else "raw bag, not individually charge balanced",
-                cold_start=bag.cold_start))
-    if proc.composite == "ftp" and not any(math.isnan(t.bags[k]) for k in (2, 3)):
-        # hot UDDS (bags 3 + 4): the hot start's two phases together, where the charge one
-        # phase stores and the next spends cancels out (bags are not balanced one by one)
-        d3, d4 = pred.bag_distance_m[3], pred.bag_distance_m[4]
-        meas = (d3 + d4) / (d3 / t.bags[2] + d4 / t.bags[3])
-        p3, p4 = pred.bags_mpg[3], pred.bags_mpg[4]
+                cold_start=bag.cold_start,
+                battery_share=_battery_share(pred, (bag.number,))))
+    if proc.composite == "ftp" and not any(math.isnan(x) for x in t.bags[:4]):
+        # one UDDS each (cold: bags 1 + 2, hot: bags 3 + 4): the charge one phase stores
+        # and the next spends cancels out; SAE J1711 checks the charge balance per UDDS
+        p12, m12 = _pair(pred, t, 1, 2)
+        rows.append(Comparison(**base, item="bags 1+2", name="cold UDDS (bags 1 + 2)",
+                               predicted_mpg=p12, measured_mpg=m12, judged=cold_model,
+                               note=("cold start (warm-up model), the two phases combined "
+                                     "by distance" if cold_model else
+                                     "cold start (no thermal model): gap reported, not judged"),
+                               cold_start=True, battery_share=_battery_share(pred, (1, 2))))
+        p34, m34 = _pair(pred, t, 3, 4)
         rows.append(Comparison(**base, item="bags 3+4", name="hot UDDS (bags 3 + 4)",
-                               predicted_mpg=(d3 + d4) / (d3 / p3 + d4 / p4),
-                               measured_mpg=meas, judged=True,
-                               note="hot start, the two phases combined by distance"))
+                               predicted_mpg=p34, measured_mpg=m34, judged=True,
+                               note="hot start, the two phases combined by distance",
+                               battery_share=_battery_share(pred, (3, 4))))
     return rows
 
 

@@ -76,6 +76,11 @@ def scatter_svg(val: EpaValidation, size: int = 420) -> str:
     return "".join(out)
 
 
+def share_text(x: float | None) -> str:
+    """A battery share [-] as signed percent with one decimal ("-" without a battery)."""
+    return "-" if x is None else f"{round(100 * x, 1) + 0.0:+.1f}"  # + 0.0: no "-0.0"
+
+
 def render_html(val: EpaValidation) -> str:
     """The whole report page."""
     st = val.stats()
@@ -87,7 +92,8 @@ def render_html(val: EpaValidation) -> str:
         rows.append(f"<tr{cls}><td>{html.escape(c.test)}</td><td>{c.originator}</td>"
                     f"<td>{c.procedure}</td><td>{html.escape(c.item)}</td>"
                     f"<td>{c.predicted_mpg:.1f}</td><td>{c.measured_mpg:.1f}</td>"
-                    f"<td>{100 * c.error:+.1f}</td><td>{'yes' if c.judged else 'no'}</td>"
+                    f"<td>{100 * c.error:+.1f}</td><td>{share_text(c.battery_share)}</td>"
+                    f"<td>{'yes' if c.judged else 'no'}</td>"
                     f"<td>{html.escape(c.note)}</td></tr>")
     skipped = "".join(f"<li>{html.escape(s['test'])} ({html.escape(s['description'])}): "
                       f"{html.escape(s['reason'])}</li>" for s in val.skipped)
@@ -106,7 +112,13 @@ Correlation of predicted and measured judged figures: r = {'-' if pooled is None
                                                            else f'{pooled:.3f}'}.</p>
 {scatter_svg(val)}
 <table><tr><th>test</th><th>by</th><th>procedure</th><th>figure</th><th>predicted mpg</th>
-<th>measured mpg</th><th>error %</th><th>judged</th><th>note</th></tr>{''.join(rows)}</table>
+<th>measured mpg</th><th>error %</th><th>battery %</th><th>judged</th><th>note</th></tr>
+{''.join(rows)}</table>
+<p>battery %: in the model, the battery's chemical energy spent in the figure over the fuel
+energy burnt in it (&gt; 0: the battery helped). SAE J1711 holds the whole test, and each
+UDDS of an FTP-75 (bags 1 + 2, bags 3 + 4), to a net energy change within 1 % of the fuel
+energy; a single bag is not balanced, so a bag with a large share depends on the charge the
+bag before it left, which the lab does not report.</p>
 <h2>Skipped tests</h2><ul>{skipped or '<li>none</li>'}</ul>
 </body></html>"""
 
