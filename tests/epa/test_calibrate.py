@@ -81,6 +81,15 @@ def test_bad_parameters_refused(virtual):
         calibrate_on_tests(base, tests, {"soc_gain_w": [float("nan")]})
     with pytest.raises(ConfigError, match="at least one"):
         calibrate_on_tests(base, tests, {})
+    # a value outside the parameter's own constraint is named before anything runs
+    with pytest.raises(ConfigError, match="soc_gain_w' = -5 is not a valid value: .*equal to 0"):
+        calibrate_on_tests(base, tests, {"soc_gain_w": [1000.0, -5.0]})
+    # each value valid alone, no valid combination: refused, not a "best" with infinite error
+    on = base.controller.engine_on_power_w
+    with pytest.raises(ConfigError, match="no setting of the grid gives finite figures"):
+        calibrate_on_tests(base, tests[:1], {"engine_on_power_w": [on - 1000.0],
+                                             "engine_off_power_w": [on - 500.0]},
+                           refine_rounds=0)
 
 
 def test_cli(prius_list, tmp_path, capsys):

@@ -108,6 +108,12 @@ def _check_grid(veh: Vehicle, grid: dict[str, list[float]]) -> dict[str, list[fl
         vals = sorted({float(v) for v in values})
         if not vals or not all(math.isfinite(v) for v in vals):
             raise ConfigError(f"parameter '{name}': give finite values")
+        for v in vals:  # each value within the parameter's own constraints
+            try:
+                veh.with_overrides({full: v})
+            except ConfigError as exc:
+                raise ConfigError(f"parameter '{name}' = {v:g} is not a valid value: "
+                                  f"{str(exc).rpartition(': ')[2]}") from None
         out[full] = vals
     return out
 
@@ -203,6 +209,10 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         if pool is not None:
             pool.shutdown()
     rms, mx = score(best)
+    if not math.isfinite(rms):
+        raise ConfigError("no setting of the grid gives finite figures on these tests (a run "
+                          "failed or a parameter combination is invalid); widen or move the "
+                          "grid")
     return EpaCalibration(vehicle=base, grid=grid,
                           tests=[p.test.label for p in start_val.predictions],
                           best={n: float(v) for n, v in zip(names, best)},
