@@ -171,3 +171,15 @@ def test_conventional_vehicle(prius_list):
                                                               rel=1e-12)
     assert not by[("T3", "bag 1")].judged and by[("T3", "bag 2")].judged
     assert all(abs(p.energy_balance_rel) < 1e-6 for p in val.predictions)
+    assert all(c.battery_share is None for c in val.comparisons)  # no battery
+    # with a warm-up model the FTP's first run starts cold and its figures are judged
+    warm = load_vehicle("cruze_diesel_2014").with_overrides({
+        "engine.warmup_fuel_fraction": 0.25, "engine.warmup_time_constant_s": 600.0})
+    val_w = validate_tests(warm, [t for t in tests if t.test_number == "T3"], dt=0.5)
+    byw = {c.item: c for c in val_w.comparisons}
+    assert byw["bag 1"].judged and byw["bags 1+2"].judged and byw["overall"].judged
+    assert byw["bag 3"].predicted_mpg == pytest.approx(by[("T3", "bag 3")].predicted_mpg,
+                                                       rel=1e-12)  # the hot run unchanged
+    # bag 1 burns x (1 + 0.25 e^(-t/600)) over its 505 s: 15-25 % more fuel than bag 3
+    ratio = byw["bag 3"].predicted_mpg / byw["bag 1"].predicted_mpg
+    assert 1.15 < ratio < 1.25

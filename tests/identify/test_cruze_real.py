@@ -98,3 +98,31 @@ def test_driveline_drag_is_the_stated_share_of_the_dyno_losses(identified):
     assert d.dyno_loss_a_n == pytest.approx(100.69 - rl.values["road_load_a_n"])
     assert d.force_n == pytest.approx(0.5 * d.dyno_loss_a_n)
     assert identified.vehicle.gearbox.drag_force_n == pytest.approx(d.force_n)
+
+
+def test_warmup_from_the_cold_and_hot_udds():
+    """The 23 °C cold UDDS against the hot one: +23.5 % fuel at the start, fading with a
+    589 s time constant (R² 0.996); the -7 °C cold start fades with the same time constant
+    from a fraction over three times larger (the model has no temperature dependence)."""
+    from vehval.identify import identify_conventional
+    from vehval.identify.predict import predict_trace
+    from vehval.identify.warmup import fit_warmup
+    from vehval.vehicle import load_vehicle
+
+    hot, cold, frozen = _traces("61410013", "61410012", "61410028")
+    fit = fit_warmup(cold, hot)
+    assert 0.15 < fit.fraction < 0.35 and 300.0 < fit.time_constant_s < 1200.0
+    assert fit.r2 > 0.98
+    for p in fit.phases:  # measured excess per bag: 55 g and 19 g
+        assert p["fitted_excess_g"] == pytest.approx(p["cold_g"] - p["hot_g"], rel=0.1)
+    low = fit_warmup(frozen, hot)
+    assert low.time_constant_s == pytest.approx(fit.time_constant_s, rel=0.25)
+    assert low.fraction > 3.0 * fit.fraction
+    # the model with the warm-up predicts the cold test as well as the hot one
+    idf = identify_conventional([hot, _traces("61410004")[0]], "cruze", cold_trace=cold)
+    before = predict_trace(load_vehicle("cruze_diesel_2014"), cold)
+    after = predict_trace(idf.vehicle, cold)
+    hot_err = predict_trace(idf.vehicle, hot)["error_rel"]
+    assert after["cold_start"] and not before["cold_start"]
+    assert before["error_rel"] < -0.10
+    assert abs(after["error_rel"] - hot_err) < 0.01

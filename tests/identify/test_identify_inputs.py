@@ -153,14 +153,15 @@ def test_predict_with_ac_switches_the_models_ac(tmp_path, capsys):
     assert "--ac sometimes" in capsys.readouterr().err
 
 
-def test_ac_test_must_not_be_an_identification_test(tmp_path, capsys):
+@pytest.mark.parametrize("option", ["--ac-test", "--cold-test"])
+def test_extra_test_must_not_be_an_identification_test(tmp_path, capsys, option):
     raw = tmp_path / "t1.txt"
     raw.write_text("Time[sec]\tDyno_Speed[mph]\n0.0\t0.0\n0.1\t0.0\n")
     tpl = tmp_path / "tpl.yaml"
     tpl.write_text("template_version: 1\n")
     rc = main(["identify", str(raw), "-t", str(tpl), "-o", str(tmp_path / "o.yaml"),
-               "--ac-test", str(raw)])
+               option, str(raw)])
     assert rc == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--ac-test" in err[0] and "also an identification test" in err[0]
+    assert len(err) == 1 and option in err[0] and "also an identification test" in err[0]
     assert not (tmp_path / "o.yaml").exists()

@@ -1,5 +1,5 @@
-"""Cold-start model of the power-split kernel: warm-up fuel by hand, engine-on hold,
-energy closure; a hot run is unchanged."""
+"""Cold-start model of the power-split and conventional kernels: warm-up fuel by hand,
+engine-on hold, energy closure; a hot run is unchanged."""
 
 from __future__ import annotations
 
@@ -74,3 +74,29 @@ def test_simulate_cli_cold_start(capsys):
     assert res[True]["cold_start"] is True and res[False]["cold_start"] is False
     assert res[True]["fuel_mass_kg"] > 1.03 * res[False]["fuel_mass_kg"]
     assert abs(res[True]["energy_balance_rel"]) < 1e-9
+
+
+def test_conventional_warmup_fuel_by_hand():
+    """The conventional loop: every step's fuel (idle and overrun included) is the hot run's
+    x (1 + f exp(-(i + 1/2) dt / tau)), every other signal identical, energy still closed;
+    without ``cold_start`` the warm-up does not apply."""
+    from vehval.sim.conventional_kernel import CONV_SIGNALS
+    from vehval.sim.simulate import simulate
+
+    fuel = CONV_SIGNALS.index("fuel_rate")
+    base = load_vehicle("cruze_diesel_2014")
+    veh = base.with_overrides({"engine.warmup_fuel_fraction": 0.4,
+                               "engine.warmup_time_constant_s": 250.0})
+    hot = simulate(veh, "udds", dt=DT)
+    cold = simulate(veh, "udds", dt=DT, cold_start=True)
+    h = np.column_stack([hot.test[f"{b}_simu"].values for b in CONV_SIGNALS])
+    c = np.column_stack([cold.test[f"{b}_simu"].values for b in CONV_SIGNALS])
+    factor = 1.0 + 0.4 * np.exp(-(np.arange(h.shape[0] - 1) + 0.5) * DT / 250.0)
+    np.testing.assert_allclose(c[1:, fuel], h[1:, fuel] * factor, rtol=1e-12)
+    others = [k for k in range(len(CONV_SIGNALS)) if k != fuel]
+    np.testing.assert_array_equal(c[:, others], h[:, others])
+    assert cold.summary["cold_start"] and not hot.summary["cold_start"]
+    assert abs(cold.summary["energy_balance_rel"]) < 1e-9
+    assert cold.summary["fuel_mass_kg"] > 1.05 * hot.summary["fuel_mass_kg"]
+    plain = simulate(base, "udds", dt=DT, cold_start=True)  # no warm-up model: cold == hot
+    assert plain.summary["fuel_mass_kg"] == hot.summary["fuel_mass_kg"]

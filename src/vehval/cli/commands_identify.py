@@ -19,7 +19,7 @@ def _table(rows: list[dict]) -> str:
         lines.append(f"{r['test']:<22} {r['cycle']:<10} {r['amb_temp_c']:>6.1f} "
                      f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f} "
                      f"{100 * r['error_rel']:>+8.2f}  A/C {'on' if r['ac_on'] else 'off'}: "
-                     f"{r['ac_reason']}")
+                     f"{r['ac_reason']}; {_start(r)}")
         for p in r["phases"]:
             u = p.get("results_fuel_U_g")
             unc = f"  (results stage: {p['results_fuel_g']:.1f} ± {u:.1f} g)" if u else ""
@@ -27,6 +27,12 @@ def _table(rows: list[dict]) -> str:
                          f"{p['measured_g']:>11.1f} {p['predicted_g']:>12.1f} "
                          f"{100 * p['error_rel']:>+8.2f}{unc}")
     return "\n".join(lines)
+
+
+def _start(r: dict) -> str:
+    """How the test and the model started (cold, with or without warm-up fuel) and why."""
+    from vehval.identify.warmup import start_label
+    return f"{start_label(r)}: {r['cold_reason']}"
 
 
 def _public(r: dict) -> dict:
@@ -42,26 +48,30 @@ def identify_cmd(
     name: str = typer.Option(None, "--name", help="Vehicle name (default: the output file stem)."),
     report: Path = typer.Option(None, "--report", help="Also write an HTML report (fitted map with the measured points, traces)."),
     ac_test: Path = typer.Option(None, "--ac-test", help="A test run with the A/C on (not one of FILES): identifies the A/C compressor load from its phases after the first."),
+    cold_test: Path = typer.Option(None, "--cold-test", help="A cold-start test (not one of FILES) on the cycle of a hot-start test among FILES: identifies the warm-up fuel (fraction and time constant) from the two tests' measured fuel."),
     as_json: bool = typer.Option(False, "--json", help="Print the identification summary as JSON."),
 ) -> None:
     """Identify a conventional car (road load, gears, converter, shifts, driveline drag, fuel map,
-    and with --ac-test the A/C load) from dyno tests."""
+    with --cold-test the warm-up fuel and with --ac-test the A/C load) from dyno tests."""
     if architecture != "conventional":
         raise ConfigError(f"--architecture {architecture}: identification from dyno data exists "
                           "for 'conventional' cars only")
     from vehval.identify.build import identify_conventional, write_vehicle
     from vehval.identify.traces import load_traces
     from vehval.io.paths import check_outputs
-    extra = [] if ac_test is None else [ac_test]
+    extra = [p for p in (ac_test, cold_test) if p is not None]
     check_outputs(outfile=output, inputs=[*files, *extra, template])
     if report is not None:
         check_outputs(outfile=report, inputs=[*files, *extra, template, output])
-    if ac_test is not None and ac_test.resolve() in {f.resolve() for f in files}:
-        raise ConfigError(f"--ac-test {ac_test}: it is also an identification test; give a "
-                          "separate test run with the A/C on")
+    for opt, path in (("--ac-test", ac_test), ("--cold-test", cold_test)):
+        if path is not None and path.resolve() in {f.resolve() for f in files}:
+            raise ConfigError(f"{opt} {path}: it is also an identification test; give a "
+                              "separate test run")
     traces = load_traces(files, template)
     ac_trace = load_traces([ac_test], template)[0] if ac_test is not None else None
-    idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace)
+    cold_trace = load_traces([cold_test], template)[0] if cold_test is not None else None
+    idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
+                                cold_trace=cold_trace)
     if report is not None:
         from vehval.identify.predict import predict_trace
         from vehval.identify.report import write_identification_report
@@ -85,6 +95,11 @@ def identify_cmd(
     if idf.drag is not None:
         typer.echo(f"driveline drag: {idf.drag.force_n:.1f} N + {idf.drag.force_n_per_mps:.3f} "
                    f"N/(m/s) ({idf.drag.note})")
+    if idf.warmup is not None:
+        w = idf.warmup
+        typer.echo(f"warm-up fuel: +{100 * w.fraction:.1f} % at the start, time constant "
+                   f"{w.time_constant_s:.0f} s (from {w.cold_test} against {w.hot_test}, "
+                   f"R^2 {w.r2:.3f}{'; ' + w.note if w.note else ''})")
     if idf.ac is not None:
         typer.echo(f"A/C load: {idf.ac['ac_power_w']:.0f} W (from {idf.ac['test']}, phases "
                    f"{', '.join(map(str, idf.ac['phases']))})")

@@ -55,8 +55,8 @@ def simulate_cmd(
     charge_balance: bool = typer.Option(False, "--charge-balance",
                                         help="Iterate the initial SOC until SOC end = start."),
     cold_start: bool = typer.Option(False, "--cold-start", help="Start with a cold engine: "
-                                    "the vehicle's cold-start model applies (engine-on hold, "
-                                    "warm-up fuel; hybrid vehicles)."),
+                                    "the vehicle's cold-start model applies (warm-up fuel; a "
+                                    "hybrid's engine-on hold)."),
     set_: list[str] = typer.Option([], "--set", help="Override a parameter: block.key=value "
                                    "(repeatable), e.g. controller.soc_target=0.55."),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),

@@ -6,10 +6,12 @@ reproduces), runs the procedure's plan (:mod:`vehval.epa.procedures`) with the b
 charge carried from run to run, iterates the initial SOC until the whole test is charge
 balanced (SAE J1711 basis of the lab result) and integrates fuel and distance per bag.
 Like is compared with like: the whole-test result is charge balanced, the bags are raw
-(the lab's bags are not individually balanced either). Hot-start figures (bags 2-4,
-HWFET, US06) are judged; the cold-start figures (FTP bag 1 and the FTP composite that
-contains it) only when the vehicle models the cold start (warm-up fuel, engine-on hold,
-applied to the FTP's first run), else they are reported as the cold-start gap.
+(the lab's bags are not individually balanced either; J1711 checks each UDDS of an FTP-75,
+listed as bags 1+2 and 3+4), and every figure carries the model's battery share (battery
+energy over fuel energy). Hot-start figures (bags 2-4, hot UDDS, HWFET, US06) are judged;
+the cold-start figures (FTP bag 1, cold UDDS and the composite) only when the vehicle models
+the cold start (warm-up fuel, a hybrid's engine-on hold, applied to the FTP's first run),
+else they are reported as the cold-start gap.
 """
 
 from __future__ import annotations
@@ -270,7 +272,7 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
         from vehval.sim.conventional import run_conventional_once, summarise_conventional
         from vehval.sim.conventional_kernel import CONV_SIGNALS
 
-        runs = [run_conventional_once(veh, g.t, g.vt, dt) for g in grids]
+        runs = [run_conventional_once(veh, g.t, g.vt, dt, cold_start=g.cold) for g in grids]
         col = {n: i for i, n in enumerate(CONV_SIGNALS)}
         soc0 = math.nan
     else:
@@ -323,10 +325,10 @@ COLD_START_PARAMS = ("engine.warmup_fuel_fraction", "engine.warmup_time_constant
 
 
 def has_cold_start_model(veh: Vehicle) -> bool:
-    """Whether the vehicle models a cold start (warm-up fuel or an engine-on hold)."""
-    if veh.architecture != "power_split":  # the conventional loop has no cold start
-        return False
-    return veh.engine.warmup_fuel_fraction > 0.0 or veh.controller.cold_start_engine_on_s > 0.0
+    """Whether the vehicle models a cold start (warm-up fuel, or a hybrid's engine-on hold)."""
+    if veh.engine.warmup_fuel_fraction > 0.0:
+        return True
+    return veh.architecture == "power_split" and veh.controller.cold_start_engine_on_s > 0.0
 
 
 def _battery_share(pred: TestPrediction, bags) -> float | None:

@@ -30,6 +30,7 @@ from vehval.identify.gears import (
 from vehval.identify.losses import DragFit, fit_ac_load, fit_drag
 from vehval.identify.roadload import RoadLoadFit, fit_road_load
 from vehval.identify.traces import IdentificationError, Trace
+from vehval.identify.warmup import WarmupFit, fit_warmup, hot_partner
 from vehval.io.atomic import write_text_atomic
 from vehval.vehicle import ConventionalVehicle
 from vehval.vehicle.conventional import DRIVEN_AXLE_LOSS_SHARE
@@ -89,12 +90,14 @@ class Identification:
     shifts: list[tuple]
     drag: DragFit | None = None
     ac: dict | None = None
+    warmup: WarmupFit | None = None
 
     def summary(self) -> dict:
         return {"tests": [t.test_id for t in self.traces], "road_load": self.road_load.to_dict(),
                 "gears": self.gears.to_dict(), "gear_ratio_check": self.gear_ratio_check,
                 "fuel_map": self.fuel_map.to_dict(), "n_shifts": len(self.shifts),
-                "drag": None if self.drag is None else self.drag.to_dict(), "ac": self.ac}
+                "drag": None if self.drag is None else self.drag.to_dict(), "ac": self.ac,
+                "warmup": None if self.warmup is None else self.warmup.to_dict()}
 
 
 def _check_inputs(traces: list[Trace]) -> None:
@@ -119,9 +122,12 @@ def _fuel_table(fm: FuelMapFit, a: Assumptions):
 
 def identify_conventional(traces: list[Trace], name: str = "identified_car",
                           assumptions: Assumptions | None = None,
-                          ac_trace: Trace | None = None) -> Identification:
+                          ac_trace: Trace | None = None,
+                          cold_trace: Trace | None = None) -> Identification:
     """Identify road load, gearbox, converter, shift schedule, driveline drag and fuel map
-    from ``traces``; with ``ac_trace`` (a test run with the A/C on), the A/C load too."""
+    from ``traces``; with ``cold_trace`` (a cold start on the cycle of one of ``traces``) the
+    warm-up fuel (:mod:`vehval.identify.warmup`); with ``ac_trace`` (a test run with the A/C
+    on) the A/C load, its model starting cold when that test does."""
     _check_inputs(traces)
     a = assumptions or Assumptions()
     c0 = traces[0].constants
@@ -269,6 +275,14 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                             gear_ratio_check=check, shifts=events, drag=drag)
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
+    if cold_trace is not None:
+        wf = result.warmup = fit_warmup(cold_trace, hot_partner(cold_trace, traces))
+        eng = result.vehicle.engine
+        eng.warmup_fuel_fraction = wf.fraction
+        eng.warmup_time_constant_s = wf.time_constant_s
+        eng.sources["warmup_fuel_fraction"] = eng.sources["warmup_time_constant_s"] = (
+            wf.provenance())
+        result.vehicle.identification = _jsonable(result.summary())
     if ac_trace is not None:
         ac = result.ac = fit_ac_load(result.vehicle, ac_trace)
         ctl = result.vehicle.engine_control

@@ -10,6 +10,10 @@ headline.
 The A/C (when the vehicle has an A/C load) runs as ``ac`` says: ``on``, ``off`` or
 ``auto``: on for an SC03 test (the regulation runs it with the A/C on) or a test cell at
 ``AC_AUTO_TEMP_C`` or more (hot-ambient tests are run with the A/C on), off otherwise.
+
+A test that starts cold (:func:`vehval.identify.warmup.cold_start_state`: its engine coolant
+at the start) runs with the vehicle's warm-up fuel when the vehicle has one
+(``engine.warmup_fuel_fraction`` > 0, e.g. identified with ``vehval identify --cold-test``).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ import numpy as np
 from vehval.cycles import Cycle
 from vehval.errors import ConfigError
 from vehval.identify.traces import Trace
+from vehval.identify.warmup import cold_start_state
 from vehval.sim.simulate import simulate
 
 AC_AUTO_TEMP_C = 30.0  # [°C] test cells at or above this run with the A/C on ("auto")
@@ -59,7 +64,9 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     {phase, measured_g, predicted_g, error_rel} plus, from the results stage,
     ``results_name``, ``results_fuel_g``, ``results_fuel_U_g``), the same three keys for the
     whole test, ``trace_max_miss_mps``, ``ac_on`` and ``ac_reason`` (the A/C state the
-    model ran with; see :func:`ac_state`), ``sim`` (the
+    model ran with; see :func:`ac_state`), ``starts_cold`` (the test starts cold: True, False
+    or None, unknown), ``cold_start`` and ``cold_reason`` (whether the model ran with its
+    warm-up fuel, and why), ``sim`` (the
     :class:`~vehval.sim.simulate.SimResult`) and ``trace``.
     """
     m = trace.t >= 0.0
@@ -72,7 +79,12 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
         vehicle = with_ac(vehicle, ac_on)
     if ctl is None or ctl.ac_power_w <= 0:
         ac_reason += " (no A/C load in the vehicle)"
-    res = simulate(vehicle, cyc, dt=trace.dt)
+    cold, cold_reason = cold_start_state(trace)
+    warmup = vehicle.engine.warmup_fuel_fraction > 0.0
+    cold_run = bool(cold) and warmup
+    if cold and not warmup:
+        cold_reason += " (no warm-up model in the vehicle)"
+    res = simulate(vehicle, cyc, dt=trace.dt, cold_start=cold_run)
     fuel_sim = res.test["fuel_rate_simu"].values
     fuel_meas = trace.fuel[m][: fuel_sim.size]
     phase = trace.phase[m][: fuel_sim.size]
@@ -94,7 +106,9 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
             "fuel_measured_g": mg, "fuel_predicted_g": pg,
             "error_rel": pg / mg - 1 if mg > 0 else float("nan"), "phases": phases,
             "trace_max_miss_mps": res.summary["trace_max_miss_mps"], "ac_on": ac_on,
-            "ac_reason": ac_reason, "sim": res, "trace": trace}
+            "ac_reason": ac_reason, "starts_cold": cold, "cold_start": cold_run,
+            "cold_reason": cold_reason,
+            "sim": res, "trace": trace}
     out.update(stage.get("test", {}))
     return out
 

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import plotly.graph_objects as go
 
+from vehval.identify.warmup import start_label
 from vehval.io.atomic import write_text_atomic
 from vehval.report.safety import CSP_META
 
@@ -109,6 +110,13 @@ def write_identification_report(idf, preds: list[dict], path: str | Path) -> Pat
                      f"{', '.join(map(str, idf.ac['phases']))} (measured "
                      f"{idf.ac['fuel_measured_g']:.1f} g; model without A/C "
                      f"{idf.ac['fuel_model_without_ac_g']:.1f} g)</p>")
+    if idf.warmup is not None:
+        w = idf.warmup
+        rows = "".join(f"<li>phase {p['phase']}: cold {p['cold_g']:.1f} g, hot {p['hot_g']:.1f} g, "
+                       f"fitted excess {p['fitted_excess_g']:.1f} g</li>" for p in w.phases)
+        parts.append(f"<h2>Warm-up fuel</h2><p>+{100 * w.fraction:.1f} % at the start, time "
+                     f"constant {w.time_constant_s:.0f} s: {html.escape(w.provenance())}"
+                     f"{'; ' + html.escape(w.note) if w.note else ''}</p><ul>{rows}</ul>")
     parts.append("<h2>Predictions</h2>")
     parts.append(_table([[p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}",
                           f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
@@ -127,16 +135,18 @@ def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Pa
     rows = []
     for p in preds:
         ac = ("on" if p.get("ac_on") else "off") + f" ({p.get('ac_reason', '')})"
-        rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", ac, "test",
+        start = f"{start_label(p)} ({p.get('cold_reason', '')})"
+        rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", ac, start, "test",
                      f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
                      f"{100 * p['error_rel']:+.2f}"])
         for ph in p["phases"]:
             u = ph.get("results_fuel_U_g")
-            rows.append(["", "", "", "", ph.get("results_name", f"phase {ph['phase']}"),
+            rows.append(["", "", "", "", "", ph.get("results_name", f"phase {ph['phase']}"),
                          f"{ph['measured_g']:.1f}" + (f" ± {u:.1f}" if u else ""),
                          f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"])
     body = (f"<h1>Predictions of {html.escape(vehicle_name)}</h1>"
-            + _table(rows, ["test", "cycle", "cell °C", "A/C", "scope", "measured g (U, k = 2)",
+            + _table(rows, ["test", "cycle", "cell °C", "A/C", "start", "scope",
+                            "measured g (U, k = 2)",
                             "predicted g", "error %"]))
     return _write_page(path, "vehval predictions", body, [trace_figure(p) for p in preds])
 

@@ -45,6 +45,7 @@ class Trace:
     phase: np.ndarray
     constants: dict = field(default_factory=dict)
     amb_temp_c: float = float("nan")
+    coolant_start_c: float = float("nan")  # engine coolant over the first 5 s [°C]
     file: str = ""
     results: object = None  # vehval.results.TestResults of the test, when computed
 
@@ -107,13 +108,23 @@ def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
     v = np.maximum(sig["veh_spd"].at(t), 0.0)
     ph = _pick(test, "test_phase")
     amb = _pick(test, "amb_temp")
+    clt = _pick(test, "eng_temp_coolant")
     return Trace(test_id=test.meta.test_id, cycle=test.meta.cycle or "", t=t, v=v,
                  a=acceleration(v, dt), force=sig["veh_frc_in"].at(t),
                  w_eng=np.maximum(sig["eng_spd_out"].at(t), 0.0), fuel=sig["fuel_rate"].at(t),
                  phase=np.round(ph.at(t, "previous")) if ph is not None else np.ones_like(t),
                  constants=dict(test.meta.constants or {}),
                  amb_temp_c=float(np.nanmean(amb.values)) if amb is not None else float("nan"),
-                 file=str(where))
+                 coolant_start_c=_start_value(clt, t0), file=str(where))
+
+
+def _start_value(sig, t0: float, span_s: float = 5.0) -> float:
+    """Median [signal unit] of ``sig`` over its first ``span_s`` from ``t0`` (NaN if none)."""
+    if sig is None:
+        return float("nan")
+    vals = np.asarray(sig.values, float)[(sig.time >= t0) & (sig.time < t0 + span_s)]
+    vals = vals[np.isfinite(vals)]
+    return float(np.median(vals)) if vals.size else float("nan")
 
 
 def load_traces(files: list[str | Path], template, dt: float = 0.1) -> list[Trace]:

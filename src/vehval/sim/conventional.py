@@ -22,8 +22,9 @@ from vehval.sim.driver import tolerance_band
 from vehval.vehicle.conventional import ConventionalVehicle
 
 
-def conv_param_vector(veh: ConventionalVehicle) -> np.ndarray:
-    """Scalar parameters of ``veh`` in SI, in the order of ``CONV_PARAMS``."""
+def conv_param_vector(veh: ConventionalVehicle, cold_start: bool = False) -> np.ndarray:
+    """Scalar parameters of ``veh`` in SI, in the order of ``CONV_PARAMS`` (``cold_start``:
+    the run starts with a cold engine, the vehicle's warm-up fuel applies)."""
     b, e, c, g, d, dr = (veh.body, veh.engine, veh.engine_control, veh.gearbox, veh.driveline,
                          veh.driver)
     acc = c.accessory_power_w + b.aux_power_w  # [W] what the idle fuel rate includes
@@ -43,6 +44,8 @@ def conv_param_vector(veh: ConventionalVehicle) -> np.ndarray:
         "drag_a": g.drag_force_n, "drag_b": g.drag_force_n_per_mps,
         "drv_tau": dr.response_time_s, "drv_ki": dr.ki_n_per_m,
         "drv_int_lim": dr.integrator_limit_n, "drv_fmax": dr.max_force_n,
+        "warm_frac": e.warmup_fuel_fraction if cold_start else 0.0,
+        "warm_tau": e.warmup_time_constant_s,
     }
     return np.array([float(val[k]) for k in CONV_PARAMS])
 
@@ -59,12 +62,14 @@ def conv_maps(veh: ConventionalVehicle) -> tuple[np.ndarray, ...]:
 
 
 def run_conventional_once(veh: ConventionalVehicle, t: np.ndarray, vt: np.ndarray, dt: float,
-                          record: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """Run the compiled loop once; returns (signals[n, len(CONV_SIGNALS)], summary vector)."""
+                          record: bool = True,
+                          cold_start: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """Run the compiled loop once; returns (signals[n, len(CONV_SIGNALS)], summary vector).
+    ``cold_start``: the run starts with a cold engine (the vehicle's warm-up fuel)."""
     lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH_M_PER_S,
                             veh.driver.tolerance_time_s)
     out = np.zeros((t.size if record else 1, len(CONV_SIGNALS)))
-    ys = run_conventional(vt, lo, hi, dt, conv_param_vector(veh), *conv_maps(veh), out, record)
+    ys = run_conventional(vt, lo, hi, dt, conv_param_vector(veh, cold_start), *conv_maps(veh), out, record)
     return out, ys
 
 

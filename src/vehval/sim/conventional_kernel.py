@@ -29,7 +29,7 @@ import numpy as np
 from numba import njit
 
 from vehval.sim.components.body import road_load
-from vehval.sim.components.engine import fuel_rate, max_torque
+from vehval.sim.components.engine import fuel_rate, max_torque, warmup_factor
 from vehval.sim.phases import driver_phase
 
 CONV_PARAMS = (
@@ -37,6 +37,7 @@ CONV_PARAMS = (
     "gb_eff", "shift_time", "tc_k", "j_eng", "eng_idle", "eng_max_spd", "eng_drag",
     "eng_pmax", "fuel_lhv", "idle_fuel", "fuel_cut_spd", "overrun_fuel", "acc_pwr",
     "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax", "idle_acc_pwr", "drag_a", "drag_b",
+    "warm_frac", "warm_tau",
 )
 CONV_SIGNALS = (
     "veh_spd", "veh_spd_target", "veh_acc", "veh_frc_in", "veh_frc_loss", "whl_trq_out",
@@ -55,7 +56,8 @@ CONV_SUMMARY = (
 (C_MASS, C_RL_A, C_RL_B, C_RL_C, C_R_WHEEL, C_FD_RATIO, C_FD_EFF, C_J_WHEEL, C_BRK_MAX,
  C_GB_EFF, C_SHIFT_TIME, C_TC_K, C_J_ENG, C_ENG_IDLE, C_ENG_MAX_SPD, C_ENG_DRAG, C_ENG_PMAX,
  C_FUEL_LHV, C_IDLE_FUEL, C_FUEL_CUT_SPD, C_OVERRUN_FUEL, C_ACC_PWR, C_DRV_TAU, C_DRV_KI,
- C_DRV_INT_LIM, C_DRV_FMAX, C_IDLE_ACC_PWR, C_DRAG_A, C_DRAG_B) = range(29)
+ C_DRV_INT_LIM, C_DRV_FMAX, C_IDLE_ACC_PWR, C_DRAG_A, C_DRAG_B, C_WARM_FRAC,
+ C_WARM_TAU) = range(31)
 (O_VEH_SPD, O_VEH_SPD_TARGET, O_VEH_ACC, O_VEH_FRC_IN, O_VEH_FRC_LOSS, O_WHL_TRQ_OUT,
  O_WHL_SPD, O_ENG_SPD_OUT, O_ENG_TRQ_OUT, O_ENG_PWR_OUT, O_ENG_FUEL_CUT, O_FUEL_RATE,
  O_GB_GEAR, O_GB_SPD_IN, O_BRK_FRC, O_DRV_FRC_DEMAND, O_DRV_PWR_DEMAND) = range(17)
@@ -185,6 +187,7 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
         else:
             fuel = fuel_rate(eS, eT, eF, we_a, t_e)
             cut = False
+        fuel *= warmup_factor(prm[C_WARM_FRAC], prm[C_WARM_TAU], (i + 0.5) * dt)
         # ---------------- vehicle
         f_pt = t_pump * ratio / rw
         f_pt = (f_pt * eff if f_pt >= 0.0 else f_pt / eff) - f_drag

@@ -28,7 +28,7 @@ from numba import njit, prange
 from vehval.sim.components.body import road_load
 from vehval.sim.components.boost import output_voltage
 from vehval.sim.components.electric_machine import electrical_power
-from vehval.sim.components.engine import fuel_rate
+from vehval.sim.components.engine import fuel_rate, warmup_factor
 from vehval.sim.control import ENG_OFF, engine_commanded_on
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
 from vehval.sim.maps import interp1
@@ -174,8 +174,7 @@ def run(vt, band_lo, band_hi, dt, prm, maps, out, record):
         wr_a = g * v_a
         wg_a = k1 * we_a - k2 * wr_a
         fuel = fuel_rate(eS, eT, eF, we_a, te) if (fired and not fuelcut) else 0.0
-        if warm_frac > 0.0:
-            fuel *= 1.0 + warm_frac * np.exp(-(i + 0.5) * dt / warm_tau)
+        fuel *= warmup_factor(warm_frac, warm_tau, (i + 0.5) * dt)
         p_eng_mech = te * we_a
         p_gen_e = electrical_power(gS, gT, gL, wg_a, t_g)
         p_mot_e = mot_power(mS, mT, mL, rg, wr_a, t_m)

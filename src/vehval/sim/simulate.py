@@ -167,8 +167,9 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
         Iterate the initial SOC (secant method) until the final SOC is within 0.5 % SOC
         of the initial one; ``summary['charge_balance_iterations']`` tells how many runs.
     cold_start : bool
-        Start with a cold engine: the vehicle's cold-start model applies (engine held on
-        for ``controller.cold_start_engine_on_s``, warm-up fuel ``engine.warmup_*``).
+        Start with a cold engine: the vehicle's cold-start model applies (warm-up fuel
+        ``engine.warmup_*``; a hybrid also holds the engine on for
+        ``controller.cold_start_engine_on_s``).
     **overrides
         Parameter overrides by dotted path, e.g. ``**{"controller.soc_target": 0.55}``
         or ``controller__soc_target=0.55``.
@@ -180,7 +181,7 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
     if t.size < 2:
         raise ConfigError(f"cycle '{cyc.name}' is shorter than one step of {dt:g} s")
     if veh.architecture == "conventional":
-        return _simulate_conventional(veh, cyc, t, vt, dt)
+        return _simulate_conventional(veh, cyc, t, vt, dt, cold_start)
     bt = veh.battery
     soc0 = veh.controller.soc_target if soc_initial is None else float(soc_initial)
     if not (bt.soc_min <= soc0 <= bt.soc_max):
@@ -205,14 +206,14 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
 
 
 def _simulate_conventional(veh, cyc: Cycle, t: np.ndarray, vt: np.ndarray,
-                           dt: float) -> SimResult:
+                           dt: float, cold_start: bool = False) -> SimResult:
     """Conventional powertrain (no battery: SOC options do not apply)."""
     from vehval.sim.conventional import run_conventional_once, summarise_conventional
     from vehval.sim.conventional_kernel import CONV_SIGNALS
-    out, ys = run_conventional_once(veh, t, vt, dt)
+    out, ys = run_conventional_once(veh, t, vt, dt, cold_start=cold_start)
     summary = summarise_conventional(veh, ys)
     summary.update({"vehicle": veh.name, "cycle": cyc.name, "dt_s": dt,
-                    "architecture": "conventional"})
+                    "architecture": "conventional", "cold_start": bool(cold_start)})
     meta = TestMeta(test_id=f"simu_{veh.name}_{cyc.name}", vehicle=veh.name, cycle=cyc.name,
                     notes=[f"vehval forward-looking conventional simulation, dt = {dt:g} s"],
                     synthetic=True)
