@@ -144,8 +144,12 @@ def test_cli_validate(prius_list, tmp_path, capsys):
     items = {(c["procedure"], c["item"]) for c in data["comparisons"]}
     assert ("us06", "bag 1") in items and ("ftp75", "bag 4") in items
     assert ("hwfet", "overall") in items
+    kinds = data["stats"]["per_kind"]
+    assert sum(k["n"] for k in kinds.values()) == data["stats"]["n_judged"]
+    hw = [c["error"] for c in data["comparisons"] if c["procedure"] == "hwfet" and c["judged"]]
+    assert kinds["hwfet overall"]["mean_error"] == pytest.approx(np.mean(hw), abs=1e-5)
     html = (out / "report.html").read_text()
-    assert "<svg" in html and "GTYX" not in html and "T3" in html
+    assert "<svg" in html and "GTYX" not in html and "T3" in html and "By figure" in html
     assert (out / "epa_validation.csv").read_text().count("\n") == len(data["comparisons"]) + 1
     assert main(["epa", "validate", str(prius_list), "--vehicle", "prius_2016", "--tests",
                  "model=PRIUSS"]) == 2

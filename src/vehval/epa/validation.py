@@ -128,6 +128,7 @@ class EpaValidation:
             "max_abs_error": float(np.abs(err).max()) if err.size else None,
         }
         out["spread_correlation"] = spread_correlation(self.comparisons)
+        out["per_kind"] = per_kind_errors(self.comparisons)
         return out
 
     def to_dict(self) -> dict[str, Any]:
@@ -144,6 +145,20 @@ class EpaValidation:
                            "engine_on_fraction": p.engine_on_fraction,
                            "source": p.test.source} for p in self.predictions],
                 "skipped": self.skipped}
+
+
+def per_kind_errors(comparisons: list[Comparison]) -> dict[str, dict[str, Any]]:
+    """Per figure kind ("ftp75 bag 2", "hwfet overall"...) of the judged figures: count,
+    mean error, mean |error|, largest |error| [-] and how many within the tolerance."""
+    kinds: dict[str, list[float]] = {}
+    for c in comparisons:
+        if c.judged:
+            kinds.setdefault(f"{c.procedure} {c.item}", []).append(c.error)
+    return {k: {"n": len(v), "mean_error": float(np.mean(v)),
+                "mean_abs_error": float(np.mean(np.abs(v))),
+                "max_abs_error": float(np.max(np.abs(v))),
+                "n_within_tolerance": int(np.sum(np.abs(v) <= TOLERANCE))}
+            for k, v in sorted(kinds.items())}
 
 
 def spread_correlation(comparisons: list[Comparison]) -> dict[str, Any]:

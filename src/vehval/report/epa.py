@@ -95,6 +95,13 @@ def render_html(val: EpaValidation) -> str:
                     f"<td>{100 * c.error:+.1f}</td><td>{share_text(c.battery_share)}</td>"
                     f"<td>{'yes' if c.judged else 'no'}</td>"
                     f"<td>{html.escape(c.note)}</td></tr>")
+    r_kind = corr["per_kind"]
+    kinds = "".join(
+        f"<tr><td>{html.escape(k)}</td><td>{v['n']}</td><td>{v['n_within_tolerance']}</td>"
+        f"<td>{100 * v['mean_error']:+.1f}</td><td>{100 * v['mean_abs_error']:.1f}</td>"
+        f"<td>{100 * v['max_abs_error']:.1f}</td>"
+        f"<td>{'-' if r_kind.get(k) is None else f'{r_kind[k]:.3f}'}</td></tr>"
+        for k, v in st["per_kind"].items())
     skipped = "".join(f"<li>{html.escape(s['test'])} ({html.escape(s['description'])}): "
                       f"{html.escape(s['reason'])}</li>" for s in val.skipped)
     pooled = corr["pooled"]
@@ -111,6 +118,11 @@ tr.ok td{{background:#e8f6e8}}tr.bad td{{background:#fbe9e9}}</style></head><bod
 Correlation of predicted and measured judged figures: r = {'-' if pooled is None
                                                            else f'{pooled:.3f}'}.</p>
 {scatter_svg(val)}
+<h2>By figure</h2>
+<table><tr><th>figure</th><th>judged</th><th>within {100 * TOLERANCE:.0f} %</th>
+<th>mean error %</th><th>mean |error| %</th><th>largest |error| %</th><th>r</th></tr>
+{kinds}</table>
+<h2>Every figure</h2>
 <table><tr><th>test</th><th>by</th><th>procedure</th><th>figure</th><th>predicted mpg</th>
 <th>measured mpg</th><th>error %</th><th>battery %</th><th>judged</th><th>note</th></tr>
 {''.join(rows)}</table>
