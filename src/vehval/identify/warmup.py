@@ -124,14 +124,14 @@ def fit_warmup(cold: Trace, hot: Trace) -> WarmupFit:
             f"{hot.file} ({1e3 * h.sum():.1f} g): no warm-up to identify")
     best = (np.inf, 0.0, TAU_GRID_S[0])
     for tau in TAU_GRID_S:
-        g = np.cumsum(h * np.exp(-(t - t[0]) / tau)) * _GRID_S
+        g = np.cumsum(h * np.exp(-t / tau)) * _GRID_S  # t from the start, as in the model
         f = max(float(excess @ g / (g @ g)), 0.0)
         sse = float(np.sum((excess - f * g) ** 2))
         if sse < best[0]:
             best = (sse, f, float(tau))
     sse, f, tau = best
     r2 = 1.0 - sse / float(np.sum((excess - excess.mean()) ** 2))
-    fitted = h * f * np.exp(-(t - t[0]) / tau)
+    fitted = h * f * np.exp(-t / tau)
     phases = [{"phase": int(p), "hot_g": 1e3 * float(h[phase == p].sum() * _GRID_S),
                "cold_g": 1e3 * float(c[phase == p].sum() * _GRID_S),
                "fitted_excess_g": 1e3 * float(fitted[phase == p].sum() * _GRID_S)}
