@@ -142,7 +142,7 @@ def validate_cmd(
                f"{100 * st['tolerance']:.0f} %; mean error {100 * (st['mean_error'] or 0):+.1f} %"
                f"; r = {'-' if r is None else f'{r:.3f}'}")
     typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
-               "(J1711 balances the whole test and each UDDS, not each bag)")
+               "(J1711 balances the whole test, not each bag)")
     if written:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
 

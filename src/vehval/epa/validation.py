@@ -6,9 +6,9 @@ reproduces), runs the procedure's plan (:mod:`vehval.epa.procedures`) with the b
 charge carried from run to run, iterates the initial SOC until the whole test is charge
 balanced (SAE J1711 basis of the lab result) and integrates fuel and distance per bag.
 Like is compared with like: the whole-test result is charge balanced, the bags are raw
-(the lab's bags are not individually balanced either; J1711 checks each UDDS of an FTP-75,
-listed as bags 1+2 and 3+4), and every figure carries the model's battery share (battery
-energy over fuel energy). Hot-start figures (bags 2-4, hot UDDS, HWFET, US06) are judged;
+(the lab's bags are not individually balanced either; each UDDS of an FTP-75, bags 1+2 and
+3+4, nearly is), and every figure carries the model's battery share (battery energy over
+fuel energy). Hot-start figures (bags 2-4, hot UDDS, HWFET, US06) are judged;
 the cold-start figures (FTP bag 1, cold UDDS and the composite) only when the vehicle models
 the cold start (warm-up fuel, a hybrid's engine-on hold, applied to the FTP's first run),
 else they are reported as the cold-start gap.
@@ -394,7 +394,7 @@ def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Co
                 battery_share=_battery_share(pred, (bag.number,))))
     if proc.composite == "ftp" and not any(math.isnan(x) for x in t.bags[:4]):
         # one UDDS each (cold: bags 1 + 2, hot: bags 3 + 4): the charge one phase stores
-        # and the next spends cancels out; SAE J1711 checks the charge balance per UDDS
+        # and the next spends cancels out (battery share near 0)
         p12, m12 = _pair(pred, t, 1, 2)
         rows.append(Comparison(**base, item="bags 1+2", name="cold UDDS (bags 1 + 2)",
                                predicted_mpg=p12, measured_mpg=m12, judged=cold_model,

@@ -127,10 +127,11 @@ Correlation of predicted and measured judged figures: r = {'-' if pooled is None
 <th>measured mpg</th><th>error %</th><th>battery %</th><th>judged</th><th>note</th></tr>
 {''.join(rows)}</table>
 <p>battery %: in the model, the battery's chemical energy spent in the figure over the fuel
-energy burnt in it (&gt; 0: the battery helped). SAE J1711 holds the whole test, and each
-UDDS of an FTP-75 (bags 1 + 2, bags 3 + 4), to a net energy change within 1 % of the fuel
-energy; a single bag is not balanced, so a bag with a large share depends on the charge the
-bag before it left, which the lab does not report.</p>
+energy burnt in it (&gt; 0: the battery helped). SAE J1711 holds the whole test to a net
+energy change within 1 % of the fuel energy; a single bag is not balanced, so a bag with a
+large share depends on the charge the bag before it left, which the lab does not report.
+Within each UDDS of an FTP-75 (bags 1 + 2, bags 3 + 4) the charge one phase stores the next
+spends: their share is near 0.</p>
 <h2>Skipped tests</h2><ul>{skipped or '<li>none</li>'}</ul>
 </body></html>"""
 
