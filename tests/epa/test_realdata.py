@@ -75,6 +75,23 @@ def test_bag_definitions_reproduce_the_listed_whole_test_result():
     assert n == 8  # 4 FTP-75 and 4 US06 tests of the 2016 Prius
 
 
+def test_list_consistency_on_the_real_lists():
+    """Every 2016 PRIUS test is consistent within 0.5 %; over the three lists, the checks find
+    the placeholders (10000 mpg) and the rows whose bags contradict the whole-test figure."""
+    from vehval.epa.consistency import check_listed_figures
+
+    tests = read_lists([EPA])
+    checks = {t.label: check_listed_figures(t) for t in tests}
+    prius = apply_selector(tests, "model=PRIUS,year=2016")
+    assert all(checks[t.label].ok for t in prius)
+    assert all(abs(checks[t.label].rel_diff) < 0.005 for t in prius
+               if checks[t.label].rel_diff is not None)
+    bad = {k: c for k, c in checks.items() if not c.ok}
+    assert 10 <= len(bad) <= 0.02 * len(tests)  # a few dozen rows of about 11000
+    assert any("10000 mpg" in c.note for c in bad.values())
+    assert any(c.rel_diff is not None and c.rel_diff > 0.4 for c in bad.values())
+
+
 def test_prius_2016_against_its_epa_run_tests():
     """Held-out figures (the packaged controller and cold start are calibrated on the MFR
     tests only): HWFET, US06 (whole and both parts) and FTP bags 2-3 of the EPA-run tests.

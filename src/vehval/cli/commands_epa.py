@@ -65,17 +65,20 @@ def tests_cmd(
 ) -> None:
     """Tests of a vehicle: weight, N/V, axle ratio, road load (SI), cycle, originator, results."""
     from vehval.epa import procedure_key
+    from vehval.epa.consistency import check_listed_figures
 
     tests = _load(paths, make, model, year)
+    checks = [check_listed_figures(t) for t in tests]
     if as_json:
-        typer.echo(jsonsafe.dumps([{**t.to_dict(), "procedure_key": procedure_key(t)}
-                                   for t in tests]), nl=False)
+        typer.echo(jsonsafe.dumps([{**t.to_dict(), "procedure_key": procedure_key(t),
+                                    "list_check": c.to_dict()}
+                                   for t, c in zip(tests, checks)]), nl=False)
         return
     typer.echo(f"{'test':14s} {'vehicle':9s} {'cfg':>3} {'orig':4s} {'proc':7s} "
                f"{'ETW kg':>7} {'N/V':>5} {'axle':>5} {'A N':>6} {'B N/(m/s)':>9} "
                f"{'C N/(m/s)2':>10} {'FE mpg':>6}  bags 1-4 [mpg]")
-    for t in tests:
-        bags = " ".join(f"{_fmt(b):>6}" for b in t.bags)
+    for t, chk in zip(tests, checks):
+        bags = " ".join(f"{_fmt(b):>6}" for b in t.bags) + ("" if chk.ok else "  !")
         typer.echo(f"{t.label[:14]:14s} {t.vehicle_id[:9]:9s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
                    f"{_fmt(t.mass_kg, '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
@@ -83,6 +86,9 @@ def tests_cmd(
                    f"{_fmt(t.target_b_n_per_mps, '.3f'):>9} "
                    f"{_fmt(t.target_c_n_per_mps2, '.4f'):>10} {_fmt(t.fe):>6}  {bags}")
     typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients in --json)")
+    for t, chk in zip(tests, checks):
+        if not chk.ok:
+            typer.echo(f"! {t.label} ({t.source}): {chk.note}")
 
 
 def _selected(paths: list[Path], selector: str, dt: float):
@@ -132,8 +138,12 @@ def validate_cmd(
         batt = share_text(c.battery_share)
         typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
                    f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f} "
-                   f"{batt:>6}  {'yes' if c.judged else 'no (cold start)'}")
+                   f"{batt:>6}  {_judged_text(c)}")
     st = val.stats()
+    for p in val.predictions:
+        if p.list_check is not None and not p.list_check.ok:
+            typer.echo(f"! {p.test.label} ({p.test.source}): {p.list_check.note}; its figures "
+                       "are listed, not judged")
     for s in val.skipped:
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
     r = st["spread_correlation"]["pooled"]
@@ -145,6 +155,12 @@ def validate_cmd(
                "(J1711 balances the whole test, not each bag)")
     if written:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _judged_text(c) -> str:
+    if c.judged:
+        return "yes"
+    return "no (list doubtful)" if c.list_doubtful else "no (cold start)"
 
 
 def _parse_param(text: str) -> tuple[str, list[float]]:

@@ -97,7 +97,8 @@ class EpaTest:
     fe_unit : str
         Unit of ``fe`` and ``bags`` (``MPG`` for gasoline).
     bags : tuple of float
-        ``FE Bag 1..4`` (NaN when empty). FTP: bags 1-3 (or 4 for a 4-bag hybrid test);
+        ``FE Bag 1..4`` (NaN when empty or 0, the lists' placeholder; likewise ``fe``). FTP:
+        bags 1-3 (or 4 for a 4-bag hybrid test);
         US06: bag 1 city part, bag 2 highway part.
     co2_g_per_km : float
         CO2 [g/km] (NaN when absent).
@@ -149,6 +150,13 @@ class EpaTest:
         out["bags"] = [None if math.isnan(b) else b for b in self.bags]
         return {k: (None if isinstance(v, float) and math.isnan(v) else v)
                 for k, v in out.items()}
+
+
+def _result(text: str) -> float:
+    """A listed fuel economy: empty or 0 (the lists' placeholder for a result not stated,
+    e.g. bag 4 of a 3-bag FTP or a charge-depleting test) is NaN."""
+    v = _num(text)
+    return math.nan if v == 0.0 else v
 
 
 def _num(text: str) -> float:
@@ -238,8 +246,8 @@ def read_test_car_list(path: str | Path) -> list[EpaTest]:
             set_a_n=_num(f["set_a"]) * LBF_N,
             set_b_n_per_mps=_num(f["set_b"]) * _LBF_PER_MPH,
             set_c_n_per_mps2=_num(f["set_c"]) * _LBF_PER_MPH2,
-            fe=_num(f["fe"]), fe_unit=f["fe_unit"].upper(),
-            bags=tuple(_num(f[f"bag{k}"]) for k in range(1, 5)),
+            fe=_result(f["fe"]), fe_unit=f["fe_unit"].upper(),
+            bags=tuple(_result(f[f"bag{k}"]) for k in range(1, 5)),
             co2_g_per_km=_num(f["co2_g_per_mi"]) / (MILE_M / 1000.0),
             displacement_l=_num(f["displacement_l"]),
             rated_power_w=_num(f["rated_hp"]) * HP_W,

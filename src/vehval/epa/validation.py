@@ -25,6 +25,7 @@ import numpy as np
 
 from vehval.constants import GALLON_US_M3, MILE_M
 from vehval.cycles import load_cycle
+from vehval.epa.consistency import ListCheck, check_listed_figures
 from vehval.epa.procedures import (
     FTP_WEIGHT_COLD,
     FTP_WEIGHT_HOT,
@@ -63,6 +64,7 @@ class Comparison:
     note: str = ""
     cold_start: bool = False  # the figure contains a cold start
     battery_share: float | None = None  # model: battery chemical / fuel energy [-]
+    list_doubtful: bool = False  # the list's own figures of this test disagree (not judged)
 
     @property
     def error(self) -> float:
@@ -79,7 +81,8 @@ class Comparison:
                 "within_tolerance": abs(self.error) <= TOLERANCE, "note": self.note,
                 "cold_start": self.cold_start,
                 "battery_share": (None if self.battery_share is None
-                                  else round(self.battery_share, 5))}
+                                  else round(self.battery_share, 5)),
+                "list_doubtful": self.list_doubtful}
 
 
 @dataclass
@@ -100,6 +103,7 @@ class TestPrediction:
     distance_m: float
     fuel_kg: float
     engine_on_fraction: float
+    list_check: ListCheck | None = None  # the list's own figures agree (set by validate_tests)
 
 
 @dataclass
@@ -143,6 +147,8 @@ class EpaValidation:
                            "trace_n_miss": p.trace_n_miss,
                            "energy_balance_rel": p.energy_balance_rel,
                            "engine_on_fraction": p.engine_on_fraction,
+                           "list_check": (None if p.list_check is None
+                                          else p.list_check.to_dict()),
                            "source": p.test.source} for p in self.predictions],
                 "skipped": self.skipped}
 
@@ -434,6 +440,12 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
                                 "description": t.procedure, "reason": why})
             continue
         pred = predict_test(veh, t, proc, dt)
+        pred.list_check = check_listed_figures(t)
         res.predictions.append(pred)
-        res.comparisons.extend(_compare(pred, proc, cold_model))
+        rows = _compare(pred, proc, cold_model)
+        if not pred.list_check.ok:  # the list contradicts itself: listed, not judged
+            for c in rows:
+                c.judged, c.list_doubtful = False, True
+                c.note = f"list figures doubtful: {pred.list_check.note}"
+        res.comparisons.extend(rows)
     return res

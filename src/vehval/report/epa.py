@@ -27,7 +27,7 @@ def scatter_svg(val: EpaValidation, size: int = 420) -> str:
     """Predicted vs measured fuel economy [mpg] as an SVG scatter with the 1:1 and ±5 % lines.
 
     Judged figures are filled circles, figures not judged (cold start without a cold-start
-    model) open circles.
+    model, or a test whose listed figures disagree) open circles.
     """
     pts = [(c.measured_mpg, c.predicted_mpg, c) for c in val.comparisons]
     if not pts:
@@ -71,7 +71,8 @@ def scatter_svg(val: EpaValidation, size: int = 420) -> str:
         out.append(f'<circle cx="{m + 10}" cy="{m + 14 + 14 * i}" r="4" '
                    f'fill="{_COLORS[key]}"/><text x="{m + 18}" y="{m + 18 + 14 * i}">'
                    f'{label}</text>')
-    out.append(f'<text x="{m + 10}" y="{m + 60}">open: cold start (not judged)</text>')
+    out.append(f'<text x="{m + 10}" y="{m + 60}">open: not judged (cold start, doubtful list)'
+               '</text>')
     out.append("</svg>")
     return "".join(out)
 
