@@ -93,10 +93,10 @@ def test_list_consistency_on_the_real_lists():
 
 
 def test_prius_2016_against_its_epa_run_tests():
-    """Held-out figures (the packaged controller and cold start are calibrated on the MFR
-    tests only): HWFET, US06 (whole and both parts) and FTP bags 2-3 of the EPA-run tests.
-    One known miss, bag 2 after the cold start (docs/validation.md): 11 of 12 within 5 %,
-    none beyond 9 %; the prediction spread follows the measured one over all originators."""
+    """HWFET, US06 (whole and both parts) and FTP bags 2-3 of the EPA-run tests: all 12
+    within 5 % (the controller is calibrated on the MFR tests only; the cold-start model on
+    the four FTP-75s, each of them predicted within 4 % when held out: docs/validation.md);
+    the prediction spread follows the measured one over all originators."""
     from vehval.epa.validation import validate_tests
 
     tests = apply_selector(read_lists([EPA]), "model=PRIUS,year=2016")
@@ -107,18 +107,20 @@ def test_prius_2016_against_its_epa_run_tests():
                                          ("us06", "bag 2"), ("ftp75", "bag 2"),
                                          ("ftp75", "bag 3")}]
     err = sorted(abs(c.error) for c in acc)
-    assert len(err) == 12
-    assert err[-2] <= 0.05 and err[-1] <= 0.09
-    # the cold start (model calibrated on the MFR FTPs): bag 1, cold UDDS and composite
+    assert len(err) == 12 and err[-1] <= 0.05
+    assert sum(e <= 0.03 for e in err) >= 8  # the goal of 3 % for most
+    # the cold start: bag 1, cold UDDS and composite
     cold = [c for c in val.comparisons if c.originator == "EPA" and c.cold_start]
     assert len(cold) == 6 and all(c.judged and abs(c.error) <= 0.05 for c in cold)
-    # the miss is a raw bag fed by the battery (J1711 balances the test, not each bag):
-    # both UDDS pairs of the EPA-run FTPs within 3 %
+    # bag 2 is fed by the battery (J1711 balances the test, not each bag), the UDDS pairs
+    # are near balanced; the lower road load of the EPA-run configuration stores more charge
+    # in the loaded cold-start engine: a larger battery share in its bag 2
     pairs = [c for c in val.comparisons if c.originator == "EPA" and c.item.startswith("bags")]
     assert len(pairs) == 4 and all(abs(c.error) <= 0.03 for c in pairs)
-    bag2 = [c for c in val.comparisons if (c.procedure, c.item) == ("ftp75", "bag 2")]
-    assert all(c.battery_share > 0.05 for c in bag2)
     assert all(abs(c.battery_share) < 0.01 for c in pairs)
+    bag2 = {c.originator: c.battery_share for c in val.comparisons
+            if (c.procedure, c.item) == ("ftp75", "bag 2")}
+    assert bag2["EPA"] > bag2["MFR"] > 0.05
     assert val.stats()["spread_correlation"]["pooled"] >= 0.95
     assert all(p.trace_n_miss == 0 and abs(p.energy_balance_rel) < 1e-9
                for p in val.predictions)

@@ -49,6 +49,36 @@ def test_hold_keeps_the_engine_on(udds):
     assert abs(summarise(veh, ys, 0.6)["energy_balance_rel"]) < 1e-9
 
 
+def test_hold_power_floor_loads_the_engine_and_charges(udds):
+    """With a power floor the held engine runs loaded (the floor, here above the 2004
+    engine's 11 kW minimum) from the first firing to the end of the hold, the surplus
+    charging the battery; after the hold the controller is back; energy still closes."""
+    t, vt = udds
+    base = load_vehicle("prius_2004").with_overrides({"controller.cold_start_engine_on_s": 60})
+    veh = base.with_overrides({"controller.cold_start_engine_power_w": 14000.0})
+    idle, _ = run_once(base, t, vt, DT, 0.6, cold_start=True)
+    loaded, ys = run_once(veh, t, vt, DT, 0.6, cold_start=True)
+    pwr, soc = SIGNALS.index("eng_pwr_out"), SIGNALS.index("ess_soc")
+    settled = (t > 5.0) & (t < 60.0)  # after the start-up transition
+    held_pwr = loaded[settled, pwr]
+    assert np.percentile(held_pwr, 5) > 0.99 * 14000.0  # the floor, bar short dips where
+    assert held_pwr.min() > 0.85 * 14000.0  # a machine or battery limit binds
+    assert np.median(idle[settled, pwr]) < 14000.0  # without the floor: less (idle at rest)
+    end = np.searchsorted(t, 60.0)
+    assert loaded[end, soc] > idle[end, soc] + 0.02  # the surplus went to the battery
+    assert abs(summarise(veh, ys, 0.6)["energy_balance_rel"]) < 1e-9
+    hot_a, _ = run_once(base, t, vt, DT, 0.6)
+    hot_b, _ = run_once(veh, t, vt, DT, 0.6)
+    np.testing.assert_array_equal(hot_a, hot_b)  # a hot run has no hold, hence no floor
+
+
+def test_hold_power_floor_below_the_engine_minimum_is_refused():
+    from vehval.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="cold_start_engine_power_w.*below.*engine_min_power_w"):
+        load_vehicle("prius_2004").with_overrides({"controller.cold_start_engine_power_w": 5000})
+
+
 def test_hot_run_ignores_the_model(udds):
     t, vt = udds
     base = load_vehicle("prius_2004")

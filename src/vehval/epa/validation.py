@@ -342,7 +342,7 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
 
 #: parameters of the power-split cold-start model (FTP-75 first run, ``simulate --cold-start``)
 COLD_START_PARAMS = ("engine.warmup_fuel_fraction", "engine.warmup_time_constant_s",
-                     "controller.cold_start_engine_on_s")
+                     "controller.cold_start_engine_on_s", "controller.cold_start_engine_power_w")
 
 
 def has_cold_start_model(veh: Vehicle) -> bool:

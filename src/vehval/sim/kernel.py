@@ -90,6 +90,7 @@ def run(vt, band_lo, band_hi, dt, prm, maps, out, record):
     hold_s = prm[P_COLD_HOLD] if cold else 0.0  # engine held on after a cold start [s]
     warm_frac = prm[P_WARM_FRAC] if cold else 0.0  # warm-up extra fuel at t = 0 [-]
     warm_tau = prm[P_WARM_TAU]
+    cold_pwr = prm[P_COLD_PWR] if cold else 0.0  # engine power floor during the hold [W]
     rg = prm[P_MG2_RATIO]  # MG2 shaft speed / ring speed
     s_eq = prm[P_EQ_FACTOR]  # fuel J per J of battery chemical energy
     k1 = (nr + ns) / ns
@@ -156,8 +157,9 @@ def run(vt, band_lo, band_hi, dt, prm, maps, out, record):
         cmd_on = engine_commanded_on(st)
         if cmd_on:
             locked = False
+        p_floor = cold_pwr if i * dt < hold_s else 0.0
         w_lo, w_hi, w_tgt, p_eng, fuelcut, fired, te_max_now, wg0 = operating_point_phase(
-            prm, cmd_on, p_filt, f_dem, we0, wr0, wr_e, fired, v0, ocv, soc, geo, wg_lim, s_eq,
+            prm, cmd_on, max(p_filt, p_floor), f_dem, we0, wr0, wr_e, fired, v0, ocv, soc, geo, wg_lim, s_eq,
             em, ol, m2, m1, bm)
         te = engine_torque(locked, fired, fuelcut, p_eng, w_tgt, we0, te_max_now, eng_drag)
         te, tg_ff, t_ring, t_m, tm_lim, pstate, f_brk = torque_split_phase(

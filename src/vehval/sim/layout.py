@@ -21,7 +21,7 @@ PARAMS = (
     "gen_kp", "gen_ki", "eng_pwr_tau", "gen_spd_margin", "eng_spd_margin",
     "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax",
     "soc_init", "mg2_ratio", "op_system", "eq_factor",
-    "cold_start", "cold_hold", "warm_frac", "warm_tau",
+    "cold_start", "cold_hold", "warm_frac", "warm_tau", "cold_pwr",
 )
 SIGNALS = (
     "veh_spd", "veh_spd_target", "veh_acc", "veh_frc_in", "veh_frc_loss", "whl_trq_out",

@@ -83,6 +83,7 @@ def param_vector(veh: Vehicle, soc_initial: float, cold_start: bool = False) -> 
         "eq_factor": 1.0 / (best_engine_efficiency(veh) * c.soc_correction_path_efficiency),
         "cold_start": 1.0 if cold_start else 0.0, "cold_hold": c.cold_start_engine_on_s,
         "warm_frac": e.warmup_fuel_fraction, "warm_tau": e.warmup_time_constant_s,
+        "cold_pwr": c.cold_start_engine_power_w,
     }
     return np.array([float(val[k]) for k in PARAMS])
 

@@ -51,6 +51,11 @@ class ControllerParams(Block):
     cold_start_engine_on_s: float = Field(default=0.0, ge=0, le=3600)
     """A cold-start run holds the engine on for this long from its start [s] (catalyst
     heating, warm-up); the controller sets its power as usual. 0: no hold."""
+    cold_start_engine_power_w: float = Field(default=0.0, ge=0, le=1e6)
+    """During the cold-start hold the engine delivers at least this power [W], the surplus
+    over the drive demand charging the battery within its limits (a warming engine runs
+    loaded). 0: the controller's power, idling when it asks for none; else at least
+    ``engine_min_power_w``."""
     operating_point: Literal["system", "best_line"] = "best_line"
     """Engine speed choice while the engine delivers power: ``best_line`` places the power on
     the engine's own best-efficiency line; ``system`` picks the speed of least fuel plus the
@@ -67,6 +72,11 @@ class ControllerParams(Block):
             raise ValueError("'soc_force_on' must not exceed 'soc_engine_on'")
         if self.regen_fade_low_mps >= self.regen_fade_high_mps:
             raise ValueError("'regen_fade_low_mps' must be below 'regen_fade_high_mps'")
+        if 0.0 < self.cold_start_engine_power_w < self.engine_min_power_w:
+            raise ValueError(
+                f"'cold_start_engine_power_w' {self.cold_start_engine_power_w:g} W is below "
+                f"'engine_min_power_w' {self.engine_min_power_w:g} W, the least power the "
+                "engine delivers when loaded: give 0 (no floor) or at least that")
         return self
 
 
