@@ -1,7 +1,8 @@
 """Outputs unchanged: findings.json, control.json, validation.json (+ metrics.json) and the
 simulation summary of the demo test and of the Cruze D3 tests against tests/golden/.
 
-Numbers must agree to 1e-9 relative; strings, keys and list lengths exactly. The goldens
+Numbers must agree to 1e-9 relative (1e-7 for the few ill-conditioned fits in
+``LOOSE``); strings, keys and list lengths exactly. The goldens
 are regenerated with ``make golden`` when an output changes on purpose (say why in the
 commit). The Cruze cases need the shared real data and skip without it.
 """
@@ -18,6 +19,11 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 GOLDEN = ROOT / "tests" / "golden"
 RTOL = 1e-9
+#: output paths whose numbers come from ill-conditioned fits, with their relative tolerance:
+#: the demo's SOC regulation is a robust line through a cloud of r² 0.009, whose slope moves
+#: by 2e-9 (r² by 1e-8) between CPUs (numpy/OpenBLAS pick their SIMD kernels per CPU); the
+#: rest of the outputs agree bit for bit across machines
+LOOSE = {"/control/soc_regulation/": 1e-7}
 
 _spec = importlib.util.spec_from_file_location("vehval_golden", ROOT / "scripts" / "golden.py")
 golden = importlib.util.module_from_spec(_spec)
@@ -40,7 +46,8 @@ def diff(a, b, path="") -> list[str]:
     num = (int, float)
     if (isinstance(a, num) and isinstance(b, num) and not isinstance(a, bool)
             and not isinstance(b, bool)):
-        if math.isclose(a, b, rel_tol=RTOL, abs_tol=1e-12):
+        rtol = next((t for key, t in LOOSE.items() if key in path + "/"), RTOL)
+        if math.isclose(a, b, rel_tol=rtol, abs_tol=1e-12):
             return []
         return [f"{path}: {a!r} != golden {b!r}"]
     return [] if a == b else [f"{path}: {a!r} != golden {b!r}"]
@@ -53,13 +60,19 @@ def _check(docs: dict[str, dict[str, dict]]) -> None:
             ref = GOLDEN / case / f"{name}.json"
             assert ref.is_file(), f"no golden {ref}: run `make golden`"
             now = json.loads(json.dumps(doc, sort_keys=True))
-            problems += [f"{case}/{name}{d}" for d in diff(now, json.loads(ref.read_text()))]
+            problems += [f"{case}{d}" for d in diff(now, json.loads(ref.read_text()), f"/{name}")]
     assert not problems, "\n".join(problems[:40])
 
 
 def test_diff_finds_a_change():
     assert diff({"a": [1.0, "x"]}, {"a": [1.0 + 1e-6, "x"]}) == ["/a[0]: 1.0 != golden 1.000001"]
     assert diff({"a": 1.0}, {"a": 1.0 * (1 + 1e-12)}) == []
+    # the looser tolerance applies under its path only
+    fit = {"control": {"soc_regulation": {"slope_w": 1.0}}, "x": 1.0}
+    moved = {"control": {"soc_regulation": {"slope_w": 1.0 + 1e-8}}, "x": 1.0 + 1e-8}
+    assert diff(fit, moved) == ["/x: 1.0 != golden 1.00000001"]
+    assert len(diff({"control": {"soc_regulation": {"slope_w": 1.0}}},
+                    {"control": {"soc_regulation": {"slope_w": 1.0 + 1e-6}}})) == 1
 
 
 @pytest.mark.slow

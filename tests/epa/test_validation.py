@@ -156,6 +156,18 @@ def test_cli_validate(prius_list, tmp_path, capsys):
     assert "did you mean" in capsys.readouterr().err
 
 
+def test_cli_validate_nothing_runnable(prius_list, tmp_path, capsys):
+    """A selection of only unrunnable procedures is refused: named, counted, nothing written."""
+    out = tmp_path / "out"
+    rc = main(["epa", "validate", str(prius_list), "--vehicle", "prius_2016", "--tests",
+               "model=PRIUS,originator=MFR,procedure=sc03", "-o", str(out)])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert "1 SC03" in err and "none of which the simulator can run" in err
+    assert "A/C" in err and "Traceback" not in err
+    assert not out.exists()
+
+
 def test_conventional_vehicle(prius_list):
     """A conventional car runs its own loop: no battery to balance, HWFET equal to a plain
     simulation with the test's weight and road load, hot and cold UDDS identical (no cold

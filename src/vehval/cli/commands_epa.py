@@ -124,6 +124,17 @@ def validate_cmd(
     from vehval.report.epa import share_text
 
     val = validate_tests(vehicle, _selected(paths, tests, dt), dt=dt)
+    if not val.predictions:
+        from collections import Counter
+
+        from vehval.errors import InputFileError
+
+        kinds = ", ".join(f"{n} {d}" for d, n in Counter(
+            s["description"] for s in val.skipped).items())
+        raise InputFileError(
+            f"the selector '{tests}' matches {len(val.skipped)} test(s), none of which the "
+            f"simulator can run ({kinds}: {val.skipped[0]['reason']}); select FTP-75, HWFET "
+            "or US06 tests, e.g. add procedure=ftp75")
     written = []
     if outdir is not None:
         from vehval.report.epa import write_epa_report
@@ -146,10 +157,11 @@ def validate_cmd(
                        "are listed, not judged")
     for s in val.skipped:
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
-    r = st["spread_correlation"]["pooled"]
+    r, mean = st["spread_correlation"]["pooled"], st["mean_error"]
     typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped; "
                f"{st['n_within_tolerance']}/{st['n_judged']} judged figures within "
-               f"{100 * st['tolerance']:.0f} %; mean error {100 * (st['mean_error'] or 0):+.1f} %"
+               f"{100 * st['tolerance']:.0f} %; mean error "
+               f"{'-' if mean is None else f'{100 * mean:+.1f} %'}"
                f"; r = {'-' if r is None else f'{r:.3f}'}")
     typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
                "(J1711 balances the whole test, not each bag)")
