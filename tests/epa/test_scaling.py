@@ -12,6 +12,7 @@ from vehval.vehicle.scaling import (
     loss_basis,
     machine_scale,
     peak_efficiency,
+    scale_battery,
     scale_engine_map,
     scale_machine_map,
 )
@@ -79,3 +80,65 @@ def test_efficiency_floor_by_hand():
     assert out[1, 0] == pytest.approx(cap, rel=1e-12)  # 500 W capped (generating side too)
     assert out[1, 2] == 100.0  # already below the cap: kept
     assert np.all(out[0] == 0.0) and out[1, 1] == 0.0  # standstill and zero torque
+
+
+def test_battery_scaling_by_hand():
+    # 2004 pack (168 NiMH cells, 201.6 V, 6.5 Ah) -> the gen-4 Li-ion pack (56 cells,
+    # 207.2 V, 3.6 Ah): k_v = 1.02778, k_c = 0.55385
+    ref = load_vehicle("prius_2004").battery
+    li = scale_battery(ref, n_cells=56, n_modules=2, capacity_ah=3.6, nominal_voltage_v=207.2,
+                       chemistry="li_ion", ref_name="the 2004 pack")
+    k_v, k_c = 207.2 / 201.6, 3.6 / 6.5
+    i50 = ref.soc.index(0.5)
+    assert li.ocv_v[i50] == pytest.approx(215.35 * k_v, rel=1e-12)  # 221.33 V
+    assert li.resistance_discharge_ohm[i50] == pytest.approx(0.35 * k_v / k_c, rel=1e-12)
+    assert li.resistance_discharge_ohm[i50] == pytest.approx(0.6495, abs=1e-4)
+    assert max(li.discharge_power_limit_w) == pytest.approx(21000 * k_v * k_c, rel=1e-12)
+    assert li.chemistry == "li_ion" and li.soc == ref.soc and li.soc_max == ref.soc_max
+    assert "k_v / k_c" in li.sources["resistance_discharge_ohm"]
+    # the invariant behind it: at the same C-rate the loss fraction I R / V is the same
+    for k in range(len(ref.soc)):
+        f_ref = (2.0 * ref.capacity_ah) * ref.resistance_discharge_ohm[k] / ref.ocv_v[k]
+        f_new = (2.0 * li.capacity_ah) * li.resistance_discharge_ohm[k] / li.ocv_v[k]
+        assert f_new == pytest.approx(f_ref, rel=1e-12)
+    # a given rating: the limit curves keep their shape
+    rated = scale_battery(ref, n_cells=56, n_modules=2, capacity_ah=3.6,
+                          nominal_voltage_v=207.2, chemistry="li_ion", power_limit_w=27e3)
+    assert max(rated.charge_power_limit_w) == pytest.approx(27e3, rel=1e-12)
+    assert np.allclose(np.asarray(rated.discharge_power_limit_w) / 27e3,
+                       np.asarray(ref.discharge_power_limit_w) / 21e3, rtol=1e-12)
+
+
+def test_battery_scaling_identity_and_refusals():
+    ref = load_vehicle("prius_2004").battery
+    same = scale_battery(ref, n_cells=168, n_modules=28, capacity_ah=6.5)
+    for key in ("ocv_v", "resistance_discharge_ohm", "resistance_charge_ohm",
+                "discharge_power_limit_w", "charge_power_limit_w"):
+        assert getattr(same, key) == pytest.approx(getattr(ref, key), rel=1e-12)
+    assert same.nominal_voltage_v == pytest.approx(201.6, rel=1e-12)
+    # same chemistry, twice the cells: voltage from the reference's volts per cell
+    double = scale_battery(ref, n_cells=336, n_modules=56, capacity_ah=6.5)
+    assert double.nominal_voltage_v == pytest.approx(403.2, rel=1e-12)
+    assert double.resistance_charge_ohm[0] == pytest.approx(2 * ref.resistance_charge_ohm[0])
+    with pytest.raises(ValueError, match="nominal_voltage_v"):
+        scale_battery(ref, n_cells=56, n_modules=2, capacity_ah=3.6, chemistry="li_ion")
+    with pytest.raises(ValueError, match="multiple of 'n_modules'"):
+        scale_battery(ref, n_cells=57, n_modules=2, capacity_ah=3.6)
+
+
+def test_scaled_li_ion_pack_keeps_the_invariants():
+    """The 2004 Prius with a scaled Li-ion pack: energy closes, the SOC window and the
+    pack's power limits hold, the trace is followed."""
+    from vehval.sim.simulate import simulate
+
+    veh = load_vehicle("prius_2004")
+    li = scale_battery(veh.battery, n_cells=56, n_modules=2, capacity_ah=3.6,
+                       nominal_voltage_v=207.2, chemistry="li_ion")
+    res = simulate(veh.model_copy(update={"battery": li}), "udds", dt=0.2)
+    s = res.summary
+    assert abs(s["energy_balance_rel"]) < 1e-9  # round-off closure of the kernel
+    soc = res.test["ess_soc_simu"].values
+    assert li.soc_min <= soc.min() and soc.max() <= li.soc_max
+    p = res.test["ess_pwr_simu"].values
+    assert p.max() <= max(li.discharge_power_limit_w) * 1.06  # the kernel's mid-step margin
+    assert s["trace_n_miss"] == 0

@@ -11,6 +11,13 @@ The method is the one ADVISOR and Autonomie use to size components from a refere
   for the newer machine) can be a floor on the scaled map's efficiency
   (:func:`efficiency_floor_losses`): at every point the loss is at most what that curve
   allows for the point's power.
+* battery pack, by nominal voltage and capacity (:func:`scale_battery`): open-circuit
+  voltage x ``k_v`` (new / reference nominal voltage) at the same SOC, resistances x
+  ``k_v / k_c`` (``k_c`` new / reference capacity), power limits x ``k_v k_c`` (or to a
+  given rating). At the same C-rate the current scales by ``k_c``, so the resistive loss
+  as a fraction of the power, ``I R / V``, is unchanged: the cells work as the reference
+  cells do. Across chemistries (NiMH to Li-ion) the reference's OCV shape over SOC is kept,
+  a stated approximation where no measured cell curve exists.
 * engine, by rated speed and peak torque: speed x ``k_n``, torque x ``k_t``, fuel rate x
   ``k_n k_t`` (efficiency kept), then x ``eta_ref / eta_new`` to move the peak efficiency to
   a published figure (every point improved by the same ratio).
@@ -27,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S
+from vehval.vehicle.components import BatteryParams
 
 
 def loss_basis(speed_rad_s: np.ndarray, torque_nm: np.ndarray) -> np.ndarray:
@@ -141,3 +149,85 @@ def peak_efficiency(speed_rpm, torque_nm, fuel_g_per_s, max_torque_nm, lhv_j_per
     with np.errstate(divide="ignore", invalid="ignore"):
         eff = np.where(inside & (fuel > 0), p / (fuel * 1e-3 * lhv_j_per_kg), 0.0)
     return float(eff.max())
+
+
+def scale_battery(ref: BatteryParams, *, n_cells: int, n_modules: int, capacity_ah: float,
+                  nominal_voltage_v: float | None = None, chemistry: str | None = None,
+                  power_limit_w: float | None = None,
+                  ref_name: str = "the reference pack") -> BatteryParams:
+    """A pack scaled from ``ref`` by nominal voltage and capacity (ADVISOR/Autonomie method).
+
+    Parameters
+    ----------
+    ref : BatteryParams
+        Reference pack (its OCV [V], resistances [ohm] and power limits [W] over SOC).
+    n_cells, n_modules : int
+        Cells in series and modules of the new pack.
+    capacity_ah : float
+        Capacity of the new pack [A·h].
+    nominal_voltage_v : float, optional
+        Nominal voltage of the new pack [V]. Default: ``ref``'s per cell x ``n_cells``
+        (same chemistry only; required when ``chemistry`` differs from the reference's).
+    chemistry : {"nimh", "li_ion"}, optional
+        Chemistry of the new pack. Default: the reference's.
+    power_limit_w : float, optional
+        Rated charge and discharge power [W]: the limit curves keep their shape over SOC,
+        scaled to this peak. Default: the reference's x ``k_v k_c`` (same C-rate).
+    ref_name : str
+        How the sources name the reference pack.
+
+    Returns
+    -------
+    BatteryParams
+        The new pack, SOC breakpoints and window of ``ref``, every value with its source.
+
+    Raises
+    ------
+    ValueError
+        A chemistry change without a nominal voltage, or a value out of range.
+    """
+    chem = chemistry or ref.chemistry
+    if chem != ref.chemistry and nominal_voltage_v is None:
+        raise ValueError(f"a {chem} pack scaled from a {ref.chemistry} one needs its "
+                         "'nominal_voltage_v' (cells x the cell's nominal voltage): the "
+                         "reference's voltage per cell is another chemistry's")
+    if nominal_voltage_v is None:
+        nominal_voltage_v = ref.nominal_voltage_v / ref.n_cells * n_cells
+    if not (nominal_voltage_v > 0 and capacity_ah > 0):
+        raise ValueError("nominal voltage and capacity of the new pack must be positive")
+    k_v = nominal_voltage_v / ref.nominal_voltage_v
+    k_c = capacity_ah / ref.capacity_ah
+
+    def times(values, k):
+        return [float(v) * k for v in values]
+
+    peak = max(max(ref.discharge_power_limit_w), max(ref.charge_power_limit_w))
+    k_p = k_v * k_c if power_limit_w is None else power_limit_w / peak
+    how = (f"scaled from {ref_name} ({ref.n_cells} cells, {ref.nominal_voltage_v:g} V, "
+           f"{ref.capacity_ah:g} Ah, {ref.chemistry}) by vehval.vehicle.scaling.scale_battery:")
+    power_how = (f"{how} x {k_p:.4g} (to the {power_limit_w:g} W rating, shape over SOC kept)"
+                 if power_limit_w is not None else
+                 f"{how} x k_v k_c = {k_p:.4g} (same C-rate limits)")
+    sources = {
+        "soc": f"{ref_name} breakpoints", "soc_min": f"{ref_name}", "soc_max": f"{ref_name}",
+        "ocv_v": f"{how} x k_v = {k_v:.4g} (OCV shape over SOC of {ref_name})",
+        "resistance_discharge_ohm": f"{how} x k_v / k_c = {k_v / k_c:.4g} (same loss "
+                                    "fraction at the same C-rate)",
+        "resistance_charge_ohm": f"{how} x k_v / k_c = {k_v / k_c:.4g}",
+        "discharge_power_limit_w": power_how, "charge_power_limit_w": power_how,
+        "capacity_ah": "given", "n_cells": "given", "n_modules": "given",
+        "nominal_voltage_v": ("given" if chem != ref.chemistry or nominal_voltage_v
+                              != ref.nominal_voltage_v / ref.n_cells * n_cells
+                              else f"{ref_name}'s voltage per cell x {n_cells} cells"),
+    }
+    if chem != "nimh":  # a non-default value needs its source
+        sources["chemistry"] = "given" if chemistry else ref_name
+    return BatteryParams(
+        soc=list(ref.soc), ocv_v=times(ref.ocv_v, k_v),
+        resistance_discharge_ohm=times(ref.resistance_discharge_ohm, k_v / k_c),
+        resistance_charge_ohm=times(ref.resistance_charge_ohm, k_v / k_c),
+        discharge_power_limit_w=times(ref.discharge_power_limit_w, k_p),
+        charge_power_limit_w=times(ref.charge_power_limit_w, k_p),
+        capacity_ah=capacity_ah, n_cells=n_cells, n_modules=n_modules,
+        nominal_voltage_v=nominal_voltage_v, soc_min=ref.soc_min, soc_max=ref.soc_max,
+        chemistry=chem, sources=sources)
