@@ -92,3 +92,38 @@ def test_cli_flags_doubtful_rows(tmp_path, capsys):
                  "model=PRIUS", "--dt", "1"]) == 0
     out = capsys.readouterr().out
     assert "no (list doubtful)" in out and "its figures are listed, not judged" in out
+
+
+def test_vehicle_match_by_axle_ratio_and_displacement(tmp_path):
+    """The list's axle ratio and displacement against the vehicle file: the 2016 Prius's
+    rows match (2.83 listed to 0.01 against 2.8344: -0.16 %); a Prius c row does not."""
+    import dataclasses
+
+    from vehval.epa.consistency import check_vehicle_match, group_mismatches
+    from vehval.vehicle import load_vehicle
+
+    veh = load_vehicle("prius_2016")
+    prius = read_test_car_list(write_list(tmp_path / "16tstcar.csv", [row()]))[0]
+    ok = check_vehicle_match(prius, veh)
+    assert ok.ok and ok.note == "axle ratio and displacement match the vehicle file"
+    # +2 % is the edge of what the list's rounding explains; beyond it, a mismatch
+    edge = dataclasses.replace(prius, axle_ratio=2.8344 * 1.019, displacement_l=float("nan"))
+    assert check_vehicle_match(edge, veh).ok
+    c = dataclasses.replace(prius, model="PRIUS c", vehicle_id="17-NP4H", axle_ratio=3.19,
+                            displacement_l=1.497)
+    bad = check_vehicle_match(c, veh)
+    assert not bad.ok
+    assert "axle ratio 3.19 (+12.5 %)" in bad.note  # 3.19 / 2.8344 - 1 = +12.55 %
+    assert "displacement 1.497 L (-16.7 %)" in bad.note  # 1.497 / 1.798 - 1 = -16.74 %
+    assert "17-NP4H" in bad.note
+    assert group_mismatches([("A", bad), ("B", ok), ("C", bad), ("D", None)]) == {
+        bad.note: ["A", "C"]}
+    # nothing to compare: no axle ratio listed, no displacement in the file
+    bare = dataclasses.replace(c, axle_ratio=float("nan"))
+    no_disp = veh.with_overrides({"engine.displacement_l": None})
+    assert check_vehicle_match(bare, no_disp).note.startswith("not checked")
+    # a final drive ratio of 1 lumps the final drive into the gear ratios: not compared
+    lumped = veh.with_overrides({"driveline.final_drive_ratio": 1.0,
+                                 "engine.displacement_l": None})
+    assert check_vehicle_match(c, lumped).ok
+

@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from tests.epa.conftest import row, write_list
 from vehval.cli import main
 from vehval.epa import plan_for, read_test_car_list
 from vehval.epa.procedures import FTP75, US06
@@ -199,3 +200,26 @@ def test_conventional_vehicle(prius_list):
     # bag 1 burns x (1 + 0.25 e^(-t/600)) over its 505 s: 15-25 % more fuel than bag 3
     ratio = byw["bag 3"].predicted_mpg / byw["bag 1"].predicted_mpg
     assert 1.15 < ratio < 1.25
+
+
+def test_cli_validate_names_tests_of_another_car(tmp_path, capsys):
+    """A year whose only 'PRIUS' rows are a Prius c's: the partial model match is said, the
+    tests are simulated and judged, and each test vehicle's mismatch is named (stdout, JSON,
+    report)."""
+    rows = [row(model="PRIUS c", vid="17-NP4H", number="C1", weight=2875, fe=61.4),
+            row(model="PRIUS c", vid="17-NP4H", number="C2", weight=2875, fe=61.8)]
+    for r in rows:
+        r["Axle Ratio"], r["Test Veh Displacement (L)"] = "3.19", "1.497"
+    path = write_list(tmp_path / "19tstcar.csv", rows)
+    out = tmp_path / "out"
+    rc = main(["epa", "validate", str(path), "--vehicle", "prius_2016", "--tests",
+               "model=PRIUS", "-o", str(out)])
+    assert rc == 0
+    cap = capsys.readouterr()
+    assert "no model is named 'PRIUS'; taken as part of a name: 'PRIUS c'" in cap.err
+    assert "! 2 test(s) (C1, C2): the list gives axle ratio 3.19 (+12.5 %)" in cap.out
+    data = json.loads((out / "epa_validation.json").read_text())
+    assert data["stats"]["n_tests_vehicle_mismatch"] == 2
+    assert all(not t["vehicle_check"]["ok"] for t in data["tests"])
+    assert all(c["judged"] for c in data["comparisons"])  # still judged: the user's choice
+    assert "may be another car" in (out / "report.html").read_text()

@@ -25,7 +25,17 @@ def _fmt(x: float | None, spec: str = ".1f") -> str:
 def _load(paths: list[Path], make, model, year):
     from vehval.epa import read_lists, select_tests
 
-    return select_tests(read_lists(paths), make, model, year)
+    return _note_partial_model(select_tests(read_lists(paths), make, model, year), model)
+
+
+def _note_partial_model(tests: list, model: str | None) -> list:
+    """Say on stderr when ``model`` matched no model exactly and was taken as a part of
+    the names (``PRIUS`` in a year that lists only ``PRIUS c``)."""
+    if model and tests and all(t.model.upper() != model.strip().upper() for t in tests):
+        names = ", ".join(sorted({repr(t.model) for t in tests}))
+        typer.echo(f"note: no model is named '{model.strip()}'; taken as part of a name: "
+                   f"{names}", err=True)
+    return tests
 
 
 @epa_app.command("list")
@@ -94,6 +104,7 @@ def tests_cmd(
 def _selected(paths: list[Path], selector: str, dt: float):
     """Tests of the list files matching ``selector`` (refused if none; ``dt`` checked)."""
     from vehval.epa import apply_selector, read_lists
+    from vehval.epa.select import parse_selector
     from vehval.errors import InputFileError
     from vehval.sim.simulate import _check_dt
 
@@ -101,7 +112,7 @@ def _selected(paths: list[Path], selector: str, dt: float):
     selected = apply_selector(read_lists(paths), selector)
     if not selected:
         raise InputFileError(f"the selector '{selector}' matches no test")
-    return selected
+    return _note_partial_model(selected, parse_selector(selector).get("model"))
 
 
 @epa_app.command("validate")
@@ -155,6 +166,7 @@ def validate_cmd(
         if p.list_check is not None and not p.list_check.ok:
             typer.echo(f"! {p.test.label} ({p.test.source}): {p.list_check.note}; its figures "
                        "are listed, not judged")
+    _echo_mismatches([(p.test.label, p.vehicle_check) for p in val.predictions])
     for s in val.skipped:
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
     r, mean = st["spread_correlation"]["pooled"], st["mean_error"]
@@ -167,6 +179,16 @@ def validate_cmd(
                "(J1711 balances the whole test, not each bag)")
     if written:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _echo_mismatches(checks, err: bool = False) -> None:
+    """One '!' line per distinct note of the tests whose driveline differs from the vehicle
+    file's (``checks``: (test label, VehicleCheck or None) pairs)."""
+    from vehval.epa.consistency import group_mismatches
+
+    for note, labels in group_mismatches(checks).items():
+        shown = ", ".join(labels[:3]) + (" ..." if len(labels) > 3 else "")
+        typer.echo(f"! {len(labels)} test(s) ({shown}): {note}", err=err)
 
 
 def _judged_text(c) -> str:
@@ -212,10 +234,14 @@ def calibrate_cmd(
 ) -> None:
     """Choose unpublished parameters (controller thresholds, gains) on a set of EPA tests."""
     from vehval.epa.calibrate import calibrate_on_tests
+    from vehval.epa.consistency import check_vehicle_match
+    from vehval.vehicle import load_vehicle
 
     grid = dict(_parse_param(p) for p in param)
-    cal = calibrate_on_tests(vehicle, _selected(paths, tests, dt), grid, dt=dt,
-                             refine_rounds=refine, workers=workers)
+    selected, veh = _selected(paths, tests, dt), load_vehicle(vehicle)
+    _echo_mismatches([(t.label, check_vehicle_match(t, veh)) for t in selected], err=True)
+    cal = calibrate_on_tests(veh, selected, grid, dt=dt, refine_rounds=refine,
+                             workers=workers)
     if output is not None:
         cal.write_vehicle(output)
     if as_json:

@@ -8,6 +8,11 @@ parts by distance. Bags are weighted by the schedule's own bag distances. On the
 lists half the tests agree within 0.13 % and 99 % within 1.8 %; a larger gap, or a figure
 no car reaches (a placeholder such as 10000 mpg), marks a row whose figures cannot be
 trusted to judge a model. :func:`check_listed_figures` is the one place that decides it.
+
+Does a listed test describe the car of the vehicle file? :func:`check_vehicle_match`
+compares the list's axle ratio and engine displacement with the vehicle file's final drive
+ratio and displacement: a model name can cover another car (a year's "PRIUS" rows may be a
+Prius c's), whose figures then judge the file on a car it does not describe.
 """
 
 from __future__ import annotations
@@ -23,6 +28,10 @@ from vehval.epa.reader import EpaTest
 TOLERANCE = 0.025
 #: fuel economy a listed figure must lie within to be plausible [mpg]
 PLAUSIBLE_MPG = (3.0, 1000.0)
+#: largest accepted |listed / vehicle file - 1| of the axle ratio (listed to 0.01) and of
+#: the displacement (listed to 1 cm^3) [-]
+AXLE_RATIO_TOLERANCE = 0.02
+DISPLACEMENT_TOLERANCE = 0.03
 
 
 @dataclass(frozen=True)
@@ -110,3 +119,57 @@ def check_listed_figures(test: EpaTest) -> ListCheck:
                          "to one and not the other")
     return ListCheck(True, rec, diff, f"bags recombine to the whole-test figure "
                                       f"({100 * diff:+.2f} %)")
+
+
+@dataclass(frozen=True)
+class VehicleCheck:
+    """Result of :func:`check_vehicle_match`: ``ok`` False when a listed figure of the
+    driveline differs from the vehicle file's; ``note`` says which and by how much."""
+
+    ok: bool
+    note: str
+
+    def to_dict(self) -> dict:
+        return {"ok": self.ok, "note": self.note}
+
+
+def check_vehicle_match(test: EpaTest, vehicle) -> VehicleCheck:
+    """Whether the list's axle ratio and displacement of ``test`` match ``vehicle``.
+
+    The final drive ratio [-] is compared when the vehicle file states one (a ratio of 1
+    means its gear ratios are engine-to-wheel, the final drive lumped in: not compared);
+    the displacement [L] when both state it.
+    """
+    listed, own, checked = [], [], []
+    fd = float(vehicle.driveline.final_drive_ratio)
+    if fd != 1.0 and test.axle_ratio == test.axle_ratio and test.axle_ratio > 0:
+        checked.append("axle ratio")
+        d = test.axle_ratio / fd - 1.0
+        if abs(d) > AXLE_RATIO_TOLERANCE:
+            listed.append(f"axle ratio {test.axle_ratio:g} ({100 * d:+.1f} %)")
+            own.append(f"final drive ratio {fd:g}")
+    disp = vehicle.engine.displacement_l
+    if disp and test.displacement_l == test.displacement_l and test.displacement_l > 0:
+        checked.append("displacement")
+        d = test.displacement_l / disp - 1.0
+        if abs(d) > DISPLACEMENT_TOLERANCE:
+            listed.append(f"displacement {test.displacement_l:g} L ({100 * d:+.1f} %)")
+            own.append(f"{disp:g} L")
+    if listed:
+        return VehicleCheck(False, f"the list gives {' and '.join(listed)} where "
+                                   f"{vehicle.name} has {' and '.join(own)}: {test.model} "
+                                   f"test vehicle {test.vehicle_id} may be another car or "
+                                   "driveline")
+    if not checked:
+        return VehicleCheck(True, "not checked: no axle ratio or displacement to compare")
+    return VehicleCheck(True, f"{' and '.join(checked)} match the vehicle file")
+
+
+def group_mismatches(checks) -> dict[str, list[str]]:
+    """Test labels whose :class:`VehicleCheck` failed, grouped by its note (one group per
+    test vehicle and difference); ``checks`` are (label, VehicleCheck or None) pairs."""
+    groups: dict[str, list[str]] = {}
+    for label, chk in checks:
+        if chk is not None and not chk.ok:
+            groups.setdefault(chk.note, []).append(label)
+    return groups

@@ -25,7 +25,12 @@ import numpy as np
 
 from vehval.constants import GALLON_US_M3, MILE_M
 from vehval.cycles import load_cycle
-from vehval.epa.consistency import ListCheck, check_listed_figures
+from vehval.epa.consistency import (
+    ListCheck,
+    VehicleCheck,
+    check_listed_figures,
+    check_vehicle_match,
+)
 from vehval.epa.procedures import (
     FTP_WEIGHT_COLD,
     FTP_WEIGHT_HOT,
@@ -104,6 +109,7 @@ class TestPrediction:
     fuel_kg: float
     engine_on_fraction: float
     list_check: ListCheck | None = None  # the list's own figures agree (set by validate_tests)
+    vehicle_check: VehicleCheck | None = None  # the test's driveline matches the vehicle file
 
 
 @dataclass
@@ -123,6 +129,8 @@ class EpaValidation:
             "n_tests_selected": len(self.predictions) + len(self.skipped),
             "n_tests_simulated": len(self.predictions),
             "n_tests_skipped": len(self.skipped),
+            "n_tests_vehicle_mismatch": sum(1 for p in self.predictions if p.vehicle_check
+                                            is not None and not p.vehicle_check.ok),
             "n_judged": len(judged),
             "n_within_tolerance": int(np.sum(np.abs(err) <= TOLERANCE)) if err.size else 0,
             "n_within_3pct": int(np.sum(np.abs(err) <= 0.03)) if err.size else 0,
@@ -149,6 +157,8 @@ class EpaValidation:
                            "engine_on_fraction": p.engine_on_fraction,
                            "list_check": (None if p.list_check is None
                                           else p.list_check.to_dict()),
+                           "vehicle_check": (None if p.vehicle_check is None
+                                             else p.vehicle_check.to_dict()),
                            "source": p.test.source} for p in self.predictions],
                 "skipped": self.skipped}
 
@@ -441,6 +451,7 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
             continue
         pred = predict_test(veh, t, proc, dt)
         pred.list_check = check_listed_figures(t)
+        pred.vehicle_check = check_vehicle_match(t, veh)
         res.predictions.append(pred)
         rows = _compare(pred, proc, cold_model)
         if not pred.list_check.ok:  # the list contradicts itself: listed, not judged

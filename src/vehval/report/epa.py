@@ -12,6 +12,7 @@ import io
 from pathlib import Path
 
 from vehval import jsonsafe
+from vehval.epa.consistency import group_mismatches
 from vehval.epa.validation import TOLERANCE, EpaValidation
 from vehval.report.safety import CSP_META
 
@@ -106,11 +107,17 @@ def render_html(val: EpaValidation) -> str:
     skipped = "".join(f"<li>{html.escape(s['test'])} ({html.escape(s['description'])}): "
                       f"{html.escape(s['reason'])}</li>" for s in val.skipped)
     pooled = corr["pooled"]
+    groups = group_mismatches((p.test.label, p.vehicle_check) for p in val.predictions)
+    mismatch = "".join(
+        f"<p class=\"warn\">&#9888; {len(labels)} test(s) ({html.escape(', '.join(labels))}): "
+        f"{html.escape(note)}. Their errors judge the vehicle file on a car it may not "
+        "describe.</p>" for note, labels in groups.items())
     return f"""<!DOCTYPE html><html><head><meta charset="utf-8">{CSP_META}
 <title>vehval EPA validation: {html.escape(val.vehicle)}</title>
 <style>body{{font-family:sans-serif;margin:2em}}table{{border-collapse:collapse}}
 td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}td:nth-child(-n+4){{text-align:left}}
-tr.ok td{{background:#e8f6e8}}tr.bad td{{background:#fbe9e9}}</style></head><body>
+tr.ok td{{background:#e8f6e8}}tr.bad td{{background:#fbe9e9}}
+p.warn{{background:#fff4d6;padding:4px 8px}}</style></head><body>
 <h1>EPA certification tests: {html.escape(val.vehicle)}</h1>
 <p>{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped;
 {st['n_within_tolerance']} of {st['n_judged']} judged figures within
@@ -118,6 +125,7 @@ tr.ok td{{background:#e8f6e8}}tr.bad td{{background:#fbe9e9}}</style></head><bod
 {100 * (st['mean_error'] or 0):+.1f} %, mean |error| {100 * (st['mean_abs_error'] or 0):.1f} %.
 Correlation of predicted and measured judged figures: r = {'-' if pooled is None
                                                            else f'{pooled:.3f}'}.</p>
+{mismatch}
 {scatter_svg(val)}
 <h2>By figure</h2>
 <table><tr><th>figure</th><th>judged</th><th>within {100 * TOLERANCE:.0f} %</th>
