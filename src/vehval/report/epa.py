@@ -47,9 +47,14 @@ def scatter_svg(val: EpaValidation, size: int = 420) -> str:
             'font-family="sans-serif" font-size="11">'),
            (f'<rect x="{m}" y="{m}" width="{size - 2 * m}" height="{size - 2 * m}" '
             'fill="none" stroke="#888"/>')]
+    # the 1:1 and tolerance lines, clipped to the plot area (the ±5 % lines leave it)
+    out.append(f'<defs><clipPath id="epa-plot-area"><rect x="{m}" y="{m}" '
+               f'width="{size - 2 * m}" height="{size - 2 * m}"/></clipPath></defs>'
+               '<g clip-path="url(#epa-plot-area)">')
     for k, dash in ((1.0, ""), (1 + TOLERANCE, "4,3"), (1 - TOLERANCE, "4,3")):
         out.append(f'<line x1="{sx(lo):.1f}" y1="{sy(lo * k):.1f}" x2="{sx(hi):.1f}" '
                    f'y2="{sy(hi * k):.1f}" stroke="#999" stroke-dasharray="{dash}"/>')
+    out.append("</g>")
     step = 10 if hi - lo < 120 else 20
     v = (int(lo) // step + 1) * step
     while v < hi:
