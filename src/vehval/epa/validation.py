@@ -30,6 +30,7 @@ from vehval.epa.consistency import (
     VehicleCheck,
     check_listed_figures,
     check_vehicle_match,
+    group_mismatches,
 )
 from vehval.epa.procedures import (
     FTP_WEIGHT_COLD,
@@ -129,8 +130,8 @@ class EpaValidation:
             "n_tests_selected": len(self.predictions) + len(self.skipped),
             "n_tests_simulated": len(self.predictions),
             "n_tests_skipped": len(self.skipped),
-            "n_tests_vehicle_mismatch": sum(1 for p in self.predictions if p.vehicle_check
-                                            is not None and not p.vehicle_check.ok),
+            "n_tests_vehicle_mismatch": sum(map(len, group_mismatches(
+                (p.test.label, p.vehicle_check) for p in self.predictions).values())),
             "n_judged": len(judged),
             "n_within_tolerance": int(np.sum(np.abs(err) <= TOLERANCE)) if err.size else 0,
             "n_within_3pct": int(np.sum(np.abs(err) <= 0.03)) if err.size else 0,

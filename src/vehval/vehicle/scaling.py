@@ -191,6 +191,7 @@ def scale_battery(ref: BatteryParams, *, n_cells: int, n_modules: int, capacity_
         raise ValueError(f"a {chem} pack scaled from a {ref.chemistry} one needs its "
                          "'nominal_voltage_v' (cells x the cell's nominal voltage): the "
                          "reference's voltage per cell is another chemistry's")
+    derived_voltage = nominal_voltage_v is None
     if nominal_voltage_v is None:
         nominal_voltage_v = ref.nominal_voltage_v / ref.n_cells * n_cells
     if not (nominal_voltage_v > 0 and capacity_ah > 0):
@@ -216,9 +217,8 @@ def scale_battery(ref: BatteryParams, *, n_cells: int, n_modules: int, capacity_
         "resistance_charge_ohm": f"{how} x k_v / k_c = {k_v / k_c:.4g}",
         "discharge_power_limit_w": power_how, "charge_power_limit_w": power_how,
         "capacity_ah": "given", "n_cells": "given", "n_modules": "given",
-        "nominal_voltage_v": ("given" if chem != ref.chemistry or nominal_voltage_v
-                              != ref.nominal_voltage_v / ref.n_cells * n_cells
-                              else f"{ref_name}'s voltage per cell x {n_cells} cells"),
+        "nominal_voltage_v": (f"{ref_name}'s voltage per cell x {n_cells} cells"
+                              if derived_voltage else "given"),
     }
     if chem != "nimh":  # a non-default value needs its source
         sources["chemistry"] = "given" if chemistry else ref_name
