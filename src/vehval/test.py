@@ -8,7 +8,7 @@ for states and counters). The methods used are returned, never applied silently.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Iterable, Iterator
+from typing import Collection, Iterable, Iterator
 
 import numpy as np
 import pandas as pd
@@ -194,19 +194,45 @@ class Test:
         return out
 
     def best(self, base: str, origins: Iterable[str] = ("test", "calc"), *,
-             usable: bool = False) -> Signal | None:
-        """The signal of ``base`` to use: the first origin of ``origins`` that has one, and
-        in it the most trusted source (:func:`vehval.nomenclature.preference_rank`).
+             kept: Collection[str] | None = None) -> Signal | None:
+        """The signal of ``base`` to use: the package's one selection rule.
 
-        The package's one answer to "which signal of this quantity": QA, calculations,
-        analysis, validation, batch metrics and report plots all ask here. With
-        ``usable=True`` signals with fewer than two samples or no finite value are skipped.
-        None when the test has no such signal.
+        Results, batch metrics, identification, QA checks, analysis, validation and the
+        report all ask here; no stage picks a source of its own. The rule:
+
+        1. origins in the order of ``origins`` (default: measured, then calculated); the
+           first origin with a usable signal wins;
+        2. usable: at least two samples and one finite value;
+        3. QA's choice: with ``kept`` (the measured signals QA's selection kept, e.g.
+           ``QAResult.selection.kept`` or ``findings.json`` ``selection.kept``), a measured
+           signal (origin ``test``) QA did not keep is not used, so a quantity QA kept in
+           no source has no measured signal. QA's validated test holds only the kept
+           signals, so on it the choice needs no ``kept``; neither does a test imported with
+           QA's ``template_final.yaml`` (its ``selection.drop`` deletes the others);
+        4. among what remains, the most trusted source
+           (:func:`vehval.nomenclature.preference_rank`: facility sensor without qualifier,
+           facility qualifiers, vehicle network, others; ties by name).
+
+        Parameters
+        ----------
+        base : str
+            Base name of the quantity (``fuel_rate``).
+        origins : iterable of str
+            Origins to try, in order (``test``, ``calc``, ``simu``).
+        kept : collection of str, optional
+            Full names of the measured signals QA kept (None: QA did not run).
+
+        Returns
+        -------
+        Signal or None
+            None when the test has no usable signal of ``base`` in ``origins``.
         """
+        allowed = None if kept is None else set(kept)
         for origin in origins:
-            cands = self.by_base(base, origin)
-            if usable:
-                cands = [s for s in cands if s.time.size >= 2 and np.any(np.isfinite(s.values))]
+            cands = [s for s in self.by_base(base, origin)
+                     if s.time.size >= 2 and np.any(np.isfinite(s.values))]
+            if allowed is not None and origin == "test":
+                cands = [s for s in cands if s.name in allowed]
             if cands:
                 return min(cands, key=lambda s: preference_rank(s.name))
         return None

@@ -96,7 +96,7 @@ class AnalysisInputs:
 def pick_signal(test: Test, base: str) -> Signal | None:
     """The signal of a base name the analysis uses: measured before calculated, then the
     most trusted source (:meth:`vehval.test.Test.best`); ``None`` when the test has none."""
-    return test.best(base, ORIGINS, usable=True)
+    return test.best(base, ORIGINS)
 
 
 def _constants(test: Test, vehicle: Any, constants: dict | None) -> dict[str, float]:

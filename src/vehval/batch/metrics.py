@@ -8,7 +8,7 @@ time base over its finite samples.
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Collection, Mapping
 
 import numpy as np
 
@@ -18,18 +18,11 @@ from vehval.constants import MILE_M as _M_PER_MILE
 from vehval.test import Signal, Test
 
 
-def _pick(test: Test, base: str, preferred: dict[str, str] | None = None) -> Signal | None:
-    """The measured signal of ``base``: the QA-selected one, else the unqualified one, else first.
-
-    When QA ran (``preferred`` is not None), a quantity QA kept in no source is not used:
-    a channel dropped as not measured must not show up as a zero in the catalog.
-    """
-    cands = test.by_base(base, "test")
-    if not cands:
+def _kept(selected: Mapping[str, str] | Collection[str] | None) -> list[str] | None:
+    """Full names of the measured signals QA kept (None: QA did not run)."""
+    if selected is None:
         return None
-    if preferred is not None:
-        return next((s for s in cands if s.name == preferred.get(base)), None)
-    return test.best(base, ("test",))
+    return list(selected.values() if isinstance(selected, Mapping) else selected)
 
 
 def _finite(sig: Signal) -> tuple[np.ndarray, np.ndarray]:
@@ -50,17 +43,18 @@ def _product(a: Signal, b: Signal) -> tuple[np.ndarray, np.ndarray]:
     return t[ok], va[ok] * vb[ok]
 
 
-def _power(test: Test, pwr: str, effort: str, flow: str, pref) -> tuple[np.ndarray, np.ndarray] | None:
-    s = _pick(test, pwr, pref)
+def _power(test: Test, pwr: str, effort: str, flow: str,
+           kept: list[str] | None) -> tuple[np.ndarray, np.ndarray] | None:
+    s = test.best(pwr, ("test",), kept=kept)
     if s is not None:
         return _finite(s)
-    e, f = _pick(test, effort, pref), _pick(test, flow, pref)
+    e, f = test.best(effort, ("test",), kept=kept), test.best(flow, ("test",), kept=kept)
     if e is not None and f is not None:
         return _product(e, f)
     return None
 
 
-def test_metrics(test: Test, selected: dict[str, str] | None = None,
+def test_metrics(test: Test, selected: Mapping[str, str] | Collection[str] | None = None,
                  fuel: Any = None) -> dict[str, Any]:
     """Key metrics of a test.
 
@@ -68,9 +62,11 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None,
     ----------
     test : Test
         An imported test (measured signals ``*_test`` in SI).
-    selected : dict, optional
-        Base name -> full name of the signal QA selection kept. When given (QA ran), only
-        those signals are used; a quantity QA kept in no source gives None.
+    selected : dict or collection of str, optional
+        The measured signals QA's selection kept: their full names, or base name -> full
+        name. When given (QA ran), only those signals are used; a quantity QA kept in no
+        source gives None. Each signal is chosen by :meth:`vehval.test.Test.best`, the
+        rule every stage follows.
     fuel : vehval.results.Fuel, optional
         The declared fuel (template ``fuel:``); else the constants ``fuel_density_kg_per_m3``
         and ``fuel_lhv_j_per_kg`` (or the vehicle's). With neither, fuel economy and energy
@@ -101,10 +97,11 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None,
     if len(test):
         t0, t1 = test.span()
         out["duration_s"] = float(t1 - t0)
-    spd = _pick(test, "veh_spd", selected)
+    kept = _kept(selected)
+    spd = test.best("veh_spd", ("test",), kept=kept)
     if spd is not None:
         out["distance_m"] = _integral(*_finite(spd))
-    fuel = _pick(test, "fuel_rate", selected)
+    fuel = test.best("fuel_rate", ("test",), kept=kept)
     if fuel is not None:
         out["fuel_mass_kg"] = _integral(*_finite(fuel))
     fm, dist = out["fuel_mass_kg"], out["distance_m"]
@@ -114,20 +111,20 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None,
             gal = fm / density / _M3_PER_US_GAL
             out["fuel_economy_mpg"] = dist / _M_PER_MILE / gal
             out["fuel_consumption_l_per_100km"] = fm / density * 1e3 / (dist / 1e5)
-    soc = _pick(test, "ess_soc", selected)
+    soc = test.best("ess_soc", ("test",), kept=kept)
     if soc is not None:
         _, v = _finite(soc)
         if v.size:
             out["soc_initial"], out["soc_final"] = float(v[0]), float(v[-1])
             out["soc_change"] = float(v[-1] - v[0])
-    ess = _power(test, "ess_pwr", "ess_volt", "ess_curr", selected)
+    ess = _power(test, "ess_pwr", "ess_volt", "ess_curr", kept)
     if ess is not None:
         out["ess_energy_j"] = _integral(*ess)
-    eng = _power(test, "eng_pwr_out", "eng_trq_out", "eng_spd_out", selected)
+    eng = _power(test, "eng_pwr_out", "eng_trq_out", "eng_spd_out", kept)
     if eng is not None:
         t, p = eng
         out["eng_energy_j"] = _integral(t, np.maximum(p, 0.0))
-    trac = _power(test, "whl_pwr_out", "veh_frc_in", "veh_spd", selected)
+    trac = _power(test, "whl_pwr_out", "veh_frc_in", "veh_spd", kept)
     if trac is not None:
         t, p = trac
         out["tractive_energy_j"] = _integral(t, np.maximum(p, 0.0))

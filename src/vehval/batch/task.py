@@ -78,20 +78,21 @@ def _by_severity(findings: list[dict]) -> dict[str, int]:
     return out
 
 
-def _selected(qa_dict: dict) -> dict[str, str]:
-    """Base name -> kept full name, from the QA selection when it states it."""
+def _selected(qa_dict: dict) -> list[str]:
+    """Full names of the measured signals the QA selection kept (every source of a quantity
+    it kept: :meth:`vehval.test.Test.best` chooses among them)."""
     from vehval.nomenclature import registry
 
     sel = qa_dict.get("selection") or {}
     kept = sel.get("kept") or {}
-    out: dict[str, str] = {}
+    out: list[str] = []
     for name in (kept if isinstance(kept, (dict, list)) else []):
         try:
             parsed = registry().parse(str(name))
         except Exception:  # noqa: BLE001 - a name QA kept but the registry rejects: ignore
             continue
         if parsed.origin == "test":
-            out.setdefault(parsed.base, str(name))
+            out.append(str(name))
     return out
 
 

@@ -24,7 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from vehval.conditions import vehicle_value
 from vehval.equations.expr import parse_expression
 from vehval.errors import ConfigError, SignalError
-from vehval.nomenclature import preference_rank, registry
+from vehval.nomenclature import registry
 from vehval.safe_yaml import load_yaml
 from vehval.test import Signal, Test
 
@@ -250,18 +250,19 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
     pvals, porigin, pmissing = resolve_parameters(calc, constants, vehicle)
     reg = registry()
     measured: dict[str, Signal] = {}
-    by_base: dict[str, list[Signal]] = {}
-    for sig in test:
-        if sig.name in exclude:
-            continue
+    usable = [n for n in test.names if n not in exclude]
+    bases: dict[str, None] = {}  # in the test's order
+    for name in usable:
         try:
-            p = reg.parse(sig.name)
+            p = reg.parse(name)
         except SignalError:
             continue
         if p.origin == "test":
-            by_base.setdefault(p.base, []).append(sig)
-    for base, sigs in by_base.items():
-        measured[base] = min(sigs, key=lambda s: preference_rank(s.name))
+            bases[p.base] = None
+    for base in bases:
+        sig = test.best(base, ("test",), kept=usable)  # the one selection rule
+        if sig is not None:
+            measured[base] = sig
     if dt is None:
         periods = [s.sample_period for s in measured.values() if np.isfinite(s.sample_period)]
         dt = max(0.01, min(periods)) if periods else 0.1

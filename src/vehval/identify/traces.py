@@ -73,11 +73,6 @@ def acceleration(v: np.ndarray, dt: float, window_s: float = 0.5) -> np.ndarray:
     return np.gradient(smooth(v, max(round(window_s / dt), 1)), dt)
 
 
-def _pick(test: Test, base: str):
-    sigs = test.by_base(base, origin="test")
-    return sigs[0] if sigs else None
-
-
 def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
     """Trace of ``test`` on a ``dt`` grid from time 0 (the start of the drive) to its end.
 
@@ -94,7 +89,7 @@ def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
             "identification needs a car whose engine alone drives the wheels")
     sig = {}
     for base, what in REQUIRED.items():
-        s = _pick(test, base)
+        s = test.best(base, ("test",))  # the one selection rule
         if s is None:
             raise IdentificationError(
                 f"{where}: no {what} signal ({base}_test): identification of a conventional "
@@ -106,9 +101,8 @@ def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
         raise IdentificationError(f"{where}: the signals overlap for {t1 - t0:.1f} s only")
     t = t0 + dt * np.arange(int(np.floor((t1 - t0) / dt + 1e-9)) + 1)
     v = np.maximum(sig["veh_spd"].at(t), 0.0)
-    ph = _pick(test, "test_phase")
-    amb = _pick(test, "amb_temp")
-    clt = _pick(test, "eng_temp_coolant")
+    ph, amb, clt = (test.best(b, ("test",)) for b in ("test_phase", "amb_temp",
+                                                      "eng_temp_coolant"))
     return Trace(test_id=test.meta.test_id, cycle=test.meta.cycle or "", t=t, v=v,
                  a=acceleration(v, dt), force=sig["veh_frc_in"].at(t),
                  w_eng=np.maximum(sig["eng_spd_out"].at(t), 0.0), fuel=sig["fuel_rate"].at(t),

@@ -69,7 +69,7 @@ def speed_unit_check(test: Test) -> tuple[list[Finding], float]:
     """Check 1; returns the findings and the speed factor to apply (1.0 when none)."""
     if test.meta.cycle:
         return [], 1.0
-    sig = test.best("veh_spd", ("test",), usable=True)
+    sig = test.best("veh_spd", ("test",))
     if sig is None:
         return [], 1.0
     v = np.asarray(sig.values, float)
@@ -130,9 +130,9 @@ def _integral(t: np.ndarray, y: np.ndarray) -> float:
 def fuel_unit_check(test: Test, template: Any = None, vehicle: Any = None,
                     speed_factor: float = 1.0) -> list[Finding]:
     """Check 3: tank-to-wheel efficiency over the test."""
-    fuel = test.best("fuel_rate", ("test",), usable=True)
-    spd = test.best("veh_spd", ("test",), usable=True)
-    frc = test.best("veh_frc_in", ("test",), usable=True)
+    fuel = test.best("fuel_rate", ("test",))
+    spd = test.best("veh_spd", ("test",))
+    frc = test.best("veh_frc_in", ("test",))
     if fuel is None or spd is None or frc is None:
         return []
     t = np.asarray(frc.time, float)

@@ -71,10 +71,9 @@ def duration_and_distance(test: Test) -> tuple[float, float | None]:
     t0, t1 = test.span()
     dist = None
     for base in ("veh_dist", "veh_spd"):
-        sigs = [s for s in test.by_base(base, "test") if s.time.size > 1]
-        if not sigs:
+        s = test.best(base, ("test",))
+        if s is None:
             continue
-        s = sigs[0]
         ok = np.isfinite(s.values)
         if base == "veh_dist" and ok.any():
             dist = float(np.nanmax(s.values) - np.nanmin(s.values))

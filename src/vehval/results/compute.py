@@ -61,17 +61,6 @@ COLD_START_BAND_K = 10.0
 _SCOPE_TEST = "test"
 
 
-def _pick(test: Test, base: str, selected: dict[str, str] | None) -> Signal | None:
-    name = selected.get(base) if selected else None
-    if name is not None and name in test:
-        return test[name]
-    cands = [s for s in test.by_base(base, "test") if s.values.size]
-    if not cands:
-        return None
-    cands.sort(key=lambda s: (s.name != f"{base}_test", s.name))
-    return cands[0]
-
-
 class _Integrator:
     """Integrals of a signal over record-time segments from its cumulative trapezoid."""
 
@@ -173,12 +162,12 @@ def _clean(x: Any) -> Any:
     return x
 
 
-def _conditions(test: Test, selected: dict[str, str] | None) -> dict[str, Any]:
+def _conditions(test: Test, kept: list[str] | None) -> dict[str, Any]:
     out: dict[str, Any] = {"cell_temp_c": None, "start": None, "start_basis": None}
-    amb = _pick(test, "amb_temp", selected)
+    amb = test.best("amb_temp", ("test",), kept=kept)
     if amb is not None and np.isfinite(amb.values).any():
         out["cell_temp_c"] = round(float(np.nanmean(amb.values)), 2)
-    cool = _pick(test, "eng_temp_coolant", selected)
+    cool = test.best("eng_temp_coolant", ("test",), kept=kept)
     if cool is not None and out["cell_temp_c"] is not None:
         v = cool.values[np.isfinite(cool.values)]
         if v.size:
@@ -238,7 +227,8 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     phase_channel : str, optional
         Signal numbering the phases (default ``test_phase_test`` when present).
     selected : dict, optional
-        Base name -> signal kept by QA selection.
+        Base name -> measured signal QA's selection kept; when given, only those measured
+        signals are used. Every signal is chosen by :meth:`vehval.test.Test.best`.
     method : {'first_order', 'monte_carlo'}
         Uncertainty propagation.
     draws, seed : int
@@ -267,13 +257,17 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
         if name not in test:
             findings.append(_finding(f"accuracy declared for '{name}', which the test does "
                                      "not hold: not used", name))
-    speed = _pick(test, "veh_spd", selected)
-    fuel_sig = _pick(test, "fuel_rate", selected)
-    co2_sig = _pick(test, "co2_rate", selected) if "co2_rate" in _registry_bases() else None
-    pwr = _pick(test, "ess_pwr", selected)
+    # the one selection rule (Test.best), restricted to QA's choice when given
+    kept = None if selected is None else list(selected.values())
+    speed = test.best("veh_spd", ("test",), kept=kept)
+    fuel_sig = test.best("fuel_rate", ("test",), kept=kept)
+    co2_sig = (test.best("co2_rate", ("test",), kept=kept)
+               if "co2_rate" in _registry_bases() else None)
+    pwr = test.best("ess_pwr", ("test",), kept=kept)
     volt = curr = None
     if pwr is None:
-        volt, curr = _pick(test, "ess_volt", selected), _pick(test, "ess_curr", selected)
+        volt = test.best("ess_volt", ("test",), kept=kept)
+        curr = test.best("ess_curr", ("test",), kept=kept)
         if volt is None or curr is None:
             volt = curr = None
     if fuel_sig is not None and fuel_obj is None:
@@ -285,7 +279,7 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     t0, t1 = test.span()
     scopes = [p.name for p in phases] + [_SCOPE_TEST]
     segs = [p.segments for p in phases] + [[(t0, t1)]]
-    cond = _conditions(test, selected)
+    cond = _conditions(test, kept)
 
     # -------- accuracies and parameters
     used = [s for s in (speed, fuel_sig, co2_sig, pwr, volt, curr) if s is not None]
