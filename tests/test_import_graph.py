@@ -20,7 +20,7 @@ LAYERS: dict[str, int] = {
     "jsonsafe": 0, "conditions": 0, "protocols": 0, "numba_cache": 0, "__main__": 10,
     "test": 1, "cycles": 1, "vehicle": 1,
     "io": 2, "align": 2,
-    "equations": 3, "sim": 3,
+    "equations": 3, "sim": 3, "calibration": 3,
     "qa": 4,
     "results": 5, "synth": 5,
     "analysis": 6,

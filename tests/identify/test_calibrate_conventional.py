@@ -35,7 +35,10 @@ def test_efficiency_recovered_and_holdout_improves(virtual):
     rows = {r["role"]: r for r in res.tests}
     assert abs(rows["tune"]["error_rel_after"]) < 0.005
     assert abs(rows["holdout"]["error_rel_after"]) < abs(rows["holdout"]["error_rel_before"])
-    assert "calibrated on the fuel of" in res.vehicle.gearbox.sources["efficiency"]
+    src = res.vehicle.gearbox.sources["efficiency"]
+    assert src.startswith(f"calibrated by vehval calibrate on tests {tune[0].test_id} on ")
+    assert "sum of squared relative fuel errors" in src and "bounded Powell" in src
+    assert f"held out {hold[0].test_id}" in src
 
 
 def test_cli_calibrate_conventional_writes_both_files(virtual, tmp_path, capsys):

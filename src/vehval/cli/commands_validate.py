@@ -177,7 +177,6 @@ def calibrate_cmd(
 def _calibrate_conventional(veh, files, test_group, holdout, template, params, output,
                             as_json) -> None:
     """Conventional car: every file (or --test group) is one test; fuel is the objective."""
-    from vehval.identify.build import write_vehicle
     from vehval.identify.calibrate import DEFAULT_PARAMS, calibrate_conventional
     from vehval.identify.traces import trace_from_test
     from vehval.io.atomic import atomic_dir
@@ -198,7 +197,7 @@ def _calibrate_conventional(veh, files, test_group, holdout, template, params, o
     doc = res.to_dict()
     with atomic_dir(output) as stage:
         (stage / "calibration.json").write_text(dumps(doc) + "\n", encoding="utf-8")
-        write_vehicle(res.vehicle, stage / "vehicle_calibrated.yaml")
+        res.write_vehicle(stage / "vehicle_calibrated.yaml")
     if as_json:
         typer.echo(dumps(doc), nl=False)
         return

@@ -4,9 +4,11 @@ A manufacturer publishes ratings, not its control strategy. :func:`calibrate_on_
 chooses the values of a few parameters (typically controller thresholds and gains) that
 make the model reproduce one set of EPA tests, so that another set (other originator, other
 road loads) can judge the model honestly. The search is a full grid over the given values,
-then coordinate refinement (midpoints towards each neighbour, halving each round): the fuel
-economy of a hybrid is a stepwise function of its thresholds, so a gradient method would
-stall on its plateaus.
+then coordinate refinement (midpoints towards each neighbour, halving each round;
+:func:`vehval.calibration.grid_refine`): the fuel economy of a hybrid is a stepwise
+function of its thresholds, so a gradient method would stall on its plateaus. The
+provenance written into the vehicle file is the calibration engine's
+(:class:`vehval.calibration.Provenance`).
 
 Objective: the root-mean-square relative error of the judged figures of the calibration
 tests, exactly those :func:`vehval.epa.validation.validate_tests` judges; the cold-start
@@ -18,7 +20,6 @@ from __future__ import annotations
 
 import datetime as _dt
 import difflib
-import itertools
 import math
 import os
 from dataclasses import dataclass, field
@@ -27,6 +28,9 @@ from typing import Any
 
 import numpy as np
 
+from vehval.calibration import Provenance, grid_refine, vehicle_with_values, write_vehicle_yaml
+from vehval.calibration.provenance import grid_text
+from vehval.calibration.search import grid_method
 from vehval.epa.reader import EpaTest
 from vehval.epa.validation import (
     COLD_START_PARAMS,
@@ -35,7 +39,6 @@ from vehval.epa.validation import (
     validate_tests,
 )
 from vehval.errors import ConfigError
-from vehval.validate.calibration import vehicle_with_values, write_vehicle_yaml
 from vehval.vehicle import Vehicle, load_vehicle
 
 
@@ -68,13 +71,20 @@ class EpaCalibration:
     dt: float = 0.2
     date: str = field(default_factory=lambda: _dt.date.today().isoformat())
 
+    refine_rounds: int = 2
+
     def provenance(self, name: str) -> str:
-        values = ", ".join(f"{v:g}" for v in self.grid[name])
-        return (f"calibrated by vehval epa calibrate on {self.date} on the EPA Test Car "
-                f"List tests {', '.join(self.tests)} (grid {values}, then coordinate "
-                f"refinement; RMS "
-                f"error of the judged figures {100 * self.start_rms:.1f} % -> "
-                f"{100 * self.best_rms:.1f} %, dt {self.dt:g} s)")
+        """Source text recorded for a calibrated parameter in the vehicle file
+        (:class:`vehval.calibration.Provenance`)."""
+        start = self.vehicle.parameters()
+        return Provenance(
+            by="vehval epa calibrate", tests=self.tests,
+            objective="RMS error of the judged figures", start_value=self.start_rms,
+            best_value=self.best_rms, percent=True,
+            method=grid_method(self.refine_rounds),
+            start={n: float(start[n]) for n in self.grid},
+            ranges={n: grid_text(v) for n, v in self.grid.items()}, dt=self.dt,
+            details=["tests of the EPA Test Car Lists"], date=self.date).text(name)
 
     def calibrated_vehicle(self) -> Vehicle:
         """The validated vehicle with the calibrated values and their provenance."""
@@ -153,8 +163,6 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     base = load_vehicle(vehicle)
     grid = _check_grid(base, grid)
     names = list(grid)
-    cache: dict[tuple[float, ...], tuple[float, float]] = {}
-    evals: list[dict[str, Any]] = []
     # calibrating a cold-start parameter scores the cold-start figures at every setting
     with_cold = has_cold_start_model(base) or any(n in COLD_START_PARAMS for n in names)
     start_val = validate_tests(base, tests, dt=dt)
@@ -172,43 +180,19 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         pool = ProcessPoolExecutor(max_workers=workers,
                                    mp_context=multiprocessing.get_context("spawn"))
 
-    def key(values) -> tuple[float, ...]:
-        return tuple(round(float(v), 9) for v in values)
-
-    def score_all(settings: list[tuple[float, ...]]) -> None:
-        todo = list(dict.fromkeys(key(v) for v in settings if key(v) not in cache))
-        jobs = [(base, names, v, tests, dt, with_cold) for v in todo]
-        scores = pool.map(_evaluate, jobs) if pool is not None else map(_evaluate, jobs)
-        for v, sc in zip(todo, scores):
-            cache[v] = sc
-            evals.append({"values": dict(zip(names, v)), "rms_error": sc[0],
-                          "max_abs_error": sc[1]})
-
-    def score(values) -> tuple[float, float]:
-        return cache[key(values)]
+    def evaluate(settings: list[tuple[float, ...]]) -> list[tuple[float, float]]:
+        jobs = [(base, names, v, tests, dt, with_cold) for v in settings]
+        return list(pool.map(_evaluate, jobs) if pool is not None else map(_evaluate, jobs))
 
     try:
-        combos = list(itertools.product(*grid.values()))
-        score_all(combos)
-        best = min(combos, key=score)
-        steps = {n: float(min(np.diff(v)) if len(v) > 1 else abs(v[0]) * 0.1 or 1.0)
-                 for n, v in grid.items()}
-        for _ in range(refine_rounds):
-            for i, n in enumerate(names):
-                steps[n] /= 2.0
-                cands = []
-                for sign in (-1.0, 1.0):
-                    cand = list(best)
-                    cand[i] = best[i] + sign * steps[n]
-                    cands.append(tuple(cand))
-                score_all(cands)
-                for cand in cands:  # minus first, then plus against the updated best
-                    if score(cand) < score(best):
-                        best = cand
+        found = grid_refine(grid, evaluate, refine_rounds)
     finally:
         if pool is not None:
             pool.shutdown()
-    rms, mx = score(best)
+    evals = [{"values": dict(zip(names, v)), "rms_error": sc[0], "max_abs_error": sc[1]}
+             for v, sc in found.evaluations]
+    best = found.best
+    rms, mx = found.score
     if not math.isfinite(rms):
         raise ConfigError("no setting of the grid gives finite figures on these tests (a run "
                           "failed or a parameter combination is invalid); widen or move the "
@@ -217,4 +201,4 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
                           tests=[p.test.label for p in start_val.predictions],
                           best={n: float(v) for n, v in zip(names, best)},
                           start_rms=start_rms, best_rms=rms, best_max=mx, evaluations=evals,
-                          dt=dt)
+                          dt=dt, refine_rounds=refine_rounds)

@@ -4,17 +4,27 @@ The tuning tests are driven with their own speed traces (:func:`predict_trace`);
 objective is the sum of squared relative fuel errors. Bounded Powell search over the named
 parameters (dotted paths); bounds: efficiencies (0.5, 1], accessory power [0, 5000] W,
 any other parameter within ±50 % of its start. Held-out tests are predicted before and
-after. The calibrated vehicle keeps every source and says what was tuned, on which tests.
+after. The search, the hold-out evaluation and the provenance of the tuned values in the
+vehicle file are the calibration engine's (:mod:`vehval.calibration`).
 """
 
 from __future__ import annotations
 
+import datetime as _dt
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
-from scipy.optimize import minimize
 
+from vehval.calibration import (
+    Provenance,
+    before_after,
+    powell,
+    vehicle_with_values,
+    write_vehicle_yaml,
+)
+from vehval.calibration.provenance import bounds_text
 from vehval.errors import ConfigError
 from vehval.identify.predict import predict_trace
 from vehval.identify.traces import Trace
@@ -45,6 +55,11 @@ class ConventionalCalibration:
     elapsed_s: float
     vehicle: object = None
     notes: list[str] = field(default_factory=list)
+    date: str = field(default_factory=lambda: _dt.date.today().isoformat())
+
+    def write_vehicle(self, path: str | Path) -> Path:
+        """Write the calibrated vehicle YAML atomically; it loads with ``load_vehicle``."""
+        return write_vehicle_yaml(self.vehicle, path, "vehval calibrate")
 
     def to_dict(self) -> dict:
         return {"architecture": "conventional", "parameters": self.parameters,
@@ -73,11 +88,9 @@ def calibrate_conventional(vehicle, tuning: list[Trace], names: list[str],
     x0 = np.array([float(params[n]) for n in names])
     bounds = [_bounds(n, v) for n, v in zip(names, x0)]
     meas = np.array([t.fuel[t.t >= 0].sum() * t.dt for t in tuning])
-    count = [0]
     t0 = time.perf_counter()
 
     def objective(x):
-        count[0] += 1
         veh = vehicle.with_overrides(dict(zip(names, map(float, x))))
         errs = []
         for tr, m in zip(tuning, meas):
@@ -85,27 +98,26 @@ def calibrate_conventional(vehicle, tuning: list[Trace], names: list[str],
             errs.append(p["fuel_predicted_g"] / (m * 1e3) - 1.0)
         return float(np.sum(np.square(errs)))
 
-    f0 = objective(x0)
-    res = minimize(objective, x0, method="Powell", bounds=bounds,
-                   options={"maxfev": maxiter, "xtol": 1e-3, "ftol": 1e-6})
-    best_x = res.x if res.fun <= f0 else x0
-    best = dict(zip(names, map(float, best_x)))
-    tuned = vehicle.with_overrides(best)
-    tested = ", ".join(t.test_id for t in tuning)
-    for blk_key in names:
-        blk, key = blk_key.split(".")
-        block = getattr(tuned, blk)
-        block.sources[key] = (f"calibrated on the fuel of {tested} (start {params[blk_key]:.6g}: "
-                              f"{block.sources.get(key, '')})")
+    found = powell(objective, x0, bounds, maxiter)
+    start = dict(zip(names, map(float, x0)))
+    best = dict(zip(names, map(float, found.x)))
+    prov = Provenance(
+        by="vehval calibrate", tests=[t.test_id for t in tuning],
+        objective="sum of squared relative fuel errors", start_value=found.start_value,
+        best_value=found.value, method=found.method, start=start,
+        ranges={n: bounds_text(*b) for n, b in zip(names, bounds)},
+        dt=float(tuning[0].dt), holdout=[t.test_id for t in holdout])
+    tuned = vehicle_with_values(vehicle, best, prov.text)
     rows = []
-    for role, trs in (("tune", tuning), ("holdout", list(holdout))):
-        before, after = _fuel_errors(vehicle, trs), _fuel_errors(tuned, trs)
-        for b, a in zip(before, after):
-            rows.append({"test": b["test"], "role": role, "cycle": b["cycle"],
-                         "fuel_measured_g": b["fuel_measured_g"],
-                         "error_rel_before": b["error_rel"], "error_rel_after": a["error_rel"],
-                         "phases_after": a["phases"]})
+    for role, _tr, b, a in before_after(
+            lambda tr, values: _fuel_errors(vehicle.with_overrides(values), [tr])[0],
+            [("tune", tuning), ("holdout", list(holdout))], start, best):
+        rows.append({"test": b["test"], "role": role, "cycle": b["cycle"],
+                     "fuel_measured_g": b["fuel_measured_g"],
+                     "error_rel_before": b["error_rel"], "error_rel_after": a["error_rel"],
+                     "phases_after": a["phases"]})
     return ConventionalCalibration(
-        parameters=list(names), start=dict(zip(names, map(float, x0))), best=best, tests=rows,
-        objective_start=f0, objective_best=float(min(res.fun, f0)), n_simulations=count[0],
-        elapsed_s=time.perf_counter() - t0, vehicle=tuned)
+        parameters=list(names), start=start, best=best, tests=rows,
+        objective_start=found.start_value, objective_best=found.value,
+        n_simulations=found.n_evaluations, elapsed_s=time.perf_counter() - t0, vehicle=tuned,
+        date=prov.date)

@@ -14,10 +14,9 @@ parallel compiled loop): faster, enough for a few controller parameters.
 
 Search. The objective is piecewise constant in thresholds and hold times (an engine start
 moves by whole time steps) and has many shallow local minima, so gradients are useless. We
-use a population method: differential evolution (scipy, ``vectorized=True``: a whole
-generation is evaluated as one batch of simulations, Latin-hypercube initial population
-plus the start point), followed by a bounded Nelder-Mead polish in normalised coordinates
-(a derivative-free simplex that can step across the plateaus left by DE). The polish is
+use a population method: differential evolution followed by a bounded Nelder-Mead polish
+(:func:`vehval.calibration.de_polish`, the package's calibration engine, which also gives
+the hold-out evaluation and the provenance written into the vehicle file). The polish is
 kept only if it improves the objective. Every candidate is a validated copy of the vehicle;
 an invalid combination (e.g. engine-off speed above engine-on speed) gets a penalty.
 """
@@ -32,11 +31,18 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import numpy as np
-import yaml
-from scipy.optimize import differential_evolution, minimize
 
+from vehval.calibration import (
+    HOLDOUT_TOL_POINTS,
+    Provenance,
+    before_after,
+    de_polish,
+    holdout_worse,
+    vehicle_with_values,
+    write_vehicle_yaml,
+)
+from vehval.calibration.provenance import bounds_text
 from vehval.errors import ConfigError
-from vehval.io.atomic import write_text_atomic
 from vehval.jsonsafe import clean
 from vehval.sim.simulate import simulate
 from vehval.test import Test
@@ -53,6 +59,10 @@ from vehval.validate.objective import (
 )
 from vehval.validate.validation import validate_test
 from vehval.vehicle import BLOCKS, Vehicle, load_vehicle
+
+__all__ = ["HOLDOUT_TOL_POINTS", "MODES", "PENALTY", "CalibrationResult", "calibrate",
+           "default_bounds", "holdout_worse", "start_values", "vehicle_with_values",
+           "write_vehicle_yaml"]
 
 PENALTY = 1e6  # objective of an invalid parameter combination
 MODES = ("traces", "batch")
@@ -142,13 +152,16 @@ class CalibrationResult:
     rejected: dict[str, float] = field(default_factory=dict)
 
     def provenance(self, name: str) -> str:
-        """Source text recorded for a tuned parameter in the calibrated vehicle file."""
-        return (f"calibrated by vehval calibrate on tests {', '.join(self.tests)} on {self.date}: "
-                f"objective {self.objective_start:.4g} -> {self.objective_best:.4g} "
-                f"({self.method}; start {self.start[name]:.6g}, bounds "
-                f"[{self.bounds[name][0]:.6g}, {self.bounds[name][1]:.6g}]; dt {self.dt:g} s"
-                + (f"; measured speed low-passed at {self.smooth_hz:g} Hz" if self.smooth_hz else "")
-                + (f"; held out {', '.join(self.holdout)}" if self.holdout else "") + ")")
+        """Source text recorded for a tuned parameter in the calibrated vehicle file
+        (:class:`vehval.calibration.Provenance`)."""
+        return Provenance(
+            by="vehval calibrate", tests=self.tests, objective="objective",
+            start_value=self.objective_start, best_value=self.objective_best,
+            method=self.method, start=self.start,
+            ranges={n: bounds_text(*b) for n, b in self.bounds.items()}, dt=self.dt,
+            details=([f"measured speed low-passed at {self.smooth_hz:g} Hz"]
+                     if self.smooth_hz else []),
+            holdout=self.holdout, date=self.date).text(name)
 
     def calibrated_vehicle(self) -> Vehicle:
         """The fully validated vehicle with the tuned values and their provenance."""
@@ -197,38 +210,6 @@ class CalibrationResult:
             "rejected": self.rejected,
             "provenance": {n: self.provenance(n) for n in self.parameters},
             "history": self.history, "tables": self.tables()})
-
-
-def vehicle_with_values(vehicle: Vehicle, values: dict[str, float],
-                        provenance: Callable[[str], str], note: str = "") -> Vehicle:
-    """Validated copy of ``vehicle`` with ``values`` (dotted names), each value's source set
-    to ``provenance(name)``, ``note`` appended to the description."""
-    data = vehicle.with_overrides(values).model_dump()
-    for name in values:
-        blk, key = name.split(".", 1)
-        data[blk]["sources"][key] = provenance(name)
-    if note:
-        data["description"] = (data.get("description") or "").rstrip() + note
-    return Vehicle.model_validate(data)
-
-
-def write_vehicle_yaml(vehicle: Vehicle, path: str | Path, by: str) -> Path:
-    """Write a calibrated vehicle YAML atomically; it loads with ``load_vehicle``."""
-    text = (f"# Calibrated by {by}; calibrated values carry their provenance in the block's "
-            "'sources'.\n" + yaml.safe_dump(_plain(vehicle.model_dump()), sort_keys=False,
-                                            width=100, allow_unicode=True))
-    write_text_atomic(path, text)
-    return Path(path)
-
-
-def _plain(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_plain(v) for v in obj]
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return obj
 
 
 class _Problem:
@@ -405,38 +386,27 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
     lo = np.array([bnds[n][0] for n in names])
     hi = np.array([bnds[n][1] for n in names])
 
-    def cb(*_a, **_k):
+    def cb() -> None:
         history.append(prob.best[0])
         if progress:
             progress(len(history) - 1, prob.best[0])
 
-    de = differential_evolution(prob.batch, list(zip(lo, hi)), vectorized=True, updating="deferred",
-                                popsize=popsize, maxiter=maxiter, init="latinhypercube",
-                                x0=xstart, polish=False, seed=seed, tol=1e-3, atol=1e-4,
-                                mutation=(0.5, 1.0), recombination=0.7, callback=cb)
-    method = f"differential evolution ({mode} objective, popsize {popsize}, {de.nit} generations)"
+    method = de_polish(prob.batch, prob, lambda: prob.best, lo, hi, xstart, popsize=popsize,
+                       maxiter=maxiter, seed=seed, polish=polish, polish_evals=polish_evals,
+                       label=f"{mode} objective", callback=cb)
     if polish:
-        span = hi - lo
-
-        def f_norm(u: np.ndarray) -> float:
-            return prob(lo + np.clip(u, 0.0, 1.0) * span)
-
-        u0 = (prob.best[1] - lo) / span
-        simplex = [u0] + [np.clip(u0 + np.eye(len(names))[i] * 0.05 * (1 if u0[i] < 0.95 else -1), 0, 1)
-                          for i in range(len(names))]
-        minimize(f_norm, u0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * len(names),
-                 options={"initial_simplex": np.array(simplex),
-                          "maxfev": (polish_evals or 30) * len(names), "xatol": 1e-4, "fatol": 1e-5})
         history.append(prob.best[0])
-        method += " + Nelder-Mead polish"
     j_best, x_best = prob.best
     best = {n: float(v) for n, v in zip(names, x_best)}
 
+    def evaluate(item: tuple[Test, str], values: dict[str, float]) -> dict[str, float]:
+        return _errors(validate_test(item[0], veh0, dt=dt, overrides=dict(values),
+                                     smooth_hz=smooth_hz))
+
     before, after = {}, {}
-    for role_tests, role_ids in ((tests, ids), (holdout_tests, hold_ids)):
-        for t, tid in zip(role_tests, role_ids):
-            before[tid] = _errors(validate_test(t, veh0, dt=dt, overrides=dict(x0), smooth_hz=smooth_hz))
-            after[tid] = _errors(validate_test(t, veh0, dt=dt, overrides=best, smooth_hz=smooth_hz))
+    roles = [("tuned", list(zip(tests, ids))), ("held out", list(zip(holdout_tests, hold_ids)))]
+    for _role, (_t, tid), b, a in before_after(evaluate, roles, x0, best):
+        before[tid], after[tid] = b, a
     rejected: dict[str, float] = {}
     worse = holdout_worse(before, after, hold_ids)
     if worse:
@@ -453,32 +423,6 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         elapsed_s=time.perf_counter() - t_start, method=method, dt=dt, vehicle=veh0,
         date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz, notes=notes,
         rejected=rejected)
-
-
-#: Held-out error increase [percentage points] tolerated before the guard refuses the tuning.
-HOLDOUT_TOL_POINTS = 0.05
-
-
-def holdout_worse(before: dict[str, dict[str, float]], after: dict[str, dict[str, float]],
-                  holdout: Sequence[str], tol: float = HOLDOUT_TOL_POINTS) -> str:
-    """Why the tuned values are worse on the held-out tests ('' when they are not).
-
-    Worse means: the mean over the held-out tests of |fuel error| + |final SOC error| [%]
-    grew by more than ``tol`` points (quantities a test cannot give are left out).
-    """
-    def score(errs: dict[str, dict[str, float]]) -> float:
-        vals = [abs(errs[t][k]) for t in holdout for k in ("fuel_pct", "soc_pct")
-                if t in errs and errs[t].get(k) is not None and np.isfinite(errs[t][k])]
-        return float(np.mean(vals)) if vals else float("nan")
-
-    if not holdout:
-        return ""
-    b, a = score(before), score(after)
-    if not (np.isfinite(a) and np.isfinite(b)) or a <= b + tol:
-        return ""
-    parts = [f"{t}: fuel {before[t]['fuel_pct']:.2f} -> {after[t]['fuel_pct']:.2f} %"
-             for t in holdout if t in before and t in after]
-    return "; ".join(parts)
 
 
 def _errors(v) -> dict[str, float]:
