@@ -177,7 +177,7 @@ def grid_refine(grid: dict[str, list[float]],
     def score(values: Iterable[float]) -> Any:
         return cache[_key(values)]
 
-    combos = list(itertools.product(*grid.values()))
+    combos: list[tuple[float, ...]] = list(itertools.product(*grid.values()))
     score_all(combos)
     best = min(combos, key=score)
     steps = {n: float(min(np.diff(v)) if len(v) > 1 else abs(v[0]) * 0.1 or 1.0)
@@ -185,11 +185,11 @@ def grid_refine(grid: dict[str, list[float]],
     for _ in range(refine_rounds):
         for i, n in enumerate(names):
             steps[n] /= 2.0
-            cands = []
+            cands: list[tuple[float, ...]] = []
             for sign in (-1.0, 1.0):
-                cand = list(best)
-                cand[i] = best[i] + sign * steps[n]
-                cands.append(tuple(cand))
+                moved = list(best)
+                moved[i] = best[i] + sign * steps[n]
+                cands.append(tuple(moved))
             score_all(cands)
             for cand in cands:  # minus first, then plus against the updated best
                 if score(cand) < score(best):
