@@ -124,8 +124,10 @@ def _start_value(sig, t0: float, span_s: float = 5.0) -> float:
 def load_traces(files: list[str | Path], template, dt: float = 0.1) -> list[Trace]:
     """Load every file as one test with ``template`` (the workflow's
     :meth:`~vehval.workflow.TestRun.load`, its time-repair policy included) and return
-    their traces. Identification reads the imported signals as they are (no QA selection):
-    the fuel and force channels it needs must not be dropped for a QA finding. The results
+    their traces. Identification reads the imported signals as they are (no QA run): the
+    fuel and force channels it needs must not be dropped for a QA finding; each quantity's
+    signal is the one :meth:`vehval.test.Test.best` chooses (with QA's
+    ``template_final.yaml`` as the template, the signals QA dropped are not imported). The results
     stage (:func:`vehval.results.compute_results`) runs on each test: predictions are
     compared with its per-phase fuel and uncertainty."""
     from vehval.results import compute_results
