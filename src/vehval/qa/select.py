@@ -36,7 +36,12 @@ DISQUALIFYING = {Kind.ALL_ZERO, Kind.SIGN_FLIP, Kind.UNIT, Kind.UNRECOGNISED}
 
 @dataclass
 class Selection:
-    """Selection decisions: ``kept`` and ``dropped`` map full names to a reason."""
+    """Selection decisions: ``kept`` and ``dropped`` map full names to a reason.
+
+    ``kept`` is QA's choice as every later stage takes it:
+    ``test.best(base, kept=selection.kept)`` (:meth:`vehval.test.Test.best`, the one
+    selection rule) returns the kept source of ``base``.
+    """
 
     kept: dict[str, str] = field(default_factory=dict)
     dropped: dict[str, str] = field(default_factory=dict)
