@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from vehval.report import build_reports, write_report
-from vehval.report import html as html_mod
 
 from .conftest import make_control, make_qa, make_test, make_validation
 
