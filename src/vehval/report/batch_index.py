@@ -24,6 +24,10 @@ COLUMNS = [("distance_m", "distance [km]", 1e-3, "{:.2f}"),
            ("eng_energy_j", "engine energy [kWh]", 1 / 3.6e6, "{:.3f}")]
 
 
+#: Statuses with a style of their own.
+_STATUS = ("ok", "failed", "skipped")
+
+
 def _fmt(v: Any, scale: float, pattern: str) -> str:
     if v is None:
         return ""
@@ -44,7 +48,8 @@ def _tests_table(tests: Sequence[dict]) -> Block:
         link = "tests/" + quote(tid, safe="") + "/report.html" \
             if "report.html" in (r["outputs"] or []) else None
         sev = json.loads(r["n_findings_by_severity"]) if r["n_findings_by_severity"] else {}
-        rows.append([cell(tid, href=link), cell(r["status"], str(r["status"])),
+        status = str(r["status"])
+        rows.append([cell(tid, href=link), cell(status, status if status in _STATUS else ""),
                      r["vehicle"] or "", r["cycle"] or "",
                      ", ".join(f"{v} {k}" for k, v in sorted(sev.items()))]
                     + [_num(r[c], s, p) for c, _, s, p in COLUMNS]
