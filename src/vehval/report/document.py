@@ -47,10 +47,12 @@ class Block:
 
 
 def h1(text: str) -> Block:
+    """The page heading."""
     return Block("h1", text=str(text))
 
 
 def h2(text: str) -> Block:
+    """A section heading."""
     return Block("h2", text=str(text))
 
 
@@ -60,6 +62,7 @@ def para(*runs: Any) -> Block:
 
 
 def bullets(items: Sequence[Any]) -> Block:
+    """A bulleted list of texts."""
     return Block("ul", items=[str(i) for i in items])
 
 
@@ -67,10 +70,12 @@ def table(head: Sequence[Any], rows: Sequence[Sequence[Any]]) -> Block:
     """A table; cells are text (``None`` shows empty) or :func:`cell` dicts."""
     def norm(c: Any) -> Any:
         return c if isinstance(c, dict) else ("" if c is None else str(c))
+
     return Block("table", head=[norm(h) for h in head], rows=[[norm(c) for c in r] for r in rows])
 
 
 def figure(spec: FigSpec) -> Block:
+    """A plotly figure (drawn by ``render.js``)."""
     return Block("figure", figure=spec)
 
 

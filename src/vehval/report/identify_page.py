@@ -7,6 +7,7 @@ The identify package hands plain data (numbers, names, plotly figures) to
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -15,7 +16,7 @@ from vehval.report.document import Block, bullets, figure, h1, h2, para, render_
 from vehval.report.figures import FigSpec
 from vehval.report.plugins import normalise_figure
 
-RPM = 30.0 / 3.141592653589793  # [rpm] per [rad/s]
+RPM = 30.0 / math.pi  # [rpm] per [rad/s]
 
 
 def _figures(figs: Sequence[Any]) -> list[Block]:

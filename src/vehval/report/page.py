@@ -162,7 +162,7 @@ def render_page(template: str, *, title: str, css: str, figures: Sequence[FigSpe
     if todo:
         prepare_figures(todo, start=sum(1 for f in figures if f.json))
     scripts, hashes = None, []
-    if plotly if plotly is not None else bool(figures):
+    if bool(figures) if plotly is None else plotly:
         src = plotly_src(plotly_js)
         js, js_hash, version, tjson = _plotly_assets()
         render_js = read_asset("render.js")
