@@ -104,7 +104,7 @@ def test_index_and_report_links(tmp_path, template_path):
     assert 'href="tests/garbage/report.html"' not in html
     # plotly.js embedded exactly once, nothing loaded from the network; two plots: fuel
     # economy per test and phase, fuel economy against SOC change
-    assert html.count("Plotly.newPlot") == 2 and "<script src=" not in html
+    assert html.count('class="vv-fig"') == 2 and "<script src=" not in html
     assert "Fuel economy by cycle and test conditions" in html and 'id="fe_phase"' in html
     assert html.count("* plotly.js v") == 1
     assert "Test-to-test variability" in html

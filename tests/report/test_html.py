@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import base64
 import json
 import re
 
@@ -9,7 +10,6 @@ import numpy as np
 import pytest
 
 from vehval.report import build_reports, write_report
-from vehval.report import html as html_mod
 
 from .conftest import make_control, make_qa, make_test, make_validation
 
@@ -96,7 +96,9 @@ def test_engineering_notes_without_vehicle(report):
 def test_failed_run_leaves_nothing(tmp_path, monkeypatch):
     def boom(*a, **k):
         raise RuntimeError("figure failed")
-    monkeypatch.setattr(html_mod, "figure_json", boom)
+    import vehval.report.figures as figures_mod
+
+    monkeypatch.setattr(figures_mod, "figure_json", boom)
     with pytest.raises(RuntimeError):
         build_reports(tmp_path / "out", make_test(), make_qa())
     assert not list((tmp_path).rglob("*.html")) and not list(tmp_path.rglob("*.xlsx"))
@@ -148,17 +150,29 @@ def test_validation_payload_figures_are_svg_and_linked():
 
 
 def test_normalise_figure_rules():
-    from vehval.report.plugins import MAX_SVG_POINTS, normalise_figure
+    from vehval.report.figures import MAX_SVG_POINTS, figure_json
+    from vehval.report.plugins import normalise_figure
 
     small = {"data": [{"type": "scattergl", "x": [0, 1], "y": [1, 2]}], "layout": {"title": "A"}}
     fig, cap = normalise_figure(small)
     assert cap == "A" and "title" not in fig["layout"] and fig["data"][0]["type"] == "scatter"
     assert small["data"][0]["type"] == "scattergl"                           # input not modified
-    big = {"data": [{"type": "scattergl", "x": list(range(MAX_SVG_POINTS + 1))}],
-           "layout": {"title": {"text": "B"}}}
+    n = 3 * MAX_SVG_POINTS
+    big = {"data": [{"type": "scattergl", "mode": "lines", "x": np.arange(n) * 0.1,
+                     "y": np.sin(np.arange(n) / 50.0)}], "layout": {"title": {"text": "B"}}}
     fig, cap = normalise_figure(big, "other caption")
     assert cap == "other caption" and fig["layout"]["title"] == {"text": "B"}
-    assert fig["data"][0]["type"] == "scattergl"
+    # WebGL traces need eval (regl): drawn as SVG, a long one thinned keeping its extremes
+    assert fig["data"][0]["type"] == "scatter"
+    trace = json.loads(figure_json(fig))["data"][0]
+    y = np.frombuffer(base64.b64decode(trace["y"]["bdata"]), dtype=np.float32)
+    assert trace["type"] == "scatter" and y.size <= MAX_SVG_POINTS
+    assert y.max() == pytest.approx(1.0, abs=1e-4) and y.min() == pytest.approx(-1.0, abs=1e-4)
+    markers = {"data": [{"type": "scattergl", "mode": "markers", "x": list(range(n)),
+                         "y": list(range(n)), "text": [str(i) for i in range(n)]}]}
+    trace = json.loads(figure_json(markers))["data"][0]
+    assert trace["type"] == "scatter" and len(trace["text"]) == MAX_SVG_POINTS
+    assert trace["text"][1] == "3"                                           # even stride
 
 
 def test_raw_test_plots_dropped_signals_aligned():

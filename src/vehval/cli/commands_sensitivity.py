@@ -9,42 +9,6 @@ from typing import Optional
 import typer
 
 from vehval.cli import app
-from vehval.report.safety import CSP_META
-
-
-def _report_html(result: dict, plotly_src: str) -> str:
-    """Self-contained page (plotly.js beside it): base figures, tornado per cycle, table."""
-    from html import escape
-
-    from vehval.report.figures import figure_json
-    from vehval.sim.sensitivity import tornado_figure
-
-    figs = "".join(
-        f'<div id="t{k}"></div><script>Plotly.newPlot("t{k}", '
-        f'...(f => [f.data, f.layout])({figure_json(tornado_figure(result, c))}));</script>'
-        for k, c in enumerate(result["cycles"]))
-    head = "".join(f"<th>{escape(c)} low / high [%]</th>" for c in result["cycles"])
-    rows = "".join(
-        "<tr><td>" + escape(r["key"]) + f"</td><td>{r['swing_pct']:.2f}</td>"
-        + "".join(f"<td>{r['cycles'][c]['low_pct']:+.2f} / {r['cycles'][c]['high_pct']:+.2f}"
-                  "</td>" for c in result["cycles"])
-        + "<td>" + escape(json.dumps(r["uncertainty"])) + "</td><td>" + escape(r["source"])
-        + "</td></tr>" for r in result["parameters"])
-    base = ", ".join(f"{c} {b['mpg']:.1f}" for c, b in result["base"].items())
-    mc = ""
-    if "monte_carlo" in result:
-        mc = "<h2>Monte Carlo (all parameters at once)</h2><ul>" + "".join(
-            f"<li>{escape(c)}: {m['p5']:.1f} / {m['p50']:.1f} / {m['p95']:.1f} mpg "
-            f"(5/50/95 %, n = {m['n']})</li>" for c, m in result["monte_carlo"].items()) + "</ul>"
-    return (f"<!doctype html><html><head><meta charset='utf-8'>{CSP_META}<title>Sensitivity "
-            f"{escape(result['vehicle'])}</title><script src='{plotly_src}'></script>"
-            "<style>body{font-family:sans-serif;margin:2em}td,th{border:1px solid #ccc;"
-            "padding:2px 6px;font-size:13px}table{border-collapse:collapse}</style></head><body>"
-            f"<h1>Sensitivity of fuel economy: {escape(result['vehicle'])}</h1>"
-            f"<p>SOC-corrected fuel economy from the initial SOC of the charge-balanced base "
-            f"run, dt = {result['dt_s']:g} s. Base: {escape(base)} mpg.</p>{mc}{figs}"
-            f"<h2>Ranked parameters</h2><table><tr><th>parameter</th><th>swing [%]</th>{head}"
-            f"<th>uncertainty</th><th>source</th></tr>{rows}</table></body></html>")
 
 
 @app.command("sensitivity")
@@ -75,12 +39,13 @@ def sensitivity_cmd(
     res = clean(sensitivity(vehicle, names, plist, dt=dt, monte_carlo=monte_carlo, seed=seed))
     if outdir is not None:
         from vehval.io.atomic import atomic_dir
-        from vehval.report.html import plotly_asset_name, write_plotly_asset
+        from vehval.report.page import plotly_asset_name, write_plotly_asset
+        from vehval.report.sensitivity_page import render_sensitivity_page
 
         with atomic_dir(outdir) as stage:
             (stage / "sensitivity.json").write_text(json.dumps(res, indent=1), encoding="utf-8")
             write_plotly_asset(stage)
-            (stage / "sensitivity.html").write_text(_report_html(res, plotly_asset_name()),
+            (stage / "sensitivity.html").write_text(render_sensitivity_page(res, plotly_asset_name()),
                                                     encoding="utf-8")
     if as_json:
         typer.echo(json.dumps(res))

@@ -1,20 +1,19 @@
 """HTML report of an identification: fits, the fuel map with its measured points, and the
 measured vs simulated engine speed and fuel rate of every predicted test.
 
-One self-contained file (plotly.js inlined, works offline), written atomically.
+This module prepares the data and the figures; the pages are built and written by
+:mod:`vehval.report.identify_page` (one self-contained file, plotly.js inlined, offline).
 """
 
 from __future__ import annotations
 
-import html
 from pathlib import Path
 
 import numpy as np
 import plotly.graph_objects as go
 
 from vehval.identify.warmup import start_label
-from vehval.io.atomic import write_text_atomic
-from vehval.report.safety import CSP_META
+from vehval.report.identify_page import write_identification_page, write_prediction_page
 
 MAX_POINTS = 4000
 RPM = 30.0 / np.pi
@@ -71,94 +70,59 @@ def trace_figure(pred: dict) -> go.Figure:
     return fig
 
 
-def _table(rows: list[list], head: list[str]) -> str:
-    h = "".join(f"<th>{html.escape(x)}</th>" for x in head)
-    b = "".join("<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in r) + "</tr>"
-                for r in rows)
-    return f"<table><tr>{h}</tr>{b}</table>"
+def identification_data(idf, preds: list[dict]) -> dict:
+    """The plain data of the identification page (see
+    :func:`vehval.report.identify_page.identification_blocks`)."""
+    rl, fm, w = idf.road_load, idf.fuel_map, idf.warmup
+    return {
+        "vehicle": idf.vehicle.name, "tests": [t.test_id for t in idf.traces],
+        "road_load": {"values": dict(rl.values), "ci95": dict(rl.ci95),
+                      "template": dict(rl.template), "r2": rl.r2, "rmse_n": rl.rmse_n,
+                      "lag_s": rl.lag_s},
+        "gears": list(idf.gear_ratio_check),
+        "fuel_map": {"r2": fm.r2, "r2_5s": fm.r2_5s, "delay_s": fm.delay_s, "tau_s": fm.tau_s,
+                     "idle_fuel_kg_s": fm.idle_fuel_kg_s, "overrun_fuel_kg_s": fm.overrun_fuel_kg_s,
+                     "fuel_cut_speed_rad_s": fm.fuel_cut_speed_rad_s},
+        "drag": None if idf.drag is None else {"force_n": idf.drag.force_n,
+                                               "force_n_per_mps": idf.drag.force_n_per_mps,
+                                               "note": idf.drag.note},
+        "ac": idf.ac,
+        "warmup": None if w is None else {"fraction": w.fraction,
+                                          "time_constant_s": w.time_constant_s,
+                                          "provenance": w.provenance(), "note": w.note,
+                                          "phases": list(w.phases)},
+        "predictions": [{k: p.get(k) for k in ("test", "cycle", "amb_temp_c", "fuel_measured_g",
+                                               "fuel_predicted_g", "error_rel", "ac_on")}
+                        for p in preds],
+    }
 
 
 def write_identification_report(idf, preds: list[dict], path: str | Path) -> Path:
     """Write the report of ``idf`` with the predictions ``preds`` (from ``predict_trace``,
     each carrying its ``trace``) to ``path``."""
-    rl = idf.road_load
-    parts = ["<h1>Identification of " + html.escape(idf.vehicle.name) + "</h1>",
-             "<p>Tests: " + html.escape(", ".join(t.test_id for t in idf.traces)) + "</p>",
-             "<h2>Road load</h2>",
-             _table([[k, f"{v:.4g}", f"±{rl.ci95[k]:.3g}", rl.template.get(k, "")]
-                     for k, v in rl.values.items()],
-                    ["coefficient", "identified", "95 % CI", "template"]),
-             f"<p>R² {rl.r2:.4f}, RMSE {rl.rmse_n:.1f} N, force lag {rl.lag_s:+.2f} s</p>",
-             "<h2>Gears</h2>",
-             _table([[c["gear"], f"{c['identified']:.4f}",
-                      "" if c["data_median"] is None else f"{c['data_median']:.4f}",
-                      c["locked_samples"]] for c in idf.gear_ratio_check],
-                    ["gear", "ratio (engine/wheel)", "median of locked samples", "samples"]),
-             "<h2>Fuel map</h2>"]
-    figs = [fuel_map_figure(idf)]
-    fm = idf.fuel_map
-    parts.append(f"<p>R² {fm.r2:.3f} (10 Hz), {fm.r2_5s:.3f} (5 s means); meter delay "
-                 f"{fm.delay_s:.1f} s, lag {fm.tau_s:.1f} s; idle {fm.idle_fuel_kg_s * 1e3:.3f} "
-                 f"g/s; overrun {fm.overrun_fuel_kg_s * 1e3:.3f} g/s above "
-                 f"{fm.fuel_cut_speed_rad_s * RPM:.0f} rpm</p>")
-    if idf.drag is not None:
-        parts.append(f"<h2>Driveline drag</h2><p>{idf.drag.force_n:.1f} N + "
-                     f"{idf.drag.force_n_per_mps:.3f} N/(m/s): {html.escape(idf.drag.note)}</p>")
-    if idf.ac is not None:
-        parts.append(f"<h2>A/C load</h2><p>{idf.ac['ac_power_w']:.0f} W from "
-                     f"{html.escape(idf.ac['test'])}, phases "
-                     f"{', '.join(map(str, idf.ac['phases']))} (measured "
-                     f"{idf.ac['fuel_measured_g']:.1f} g; model without A/C "
-                     f"{idf.ac['fuel_model_without_ac_g']:.1f} g)</p>")
-    if idf.warmup is not None:
-        w = idf.warmup
-        rows = "".join(f"<li>phase {p['phase']}: cold {p['cold_g']:.1f} g, hot {p['hot_g']:.1f} g, "
-                       f"fitted excess {p['fitted_excess_g']:.1f} g</li>" for p in w.phases)
-        parts.append(f"<h2>Warm-up fuel</h2><p>+{100 * w.fraction:.1f} % at the start, time "
-                     f"constant {w.time_constant_s:.0f} s: {html.escape(w.provenance())}"
-                     f"{'; ' + html.escape(w.note) if w.note else ''}</p><ul>{rows}</ul>")
-    parts.append("<h2>Predictions</h2>")
-    parts.append(_table([[p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}",
-                          f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
-                          f"{100 * p['error_rel']:+.2f}", "on" if p.get("ac_on") else "off"]
-                         for p in preds],
-                        ["test", "cycle", "cell °C", "measured g", "predicted g", "error %",
-                         "A/C"]))
-    figs += [trace_figure(p) for p in preds]
-    body = "\n".join(parts)
-    return _write_page(path, "vehval identification", body, figs)
+    figs = [fuel_map_figure(idf)] + [trace_figure(p) for p in preds]
+    return write_identification_page(path, identification_data(idf, preds), figs)
+
+
+def prediction_data(preds: list[dict]) -> list[dict]:
+    """The rows of the prediction page (see
+    :func:`vehval.report.identify_page.write_prediction_page`)."""
+    out = []
+    for p in preds:
+        phases = [{"name": ph.get("results_name", f"phase {ph['phase']}"),
+                   "measured_g": ph["measured_g"], "u_g": ph.get("results_fuel_U_g"),
+                   "predicted_g": ph["predicted_g"], "error_rel": ph["error_rel"]}
+                  for ph in p["phases"]]
+        out.append({**{k: p.get(k) for k in ("test", "cycle", "amb_temp_c", "ac_on", "ac_reason",
+                                              "cold_reason", "fuel_measured_g",
+                                              "fuel_predicted_g", "error_rel")},
+                    "ac_reason": p.get("ac_reason", ""), "cold_reason": p.get("cold_reason", ""),
+                    "start": start_label(p), "phases": phases})
+    return out
 
 
 def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Path) -> Path:
     """Write the prediction table and the engine speed / fuel rate overlays of ``preds``
     (from ``predict_trace``) to ``path`` (one self-contained HTML file)."""
-    rows = []
-    for p in preds:
-        ac = ("on" if p.get("ac_on") else "off") + f" ({p.get('ac_reason', '')})"
-        start = f"{start_label(p)} ({p.get('cold_reason', '')})"
-        rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", ac, start, "test",
-                     f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
-                     f"{100 * p['error_rel']:+.2f}"])
-        for ph in p["phases"]:
-            u = ph.get("results_fuel_U_g")
-            rows.append(["", "", "", "", "", ph.get("results_name", f"phase {ph['phase']}"),
-                         f"{ph['measured_g']:.1f}" + (f" ± {u:.1f}" if u else ""),
-                         f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"])
-    body = (f"<h1>Predictions of {html.escape(vehicle_name)}</h1>"
-            + _table(rows, ["test", "cycle", "cell °C", "A/C", "start", "scope",
-                            "measured g (U, k = 2)",
-                            "predicted g", "error %"]))
-    return _write_page(path, "vehval predictions", body, [trace_figure(p) for p in preds])
-
-
-def _write_page(path: str | Path, title: str, body: str, figs: list) -> Path:
-    """One self-contained HTML page: ``body`` then the plotly figures (plotly.js once)."""
-    divs = "\n".join(f.to_html(full_html=False, include_plotlyjs=(i == 0))
-                     for i, f in enumerate(figs))
-    doc = ("<!DOCTYPE html><html><head><meta charset='utf-8'>" + CSP_META
-           + f"<title>{html.escape(title)}</title><style>body{{font-family:sans-serif;"
-           "margin:2em}table{border-collapse:collapse}td,th{border:1px solid #ccc;"
-           f"padding:2px 8px}}</style></head><body>{body}\n{divs}</body></html>")
-    path = Path(path)
-    write_text_atomic(path, doc)
-    return path
+    return write_prediction_page(path, vehicle_name, prediction_data(preds),
+                                 [trace_figure(p) for p in preds])

@@ -1,20 +1,19 @@
 """EPA validation report: the per-test / per-bag table and a predicted-vs-measured plot.
 
-One self-contained HTML file (inline SVG, no script), plus ``epa_validation.json`` (the
+One self-contained HTML file (inline SVG, no script; template ``epa.html.j2``), plus ``epa_validation.json`` (the
 :meth:`~vehval.epa.validation.EpaValidation.to_dict` contract) and ``epa_validation.csv``.
 """
 
 from __future__ import annotations
 
 import csv
-import html
 import io
 from pathlib import Path
 
 from vehval import jsonsafe
 from vehval.epa.consistency import group_mismatches
 from vehval.epa.validation import TOLERANCE, EpaValidation
-from vehval.report.safety import CSP_META
+from vehval.report.page import render_page
 
 _COLORS = {"ftp75": "#1f77b4", "hwfet": "#2ca02c", "us06": "#d62728"}
 
@@ -24,15 +23,17 @@ def table_rows(val: EpaValidation) -> list[dict]:
     return [c.to_dict() for c in val.comparisons]
 
 
-def scatter_svg(val: EpaValidation, size: int = 420) -> str:
-    """Predicted vs measured fuel economy [mpg] as an SVG scatter with the 1:1 and ±5 % lines.
+def scatter_plot(val: EpaValidation, size: int = 420) -> dict | None:
+    """Predicted vs measured fuel economy [mpg]: the geometry of the SVG scatter with the
+    1:1 and ±5 % lines (drawn by ``epa.html.j2``); None without a figure.
 
     Judged figures are filled circles, figures not judged (cold start without a cold-start
-    model, or a test whose listed figures disagree) open circles.
+    model, or a test whose listed figures disagree) open circles. Coordinates are [px]
+    strings, every label is text (escaped by the template).
     """
     pts = [(c.measured_mpg, c.predicted_mpg, c) for c in val.comparisons]
     if not pts:
-        return "<p>No figure to plot.</p>"
+        return None
     lo = min(min(p[0], p[1]) for p in pts) * 0.9
     hi = max(max(p[0], p[1]) for p in pts) * 1.05
     m = 50
@@ -43,44 +44,27 @@ def scatter_svg(val: EpaValidation, size: int = 420) -> str:
     def sy(y):
         return size - m - (y - lo) / (hi - lo) * (size - 2 * m)
 
-    out = [(f'<svg xmlns="http://www.w3.org/2000/svg" width="{size}" height="{size}" '
-            'font-family="sans-serif" font-size="11">'),
-           (f'<rect x="{m}" y="{m}" width="{size - 2 * m}" height="{size - 2 * m}" '
-            'fill="none" stroke="#888"/>')]
-    # the 1:1 and tolerance lines, clipped to the plot area (the ±5 % lines leave it)
-    out.append(f'<defs><clipPath id="epa-plot-area"><rect x="{m}" y="{m}" '
-               f'width="{size - 2 * m}" height="{size - 2 * m}"/></clipPath></defs>'
-               '<g clip-path="url(#epa-plot-area)">')
-    for k, dash in ((1.0, ""), (1 + TOLERANCE, "4,3"), (1 - TOLERANCE, "4,3")):
-        out.append(f'<line x1="{sx(lo):.1f}" y1="{sy(lo * k):.1f}" x2="{sx(hi):.1f}" '
-                   f'y2="{sy(hi * k):.1f}" stroke="#999" stroke-dasharray="{dash}"/>')
-    out.append("</g>")
+    lines = [{"x1": f"{sx(lo):.1f}", "y1": f"{sy(lo * k):.1f}", "x2": f"{sx(hi):.1f}",
+              "y2": f"{sy(hi * k):.1f}", "dash": dash}
+             for k, dash in ((1.0, ""), (1 + TOLERANCE, "4,3"), (1 - TOLERANCE, "4,3"))]
     step = 10 if hi - lo < 120 else 20
-    v = (int(lo) // step + 1) * step
+    ticks, v = [], (int(lo) // step + 1) * step
     while v < hi:
-        out.append(f'<text x="{sx(v):.1f}" y="{size - m + 14}" text-anchor="middle">{v}</text>')
-        out.append(f'<text x="{m - 6}" y="{sy(v) + 4:.1f}" text-anchor="end">{v}</text>')
+        ticks.append({"value": v, "x": f"{sx(v):.1f}", "y": f"{sy(v) + 4:.1f}"})
         v += step
+    points = []
     for x, y, c in pts:
         col = _COLORS.get(c.procedure, "#555")
-        fill = col if c.judged else "none"
-        title = html.escape(f"{c.test} {c.procedure} {c.item}: predicted {c.predicted_mpg:.1f}, "
-                            f"measured {c.measured_mpg:.1f} mpg ({100 * c.error:+.1f} %)")
-        out.append(f'<circle cx="{sx(x):.1f}" cy="{sy(y):.1f}" r="4" fill="{fill}" '
-                   f'stroke="{col}"><title>{title}</title></circle>')
-    out.append(f'<text x="{size / 2}" y="{size - 12}" text-anchor="middle">measured '
-               '[mpg]</text>')
-    out.append(f'<text x="14" y="{size / 2}" text-anchor="middle" transform="rotate(-90 14 '
-               f'{size / 2})">predicted [mpg]</text>')
-    legend = [("FTP-75", "ftp75"), ("HWFET", "hwfet"), ("US06", "us06")]
-    for i, (label, key) in enumerate(legend):
-        out.append(f'<circle cx="{m + 10}" cy="{m + 14 + 14 * i}" r="4" '
-                   f'fill="{_COLORS[key]}"/><text x="{m + 18}" y="{m + 18 + 14 * i}">'
-                   f'{label}</text>')
-    out.append(f'<text x="{m + 10}" y="{m + 60}">open: not judged (cold start, doubtful list)'
-               '</text>')
-    out.append("</svg>")
-    return "".join(out)
+        points.append({"cx": f"{sx(x):.1f}", "cy": f"{sy(y):.1f}", "stroke": col,
+                       "fill": col if c.judged else "none",
+                       "title": f"{c.test} {c.procedure} {c.item}: predicted {c.predicted_mpg:.1f}, "
+                                f"measured {c.measured_mpg:.1f} mpg ({100 * c.error:+.1f} %)"})
+    legend = [{"label": label, "color": _COLORS[key], "cy": m + 14 + 14 * i, "ty": m + 18 + 14 * i}
+              for i, (label, key) in enumerate((("FTP-75", "ftp75"), ("HWFET", "hwfet"),
+                                               ("US06", "us06")))]
+    return {"size": size, "m": m, "inner": size - 2 * m, "half": size / 2, "lines": lines,
+            "ticks": ticks, "points": points, "legend": legend, "tick_y": size - m + 14,
+            "tick_x": m - 6, "xlabel_y": size - 12}
 
 
 def share_text(x: float | None) -> str:
@@ -89,65 +73,38 @@ def share_text(x: float | None) -> str:
 
 
 def render_html(val: EpaValidation) -> str:
-    """The whole report page."""
+    """The whole report page (``epa.html.j2``): every text of the list is escaped there."""
     st = val.stats()
     corr = st["spread_correlation"]
-    rows = []
+    rows, classes = [], []
     for c in val.comparisons:
         ok = abs(c.error) <= TOLERANCE
-        cls = "" if not c.judged else (' class="ok"' if ok else ' class="bad"')
-        rows.append(f"<tr{cls}><td>{html.escape(c.test)}</td><td>{c.originator}</td>"
-                    f"<td>{c.procedure}</td><td>{html.escape(c.item)}</td>"
-                    f"<td>{c.predicted_mpg:.1f}</td><td>{c.measured_mpg:.1f}</td>"
-                    f"<td>{100 * c.error:+.1f}</td><td>{share_text(c.battery_share)}</td>"
-                    f"<td>{'yes' if c.judged else 'no'}</td>"
-                    f"<td>{html.escape(c.note)}</td></tr>")
+        classes.append("" if not c.judged else ("ok" if ok else "bad"))
+        rows.append([c.test, c.originator, c.procedure, c.item, f"{c.predicted_mpg:.1f}",
+                     f"{c.measured_mpg:.1f}", f"{100 * c.error:+.1f}", share_text(c.battery_share),
+                     "yes" if c.judged else "no", c.note])
     r_kind = corr["per_kind"]
-    kinds = "".join(
-        f"<tr><td>{html.escape(k)}</td><td>{v['n']}</td><td>{v['n_within_tolerance']}</td>"
-        f"<td>{100 * v['mean_error']:+.1f}</td><td>{100 * v['mean_abs_error']:.1f}</td>"
-        f"<td>{100 * v['max_abs_error']:.1f}</td>"
-        f"<td>{'-' if r_kind.get(k) is None else f'{r_kind[k]:.3f}'}</td></tr>"
-        for k, v in st["per_kind"].items())
-    skipped = "".join(f"<li>{html.escape(s['test'])} ({html.escape(s['description'])}): "
-                      f"{html.escape(s['reason'])}</li>" for s in val.skipped)
+    kinds = [[k, v["n"], v["n_within_tolerance"], f"{100 * v['mean_error']:+.1f}",
+              f"{100 * v['mean_abs_error']:.1f}", f"{100 * v['max_abs_error']:.1f}",
+              "-" if r_kind.get(k) is None else f"{r_kind[k]:.3f}"]
+             for k, v in st["per_kind"].items()]
+    skipped = [f"{s['test']} ({s['description']}): {s['reason']}" for s in val.skipped]
     pooled = corr["pooled"]
     groups = group_mismatches((p.test.label, p.vehicle_check) for p in val.predictions)
-    mismatch = "".join(
-        f"<p class=\"warn\">&#9888; {len(labels)} test(s) ({html.escape(', '.join(labels))}): "
-        f"{html.escape(note)}. Their errors judge the vehicle file on a car it may not "
-        "describe.</p>" for note, labels in groups.items())
-    return f"""<!DOCTYPE html><html><head><meta charset="utf-8">{CSP_META}
-<title>vehval EPA validation: {html.escape(val.vehicle)}</title>
-<style>body{{font-family:sans-serif;margin:2em}}table{{border-collapse:collapse}}
-td,th{{border:1px solid #ccc;padding:2px 6px;text-align:right}}td:nth-child(-n+4){{text-align:left}}
-tr.ok td{{background:#e8f6e8}}tr.bad td{{background:#fbe9e9}}
-p.warn{{background:#fff4d6;padding:4px 8px}}</style></head><body>
-<h1>EPA certification tests: {html.escape(val.vehicle)}</h1>
-<p>{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped;
-{st['n_within_tolerance']} of {st['n_judged']} judged figures within
-{100 * TOLERANCE:.0f} % ({st['n_within_3pct']} within 3 %); mean error
-{100 * (st['mean_error'] or 0):+.1f} %, mean |error| {100 * (st['mean_abs_error'] or 0):.1f} %.
-Correlation of predicted and measured judged figures: r = {'-' if pooled is None
-                                                           else f'{pooled:.3f}'}.</p>
-{mismatch}
-{scatter_svg(val)}
-<h2>By figure</h2>
-<table><tr><th>figure</th><th>judged</th><th>within {100 * TOLERANCE:.0f} %</th>
-<th>mean error %</th><th>mean |error| %</th><th>largest |error| %</th><th>r</th></tr>
-{kinds}</table>
-<h2>Every figure</h2>
-<table><tr><th>test</th><th>by</th><th>procedure</th><th>figure</th><th>predicted mpg</th>
-<th>measured mpg</th><th>error %</th><th>battery %</th><th>judged</th><th>note</th></tr>
-{''.join(rows)}</table>
-<p>battery %: in the model, the battery's chemical energy spent in the figure over the fuel
-energy burnt in it (&gt; 0: the battery helped). SAE J1711 holds the whole test to a net
-energy change within 1 % of the fuel energy; a single bag is not balanced, so a bag with a
-large share depends on the charge the bag before it left, which the lab does not report.
-Within each UDDS of an FTP-75 (bags 1 + 2, bags 3 + 4) the charge one phase stores the next
-spends: their share is near 0.</p>
-<h2>Skipped tests</h2><ul>{skipped or '<li>none</li>'}</ul>
-</body></html>"""
+    mismatch = [f"{len(labels)} test(s) ({', '.join(labels)}): {note}. Their errors judge the "
+                "vehicle file on a car it may not describe." for note, labels in groups.items()]
+    tol = f"{100 * TOLERANCE:.0f}"
+    summary = (f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped;\n"
+               f"{st['n_within_tolerance']} of {st['n_judged']} judged figures within\n"
+               f"{tol} % ({st['n_within_3pct']} within 3 %); mean error\n"
+               f"{100 * (st['mean_error'] or 0):+.1f} %, mean |error| "
+               f"{100 * (st['mean_abs_error'] or 0):.1f} %.\n"
+               "Correlation of predicted and measured judged figures: r = "
+               f"{'-' if pooled is None else f'{pooled:.3f}'}.")
+    return render_page("epa.html.j2", title=f"vehval EPA validation: {val.vehicle}", css="epa.css",
+                       vehicle=val.vehicle, summary=summary, mismatch=mismatch,
+                       plot=scatter_plot(val), tol=tol, kinds=kinds, rows=rows,
+                       row_classes=classes, skipped=skipped)
 
 
 def write_epa_report(val: EpaValidation, outdir: str | Path) -> list[str]:

@@ -16,10 +16,18 @@ import numpy as np
 
 from vehval.report.decimate import DEFAULT_BUCKETS, decimate_minmax
 from vehval.report.safety import safe_figure
+from vehval.report.tables import slug
 
 PALETTE = ("#1f5fa8", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c", "#0b7285", "#e67700",
            "#495057")
 ROW_HEIGHT_PX = 170
+DEFAULT_FIG_HEIGHT_PX = 450
+#: A trace drawn as SVG keeps at most this many points; a longer one (a WebGL trace of a
+#: payload, which pages draw as SVG: see :func:`vehval.report.safety.safe_figure`) is
+#: thinned (min/max decimation of a line over increasing x, an even stride otherwise).
+MAX_SVG_POINTS = 20_000
+#: Per-point arrays thinned with x and y.
+_POINT_KEYS = ("text", "hovertext", "customdata", "ids")
 
 
 @dataclass
@@ -95,6 +103,30 @@ def _clean(obj: Any) -> Any:
     return obj
 
 
+def _thin(trace: dict) -> dict:
+    """``trace`` with at most :data:`MAX_SVG_POINTS` points (see there)."""
+    x, y = trace.get("x"), trace.get("y")
+    if not isinstance(x, (list, tuple, np.ndarray)) or not isinstance(y, (list, tuple, np.ndarray)):
+        return trace
+    n = len(x)
+    if n <= MAX_SVG_POINTS or len(y) != n:
+        return trace
+    out = dict(trace)
+    xa = np.asarray(x, dtype=float)
+    ya = np.asarray([np.nan if v is None else v for v in y], dtype=float)
+    per_point = [k for k in _POINT_KEYS if isinstance(trace.get(k), (list, tuple, np.ndarray))]
+    if "lines" in str(trace.get("mode", "lines")) and not per_point \
+            and bool(np.all(np.diff(xa) >= 0)):
+        out["x"], out["y"] = decimate_minmax(xa, ya, MAX_SVG_POINTS // 2)
+        return out
+    step = -(-n // MAX_SVG_POINTS)
+    out["x"], out["y"] = xa[::step], ya[::step]
+    for k in per_point:
+        if len(trace[k]) == n:
+            out[k] = list(trace[k])[::step]
+    return out
+
+
 def figure_json(fig: Any) -> str:
     """Compact JSON of a figure (dict or plotly Figure), safe to embed in a ``<script>``.
 
@@ -110,8 +142,39 @@ def figure_json(fig: Any) -> str:
     layout.pop("template", None)
     fig["layout"] = layout
     fig = safe_figure(fig)
+    fig["data"] = [_thin(t) if t.get("type", "scatter") == "scatter" else t for t in fig["data"]]
     text = json.dumps(_clean(fig), default=_default, separators=(",", ":"), allow_nan=False)
     return text.replace("</", "<\\/").replace("<!--", "<\\!--")
+
+
+def prepare_figures(figures: Sequence[FigSpec], start: int = 0) -> int:
+    """Give every figure of a page its element id, height [px] and embedded JSON.
+
+    Parameters
+    ----------
+    figures : sequence of FigSpec
+        Figures in page order; ``key`` (unless given), ``height`` and ``json`` are set
+        in place.
+    start : int
+        Figures already numbered on the page.
+
+    Returns
+    -------
+    int
+        Figures numbered on the page so far.
+    """
+    n = start
+    for f in figures:
+        n += 1
+        f.key = f.key or f"fig-{n}-{slug(f.title)[:40]}"
+        fig = f.figure.to_plotly_json() if hasattr(f.figure, "to_plotly_json") else dict(f.figure)
+        layout = dict(fig.get("layout") or {})
+        # an explicit height: the plot div has no height of its own to autosize into
+        f.height = int(layout.get("height") or DEFAULT_FIG_HEIGHT_PX)
+        layout["height"] = f.height
+        fig["layout"] = layout
+        f.json = figure_json(fig)
+    return n
 
 
 def time_traces_figure(panels: Sequence[dict], *, n_buckets: int = DEFAULT_BUCKETS,

@@ -1,7 +1,8 @@
 """The self-contained HTML report of one test (and, when given, its analysis and validation).
 
 One file, readable offline: plotly.js is embedded once, each figure is a compact JSON block
-(typed arrays) drawn by a small script, and every table is plain HTML. The file is written
+(typed arrays) drawn by a small script, and every table is plain HTML, all through the
+autoescaping template ``report.html.j2`` (:mod:`vehval.report.page`). The file is written
 atomically: a failed run leaves no partial report.
 
 Many reports side by side (``vehval batch``) can instead share one local copy of plotly.js:
@@ -12,108 +13,21 @@ load it with ``<script src>`` (still offline: a relative ``file://`` path, no ne
 from __future__ import annotations
 
 import datetime as _dt
-import json
-import re
-from functools import lru_cache
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import jinja2
-
-from vehval.errors import ConfigError
-from vehval.io.atomic import atomic_path, write_text_atomic
+from vehval.io.atomic import write_text_atomic
 from vehval.report import plots
 from vehval.report import sections as S
-from vehval.report.figures import FigSpec, figure_json
+from vehval.report.figures import DEFAULT_FIG_HEIGHT_PX, FigSpec, prepare_figures
+from vehval.report.page import INLINE, plotly_asset_name, plotly_src, render_page, write_plotly_asset
 from vehval.report.plugins import control_section, normalise_figure, validation_section
 from vehval.report.qa_view import as_dict
-from vehval.report.safety import CSP_META
-from vehval.report.tables import fmt_cell, slug
+from vehval.report.tables import fmt_cell
 from vehval.test import Test, TestMeta
 
-DEFAULT_FIG_HEIGHT_PX = 450
-#: ``plotly_js`` value that embeds plotly.js in the report (the default).
-INLINE = "inline"
-
-
-@lru_cache(maxsize=1)
-def _plotly_assets() -> tuple[str, str, str]:
-    """(plotly.js source, its version, the shared layout template JSON)."""
-    import plotly.io as pio
-    from plotly.offline import get_plotlyjs, get_plotlyjs_version
-
-    tmpl = pio.templates["plotly_white"].to_plotly_json()
-    tmpl.setdefault("layout", {})
-    tmpl["layout"].update({"font": {"family": "-apple-system, Segoe UI, Roboto, Arial, sans-serif",
-                                    "size": 12, "color": "#212529"},
-                           "colorway": ["#1f5fa8", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c",
-                                        "#0b7285", "#e67700", "#495057"]})
-    js = get_plotlyjs().replace("</script", "<\\/script")
-    return js, get_plotlyjs_version(), json.dumps(tmpl, separators=(",", ":")).replace("</", "<\\/")
-
-
-def plotly_asset_name() -> str:
-    """File name of the shared plotly.js copy: ``plotly-<plotly.js version>.min.js``."""
-    from plotly.offline import get_plotlyjs_version
-
-    return f"plotly-{get_plotlyjs_version()}.min.js"
-
-
-def write_plotly_asset(directory: str | Path) -> Path:
-    """Write plotly.js once as ``directory/plotly-<version>.min.js`` for reports to share.
-
-    The file is written atomically, and only when it is absent or its content differs, so
-    concurrent writers (batch workers) and reruns are safe and an unchanged file is left
-    alone (its modification time too).
-
-    Parameters
-    ----------
-    directory : str or Path
-        Asset directory (created if needed).
-
-    Returns
-    -------
-    Path
-        The asset file.
-    """
-    from plotly.offline import get_plotlyjs
-
-    path = Path(directory) / plotly_asset_name()
-    data = get_plotlyjs().encode("utf-8")
-    try:
-        if path.stat().st_size == len(data) and path.read_bytes() == data:
-            return path
-    except OSError:
-        pass
-    with atomic_path(path) as tmp:
-        tmp.write_bytes(data)
-    return path
-
-
-#: A URL scheme (``https:``, ``C:``), an absolute path, a backslash or nothing.
-_UNSAFE_SRC = re.compile(r"^[a-zA-Z][a-zA-Z0-9+.-]*:|^/|\\|^\s*$")
-
-
-def _plotly_src(plotly_js: str) -> str | None:
-    """None to embed plotly.js, else the checked relative path of the shared copy."""
-    if plotly_js == INLINE:
-        return None
-    if not isinstance(plotly_js, str) or _UNSAFE_SRC.search(plotly_js):
-        raise ConfigError(f"plotly_js must be '{INLINE}' or a relative path to a local copy of "
-                          f"plotly.js (e.g. ../../assets/{plotly_asset_name()}), got {plotly_js!r}: "
-                          "a URL or an absolute path would not keep the report offline and movable")
-    return plotly_js
-
-
-def _read_asset(name: str) -> str:
-    return resources.files("vehval.report").joinpath("templates", name).read_text(encoding="utf-8")
-
-
-def _env() -> jinja2.Environment:
-    loader = jinja2.FunctionLoader(lambda n: _read_asset(n))
-    return jinja2.Environment(loader=loader, autoescape=True, undefined=jinja2.StrictUndefined,
-                              trim_blocks=False, lstrip_blocks=False)
+__all__ = ["INLINE", "DEFAULT_FIG_HEIGHT_PX", "build_sections", "plotly_asset_name",
+           "render_report", "write_plotly_asset", "write_report"]
 
 
 def resolve_vehicle(vehicle: Any, test: Test) -> tuple[Any, str | None]:
@@ -225,23 +139,14 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
     """The report as one HTML string (see :func:`write_report`)."""
     from vehval import __version__
 
-    src = _plotly_src(plotly_js)
+    plotly_src(plotly_js)  # a URL or an absolute path is refused before any work
     m = test.meta
     title = title or f"Test report: {m.test_id or 'unnamed test'}"
     secs = build_sections(test, qa, template=template, vehicle=vehicle, control=control,
                           validation=validation, title=title, raw=raw, results=results)
     n = 0
     for sec in secs:
-        for f in sec.figures:
-            n += 1
-            f.key = f"fig-{n}-{slug(f.title)[:40]}"
-            fig = f.figure.to_plotly_json() if hasattr(f.figure, "to_plotly_json") else dict(f.figure)
-            layout = dict(fig.get("layout") or {})
-            # an explicit height: the plot div has no height of its own to autosize into
-            f.height = int(layout.get("height") or DEFAULT_FIG_HEIGHT_PX)
-            layout["height"] = f.height
-            fig["layout"] = layout
-            f.json = figure_json(fig)
+        n = prepare_figures(sec.figures, start=n)
         seen: set[str] = set()
         for t in sec.tables:
             base, k = t.key, 2
@@ -249,14 +154,12 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
                 t.key = f"{base}-{k}"
                 k += 1
             seen.add(t.key)
-    js, pver, tmpl = _plotly_assets()
     subtitle = " · ".join(x for x in (m.vehicle, m.cycle, m.test_id) if x) or "vehicle test"
-    return _env().get_template("report.html.j2").render(
-        title=title, subtitle=subtitle, generated=_dt.datetime.now().strftime("%Y-%m-%d %H:%M"),
-        version=__version__, synthetic=_is_virtual(test, template), sections=secs, fmt=fmt_cell,
-        css=_read_asset("report.css"), plotly_js=js if src is None else "", plotly_src=src,
-        plotly_version=pver, template_json=tmpl,
-        render_js=_read_asset("render.js"), csp_meta=CSP_META)
+    return render_page(
+        "report.html.j2", title=title, css="report.css", plotly=True, plotly_js=plotly_js,
+        figures=[f for sec in secs for f in sec.figures], subtitle=subtitle,
+        generated=_dt.datetime.now().strftime("%Y-%m-%d %H:%M"), version=__version__,
+        synthetic=_is_virtual(test, template), sections=secs, fmt=fmt_cell)
 
 
 def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any = None,

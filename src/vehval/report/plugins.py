@@ -22,13 +22,11 @@ from typing import Any
 import numpy as np
 
 from vehval.report.figures import PALETTE, FigSpec
+from vehval.report.safety import GL_TO_SVG
 from vehval.report.sections import Section
 from vehval.report.tables import table_from_spec, to_tables
 
 PAYLOAD_KEYS = ("tables", "figures", "notes", "intro", "title")
-#: WebGL traces are drawn as SVG when every trace has at most this many points: browsers
-#: allow only ~16 live WebGL contexts per page, and SVG prints.
-MAX_SVG_POINTS = 20_000
 
 
 # ----------------------------------------------------------------------------- figures
@@ -37,13 +35,6 @@ def _title_text(layout: dict) -> str:
     if isinstance(t, dict):
         t = t.get("text")
     return str(t) if t else ""
-
-
-def _npoints(trace: dict) -> int:
-    x = trace.get("x", trace.get("y"))
-    if isinstance(x, dict):  # plotly typed array spec: size unknown without decoding
-        return MAX_SVG_POINTS + 1
-    return len(x) if isinstance(x, (list, tuple, np.ndarray)) else 0
 
 
 def _object_titles(obj: Any) -> Any:
@@ -64,8 +55,8 @@ def normalise_figure(fig: Any, caption: str = "") -> tuple[dict, str]:
 
     The caption is the given one, else the layout title; a layout title equal to the
     caption is removed (the page shows the caption). String titles become ``{"text": ...}``
-    objects. ``scattergl`` traces become ``scatter`` when every trace is small enough for
-    SVG (see :data:`MAX_SVG_POINTS`).
+    objects. WebGL traces are drawn as SVG on the page (see
+    :func:`vehval.report.safety.safe_figure`).
     """
     if hasattr(fig, "to_plotly_json"):
         fig = fig.to_plotly_json()
@@ -80,10 +71,8 @@ def normalise_figure(fig: Any, caption: str = "") -> tuple[dict, str]:
         if m.get("t", 0) > 40:
             m["t"] = 30
             layout["margin"] = m
-    if data and all(_npoints(t) <= MAX_SVG_POINTS for t in data):
-        for t in data:
-            if t.get("type") == "scattergl":
-                t["type"] = "scatter"
+    for t in data:
+        t["type"] = GL_TO_SVG.get(t.get("type", "scatter"), t.get("type", "scatter"))
     fig["data"], fig["layout"] = data, layout
     return fig, caption
 

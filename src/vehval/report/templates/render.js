@@ -8,7 +8,8 @@
   var figs = Array.prototype.slice.call(document.querySelectorAll(".vv-fig"));
   var pending = {};
   var xrange = null, syncing = false;
-  function linked() { return document.getElementById("vv-sync").checked; }
+  var sync = document.getElementById("vv-sync");  /* the test report's "link time axes" */
+  function linked() { return !!sync && sync.checked; }
   function xkeys(el) {
     return Object.keys(el.layout || {}).filter(function (k) { return /^xaxis\d*$/.test(k); });
   }

@@ -1,0 +1,149 @@
+"""The batch index page: every test of a run linked to its report, variability tables and
+two fuel-economy plots.
+
+:mod:`vehval.batch.index` reads the catalog and hands plain rows to :func:`render_index_page`.
+Links are relative (``tests/<id>/report.html``) so the output directory can be moved or
+served as is; plotly.js is embedded once, so the page works offline.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Sequence
+from urllib.parse import quote
+
+from vehval.report.document import Block, cell, figure, h1, h2, para, render_document, table
+from vehval.report.figures import FigSpec
+
+#: Result columns of the tests table: (catalog column, header, scale, format).
+COLUMNS = [("distance_m", "distance [km]", 1e-3, "{:.2f}"),
+           ("fuel_mass_kg", "fuel [kg]", 1.0, "{:.3f}"),
+           ("fuel_economy_mpg", "fuel economy [mpg]", 1.0, "{:.1f}"),
+           ("soc_change", "ΔSOC [%]", 100.0, "{:+.2f}"),
+           ("ess_energy_j", "battery energy [kWh]", 1 / 3.6e6, "{:+.3f}"),
+           ("eng_energy_j", "engine energy [kWh]", 1 / 3.6e6, "{:.3f}")]
+
+
+#: Statuses with a style of their own.
+_STATUS = ("ok", "failed", "skipped")
+
+
+def _fmt(v: Any, scale: float, pattern: str) -> str:
+    if v is None:
+        return ""
+    try:
+        return pattern.format(float(v) * scale)
+    except (TypeError, ValueError):
+        return str(v)
+
+
+def _num(v: Any, scale: float = 1.0, pattern: str = "{:.5g}") -> dict:
+    return cell(_fmt(v, scale, pattern), "num")
+
+
+def _tests_table(tests: Sequence[dict]) -> Block:
+    rows = []
+    for r in tests:
+        tid = str(r["test_id"])
+        link = "tests/" + quote(tid, safe="") + "/report.html" \
+            if "report.html" in (r["outputs"] or []) else None
+        sev = json.loads(r["n_findings_by_severity"]) if r["n_findings_by_severity"] else {}
+        status = str(r["status"])
+        rows.append([cell(tid, href=link), cell(status, status if status in _STATUS else ""),
+                     r["vehicle"] or "", r["cycle"] or "",
+                     ", ".join(f"{v} {k}" for k, v in sorted(sev.items()))]
+                    + [_num(r[c], s, p) for c, _, s, p in COLUMNS]
+                    + [cell(r["error"] or "", "err")])
+    return table(["test", "status", "vehicle", "cycle", "findings"] + [c[1] for c in COLUMNS]
+                 + ["error"], rows)
+
+
+def _variability(var: Sequence[dict]) -> list[Block]:
+    out = [h2("Test-to-test variability (latest result of every test)")]
+    if not var:
+        return out + [para("No successful test yet.")]
+    rows = [[v["vehicle"], v["cycle"], v["metric"], _num(v["n"], pattern="{:.0f}"),
+             _num(v["mean"]), _num(v["std"]),
+             cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
+             _num(v["min"]), _num(v["max"])] for v in var]
+    return out + [table(["vehicle", "cycle", "metric", "n", "mean", "std", "CV [%]", "min", "max"],
+                        rows)]
+
+
+def _results(var: Sequence[dict]) -> list[Block]:
+    out = [h2("Fuel economy by cycle and test conditions (latest result of every test)")]
+    if not var:
+        return out + [para("No per-phase results (no fuel declared, or no successful test).")]
+    rows = [[str(v[k]) for k in ("vehicle", "cycle", "temperature_band", "start")]
+            + [f"{v['scope'] if v['kind'] != 'test' else 'whole test'} ({v['kind']})",
+               _num(v["n"], pattern="{:.0f}"), _num(v["mean"], pattern="{:.2f}"),
+               _num(v["std"], pattern="{:.2f}"),
+               cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
+               _num(v["mean_u"], pattern="{:.2f}")] for v in var]
+    return out + [table(["vehicle", "cycle", "cell temperature", "start", "result", "n",
+                         "mean [mpg]", "std [mpg]", "CV [%]", "mean U (k = 2) [mpg]"], rows)]
+
+
+def _phase_figure(phase_rows: Sequence[tuple]) -> list[Block]:
+    """Fuel economy per test and per phase (error bars: U, k = 2)."""
+    if not phase_rows:
+        return []
+    by_scope: dict[str, list[tuple]] = {}
+    for tid, scope, kind, fe, u in phase_rows:
+        by_scope.setdefault("whole test" if kind == "test" else scope, []).append((tid, fe, u))
+    data = [{"type": "scatter", "x": [p[0] for p in pts], "y": [p[1] for p in pts],
+             "mode": "markers", "name": scope,
+             "error_y": {"type": "data", "visible": True, "array": [p[2] or 0.0 for p in pts]},
+             "marker": {"size": 10 if scope == "whole test" else 7}}
+            for scope, pts in by_scope.items()]
+    layout = {"xaxis": {"title": {"text": "test"}},
+              "yaxis": {"title": {"text": "fuel economy [mpg]"}}, "height": 450,
+              "margin": {"l": 60, "r": 20, "t": 30, "b": 80}}
+    return [h2("Fuel economy per test and per phase"),
+            figure(FigSpec("Fuel economy per test and per phase (± U, k = 2)",
+                           {"data": data, "layout": layout}, key="fe_phase"))]
+
+
+def _soc_figure(tests: Sequence[dict]) -> list[Block]:
+    groups: dict[tuple, list[dict]] = {}
+    for r in tests:
+        if r["fuel_economy_mpg"] is not None and r["soc_change"] is not None:
+            groups.setdefault((r["vehicle"] or "", r["cycle"] or ""), []).append(r)
+    data = [{"type": "scatter", "x": [100 * r["soc_change"] for r in rs],
+             "y": [r["fuel_economy_mpg"] for r in rs], "mode": "markers",
+             "text": [str(r["test_id"]) for r in rs], "name": f"{veh} {cyc}".strip()}
+            for (veh, cyc), rs in sorted(groups.items())]
+    layout = {"xaxis": {"title": {"text": "ΔSOC [%]"}},
+              "yaxis": {"title": {"text": "fuel economy [mpg]"}}, "height": 450,
+              "margin": {"l": 60, "r": 20, "t": 30, "b": 50}}
+    return [h2("Fuel economy vs SOC change"),
+            figure(FigSpec("Fuel economy against battery SOC change, per test",
+                           {"data": data, "layout": layout}, key="fe_soc"))]
+
+
+def render_index_page(run: dict, tests: Sequence[dict], variability: Sequence[dict],
+                      results: Sequence[dict], phase_rows: Sequence[tuple]) -> str:
+    """HTML of the index page of one batch run.
+
+    Parameters
+    ----------
+    run : dict
+        ``run_id``, ``started``, ``vehval_version``, ``n_ok``, ``n_failed``, ``n_skipped``.
+    tests : sequence of dict
+        The run's tests: ``test_id``, ``status``, ``error``, ``vehicle``, ``cycle``,
+        ``outputs``, ``n_findings_by_severity`` (JSON text) and the :data:`COLUMNS`.
+    variability : sequence of dict
+        ``Catalog.summary()`` rows.
+    results : sequence of dict
+        ``results_variability()`` rows.
+    phase_rows : sequence of tuple
+        ``(test_id, scope, kind, fuel_economy_mpg, fuel_economy_u_mpg)`` of the run.
+    """
+    blocks = [h1(f"vehval batch {run['run_id']}"),
+              para(f"started {run['started']} · vehval {run['vehval_version']} · ",
+                   (f"{run['n_ok']} ok", "ok"), " · ", (f"{run['n_failed']} failed", "failed"),
+                   " · ", (f"{run['n_skipped']} unchanged (skipped)", "skipped")),
+              h2("Tests"), _tests_table(tests)]
+    blocks += _variability(variability) + _results(results)
+    blocks += _phase_figure(phase_rows) + _soc_figure(tests)
+    return render_document(blocks, title=f"vehval batch {run['run_id']}", css="batch.css")
