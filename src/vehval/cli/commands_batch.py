@@ -71,18 +71,28 @@ def catalog_query(
                               "view latest_tests."),
     db: Optional[Path] = typer.Option(None, "--db", help="Catalog file (default ./catalog.duckdb)."),
     as_json: bool = typer.Option(False, "--json", help="Print a JSON list of row objects."),
+    limit: int = typer.Option(10_000, "--limit", help="Print at most this many rows (a line on "
+                              "stderr says when more exist)."),
+    timeout: float = typer.Option(30.0, "--timeout", help="Stop the query after this many "
+                                  "seconds."),
 ) -> None:
-    """Run one SQL statement on the catalog (read-only) and print the rows."""
+    """Run one read-only SQL statement (SELECT or EXPLAIN) on the catalog and print the rows.
+
+    No file, network or extension access; 2 GB memory budget."""
     from vehval.catalog import open_catalog
 
-    with open_catalog(_db(db), read_only=True) as cat:
-        cols, rows = cat.query(sql)
+    with open_catalog(_db(db), read_only=True, timeout_s=timeout) as cat:
+        res = cat.user_query(sql, limit=limit, timeout_s=timeout)
+    if res.truncated:
+        typer.echo(f"vehval: showing the first {limit} rows; the query returns more "
+                   "(narrow it or raise --limit)", err=True)
     if as_json:
         from vehval.batch.task import jsonable
 
-        typer.echo(json.dumps([jsonable(dict(zip(cols, r))) for r in rows], indent=1, default=str))
+        typer.echo(json.dumps([jsonable(dict(zip(res.columns, r))) for r in res.rows], indent=1,
+                              default=str))
         return
-    _print_table(cols, [[_cell(v) for v in r] for r in rows])
+    _print_table(res.columns, [[_cell(v) for v in r] for r in res.rows])
 
 
 def _cell(v, digits: int = 6) -> str:
@@ -103,11 +113,16 @@ def _print_table(cols: list[str], rows: list[list[str]], group_by: tuple[str, ..
 def catalog_summary(
     db: Optional[Path] = typer.Option(None, "--db", help="Catalog file (default ./catalog.duckdb)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    timeout: float = typer.Option(30.0, "--timeout", help="Stop after this many seconds."),
 ) -> None:
     """Test-to-test variability per vehicle and cycle: n, mean, std, CV of the key metrics."""
     from vehval.catalog import open_catalog
 
-    with open_catalog(_db(db), read_only=True) as cat:
+    from vehval.errors import VehvalError
+
+    if not (0 < timeout < float("inf")):
+        raise VehvalError(f"--timeout {timeout}: give a positive number of seconds")
+    with open_catalog(_db(db), read_only=True, timeout_s=timeout) as cat:
         rows = cat.summary()
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
