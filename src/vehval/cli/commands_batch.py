@@ -26,7 +26,8 @@ def batch_cmd(
     steps: str = typer.Option("qa", "--steps", help="Comma-separated steps: qa,analyze,validate "
                               "(empty for import only)."),
     workers: Optional[int] = typer.Option(None, "--workers", "-j", help="Local worker processes "
-                                          "(default: CPU count; 0 = plain loop, no Dask)."),
+                                          "(default: CPU count; 0 = plain loop, no Dask; at "
+                                          "most 4 x CPU count)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of an existing "
                                             "dask.distributed scheduler, e.g. tcp://host:8786."),
     report: bool = typer.Option(True, "--report/--no-report", help="Build each test's HTML report."),
@@ -36,6 +37,9 @@ def batch_cmd(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     dashboard: bool = typer.Option(False, "--dashboard", help="Start the Dask dashboard of the "
                                    "local cluster (loopback, free port; off by default)."),
+    test_timeout: float = typer.Option(600.0, "--test-timeout", help="Stop waiting for a test "
+                                       "after this many seconds: it is recorded as failed and "
+                                       "the batch goes on (0 = no limit)."),
 ) -> None:
     """Process many tests at once; rerun to resume: unchanged tests are skipped."""
     from vehval.batch import run_batch
@@ -50,14 +54,20 @@ def batch_cmd(
 
     res = run_batch(target, template, outdir, vehicle=vehicle, steps=steps.split(","),
                     workers=workers, scheduler=scheduler, report=report, force=force,
-                    progress=not quiet, cycle=cycle, dashboard=dashboard)
-    typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged "
-               f"-> {res.outdir / 'index.html'}")
+                    progress=not quiet, cycle=cycle, dashboard=dashboard,
+                    test_timeout_s=test_timeout)
+    skipped = (f", {len(res.skipped_inputs)} input(s) skipped" if res.skipped_inputs else "")
+    typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged"
+               f"{skipped} -> {res.outdir / 'index.html'}")
+    for path, why in res.notes:
+        typer.echo(f"  not a test: {path} ({why})", err=True)
+    for path, why in res.skipped_inputs:
+        typer.echo(f"  skipped {path}: {why}", err=True)
     failed = [r for r in res.results if r.get("status") == "failed"]
     for r in failed:
         when = " (unchanged since an earlier run)" if r.get("batch_status") == "skipped" else ""
         typer.echo(f"  failed {r['test_id']}{when}: {r.get('error')}", err=True)
-    if failed:
+    if failed or res.skipped_inputs:
         raise typer.Exit(1)
 
 
