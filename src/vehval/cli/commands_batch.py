@@ -127,7 +127,6 @@ def catalog_summary(
 ) -> None:
     """Test-to-test variability per vehicle and cycle: n, mean, std, CV of the key metrics."""
     from vehval.catalog import open_catalog
-
     from vehval.errors import VehvalError
 
     if not (0 < timeout < float("inf")):
