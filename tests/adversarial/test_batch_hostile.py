@@ -72,10 +72,10 @@ def test_a_hanging_test_times_out_and_the_batch_goes_on(tmp_path, folder, monkey
 
     monkeypatch.setattr(task_mod, "_run_steps", hang)
     t0 = time.perf_counter()
-    rc, stdout, err = run_cli(_batch(d, t, out, "-j", "0", "--test-timeout", "4"), capsys)
+    rc, stdout, err = run_cli(_batch(d, t, out, "-j", "0", "--test-timeout", "10"), capsys)
     assert time.perf_counter() - t0 < 60
     assert rc == 1 and "1 ok, 1 failed" in stdout
-    assert "failed s0: the test ran longer than the 4 s test timeout" in err
+    assert "failed s0: the test ran longer than the 10 s test timeout" in err
     res = json.loads((out / "tests" / "s0" / "result.json").read_text())
     assert res["error_kind"] == "timeout" and res["outputs"] == []
     with open_catalog(out / "catalog.duckdb", read_only=True) as cat:

@@ -27,7 +27,7 @@ import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 from vehval.errors import InputFileError
 from vehval.io.paths import inside, non_data_kind, sanitize_id
@@ -102,7 +102,7 @@ def _looks_like_data(p: Path) -> bool:
 
 
 def _matching_files(directory: Path, patterns: list[str | None], root: Path | None = None,
-                    exclude: list[Path] = (), skipped: Skipped | None = None) -> list[Path]:
+                    exclude: Sequence[Path] = (), skipped: Skipped | None = None) -> list[Path]:
     root = root or directory
     files = sorted(p for p in directory.iterdir()
                    if _allowed(p, root, list(exclude), skipped) and p.is_file())
@@ -113,7 +113,7 @@ def _matching_files(directory: Path, patterns: list[str | None], root: Path | No
 
 
 def folder_inputs(directory: Path, template: Any, root: Path,
-                  exclude: list[str | Path] = ()) -> list[Path]:
+                  exclude: Sequence[str | Path] = ()) -> list[Path]:
     """The files of ``directory`` that would make it a test (the template's patterns)."""
     return _matching_files(directory, template_patterns(template), root, [Path(e) for e in exclude])
 
@@ -129,7 +129,7 @@ def _test_folder(p: Path, patterns: list[str | None], root: Path, excl: list[Pat
         return None
 
 
-def discover_tests(target: str | Path, template: Any, exclude: list[str | Path] = (),
+def discover_tests(target: str | Path, template: Any, exclude: Sequence[str | Path] = (),
                    skipped: Skipped | None = None) -> list[TestSpec]:
     """Find the tests of a batch (see the module docstring for the rule).
 
