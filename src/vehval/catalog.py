@@ -14,14 +14,22 @@ Tables
 ``phase_results`` one row per phase, whole test and regulatory composite of a test in a run
                  (results stage: fuel economy with its expanded uncertainty, drive quality).
 View ``latest_tests``: the most recent row of every test id.
+
+The database is opened sandboxed: no file, network or extension access beyond the catalog
+file itself, the configuration locked, a memory and thread budget. A catalog received from
+elsewhere is checked against the schema this module creates before anything in it runs.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
+import re
+import threading
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Iterator
 
 from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.jsonsafe import clean
@@ -94,10 +102,65 @@ _DDL = [
 ]
 
 
+#: DuckDB settings of every catalog connection: no access to other files, the network or
+#: extensions (``read_csv``, ``COPY ... TO``, ``ATTACH``, ``INSTALL`` are refused) and a
+#: memory and thread budget. ``lock_configuration`` is set right after opening.
+SANDBOX_CONFIG: dict[str, Any] = {
+    "enable_external_access": False,
+    "autoinstall_known_extensions": False,
+    "autoload_known_extensions": False,
+    "allow_community_extensions": False,
+    "memory_limit": "2GB",
+    "threads": 2,
+}
+#: Defaults of ``vehval catalog query``: rows printed and wall-clock time [s].
+DEFAULT_LIMIT = 10_000
+DEFAULT_TIMEOUT_S = 30.0
+#: Statement types ``vehval catalog query`` runs (SHOW, DESCRIBE, SUMMARIZE are SELECTs).
+QUERY_STATEMENTS = ("SELECT", "EXPLAIN")
+
+
 def _duckdb():
     import duckdb  # imported lazily: the CLI starts faster without it
 
     return duckdb
+
+
+def _first_line(exc: BaseException) -> str:
+    """The first line of a DuckDB error (no ``LINE 1:`` caret, no embedded traceback)."""
+    text = str(exc).strip().splitlines()
+    line = text[0] if text else type(exc).__name__
+    return line if len(line) <= 300 else line[:297] + "..."
+
+
+def _norm_sql(sql: str | None) -> str:
+    return re.sub(r"\s+", " ", sql or "").strip().rstrip(";").strip()
+
+
+_REFERENCE: dict[str, dict[str, str]] | None = None
+
+
+def _reference_schema() -> dict[str, dict[str, str]]:
+    """``{"table": {name: sql}, "view": {name: sql}}`` as DuckDB stores this module's DDL."""
+    global _REFERENCE
+    if _REFERENCE is None:
+        con = _duckdb().connect(":memory:", config=dict(SANDBOX_CONFIG))
+        try:
+            for ddl in _DDL:
+                con.execute(ddl)
+            _REFERENCE = _schema_objects(con, "memory")
+        finally:
+            con.close()
+    return _REFERENCE
+
+
+def _schema_objects(con, database: str) -> dict[str, dict[str, str]]:
+    tables = con.execute("SELECT table_name, sql FROM duckdb_tables() WHERE database_name = ?",
+                         [database]).fetchall()
+    views = con.execute("SELECT view_name, sql FROM duckdb_views() WHERE NOT internal "
+                        "AND database_name = ?", [database]).fetchall()
+    return {"table": {n: _norm_sql(q) for n, q in tables},
+            "view": {n: _norm_sql(q) for n, q in views}}
 
 
 def to_json(value: Any) -> str | None:
@@ -124,26 +187,39 @@ class Catalog:
         The DuckDB file (created with the current schema when absent).
     read_only : bool
         Open for queries only; the file must exist.
+    timeout_s : float, optional
+        Wall-clock limit of every :meth:`query` [s] (None: none).
 
+    Opening checks the schema version and that the file holds only the tables and view this
+    module creates (:class:`ConfigError` naming the first other object).
     Use as a context manager, or call :meth:`close`.
     """
 
-    def __init__(self, path: str | Path, *, read_only: bool = False) -> None:
+    def __init__(self, path: str | Path, *, read_only: bool = False,
+                 timeout_s: float | None = None) -> None:
         duckdb = _duckdb()
         self.path = Path(path)
+        self.timeout_s = timeout_s
         if read_only and not self.path.is_file():
             raise InputFileError(f"catalog {self.path} does not exist: run `vehval batch ... -o DIR` "
                                  "first or pass --db DIR/catalog.duckdb")
         if not read_only:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         try:
-            self.con = duckdb.connect(str(self.path), read_only=read_only)
+            self.con = duckdb.connect(str(self.path), read_only=read_only,
+                                      config=dict(SANDBOX_CONFIG))
+            self.con.execute("SET lock_configuration = true")
         except duckdb.Error as exc:
-            raise InputFileError(f"cannot open catalog {self.path}: {exc}") from None
-        if read_only:
-            self._check_version()
-        else:
-            self._create()
+            raise InputFileError(f"cannot open catalog {self.path}: {_first_line(exc)}") from None
+        try:
+            if read_only:
+                self._check_version()
+                self._check_schema()
+            else:
+                self._create()
+        except BaseException:
+            self.close()
+            raise
 
     # -- lifecycle ---------------------------------------------------------------------
     def __enter__(self) -> "Catalog":
@@ -164,8 +240,9 @@ class Catalog:
 
         existing = {r[0] for r in self.con.execute(
             "SELECT table_name FROM information_schema.tables").fetchall()}
-        if "schema_info" in existing:
+        if existing:
             self._check_version()
+            self._check_schema()
         for ddl in _DDL:
             self.con.execute(ddl)
         if self.con.execute("SELECT count(*) FROM schema_info").fetchone()[0] == 0:
@@ -180,6 +257,38 @@ class Catalog:
         if row is None or row[0] is None or int(row[0]) != SCHEMA_VERSION:
             raise ConfigError(f"catalog {self.path} has schema version {row and row[0]}, this vehval "
                               f"reads version {SCHEMA_VERSION}: use a new output directory")
+
+    def _check_schema(self) -> None:
+        """Refuse a catalog holding anything this module does not create (a view reading
+        files, a macro, another schema...), before any of it runs; names the first object."""
+        db = self.con.execute("SELECT current_database()").fetchone()[0]
+        ref = _reference_schema()
+        have = _schema_objects(self.con, db)
+        bad: list[str] = []
+        for kind in ("table", "view"):
+            for name, sql in sorted(have[kind].items()):
+                if name not in ref[kind]:
+                    bad.append(f"unknown {kind} '{name}'")
+                elif sql != ref[kind][name]:
+                    bad.append(f"{kind} '{name}' differs from the one vehval creates")
+        others = [
+            ("macro", "SELECT function_name FROM duckdb_functions() WHERE NOT internal"),
+            ("sequence", "SELECT sequence_name FROM duckdb_sequences()"),
+            ("index", "SELECT index_name FROM duckdb_indexes()"),
+            ("type", "SELECT type_name FROM duckdb_types() WHERE NOT internal "
+                     "AND database_name NOT IN ('system', 'temp')"),
+            ("schema", "SELECT schema_name FROM duckdb_schemas() WHERE NOT internal "
+                       "AND schema_name <> 'main'"),
+            ("database", "SELECT database_name FROM duckdb_databases() WHERE NOT internal "
+                         f"AND database_name <> '{db.replace(chr(39), chr(39) * 2)}'"),
+        ]
+        for kind, sql in others:
+            bad += [f"unknown {kind} '{r[0]}'" for r in self.con.execute(sql).fetchall()]
+        if bad:
+            more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
+            raise ConfigError(f"catalog {self.path} holds {bad[0]}{more}: it was not written by "
+                              "vehval or was altered; nothing in it was run (use a catalog "
+                              "written by `vehval batch`)")
 
     # -- writing -----------------------------------------------------------------------
     def start_run(self, run_id: str, settings: dict) -> None:
@@ -251,16 +360,91 @@ class Catalog:
             raise
 
     # -- reading -----------------------------------------------------------------------
-    def query(self, sql: str, params: Iterable[Any] | None = None) -> tuple[list[str], list[tuple]]:
-        """Run ``sql``; return column names and rows. A bad statement is a :class:`VehvalError`."""
+    @contextlib.contextmanager
+    def _guard(self, timeout_s: float | None) -> Iterator[None]:
+        """Interrupt the running statement after ``timeout_s`` [s]; turn DuckDB errors (and a
+        Python-side conversion failure) into one-line vehval errors."""
         duckdb = _duckdb()
+        fired = threading.Event()
+
+        def interrupt() -> None:
+            fired.set()
+            self.con.interrupt()
+
+        timer = threading.Timer(timeout_s, interrupt) if timeout_s else None
+        if timer is not None:
+            timer.daemon = True
+            timer.start()
         try:
+            yield
+        except (duckdb.Error, MemoryError, ModuleNotFoundError) as exc:
+            if fired.is_set():
+                raise VehvalError(f"catalog query stopped after the {timeout_s:g} s timeout: "
+                                  "narrow it (WHERE, LIMIT) or raise --timeout") from None
+            if isinstance(exc, MemoryError) or "Out of Memory" in str(exc):
+                raise VehvalError("catalog query needs more than the "
+                                  f"{SANDBOX_CONFIG['memory_limit']} memory budget: narrow it "
+                                  "(WHERE, LIMIT, fewer columns)") from None
+            raise VehvalError(f"catalog query failed: {_first_line(exc)}") from None
+        finally:
+            if timer is not None:
+                timer.cancel()
+
+    def query(self, sql: str, params: Iterable[Any] | None = None) -> tuple[list[str], list[tuple]]:
+        """Run ``sql``; return column names and rows. A bad statement is a :class:`VehvalError`.
+
+        The catalog's ``timeout_s`` applies (None: no limit)."""
+        with self._guard(self.timeout_s):
             cur = self.con.execute(sql, list(params) if params is not None else None)
+            if cur.description is None:
+                return [], []
+            return [d[0] for d in cur.description], cur.fetchall()
+
+    def user_query(self, sql: str, *, limit: int = DEFAULT_LIMIT,
+                   timeout_s: float | None = DEFAULT_TIMEOUT_S) -> "QueryResult":
+        """Run one read-only statement a user typed (``vehval catalog query``).
+
+        Parameters
+        ----------
+        sql : str
+            One SELECT (SHOW, DESCRIBE, SUMMARIZE, FROM ..., VALUES) or EXPLAIN statement.
+        limit : int
+            At most this many rows are fetched; ``truncated`` says when more exist.
+        timeout_s : float, optional
+            Wall-clock limit [s]; the statement is interrupted when it is reached.
+
+        Returns
+        -------
+        QueryResult
+            Column names, rows (timestamps with a time zone as ISO strings) and ``truncated``.
+        """
+        duckdb = _duckdb()
+        if limit < 1:
+            raise VehvalError(f"--limit {limit}: give a positive number of rows")
+        if timeout_s is not None and not (timeout_s > 0 and math.isfinite(timeout_s)):
+            raise VehvalError(f"--timeout {timeout_s}: give a positive number of seconds")
+        try:
+            kinds = [st.type.name for st in self.con.extract_statements(sql)]
         except duckdb.Error as exc:
-            raise VehvalError(f"catalog query failed: {exc}") from None
-        if cur.description is None:
-            return [], []
-        return [d[0] for d in cur.description], cur.fetchall()
+            raise VehvalError(f"catalog query failed: {_first_line(exc)}") from None
+        if len(kinds) != 1:
+            raise VehvalError(f"catalog query runs one statement; got {len(kinds)}")
+        if kinds[0] not in QUERY_STATEMENTS:
+            raise VehvalError(f"catalog query is read-only and runs one SELECT or EXPLAIN "
+                              f"statement; got {kinds[0]}")
+        with self._guard(timeout_s):
+            rel = self.con.sql(sql)
+            if rel is None:
+                return QueryResult([], [], False)
+            cols = list(rel.columns)
+            # zoned timestamps need pytz to become Python objects: print them as text
+            if any("TIME ZONE" in str(t) for t in rel.types):
+                rel = rel.project(", ".join(
+                    f'CAST("{c.replace(chr(34), chr(34) * 2)}" AS VARCHAR) AS "{c.replace(chr(34), chr(34) * 2)}"'
+                    if "TIME ZONE" in str(t) else f'"{c.replace(chr(34), chr(34) * 2)}"'
+                    for c, t in zip(cols, rel.types)))
+            rows = rel.limit(limit + 1).fetchall()
+        return QueryResult(cols, rows[:limit], len(rows) > limit)
 
     def summary(self, metrics: Iterable[str] = SUMMARY_METRICS) -> list[dict]:
         """Test-to-test variability per vehicle and cycle over the latest result of each test.
@@ -284,6 +468,15 @@ class Catalog:
                 out.append({"vehicle": veh, "cycle": cyc, "metric": m, "n": int(n), "mean": mean,
                             "std": std, "cv": cv, "min": lo, "max": hi})
         return out
+
+
+@dataclass
+class QueryResult:
+    """Rows of :meth:`Catalog.user_query`; ``truncated`` when the row limit cut them."""
+
+    columns: list[str]
+    rows: list[tuple]
+    truncated: bool
 
 
 #: Cell temperature bands of the variability grouping [degC]: the US ambient test conditions
@@ -318,6 +511,7 @@ def results_variability(catalog: "Catalog") -> list[dict]:
     return out
 
 
-def open_catalog(path: str | Path, *, read_only: bool = False) -> Catalog:
+def open_catalog(path: str | Path, *, read_only: bool = False,
+                 timeout_s: float | None = None) -> Catalog:
     """Open (or create) the catalog at ``path``; see :class:`Catalog`."""
-    return Catalog(path, read_only=read_only)
+    return Catalog(path, read_only=read_only, timeout_s=timeout_s)

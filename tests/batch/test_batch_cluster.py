@@ -248,3 +248,53 @@ def test_all_steps_on_one_virtual_test(batch_inputs, tmp_path):
     assert math.isfinite(float(fuel_err))
     val = json.loads((out / "tests" / "good_0_0" / "validation.json").read_text())
     assert float(fuel_err) == pytest.approx(val["fuel_error"], rel=0, abs=0)
+
+
+def test_hanging_test_on_a_cluster_times_out(tmp_path):
+    """--test-timeout on Dask workers: the hanging test fails with the reason, the others
+    complete on the same worker, and the batch ends."""
+    import warnings
+
+    from distributed import Client, LocalCluster
+
+    from vehval.batch import run_batch
+
+    inp = tmp_path / "in"
+    for name in ("s0", "s1", "s2"):
+        write_d3(inp / name / f"{name}.txt", seed=len(name))
+    tpl = tmp_path / "T.yaml"
+    tpl.write_text(TEMPLATE)
+
+    def patch():          # defined here so that it is pickled by value for the workers
+        import threading
+
+        import vehval.batch.task as tm
+
+        tm.RELEASE = threading.Event()
+        real = tm._run_steps
+
+        def hang(job, stage, result):
+            if job["test_id"] == "s0":
+                tm.RELEASE.wait(120)
+            return real(job, stage, result)
+
+        tm._run_steps = hang
+
+    def release():
+        import vehval.batch.task as tm
+
+        tm.RELEASE.set()
+
+    warnings.filterwarnings("ignore", message="Port 8787 is already in use")
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None, silence_logs=logging.ERROR) as c, \
+            Client(c) as client:
+        client.run(patch)
+        t0 = time.perf_counter()
+        s = run_batch(inp, tpl, tmp_path / "out", steps=[], report=False, progress=False,
+                      scheduler=c.scheduler_address, test_timeout_s=20)
+        assert time.perf_counter() - t0 < WAIT_S
+        client.run(release)
+    res = {r["test_id"]: r for r in s.results}
+    assert (s.n_ok, s.n_failed) == (2, 1), [(r["test_id"], r.get("error")) for r in s.results]
+    assert res["s0"]["error_kind"] == "timeout" and "20 s test timeout" in res["s0"]["error"]

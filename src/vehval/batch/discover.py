@@ -10,8 +10,10 @@ Discovery rule (documented in ``docs/catalog.md``):
 * A glob given (``"data/*/"``, ``"runs/*.txt"``): each matched directory is a test as above;
   each matched file is a test of that single file.
 * Never taken: hidden entries, the batch's own output folder (when it lies inside the
-  input folder), symlinks leading out of the input folder; a template without ``match``
-  takes only data files (by extension and content: no PDF, image, README or SOURCE.txt).
+  input folder), symlinks leading out of the input folder, symlink loops, broken symlinks and
+  unreadable folders; a template without ``match`` takes only data files (by extension and
+  content: no PDF, image, README or SOURCE.txt). Every entry skipped for a reason other than
+  being hidden or the batch's own output is reported (``skipped``), never silently dropped.
 * The test id is the directory name, or the file name without its extension; ids are made
   unique (``name-2``...) in sorted path order, and contain only ``[A-Za-z0-9._-]``.
 """
@@ -25,7 +27,7 @@ import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 from vehval.errors import InputFileError
 from vehval.io.paths import inside, non_data_kind, sanitize_id
@@ -63,13 +65,35 @@ def _visible(p: Path) -> bool:
     return not p.name.startswith(".")
 
 
-def _allowed(p: Path, root: Path, exclude: list[Path]) -> bool:
-    """Visible, not an excluded output folder, and no symlink leading out of ``root``."""
+#: (path, reason) of the entries a discovery skipped and reports.
+Skipped = list[tuple[Path, str]]
+
+
+def _why_not(p: Path, root: Path, exclude: list[Path]) -> str | None:
+    """None when ``p`` may be taken; else why not ('' when silently: hidden, own output)."""
     if not _visible(p):
-        return False
-    if p.is_symlink() and not inside(p, root):
-        return False
-    return not any(inside(p, e) for e in exclude)
+        return ""
+    if p.is_symlink():
+        try:
+            p.resolve(strict=True)
+        except RuntimeError:
+            return "a symlink loop"
+        except OSError as exc:
+            return f"a broken symlink ({exc.strerror or exc})"
+        if not inside(p, root):
+            return f"a symlink leading out of {root}: not followed"
+    if any(inside(p, e) for e in exclude):
+        return ""
+    return None
+
+
+def _allowed(p: Path, root: Path, exclude: list[Path], skipped: Skipped | None = None) -> bool:
+    """Visible, not an excluded output folder, no symlink leading out of ``root``, no symlink
+    loop; a refusal with a reason is appended to ``skipped``."""
+    why = _why_not(p, root, exclude)
+    if why and skipped is not None:
+        skipped.append((p, why))
+    return why is None
 
 
 def _looks_like_data(p: Path) -> bool:
@@ -78,18 +102,35 @@ def _looks_like_data(p: Path) -> bool:
 
 
 def _matching_files(directory: Path, patterns: list[str | None], root: Path | None = None,
-                    exclude: list[Path] = ()) -> list[Path]:
+                    exclude: Sequence[Path] = (), skipped: Skipped | None = None) -> list[Path]:
     root = root or directory
     files = sorted(p for p in directory.iterdir()
-                   if _allowed(p, root, list(exclude)) and p.is_file())
+                   if _allowed(p, root, list(exclude), skipped) and p.is_file())
     pats = [p for p in patterns if p]
     if not pats:  # single entry without match: every data file (no PDF, README, SOURCE.txt)
         return [f for f in files if _looks_like_data(f)]
     return [f for f in files if any(fnmatch.fnmatch(f.name, pat) for pat in pats)]
 
 
-def discover_tests(target: str | Path, template: Any,
-                   exclude: list[str | Path] = ()) -> list[TestSpec]:
+def folder_inputs(directory: Path, template: Any, root: Path,
+                  exclude: Sequence[str | Path] = ()) -> list[Path]:
+    """The files of ``directory`` that would make it a test (the template's patterns)."""
+    return _matching_files(directory, template_patterns(template), root, [Path(e) for e in exclude])
+
+
+def _test_folder(p: Path, patterns: list[str | None], root: Path, excl: list[Path],
+                 skipped: Skipped | None) -> list[Path] | None:
+    """The matching files of test folder ``p``; None (reported) when it cannot be read."""
+    try:
+        return _matching_files(p, patterns, root, excl, skipped)
+    except OSError as exc:
+        if skipped is not None:
+            skipped.append((p, f"cannot be read ({exc.strerror or exc})"))
+        return None
+
+
+def discover_tests(target: str | Path, template: Any, exclude: Sequence[str | Path] = (),
+                   skipped: Skipped | None = None) -> list[TestSpec]:
     """Find the tests of a batch (see the module docstring for the rule).
 
     Parameters
@@ -101,6 +142,9 @@ def discover_tests(target: str | Path, template: Any,
     exclude : paths
         Folders never taken as tests (the batch's own output folder when it lies inside
         the input folder).
+    skipped : list, optional
+        Receives ``(path, reason)`` of every entry skipped for a reason worth telling: a
+        symlink loop or a broken symlink, a symlink leading out, an unreadable folder.
 
     Returns
     -------
@@ -118,10 +162,12 @@ def discover_tests(target: str | Path, template: Any,
         if not paths:
             raise InputFileError(f"no file or directory matches '{target_s}'")
         for p in paths:
-            if not _allowed(p, p.parent, excl):
+            if not _allowed(p, p.parent, excl, skipped):
                 continue
             if p.is_dir():
-                found.append((p.name, _matching_files(p, patterns, p, excl)))
+                files = _test_folder(p, patterns, p, excl, skipped)
+                if files is not None:
+                    found.append((p.name, files))
             elif p.is_file() and (not single or any(patterns) or _looks_like_data(p)):
                 found.append((p.stem, [p]))
     else:
@@ -130,10 +176,12 @@ def discover_tests(target: str | Path, template: Any,
             raise InputFileError(f"batch input '{root}' is not a directory (give a directory or a "
                                  "quoted glob such as 'data/*/')")
         for p in sorted(root.iterdir()):
-            if not _allowed(p, root, excl):
+            if not _allowed(p, root, excl, skipped):
                 continue
             if p.is_dir():
-                found.append((p.name, _matching_files(p, patterns, root, excl)))
+                files = _test_folder(p, patterns, root, excl, skipped)
+                if files is not None:
+                    found.append((p.name, files))
         if single:
             for f in _matching_files(root, patterns, root, excl):
                 found.append((f.stem, [f]))

@@ -12,6 +12,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 import secrets
 import sys
 import warnings
@@ -20,14 +21,35 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
-from vehval.batch.discover import TestSpec, discover_tests, file_sha256, hash_spec, settings_hash
-from vehval.batch.task import ASSETS_DIR, RESULT_NAME, check_steps, jsonable, process_test
+from vehval.batch.discover import (
+    TestSpec,
+    discover_tests,
+    file_sha256,
+    folder_inputs,
+    hash_spec,
+    settings_hash,
+)
+from vehval.batch.task import (
+    ASSETS_DIR,
+    DEFAULT_TEST_TIMEOUT_S,
+    RESULT_NAME,
+    check_steps,
+    jsonable,
+    process_test,
+    result_digest,
+)
 from vehval.catalog import open_catalog
 from vehval.errors import ConfigError, VehvalError
+from vehval.io.atomic import sweep_debris
 from vehval.io.paths import inside
 
 CATALOG_NAME = "catalog.duckdb"
 INDEX_NAME = "index.html"
+#: Local worker processes allowed per CPU: each is a process with its own imports and
+#: memory; past a few per CPU they only wait for the CPUs (and thousands never start).
+MAX_WORKERS_PER_CPU = 4
+#: Temporaries of earlier vehval versions (``.<name>.<8 random>.tmp``, no process id).
+_LEGACY_TMP = re.compile(r"^\..+\.[a-z0-9_]{8}\.tmp$")
 
 
 @dataclass
@@ -41,10 +63,59 @@ class BatchSummary:
     n_skipped: int = 0
     status: str = "done"
     results: list[dict] = field(default_factory=list)
+    #: (path, reason) of input entries not taken as tests (symlink loops, unreadable...).
+    skipped_inputs: list[tuple[str, str]] = field(default_factory=list)
+    #: (path, reason) of entries skipped as expected (the output folder inside DIR).
+    notes: list[tuple[str, str]] = field(default_factory=list)
+    #: Debris of interrupted runs removed at the start (staging folders, temporaries).
+    n_debris_removed: int = 0
 
     @property
     def n_tests(self) -> int:
         return self.n_ok + self.n_failed + self.n_skipped
+
+
+def check_workers(workers: int | None) -> int:
+    """The number of local workers: ``workers`` when sane, else a :class:`ConfigError`.
+
+    None means the CPU count; 0 a plain loop in this process; more than
+    :data:`MAX_WORKERS_PER_CPU` per CPU is refused."""
+    cpus = os.cpu_count() or 1
+    if workers is None:
+        return cpus
+    top = MAX_WORKERS_PER_CPU * cpus
+    if workers < 0:
+        raise ConfigError(f"--workers {workers}: give 0 (a plain loop in this process) or a "
+                          f"number of worker processes from 1 to {top}")
+    if workers > top:
+        raise ConfigError(f"--workers {workers}: at most {top} ({MAX_WORKERS_PER_CPU} x the "
+                          f"{cpus} CPUs here): each worker is a process with its own memory and "
+                          "imports, and more than that only wait for the CPUs")
+    return workers
+
+
+def check_test_timeout(seconds: float | None) -> float | None:
+    """``--test-timeout``: a positive number of seconds, or None / 0 for no limit."""
+    if seconds is None or seconds == 0:
+        return None
+    if not (0 < seconds < float("inf")):
+        raise ConfigError(f"--test-timeout {seconds}: give a positive number of seconds "
+                          "(0: no limit)")
+    return float(seconds)
+
+
+def remove_debris(out: Path) -> int:
+    """Remove what interrupted runs left in ``out``: staging folders and temporaries of dead
+    processes (``tests/``, ``assets/``, the index) and temporaries of earlier versions.
+    Called with the catalog open, so no other batch is writing ``out``; returns the count."""
+    removed = sweep_debris(out, depth=2)
+    for d in (out, out / ASSETS_DIR, *sorted((out / "tests").glob("*"))):
+        if d.is_dir() and not d.is_symlink():
+            for f in d.iterdir():
+                if _LEGACY_TMP.match(f.name) and ".vehval-" not in f.name and f.is_file() and not f.is_symlink():
+                    f.unlink(missing_ok=True)
+                    removed.append(f)
+    return len(removed)
 
 
 def new_run_id() -> str:
@@ -80,6 +151,9 @@ def _cached(outdir: Path, spec: TestSpec) -> dict | None:
     except (OSError, ValueError):
         return None
     if not isinstance(res, dict) or res.get("input_hash") != spec.input_hash:
+        return None
+    # the file itself must be as written: an edited metric or status means a rerun
+    if res.get("result_sha256") != result_digest(res):
         return None
     # the recorded outputs must still be there, unchanged (a deleted report.html or a
     # corrupted findings.json means the test runs again)
@@ -151,7 +225,7 @@ def local_cluster(workers: int, *, dashboard: bool = False):
     security = Security.temporary()
     # the scheduler always runs a small HTTP server: bind it to loopback on a free port and,
     # without --dashboard, give it no route at all (no /info, /health, /metrics)
-    routes = {} if dashboard else {"distributed.scheduler.http.routes": []}
+    routes: dict[str, Any] = {} if dashboard else {"distributed.scheduler.http.routes": []}
     with warnings.catch_warnings(), dask.config.set(routes):
         warnings.filterwarnings("ignore", message="Port 8787 is already in use")
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -180,7 +254,8 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
               workers: int | None = None, scheduler: str | None = None, report: bool = True,
               force: bool = False, progress: bool = True, cycle: str | None = None,
               on_result: Callable[[dict], None] | None = None,
-              dashboard: bool = False) -> BatchSummary:
+              dashboard: bool = False,
+              test_timeout_s: float | None = DEFAULT_TEST_TIMEOUT_S) -> BatchSummary:
     """Run many tests at once.
 
     Parameters
@@ -197,7 +272,8 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     steps : sequence of str
         Steps after import, among ``qa``, ``analyze``, ``validate``.
     workers : int, optional
-        Local worker processes (default: CPU count); 0 runs a plain loop in this process.
+        Local worker processes (default: CPU count); 0 runs a plain loop in this process;
+        at most :data:`MAX_WORKERS_PER_CPU` per CPU.
     scheduler : str, optional
         Address of an existing ``dask.distributed`` scheduler (``workers`` is then unused).
     report : bool
@@ -214,7 +290,18 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     dashboard : bool
         Start the Dask dashboard of the local cluster (loopback, free port; its address is
         printed). Off by default: the cluster then opens no HTTP port at all.
+    test_timeout_s : float, optional
+        Limit of one test's processing time [s] (default 600; None or 0: none). A test past
+        it is recorded as failed (error kind ``timeout``) and the batch goes on.
+
+    Returns
+    -------
+    BatchSummary
+        Counts, results, and the input entries skipped with their reasons.
     """
+    if not scheduler:
+        workers = check_workers(workers)
+    test_timeout_s = check_test_timeout(test_timeout_s)
     steps = [s.strip() for s in steps if s and s.strip()]
     if len(set(steps)) != len(steps):
         raise ConfigError(f"a step is repeated in --steps: {','.join(steps)}")
@@ -231,17 +318,28 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     # the batch's own outputs are never tests, even with OUTDIR inside (or equal to) DIR
     own = [out / "tests", out / ASSETS_DIR, out / CATALOG_NAME, out / f"{CATALOG_NAME}.wal",
            out / INDEX_NAME]
+    notes: list[tuple[str, str]] = []
     if not (Path(target).is_dir() and inside(target, out)):
         own.append(out)
-    specs = [hash_spec(s, digest) for s in discover_tests(target, tmpl, exclude=own)]
+        _check_outdir_not_a_test(target, out, tmpl, own, notes)
+    skipped: list[tuple[Path, str]] = []
+    specs = [hash_spec(s, digest)
+             for s in discover_tests(target, tmpl, exclude=own, skipped=skipped)]
     out.mkdir(parents=True, exist_ok=True)
     run_id = new_run_id()
-    summary = BatchSummary(run_id=run_id, outdir=out)
+    summary = BatchSummary(run_id=run_id, outdir=out, notes=notes,
+                           skipped_inputs=[(str(p), why) for p, why in skipped])
     veh_name = getattr(tmpl, "vehicle", None) if not vehicle else vehicle
     catalog = open_catalog(out / CATALOG_NAME)
     try:
+        # the catalog is open (DuckDB's lock): no other batch writes OUTDIR, so what a killed
+        # run left (staging folders, temporaries) is debris
+        summary.n_debris_removed = remove_debris(out)
         catalog.start_run(run_id, {**settings, "target": str(target), "outdir": str(out),
-                                   "workers": workers, "scheduler": scheduler, "force": force})
+                                   "workers": workers, "scheduler": scheduler, "force": force,
+                                   "test_timeout_s": test_timeout_s,
+                                   "skipped_inputs": [{"path": p, "reason": r}
+                                                      for p, r in summary.skipped_inputs]})
         jobs = []
         for spec in specs:
             cached = None if force else _cached(out, spec)
@@ -253,7 +351,8 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
             jobs.append({"test_id": spec.test_id, "files": [str(f) for f in spec.files],
                          "file_hashes": spec.file_hashes, "input_hash": spec.input_hash,
                          "run_id": run_id, "outdir": str(out), "steps": steps,
-                         "report": bool(report), "vehicle_name": veh_name, **settings})
+                         "report": bool(report), "vehicle_name": veh_name,
+                         "test_timeout_s": test_timeout_s, **settings})
 
         def record(res: dict) -> None:
             catalog.add_result(run_id, res)
@@ -279,6 +378,25 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     finally:
         catalog.close()
     return summary
+
+
+def _check_outdir_not_a_test(target: str | Path, out: Path, tmpl: Any, own: list[Path],
+                             notes: list[tuple[str, str]]) -> None:
+    """An output folder that is one of DIR's test folders would silently drop that test:
+    refuse it when it holds input files, else note it as skipped (the output folder)."""
+    root = Path(target)
+    if not root.is_dir():
+        return
+    root = root.resolve()
+    if out == root or not inside(out, root) or out.parent != root:
+        return
+    if out.is_dir():
+        files = folder_inputs(out, tmpl, root, [o for o in own if o != out])
+        if files:
+            raise ConfigError(f"output folder {out} is test folder '{out.name}' of {root} "
+                              f"(it holds {len(files)} input file(s) such as {files[0].name}): "
+                              "choose an output folder outside the input folder or a new one")
+    notes.append((str(out), "the batch's output folder"))
 
 
 def _execute(jobs: list[dict], record: Callable[[dict], None], workers: int | None,
@@ -307,7 +425,7 @@ def _execute(jobs: list[dict], record: Callable[[dict], None], workers: int | No
         if not jobs:
             return
         if workers is None:
-            workers = os.cpu_count() or 1
+            workers = check_workers(None)
         # a plain loop when asked, or when a local cluster cannot pay off (a single test:
         # starting workers and their cold imports cost more than the test itself)
         if not scheduler and (workers <= 0 or len(jobs) == 1):

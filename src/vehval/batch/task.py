@@ -3,12 +3,18 @@
 :func:`process_test` runs in a Dask worker process (or in the driver for ``--workers 0``).
 It never raises for a problem of the test itself: the error is returned in the result, so
 one bad test never stops the others. The result dict is also written, last, as
-``OUTDIR/tests/<test_id>/result.json``: its presence marks the test as complete.
+``OUTDIR/tests/<test_id>/result.json``: its presence marks the test as complete, and its
+``result_sha256`` (over the rest of its content) lets a resumed batch detect an edited file.
+A test that runs longer than the job's ``test_timeout_s`` is recorded as failed (error kind
+``timeout``) and the batch goes on; its late outputs, if it ever finishes, are discarded.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import shutil
+import threading
 import time
 import traceback
 from datetime import datetime, timezone
@@ -36,6 +42,38 @@ STEPS: dict[str, Callable[[TestRun], Any]] = {
 STEP_OUTPUT = {"qa": "findings.json", "analyze": "control.json", "validate": "validation.json"}
 #: Directory of OUTDIR holding the one plotly.js copy the test reports share.
 ASSETS_DIR = "assets"
+
+
+#: Default limit of one test's processing time [s] (``--test-timeout``).
+DEFAULT_TEST_TIMEOUT_S = 600.0
+
+
+def result_digest(result: dict) -> str:
+    """SHA-256 of a result's canonical JSON without its own ``result_sha256`` key (hex)."""
+    body = {k: v for k, v in jsonable(result).items() if k != "result_sha256"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+class TestTimedOut(BaseException):
+    """Raised in a test's thread that passed its deadline: its outputs are not written."""
+
+    __test__ = False  # not a pytest class
+
+
+class _Deadline:
+    """Who writes a test's outputs: its own thread (``claim``) or, once the deadline has
+    passed, the timeout (``expire``); the lock makes the two exclusive."""
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.expired = False
+
+    def claim(self) -> None:
+        self.lock.acquire()
+        if self.expired:
+            self.lock.release()
+            raise TestTimedOut()
 
 
 def check_steps(steps: list[str], report: bool = False) -> None:
@@ -102,7 +140,8 @@ VALIDATION_ERRORS = ("fuel_error", "soc_delta_error", "soc_final_error")
 
 def _validation_summary(val: dict) -> dict:
     """Scalars of validation.json for the catalog, with ``errors`` = the relative errors."""
-    out = {k: v for k, v in val.items() if isinstance(v, (int, float, str, bool)) or v is None}
+    out: dict[str, Any] = {k: v for k, v in val.items()
+                           if isinstance(v, (int, float, str, bool)) or v is None}
     errors = val.get("errors") if isinstance(val.get("errors"), dict) else {
         k: val.get(k) for k in VALIDATION_ERRORS if k in val}
     if errors:
@@ -206,21 +245,53 @@ def process_test(job: dict) -> dict:
     job : dict
         ``test_id``, ``files`` (paths), ``file_hashes``, ``input_hash``, ``run_id``,
         ``template`` (path), ``vehicle`` (name or path, or None), ``steps``, ``report``
-        (bool), ``outdir``.
+        (bool), ``outdir``, optional ``test_timeout_s`` [s] (None or 0: no limit).
 
     Returns
     -------
     dict
         The content of ``result.json``: status ``ok`` or ``failed`` with ``error``,
-        ``error_type`` and ``error_kind`` (``user`` for a :class:`VehvalError`, ``internal``
-        otherwise), metrics, compact findings, timing and provenance.
+        ``error_type`` and ``error_kind`` (``user`` for a :class:`VehvalError`, ``timeout``
+        for a test stopped at ``test_timeout_s``, ``internal`` otherwise), metrics, compact
+        findings, timing, provenance and ``result_sha256``.
     """
+    timeout = job.get("test_timeout_s")
+    deadline = _Deadline()
+    if not timeout:
+        return _process(job, deadline)
+    box: dict[str, Any] = {}
+
+    def work() -> None:
+        try:
+            box["result"] = _process(job, deadline)
+        except BaseException as exc:  # noqa: BLE001 - handed to the calling thread
+            box["error"] = exc
+
+    # Python cannot stop a thread: a test past its deadline is left to run on (a daemon
+    # thread, ended with the process), and its outputs are refused by the deadline
+    th = threading.Thread(target=work, name=f"vehval-test-{job['test_id']}", daemon=True)
+    t_start = time.perf_counter()
+    th.start()
+    th.join(timeout)
+    if th.is_alive():
+        got = deadline.lock.acquire(timeout=60.0)   # the test may be writing its outputs now
+        try:
+            if got and "result" in box:             # it finished meanwhile
+                return box["result"]
+            deadline.expired = True
+            return _timed_out(job, timeout, time.perf_counter() - t_start)
+        finally:
+            if got:
+                deadline.lock.release()
+    if "error" in box:
+        raise box["error"]
+    return box["result"]
+
+
+def _new_result(job: dict) -> dict[str, Any]:
     from vehval import __version__
 
-    t_start = time.perf_counter()
-    test_dir = Path(job["outdir"]) / "tests" / job["test_id"]
-    (test_dir / RESULT_NAME).unlink(missing_ok=True)
-    result: dict[str, Any] = {
+    return {
         "result_schema": RESULT_SCHEMA, "test_id": job["test_id"], "run_id": job["run_id"],
         "status": "ok", "error": None, "error_type": None, "error_kind": None,
         "input_hash": job["input_hash"], "file_hashes": job.get("file_hashes", {}),
@@ -230,24 +301,62 @@ def process_test(job: dict) -> dict:
         "metrics": {}, "findings": [], "findings_by_severity": {}, "qa_summary": None,
         "validation": None, "results": None, "outputs": [],
     }
-    try:
-        with atomic_dir(test_dir) as stage:
-            _run_steps(job, stage, result)
-            outputs = sorted(str(p.relative_to(stage)) for p in stage.rglob("*") if p.is_file())
-            hashes = {o: file_sha256(stage / o) for o in outputs}
-        result["outputs"] = outputs
-        result["output_hashes"] = hashes
-        _clear_stale(test_dir, keep=set(outputs) | {p.split("/")[0] for p in outputs} | {RESULT_NAME})
-    except VehvalError as exc:
-        result.update(status="failed", error=str(exc), error_type=type(exc).__name__, error_kind="user")
-    except Exception as exc:  # noqa: BLE001 - a bug must not stop the batch; it is recorded
-        result.update(status="failed", error=f"{type(exc).__name__}: {exc}",
-                      error_type=type(exc).__name__, error_kind="internal",
-                      traceback=traceback.format_exc(limit=8))
-    if result["status"] == "failed":
-        _clear_stale(test_dir, keep={RESULT_NAME})
-        result["outputs"] = []
-        result["output_hashes"] = {}
-    result["elapsed_s"] = time.perf_counter() - t_start
+
+
+def _write_result(test_dir: Path, result: dict) -> dict:
+    result = jsonable(result)
+    result["result_sha256"] = result_digest(result)
     write_text_atomic(test_dir / RESULT_NAME, dump_json(result))
-    return jsonable(result)
+    return result
+
+
+def _timed_out(job: dict, timeout: float, elapsed: float) -> dict:
+    """The failed result of a test stopped at its deadline (written as its result.json)."""
+    test_dir = Path(job["outdir"]) / "tests" / job["test_id"]
+    result = _new_result(job)
+    result.update(status="failed", error_type="TestTimedOut", error_kind="timeout",
+                  error=f"the test ran longer than the {timeout:g} s test timeout and was "
+                        "stopped (raise --test-timeout if it is only slow)",
+                  outputs=[], output_hashes={}, elapsed_s=elapsed)
+    _clear_stale(test_dir, keep={RESULT_NAME})
+    return _write_result(test_dir, result)
+
+
+def _process(job: dict, deadline: _Deadline) -> dict:
+    t_start = time.perf_counter()
+    test_dir = Path(job["outdir"]) / "tests" / job["test_id"]
+    (test_dir / RESULT_NAME).unlink(missing_ok=True)
+    result = _new_result(job)
+    claimed = False
+    try:
+        try:
+            with atomic_dir(test_dir) as stage:
+                _run_steps(job, stage, result)
+                outputs = sorted(str(p.relative_to(stage)) for p in stage.rglob("*")
+                                 if p.is_file())
+                hashes = {o: file_sha256(stage / o) for o in outputs}
+                deadline.claim()            # past the deadline: TestTimedOut, nothing kept
+                claimed = True
+            result["outputs"] = outputs
+            result["output_hashes"] = hashes
+            _clear_stale(test_dir, keep=set(outputs) | {p.split("/")[0] for p in outputs}
+                         | {RESULT_NAME})
+        except VehvalError as exc:
+            result.update(status="failed", error=str(exc), error_type=type(exc).__name__,
+                          error_kind="user")
+        except Exception as exc:  # noqa: BLE001 - a bug must not stop the batch; it is recorded
+            result.update(status="failed", error=f"{type(exc).__name__}: {exc}",
+                          error_type=type(exc).__name__, error_kind="internal",
+                          traceback=traceback.format_exc(limit=8))
+        if not claimed:
+            deadline.claim()
+            claimed = True
+        if result["status"] == "failed":
+            _clear_stale(test_dir, keep={RESULT_NAME})
+            result["outputs"] = []
+            result["output_hashes"] = {}
+        result["elapsed_s"] = time.perf_counter() - t_start
+        return _write_result(test_dir, result)
+    finally:
+        if claimed:
+            deadline.lock.release()

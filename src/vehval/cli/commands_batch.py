@@ -26,7 +26,8 @@ def batch_cmd(
     steps: str = typer.Option("qa", "--steps", help="Comma-separated steps: qa,analyze,validate "
                               "(empty for import only)."),
     workers: Optional[int] = typer.Option(None, "--workers", "-j", help="Local worker processes "
-                                          "(default: CPU count; 0 = plain loop, no Dask)."),
+                                          "(default: CPU count; 0 = plain loop, no Dask; at "
+                                          "most 4 x CPU count)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of an existing "
                                             "dask.distributed scheduler, e.g. tcp://host:8786."),
     report: bool = typer.Option(True, "--report/--no-report", help="Build each test's HTML report."),
@@ -36,6 +37,9 @@ def batch_cmd(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     dashboard: bool = typer.Option(False, "--dashboard", help="Start the Dask dashboard of the "
                                    "local cluster (loopback, free port; off by default)."),
+    test_timeout: float = typer.Option(600.0, "--test-timeout", help="Stop waiting for a test "
+                                       "after this many seconds: it is recorded as failed and "
+                                       "the batch goes on (0 = no limit)."),
 ) -> None:
     """Process many tests at once; rerun to resume: unchanged tests are skipped."""
     from vehval.batch import run_batch
@@ -50,14 +54,20 @@ def batch_cmd(
 
     res = run_batch(target, template, outdir, vehicle=vehicle, steps=steps.split(","),
                     workers=workers, scheduler=scheduler, report=report, force=force,
-                    progress=not quiet, cycle=cycle, dashboard=dashboard)
-    typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged "
-               f"-> {res.outdir / 'index.html'}")
+                    progress=not quiet, cycle=cycle, dashboard=dashboard,
+                    test_timeout_s=test_timeout)
+    skipped = (f", {len(res.skipped_inputs)} input(s) skipped" if res.skipped_inputs else "")
+    typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged"
+               f"{skipped} -> {res.outdir / 'index.html'}")
+    for path, why in res.notes:
+        typer.echo(f"  not a test: {path} ({why})", err=True)
+    for path, why in res.skipped_inputs:
+        typer.echo(f"  skipped {path}: {why}", err=True)
     failed = [r for r in res.results if r.get("status") == "failed"]
     for r in failed:
         when = " (unchanged since an earlier run)" if r.get("batch_status") == "skipped" else ""
         typer.echo(f"  failed {r['test_id']}{when}: {r.get('error')}", err=True)
-    if failed:
+    if failed or res.skipped_inputs:
         raise typer.Exit(1)
 
 
@@ -71,18 +81,28 @@ def catalog_query(
                               "view latest_tests."),
     db: Optional[Path] = typer.Option(None, "--db", help="Catalog file (default ./catalog.duckdb)."),
     as_json: bool = typer.Option(False, "--json", help="Print a JSON list of row objects."),
+    limit: int = typer.Option(10_000, "--limit", help="Print at most this many rows (a line on "
+                              "stderr says when more exist)."),
+    timeout: float = typer.Option(30.0, "--timeout", help="Stop the query after this many "
+                                  "seconds."),
 ) -> None:
-    """Run one SQL statement on the catalog (read-only) and print the rows."""
+    """Run one read-only SQL statement (SELECT or EXPLAIN) on the catalog and print the rows.
+
+    No file, network or extension access; 2 GB memory budget."""
     from vehval.catalog import open_catalog
 
-    with open_catalog(_db(db), read_only=True) as cat:
-        cols, rows = cat.query(sql)
+    with open_catalog(_db(db), read_only=True, timeout_s=timeout) as cat:
+        res = cat.user_query(sql, limit=limit, timeout_s=timeout)
+    if res.truncated:
+        typer.echo(f"vehval: showing the first {limit} rows; the query returns more "
+                   "(narrow it or raise --limit)", err=True)
     if as_json:
         from vehval.batch.task import jsonable
 
-        typer.echo(json.dumps([jsonable(dict(zip(cols, r))) for r in rows], indent=1, default=str))
+        typer.echo(json.dumps([jsonable(dict(zip(res.columns, r))) for r in res.rows], indent=1,
+                              default=str))
         return
-    _print_table(cols, [[_cell(v) for v in r] for r in rows])
+    _print_table(res.columns, [[_cell(v) for v in r] for r in res.rows])
 
 
 def _cell(v, digits: int = 6) -> str:
@@ -103,11 +123,15 @@ def _print_table(cols: list[str], rows: list[list[str]], group_by: tuple[str, ..
 def catalog_summary(
     db: Optional[Path] = typer.Option(None, "--db", help="Catalog file (default ./catalog.duckdb)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
+    timeout: float = typer.Option(30.0, "--timeout", help="Stop after this many seconds."),
 ) -> None:
     """Test-to-test variability per vehicle and cycle: n, mean, std, CV of the key metrics."""
     from vehval.catalog import open_catalog
+    from vehval.errors import VehvalError
 
-    with open_catalog(_db(db), read_only=True) as cat:
+    if not (0 < timeout < float("inf")):
+        raise VehvalError(f"--timeout {timeout}: give a positive number of seconds")
+    with open_catalog(_db(db), read_only=True, timeout_s=timeout) as cat:
         rows = cat.summary()
     if as_json:
         typer.echo(json.dumps(rows, indent=1))

@@ -72,12 +72,18 @@ def identify_cmd(
     cold_trace = load_traces([cold_test], template)[0] if cold_test is not None else None
     idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
                                 cold_trace=cold_trace)
+    from vehval.io.atomic import atomic_files
+    preds = None
     if report is not None:
         from vehval.identify.predict import predict_trace
-        from vehval.identify.report import write_identification_report
         preds = [predict_trace(idf.vehicle, t) for t in traces]
-        write_identification_report(idf, preds, report)
-    write_vehicle(idf.vehicle, output)
+    # the vehicle file and the report are one unit: a run killed at any point leaves both
+    # old or (once the next run completes its commit) both new, and no temporary behind
+    with atomic_files([output] if report is None else [output, report]) as staged:
+        write_vehicle(idf.vehicle, staged[0])
+        if report is not None:
+            from vehval.identify.report import write_identification_report
+            write_identification_report(idf, preds, staged[1])
     if as_json:
         typer.echo(json.dumps(idf.summary(), indent=2))
         return

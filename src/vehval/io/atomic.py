@@ -1,16 +1,24 @@
-"""Atomic output: a failed run leaves no half-written file or directory."""
+"""Atomic output: a failed run leaves no half-written file or directory.
+
+Every temporary carries the id of the process that made it: a file
+``.<name>.vehval-tmp.<pid>.<rand>.tmp`` (:func:`atomic_path`) or a staging directory
+``.<name>.vehval-stage.<pid>.<rand>`` (:func:`atomic_dir`, :func:`atomic_files`). Those of a
+process that is no longer alive are debris of a killed run; :func:`clean_stale_stages` and
+:func:`sweep_debris` remove them.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import ctypes
 import errno
+import json
 import os
 import shutil
 import sys
 import tempfile
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, Sequence
 
 
 def _umask() -> int:
@@ -27,7 +35,10 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    # temporaries of killed runs (a live process's, this one's included, are left alone)
+    _remove_debris([p for p in _stale_beside(target, own=False) if p.is_file()])
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}{_TMP_TAG}{os.getpid()}.", suffix=".tmp",
+                               dir=target.parent)
     os.close(fd)
     tmp_path = Path(tmp)
     try:
@@ -48,6 +59,10 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> None:
 
 #: Name of the staging directories of :func:`atomic_dir`: ``.<name>.vehval-stage.<pid>.<rand>``.
 _STAGE_TAG = ".vehval-stage."
+#: Name of the temporary files of :func:`atomic_path`: ``.<name>.vehval-tmp.<pid>.<rand>.tmp``.
+_TMP_TAG = ".vehval-tmp."
+#: File in a staging directory of :func:`atomic_files` listing its renames once committed.
+_COMMIT = ".vehval-commit.json"
 
 
 def _rename_exchange(a: Path, b: Path) -> bool:
@@ -81,25 +96,79 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def clean_stale_stages(target: str | os.PathLike) -> list[Path]:
-    """Remove the staging directories that killed runs left beside ``target``.
+def _owner(name: str) -> int | None:
+    """Process id in the name of a staging directory or temporary; None when not one."""
+    for tag in (_STAGE_TAG, _TMP_TAG):
+        if name.startswith(".") and tag in name:
+            pid = name.rsplit(tag, 1)[1].split(".", 1)[0]
+            return int(pid) if pid.isdigit() else None
+    return None
 
-    A staging directory belongs to a killed run when its process id (in its name) is no
-    longer alive. Returns the directories removed."""
-    target = Path(target)
-    removed = []
+
+def is_debris(p: Path) -> bool:
+    """Is ``p`` a staging directory or temporary of a process that is no longer alive?"""
+    pid = _owner(p.name)
+    return pid is not None and not p.is_symlink() and pid != os.getpid() and not _alive(pid)
+
+
+def _remove_debris(items: list[Path]) -> None:
+    """Remove dead staging directories and temporaries; committed stagings of
+    :func:`atomic_files` are completed first (before any of their siblings goes)."""
+    for p in items:
+        if p.is_dir():
+            _roll_forward(p)
+    for p in items:
+        if p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
+
+
+def _stale_beside(target: Path, own: bool = True) -> list[Path]:
     if not target.parent.is_dir():
-        return removed
-    prefix = f".{target.name}{_STAGE_TAG}"
-    for p in target.parent.iterdir():
-        if not p.name.startswith(prefix) or p.is_symlink() or not p.is_dir():
+        return []
+    prefixes = (f".{target.name}{_STAGE_TAG}", f".{target.name}{_TMP_TAG}")
+    out = []
+    for p in sorted(target.parent.iterdir()):
+        if not p.name.startswith(prefixes) or p.is_symlink():
             continue
-        pid = p.name[len(prefix):].split(".", 1)[0]
-        if pid.isdigit() and int(pid) != os.getpid() and _alive(int(pid)):
+        pid = _owner(p.name)
+        if pid is not None and (pid != os.getpid() or not own) and _alive(pid):
             continue
-        shutil.rmtree(p, ignore_errors=True)
-        removed.append(p)
-    return removed
+        out.append(p)
+    return out
+
+
+def clean_stale_stages(*targets: str | os.PathLike) -> list[Path]:
+    """Remove the staging directories and temporaries that killed runs left beside each
+    of ``targets``.
+
+    They belong to a killed run when the process id in their name is no longer alive (or
+    is this process: one run per process and target). A staging directory of
+    :func:`atomic_files` whose commit had begun is completed first. Returns what was removed."""
+    found = [p for t in targets for p in _stale_beside(Path(t))]
+    _remove_debris(found)
+    return found
+
+
+def _debris(root: Path, depth: int) -> list[Path]:
+    if not root.is_dir() or root.is_symlink():
+        return []
+    out: list[Path] = []
+    for p in sorted(root.iterdir()):
+        if is_debris(p):
+            out.append(p)
+        elif depth > 0 and p.is_dir() and not p.is_symlink():
+            out += _debris(p, depth - 1)
+    return out
+
+
+def sweep_debris(directory: str | os.PathLike, depth: int = 1) -> list[Path]:
+    """Remove every staging directory and temporary of a dead process in ``directory`` and
+    its subdirectories down to ``depth`` levels (0: the directory alone); returns them."""
+    found = _debris(Path(directory), depth)
+    _remove_debris(found)
+    return found
 
 
 def _carry_over(old: Path, stage: Path) -> None:
@@ -107,8 +176,8 @@ def _carry_over(old: Path, stage: Path) -> None:
     files of other commands (``control.json`` beside ``findings.json``) survive the swap."""
     for item in sorted(old.iterdir()):
         dest = stage / item.name
-        if dest.exists() or dest.is_symlink():
-            continue
+        if dest.exists() or dest.is_symlink() or _owner(item.name) is not None:
+            continue                    # written by the run, or another run's temporary
         if item.is_symlink():
             os.symlink(os.readlink(item), dest)
         elif item.is_dir():
@@ -173,3 +242,59 @@ def atomic_dir(path: str | os.PathLike, *, whole: bool = True) -> Iterator[Path]
             os.rename(stage, target)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+def _roll_forward(stage: Path) -> None:
+    """Finish the renames of a committed :func:`atomic_files` staging directory (a run killed
+    in the middle of its commit): every file still staged goes to its target."""
+    try:
+        plan = json.loads((stage / _COMMIT).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return                          # not committed: the run's outputs are dropped
+    for staged, target in plan if isinstance(plan, list) else ():
+        src = Path(staged)
+        if src.is_file() and not src.is_symlink():
+            with contextlib.suppress(OSError):
+                os.replace(src, target)
+
+
+@contextlib.contextmanager
+def atomic_files(paths: Sequence[str | os.PathLike]) -> Iterator[list[Path]]:
+    """Yield staged paths for several output files written as one unit.
+
+    The run writes each output to its staged path (in a staging directory beside the
+    target, as :func:`atomic_dir`). On success the commit is recorded first (a list of the
+    renames, written into the first staging directory), then every file is renamed onto its
+    target. A run killed before the commit leaves the old files, and its staging directories
+    are removed by the next run on the same targets; a run killed during the commit is
+    completed by that next run (the remaining renames), so the set ends wholly old or wholly
+    new, never a new file beside an old one. On error nothing is written.
+    """
+    targets = [Path(os.path.abspath(p)) for p in paths]
+    if len(set(targets)) != len(targets):
+        raise ValueError("atomic_files: the same output is given twice")
+    stages: list[Path] = []
+    try:
+        for t in targets:
+            t.parent.mkdir(parents=True, exist_ok=True)
+        clean_stale_stages(*targets)
+        for t in targets:
+            stages.append(Path(tempfile.mkdtemp(prefix=f".{t.name}{_STAGE_TAG}{os.getpid()}.",
+                                                dir=t.parent)))
+        staged = [st / t.name for st, t in zip(stages, targets)]
+        yield staged
+        missing = [str(t) for s, t in zip(staged, targets) if not s.is_file()]
+        if missing:
+            raise FileNotFoundError(errno.ENOENT, "output not written", missing[0])
+        for s in staged:
+            os.chmod(s, 0o666 & ~_umask())
+        commit = stages[0] / _COMMIT
+        tmp = commit.with_name(commit.name + ".tmp")
+        tmp.write_text(json.dumps([[str(s), str(t)] for s, t in zip(staged, targets)]),
+                       encoding="utf-8")
+        os.replace(tmp, commit)         # from here on the run counts as done
+        for s, t in zip(staged, targets):
+            os.replace(s, t)
+    finally:
+        for st in stages:
+            shutil.rmtree(st, ignore_errors=True)
