@@ -13,6 +13,7 @@ import numpy as np
 
 from vehval.errors import InputFileError
 from vehval.io.delimited import check_exists
+from vehval.io.mdf_links import check_links
 from vehval.io.raw import RawTable
 
 
@@ -48,6 +49,7 @@ def read_mdf(path: str | Path, **_opts) -> RawTable:
     """Read every numeric channel of an MDF (3 or 4) file (see :func:`_read_mdf`)."""
     path = Path(path)
     check_exists(path)
+    check_links(path)  # before asammdf follows them: a loop would never end
     with _quiet():
         return _read_mdf(path)
 
