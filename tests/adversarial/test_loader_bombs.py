@@ -203,3 +203,32 @@ def test_template_numbers_and_units_refused(tmp_path, edit, match):
     key = {"scale": "scale: must be a number", "rate_hz": "rate_hz:", "Ym": "Dyno_Speed.unit",
            "offset": "offset: must be a number"}
     assert any(v in msg for k, v in key.items() if k in match), msg
+
+
+def test_text_file_over_budget_refused_before_reading(tmp_path, monkeypatch):
+    from vehval.io.delimited import read_delimited
+    p = tmp_path / "big_d3.txt"
+    with p.open("wb") as fh:
+        fh.write(b"Time[s]\tV[mph]\n0\t1\n")
+        fh.truncate(300_000_000)           # sparse
+    from vehval.io import delimited
+    monkeypatch.setattr(delimited, "MAX_TEXT_BYTES", 100_000_000)
+    with pytest.raises(InputFileError, match=r"big_d3.txt: the text data file is 300 MB, more "
+                                             r"than the budget of 100 MB"):
+        read_delimited(p, fmt="d3")
+
+
+def test_mdf_declared_size_over_budget_refused(tmp_path, monkeypatch):
+    from asammdf import MDF
+    from asammdf import Signal as MSig
+
+    from vehval.io.mdf import read_mdf
+    t = np.arange(0, 2000, 0.01)
+    mdf = MDF(version="4.10")
+    mdf.append([MSig(samples=0 * t, timestamps=t, name="Zero", unit="V")])
+    p = tmp_path / "z.mf4"
+    mdf.save(p, overwrite=True, compression=2)
+    mdf.close()
+    monkeypatch.setattr(budget, "MAX_DECODED_BYTES", 1_000_000)
+    with pytest.raises(InputFileError, match=r"z.mf4: the MDF4 file declares \d+ MB of data"):
+        read_mdf(p)
