@@ -32,7 +32,11 @@ MAX_DEPTH = 64
 MAX_BYTES = 5_000_000
 
 
-class _StrictLoader(yaml.SafeLoader):
+#: libyaml's parser when PyYAML was built with it (several times faster), else PyYAML's own.
+_BaseLoader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+class _StrictLoader(_BaseLoader):  # type: ignore[valid-type,misc]
     """SafeLoader that refuses duplicate keys and non-finite numbers."""
 
 
@@ -79,7 +83,7 @@ def _check_events(text: str, where: str) -> None:
     """Refuse deep nesting, anchors and aliases from the event stream (nothing is built)."""
     depth = 0
     try:
-        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        for event in yaml.parse(text, Loader=_BaseLoader):
             if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None) is not None:
                 kind = "alias '*" if isinstance(event, yaml.AliasEvent) else "anchor '&"
                 raise ConfigError(f"{where} line {event.start_mark.line + 1}: YAML {kind}"
