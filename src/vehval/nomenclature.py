@@ -13,9 +13,8 @@ from functools import lru_cache
 from importlib import resources
 from typing import Literal
 
-import yaml
-
 from vehval.errors import SignalError
+from vehval.safe_yaml import load_yaml
 
 ResampleMethod = Literal["linear", "previous"]
 ORIGINS = ("test", "calc", "simu")
@@ -147,7 +146,7 @@ class Registry:
 def registry() -> Registry:
     """The package registry (loaded once)."""
     text = resources.files("vehval").joinpath("data/signals.yaml").read_text(encoding="utf-8")
-    return Registry(yaml.safe_load(text))
+    return Registry(load_yaml(text, "data/signals.yaml"))
 
 
 def preference_rank(name: str) -> tuple[float, str]:

@@ -7,7 +7,12 @@ Rules (each breach is a :class:`~vehval.errors.ConfigError` naming the file and 
 - ``.inf``/``.nan`` are refused: every number of a template, vehicle or calculation file must
   be finite (a ``scale: .inf`` or a mass of 1e308 x 10 gives no meaningful result);
 - nesting deeper than :data:`MAX_DEPTH` and documents larger than :data:`MAX_BYTES` are
-  refused before they are built (no recursion error, no minutes of parsing).
+  refused before they are built (no recursion error, no minutes of parsing);
+- anchors (``&name``) and aliases (``*name``) are refused: an alias repeats a node without
+  its bytes, so 475 kB of YAML could build a 3.8 GB map (no vehval document needs them).
+
+This module is the only place that parses YAML: templates, vehicles, calculation and fault
+files, the package data tables and command-line values all go through :func:`load_yaml`.
 """
 
 from __future__ import annotations
@@ -27,7 +32,11 @@ MAX_DEPTH = 64
 MAX_BYTES = 5_000_000
 
 
-class _StrictLoader(yaml.SafeLoader):
+#: libyaml's parser when PyYAML was built with it (several times faster), else PyYAML's own.
+_BaseLoader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+
+
+class _StrictLoader(_BaseLoader):  # type: ignore[valid-type,misc]
     """SafeLoader that refuses duplicate keys and non-finite numbers."""
 
 
@@ -70,11 +79,16 @@ def _check_size(text: str, where: str, limit: int = MAX_BYTES) -> None:
                           f"document (limit {limit / 1e6:.0f} MB)")
 
 
-def _check_depth(text: str, where: str) -> None:
-    """Refuse deep nesting from the event stream (no recursion involved)."""
+def _check_events(text: str, where: str) -> None:
+    """Refuse deep nesting, anchors and aliases from the event stream (nothing is built)."""
     depth = 0
     try:
-        for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        for event in yaml.parse(text, Loader=_BaseLoader):
+            if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None) is not None:
+                kind = "alias '*" if isinstance(event, yaml.AliasEvent) else "anchor '&"
+                raise ConfigError(f"{where} line {event.start_mark.line + 1}: YAML {kind}"
+                                  f"{event.anchor}' is not accepted (a vehval document repeats "
+                                  "no node by reference): write the values out")
             if isinstance(event, (yaml.MappingStartEvent, yaml.SequenceStartEvent)):
                 depth += 1
                 if depth > MAX_DEPTH:
@@ -89,7 +103,7 @@ def _check_depth(text: str, where: str) -> None:
 def load_yaml(text: str, where: str = "document"):
     """Parse YAML ``text`` strictly (see module doc); ``where`` names it in errors."""
     _check_size(text, where)
-    _check_depth(text, where)
+    _check_events(text, where)
     loader = None
     try:
         loader = _StrictLoader(text)

@@ -5,6 +5,7 @@ Units are converted once, at import and at export; everything inside is SI float
 
 from __future__ import annotations
 
+import math
 import re
 from functools import lru_cache
 
@@ -124,7 +125,7 @@ def parse_unit(text: str | None) -> pint.Unit:
     expr = _ALIASES.get(key, raw)
     try:
         return ureg.Unit(expr)
-    except Exception as exc:  # pint raises several types
+    except Exception as exc:  # pint raises several types (and OverflowError, RecursionError)
         raise UnitError(
             f"unknown unit '{raw}': use a pint unit expression (for example 'mph', 'rpm', "
             f"'degF', 'g/s', 'kW', 'N*m') or one of the header spellings vehval knows"
@@ -146,6 +147,23 @@ def conversion(raw_unit: str | None, si_unit: str, *, fuel_density_kg_per_m3: fl
     fuel_density_kg_per_m3 : float, optional
         Density [kg/m^3] used for volume -> mass conversions.
     """
+    try:
+        scale, offset = _conversion(raw_unit, si_unit, fuel_density_kg_per_m3)
+    except (OverflowError, ZeroDivisionError, pint.PintError) as exc:
+        # e.g. 'Ym/ys*(Ym/ym)**20' (1e960 overflows), 'degC*(Ym/ym)**10' (an offset unit
+        # times a factor is no temperature)
+        why = "the factor overflows" if isinstance(exc, OverflowError) else str(exc)
+        raise UnitError(f"cannot convert '{raw_unit}' to '{si_unit}': {why}: give a plain "
+                        "unit such as 'mph', 'rpm', 'degF' or 'g/s'") from None
+    if not (math.isfinite(scale) and math.isfinite(offset)) or scale == 0.0:
+        raise UnitError(f"cannot convert '{raw_unit}' to '{si_unit}': the factor {scale:g} "
+                        f"(offset {offset:g}) is not a usable finite number: give a plain unit "
+                        "such as 'mph', 'rpm', 'degF' or 'g/s'")
+    return scale, offset
+
+
+def _conversion(raw_unit: str | None, si_unit: str, fuel_density_kg_per_m3: float | None,
+                ) -> tuple[float, float]:
     src = parse_unit(raw_unit)
     dst = parse_unit(si_unit)
     factor = 1.0

@@ -233,8 +233,10 @@ class TestRun:
         if self._qa is None:
             if self.validated_input:
                 raise ConfigError(f"{self.origin}: already a validated test: QA is not run again")
+            from vehval.io.budget import check_qa_memory
             from vehval.qa.pipeline import run_qa
 
+            check_qa_memory(self.test)  # refused up front rather than a MemoryError halfway
             res = run_qa(self.test, self.vehicle, self.template, **options)
             self._qa = QAOutcome(res, res.to_dict())
         return self._qa

@@ -10,7 +10,6 @@ fuel economy stays in the list's unit (``FE_UNIT``, miles per US gallon for gaso
 from __future__ import annotations
 
 import csv
-import io
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -174,14 +173,48 @@ def _cell(row: list[str], index: dict[str, int], col: str) -> str:
     return row[k].strip() if k is not None else ""
 
 
-def _decode(path: Path) -> str:
+#: Largest Test Car List read [bytes]: a model year's list is 1-3 MB (about 5,000 tests);
+#: 64 MB holds every year since 1978 together and keeps the records under ~0.5 GB.
+MAX_LIST_BYTES = 64_000_000
+#: Longest field of a row [characters] (the csv module's limit; real fields are < 100).
+MAX_FIELD = 131_072
+
+
+def _open(path: Path):
+    """Open a list for streaming (latin-1 maps every byte; CR, LF, CRLF are all line ends)."""
     check_input_file(path, "test car list (CSV)")
     try:
-        raw = path.read_bytes()
+        size = path.stat().st_size
+        if size > MAX_LIST_BYTES:
+            raise InputFileError(
+                f"{path}: {size / 1e6:.0f} MB is larger than the {MAX_LIST_BYTES / 1e6:.0f} MB "
+                "budget for an EPA Test Car List (a model year's list is 1-3 MB): give the "
+                "yearly list files (e.g. 19tstcar.csv) rather than one concatenated file")
+        return path.open("r", encoding="latin-1", newline=None)
     except OSError as exc:
         raise InputFileError(f"{path}: cannot read the test car list ({exc.strerror})") from None
-    # latin-1 maps every byte: decoding never fails; normalise CR / CRLF line endings
-    return raw.decode("latin-1").replace("\r\n", "\n").replace("\r", "\n")
+
+
+def _rows(path: Path, fh):
+    """Rows of the list with their line number; quoting faults are an InputFileError."""
+    reader = csv.reader(fh, strict=True)
+    prev = 0
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            what = (f"a field longer than {MAX_FIELD:,} characters" if "field limit" in str(exc)
+                    else f"bad CSV quoting ({exc})")
+            raise InputFileError(f"{path}: line {prev + 1}: {what}: an unclosed or stray quote "
+                                 "(\") or a damaged row; fix or remove that row") from None
+        if reader.line_num - prev > 1:      # a quoted field ran over a line end
+            raise InputFileError(f"{path}: line {prev + 1}: a quoted field is not closed on its "
+                                 f"line (it runs to line {reader.line_num}): close the quote "
+                                 "(\") or remove it")
+        prev = reader.line_num
+        yield prev, row
 
 
 def read_test_car_list(path: str | Path) -> list[EpaTest]:
@@ -200,14 +233,19 @@ def read_test_car_list(path: str | Path) -> list[EpaTest]:
     Raises
     ------
     InputFileError
-        Unreadable file, no header, or a required column missing (the message names the
-        file and the columns).
+        Unreadable file, no header, a required column missing (the message names the
+        file and the columns), a file over :data:`MAX_LIST_BYTES`, an unclosed quote or a
+        field over :data:`MAX_FIELD` characters (naming the line). The file is read as a
+        stream: memory grows with the records, not with the text.
     """
     path = Path(path)
-    text = _decode(path)
-    reader = csv.reader(io.StringIO(text))
+    with _open(path) as fh:
+        return _read(path, _rows(path, fh))
+
+
+def _read(path: Path, rows) -> list[EpaTest]:
     try:
-        header = [h.strip() for h in next(reader)]
+        header = [h.strip() for h in next(rows)[1]]
     except StopIteration:
         raise InputFileError(f"{path}: empty file: expected an EPA Test Car List CSV with a "
                              "header row") from None
@@ -224,7 +262,7 @@ def read_test_car_list(path: str | Path) -> list[EpaTest]:
                              "make, model, test weight, procedure, results and road-load "
                              "coefficients")
     tests: list[EpaTest] = []
-    for lineno, row in enumerate(reader, start=2):
+    for lineno, row in rows:
         if not any(cell.strip() for cell in row):
             continue
         row = row + [""] * (len(header) - len(row))

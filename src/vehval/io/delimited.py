@@ -16,6 +16,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 
 from vehval.errors import InputFileError
+from vehval.io.budget import MAX_TEXT_BYTES, check_file_size
 from vehval.io.raw import RawTable, find_time_column, is_printable, is_time_header, split_headers
 from vehval.units import split_header
 
@@ -200,6 +201,9 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     """
     path = Path(path)
     check_exists(path)
+    # parsed in memory (2-3 times the file): refused before reading past the budget
+    check_file_size(path, "text data file", MAX_TEXT_BYTES,
+                    advice="split the file into tests of a few hours, or convert it to Parquet")
     notes: list[str] = []
     raw = decode_bytes(path.read_bytes(), path, encoding, notes)
     raw = _strip_nuls(raw, path, notes)

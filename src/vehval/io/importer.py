@@ -40,6 +40,9 @@ STRAY_MIN_GAP_S = 3600.0
 #: Longest accepted time span per sample: beyond, the time base cannot be a test's (one row
 #: per hour on average); refused before any grid over the span is built.
 MAX_SPAN_PER_SAMPLE_S = 3600.0
+#: Words that mark a time base repaired at import (in the test's and the signal's notes);
+#: QA turns each into a ``rate_irregular`` error (docs/qa.md).
+TIME_REPAIRED = "time base repaired on import"
 #: Shortest accepted median sample period [s] (1 µs: far beyond any dyno logger).
 MIN_PERIOD_S = 1e-6
 
@@ -142,8 +145,12 @@ def _ordered_time(t: np.ndarray, *, path: Path, raw: RawTable | None, label: str
     ts = t[order]
     keep = np.r_[True, np.diff(ts) > 0]
     n_dup = int(np.sum(~keep))
-    note = (f"{path.name}: {label} repaired (--repair-time): {n_dec} decreasing step(s) sorted, "
-            f"{n_dup} repeated timestamp(s) dropped (first kept), {n_nan} row(s) without time dropped")
+    first = int(np.flatnonzero(~(np.diff(t[idx]) > 0))[0]) + 1 if idx.size > 1 and (
+        n_dec or n_dup) else None
+    at = f", first at {where(int(idx[first]))} ({t[idx][first]:g} s)" if first is not None else ""
+    note = (f"warning: {path.name}: {label}: {TIME_REPAIRED} ({n_dec} decreasing step(s) sorted, "
+            f"{n_dup} repeated timestamp(s) dropped (first kept), {n_nan} row(s) without time "
+            f"dropped{at})")
     return ts[keep], order[keep], [note]
 
 
@@ -192,6 +199,7 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
         from vehval.results.fuels import fuel_properties
         density = fuel_properties(t.fuel).density_kg_per_m3
     t_shared, order, time_col = _shared_time(raw, spec, idx, path, repair, notes)
+    shared_repair = [n.removeprefix("warning: ") for n in notes if TIME_REPAIRED in n]
     mapped: set[str] = set()
     missing: list[str] = []
     for key, ch in spec.channels.items():
@@ -231,6 +239,7 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
             si = si + off
         if t_shared is not None:
             time = t_shared
+            sig_notes.extend(shared_repair)
             if order is not None:
                 si = si[order]
         else:
@@ -239,6 +248,7 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
             time, ord_c, tn = check_time(ts * s_t + o_t, path=path, raw=None,
                                          label=f"timestamps of channel '{col}'", repair=repair)
             notes.extend(tn)
+            sig_notes.extend(n.removeprefix("warning: ") for n in tn if TIME_REPAIRED in n)
             if ord_c is not None:
                 si = si[ord_c]
         if ch.unit is not None and raw.unit_of(col) is not None and ch.unit != raw.unit_of(col):

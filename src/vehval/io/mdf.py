@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from vehval.errors import InputFileError
+from vehval.io.budget import check_decoded
 from vehval.io.delimited import check_exists
+from vehval.io.mdf_links import check_links
 from vehval.io.raw import RawTable
 
 
@@ -48,6 +50,7 @@ def read_mdf(path: str | Path, **_opts) -> RawTable:
     """Read every numeric channel of an MDF (3 or 4) file (see :func:`_read_mdf`)."""
     path = Path(path)
     check_exists(path)
+    check_links(path)  # before asammdf follows them: a loop would never end
     with _quiet():
         return _read_mdf(path)
 
@@ -84,11 +87,15 @@ def _read_mdf(path: Path) -> RawTable:
     where: dict[str, int] = {}
     size = path.stat().st_size
     try:
+        declared = 0.0
         for gi, group in enumerate(mdf.groups):
-            master = mdf.masters_db.get(gi)
-            _check_group(path, group, gi, size)
+            declared += _check_group(path, group, gi, size)
             for ch in group.channels:
                 _check_layout(path, group, ch, gi)
+        check_decoded(path, "MDF4 file", declared, advice="split the recording into tests of a "
+                      "few hours, or read it on a machine with more memory")
+        for gi, group in enumerate(mdf.groups):
+            master = mdf.masters_db.get(gi)
             for ci, ch in enumerate(group.channels):
                 if ci == master:
                     continue
@@ -143,8 +150,9 @@ def _check_layout(path: Path, group, ch, gi: int) -> None:
             f"{start}..{start + nbytes} of {record}): the file is corrupted")
 
 
-def _check_group(path: Path, group, gi: int, size: int) -> None:
-    """Reject a channel group whose data blocks lie outside the file or hold too few records."""
+def _check_group(path: Path, group, gi: int, size: int) -> float:
+    """Reject a channel group whose data blocks lie outside the file or hold too few records;
+    return the bytes it decodes to (records, then a float64 value and time per channel)."""
     cg = group.channel_group
     record = int(getattr(cg, "samples_byte_nr", 0)) + int(getattr(cg, "invalidation_bytes_nr", 0))
     cycles = int(getattr(cg, "cycles_nr", 0))
@@ -159,3 +167,4 @@ def _check_group(path: Path, group, gi: int, size: int) -> None:
     if cycles < 0 or (cycles and record <= 0) or total < cycles * record:
         raise InputFileError(f"{path}: group {gi} declares {cycles} records of {record} bytes but holds "
                              f"{total} bytes: the file is truncated or corrupted")
+    return float(total) + 16.0 * cycles * len(getattr(group, "channels", []) or [])

@@ -18,6 +18,7 @@ import pyarrow.parquet as pq
 
 from vehval.errors import ConfigError, InputFileError
 from vehval.io.atomic import atomic_path
+from vehval.io.budget import check_decoded
 from vehval.io.delimited import MAX_COLUMNS, check_exists
 from vehval.io.raw import RawTable, find_time_column
 from vehval.safe_yaml import load_json
@@ -110,15 +111,58 @@ def _vehval_meta(schema: pa.Schema, path: Path | str = "Parquet file") -> dict |
     return meta
 
 
+#: Most rows a Parquet data file may declare (10 Hz for 58 days; a test is hours).
+MAX_ROWS = 50_000_000
+
+
+def _declared_bytes(md: pq.FileMetaData, schema: pa.Schema) -> float:
+    """Bytes the file decodes to, from the footer: rows x width of each fixed-width column,
+    plus the declared uncompressed size (and a 4-byte offset a row) of variable-width ones.
+
+    The declared uncompressed size alone is not enough: a dictionary- or run-length-encoded
+    column of 10^8 zeros declares a few kB and decodes to 800 MB.
+    """
+    rows = md.num_rows
+    var = [0] * len(schema)
+    for rg in range(md.num_row_groups):
+        group = md.row_group(rg)
+        for ci in range(min(group.num_columns, len(schema))):
+            var[ci] += group.column(ci).total_uncompressed_size
+    total = 0.0
+    for ci, f in enumerate(schema):
+        try:
+            width = f.type.bit_width / 8 if f.type.bit_width else None
+        except ValueError:  # variable width (strings, lists)
+            width = None
+        total += rows * (width + 0.125) if width else var[ci] + 4.0 * rows
+    return total
+
+
 def _open(path: str | Path) -> tuple[Path, pa.Table]:
     path = Path(path)
     check_exists(path)
     try:
-        n = len(pq.read_schema(path))
-        if n > MAX_COLUMNS:
-            raise InputFileError(f"{path}: {n} columns, more than the {MAX_COLUMNS} a test file "
-                                 "may have: not a test's data file")
-        return path, pq.read_table(path)
+        pf = pq.ParquetFile(path)
+        try:
+            schema = pf.schema_arrow
+            n = len(schema)
+            if n > MAX_COLUMNS:
+                raise InputFileError(f"{path}: {n} columns, more than the {MAX_COLUMNS} a test "
+                                     "file may have: not a test's data file")
+            md = pf.metadata
+            if md.num_rows > MAX_ROWS:
+                raise InputFileError(f"{path}: the Parquet footer declares {md.num_rows:,} rows, "
+                                     f"more than the {MAX_ROWS:,} a test file may have (10 Hz "
+                                     "for 58 days): split the file by test")
+            if md.num_rows == 0:
+                raise InputFileError(f"{path}: the Parquet file has no rows (0 samples): not "
+                                     "a test's data; export the test again")
+            check_decoded(path, "Parquet footer", _declared_bytes(md, schema),
+                          advice="split the file into tests of a few hours, or read it on a "
+                                 "machine with more memory")
+            return path, pf.read()
+        finally:
+            pf.close()
     except (pa.ArrowException, OSError) as exc:
         raise InputFileError(f"{path}: not a readable Parquet file ({exc})") from None
 
@@ -147,9 +191,35 @@ def read_test(path: str | Path) -> Test:
                              f"{str(exc)[:100]}): re-import the test from its raw files") from None
 
 
+#: TestMeta fields and the JSON types their values must have in the file's metadata.
+_META_TYPES: dict[str, tuple[type, ...]] = {
+    "test_id": (str,), "vehicle": (str,), "cycle": (str,), "files": (list,),
+    "template": (str, type(None)), "constants": (dict,), "offsets_s": (dict,),
+    "deleted": (list,), "notes": (list,), "synthetic": (bool,)}
+
+
+def _checked_meta(meta_d: dict) -> dict:
+    """The TestMeta fields of the file's metadata, each of the right JSON type."""
+    out = {}
+    for key, value in meta_d.items():
+        if key not in _META_TYPES:
+            continue
+        if not isinstance(value, _META_TYPES[key]):
+            raise TypeError(f"meta.{key} is {type(value).__name__} "
+                            f"{str(value)[:40]!r}, expected {_META_TYPES[key][0].__name__}")
+        if key in ("files", "notes") and not all(isinstance(v, str) for v in value):
+            raise TypeError(f"meta.{key} must be a list of strings")
+        if key in ("constants", "offsets_s") and not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in value.values()):
+            raise TypeError(f"meta.{key} must map names to numbers")
+        if key == "deleted" and not all(isinstance(v, dict) for v in value):
+            raise TypeError("meta.deleted must be a list of mappings")
+        out[key] = value
+    return out
+
+
 def _test_from(table: pa.Table, info: dict) -> Test:
-    meta_d = info.get("meta", {})
-    meta = TestMeta(**{k: v for k, v in meta_d.items() if k in TestMeta.__dataclass_fields__})
+    meta = TestMeta(**_checked_meta(info.get("meta", {})))
     meta.test_id = str(meta.test_id or "")
     test = Test(meta=meta)
     for label, g in info["groups"].items():

@@ -53,7 +53,13 @@ MAX_TEXT = 20_000
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False)
+    # strict: a number must be written as a number ('scale: yes' is YAML's true, not 1.0)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, allow_inf_nan=False,
+                              strict=True)
+
+
+#: Sample rates a template may declare [Hz] (also the QA plausibility bound of a time base).
+RATE_HZ_RANGE = (1e-3, 1e5)
 
 
 class TimeSpec(_Strict):
@@ -66,15 +72,26 @@ class TimeSpec(_Strict):
     unit : str
         Unit of the time column (default ``s``).
     rate_hz : float, optional
-        Sample rate [Hz] for files without a time column: ``t = start_s + i / rate_hz``.
+        Sample rate [Hz] for files without a time column: ``t = start_s + i / rate_hz``;
+        1e-3 to 1e5 Hz (:data:`RATE_HZ_RANGE`: a sample every 17 min to a 100 kHz DAQ;
+        beyond, ``i / rate_hz`` loses the time base or underflows to no time at all).
     start_s : float
         Time of the first row [s] when ``rate_hz`` is used.
     """
 
     column: str | None = None
     unit: str = "s"
-    rate_hz: PositiveFloat | None = None
-    start_s: float = 0.0
+    rate_hz: float | None = None
+    start_s: float = Field(default=0.0, ge=-1e9, le=1e9)
+
+    @field_validator("rate_hz")
+    @classmethod
+    def _rate_bounded(cls, v: float | None) -> float | None:
+        lo, hi = RATE_HZ_RANGE
+        if v is not None and not lo <= v <= hi:
+            raise ValueError(f"{v:g} Hz is outside {lo:g} to {hi:g} Hz (one sample every "
+                             "17 min to a 100 kHz DAQ): give the file's real sample rate")
+        return v
 
     @model_validator(mode="after")
     def _one_source(self) -> TimeSpec:
@@ -396,6 +413,11 @@ def _message(err: dict) -> str:
         return f"{format_loc(loc)}: unknown key{hint}"
     if kind == "missing":
         return f"{format_loc(loc)}: required key missing"
+    if kind in ("float_type", "int_type") and "input" in err:
+        got = err["input"]
+        hint = (" (YAML reads yes/no/on/off/true/false as a boolean)"
+                if isinstance(got, bool) else "")
+        return f"{format_loc(loc)}: must be a number, not {str(got)[:40]!r}{hint}"
     msg = str(err.get("msg", "invalid"))
     msg = msg.removeprefix("Value error, ")
     return f"{format_loc(loc)}: {msg}"

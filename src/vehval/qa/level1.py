@@ -20,6 +20,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from vehval.align import CORRELATED_BASES
 from vehval.errors import SignalError
+from vehval.io.importer import TIME_REPAIRED
 from vehval.nomenclature import registry
 from vehval.qa.findings import Finding, Kind, Severity, merge_runs, runs
 from vehval.test import Signal, Test
@@ -255,6 +256,22 @@ def _sparse(sig: Signal, fin: np.ndarray, test_span: tuple[float, float] | None,
                    "few to trust; another source is preferred", {"samples": n, "duration_s": dur})
 
 
+def _repaired_time_base(sig: Signal, t_start: float, t_end: float) -> list[Finding]:
+    """A ``rate_irregular`` error for a time base that went backwards or repeated in the
+    file and was sorted at import (the signal's note says how); none otherwise.
+
+    The samples QA sees are in order by then, so the check below on ``diff(t)`` cannot see
+    it: the import note is the evidence, and the repair is reported, never silent.
+    """
+    out = []
+    for note in sig.notes:
+        if TIME_REPAIRED in note:
+            out.append(Finding(sig.name, Kind.RATE_IRREGULAR, t_start, t_end, Severity.ERROR,
+                               f"time of {sig.name} goes backwards or repeats in the file: "
+                               f"{note}", {"repaired_at_import": True}))
+    return out
+
+
 def check_signal(test: Test, sig: Signal, limits: dict | None = None,
                  opts: Level1Options | None = None, range_cache: dict | None = None,
                  test_span: tuple[float, float] | None = None) -> list[Finding]:
@@ -297,6 +314,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,
     t_start, t_end = float(t[0]), float(t[-1])
 
     # time base ------------------------------------------------------------------------
+    out.extend(_repaired_time_base(sig, t_start, t_end))
     if t.size > 2:
         dt = np.diff(t)
         med = float(np.median(dt))

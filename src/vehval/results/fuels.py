@@ -18,9 +18,8 @@ from functools import lru_cache
 from importlib import resources
 from typing import Any
 
-import yaml
-
 from vehval.errors import ConfigError
+from vehval.safe_yaml import load_yaml
 
 __all__ = ["CO2_PER_C", "Fuel", "fuel_properties", "known_fuels"]
 
@@ -66,7 +65,7 @@ class Fuel:
 @lru_cache(maxsize=1)
 def _table() -> dict[str, Fuel]:
     text = (resources.files("vehval") / "data" / "fuels.yaml").read_text(encoding="utf-8")
-    data = yaml.safe_load(text)
+    data = load_yaml(text, "data/fuels.yaml")
     out = {}
     for name, entry in data["fuels"].items():
         vals = {p: float(entry[p]["value"]) for p in _PROPS}

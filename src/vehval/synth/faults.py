@@ -17,11 +17,10 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
 
 from vehval.errors import ConfigError
-from vehval.safe_yaml import read_yaml
+from vehval.safe_yaml import load_yaml, read_yaml
 from vehval.synth.sensors import FileSpec, rng_for
 
 FaultKind = Literal["clock_offset", "stuck", "dropout", "spikes", "gain_error", "offset_drift",
@@ -123,7 +122,8 @@ def load_fault_specs(faults: str | Path | list) -> list[FaultSpec]:
         return []
     elif str(faults) == "default":
         origin = "data/faults/default.yaml"
-        data = yaml.safe_load(resources.files("vehval").joinpath(origin).read_text(encoding="utf-8"))
+        data = load_yaml(resources.files("vehval").joinpath(origin).read_text(encoding="utf-8"),
+                         origin)
     else:
         path = Path(faults)
         origin = str(path)

@@ -19,10 +19,10 @@ from importlib import resources
 from typing import Literal
 
 import numpy as np
-import yaml
 
 from vehval.errors import ConfigError
 from vehval.nomenclature import registry
+from vehval.safe_yaml import load_yaml
 from vehval.units import conversion
 
 
@@ -153,7 +153,8 @@ def _default_table_text() -> str:
 
 def load_sensor_table() -> dict[str, FileSpec]:
     """The package sensor table (``data/faults/sensors.yaml``), keyed by file label."""
-    return parse_sensor_table(yaml.safe_load(_default_table_text()), "data/faults/sensors.yaml")
+    return parse_sensor_table(load_yaml(_default_table_text(), "data/faults/sensors.yaml"),
+                              "data/faults/sensors.yaml")
 
 
 def rng_for(seed: int, *keys: str) -> np.random.Generator:
