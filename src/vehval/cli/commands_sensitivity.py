@@ -8,8 +8,7 @@ from typing import Optional
 
 import typer
 
-from vehval.cli import app
-from vehval.report.safety import CSP_META
+from vehval.cli.app import app
 
 
 def _report_html(result: dict, plotly_src: str) -> str:
@@ -17,6 +16,7 @@ def _report_html(result: dict, plotly_src: str) -> str:
     from html import escape
 
     from vehval.report.figures import figure_json
+    from vehval.report.safety import CSP_META
     from vehval.sim.sensitivity import tornado_figure
 
     figs = "".join(
