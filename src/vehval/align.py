@@ -350,7 +350,7 @@ def _combine(pairs: list[PairResult], tol_s: float) -> tuple[float, float, float
     return off, agreement, conf
 
 
-def align_test(test: Test, pairs: list[tuple[str, str]] | None = None, *,
+def align_test(test: Test, pairs: list[tuple[str, str]] | None = None, *,  # noqa: PLR0912 - one branch per way a source pair can fail to align, each named in the result
                reference: str | None = None, max_offset_s: float = 30.0,
                min_confidence: float = 0.3, apply: bool = True) -> list[AlignmentResult]:
     """Estimate and (optionally) remove the clock offsets between the sources of a test.

@@ -307,7 +307,7 @@ def lag_grids(dt: float, lag_range_s: tuple[float, float] = (-0.3, 1.0),
     return out[0], out[1]
 
 
-def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray,
+def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray,  # noqa: PLR0913 - six aligned signals plus the fit's search options
              soc: np.ndarray, dt: float, base: dict, *, aux_w: float = 0.0,
              pdis_av: np.ndarray | None = None, tol: float = 0.002, rounds: int = 3,
              lag_range_s: tuple[float, float] = (-0.3, 1.0),

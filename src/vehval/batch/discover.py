@@ -88,7 +88,7 @@ def _matching_files(directory: Path, patterns: list[str | None], root: Path | No
     return [f for f in files if any(fnmatch.fnmatch(f.name, pat) for pat in pats)]
 
 
-def discover_tests(target: str | Path, template: Any,
+def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - one branch per accepted layout of a batch directory
                    exclude: list[str | Path] = ()) -> list[TestSpec]:
     """Find the tests of a batch (see the module docstring for the rule).
 

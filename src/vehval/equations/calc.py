@@ -220,7 +220,7 @@ def choose_calc_set(test: Test, vehicle: Any = None) -> str:
     return "conventional"
 
 
-def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,
+def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,  # noqa: C901, PLR0912, PLR0915 - one block per family of powertrain equations
             constants: dict[str, float] | None = None, *, dt: float | None = None,
             exclude: set[str] | frozenset[str] = frozenset(), add: bool = True) -> CalcResult:
     """Compute every ``*_calc`` signal the test's inputs allow.

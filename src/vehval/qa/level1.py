@@ -164,7 +164,7 @@ def _moves(partner: Signal, t0: float, t1: float, frac: float,
     return rng > max(frac * full, min_abs), rng / full
 
 
-def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options,
+def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options,  # noqa: C901, PLR0912 - the stuck-signal exceptions (idle, saturation, held) in turn
            range_cache: dict | None = None) -> list[Finding]:
     v, t = sig.values, sig.time
     if v.size < opts.stuck_min_samples or sig.resample == "previous":
@@ -255,7 +255,7 @@ def _sparse(sig: Signal, fin: np.ndarray, test_span: tuple[float, float] | None,
                    "few to trust; another source is preferred", {"samples": n, "duration_s": dur})
 
 
-def check_signal(test: Test, sig: Signal, limits: dict | None = None,
+def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C901, PLR0912, PLR0915 - the level-1 checks of a signal in turn
                  opts: Level1Options | None = None, range_cache: dict | None = None,
                  test_span: tuple[float, float] | None = None) -> list[Finding]:
     """All level-1 findings of one signal.
