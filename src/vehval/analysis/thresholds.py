@@ -24,6 +24,7 @@ a stop, a minimum time no run was held by): it goes to ``bounds``, never to ``es
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -74,7 +75,8 @@ def run_durations(state: np.ndarray, dt: float, valid: np.ndarray | None = None)
     """Durations [s] of complete on and off runs (the first and last runs are censored and
     left out, as are runs touching invalid samples)."""
     starts, lengths, vals = run_lengths(np.asarray(state, bool))
-    on, off = [], []
+    on: list[float] = []
+    off: list[float] = []
     for k, (st, ln, val) in enumerate(zip(starts, lengths, vals)):
         if k == 0 or k == len(starts) - 1:
             continue
@@ -234,7 +236,9 @@ def identifiability(prob: _Problem, grids: dict[str, np.ndarray], tol: float
     -------
     (estimated, bounds, uncertainty) : dicts keyed by parameter name.
     """
-    estimated, bounds, unc = {}, {}, {}
+    estimated: dict[str, float] = {}
+    bounds: dict[str, dict[str, Any]] = {}
+    unc: dict[str, dict[str, Any]] = {}
     for key in ESTIMATED:
         values = grids[key]
         x = float(prob.vec[IDX[key]])

@@ -179,7 +179,7 @@ def validate_cmd(
                f"; r = {'-' if r is None else f'{r:.3f}'}")
     typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
                "(J1711 balances the whole test, not each bag)")
-    if written:
+    if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import typer
 
@@ -103,7 +103,7 @@ def import_cmd(
 def _channel_stats(name: str, unit: str | None, t: np.ndarray | None, v: np.ndarray) -> dict:
     import numpy as np
 
-    out = {"name": name, "unit": unit, "samples": int(v.size), "nan": int(np.isnan(v).sum()),
+    out: dict[str, Any] = {"name": name, "unit": unit, "samples": int(v.size), "nan": int(np.isnan(v).sum()),
            "rate_hz": None, "duration_s": None, "t0_s": None}
     if t is not None and t.size >= 2:
         dt = np.diff(t[np.isfinite(t)])

@@ -110,7 +110,7 @@ def simulate_cmd(
         typer.echo(f"  trace max miss      {s['trace_max_miss_mps']:8.3f} m/s "
                    "(outside ±2 mph / ±1 s)")
         typer.echo(f"  energy balance      {s['energy_balance_rel']:8.1e} (relative residual)")
-        if written:
+        if written and outdir is not None:
             typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
         return
     typer.echo(f"  SOC-corrected       {s['fuel_economy_soc_corrected_mpg']:8.1f} mpg")
@@ -126,7 +126,7 @@ def simulate_cmd(
         typer.echo("energy audit:")
         for line in audit_lines(aud):
             typer.echo(f"  {line}")
-    if written:
+    if written and outdir is not None:
         typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
 
 

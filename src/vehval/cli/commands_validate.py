@@ -198,7 +198,8 @@ def _calibrate_conventional(veh, files, test_group, holdout, template, params, o
     doc = res.to_dict()
     with atomic_dir(output) as stage:
         (stage / "calibration.json").write_text(dumps(doc) + "\n", encoding="utf-8")
-        write_vehicle(res.vehicle, stage / "vehicle_calibrated.yaml")
+        if res.vehicle is not None:  # always set by calibrate_conventional
+            write_vehicle(res.vehicle, stage / "vehicle_calibrated.yaml")
     if as_json:
         typer.echo(dumps(doc), nl=False)
         return

@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -276,7 +277,7 @@ def find_list_files(paths: list[str | Path]) -> list[Path]:
     return files
 
 
-def read_lists(paths: list[str | Path]) -> list[EpaTest]:
+def read_lists(paths: Sequence[str | Path]) -> list[EpaTest]:
     """Read every list file in ``paths`` (files or directories) into one list of tests.
 
     A test that appears in several years' lists (same test number, or the same vehicle,

@@ -348,7 +348,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
         sides, used, ok = [], {}, True
         for text in (chk.lhs, chk.rhs):
             ex = parse_expression(text, f"{calc.name}: check {chk.name}")
-            var: dict[str, object] = {}
+            var = {}
             for nm in sorted(ex.names):
                 if nm in pvals:
                     var[nm] = pvals[nm]

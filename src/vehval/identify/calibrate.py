@@ -10,7 +10,9 @@ after. The calibrated vehicle keeps every source and says what was tuned, on whi
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import minimize
@@ -18,6 +20,9 @@ from scipy.optimize import minimize
 from vehval.errors import ConfigError
 from vehval.identify.predict import predict_trace
 from vehval.identify.traces import Trace
+
+if TYPE_CHECKING:
+    from vehval.vehicle import ConventionalVehicle
 
 DEFAULT_PARAMS = ("engine_control.accessory_power_w", "gearbox.efficiency")
 
@@ -43,7 +48,7 @@ class ConventionalCalibration:
     objective_best: float
     n_simulations: int
     elapsed_s: float
-    vehicle: object = None
+    vehicle: ConventionalVehicle | None = None
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
@@ -60,7 +65,7 @@ def _fuel_errors(veh, traces: list[Trace]) -> list[dict]:
 
 
 def calibrate_conventional(vehicle, tuning: list[Trace], names: list[str],
-                           holdout: list[Trace] = (), maxiter: int = 60
+                           holdout: Sequence[Trace] = (), maxiter: int = 60
                            ) -> ConventionalCalibration:
     """Tune ``names`` of ``vehicle`` on the fuel of ``tuning`` traces (see module doc)."""
     params = vehicle.parameters()

@@ -8,6 +8,7 @@ that cannot identify a conventional car (a hybrid, no engine speed, no fuel rate
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -127,7 +128,7 @@ def _start_value(sig, t0: float, span_s: float = 5.0) -> float:
     return float(np.median(vals)) if vals.size else float("nan")
 
 
-def load_traces(files: list[str | Path], template, dt: float = 0.1) -> list[Trace]:
+def load_traces(files: Sequence[str | Path], template, dt: float = 0.1) -> list[Trace]:
     """Load every file as one test with ``template`` (the workflow's
     :meth:`~vehval.workflow.TestRun.load`, its time-repair policy included) and return
     their traces. Identification reads the imported signals as they are (no QA selection):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import difflib
 import fnmatch
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -225,7 +226,7 @@ def _unique_name(base: str, source: str, raw_name: str, used: set[str]) -> str:
     raise VehvalError(f"cannot find a unique name for channel '{raw_name}'")  # pragma: no cover
 
 
-def propose_template(files: list[str | Path]) -> tuple[Template, list[str]]:
+def propose_template(files: Sequence[str | Path]) -> tuple[Template, list[str]]:
     """Propose a template for raw files.
 
     Each channel is matched to a registry base name (alias, then fuzzy tokens and unit
@@ -391,7 +392,7 @@ def _merge_files(messages: list[str], shown: int = 3) -> list[str]:
     return out
 
 
-def check_template(template: Template | str | Path, files: list[str | Path]) -> CheckReport:
+def check_template(template: Template | str | Path, files: Sequence[str | Path]) -> CheckReport:
     """Compare a template with raw files without importing them.
 
     Errors: a file no entry matches, a template channel whose unit is missing or cannot be

@@ -487,7 +487,7 @@ def _corroborate_spikes(test: Test, found: list[Finding], opts: Level1Options) -
     seen: dict[tuple[str, str], tuple[float, np.ndarray, float]] = {}
     ranges: dict[str, float] = {}
 
-    def seen_by(sig: Signal | None, other: Signal):
+    def seen_by(sig: Signal | None, other: Signal) -> tuple[float, np.ndarray, float]:
         """Partner's (sigma, Hampel residual, range) at ``sig``'s times (None: its own)."""
         key = (sig.name if sig is not None else "", other.name)
         if key not in seen:

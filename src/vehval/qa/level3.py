@@ -136,7 +136,7 @@ def slow_sample_mask(test: Test, names: set[str], grid: np.ndarray,
     periods = {n: p for n, p in periods.items() if np.isfinite(p)}
     if not periods:
         return None, None
-    slow = max(sorted(periods), key=periods.get)  # ties: the first name, not set order
+    slow = max(sorted(periods), key=lambda n: periods[n])  # ties: the first name, not set order
     if periods[slow] <= ratio * dt:
         return None, None
     t = test[slow].time

@@ -114,9 +114,9 @@ def _blame_inputs(level3: list[Finding], earlier: list[Finding], computed: dict)
                 bad.add(g.signal)
         if bad:
             demote.append((f, sorted(bad)))
-    for f, bad in demote:
+    for f, names in demote:
         f.severity = Severity.INFO
-        f.message += f" (inputs with their own findings: {', '.join(bad)})"
+        f.message += f" (inputs with their own findings: {', '.join(names)})"
 
 
 def _blame_check_inputs(check_findings: list[Finding], earlier: list[Finding]) -> None:
