@@ -23,7 +23,7 @@ def registry() -> pint.UnitRegistry:
     registry take about 0.5 s, which a conversion between identical units does not need)."""
     import pint
 
-    reg = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+    reg: pint.UnitRegistry = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
     reg.define("cc_per_second = cubic_centimeter / second = ccps")
     reg.define("percent_fraction = 0.01 = pct")
     return reg

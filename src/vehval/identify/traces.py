@@ -11,11 +11,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vehval.errors import SignalError
 from vehval.test import Test
+
+if TYPE_CHECKING:
+    from vehval.results import TestResults
 
 REQUIRED = {
     "veh_spd": "vehicle speed",
@@ -48,7 +52,7 @@ class Trace:
     amb_temp_c: float = float("nan")
     coolant_start_c: float = float("nan")  # engine coolant over the first 5 s [°C]
     file: str = ""
-    results: object = None  # vehval.results.TestResults of the test, when computed
+    results: TestResults | None = None  # the results stage of the test, when computed
 
     @property
     def dt(self) -> float:
