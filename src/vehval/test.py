@@ -8,7 +8,7 @@ for states and counters). The methods used are returned, never applied silently.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Iterable, Iterator
+from typing import Iterable, Iterator, cast
 
 import numpy as np
 import pandas as pd
@@ -257,7 +257,7 @@ class Test:
         used : dict
             The method used for each signal.
         """
-        g = self.grid(grid) if np.isscalar(grid) else np.asarray(grid, float)
+        g = self.grid(cast(float, grid)) if np.isscalar(grid) else np.asarray(grid, float)
         methods = methods or {}
         cols, used = {}, {}
         for name in (names if names is not None else self.names):

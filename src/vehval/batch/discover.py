@@ -23,6 +23,7 @@ import glob
 import hashlib
 import json
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -78,7 +79,7 @@ def _looks_like_data(p: Path) -> bool:
 
 
 def _matching_files(directory: Path, patterns: list[str | None], root: Path | None = None,
-                    exclude: list[Path] = ()) -> list[Path]:
+                    exclude: Sequence[Path] = ()) -> list[Path]:
     root = root or directory
     files = sorted(p for p in directory.iterdir()
                    if _allowed(p, root, list(exclude)) and p.is_file())
@@ -89,7 +90,7 @@ def _matching_files(directory: Path, patterns: list[str | None], root: Path | No
 
 
 def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - one branch per accepted layout of a batch directory
-                   exclude: list[str | Path] = ()) -> list[TestSpec]:
+                   exclude: Sequence[str | Path] = ()) -> list[TestSpec]:
     """Find the tests of a batch (see the module docstring for the rule).
 
     Parameters

@@ -170,8 +170,8 @@ def _num(text: str) -> float:
         return math.nan
 
 
-def _cell(row: list[str], index: dict[str, int], col: str) -> str:
-    k = index.get(col)
+def _cell(row: list[str], index: dict[str, int], col: str | None) -> str:
+    k = index.get(col) if col is not None else None
     return row[k].strip() if k is not None else ""
 
 
@@ -258,7 +258,7 @@ def read_test_car_list(path: str | Path) -> list[EpaTest]:
     return tests
 
 
-def find_list_files(paths: list[str | Path]) -> list[Path]:
+def find_list_files(paths: Sequence[str | Path]) -> list[Path]:
     """Expand files and directories (``*tstcar*.csv`` inside) into list files, sorted."""
     files: list[Path] = []
     for p in map(Path, paths):

@@ -87,7 +87,7 @@ def clean_stale_stages(target: str | os.PathLike) -> list[Path]:
     A staging directory belongs to a killed run when its process id (in its name) is no
     longer alive. Returns the directories removed."""
     target = Path(target)
-    removed = []
+    removed: list[Path] = []
     if not target.parent.is_dir():
         return removed
     prefix = f".{target.name}{_STAGE_TAG}"
