@@ -101,7 +101,8 @@ VALIDATION_ERRORS = ("fuel_error", "soc_delta_error", "soc_final_error")
 
 def _validation_summary(val: dict) -> dict:
     """Scalars of validation.json for the catalog, with ``errors`` = the relative errors."""
-    out = {k: v for k, v in val.items() if isinstance(v, (int, float, str, bool)) or v is None}
+    out: dict[str, Any] = {k: v for k, v in val.items()
+                           if isinstance(v, (int, float, str, bool)) or v is None}
     errors = val.get("errors") if isinstance(val.get("errors"), dict) else {
         k: val.get(k) for k in VALIDATION_ERRORS if k in val}
     if errors:

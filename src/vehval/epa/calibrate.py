@@ -196,15 +196,15 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         for _ in range(refine_rounds):
             for i, n in enumerate(names):
                 steps[n] /= 2.0
-                cands = []
+                cands: list[tuple[float, ...]] = []
                 for sign in (-1.0, 1.0):
                     cand = list(best)
                     cand[i] = best[i] + sign * steps[n]
                     cands.append(tuple(cand))
                 score_all(cands)
-                for cand in cands:  # minus first, then plus against the updated best
-                    if score(cand) < score(best):
-                        best = cand
+                for setting in cands:  # minus first, then plus against the updated best
+                    if score(setting) < score(best):
+                        best = setting
     finally:
         if pool is not None:
             pool.shutdown()
