@@ -164,7 +164,7 @@ class Test:
     def drop(self, name: str) -> Signal:
         return self.signals.pop(name)
 
-    def __contains__(self, name: str) -> bool:
+    def __contains__(self, name: object) -> bool:
         return name in self.signals
 
     def __getitem__(self, name: str) -> Signal:
