@@ -21,7 +21,8 @@ demo: venv
 browser:
 	@bash scripts/ensure_chromium.sh
 
-# ruff: pyflakes, statement errors and import order; mypy on the typed core (pyproject.toml)
+# ruff: pyflakes, statement errors, import order and function size/complexity; mypy over the
+# whole package (both configured in pyproject.toml)
 lint: venv
 	$(BIN)/ruff check -q .
 	$(BIN)/mypy

@@ -164,7 +164,7 @@ def _figures(html: Path) -> list[str]:
                       html.read_text(encoding="utf-8"), flags=re.S)
 
 
-def cases(root: Path):
+def cases(root: Path):  # noqa: PLR0915 - the list of cases, one statement each
     from vehval.io.template import CYCLE_NAME
 
     """Yield ``(group, name, args, classify-kwargs)`` for every case."""

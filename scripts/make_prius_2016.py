@@ -100,7 +100,7 @@ def fit_ornl_mg2(source: Path):
     return surf, note
 
 
-def _ornl_machine(surf, note: str, t_new: float, n_new: float, p_new: float,
+def _ornl_machine(surf, note: str, t_new: float, n_new: float, p_new: float,  # noqa: PLR0913 - the machine's ratings and sources, one argument each
                   src: dict, name: str, j_ref: float, signed_speed: bool,
                   fast_curve: tuple[np.ndarray, np.ndarray], p_max: float | None = None) -> dict:
     """Machine from the fitted ORNL 2004 MG2 surface, scaled (vehval.vehicle.scaling) by

@@ -196,7 +196,7 @@ def _plausible(sig: Signal) -> Signal:
             rrange = float(np.ptp(np.percentile(f, [0.5, 99.5]))) if f.size else 0.0
             out = fin & (np.abs(resid) > max(10 * sigma, 0.2 * rrange)) & (rrange > 0)
             for i in np.flatnonzero(out):
-                lo_i, hi_i = max(i - 1, 0), min(i + 1, v.size - 1)
+                lo_i, hi_i = max(int(i) - 1, 0), min(int(i) + 1, v.size - 1)
                 if abs(v[hi_i] - v[lo_i]) <= 0.5 * abs(resid[i]):   # leaves and returns
                     bad[i] = True
     if not bad.any():
@@ -350,7 +350,7 @@ def _combine(pairs: list[PairResult], tol_s: float) -> tuple[float, float, float
     return off, agreement, conf
 
 
-def align_test(test: Test, pairs: list[tuple[str, str]] | None = None, *,
+def align_test(test: Test, pairs: list[tuple[str, str]] | None = None, *,  # noqa: PLR0912 - one branch per way a source pair can fail to align, each named in the result
                reference: str | None = None, max_offset_s: float = 30.0,
                min_confidence: float = 0.3, apply: bool = True) -> list[AlignmentResult]:
     """Estimate and (optionally) remove the clock offsets between the sources of a test.

@@ -71,9 +71,9 @@ def configure() -> str:
         target.mkdir(parents=True, exist_ok=True)
         os.utime(target)
     except OSError:
-        _configured = str(config.CACHE_DIR or "")
+        _configured = str(config.CACHE_DIR or "")  # type: ignore[attr-defined]  # set at run time
         return _configured
     _prune(root, fp)
-    config.CACHE_DIR = str(target)
+    config.CACHE_DIR = str(target)  # type: ignore[attr-defined]  # numba reads it at run time
     _configured = str(target)
     return _configured

@@ -8,7 +8,7 @@ for states and counters). The methods used are returned, never applied silently.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Collection, Iterable, Iterator
+from typing import Collection, Iterable, Iterator, cast
 
 import numpy as np
 import pandas as pd
@@ -164,7 +164,7 @@ class Test:
     def drop(self, name: str) -> Signal:
         return self.signals.pop(name)
 
-    def __contains__(self, name: str) -> bool:
+    def __contains__(self, name: object) -> bool:
         return name in self.signals
 
     def __getitem__(self, name: str) -> Signal:
@@ -283,7 +283,7 @@ class Test:
         used : dict
             The method used for each signal.
         """
-        g = self.grid(grid) if np.isscalar(grid) else np.asarray(grid, float)
+        g = self.grid(cast(float, grid)) if np.isscalar(grid) else np.asarray(grid, float)
         methods = methods or {}
         cols, used = {}, {}
         for name in (names if names is not None else self.names):

@@ -8,15 +8,40 @@ from __future__ import annotations
 import math
 import re
 from functools import lru_cache
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pint
 
 from vehval.errors import UnitError
 
-ureg = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
-ureg.define("cc_per_second = cubic_centimeter / second = ccps")
-ureg.define("percent_fraction = 0.01 = pct")
+if TYPE_CHECKING:
+    import pint
+
+
+@lru_cache(maxsize=1)
+def registry() -> pint.UnitRegistry:
+    """The package's pint registry, built on first use (importing pint and building the
+    registry take about 0.5 s, which a conversion between identical units does not need)."""
+    import pint
+
+    reg: pint.UnitRegistry = pint.UnitRegistry(autoconvert_offset_to_baseunit=True)
+    reg.define("cc_per_second = cubic_centimeter / second = ccps")
+    reg.define("percent_fraction = 0.01 = pct")
+    return reg
+
+
+def _pint_error() -> type[Exception]:
+    import pint
+
+    return pint.PintError
+
+
+def __getattr__(name: str) -> Any:
+    # ``units.ureg`` (and ``from vehval.units import ureg``): the registry, built on first use
+    if name == "ureg":
+        return registry()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 #: Spellings found in raw file headers -> pint expressions.
 _ALIASES: dict[str, str] = {
@@ -101,8 +126,22 @@ _ALIASES: dict[str, str] = {
     "deg": "degree",
 }
 
-_VOLUMETRIC = ureg.Unit("meter ** 3 / second").dimensionality
-_MASS_RATE = ureg.Unit("kilogram / second").dimensionality
+#: The pint expressions of the spellings above: known units, so a conversion between two
+#: spellings of the same one is the identity without consulting the registry.
+_KNOWN = frozenset(_ALIASES.values())
+
+
+def _expression(text: str | None) -> str:
+    raw = "" if text is None else str(text).strip()
+    return _ALIASES.get(raw.lower(), raw)
+
+
+@lru_cache(maxsize=1)
+def _rate_dimensions() -> tuple[Any, Any]:
+    """Dimensionality of a volumetric flow and of a mass flow."""
+    reg = registry()
+    return (reg.Unit("meter ** 3 / second").dimensionality,
+            reg.Unit("kilogram / second").dimensionality)
 
 
 @lru_cache(maxsize=512)
@@ -121,10 +160,9 @@ def parse_unit(text: str | None) -> pint.Unit:
         When the unit is unknown to the registry, with a hint.
     """
     raw = "" if text is None else str(text).strip()
-    key = raw.lower()
-    expr = _ALIASES.get(key, raw)
+    expr = _expression(raw)
     try:
-        return ureg.Unit(expr)
+        return registry().Unit(expr)
     except Exception as exc:  # pint raises several types (and OverflowError, RecursionError)
         raise UnitError(
             f"unknown unit '{raw}': use a pint unit expression (for example 'mph', 'rpm', "
@@ -149,7 +187,7 @@ def conversion(raw_unit: str | None, si_unit: str, *, fuel_density_kg_per_m3: fl
     """
     try:
         scale, offset = _conversion(raw_unit, si_unit, fuel_density_kg_per_m3)
-    except (OverflowError, ZeroDivisionError, pint.PintError) as exc:
+    except (OverflowError, ZeroDivisionError, _pint_error()) as exc:
         # e.g. 'Ym/ys*(Ym/ym)**20' (1e960 overflows), 'degC*(Ym/ym)**10' (an offset unit
         # times a factor is no temperature)
         why = "the factor overflows" if isinstance(exc, OverflowError) else str(exc)
@@ -164,10 +202,15 @@ def conversion(raw_unit: str | None, si_unit: str, *, fuel_density_kg_per_m3: fl
 
 def _conversion(raw_unit: str | None, si_unit: str, fuel_density_kg_per_m3: float | None,
                 ) -> tuple[float, float]:
+    expr = _expression(raw_unit)
+    if expr in _KNOWN and expr == _expression(si_unit):
+        return 1.0, 0.0
     src = parse_unit(raw_unit)
     dst = parse_unit(si_unit)
+    ureg = registry()
+    volumetric, mass_rate = _rate_dimensions()
     factor = 1.0
-    if src.dimensionality == _VOLUMETRIC and dst.dimensionality == _MASS_RATE:
+    if src.dimensionality == volumetric and dst.dimensionality == mass_rate:
         if not fuel_density_kg_per_m3:
             raise UnitError(
                 f"converting volumetric '{raw_unit}' to '{si_unit}' needs the fuel density: "

@@ -30,11 +30,18 @@ from __future__ import annotations
 import fnmatch
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 from vehval.errors import ConfigError, InputFileError
 from vehval.protocols import TemplateLike, VehicleLike
 from vehval.test import Test
+
+if TYPE_CHECKING:  # the stages' result types (the stages are imported when they run)
+    from vehval.analysis.summary import AnalysisResult
+    from vehval.qa.pipeline import QAResult
+    from vehval.results.compute import TestResults
+    from vehval.validate.ladder import LadderResult
+    from vehval.validate.validation import Validation
 
 #: One policy for time stamps that go backwards or repeat: sort/drop them with a note.
 REPAIR_TIME = True
@@ -48,7 +55,7 @@ NOT_DATA = {"clean.parquet", "validated.parquet", "template.yaml", "truth.json",
 class QAOutcome:
     """The ``qa`` step: the QA result and its ``findings.json`` document."""
 
-    result: Any  # vehval.qa.pipeline.QAResult
+    result: QAResult
     document: dict
 
     @property
@@ -61,7 +68,7 @@ class QAOutcome:
 class ResultsOutcome:
     """The ``results`` step: per-phase, whole-test and regulatory results with uncertainty."""
 
-    results: Any  # vehval.results.TestResults
+    results: TestResults
 
     @property
     def document(self) -> dict:
@@ -73,7 +80,7 @@ class ResultsOutcome:
 class AnalysisOutcome:
     """The ``analyze`` step: the control-strategy analysis and notes on its inputs."""
 
-    result: Any  # vehval.analysis.summary.AnalysisResult
+    result: AnalysisResult
     notes: list[str] = field(default_factory=list)
 
     @property
@@ -86,7 +93,7 @@ class AnalysisOutcome:
 class ValidationOutcome:
     """The ``validate`` step: simulation on the test's conditions compared with the test."""
 
-    validation: Any  # vehval.validate.validation.Validation
+    validation: Validation
 
     @property
     def document(self) -> dict:
@@ -438,7 +445,7 @@ class SuiteOutcome:
 
     runs: list[TestRun]
     validations: list[ValidationOutcome]
-    ladder: Any
+    ladder: LadderResult
     payload: dict
     metrics: dict
 

@@ -19,7 +19,7 @@ FULL_HEADER = [
 GAS = ("61", "Tier 2 Cert Gasoline")
 
 
-def row(model="PRIUS", make="TOYOTA", vid="16-ZV1H", cfg="2", number="T1", orig="EPA",
+def row(model="PRIUS", make="TOYOTA", vid="16-ZV1H", cfg="2", number="T1", orig="EPA",  # noqa: PLR0913 - one keyword per column of an EPA list row
         code=3, desc="HWFE", fuel=GAS, fe=71.2, bags=("", "", "", ""), weight=3375,
         target=(18.272, 0.29545, 0.013793), year=2016) -> dict:
     vals = [str(year), "Toyota", make, model, vid, cfg, "1.798", "96", str(weight), "2.83",

@@ -311,7 +311,7 @@ def transition_windows(on: np.ndarray, eng_spd: np.ndarray | None, dt: float, *,
     return out
 
 
-def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.ndarray,
+def rule_demand(t: np.ndarray, v: np.ndarray, a: np.ndarray, p_delivered: np.ndarray,  # noqa: PLR0913 - seven aligned signals of the test plus the rule's tuning options
                 eng_on: np.ndarray, ess_pwr: np.ndarray, consts: dict[str, float], *,
                 eng_spd: np.ndarray | None = None, pdis_lim: np.ndarray | None = None,
                 pre_s: float = 0.0, post_s: float = 1.0, limit_tol_w: float = 400.0,

@@ -58,7 +58,7 @@ def operating_points(eng_spd: np.ndarray, eng_trq: np.ndarray, eng_on: np.ndarra
     pe[ok] = p
     dpdt = np.abs(np.gradient(np.nan_to_num(pe), dt))[ok]
     cause = np.full(w.size, "other", dtype=object)
-    if ess_pwr is not None and pdis_lim is not None:
+    if ess_pwr is not None and pdis_lim is not None and pchg_lim is not None:
         pb = ess_pwr[ok]
         at_lim = (np.isfinite(pb) & ((pb > 0.95 * pdis_lim[ok]) | (pb < -0.95 * pchg_lim[ok])))
         cause[at_lim] = "battery_limit"

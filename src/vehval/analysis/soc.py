@@ -9,6 +9,8 @@ controller's gain by the engine-to-battery path efficiency, which the report sta
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from scipy.optimize import least_squares
 
@@ -62,7 +64,7 @@ def fit_soc_regulation(soc: np.ndarray, ess_pwr: np.ndarray, eng_on: np.ndarray,
     idx = np.clip(np.digitize(x, edges) - 1, 0, 9)
     bins = [{"soc": float(0.5 * (edges[i] + edges[i + 1])), "ess_pwr_median_w": float(np.median(y[idx == i])),
              "n": int(np.sum(idx == i))} for i in range(10) if np.any(idx == i)]
-    out = {"fitted": True, "slope_w": slope, "intercept_w": intercept, "r2": r2, "n": int(ok.sum()),
+    out: dict[str, Any] = {"fitted": True, "slope_w": slope, "intercept_w": intercept, "r2": r2, "n": int(ok.sum()),
            "bins": bins, **win}
     if slope > 0:
         out["soc_gain_w"] = slope

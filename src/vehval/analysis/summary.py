@@ -143,7 +143,7 @@ def _battery_limits(soc: np.ndarray, vehicle: Any) -> tuple:
     return pd - vehicle.controller.battery_discharge_margin_w, pd, pc
 
 
-def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,
+def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  # noqa: PLR0915 - the analysis steps in order, each one a few lines
             dt: float | None = None) -> AnalysisResult:
     """Control-strategy analysis of a test.
 

@@ -24,6 +24,7 @@ a stop, a minimum time no run was held by): it goes to ``bounds``, never to ``es
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -74,7 +75,8 @@ def run_durations(state: np.ndarray, dt: float, valid: np.ndarray | None = None)
     """Durations [s] of complete on and off runs (the first and last runs are censored and
     left out, as are runs touching invalid samples)."""
     starts, lengths, vals = run_lengths(np.asarray(state, bool))
-    on, off = [], []
+    on: list[float] = []
+    off: list[float] = []
     for k, (st, ln, val) in enumerate(zip(starts, lengths, vals)):
         if k == 0 or k == len(starts) - 1:
             continue
@@ -234,7 +236,9 @@ def identifiability(prob: _Problem, grids: dict[str, np.ndarray], tol: float
     -------
     (estimated, bounds, uncertainty) : dicts keyed by parameter name.
     """
-    estimated, bounds, unc = {}, {}, {}
+    estimated: dict[str, float] = {}
+    bounds: dict[str, dict[str, Any]] = {}
+    unc: dict[str, dict[str, Any]] = {}
     for key in ESTIMATED:
         values = grids[key]
         x = float(prob.vec[IDX[key]])
@@ -307,7 +311,7 @@ def lag_grids(dt: float, lag_range_s: tuple[float, float] = (-0.3, 1.0),
     return out[0], out[1]
 
 
-def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray,
+def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray,  # noqa: PLR0913 - six aligned signals plus the fit's search options
              soc: np.ndarray, dt: float, base: dict, *, aux_w: float = 0.0,
              pdis_av: np.ndarray | None = None, tol: float = 0.002, rounds: int = 3,
              lag_range_s: tuple[float, float] = (-0.3, 1.0),

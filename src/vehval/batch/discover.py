@@ -25,9 +25,10 @@ import glob
 import hashlib
 import json
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 from vehval.errors import InputFileError
 from vehval.io.paths import inside, non_data_kind, sanitize_id
@@ -129,7 +130,8 @@ def _test_folder(p: Path, patterns: list[str | None], root: Path, excl: list[Pat
         return None
 
 
-def discover_tests(target: str | Path, template: Any, exclude: Sequence[str | Path] = (),
+def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - one branch per accepted layout of a batch directory
+                   exclude: Sequence[str | Path] = (),
                    skipped: Skipped | None = None) -> list[TestSpec]:
     """Find the tests of a batch (see the module docstring for the rule).
 

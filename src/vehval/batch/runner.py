@@ -225,7 +225,7 @@ def local_cluster(workers: int, *, dashboard: bool = False):
     security = Security.temporary()
     # the scheduler always runs a small HTTP server: bind it to loopback on a free port and,
     # without --dashboard, give it no route at all (no /info, /health, /metrics)
-    routes: dict[str, Any] = {} if dashboard else {"distributed.scheduler.http.routes": []}
+    routes: dict[str, list[str]] = {} if dashboard else {"distributed.scheduler.http.routes": []}
     with warnings.catch_warnings(), dask.config.set(routes):
         warnings.filterwarnings("ignore", message="Port 8787 is already in use")
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,

@@ -44,7 +44,7 @@ class PointSearch:
     n_evaluations: int = 0
 
 
-def de_polish(f_batch: Callable[[np.ndarray], np.ndarray], f_point: Callable[[np.ndarray], float],
+def de_polish(f_batch: Callable[[np.ndarray], np.ndarray], f_point: Callable[[np.ndarray], float],  # noqa: PLR0913 - the search options of `vehval calibrate`, passed through
               best: Callable[[], tuple[float, np.ndarray]], lo: np.ndarray, hi: np.ndarray,
               x0: np.ndarray, *, popsize: int, maxiter: int, seed: int, polish: bool = True,
               polish_evals: int | None = None, label: str = "",

@@ -13,7 +13,7 @@ import typer
 try:  # typer >= 0.20 vendors click
     from typer._click import exceptions as _cx
 except ImportError:  # pragma: no cover
-    from click import exceptions as _cx
+    from click import exceptions as _cx  # type: ignore[no-redef]  # the same module, from click
 
 from vehval.cli.app import app  # noqa: E402 - the application the commands register on
 from vehval.errors import VehvalError

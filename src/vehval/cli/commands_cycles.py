@@ -7,7 +7,6 @@ import json
 import typer
 
 from vehval.cli.app import app
-from vehval.cycles import list_cycles, load_cycle
 
 cycles_app = typer.Typer(help="Drive cycles: regulatory speed traces and steady runs.",
                          no_args_is_help=True)
@@ -17,6 +16,8 @@ app.add_typer(cycles_app, name="cycles")
 @cycles_app.command("list")
 def list_cmd(as_json: bool = typer.Option(False, "--json", help="Print JSON.")) -> None:
     """List the package drive cycles: regulation, duration, distance, max and mean speed."""
+    from vehval.cycles import list_cycles, load_cycle
+
     rows = [load_cycle(n).summary() for n in list_cycles()]
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
@@ -35,6 +36,8 @@ def show_cmd(name: str = typer.Argument(..., help="Cycle name, alias, 'steady:60
                                                   "or CSV path."),
              as_json: bool = typer.Option(False, "--json", help="Print JSON.")) -> None:
     """Show one cycle's figures, regulation and source."""
+    from vehval.cycles import load_cycle
+
     info = load_cycle(name).summary()
     if as_json:
         typer.echo(json.dumps(info, indent=1))

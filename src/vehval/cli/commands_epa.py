@@ -8,7 +8,6 @@ from pathlib import Path
 
 import typer
 
-from vehval import jsonsafe
 from vehval.cli.app import app
 
 epa_app = typer.Typer(help="EPA Test Car List: certification dyno results per test.",
@@ -47,6 +46,7 @@ def list_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
 ) -> None:
     """Vehicles (make, model, year) in the list with their test vehicles and test counts."""
+    from vehval import jsonsafe
     from vehval.epa import vehicles
 
     rows = vehicles(_load(paths, make, model, year))
@@ -74,6 +74,7 @@ def tests_cmd(
                                  "EpaTest fields)."),
 ) -> None:
     """Tests of a vehicle: weight, N/V, axle ratio, road load (SI), cycle, originator, results."""
+    from vehval import jsonsafe
     from vehval.epa import procedure_key
     from vehval.epa.consistency import check_listed_figures
 
@@ -131,6 +132,7 @@ def validate_cmd(
                                             "and epa_validation.csv."),
 ) -> None:
     """Simulate each selected EPA test with its own weight and road load; compare per bag."""
+    from vehval import jsonsafe
     from vehval.epa.validation import validate_tests
     from vehval.report.epa import share_text
 
@@ -177,7 +179,7 @@ def validate_cmd(
                f"; r = {'-' if r is None else f'{r:.3f}'}")
     typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
                "(J1711 balances the whole test, not each bag)")
-    if written:
+    if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
 
 
@@ -233,6 +235,7 @@ def calibrate_cmd(
                                        "vehicle YAML here (values carry their provenance)."),
 ) -> None:
     """Choose unpublished parameters (controller thresholds, gains) on a set of EPA tests."""
+    from vehval import jsonsafe
     from vehval.epa.calibrate import calibrate_on_tests
     from vehval.epa.consistency import check_vehicle_match
     from vehval.vehicle import load_vehicle

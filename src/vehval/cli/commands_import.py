@@ -4,16 +4,23 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import typer
 
 from vehval.cli.app import app
-from vehval.nomenclature import registry
+from vehval.errors import InputFileError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 @app.command("signals")
 def signals_cmd(as_json: bool = typer.Option(False, "--json", help="Print JSON.")) -> None:
     """List the standard base names with unit, category and plausible range."""
+    from vehval.nomenclature import registry
+
     reg = registry()
     if as_json:
         typer.echo(json.dumps({b: {"unit": s.unit, "category": s.category, "range": s.range,
@@ -24,13 +31,6 @@ def signals_cmd(as_json: bool = typer.Option(False, "--json", help="Print JSON."
 
 
 # --------------------------------------------------------------------------- import commands
-# (appended by the foundation I/O work: template init/check, import, info)
-
-from pathlib import Path  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-from vehval.errors import InputFileError  # noqa: E402
 
 template_app = typer.Typer(help="Create and check import templates.", no_args_is_help=True)
 app.add_typer(template_app, name="template")
@@ -101,7 +101,9 @@ def import_cmd(
 
 
 def _channel_stats(name: str, unit: str | None, t: np.ndarray | None, v: np.ndarray) -> dict:
-    out = {"name": name, "unit": unit, "samples": int(v.size), "nan": int(np.isnan(v).sum()),
+    import numpy as np
+
+    out: dict[str, Any] = {"name": name, "unit": unit, "samples": int(v.size), "nan": int(np.isnan(v).sum()),
            "rate_hz": None, "duration_s": None, "t0_s": None}
     if t is not None and t.size >= 2:
         dt = np.diff(t[np.isfinite(t)])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -39,12 +40,13 @@ def collect_inputs(paths: list[Path]) -> dict[str, Path]:
         if name.endswith(".parquet"):
             found["test"] = p
         elif name.endswith(".json"):
-            kind = next((k for k in ("findings", "control", "validation", "results") if k in name), None)
-            if kind is None:
+            json_kind = next((k for k in ("findings", "control", "validation", "results")
+                              if k in name), None)
+            if json_kind is None:
                 raise InputFileError(f"{p}: unknown JSON input: name it *findings*.json, *results*.json, "
                                      "*control*.json or *validation*.json, or use --control / "
                                      "--validation")
-            found[kind] = p
+            found[json_kind] = p
         else:
             raise InputFileError(f"{p}: not a report input: expected a directory, a .parquet "
                                  "test or a .json result")
@@ -90,7 +92,7 @@ def report_cmd(
         if path is not None:
             found[kind] = path
     test = read_test(found["test"])
-    raw_test = read_test(_existing(raw, "imported test")) if raw is not None else None
+    raw_test = read_test(raw) if _existing(raw, "imported test") is not None else None
     qa = load_json(found["findings"]) if "findings" in found else None
     ctl = load_json(found["control"]) if "control" in found else None
     val = load_json(found["validation"]) if "validation" in found else None
@@ -98,7 +100,7 @@ def report_cmd(
     if output is None:
         base = inputs[0] if inputs[0].is_dir() else found["test"].parent
         output = base / "report.html"
-    kw = {"vehicle": vehicle, "control": ctl, "validation": val, "title": title, "raw": raw_test,
+    kw: dict[str, Any] = {"vehicle": vehicle, "control": ctl, "validation": val, "title": title, "raw": raw_test,
           "results": res}
     if excel:
         paths = build_reports(output.parent, test, qa, html_name=output.name, **kw)

@@ -26,7 +26,8 @@ def hot_start_bag1(files: list[Path], template) -> dict[str, float]:
         raise VehvalError(f"--hot-start {files[0]}: not a UDDS test with a bag 1 (cycle "
                           f"{hot.cycle or 'not identified'}): give a hot-start UDDS test")
     vals = hot.values[bag1.name]
-    return {k: vals[k] for k in ("fuel_mass_kg", "distance_m", "co2_kg") if vals.get(k) is not None}
+    return {k: v for k in ("fuel_mass_kg", "distance_m", "co2_kg")
+            if (v := vals.get(k)) is not None}
 
 
 def echo_results(res) -> None:

@@ -8,7 +8,7 @@ from typing import Optional
 
 import typer
 
-from vehval.cli import app
+from vehval.cli.app import app
 
 
 @app.command("sensitivity")

@@ -10,7 +10,6 @@ from typing import Optional
 import typer
 
 from vehval.cli.app import app
-from vehval.jsonsafe import clean
 
 vehicle_app = typer.Typer(help="Vehicle parameter files.", no_args_is_help=True)
 app.add_typer(vehicle_app, name="vehicle")
@@ -22,6 +21,7 @@ SUMMARY_KEYS = ("fuel_mass_kg", "distance_m", "fuel_economy_mpg", "fuel_consumpt
 
 def _write_outputs(result, outdir: Path, audit: dict | None = None) -> list[str]:
     from vehval.io.atomic import atomic_dir
+    from vehval.jsonsafe import clean
 
     written = []
     with atomic_dir(outdir) as stage:
@@ -69,6 +69,7 @@ def simulate_cmd(
     from vehval.cli.options import parse_assignments
     from vehval.errors import ConfigError
     from vehval.io.paths import check_outputs, vehicle_path
+    from vehval.jsonsafe import clean
     from vehval.sim.simulate import simulate
 
     if outdir is not None:
@@ -109,7 +110,7 @@ def simulate_cmd(
         typer.echo(f"  trace max miss      {s['trace_max_miss_mps']:8.3f} m/s "
                    "(outside ±2 mph / ±1 s)")
         typer.echo(f"  energy balance      {s['energy_balance_rel']:8.1e} (relative residual)")
-        if written:
+        if written and outdir is not None:
             typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
         return
     typer.echo(f"  SOC-corrected       {s['fuel_economy_soc_corrected_mpg']:8.1f} mpg")
@@ -125,7 +126,7 @@ def simulate_cmd(
         typer.echo("energy audit:")
         for line in audit_lines(aud):
             typer.echo(f"  {line}")
-    if written:
+    if written and outdir is not None:
         typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
 
 

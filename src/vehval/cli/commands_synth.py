@@ -8,11 +8,12 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import parse_assignments
 from vehval.errors import ConfigError, VehvalError
 
 
 def _pairs(items: list[str], option: str) -> dict:
+    from vehval.cli.options import parse_assignments
+
     return parse_assignments(items, option, "soc_target=0.6")
 
 

@@ -41,15 +41,15 @@ def render(columns: Sequence[str], rows: Sequence[Sequence[str]], *, width: int 
            gap: int = 2) -> str:
     """The table as text no wider than ``width`` (default: the terminal's)."""
     width = width or terminal_width()
-    rows = [[str(c) for c in r] for r in rows]
+    cells = [[str(c) for c in r] for r in rows]
     cols = list(columns)
-    groups: list[tuple[str, list[list[str]]]] = [("", rows)]
-    natural = sum(max([len(c)] + [len(r[i]) for r in rows]) for i, c in enumerate(cols))
+    groups: list[tuple[str, list[list[str]]]] = [("", cells)]
+    natural = sum(max([len(c)] + [len(r[i]) for r in cells]) for i, c in enumerate(cols))
     if group_by and natural + gap * (len(cols) - 1) > width:
         gi = [cols.index(g) for g in group_by]
         keep = [i for i in range(len(cols)) if i not in gi]
         grouped: dict[str, list[list[str]]] = {}
-        for r in rows:
+        for r in cells:
             grouped.setdefault(" / ".join(r[i] for i in gi), []).append([r[i] for i in keep])
         groups = list(grouped.items())
         cols = [cols[i] for i in keep]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -168,8 +169,8 @@ def _num(text: str) -> float:
         return math.nan
 
 
-def _cell(row: list[str], index: dict[str, int], col: str) -> str:
-    k = index.get(col)
+def _cell(row: list[str], index: dict[str, int], col: str | None) -> str:
+    k = index.get(col) if col is not None else None
     return row[k].strip() if k is not None else ""
 
 
@@ -295,7 +296,7 @@ def _read(path: Path, rows) -> list[EpaTest]:
     return tests
 
 
-def find_list_files(paths: list[str | Path]) -> list[Path]:
+def find_list_files(paths: Sequence[str | Path]) -> list[Path]:
     """Expand files and directories (``*tstcar*.csv`` inside) into list files, sorted."""
     files: list[Path] = []
     for p in map(Path, paths):
@@ -314,7 +315,7 @@ def find_list_files(paths: list[str | Path]) -> list[Path]:
     return files
 
 
-def read_lists(paths: list[str | Path]) -> list[EpaTest]:
+def read_lists(paths: Sequence[str | Path]) -> list[EpaTest]:
     """Read every list file in ``paths`` (files or directories) into one list of tests.
 
     A test that appears in several years' lists (same test number, or the same vehicle,

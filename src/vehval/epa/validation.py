@@ -45,7 +45,7 @@ from vehval.sim.kernel import run
 from vehval.sim.layout import SUMMARY, S
 from vehval.sim.packing import pack
 from vehval.sim.simulate import time_grid
-from vehval.vehicle import Vehicle, load_vehicle
+from vehval.vehicle import ConventionalVehicle, Vehicle, load_vehicle
 
 #: |SOC_end - SOC_start| accepted as charge balanced [-]
 BALANCE_TOL = 0.002
@@ -304,6 +304,7 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
         from vehval.sim.conventional import run_conventional_once, summarise_conventional
         from vehval.sim.conventional_kernel import CONV_SIGNALS
 
+        assert isinstance(veh, ConventionalVehicle)  # its architecture says so
         runs = [run_conventional_once(veh, g.t, g.vt, dt, cold_start=g.cold) for g in grids]
         col = {n: i for i, n in enumerate(CONV_SIGNALS)}
         soc0 = math.nan
@@ -323,6 +324,7 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
     # whole-test figures from the run summaries (fuel, battery energy, closure)
     ys = np.sum([r[1] for r in runs], axis=0)
     if conventional:
+        assert isinstance(veh, ConventionalVehicle)  # its architecture says so
         summ = summarise_conventional(veh, ys)
         summ.update(soc_delta=0.0, engine_on_fraction=1.0,
                     fuel_economy_soc_corrected_mpg=summ["fuel_economy_mpg"])
@@ -383,7 +385,7 @@ def _pair(pred: TestPrediction, t: EpaTest, first: int, second: int) -> tuple[fl
 def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Comparison]:
     """Figures of one test; cold-start figures are judged only with a cold-start model."""
     t = pred.test
-    base = {"test": t.label, "vehicle_id": t.vehicle_id,
+    base: dict[str, Any] = {"test": t.label, "vehicle_id": t.vehicle_id,
             "originator": t.originator or "?", "procedure": proc.key}
     rows = []
     cold_in_overall = any(b.cold_start for b in proc.bags)

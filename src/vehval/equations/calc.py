@@ -220,7 +220,7 @@ def choose_calc_set(test: Test, vehicle: Any = None) -> str:
     return "conventional"
 
 
-def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,
+def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,  # noqa: C901, PLR0912, PLR0915 - one block per family of powertrain equations
             constants: dict[str, float] | None = None, *, dt: float | None = None,
             exclude: set[str] | frozenset[str] = frozenset(), add: bool = True) -> CalcResult:
     """Compute every ``*_calc`` signal the test's inputs allow.
@@ -349,7 +349,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
         sides, used, ok = [], {}, True
         for text in (chk.lhs, chk.rhs):
             ex = parse_expression(text, f"{calc.name}: check {chk.name}")
-            var: dict[str, object] = {}
+            var = {}
             for nm in sorted(ex.names):
                 if nm in pvals:
                     var[nm] = pvals[nm]

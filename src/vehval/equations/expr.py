@@ -116,7 +116,7 @@ class Expression:
         self.tree = tree.body
         self.names = frozenset(names)
 
-    def _check(self, node: ast.AST, where: str, names: set[str], depth: int = 0) -> None:
+    def _check(self, node: ast.AST, where: str, names: set[str], depth: int = 0) -> None:  # noqa: C901, PLR0912 - one branch per allowed node type of a relation
         if depth > MAX_DEPTH:
             raise ConfigError(f"{where}: '{self.text[:80]}' is nested too deep (more than "
                               f"{MAX_DEPTH} levels): split it into several relations")

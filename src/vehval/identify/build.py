@@ -81,7 +81,7 @@ class Assumptions:
 class Identification:
     """Result of :func:`identify_conventional`."""
 
-    vehicle: ConventionalVehicle
+    vehicle: ConventionalVehicle = field(init=False)  # built from the fits' summary
     road_load: RoadLoadFit
     gears: GearFit
     fuel_map: FuelMapFit
@@ -271,7 +271,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                 "tolerance_time_s": "EPA 40 CFR 86.115-78: within ±1 s",
             }},
     }
-    result = Identification(vehicle=None, road_load=rl, gears=gf, fuel_map=fm, traces=traces,
+    result = Identification(road_load=rl, gears=gf, fuel_map=fm, traces=traces,
                             gear_ratio_check=check, shifts=events, drag=drag)
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)

@@ -12,8 +12,10 @@ from __future__ import annotations
 
 import datetime as _dt
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -28,6 +30,9 @@ from vehval.calibration.provenance import bounds_text
 from vehval.errors import ConfigError
 from vehval.identify.predict import predict_trace
 from vehval.identify.traces import Trace
+
+if TYPE_CHECKING:
+    from vehval.vehicle import ConventionalVehicle
 
 DEFAULT_PARAMS = ("engine_control.accessory_power_w", "gearbox.efficiency")
 
@@ -53,7 +58,7 @@ class ConventionalCalibration:
     objective_best: float
     n_simulations: int
     elapsed_s: float
-    vehicle: object = None
+    vehicle: ConventionalVehicle | None = None
     notes: list[str] = field(default_factory=list)
     date: str = field(default_factory=lambda: _dt.date.today().isoformat())
 
@@ -75,7 +80,7 @@ def _fuel_errors(veh, traces: list[Trace]) -> list[dict]:
 
 
 def calibrate_conventional(vehicle, tuning: list[Trace], names: list[str],
-                           holdout: list[Trace] = (), maxiter: int = 60
+                           holdout: Sequence[Trace] = (), maxiter: int = 60
                            ) -> ConventionalCalibration:
     """Tune ``names`` of ``vehicle`` on the fuel of ``tuning`` traces (see module doc)."""
     params = vehicle.parameters()

@@ -216,7 +216,7 @@ def shift_events(tr: Trace, gear: np.ndarray, p_max_w: float, lag_s: float,
             if not (np.any(locked[before] & (gear[before] == gear[i]))
                     and np.any(locked[after] & (gear[after] == gear[i + 1]))):
                 continue
-        k = max(i - round(0.5 / tr.dt), 0)   # load just before the shift
+        k = max(int(i) - round(0.5 / tr.dt), 0)   # load just before the shift
         ev.append((int(gear[i]), int(gear[i + 1]), float(tr.v[i]), float(load[k])))
     return ev
 

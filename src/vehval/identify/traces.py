@@ -8,13 +8,18 @@ that cannot identify a conventional car (a hybrid, no engine speed, no fuel rate
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vehval.errors import SignalError
 from vehval.test import Test
+
+if TYPE_CHECKING:
+    from vehval.results import TestResults
 
 REQUIRED = {
     "veh_spd": "vehicle speed",
@@ -47,7 +52,7 @@ class Trace:
     amb_temp_c: float = float("nan")
     coolant_start_c: float = float("nan")  # engine coolant over the first 5 s [°C]
     file: str = ""
-    results: object = None  # vehval.results.TestResults of the test, when computed
+    results: TestResults | None = None  # the results stage of the test, when computed
 
     @property
     def dt(self) -> float:
@@ -121,7 +126,7 @@ def _start_value(sig, t0: float, span_s: float = 5.0) -> float:
     return float(np.median(vals)) if vals.size else float("nan")
 
 
-def load_traces(files: list[str | Path], template, dt: float = 0.1) -> list[Trace]:
+def load_traces(files: Sequence[str | Path], template, dt: float = 0.1) -> list[Trace]:
     """Load every file as one test with ``template`` (the workflow's
     :meth:`~vehval.workflow.TestRun.load`, its time-repair policy included) and return
     their traces. Identification reads the imported signals as they are (no QA run): the

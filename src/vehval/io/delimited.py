@@ -133,7 +133,7 @@ def sniff_delimiter(lines: list[str]) -> str:
         if not data or all(ln.count(d) == n for ln in data[:-1] or data):
             return d
     counts = {d: header.count(d) for d in _DELIMS}
-    best = max(counts, key=counts.get)
+    best = max(counts, key=lambda d: counts[d])
     return best if counts[best] else ","
 
 

@@ -228,7 +228,7 @@ def _occurrences(g: _Grid, c: np.ndarray, max_rms: float, min_cov: float,
     ok = (rms <= max_rms) & (cov >= min_cov - 1e-9)
     score = np.where(ok, rms, np.inf)
     sep = c.size - round(0.05 * c.size)
-    out = []
+    out: list[tuple[int, float, float]] = []
     while len(out) < max_count:
         k = int(np.argmin(score))
         if not np.isfinite(score[k]):
@@ -400,11 +400,11 @@ def identify_cycle(time_s: Any, speed_mps: Any, *, cycles: list[str] | None = No
         details.update(method="cycle", offset_s=_r(best.offsets_s[0], 1),
                        windows_s=[[_r(g.t0 + a, 1), _r(g.t0 + b, 1)] for a, b in best.windows])
         return best.name, _r(score, 3), details
-    name, frac, plats = _steady(g)
+    steady, frac, plats = _steady(g)
     details["plateaus"] = [[_r(a, 1), _r(b, 1), _r(v, 3)] for a, b, v in plats]
-    if name is not None:
+    if steady is not None:
         details.update(method="steady", steady_fraction=_r(frac, 3))
-        return name, _r(frac, 3), details
+        return steady, _r(frac, 3), details
     if tried and tried[0].repeats:
         b = tried[0]
         details["reason"] = (f"no cycle explains {min_explained:.0%} of the driving: best "

@@ -196,8 +196,9 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
     notes = [f"{path.name}: {n}" for n in raw.notes]
     density = t.constants.fuel_density_kg_per_m3
     if density is None and t.fuel is not None:
-        from vehval.results.fuels import fuel_properties
-        density = fuel_properties(t.fuel).density_kg_per_m3
+        from vehval.results.fuels import Fuel, fuel_properties
+        fuel: Fuel | None = fuel_properties(t.fuel)  # a Fuel: t.fuel is set
+        density = fuel.density_kg_per_m3 if fuel is not None else None
     t_shared, order, time_col = _shared_time(raw, spec, idx, path, repair, notes)
     shared_repair = [n.removeprefix("warning: ") for n in notes if TIME_REPAIRED in n]
     mapped: set[str] = set()
@@ -212,6 +213,7 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
             meta.deleted.append({"name": key, "file": path.name, "source": spec.source,
                                  "reason": ch.reason or "deleted in the template"})
             continue
+        assert ch.name is not None  # a kept channel is named (checked by ChannelSpec)
         sspec = reg.spec_of(ch.name)
         unit = ch.unit if ch.unit is not None else raw.unit_of(col)
         if unit is None and not parse_unit(sspec.unit).dimensionless:
@@ -303,7 +305,7 @@ def set_cycle(test: Test, template: Template | None = None, *, identify: bool = 
     if not sigs:
         meta.notes.append("cycle not identified: no measured vehicle speed (veh_spd_*_test)")
         return
-    first = None
+    first = ""  # set by the first signal (there is one)
     for sig in sigs:
         name, _, details = identify_cycle(sig.time, sig.values)
         if name is not None:

@@ -8,6 +8,7 @@ import io
 import logging
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -86,6 +87,7 @@ def _read_mdf(path: Path) -> RawTable:
     notes: list[str] = []
     where: dict[str, int] = {}
     size = path.stat().st_size
+    group: Any  # asammdf's Group (typed as object in its annotations)
     try:
         declared = 0.0
         for gi, group in enumerate(mdf.groups):

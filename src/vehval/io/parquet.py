@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
@@ -201,10 +202,11 @@ _META_TYPES: dict[str, tuple[type, ...]] = {
 def _checked_meta(meta_d: dict) -> dict:
     """The TestMeta fields of the file's metadata, each of the right JSON type."""
     out = {}
-    for key, value in meta_d.items():
+    for key, raw in meta_d.items():
+        value: Any = raw
         if key not in _META_TYPES:
             continue
-        if not isinstance(value, _META_TYPES[key]):
+        if not isinstance(raw, _META_TYPES[key]):
             raise TypeError(f"meta.{key} is {type(value).__name__} "
                             f"{str(value)[:40]!r}, expected {_META_TYPES[key][0].__name__}")
         if key in ("files", "notes") and not all(isinstance(v, str) for v in value):

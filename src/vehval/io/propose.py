@@ -6,14 +6,16 @@ from __future__ import annotations
 import difflib
 import fnmatch
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
+from typing import cast
 
 from vehval.errors import UnitError, VehvalError
 from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
-from vehval.io.template import ChannelSpec, FileSpec, Template, TimeSpec, as_template
+from vehval.io.template import ChannelSpec, FileFormat, FileSpec, Template, TimeSpec, as_template
 from vehval.nomenclature import registry
 from vehval.units import conversion, parse_unit
 
@@ -121,7 +123,7 @@ def match_channel(raw_name: str, raw_unit: str | None, *, cutoff: float = 0.7) -
         s = max(_score(toks, c) for c in cands)
         if s > best_score:
             best, best_score = b, s
-    if best_score >= cutoff:
+    if best is not None and best_score >= cutoff:  # a best when the score is above 0
         return _targeted(best, toks, raw_unit)
     return None
 
@@ -225,7 +227,7 @@ def _unique_name(base: str, source: str, raw_name: str, used: set[str]) -> str:
     raise VehvalError(f"cannot find a unique name for channel '{raw_name}'")  # pragma: no cover
 
 
-def propose_template(files: list[str | Path]) -> tuple[Template, list[str]]:
+def propose_template(files: Sequence[str | Path]) -> tuple[Template, list[str]]:
     """Propose a template for raw files.
 
     Each channel is matched to a registry base name (alias, then fuzzy tokens and unit
@@ -287,9 +289,9 @@ def propose_template(files: list[str | Path]) -> tuple[Template, list[str]]:
                     continue
                 if channels[first].name and first not in renamed:
                     used.discard(channels[first].name)
-                    channels[first] = channels[first].model_copy(
-                        update={"name": _instance_name(base, inst_first, src, used)})
-                    used.add(channels[first].name)
+                    renamed_to = _instance_name(base, inst_first, src, used)
+                    channels[first] = channels[first].model_copy(update={"name": renamed_to})
+                    used.add(renamed_to)
                     renamed.add(first)
                 full = _instance_name(base, inst, src, used)
             else:
@@ -318,7 +320,8 @@ def propose_template(files: list[str | Path]) -> tuple[Template, list[str]]:
                             "flow needs constants.fuel_density_kg_per_m3")
             channels[name] = ChannelSpec(name=full, unit=unit)
         entries.append(FileSpec(match=_glob_escape(path.name) if len(paths) > 1 else None,
-                                source=src, format=raw.fmt, time=time, channels=channels))
+                                source=src, format=cast(FileFormat, raw.fmt), time=time,
+                                channels=channels))  # a reader's format name (pydantic checks it)
     t = Template(description=f"proposed by `vehval template init` from {', '.join(p.name for p in paths)}",
                  files=entries)
     t._todo = todo
@@ -391,7 +394,7 @@ def _merge_files(messages: list[str], shown: int = 3) -> list[str]:
     return out
 
 
-def check_template(template: Template | str | Path, files: list[str | Path]) -> CheckReport:
+def check_template(template: Template | str | Path, files: Sequence[str | Path]) -> CheckReport:
     """Compare a template with raw files without importing them.
 
     Errors: a file no entry matches, a template channel whose unit is missing or cannot be
@@ -427,6 +430,7 @@ def check_template(template: Template | str | Path, files: list[str | Path]) -> 
             mapped.add(col)
             if ch.delete:
                 continue
+            assert ch.name is not None  # a kept channel is named (checked by ChannelSpec)
             unit = ch.unit if ch.unit is not None else raw.unit_of(col)
             si = reg.spec_of(ch.name).unit
             if unit is None and not parse_unit(si).dimensionless:

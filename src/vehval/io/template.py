@@ -10,6 +10,7 @@ from __future__ import annotations
 import difflib
 import re
 import typing
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
 
@@ -50,6 +51,9 @@ __all__ = [
 
 #: Longest free text accepted in a template (description, reasons) [characters].
 MAX_TEXT = 20_000
+
+#: A raw file format a template may name (``auto``: by extension, then content).
+FileFormat = Literal["auto", "d3", "csv", "mdf4", "parquet"]
 
 
 class _Strict(BaseModel):
@@ -164,7 +168,7 @@ class FileSpec(_Strict):
     match: str | None = None
     optional: bool = False
     source: str = Field(pattern=r"^[a-z][a-z0-9]*$")
-    format: Literal["auto", "d3", "csv", "mdf4", "parquet"] = "auto"
+    format: FileFormat = "auto"
     time: TimeSpec = Field(default_factory=TimeSpec)
     options: ReadOptions = Field(default_factory=ReadOptions)
     channels: dict[str, ChannelSpec] = Field(default_factory=dict)
@@ -400,7 +404,7 @@ def _model_at(loc: tuple) -> type[BaseModel] | None:
     return cur if isinstance(cur, type) and issubclass(cur, BaseModel) else None
 
 
-def _message(err: dict) -> str:
+def _message(err: Mapping[str, Any]) -> str:
     loc = tuple(err.get("loc", ()))
     kind = err.get("type", "")
     if kind == "extra_forbidden":
@@ -445,6 +449,7 @@ def semantic_errors(t: Template) -> list[str]:
             where = f"files[{fi}].channels.{raw}"
             if ch.delete:
                 continue
+            assert ch.name is not None  # a kept channel is named (checked by ChannelSpec)
             try:
                 spec = reg.spec_of(ch.name)
             except SignalError as exc:

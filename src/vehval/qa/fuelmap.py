@@ -70,7 +70,7 @@ def engine_map(vehicle: Any) -> dict[str, np.ndarray | float] | None:
         ``tmax`` [N·m] full-load torque per speed breakpoint, ``fire`` [rad/s] lowest
         firing speed.
     """
-    eng = getattr(vehicle, "engine", None)
+    eng: Any = getattr(vehicle, "engine", None)
     try:
         spd = np.asarray(eng.speed_rpm, float) * RPM
         trq = np.asarray(eng.torque_nm, float)

@@ -165,7 +165,7 @@ def _moves(partner: Signal, t0: float, t1: float, frac: float,
     return rng > max(frac * full, min_abs), rng / full
 
 
-def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options,
+def _stuck(test: Test, sig: Signal, base: str, opts: Level1Options,  # noqa: C901, PLR0912 - the stuck-signal exceptions (idle, saturation, held) in turn
            range_cache: dict | None = None) -> list[Finding]:
     v, t = sig.values, sig.time
     if v.size < opts.stuck_min_samples or sig.resample == "previous":
@@ -272,7 +272,7 @@ def _repaired_time_base(sig: Signal, t_start: float, t_end: float) -> list[Findi
     return out
 
 
-def check_signal(test: Test, sig: Signal, limits: dict | None = None,
+def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C901, PLR0912, PLR0915 - the level-1 checks of a signal in turn
                  opts: Level1Options | None = None, range_cache: dict | None = None,
                  test_span: tuple[float, float] | None = None) -> list[Finding]:
     """All level-1 findings of one signal.
@@ -505,7 +505,7 @@ def _corroborate_spikes(test: Test, found: list[Finding], opts: Level1Options) -
     seen: dict[tuple[str, str], tuple[float, np.ndarray, float]] = {}
     ranges: dict[str, float] = {}
 
-    def seen_by(sig: Signal | None, other: Signal):
+    def seen_by(sig: Signal | None, other: Signal) -> tuple[float, np.ndarray, float]:
         """Partner's (sigma, Hampel residual, range) at ``sig``'s times (None: its own)."""
         key = (sig.name if sig is not None else "", other.name)
         if key not in seen:

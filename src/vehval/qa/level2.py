@@ -37,7 +37,7 @@ PER_INSTANCE = frozenset({"ess_volt_module", "ess_res_module"})
 
 def is_instance_qualifier(q: str | None) -> bool:
     """``m1``, ``bt3``, ``d12``: a numbered instance (module, sensor), not a source."""
-    return bool(q) and re.fullmatch(r"[a-z]+\d+", q) is not None
+    return bool(q) and re.fullmatch(r"[a-z]+\d+", q or "") is not None
 
 
 @dataclass
@@ -142,7 +142,7 @@ def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None,
 
 def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period: float,
                   opts: Level2Options) -> list[Finding]:
-    out = []
+    out: list[Finding] = []
     rel = [other_name]
     s0, s1 = row.start_s, row.end_s
     nums = {"r2": row.r2, "slope": row.slope, "offset": row.offset,
@@ -219,7 +219,7 @@ def run_level2(test: Test, opts: Level2Options | None = None,
                 if row is not None:
                     pair_rows.append((sigs[i], sigs[j], row))
                     rows.append(row)
-        score = {s.name: [] for s in sigs}
+        score: dict[str, list[float]] = {s.name: [] for s in sigs}
         for a, b, row in pair_rows:
             agree = row.r2 if np.isfinite(row.r2) and row.gain > 0 else 0.0
             agree *= 1.0 / (1.0 + abs(np.log(abs(row.gain)))) if np.isfinite(row.gain) and row.gain > 0 else 0.0

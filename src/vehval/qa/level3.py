@@ -136,7 +136,7 @@ def slow_sample_mask(test: Test, names: set[str], grid: np.ndarray,
     periods = {n: p for n, p in periods.items() if np.isfinite(p)}
     if not periods:
         return None, None
-    slow = max(sorted(periods), key=periods.get)  # ties: the first name, not set order
+    slow = max(sorted(periods), key=lambda n: periods[n])  # ties: the first name, not set order
     if periods[slow] <= ratio * dt:
         return None, None
     t = test[slow].time
@@ -178,7 +178,7 @@ def compare_calc(test: Test, measured: str, calculated: str, inputs: dict | None
                           samples="all" if mask is None else samples)
 
 
-def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None,
+def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None,  # noqa: C901 - the level-3 comparison and its exclusions for every calculated signal
                findings_before: list[Finding] | None = None
                ) -> tuple[list[CalcComparison], list[Finding]]:
     """Table 3 and its findings for every calculated signal with a measured counterpart.

@@ -114,9 +114,9 @@ def _blame_inputs(level3: list[Finding], earlier: list[Finding], computed: dict)
                 bad.add(g.signal)
         if bad:
             demote.append((f, sorted(bad)))
-    for f, bad in demote:
+    for f, names in demote:
         f.severity = Severity.INFO
-        f.message += f" (inputs with their own findings: {', '.join(bad)})"
+        f.message += f" (inputs with their own findings: {', '.join(names)})"
 
 
 def _blame_check_inputs(check_findings: list[Finding], earlier: list[Finding]) -> None:
@@ -165,7 +165,7 @@ def _validated_test(work: Test, selection, calc, vehicle, calc_set, constants, b
     return validated
 
 
-def run_qa(test: Test, vehicle: Any = None, template: Any = None,
+def run_qa(test: Test, vehicle: Any = None, template: Any = None,  # noqa: PLR0913 - the options of every QA level, passed through
            pairs: list[tuple[str, str]] | None = None, *, max_offset_s: float = 30.0,
            align: bool = True, calc_set: str | None = None,
            level1: Level1Options | None = None, level2: Level2Options | None = None,

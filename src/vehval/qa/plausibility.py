@@ -108,7 +108,7 @@ def force_unit_check(table3: list[Any], speed_factor: float) -> list[Finding]:
             f, (declared, probably) = speed
             why = (f"the vehicle speed is probably in {probably}, declared {declared} "
                    "(the calculated force scales with the speed's unit)")
-        else:
+        elif hit is not None:  # one of the two, see above
             f, (declared, probably) = hit
             why = f"{row.measured} is probably in {probably}, declared {declared}"
         out.append(Finding(

@@ -18,9 +18,10 @@ Rules (SAE 2006-01-0667, section "signal selection"), applied in this order:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -90,13 +91,13 @@ def _calc_score(row: CalcComparison) -> float:
     return float(row.r2) - 2.0 * rel
 
 
-def _agree(row: PairComparison | None) -> bool:
+def _agree(row: PairComparison | None) -> TypeGuard[PairComparison]:
     return (row is not None and row.r2 is not None and np.isfinite(row.r2) and row.r2 >= 0.95
             and np.isfinite(row.gain) and abs(row.gain - 1) <= 0.05)
 
 
-def select_signals(test: Test, findings: list[Finding], table2: list[PairComparison] = (),
-                   table3: list[CalcComparison] = (), user_keep: list[str] = (),
+def select_signals(test: Test, findings: list[Finding], table2: Sequence[PairComparison] = (),
+                   table3: Sequence[CalcComparison] = (), user_keep: Sequence[str] = (),
                    user_drop: dict[str, str] | None = None,
                    parameters: dict[str, float] | None = None) -> Selection:
     """Decide which measured signals to keep.
@@ -174,7 +175,7 @@ def select_signals(test: Test, findings: list[Finding], table2: list[PairCompari
         if any(not _agree(rows2.get((best, n))) for n in names[1:]):
             scored = [(n, _calc_score(r3[n]) if n in r3 else None, _warnings(n, findings))
                       for n in names]
-            with_calc = [s for s in scored if s[1] is not None]
+            with_calc = [(n, c, w) for n, c, w in scored if c is not None]
             if len(with_calc) >= 2:
                 cand = max(with_calc, key=lambda s: (s[1], -preference_rank(s[0])[0]))
                 if cand[0] != best and cand[1] > (_calc_score(r3[best]) if best in r3 else -9) + 0.02:

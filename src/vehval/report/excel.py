@@ -37,7 +37,7 @@ def qa_tables(qa: Any, test: Test | None = None) -> dict[str, list[Table]]:
     """The tables of the report grouped by sheet name."""
     q = qv.as_dict(qa)
     sheets: dict[str, list[Table]] = {}
-    facts = []
+    facts: list[list[Any]] = []
     if test is not None:
         m = test.meta
         dur, dist = S.duration_and_distance(test)

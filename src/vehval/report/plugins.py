@@ -239,7 +239,7 @@ def control_section(doc: dict) -> Section:
     """The control-strategy section from ``control.json`` (or a plain payload)."""
     if not is_control_doc(doc):
         return payload_section("control", "Control strategy", doc)
-    payload = doc.get("report") if isinstance(doc.get("report"), dict) else {}
+    payload = doc["report"] if isinstance(doc.get("report"), dict) else {}
     sec = payload_section("control", "Control strategy", payload, rest=False)
     sec.intro = sec.intro or ("Control strategy estimated from the test data (vehval analyze): "
                               "engine on/off rule, operating modes, engine operating points, SOC "

@@ -131,6 +131,6 @@ def severity(row: dict) -> str:
 
 def fit_of(row: dict) -> tuple[float | None, float | None, float | None]:
     """``(slope, intercept, r2)`` stated in a Table 2/3 row (None when absent)."""
-    fit = row.get("fit") if isinstance(row.get("fit"), dict) else row
+    fit = row["fit"] if isinstance(row.get("fit"), dict) else row
     return (first_number(fit, SLOPE_KEYS), first_number(fit, INTERCEPT_KEYS),
             first_number(row, R2_KEYS) if first_number(fit, R2_KEYS) is None else first_number(fit, R2_KEYS))

@@ -214,7 +214,7 @@ def alignment_section(test: Test, qa: dict) -> Section:
             continue
         applied = bool(r.get("applied", True))
         cands = sorted(qv.as_rows(r.get("pairs")), key=lambda p: -(qv.first_number(p, ("confidence",)) or 0))
-        pair = next(((p.get("ref"), p.get("other")) for p in cands
+        pair = next(((p["ref"], p["other"]) for p in cands
                      if p.get("ref") in test and p.get("other") in test), None)
         if pair is None:
             sigs = [s for s in test if s.source == src and _parse(s.name) and _parse(s.name).origin == "test"]
@@ -237,7 +237,7 @@ def alignment_section(test: Test, qa: dict) -> Section:
         else:
             before_t, after_t = other.time, other.time + off
             after_name = f"{other.name} with the estimated {off:+.3f} s (not applied)"
-        panels = [{"ylabel": label(test, ref.name),
+        panels: list[dict[str, Any]] = [{"ylabel": label(test, ref.name),
                    "traces": [{"name": f"{ref.name} (reference)", "t": ref.time, "y": ref.values, "color": PALETTE[0]}]},
                   {"ylabel": label(test, other.name),
                    "traces": [{"name": f"{other.name} before", "t": before_t, "y": other.values,
@@ -280,14 +280,14 @@ def findings_section(test: Test, qa: dict, limits: dict | None = None) -> Sectio
         sec.notes.append("Flagged signals without data in the report (dropped by the selection; "
                          "give the imported test to plot them): " + ", ".join(missing))
     sel = qa.get("selection")
-    dropped = sel.get("dropped") if isinstance(sel, dict) and isinstance(sel.get("dropped"), dict) else {}
+    dropped = sel["dropped"] if isinstance(sel, dict) and isinstance(sel.get("dropped"), dict) else {}
     plotted = [n for n in by_signal if n in test][:MAX_FINDING_PLOTS]
     if len(by_signal) - len(missing) > len(plotted):
         sec.notes.append(f"Plots limited to the first {MAX_FINDING_PLOTS} flagged signals.")
     for name in plotted:
         fr = by_signal[name]
         spans = [sp for r in fr for sp in qv.finding_spans(r)]
-        band = next((qv.finding_range(r) for r in fr if qv.finding_range(r)), None)
+        band: tuple[float | None, ...] | None = next((qv.finding_range(r) for r in fr if qv.finding_range(r)), None)
         spec = _parse(name)
         if band is None and spec is not None:
             band = (limits or {}).get(spec.base) or registry()[spec.base].range

@@ -78,10 +78,10 @@ def simulate_batch(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path,
         keys = {key.replace("__", ".") for key in r}
         if traces or (keys & _MAP_KEYS):
             out, ys = run_once(v, t, vt, dt, socs[k], record=bool(traces))
-            results[k] = summarise(v, ys, socs[k])
+            res = results[k] = summarise(v, ys, socs[k])
             if traces:
                 from vehval.sim.layout import SIGNALS
-                results[k]["traces"] = {"time": t, **{n: out[:, SIGNALS.index(n)]
+                res["traces"] = {"time": t, **{n: out[:, SIGNALS.index(n)]
                                                       for n in traces}}
         else:
             shared.append(k)
@@ -89,13 +89,14 @@ def simulate_batch(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path,
         maps = pack(base, socs[shared[0]]).maps
         prms = np.stack([param_vector(vehs[k], socs[k]) for k in shared])
         old = numba.get_num_threads()
-        numba.set_num_threads(min(workers, numba.config.NUMBA_NUM_THREADS))
+        numba.set_num_threads(min(workers, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]  # set at run time
         try:
             ys_all = run_batch(vt, lo, hi, dt, prms, maps)
         finally:
             numba.set_num_threads(old)
         for j, k in enumerate(shared):
             results[k] = summarise(vehs[k], ys_all[j], socs[k])
-    for k, r in enumerate(rows):
-        results[k]["variant"] = r
-    return results  # type: ignore[return-value]
+    done = [res for res in results if res is not None]  # every row ran, alone or batched
+    for res, r in zip(done, rows):
+        res["variant"] = r
+    return done

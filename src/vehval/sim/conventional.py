@@ -69,7 +69,8 @@ def run_conventional_once(veh: ConventionalVehicle, t: np.ndarray, vt: np.ndarra
     lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH_M_PER_S,
                             veh.driver.tolerance_time_s)
     out = np.zeros((t.size if record else 1, len(CONV_SIGNALS)))
-    ys = run_conventional(vt, lo, hi, dt, conv_param_vector(veh, cold_start), *conv_maps(veh), out, record)
+    ys = run_conventional(vt, lo, hi, dt, conv_param_vector(veh, cold_start),  # type: ignore[call-arg]  # numba Dispatcher stub
+                          *conv_maps(veh), out, record)
     return out, ys
 
 

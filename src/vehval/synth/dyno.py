@@ -259,7 +259,7 @@ def make_virtual_test(vehicle: str | Path = "prius_2004", cycle: Any = "udds", s
                        clean_path=outdir / "clean.parquet")
 
 
-def _truth(test_id, veh, vehicle_arg, cyc, seed, faults, table, datas, written, resolved, consts,
+def _truth(test_id, veh, vehicle_arg, cyc, seed, faults, table, datas, written, resolved, consts,  # noqa: PLR0913 - every input of the virtual test, recorded in truth.json
            result, grid, clean, controller_overrides, vehicle_overrides) -> dict:
     files, channels, offsets = {}, {}, {}
     for label, d in datas.items():

@@ -14,7 +14,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
@@ -203,12 +203,12 @@ def resolve_faults(specs: list[FaultSpec], files: dict[str, FileSpec], duration_
             end = hi
         if not end > start:
             raise ConfigError(f"{where}: end ({end:g} s) must be after start ({start:g} s)")
-        params = {}
+        params: dict[str, Any] = {}
         if s.kind == "clock_offset":
             params = {"clock_offset_s": s.magnitude, "delay_s": s.delay_s}
         elif s.kind == "spikes":
             params = {"count": s.count}
-        elif s.kind == "wrong_unit":
+        elif s.kind == "wrong_unit" and channel is not None:  # a channel fault: always set
             params = {"label_unit": s.label_unit,
                       "true_unit": files[label].channels[channel].unit}
         out.append(Fault(index=i, kind=s.kind, file=label, channel=channel, signal=signal,
@@ -246,6 +246,8 @@ def apply_si_faults(values: np.ndarray, t_file: np.ndarray, faults: list[Fault],
         if idx.size == 0:
             f.details["samples_affected"] = 0
             continue
+        # every kind using it needs a magnitude (NEEDS_MAGNITUDE, checked on reading)
+        mag = float("nan") if f.magnitude is None else float(f.magnitude)
         if f.kind == "stuck":
             y[idx] = y[idx[0]]
             f.details["stuck_value_si"] = float(y[idx[0]])
@@ -254,19 +256,19 @@ def apply_si_faults(values: np.ndarray, t_file: np.ndarray, faults: list[Fault],
             n = min(int(f.params["count"]), idx.size)
             pick = np.sort(rng.choice(idx, size=n, replace=False))
             signs = rng.choice([-1.0, 1.0], size=n)
-            y[pick] += signs * float(f.magnitude)
+            y[pick] += signs * mag
             f.details["spike_times_s"] = [round(float(t_file[k]), 3) for k in pick]
             f.details["spike_signs"] = [int(s) for s in signs]
             idx = pick
         elif f.kind == "gain_error":
-            y[idx] *= 1.0 + float(f.magnitude)
+            y[idx] *= 1.0 + mag
         elif f.kind == "offset_drift":
             frac = (t_file[idx] - f.start_s) / (f.end_s - f.start_s)
-            y[idx] += float(f.magnitude) * np.clip(frac, 0.0, 1.0)
+            y[idx] += mag * np.clip(frac, 0.0, 1.0)
         elif f.kind == "sign_flip":
             y[idx] = -y[idx]
         elif f.kind == "out_of_range":
-            y[idx] = float(f.magnitude)
+            y[idx] = mag
         f.details["samples_affected"] = int(idx.size)
     return y
 

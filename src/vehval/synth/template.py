@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from vehval.io.template import Template
+from vehval.io.template import Constants, Template
 
 
 def vehicle_name(vehicle: Any, vehicle_arg: str | Path) -> str:
@@ -77,7 +77,7 @@ def template_for(table: dict, datas: dict, consts: dict[str, float], vehicle: An
         time_col = "Time" if fs.format == "d3" else "Timestamp"
         files.append({"match": f"*{suffix[label]}", "source": fs.source, "format": fs.format,
                       "time": {"column": time_col, "unit": "s"}, "channels": channels})
-    known = set(Template.model_fields["constants"].annotation.model_fields)
+    known = set(Constants.model_fields)
     data = {
         "template_version": 1,
         "vehicle": vehicle_name(vehicle, vehicle_arg),

@@ -114,7 +114,7 @@ def start_values(start: Any) -> dict[str, float]:
         start = start.to_dict()
     if not isinstance(start, dict):
         raise ConfigError("calibration start must be a dict of parameter values or an analysis result")
-    src = start.get("controller") if isinstance(start.get("controller"), dict) else start
+    src = start["controller"] if isinstance(start.get("controller"), dict) else start
     out = {}
     for k, v in src.items():
         if isinstance(v, dict) and "value" in v:  # {"value": x, ...} entries
@@ -223,7 +223,8 @@ class _Problem:
         self.weights, self.scales = weights, scales
         self.n_sim = 0
         self.n_eval = 0
-        self.best = (math.inf, None)
+        # (objective, parameter vector); the vector is None until an objective is finite
+        self.best: tuple[float, Any] = (math.inf, None)
         # the test's own mass and road load, applied once per target
         self.bases = [variant(vehicle, t.conditions.overrides) if t.conditions.overrides else vehicle
                       for t in targets]
@@ -270,7 +271,7 @@ class _Problem:
             except ConfigError:
                 pass
         js = np.full(n, PENALTY)
-        per = {k: [] for k in valid}
+        per: dict[int, list[dict[str, float]]] = {k: [] for k in valid}
         if valid:
             for base, tgt in zip(self.bases, self.targets):
                 res = simulate_batch(base, tgt.conditions.cycle, [rows[k] for k in valid], dt=self.dt,
@@ -366,13 +367,13 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
     bnds = {}
     for n in names:
         b = (bounds or {}).get(n) or (bounds or {}).get(n.split(".", 1)[1]) if bounds else None
-        lo, hi = (float(b[0]), float(b[1])) if b else default_bounds(veh0, n, x0[n], rel_bounds)
-        if not lo < hi:
-            raise ConfigError(f"calibration bounds of '{n}': lower {lo:g} must be below upper {hi:g}")
-        bnds[n] = (lo, hi)
-        if not lo <= x0[n] <= hi:
+        low, high = (float(b[0]), float(b[1])) if b else default_bounds(veh0, n, x0[n], rel_bounds)
+        if not low < high:
+            raise ConfigError(f"calibration bounds of '{n}': lower {low:g} must be below upper {high:g}")
+        bnds[n] = (low, high)
+        if not low <= x0[n] <= high:
             notes.append(f"start value of {n} ({x0[n]:.6g}) outside the bounds: clipped")
-        x0[n] = min(max(x0[n], lo), hi)
+        x0[n] = min(max(x0[n], low), high)
     ids = [t.meta.test_id or f"test{i + 1}" for i, t in enumerate(tests)]
     hold_ids = [t.meta.test_id or f"holdout{i + 1}" for i, t in enumerate(holdout_tests)]
     targets = [make_target(t, veh0, dt, signals=signals, smooth_hz=smooth_hz) for t in tests]

@@ -230,7 +230,7 @@ class Comparison:
             kp, kn = f"{p}_pos_j", f"{p}_neg_j"
             if kp not in self.totals_test or kp not in self.totals_sim:
                 continue
-            r = [p]
+            r: list[Any] = [p]
             for key in (kp, kn):
                 a, b = self.totals_test[key], self.totals_sim[key]
                 rel = M.relative_error(a, b)
@@ -352,7 +352,7 @@ def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float =
     method = engine_on_method(test, sim)
     if method is None:
         notes.append("no engine state, speed or fuel rate on both sides: engine on/off not compared")
-    kw = dict(fuel_density_kg_per_m3=fuel_density_kg_per_m3, fuel_lhv_j_per_kg=fuel_lhv_j_per_kg,
+    kw: dict[str, Any] = dict(fuel_density_kg_per_m3=fuel_density_kg_per_m3, fuel_lhv_j_per_kg=fuel_lhv_j_per_kg,
               on_method=method, on_speed_rpm=on_speed_rpm)
     tot_t = totals(test, "test", grid, **kw)
     tot_s = totals(sim, "simu", grid, **kw)
@@ -369,9 +369,10 @@ def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float =
         sig_metrics[base] = M.signal_metrics(a, b)
 
     agreement, starts, stops = float("nan"), None, None
-    if method is not None:
-        on_t = engine_on(test, "test", grid, method, on_speed_rpm)
-        on_s = engine_on(sim, "simu", grid, method, on_speed_rpm)
+    # the method is one both sides support: both are arrays when it is set
+    on_t = engine_on(test, "test", grid, method, on_speed_rpm) if method is not None else None
+    on_s = engine_on(sim, "simu", grid, method, on_speed_rpm) if method is not None else None
+    if on_t is not None and on_s is not None:
         cols["eng_on_test"], cols["eng_on_simu"] = on_t, on_s
         agreement = M.on_agreement(on_t, on_s)
         st_t, sp_t = M.on_off_events(grid, on_t)
@@ -414,9 +415,11 @@ def overlay_figures(comp: Comparison, max_points: int = 2500) -> list[dict]:
         n = len(present)
         gap = 0.04
         h = (1.0 - gap * (n - 1)) / n
-        data, layout = [], {"title": {"text": f"{title}: test vs simulation"},
-                            "height": 220 * n + 80, "showlegend": True,
-                            "legend": {"orientation": "h"}, "margin": {"t": 60, "l": 70, "r": 20}}
+        data: list[dict[str, Any]] = []
+        layout: dict[str, Any] = {"title": {"text": f"{title}: test vs simulation"},
+                                  "height": 220 * n + 80, "showlegend": True,
+                                  "legend": {"orientation": "h"},
+                                  "margin": {"t": 60, "l": 70, "r": 20}}
         for i, base in enumerate(present):
             label, unit, k = COMPONENT_SIGNALS.get(base, (base, "SI", 1.0))
             ax = "" if i == 0 else str(i + 1)

@@ -100,11 +100,12 @@ def errors(target: Target, sim: Test) -> dict[str, float]:
     s0, s1 = _first_last(on_grid(sim, "ess_soc", "simu", g))
     d_err = (s1 - s0) - (target.soc_final - target.soc_initial)
     out["soc"] = abs(d_err) / target.soc_final if target.soc_final > 0 else float("nan")
-    if target.on is not None:
+    if target.on is not None and target.on_method is not None:  # set together
         on_s = engine_on(sim, "simu", g, target.on_method, target.on_speed_rpm)
         ok = np.isfinite(target.on) & np.isfinite(on_s) if on_s is not None else None
         out["engine_on"] = (float(np.mean((target.on[ok] > 0.5) != (on_s[ok] > 0.5)))
-                            if ok is not None and ok.any() else float("nan"))
+                            if on_s is not None and ok is not None and ok.any()
+                            else float("nan"))
     for b, v in target.signals.items():
         s = on_grid(sim, b, "simu", g)
         if s is not None:

@@ -83,7 +83,7 @@ class Vehicle(BaseModel):
         """
         new = apply_overrides(self, overrides, BLOCKS)
         if new is not self and "engine" in {k.replace("__", ".").split(".")[0]
-                                            for k in overrides}:
+                                            for k in overrides or ()}:
             new.__dict__.pop("best_line", None)  # cached from the engine block
         return new
 
@@ -121,7 +121,8 @@ class Vehicle(BaseModel):
         return best_efficiency_line(self.engine)
 
 
-ARCHITECTURES = {"power_split": Vehicle, "conventional": ConventionalVehicle}
+ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]] = {
+    "power_split": Vehicle, "conventional": ConventionalVehicle}
 
 
 def _vehicles_dir() -> Path:

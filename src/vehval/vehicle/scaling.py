@@ -30,6 +30,7 @@ evaluated on any grid and then scaled.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -152,7 +153,8 @@ def peak_efficiency(speed_rpm, torque_nm, fuel_g_per_s, max_torque_nm, lhv_j_per
 
 
 def scale_battery(ref: BatteryParams, *, n_cells: int, n_modules: int, capacity_ah: float,
-                  nominal_voltage_v: float | None = None, chemistry: str | None = None,
+                  nominal_voltage_v: float | None = None,
+                  chemistry: Literal["nimh", "li_ion"] | None = None,
                   power_limit_w: float | None = None,
                   ref_name: str = "the reference pack") -> BatteryParams:
     """A pack scaled from ``ref`` by nominal voltage and capacity (ADVISOR/Autonomie method).
