@@ -1,24 +1,20 @@
 """Run the forward-looking simulation of a conventional vehicle over a drive cycle.
 
-:func:`vehval.sim.simulate.simulate` dispatches here when the vehicle file says
-``architecture: conventional``. The result is the same :class:`SimResult` as the hybrid's:
-``<base>_simu`` signals and a summary with fuel, distance, fuel economy, trace following and
-the energy balance (fuel economy keys as the hybrid's; no battery, so no SOC correction).
+The front door (:mod:`vehval.sim.simulate`, its ``ARCHITECTURES`` registry) packs a vehicle
+with ``architecture: conventional`` with these functions and runs
+:func:`vehval.sim.conventional_kernel.run_conventional`. The result is the same
+:class:`SimResult` as the hybrid's: ``<base>_simu`` signals and a summary with fuel,
+distance, fuel economy, trace following and the energy balance (fuel economy keys as the
+hybrid's; no battery, so no SOC correction).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from vehval.constants import GALLON_US_M3, MILE_M, MPH_M_PER_S
+from vehval.constants import GALLON_US_M3, MILE_M
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.sim.conventional_kernel import (
-    CONV_PARAMS,
-    CONV_SIGNALS,
-    CONV_SUMMARY,
-    run_conventional,
-)
-from vehval.sim.driver import tolerance_band
+from vehval.sim.conventional_kernel import CONV_PARAMS, CONV_SUMMARY
 from vehval.vehicle.conventional import ConventionalVehicle
 
 
@@ -59,18 +55,6 @@ def conv_maps(veh: ConventionalVehicle) -> tuple[np.ndarray, ...]:
                                           g.downshift_speed_full_load_mps,
                                           veh.converter.lockup_speed_mps)]
     return (m["spd"], m["trq"], m["fuel"], m["tmax"], *arr)
-
-
-def run_conventional_once(veh: ConventionalVehicle, t: np.ndarray, vt: np.ndarray, dt: float,
-                          record: bool = True,
-                          cold_start: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Run the compiled loop once; returns (signals[n, len(CONV_SIGNALS)], summary vector).
-    ``cold_start``: the run starts with a cold engine (the vehicle's warm-up fuel)."""
-    lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH_M_PER_S,
-                            veh.driver.tolerance_time_s)
-    out = np.zeros((t.size if record else 1, len(CONV_SIGNALS)))
-    ys = run_conventional(vt, lo, hi, dt, conv_param_vector(veh, cold_start), *conv_maps(veh), out, record)
-    return out, ys
 
 
 def summarise_conventional(veh: ConventionalVehicle, ys: np.ndarray) -> dict:
