@@ -30,7 +30,7 @@ from numba import njit
 
 from vehval.sim.components.body import road_load
 from vehval.sim.components.engine import fuel_rate, max_torque, warmup_factor
-from vehval.sim.phases import driver_phase
+from vehval.sim.phases import driver_demand
 
 CONV_PARAMS = (
     "mass", "rl_a", "rl_b", "rl_c", "r_wheel", "fd_ratio", "fd_eff", "j_wheel", "brk_max",
@@ -122,7 +122,7 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
         vnow = vt[i]
         vnext = vt[i + 1]
         # ---------------- driver
-        f_dem, _ = driver_phase(v0, vnow, vnext, dt, m_eq, rl_a, rl_b, rl_c, i_drv,
+        f_dem, _ = driver_demand(v0, vnow, vnext, dt, m_eq, rl_a, rl_b, rl_c, i_drv,
                                 prm[C_DRV_TAU], f_min, prm[C_DRV_FMAX])
         p_dem = f_dem * max(v0, 0.0)
         standstill = v0 < STANDSTILL_MPS and vnext < STANDSTILL_MPS
