@@ -36,6 +36,7 @@ from vehval.sim.control import (
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
 from vehval.sim.layout import PARAMS, STATE
 from vehval.sim.packing import FROM_FILE
+from vehval.sim.stack import stack_vector
 
 #: controller keys of the vehicle file the rule reads
 RULE_KEYS = (
@@ -120,7 +121,7 @@ def replay_rule(p_wh, v, soc, pdis_av, aux, dt, prm, state0):
     out = np.zeros(n, dtype=np.bool_)
     q = prm.copy()
     q[P_AUX_W] = aux
-    x = np.zeros(N_X)
+    x = stack_vector(N_X)
     x[X_DT] = dt
     x[X_ENG_STATE] = ENG_ON if state0 else ENG_OFF
     x[X_ENG_STATE_TIME] = 1e9
