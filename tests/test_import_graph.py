@@ -138,3 +138,18 @@ def test_no_import_error_guard_around_own_modules():
 def test_the_checks_can_fail(tmp_path):
     """The layer rule sees an upward import (equations -> qa, as before)."""
     assert _layer("vehval.qa.level2") > _layer("vehval.equations.calc")
+
+
+#: the simulator's insides: only vehval.sim itself may import them (everything else goes
+#: through the front door, vehval.sim.simulate, or the rule's API, vehval.sim.supervisor)
+SIM_INTERNALS = {"vehval.sim.kernel", "vehval.sim.packing", "vehval.sim.layout",
+                 "vehval.sim.phases", "vehval.sim.plant", "vehval.sim.indices",
+                 "vehval.sim.stack", "vehval.sim.conventional_kernel",
+                 "vehval.sim.conventional"}
+
+
+def test_simulator_internals_stay_inside_sim():
+    bad = [f"{a} imports {b}" for a, deps in graph().items() for b in deps
+           if b in SIM_INTERNALS and not a.startswith("vehval.sim.")]
+    assert not bad, "\n".join(bad)
+    assert all(_is_module(m) for m in SIM_INTERNALS)  # the rule names real modules

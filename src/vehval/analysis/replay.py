@@ -1,9 +1,9 @@
 """Replay of the simulator's engine on/off rule over signals rebuilt from a test.
 
-The rule is the same as the supervisory controller of :mod:`vehval.sim.kernel` (it calls
-the simulator's own compiled ``hold_timer``, ``held``, ``soc_power_demand`` and
-``state_step``): total demand = wheel power + auxiliary power + SOC-regulation power; the
-engine-on request is any of (total demand above ``engine_on_power_w`` for
+The rule is the simulator's own: :func:`vehval.sim.supervisor.replay_rule` runs the one
+compiled engine rule of the time loop (:func:`vehval.sim.supervisor.engine_rule`) over the
+rebuilt inputs, with the parameters in the simulator's own vector. Total demand = wheel
+power + auxiliary power + SOC-regulation power; the engine-on request is any of (total demand above ``engine_on_power_w`` for
 ``engine_on_power_hold_s``), (speed above ``engine_on_speed_mps`` for
 ``engine_on_speed_hold_s``), (battery unable to supply the wheel demand for
 ``battery_condition_hold_s``), (SOC below ``soc_engine_on`` for ``soc_engine_on_hold_s``);
@@ -25,91 +25,32 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from vehval.sim.control import (
-    engine_commanded_on,
-    held,
-    hold_timer,
-    soc_power_demand,
-    state_step,
-)
+from vehval.sim.supervisor import RULE_INDEX, RULE_KEYS, replay_rule, rule_params
+from vehval.sim.supervisor import rule_vector as _rule_vector
 
-#: Parameters of the rule, in the vehicle file's controller keys (order of the array).
-RULE_KEYS = (
-    "engine_on_power_w", "engine_off_power_w", "engine_on_speed_mps", "engine_off_speed_mps",
-    "min_on_time_s", "min_off_time_s", "engine_on_power_hold_s", "engine_on_speed_hold_s",
-    "engine_off_hold_s", "battery_condition_hold_s", "soc_engine_on", "soc_engine_on_hold_s",
-    "soc_force_on", "soc_target", "soc_gain_w", "soc_charge_power_max_w",
-    "soc_discharge_power_max_w", "electric_drive_efficiency",
-)
-IDX = {k: i for i, k in enumerate(RULE_KEYS)}
+__all__ = ["IDX", "RULE_KEYS", "agreement", "base_params", "replay", "rule_vector",
+           "score_rule", "shift_state", "soc_power_demand_array"]
 
-#: Values used when neither a vehicle nor an estimate gives a parameter (the 2004 Prius
-#: file's values for hold times and SOC regulation; SOC conditions disabled).
-GENERIC = {
-    "engine_on_power_w": 8000.0, "engine_off_power_w": 3000.0, "engine_on_speed_mps": 19.0,
-    "engine_off_speed_mps": 17.0, "min_on_time_s": 5.0, "min_off_time_s": 3.0,
-    "engine_on_power_hold_s": 0.5, "engine_on_speed_hold_s": 0.5, "engine_off_hold_s": 2.0,
-    "battery_condition_hold_s": 0.2, "soc_engine_on": 0.0, "soc_engine_on_hold_s": 1.0,
-    "soc_force_on": 0.0, "soc_target": 0.6, "soc_gain_w": 0.0, "soc_charge_power_max_w": 0.0,
-    "soc_discharge_power_max_w": 0.0, "electric_drive_efficiency": 0.85,
-}
+#: Position of each rule parameter (controller key) in the parameter vector.
+IDX = dict(RULE_INDEX)
+
+
+def __getattr__(name: str) -> Any:
+    if name == "GENERIC":  # the rule without a vehicle (see vehval.sim.supervisor)
+        return rule_params()
+    raise AttributeError(name)
 
 
 def rule_vector(params: dict[str, float]) -> np.ndarray:
-    """Parameter dict -> float array in :data:`RULE_KEYS` order (missing keys: GENERIC)."""
-    return np.array([float(params.get(k, GENERIC[k])) for k in RULE_KEYS])
+    """Parameter dict (controller keys of :data:`RULE_KEYS`) -> the simulator's parameter
+    vector (missing keys: :func:`base_params` without a vehicle)."""
+    return _rule_vector(params)
 
 
 def base_params(vehicle: Any = None) -> dict[str, float]:
-    """Rule parameters from a vehicle's controller block, or the generic defaults."""
-    out = dict(GENERIC)
-    if vehicle is not None:
-        c = vehicle.controller
-        out.update({k: float(getattr(c, k)) for k in RULE_KEYS if hasattr(c, k)})
-    return out
-
-
-@njit(cache=True)
-def _replay(p_wh, v, soc, pdis_av, aux, dt, prm, state0):
-    n = p_wh.shape[0]
-    out = np.zeros(n, dtype=np.bool_)
-    st = 2 if state0 else 0
-    tst = 1e9
-    tm_pwr = 0.0
-    tm_spd = 0.0
-    tm_bat = 0.0
-    tm_soc = 0.0
-    tm_off = 0.0
-    on_pwr = prm[0]; off_pwr = prm[1]; on_spd = prm[2]; off_spd = prm[3]
-    min_on = prm[4]; min_off = prm[5]; h_pwr = prm[6]; h_spd = prm[7]; h_off = prm[8]
-    h_bat = prm[9]; soc_on = prm[10]; h_soc = prm[11]; soc_force = prm[12]
-    pw = 0.0
-    vi = 0.0
-    for i in range(n):
-        out[i] = engine_commanded_on(st)
-        # unknown samples (NaN) hold the last known value
-        if p_wh[i] == p_wh[i]:
-            pw = p_wh[i]
-        if v[i] == v[i]:
-            vi = v[i]
-        si = soc[i]
-        soc_ok = si == si
-        p_bdem = soc_power_demand(si, prm[13], prm[14], prm[15], prm[16]) if soc_ok else 0.0
-        p_tot = pw + aux + p_bdem
-        c_bat = max(pw, 0.0) / prm[17] + aux > pdis_av[i]
-        low_soc = soc_ok and si < soc_on
-        tm_pwr = hold_timer(tm_pwr, p_tot > on_pwr, dt)
-        tm_spd = hold_timer(tm_spd, vi > on_spd, dt)
-        tm_bat = hold_timer(tm_bat, c_bat, dt)
-        tm_soc = hold_timer(tm_soc, low_soc, dt)
-        on_req = (held(tm_pwr, h_pwr) or held(tm_spd, h_spd) or held(tm_bat, h_bat)
-                  or held(tm_soc, h_soc))
-        off_raw = p_tot < off_pwr and vi < off_spd and (not c_bat) and (not low_soc)
-        tm_off = hold_timer(tm_off, off_raw, dt)
-        off_req = held(tm_off, h_off)
-        force = soc_ok and si < soc_force
-        st, tst = state_step(st, tst, on_req, off_req, force, dt, min_on, min_off)
-    return out
+    """Rule parameters from a vehicle's controller block, or the simulator's rule without a
+    vehicle (:func:`vehval.sim.supervisor.rule_params`)."""
+    return rule_params(vehicle)
 
 
 @njit(cache=True)
@@ -144,7 +85,7 @@ def score_rule(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, pdis_av: np.nda
     All arrays must already be float64 (``obs``, ``valid`` bool) with ``pdis_av`` finite
     (``inf`` for no limit); see :func:`replay` for the meaning of the arguments.
     """
-    out = _replay(p_wh, v, soc, pdis_av, aux_w, dt, prm, state0)
+    out = replay_rule(p_wh, v, soc, pdis_av, aux_w, dt, prm, state0)
     return _lagged_agreement(out, obs, valid, int(lag_on), int(lag_off))
 
 
@@ -165,7 +106,7 @@ def replay(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, dt: float,
     dt : float
         Step [s].
     params : dict or ndarray
-        Rule parameters (keys of :data:`RULE_KEYS`; array in that order).
+        Rule parameters (keys of :data:`RULE_KEYS`; or a vector of :func:`rule_vector`).
     aux_w : float
         Auxiliary electrical load [W] added to the demand.
     pdis_av_w : ndarray, optional
@@ -185,8 +126,8 @@ def replay(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, dt: float,
     prm = rule_vector(params) if isinstance(params, dict) else np.asarray(params, float)
     n = len(p_wh)
     pd = np.full(n, np.inf) if pdis_av_w is None else np.where(np.isfinite(pdis_av_w), pdis_av_w, np.inf)
-    out = _replay(np.asarray(p_wh, float), np.asarray(v, float), np.asarray(soc, float),
-                  pd.astype(float), float(aux_w), float(dt), prm, bool(state0))
+    out = replay_rule(np.asarray(p_wh, float), np.asarray(v, float), np.asarray(soc, float),
+                      pd.astype(float), float(aux_w), float(dt), prm, bool(state0))
     if isinstance(lag_steps, (tuple, list)):
         lag_on, lag_off = int(lag_steps[0]), int(lag_steps[1])
         a, b = shift_state(out, lag_on), shift_state(out, lag_off)

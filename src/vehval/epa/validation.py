@@ -40,18 +40,18 @@ from vehval.epa.procedures import (
     procedure_key,
 )
 from vehval.epa.reader import EpaTest
-from vehval.sim.driver import MPH, tolerance_band
-from vehval.sim.kernel import run
-from vehval.sim.layout import SUMMARY, S
-from vehval.sim.packing import pack
-from vehval.sim.simulate import time_grid
-from vehval.vehicle import ConventionalVehicle, Vehicle, load_vehicle
+from vehval.sim.simulate import BALANCE_TOL as BALANCE_TOL  # charge balance [-]
+from vehval.sim.simulate import (
+    Grid,
+    architecture,
+    balanced_plan,
+    cycle_grid,
+    plan_summary,
+)
+from vehval.vehicle import Vehicle, load_vehicle
 
-#: |SOC_end - SOC_start| accepted as charge balanced [-]
-BALANCE_TOL = 0.002
 #: judging tolerance of the issue: each hot-start figure within 5 % (goal 3 %)
 TOLERANCE = 0.05
-_I_SOC = SUMMARY.index("soc_final")
 
 
 @dataclass
@@ -211,69 +211,17 @@ def vehicle_for_test(vehicle: Vehicle, test: EpaTest) -> Vehicle:
         "body.road_load_c_n_per_mps2": max(test.target_c_n_per_mps2, 0.0)})
 
 
-@dataclass
-class _Grid:
-    t: np.ndarray
-    vt: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-    cold: bool  # the run starts with a cold engine
-
-
-def _grids(veh: Vehicle, proc: Procedure, dt: float) -> list[_Grid]:
-    out = []
+def _grids(veh: Vehicle, proc: Procedure, dt: float) -> list[Grid]:
+    """One grid per run of the plan; the runs holding a cold-start bag start cold."""
     cold_runs = {b.run for b in proc.bags if b.cold_start}
-    for k, name in enumerate(proc.runs):
-        t, vt = time_grid(load_cycle(name), dt)
-        lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH,
-                                veh.driver.tolerance_time_s)
-        out.append(_Grid(t, vt, lo, hi, k in cold_runs))
-    return out
+    return [cycle_grid(veh, load_cycle(name), dt, k in cold_runs)
+            for k, name in enumerate(proc.runs)]
 
 
-def _run_plan(veh: Vehicle, grids: list[_Grid], dt: float, soc0: float):
-    """Run every run of the plan, SOC carried; returns [(signals, summary)] per run."""
-    res = []
-    soc = soc0
-    lo_soc, hi_soc = veh.battery.soc_min, veh.battery.soc_max
-    for g in grids:
-        p = pack(veh, min(max(soc, lo_soc), hi_soc), cold_start=g.cold)
-        out = np.zeros((g.t.size, len(S)))
-        ys = run(g.vt, g.lo, g.hi, dt, p.prm, p.maps, out, True)
-        res.append((out, ys))
-        soc = float(ys[_I_SOC])
-    return res
-
-
-def _balance(veh: Vehicle, grids, dt: float):
-    """Secant iteration on the initial SOC so the whole plan ends where it started."""
-    lo, hi = veh.battery.soc_min + 0.02, veh.battery.soc_max - 0.02
-    xa = veh.controller.soc_target
-    ra = _run_plan(veh, grids, dt, xa)
-    fa = float(ra[-1][1][_I_SOC]) - xa
-    best = (abs(fa), xa, ra)
-    if abs(fa) <= BALANCE_TOL:
-        return xa, ra
-    xb = min(max(xa + fa, lo), hi)
-    for _ in range(10):
-        rb = _run_plan(veh, grids, dt, xb)
-        fb = float(rb[-1][1][_I_SOC]) - xb
-        if abs(fb) < best[0]:
-            best = (abs(fb), xb, rb)
-        if abs(fb) <= BALANCE_TOL:
-            break
-        slope = (fb - fa) / (xb - xa) if xb != xa else -1.0
-        if slope >= -1e-3:
-            slope = -1.0
-        xa, fa = xb, fb
-        xb = min(max(xb - fb / slope, lo), hi)
-    return best[1], best[2]
-
-
-def _chemical_power(veh: Vehicle, out: np.ndarray) -> np.ndarray:
+def _chemical_power(veh: Vehicle, out: np.ndarray, col: dict[str, int]) -> np.ndarray:
     """Battery chemical power OCV(SOC) x current [W] of recorded signals (> 0 discharging)."""
     b = veh.battery
-    return np.interp(out[:, S["ess_soc"]], b.soc, b.ocv_v) * out[:, S["ess_curr"]]
+    return np.interp(out[:, col["ess_soc"]], b.soc, b.ocv_v) * out[:, col["ess_curr"]]
 
 
 def _window_sum(t: np.ndarray, y: np.ndarray, windows, dt: float) -> float:
@@ -295,22 +243,12 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
 
     A conventional vehicle (``architecture: conventional``) runs its own loop; it has no
     battery, so nothing is balanced (``soc_initial`` NaN, ``soc_delta`` 0)."""
-    from vehval.sim.simulate import summarise
-
     veh = vehicle_for_test(vehicle, test)
     grids = _grids(veh, proc, dt)
-    conventional = veh.architecture == "conventional"
-    if conventional:
-        from vehval.sim.conventional import run_conventional_once, summarise_conventional
-        from vehval.sim.conventional_kernel import CONV_SIGNALS
-
-        assert isinstance(veh, ConventionalVehicle)  # its architecture says so
-        runs = [run_conventional_once(veh, g.t, g.vt, dt, cold_start=g.cold) for g in grids]
-        col = {n: i for i, n in enumerate(CONV_SIGNALS)}
-        soc0 = math.nan
-    else:
-        soc0, runs = _balance(veh, grids, dt)
-        col = S
+    arch = architecture(veh)
+    conventional = not arch.has_battery
+    col = arch.column
+    soc0, runs, _ = balanced_plan(veh, grids)
     rho = veh.engine.fuel_density_kg_per_m3
     bag_fuel, bag_dist, bag_batt = {}, {}, {}
     for bag in proc.bags:
@@ -319,19 +257,15 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
         bag_fuel[bag.number] = _window_sum(t, out[:, col["fuel_rate"]], bag.windows, dt)
         bag_dist[bag.number] = _window_sum(t, out[:, col["veh_spd"]], bag.windows, dt)
         bag_batt[bag.number] = 0.0 if conventional else _window_sum(
-            t, _chemical_power(veh, out), bag.windows, dt)
+            t, _chemical_power(veh, out, col), bag.windows, dt)
     bags = {k: _mpg(bag_dist[k], bag_fuel[k], rho) for k in bag_fuel}
     # whole-test figures from the run summaries (fuel, battery energy, closure)
-    ys = np.sum([r[1] for r in runs], axis=0)
+    summ = plan_summary(veh, runs, soc0)
     if conventional:
-        assert isinstance(veh, ConventionalVehicle)  # its architecture says so
-        summ = summarise_conventional(veh, ys)
         summ.update(soc_delta=0.0, engine_on_fraction=1.0,
                     fuel_economy_soc_corrected_mpg=summ["fuel_economy_mpg"])
         corr = 1.0
     else:
-        ys[_I_SOC] = runs[-1][1][_I_SOC]
-        summ = summarise(veh, ys, soc0)
         corr = summ["fuel_mass_soc_corrected_kg"] / max(summ["fuel_mass_kg"], 1e-12)
     if proc.composite == "ftp":
         hot_b = 4 if not math.isnan(test.bags[3]) else 2
@@ -360,9 +294,7 @@ COLD_START_PARAMS = ("engine.warmup_fuel_fraction", "engine.warmup_time_constant
 
 def has_cold_start_model(veh: Vehicle) -> bool:
     """Whether the vehicle models a cold start (warm-up fuel, or a hybrid's engine-on hold)."""
-    if veh.engine.warmup_fuel_fraction > 0.0:
-        return True
-    return veh.architecture == "power_split" and veh.controller.cold_start_engine_on_s > 0.0
+    return architecture(veh).cold_start_model(veh)
 
 
 def _battery_share(pred: TestPrediction, bags) -> float | None:

@@ -15,10 +15,10 @@ import numpy as np
 
 from vehval.cycles import Cycle, load_cycle
 from vehval.errors import ConfigError
-from vehval.sim.driver import MPH, tolerance_band
 from vehval.sim.kernel import run_batch
+from vehval.sim.layout import SIGNALS
 from vehval.sim.packing import pack, param_vector
-from vehval.sim.simulate import _check_dt, run_once, summarise, time_grid
+from vehval.sim.simulate import check_dt, cycle_grid, run_cycle, summarise
 from vehval.vehicle import Vehicle, load_vehicle
 
 #: engine parameters that change the best-efficiency line (and so the packed maps)
@@ -63,13 +63,11 @@ def simulate_batch(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path,
 
     base = load_vehicle(vehicle)
     cyc = load_cycle(cycle)
-    dt = _check_dt(dt)
+    dt = check_dt(dt)
     if workers < 1:
         raise ConfigError(f"workers must be >= 1, got {workers}")
     rows = _as_dicts(variants, columns)
-    t, vt = time_grid(cyc, dt)
-    lo, hi = tolerance_band(t, vt, base.driver.tolerance_speed_mph * MPH,
-                            base.driver.tolerance_time_s)
+    grid = cycle_grid(base, cyc, dt)
     vehs = [base.with_overrides(r) for r in rows]
     socs = [v.controller.soc_target if soc_initial is None else float(soc_initial) for v in vehs]
     results: list[dict[str, Any] | None] = [None] * len(rows)
@@ -77,12 +75,11 @@ def simulate_batch(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path,
     for k, (r, v) in enumerate(zip(rows, vehs)):
         keys = {key.replace("__", ".") for key in r}
         if traces or (keys & _MAP_KEYS):
-            out, ys = run_once(v, t, vt, dt, socs[k], record=bool(traces))
+            out, ys = run_cycle(v, cycle_grid(v, cyc, dt), socs[k], record=bool(traces))
             res = results[k] = summarise(v, ys, socs[k])
             if traces:
-                from vehval.sim.layout import SIGNALS
-                res["traces"] = {"time": t, **{n: out[:, SIGNALS.index(n)]
-                                                      for n in traces}}
+                res["traces"] = {"time": grid.t, **{n: out[:, SIGNALS.index(n)]
+                                                   for n in traces}}
         else:
             shared.append(k)
     if shared:
@@ -91,7 +88,7 @@ def simulate_batch(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path,
         old = numba.get_num_threads()
         numba.set_num_threads(min(workers, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]  # set at run time
         try:
-            ys_all = run_batch(vt, lo, hi, dt, prms, maps)
+            ys_all = run_batch(grid.vt, grid.lo, grid.hi, dt, prms, maps)
         finally:
             numba.set_num_threads(old)
         for j, k in enumerate(shared):

@@ -1,52 +1,61 @@
 """Run the forward-looking simulation of a conventional vehicle over a drive cycle.
 
-:func:`vehval.sim.simulate.simulate` dispatches here when the vehicle file says
-``architecture: conventional``. The result is the same :class:`SimResult` as the hybrid's:
-``<base>_simu`` signals and a summary with fuel, distance, fuel economy, trace following and
-the energy balance (fuel economy keys as the hybrid's; no battery, so no SOC correction).
+The front door (:mod:`vehval.sim.simulate`, its ``ARCHITECTURES`` registry) packs a vehicle
+with ``architecture: conventional`` with these functions and runs
+:func:`vehval.sim.conventional_kernel.run_conventional`. The result is the same
+:class:`SimResult` as the hybrid's: ``<base>_simu`` signals and a summary with fuel,
+distance, fuel economy, trace following and the energy balance (fuel economy keys as the
+hybrid's; no battery, so no SOC correction).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from vehval.constants import GALLON_US_M3, MILE_M, MPH_M_PER_S
+from vehval.constants import GALLON_US_M3, MILE_M
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.sim.conventional_kernel import (
-    CONV_PARAMS,
-    CONV_SIGNALS,
-    CONV_SUMMARY,
-    run_conventional,
-)
-from vehval.sim.driver import tolerance_band
+from vehval.sim.conventional_kernel import CONV_PARAMS, CONV_SUMMARY
 from vehval.vehicle.conventional import ConventionalVehicle
+
+#: layout name (``CONV_PARAMS``) -> (vehicle block, key, factor to SI): read from the file
+CONV_FROM_FILE: dict[str, tuple[str, str, float]] = {
+    "mass": ("body", "mass_kg", 1.0), "rl_a": ("body", "road_load_a_n", 1.0),
+    "rl_b": ("body", "road_load_b_n_per_mps", 1.0),
+    "rl_c": ("body", "road_load_c_n_per_mps2", 1.0),
+    "r_wheel": ("driveline", "wheel_radius_m", 1.0),
+    "fd_ratio": ("driveline", "final_drive_ratio", 1.0),
+    "fd_eff": ("driveline", "final_drive_efficiency", 1.0),
+    "j_wheel": ("driveline", "wheel_inertia_kg_m2", 1.0),
+    "brk_max": ("driveline", "brake_max_force_n", 1.0),
+    "gb_eff": ("gearbox", "efficiency", 1.0), "shift_time": ("gearbox", "shift_time_s", 1.0),
+    "tc_k": ("converter", "capacity_nm_s2_per_rad2", 1.0),
+    "j_eng": ("engine", "inertia_kg_m2", 1.0), "eng_idle": ("engine", "idle_speed_rpm", RPM),
+    "eng_max_spd": ("engine", "max_speed_rpm", RPM),
+    "eng_drag": ("engine", "motoring_torque_nm", 1.0),
+    "eng_pmax": ("engine", "max_power_w", 1.0), "fuel_lhv": ("engine", "fuel_lhv_j_per_kg", 1.0),
+    "idle_fuel": ("engine_control", "idle_fuel_rate_g_per_s", 1e-3),
+    "fuel_cut_spd": ("engine_control", "fuel_cut_min_speed_rpm", RPM),
+    "overrun_fuel": ("engine_control", "overrun_fuel_rate_g_per_s", 1e-3),
+    "drag_a": ("gearbox", "drag_force_n", 1.0), "drag_b": ("gearbox", "drag_force_n_per_mps", 1.0),
+    "drv_tau": ("driver", "response_time_s", 1.0), "drv_ki": ("driver", "ki_n_per_m", 1.0),
+    "drv_int_lim": ("driver", "integrator_limit_n", 1.0),
+    "drv_fmax": ("driver", "max_force_n", 1.0),
+    "warm_tau": ("engine", "warmup_time_constant_s", 1.0),
+}
+#: layout names :func:`conv_param_vector` computes: accessory loads [W] (with the A/C when
+#: on; the idle fuel rate's own), the warm-up fuel fraction of a cold start
+CONV_COMPUTED = ("acc_pwr", "idle_acc_pwr", "warm_frac")
 
 
 def conv_param_vector(veh: ConventionalVehicle, cold_start: bool = False) -> np.ndarray:
     """Scalar parameters of ``veh`` in SI, in the order of ``CONV_PARAMS`` (``cold_start``:
     the run starts with a cold engine, the vehicle's warm-up fuel applies)."""
-    b, e, c, g, d, dr = (veh.body, veh.engine, veh.engine_control, veh.gearbox, veh.driveline,
-                         veh.driver)
-    acc = c.accessory_power_w + b.aux_power_w  # [W] what the idle fuel rate includes
-    val = {
-        "mass": b.mass_kg, "rl_a": b.road_load_a_n, "rl_b": b.road_load_b_n_per_mps,
-        "rl_c": b.road_load_c_n_per_mps2, "r_wheel": d.wheel_radius_m,
-        "fd_ratio": d.final_drive_ratio, "fd_eff": d.final_drive_efficiency,
-        "j_wheel": d.wheel_inertia_kg_m2, "brk_max": d.brake_max_force_n,
-        "gb_eff": g.efficiency, "shift_time": g.shift_time_s,
-        "tc_k": veh.converter.capacity_nm_s2_per_rad2, "j_eng": e.inertia_kg_m2,
-        "eng_idle": e.idle_speed_rpm * RPM, "eng_max_spd": e.max_speed_rpm * RPM,
-        "eng_drag": e.motoring_torque_nm, "eng_pmax": e.max_power_w,
-        "fuel_lhv": e.fuel_lhv_j_per_kg, "idle_fuel": c.idle_fuel_rate_g_per_s * 1e-3,
-        "fuel_cut_spd": c.fuel_cut_min_speed_rpm * RPM,
-        "overrun_fuel": c.overrun_fuel_rate_g_per_s * 1e-3,
-        "acc_pwr": acc + (c.ac_power_w if c.ac_on else 0.0), "idle_acc_pwr": acc,
-        "drag_a": g.drag_force_n, "drag_b": g.drag_force_n_per_mps,
-        "drv_tau": dr.response_time_s, "drv_ki": dr.ki_n_per_m,
-        "drv_int_lim": dr.integrator_limit_n, "drv_fmax": dr.max_force_n,
-        "warm_frac": e.warmup_fuel_fraction if cold_start else 0.0,
-        "warm_tau": e.warmup_time_constant_s,
-    }
+    c = veh.engine_control
+    acc = c.accessory_power_w + veh.body.aux_power_w  # [W] what the idle fuel rate includes
+    val = {name: getattr(getattr(veh, blk), key) * f
+           for name, (blk, key, f) in CONV_FROM_FILE.items()}
+    val.update({"acc_pwr": acc + (c.ac_power_w if c.ac_on else 0.0), "idle_acc_pwr": acc,
+                "warm_frac": veh.engine.warmup_fuel_fraction if cold_start else 0.0})
     return np.array([float(val[k]) for k in CONV_PARAMS])
 
 
@@ -59,19 +68,6 @@ def conv_maps(veh: ConventionalVehicle) -> tuple[np.ndarray, ...]:
                                           g.downshift_speed_full_load_mps,
                                           veh.converter.lockup_speed_mps)]
     return (m["spd"], m["trq"], m["fuel"], m["tmax"], *arr)
-
-
-def run_conventional_once(veh: ConventionalVehicle, t: np.ndarray, vt: np.ndarray, dt: float,
-                          record: bool = True,
-                          cold_start: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Run the compiled loop once; returns (signals[n, len(CONV_SIGNALS)], summary vector).
-    ``cold_start``: the run starts with a cold engine (the vehicle's warm-up fuel)."""
-    lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH_M_PER_S,
-                            veh.driver.tolerance_time_s)
-    out = np.zeros((t.size if record else 1, len(CONV_SIGNALS)))
-    ys = run_conventional(vt, lo, hi, dt, conv_param_vector(veh, cold_start),  # type: ignore[call-arg]  # numba Dispatcher stub
-                          *conv_maps(veh), out, record)
-    return out, ys
 
 
 def summarise_conventional(veh: ConventionalVehicle, ys: np.ndarray) -> dict:

@@ -2,7 +2,10 @@
 
 ``PARAMS`` lists the scalar parameters packed in one float vector; ``SIGNALS`` the columns
 of the recorded output (base names of the ``_simu`` signals); ``SUMMARY`` the entries of
-the accumulator vector (energies [J], masses [kg], counts, extrema).
+the accumulator vector (energies [J], masses [kg], counts, extrema); ``STATE`` the entries
+of the loop's state vector, which every phase of a step reads and writes (SI; flags and
+states as 0/1 and small integers). ``CONV_PARAMS``, ``CONV_SIGNALS``, ``CONV_SUMMARY``: the
+same three for the conventional loop.
 """
 
 from __future__ import annotations
@@ -41,6 +44,46 @@ SUMMARY = (
     "tractive_energy_j", "regen_wheel_energy_j", "recirc_energy_j", "idle_fuel_energy_j",
     "gen_motoring_loss_j",
 )
+STATE = (
+    # constants of the run, derived from the parameters once: planetary lever ratios
+    # k1 = (Nr + Ns)/Ns, k2 = Nr/Ns [-], ring speed per vehicle speed g [rad/m], the
+    # two-DOF mass matrix and its determinant, bounds and gains
+    "dt", "k1", "k2", "g", "m11", "m12", "m22", "det", "f_min", "wg_lim", "ki_gen", "a_filt",
+    "hold_s", "warm_frac", "cold_pwr",
+    # carried from step to step
+    "t", "t_mid", "v", "we", "soc", "locked", "eng_state", "eng_state_time", "tm_pwr", "tm_spd",
+    "tm_bat", "tm_soc", "tm_off", "i_drv", "i_gen", "p_filt", "fired", "was_fired",
+    # the present step: inputs, demands, limits, operating point, torques, speeds, powers
+    "v0", "we0", "vnow", "vnext", "wr0", "wr_e", "f_dem", "p_wh", "p_tot", "ocv", "pdis_lim",
+    "pchg_lim", "pdis_av", "pchg_av", "cmd_on", "p_cmd", "w_lo", "w_hi", "w_tgt", "p_eng",
+    "fuelcut", "te_max", "wg0", "te", "tg_ff", "t_ring", "t_m", "tm_lim", "pstate", "f_brk",
+    "fl", "we1", "v1", "t_g", "r_eff", "clipped", "eta_d", "we_a", "v_a", "wr_a", "wg_a",
+    "fuel", "p_eng_mech", "p_gen_e", "p_mot_e", "t_fd_act", "f_fd", "fl_app", "brk_app",
+    "p_bus", "p_bt", "rb", "cur", "vb", "wg1",
+)
+# the conventional loop (:mod:`vehval.sim.conventional_kernel`): parameters, recorded
+# signals, summary accumulators
+CONV_PARAMS = (
+    "mass", "rl_a", "rl_b", "rl_c", "r_wheel", "fd_ratio", "fd_eff", "j_wheel", "brk_max",
+    "gb_eff", "shift_time", "tc_k", "j_eng", "eng_idle", "eng_max_spd", "eng_drag",
+    "eng_pmax", "fuel_lhv", "idle_fuel", "fuel_cut_spd", "overrun_fuel", "acc_pwr",
+    "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax", "idle_acc_pwr", "drag_a", "drag_b",
+    "warm_frac", "warm_tau",
+)
+CONV_SIGNALS = (
+    "veh_spd", "veh_spd_target", "veh_acc", "veh_frc_in", "veh_frc_loss", "whl_trq_out",
+    "whl_spd", "eng_spd_out", "eng_trq_out", "eng_pwr_out", "eng_fuel_cut", "fuel_rate",
+    "gb_gear", "gb_spd_in", "brk_frc", "drv_frc_demand", "drv_pwr_demand",
+)
+CONV_SUMMARY = (
+    "fuel_mass_kg", "fuel_energy_j", "eng_out_energy_j", "eng_loss_j", "aux_energy_j",
+    "eng_ke_change_j", "converter_loss_j", "gearbox_loss_j", "brake_energy_j", "road_energy_j",
+    "ke_start_j", "ke_end_j", "wheel_energy_j", "distance_m", "idle_time_s",
+    "fuel_cut_time_s", "unlocked_time_s", "gear_shifts", "eng_spd_max", "trace_max_miss_mps",
+    "trace_n_miss", "duration_s",
+)
+
 P = {n: i for i, n in enumerate(PARAMS)}
 S = {n: i for i, n in enumerate(SIGNALS)}
 Y = {n: i for i, n in enumerate(SUMMARY)}
+X = {n: i for i, n in enumerate(STATE)}

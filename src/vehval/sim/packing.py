@@ -34,57 +34,91 @@ def best_engine_efficiency(veh: Vehicle) -> float:
     return float(np.max(p[ok] / (fuel[ok] * veh.engine.fuel_lhv_j_per_kg)))
 
 
+#: layout name -> (vehicle block, key, factor to SI): the parameters read from the file
+FROM_FILE: dict[str, tuple[str, str, float]] = {
+    "mass": ("body", "mass_kg", 1.0), "rl_a": ("body", "road_load_a_n", 1.0),
+    "rl_b": ("body", "road_load_b_n_per_mps", 1.0),
+    "rl_c": ("body", "road_load_c_n_per_mps2", 1.0), "aux_w": ("body", "aux_power_w", 1.0),
+    "r_wheel": ("driveline", "wheel_radius_m", 1.0),
+    "fd_ratio": ("driveline", "final_drive_ratio", 1.0),
+    "fd_eff": ("driveline", "final_drive_efficiency", 1.0),
+    "j_wheel": ("driveline", "wheel_inertia_kg_m2", 1.0),
+    "brk_max": ("driveline", "brake_max_force_n", 1.0),
+    "n_sun": ("planetary", "sun_teeth", 1.0), "n_ring": ("planetary", "ring_teeth", 1.0),
+    "j_carrier": ("planetary", "carrier_inertia_kg_m2", 1.0),
+    "j_ring": ("planetary", "ring_inertia_kg_m2", 1.0),
+    "j_eng": ("engine", "inertia_kg_m2", 1.0), "eng_idle": ("engine", "idle_speed_rpm", RPM),
+    "eng_max_spd": ("engine", "max_speed_rpm", RPM),
+    "eng_fire": ("engine", "fire_speed_rpm", RPM),
+    "eng_drag": ("engine", "motoring_torque_nm", 1.0),
+    "eng_pmax": ("engine", "max_power_w", 1.0), "fuel_lhv": ("engine", "fuel_lhv_j_per_kg", 1.0),
+    "mot_tmax": ("mg2", "max_torque_nm", 1.0), "mot_pmax": ("mg2", "max_power_w", 1.0),
+    "mot_max_spd": ("mg2", "max_speed_rpm", RPM), "j_mot": ("mg2", "inertia_kg_m2", 1.0),
+    "gen_tmax": ("mg1", "max_torque_nm", 1.0), "gen_pmax": ("mg1", "max_power_w", 1.0),
+    "gen_max_spd": ("mg1", "max_speed_rpm", RPM), "j_gen": ("mg1", "inertia_kg_m2", 1.0),
+    "batt_cap_c": ("battery", "capacity_c", 1.0), "boost_eff": ("boost", "efficiency", 1.0),
+    "boost_vmax": ("boost", "volt_out_max_v", 1.0), "boost_vmin": ("boost", "volt_out_min_v", 1.0),
+    "boost_full_spd": ("boost", "volt_full_speed_rpm", RPM),
+    "soc_target": ("controller", "soc_target", 1.0),
+    "soc_gain": ("controller", "soc_gain_w", 1.0),
+    "soc_pchg_max": ("controller", "soc_charge_power_max_w", 1.0),
+    "soc_pdis_max": ("controller", "soc_discharge_power_max_w", 1.0),
+    "on_pwr": ("controller", "engine_on_power_w", 1.0),
+    "on_pwr_hold": ("controller", "engine_on_power_hold_s", 1.0),
+    "off_pwr": ("controller", "engine_off_power_w", 1.0),
+    "on_spd": ("controller", "engine_on_speed_mps", 1.0),
+    "on_spd_hold": ("controller", "engine_on_speed_hold_s", 1.0),
+    "off_spd": ("controller", "engine_off_speed_mps", 1.0),
+    "batt_hold": ("controller", "battery_condition_hold_s", 1.0),
+    "elec_eff": ("controller", "electric_drive_efficiency", 1.0),
+    "off_hold": ("controller", "engine_off_hold_s", 1.0),
+    "soc_on": ("controller", "soc_engine_on", 1.0),
+    "soc_on_hold": ("controller", "soc_engine_on_hold_s", 1.0),
+    "soc_force": ("controller", "soc_force_on", 1.0),
+    "min_on": ("controller", "min_on_time_s", 1.0),
+    "min_off": ("controller", "min_off_time_s", 1.0),
+    "dis_margin": ("controller", "battery_discharge_margin_w", 1.0),
+    "chg_margin": ("controller", "battery_charge_margin_w", 1.0),
+    "eng_min_pwr": ("controller", "engine_min_power_w", 1.0),
+    "fuel_cut_pwr": ("controller", "fuel_cut_power_w", 1.0),
+    "fuel_cut_spd": ("controller", "fuel_cut_min_speed_mps", 1.0),
+    "regen_frac": ("controller", "regen_fraction_max", 1.0),
+    "fade_lo": ("controller", "regen_fade_low_mps", 1.0),
+    "fade_hi": ("controller", "regen_fade_high_mps", 1.0),
+    "gen_kp": ("controller", "gen_speed_kp_nm_per_radps", 1.0),
+    "gen_ki": ("controller", "gen_speed_ki_nm_per_rad", 1.0),
+    "eng_pwr_tau": ("controller", "engine_power_filter_s", 1.0),
+    "gen_spd_margin": ("controller", "gen_speed_margin_rpm", RPM),
+    "eng_spd_margin": ("controller", "engine_speed_margin_rpm", RPM),
+    "drv_tau": ("driver", "response_time_s", 1.0), "drv_ki": ("driver", "ki_n_per_m", 1.0),
+    "drv_int_lim": ("driver", "integrator_limit_n", 1.0),
+    "drv_fmax": ("driver", "max_force_n", 1.0),
+    "mg2_ratio": ("driveline", "mg2_reduction_ratio", 1.0),
+    "cold_hold": ("controller", "cold_start_engine_on_s", 1.0),
+    "warm_frac": ("engine", "warmup_fuel_fraction", 1.0),
+    "warm_tau": ("engine", "warmup_time_constant_s", 1.0),
+    "cold_pwr": ("controller", "cold_start_engine_power_w", 1.0),
+}
+#: layout names :func:`param_vector` computes (run options and derived values)
+COMPUTED = ("soc_init", "op_system", "eq_factor", "cold_start")
+
+
 def param_vector(veh: Vehicle, soc_initial: float, cold_start: bool = False) -> np.ndarray:
     """Scalar parameters of ``veh`` in SI, in the order of :data:`vehval.sim.layout.PARAMS`.
 
-    ``cold_start``: the run starts with a cold engine (the vehicle's warm-up fuel and
-    engine-on hold apply; both are 0 in a vehicle without a cold-start model)."""
-    b, e, g1, g2, bt = veh.body, veh.engine, veh.mg1, veh.mg2, veh.battery
-    d, pg, bo, c, dr = veh.driveline, veh.planetary, veh.boost, veh.controller, veh.driver
-    val = {
-        "mass": b.mass_kg, "rl_a": b.road_load_a_n, "rl_b": b.road_load_b_n_per_mps,
-        "rl_c": b.road_load_c_n_per_mps2, "aux_w": b.aux_power_w,
-        "r_wheel": d.wheel_radius_m, "fd_ratio": d.final_drive_ratio,
-        "fd_eff": d.final_drive_efficiency, "j_wheel": d.wheel_inertia_kg_m2,
-        "brk_max": d.brake_max_force_n, "n_sun": pg.sun_teeth, "n_ring": pg.ring_teeth,
-        "j_carrier": pg.carrier_inertia_kg_m2, "j_ring": pg.ring_inertia_kg_m2,
-        "j_eng": e.inertia_kg_m2, "eng_idle": e.idle_speed_rpm * RPM,
-        "eng_max_spd": e.max_speed_rpm * RPM, "eng_fire": e.fire_speed_rpm * RPM,
-        "eng_drag": e.motoring_torque_nm, "eng_pmax": e.max_power_w,
-        "fuel_lhv": e.fuel_lhv_j_per_kg,
-        "mot_tmax": g2.max_torque_nm, "mot_pmax": g2.max_power_w,
-        "mot_max_spd": g2.max_speed_rpm * RPM, "j_mot": g2.inertia_kg_m2,
-        "gen_tmax": g1.max_torque_nm, "gen_pmax": g1.max_power_w,
-        "gen_max_spd": g1.max_speed_rpm * RPM, "j_gen": g1.inertia_kg_m2,
-        "batt_cap_c": bt.capacity_c, "boost_eff": bo.efficiency,
-        "boost_vmax": bo.volt_out_max_v, "boost_vmin": bo.volt_out_min_v,
-        "boost_full_spd": bo.volt_full_speed_rpm * RPM,
-        "soc_target": c.soc_target, "soc_gain": c.soc_gain_w,
-        "soc_pchg_max": c.soc_charge_power_max_w, "soc_pdis_max": c.soc_discharge_power_max_w,
-        "on_pwr": c.engine_on_power_w, "on_pwr_hold": c.engine_on_power_hold_s,
-        "off_pwr": c.engine_off_power_w, "on_spd": c.engine_on_speed_mps,
-        "on_spd_hold": c.engine_on_speed_hold_s, "off_spd": c.engine_off_speed_mps,
-        "batt_hold": c.battery_condition_hold_s, "elec_eff": c.electric_drive_efficiency,
-        "off_hold": c.engine_off_hold_s, "soc_on": c.soc_engine_on,
-        "soc_on_hold": c.soc_engine_on_hold_s, "soc_force": c.soc_force_on,
-        "min_on": c.min_on_time_s, "min_off": c.min_off_time_s,
-        "dis_margin": c.battery_discharge_margin_w, "chg_margin": c.battery_charge_margin_w,
-        "eng_min_pwr": c.engine_min_power_w, "fuel_cut_pwr": c.fuel_cut_power_w,
-        "fuel_cut_spd": c.fuel_cut_min_speed_mps, "regen_frac": c.regen_fraction_max,
-        "fade_lo": c.regen_fade_low_mps, "fade_hi": c.regen_fade_high_mps,
-        "gen_kp": c.gen_speed_kp_nm_per_radps, "gen_ki": c.gen_speed_ki_nm_per_rad,
-        "eng_pwr_tau": c.engine_power_filter_s,
-        "gen_spd_margin": c.gen_speed_margin_rpm * RPM,
-        "eng_spd_margin": c.engine_speed_margin_rpm * RPM,
-        "drv_tau": dr.response_time_s, "drv_ki": dr.ki_n_per_m,
-        "drv_int_lim": dr.integrator_limit_n, "drv_fmax": dr.max_force_n,
-        "soc_init": soc_initial, "mg2_ratio": d.mg2_reduction_ratio,
+    Every entry is a vehicle-file key (:data:`FROM_FILE`) or one of :data:`COMPUTED`:
+    ``soc_init`` the initial SOC [-], ``op_system`` 1 for the ``system`` operating point,
+    ``eq_factor`` fuel energy per battery chemical energy [-], ``cold_start`` 1 when the run
+    starts with a cold engine (the vehicle's warm-up fuel and engine-on hold apply; both
+    are 0 in a vehicle without a cold-start model)."""
+    c = veh.controller
+    val = {name: getattr(getattr(veh, blk), key) * f for name, (blk, key, f) in FROM_FILE.items()}
+    val.update({
+        "soc_init": soc_initial,
         "op_system": 1.0 if c.operating_point == "system" else 0.0,
         "eq_factor": 1.0 / (best_engine_efficiency(veh) * c.soc_correction_path_efficiency),
-        "cold_start": 1.0 if cold_start else 0.0, "cold_hold": c.cold_start_engine_on_s,
-        "warm_frac": e.warmup_fuel_fraction, "warm_tau": e.warmup_time_constant_s,
-        "cold_pwr": c.cold_start_engine_power_w,
-    }
+        "cold_start": 1.0 if cold_start else 0.0,
+    })
     return np.array([float(val[k]) for k in PARAMS])
 
 

@@ -1,16 +1,25 @@
-"""Run the forward-looking simulation of a vehicle over a drive cycle.
+"""The simulator's front door: run a vehicle over a drive cycle or a test plan.
 
 ``simulate(vehicle, cycle)`` returns a :class:`SimResult` whose ``test`` holds the
 ``<base>_simu`` signals on the uniform grid (source ``simu``) and whose ``summary`` holds
 fuel, distance, fuel economy (raw and SOC-corrected), SOC, engine use, trace following
 and the energy balance.
+
+Everything that runs a compiled loop goes through this module: the architecture registry
+(:data:`ARCHITECTURES`, the vehicle file's ``architecture`` -> how to pack, run and
+summarise it), the cold start (:attr:`Grid.cold_start`), the one charge balance
+(:func:`charge_balance`, tolerance :data:`BALANCE_TOL`, at most :data:`BALANCE_MAX_ITER`
+secant steps), single runs (:func:`run_cycle`) and test plans whose runs carry the battery
+charge from one to the next (:func:`run_plan`, :func:`balanced_plan`,
+:func:`plan_summary`). No module outside :mod:`vehval.sim` touches the kernels, their
+packing or their layouts.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -18,15 +27,27 @@ from vehval.constants import GALLON_US_M3 as GALLON_M3
 from vehval.constants import MILE_M
 from vehval.cycles import Cycle, load_cycle
 from vehval.errors import ConfigError
-from vehval.sim.driver import MPH, tolerance_band
+from vehval.sim.conventional import conv_maps, conv_param_vector, summarise_conventional
+from vehval.sim.conventional_kernel import CONV_SIGNALS, CONV_SUMMARY, run_conventional
+from vehval.sim.grid import Grid, check_dt, cycle_grid, make_grid, time_grid
 from vehval.sim.kernel import run
 from vehval.sim.layout import SIGNALS, SUMMARY
 from vehval.sim.packing import pack
 from vehval.test import Signal, Test, TestMeta
 from vehval.vehicle import Vehicle, load_vehicle
 
+__all__ = ["ARCHITECTURES", "BALANCE_MAX_ITER", "BALANCE_TOL", "CHARGE_BALANCE_TOL",
+           "Architecture", "Grid", "SimResult", "architecture", "balanced_plan",
+           "charge_balance", "check_dt", "cycle_grid", "make_grid", "plan_summary",
+           "run_cycle", "run_once", "run_plan", "simulate", "summarise", "time_grid"]
+
 CHARGE_BALANCE_TOL = 0.005  # [-] |SOC_end - SOC_start| accepted by charge_balance
-_BALANCE_TOL_ITER = 0.004  # [-] iteration target, inside the accepted tolerance
+#: [-] |SOC_end - SOC_start| the charge-balance iteration aims at (inside the accepted
+#: tolerance; the J1711 basis of an EPA comparison)
+BALANCE_TOL = 0.002
+#: secant steps of the charge balance after the first run, at most
+BALANCE_MAX_ITER = 12
+_check_dt = check_dt  # former name, kept for callers
 
 
 @dataclass
@@ -62,34 +83,11 @@ class SimResult:
                             index=pd.Index(first.time, name="time"))
 
 
-def time_grid(cycle: Cycle, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Uniform grid [s] over the cycle and the target speed [m/s] on it (linear)."""
-    t0 = float(cycle.time_s[0])
-    n = int(np.floor((float(cycle.time_s[-1]) - t0) / dt + 1e-9)) + 1
-    t = t0 + dt * np.arange(n)
-    return t, np.interp(t, cycle.time_s, cycle.speed_mps)
-
-
-def _check_dt(dt: float) -> float:
-    try:
-        dt = float(dt)
-    except (TypeError, ValueError):
-        raise ConfigError(f"dt must be a number of seconds, got {dt!r}") from None
-    if not (0.0 < dt <= 1.0):
-        raise ConfigError(f"dt = {dt:g} s is outside (0, 1] s; use e.g. 0.1 or 1.0")
-    return dt
-
-
 def run_once(veh: Vehicle, t: np.ndarray, vt: np.ndarray, dt: float, soc0: float,
              record: bool = True, cold_start: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """Run the compiled loop once; returns (signals[n, len(SIGNALS)], summary vector).
+    """Run the compiled loop once; returns (signals[n, len(signals)], summary vector).
     ``cold_start``: the run starts with a cold engine (the vehicle's cold-start model)."""
-    p = pack(veh, soc0, cold_start)
-    lo, hi = tolerance_band(t, vt, veh.driver.tolerance_speed_mph * MPH,
-                            veh.driver.tolerance_time_s)
-    out = np.zeros((t.size if record else 1, len(SIGNALS)))
-    ys = run(vt, lo, hi, dt, p.prm, p.maps, out, record)
-    return out, ys
+    return run_cycle(veh, make_grid(veh, t, vt, dt, cold_start), soc0, record)
 
 
 def summarise(veh: Vehicle, ys: np.ndarray, soc0: float) -> dict[str, Any]:
@@ -176,73 +174,239 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
     """
     veh = load_vehicle(vehicle).with_overrides(overrides)
     cyc = load_cycle(cycle)
-    dt = _check_dt(dt)
-    t, vt = time_grid(cyc, dt)
-    if t.size < 2:
+    dt = check_dt(dt)
+    grid = cycle_grid(veh, cyc, dt, cold_start)
+    if grid.t.size < 2:
         raise ConfigError(f"cycle '{cyc.name}' is shorter than one step of {dt:g} s")
-    if veh.architecture == "conventional":
-        return _simulate_conventional(veh, cyc, t, vt, dt, cold_start)
-    bt = veh.battery
-    soc0 = veh.controller.soc_target if soc_initial is None else float(soc_initial)
-    if not (bt.soc_min <= soc0 <= bt.soc_max):
-        raise ConfigError(f"soc_initial = {soc0:g} is outside the battery window "
-                          f"[{bt.soc_min:g}, {bt.soc_max:g}] of {veh.file or veh.name}")
+    arch = architecture(veh)
     iters: list[tuple[float, float]] = []
-    if charge_balance:
-        soc0 = _balance(veh, t, vt, dt, soc0, iters, cold_start)
-    out, ys = run_once(veh, t, vt, dt, soc0, record=True, cold_start=cold_start)
-    summary = summarise(veh, ys, soc0)
-    summary.update({"vehicle": veh.name, "cycle": cyc.name, "dt_s": dt,
-                    "trace_max_miss_mps": summary["trace_max_miss_mps"],
-                    "charge_balanced": bool(charge_balance and abs(summary["soc_delta"])
-                                            <= CHARGE_BALANCE_TOL),
-                    "charge_balance_iterations": len(iters), "cold_start": bool(cold_start)})
+    soc0 = float("nan")
+    if arch.has_battery:
+        bt = veh.battery
+        soc0 = veh.controller.soc_target if soc_initial is None else float(soc_initial)
+        if not (bt.soc_min <= soc0 <= bt.soc_max):
+            raise ConfigError(f"soc_initial = {soc0:g} is outside the battery window "
+                              f"[{bt.soc_min:g}, {bt.soc_max:g}] of {veh.file or veh.name}")
+        if charge_balance:
+            soc0, _, iters = balanced_plan(veh, [grid], soc0, record=False)
+    out, ys = arch.run(veh, grid, soc0, True)
+    summary = arch.summarise(veh, ys, soc0)
+    summary.update({"vehicle": veh.name, "cycle": cyc.name, "dt_s": dt})
+    if arch.has_battery:
+        summary.update({"charge_balanced": bool(charge_balance and abs(summary["soc_delta"])
+                                                <= CHARGE_BALANCE_TOL),
+                        "charge_balance_iterations": len(iters)})
+    else:
+        summary["architecture"] = arch.name
+    summary["cold_start"] = bool(cold_start)
     meta = TestMeta(test_id=f"simu_{veh.name}_{cyc.name}", vehicle=veh.name, cycle=cyc.name,
-                    notes=[f"vehval forward-looking simulation, dt = {dt:g} s"], synthetic=True)
+                    notes=[f"vehval {arch.label}, dt = {dt:g} s"], synthetic=True)
     test = Test(meta=meta)
-    for k, base in enumerate(SIGNALS):
-        test.add(Signal.standard(f"{base}_simu", t, out[:, k], source="simu"))
+    for k, base in enumerate(arch.signals):
+        test.add(Signal.standard(f"{base}_simu", grid.t, out[:, k], source="simu"))
     return SimResult(test=test, summary=summary, vehicle=veh, cycle=cyc, dt=dt, iterations=iters)
 
 
-def _simulate_conventional(veh, cyc: Cycle, t: np.ndarray, vt: np.ndarray,
-                           dt: float, cold_start: bool = False) -> SimResult:
-    """Conventional powertrain (no battery: SOC options do not apply)."""
-    from vehval.sim.conventional import run_conventional_once, summarise_conventional
-    from vehval.sim.conventional_kernel import CONV_SIGNALS
-    out, ys = run_conventional_once(veh, t, vt, dt, cold_start=cold_start)
-    summary = summarise_conventional(veh, ys)
-    summary.update({"vehicle": veh.name, "cycle": cyc.name, "dt_s": dt,
-                    "architecture": "conventional", "cold_start": bool(cold_start)})
-    meta = TestMeta(test_id=f"simu_{veh.name}_{cyc.name}", vehicle=veh.name, cycle=cyc.name,
-                    notes=[f"vehval forward-looking conventional simulation, dt = {dt:g} s"],
-                    synthetic=True)
-    test = Test(meta=meta)
-    for k, base in enumerate(CONV_SIGNALS):
-        test.add(Signal.standard(f"{base}_simu", t, out[:, k], source="simu"))
-    return SimResult(test=test, summary=summary, vehicle=veh, cycle=cyc, dt=dt)
+# ------------------------------------------------------------------ architectures
 
 
-def _balance(veh: Vehicle, t, vt, dt, soc0: float, iters: list,
-             cold_start: bool = False) -> float:
-    """Secant iteration on the initial SOC so that SOC_end - SOC_start -> 0."""
-    lo, hi = veh.battery.soc_min + 0.02, veh.battery.soc_max - 0.02
+@dataclass(frozen=True)
+class Architecture:
+    """How the front door runs one powertrain architecture.
+
+    Attributes
+    ----------
+    name : str
+        The vehicle file's ``architecture`` value.
+    label : str
+        What the simulated test's notes call the run.
+    signals, summary_keys : tuple of str
+        Columns of the recorded signals and entries of the summary vector of its loop.
+    run : callable
+        ``run(vehicle, grid, soc0, record) -> (signals, summary vector)``: pack the vehicle
+        (with the grid's cold start) and run the compiled loop once.
+    summarise : callable
+        ``summarise(vehicle, summary vector, soc0) -> dict``.
+    cold_start_model : callable
+        ``cold_start_model(vehicle) -> bool``: whether a cold start differs from a hot one.
+    soc_final : int or None
+        Summary index of the final SOC [-]; None for a powertrain without a battery.
+    """
+
+    name: str
+    label: str
+    signals: tuple[str, ...]
+    summary_keys: tuple[str, ...]
+    run: Callable[[Any, Grid, float, bool], tuple[np.ndarray, np.ndarray]]
+    summarise: Callable[[Any, np.ndarray, float], dict[str, Any]]
+    cold_start_model: Callable[[Any], bool]
+    soc_final: int | None = None
+
+    @property
+    def has_battery(self) -> bool:
+        """Whether the powertrain has a traction battery (SOC, charge balance)."""
+        return self.soc_final is not None
+
+    @property
+    def column(self) -> dict[str, int]:
+        """Signal base name -> column of the recorded signals."""
+        return {n: i for i, n in enumerate(self.signals)}
+
+
+def _run_power_split(veh: Vehicle, grid: Grid, soc0: float,
+                     record: bool) -> tuple[np.ndarray, np.ndarray]:
+    p = pack(veh, soc0, grid.cold_start)
+    out = np.zeros((grid.t.size if record else 1, len(SIGNALS)))
+    return out, run(grid.vt, grid.lo, grid.hi, grid.dt, p.prm, p.maps, out, record)
+
+
+def _run_conventional(veh: Any, grid: Grid, soc0: float,
+                      record: bool) -> tuple[np.ndarray, np.ndarray]:
+    out = np.zeros((grid.t.size if record else 1, len(CONV_SIGNALS)))
+    ys = run_conventional(grid.vt, grid.lo, grid.hi, grid.dt,
+                          conv_param_vector(veh, grid.cold_start), *conv_maps(veh),  # type: ignore[call-arg]  # numba Dispatcher stub
+                          out, record)
+    return out, ys
+
+
+def _power_split_cold_model(veh: Vehicle) -> bool:
+    return veh.engine.warmup_fuel_fraction > 0.0 or veh.controller.cold_start_engine_on_s > 0.0
+
+
+#: the vehicle file's ``architecture`` -> how to run it
+ARCHITECTURES: dict[str, Architecture] = {
+    "power_split": Architecture(
+        name="power_split", label="forward-looking simulation", signals=SIGNALS,
+        summary_keys=SUMMARY, run=_run_power_split, summarise=summarise, cold_start_model=_power_split_cold_model,
+        soc_final=SUMMARY.index("soc_final")),
+    "conventional": Architecture(
+        name="conventional", label="forward-looking conventional simulation",
+        signals=CONV_SIGNALS, summary_keys=CONV_SUMMARY, run=_run_conventional,
+        summarise=lambda v, ys, s0: summarise_conventional(v, ys),
+        cold_start_model=lambda v: v.engine.warmup_fuel_fraction > 0.0),
+}
+
+
+def architecture(veh: Any) -> Architecture:
+    """The registry entry of ``veh``'s architecture (ConfigError naming an unknown one)."""
+    name = getattr(veh, "architecture", "power_split")
+    try:
+        return ARCHITECTURES[name]
+    except KeyError:
+        raise ConfigError(f"{getattr(veh, 'file', None) or getattr(veh, 'name', '?')}: no "
+                          f"simulation for architecture {name!r} (known: "
+                          f"{', '.join(ARCHITECTURES)})") from None
+
+
+def run_cycle(veh: Any, grid: Grid, soc0: float = float("nan"),
+              record: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """Run ``veh`` once over ``grid`` from SOC ``soc0`` [-] (ignored without a battery).
+
+    Returns the recorded signals (``architecture(veh).signals`` columns; one empty row
+    when not ``record``) and the summary vector (``summary_keys``)."""
+    return architecture(veh).run(veh, grid, soc0, record)
+
+
+# ------------------------------------------------------------------ plans, charge balance
+
+
+def charge_balance(soc_error: Callable[[float], tuple[float, Any]], soc0: float, lo: float,
+                   hi: float, iters: list[tuple[float, float]] | None = None
+                   ) -> tuple[float, Any, list[tuple[float, float]]]:
+    """Secant iteration on the initial SOC until SOC_end - SOC_start is within
+    :data:`BALANCE_TOL` (at most :data:`BALANCE_MAX_ITER` steps after the first run).
+
+    Parameters
+    ----------
+    soc_error : callable
+        ``soc_error(soc_start) -> (soc_end - soc_start [-], payload)``.
+    soc0 : float
+        First initial SOC tried [-].
+    lo, hi : float
+        Window of the initial SOC [-].
+    iters : list, optional
+        Receives (soc_start, soc_end - soc_start) of every run.
+
+    Returns
+    -------
+    (soc_start, payload, iters) of the balanced run, or of the best run when the iteration
+    does not reach the tolerance.
+    """
+    iters = [] if iters is None else iters
     xa = soc0
-    fa = run_once(veh, t, vt, dt, xa, False, cold_start)[1][SUMMARY.index("soc_final")] - xa
+    fa, pa = soc_error(xa)
     iters.append((xa, fa))
-    if abs(fa) <= _BALANCE_TOL_ITER:
-        return xa
+    if abs(fa) <= BALANCE_TOL:
+        return xa, pa, iters
+    best = (abs(fa), xa, pa)
     xb = min(max(xa + fa, lo), hi)
-    best = (abs(fa), xa)
-    for _ in range(12):
-        fb = run_once(veh, t, vt, dt, xb, False, cold_start)[1][SUMMARY.index("soc_final")] - xb
+    for _ in range(BALANCE_MAX_ITER):
+        fb, pb = soc_error(xb)
         iters.append((xb, fb))
-        best = min(best, (abs(fb), xb))
-        if abs(fb) <= _BALANCE_TOL_ITER:
-            return xb
+        if abs(fb) < best[0]:
+            best = (abs(fb), xb, pb)
+        if abs(fb) <= BALANCE_TOL:
+            return xb, pb, iters
         slope = (fb - fa) / (xb - xa) if xb != xa else -1.0
         if slope >= -1e-3:  # SOC regulation makes f decrease with x; fall back to fixed point
             slope = -1.0
         xa, fa = xb, fb
         xb = min(max(xb - fb / slope, lo), hi)
-    return best[1]
+    return best[1], best[2], iters
+
+
+def run_plan(veh: Any, grids: list[Grid], soc0: float = float("nan"),
+             record: bool = True) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Run the grids one after the other, each starting from the SOC the previous one ended
+    with (clamped to the battery window); returns (signals, summary vector) per run."""
+    arch = architecture(veh)
+    res = []
+    soc = soc0
+    for g in grids:
+        if arch.has_battery:
+            soc = min(max(soc, veh.battery.soc_min), veh.battery.soc_max)
+        out, ys = arch.run(veh, g, soc, record)
+        res.append((out, ys))
+        if arch.has_battery:
+            soc = float(ys[arch.soc_final])
+    return res
+
+
+def balanced_plan(veh: Any, grids: list[Grid], soc0: float | None = None,
+                  record: bool = True):
+    """:func:`run_plan` with the initial SOC iterated (:func:`charge_balance`) until the
+    whole plan ends where it started.
+
+    Parameters
+    ----------
+    soc0 : float, optional
+        First initial SOC tried [-]; default the controller's SOC target.
+
+    Returns
+    -------
+    (soc_start, runs, iters)
+        Initial SOC [-] (NaN without a battery: nothing to balance, one plain run), the
+        runs of :func:`run_plan` and the (soc_start, soc_end - soc_start) of every try.
+    """
+    arch = architecture(veh)
+    if not arch.has_battery:
+        return float("nan"), run_plan(veh, grids, record=record), []
+    k = arch.soc_final
+
+    def err(x: float):
+        runs = run_plan(veh, grids, x, record)
+        return float(runs[-1][1][k]) - x, runs
+
+    start = veh.controller.soc_target if soc0 is None else float(soc0)
+    bt = veh.battery
+    return charge_balance(err, start, bt.soc_min + 0.02, bt.soc_max - 0.02)
+
+
+def plan_summary(veh: Any, runs: list[tuple[np.ndarray, np.ndarray]],
+                 soc0: float) -> dict[str, Any]:
+    """Summary of a whole plan: the runs' accumulators added, the final SOC the last run's."""
+    arch = architecture(veh)
+    ys = np.sum([r[1] for r in runs], axis=0)
+    if arch.has_battery:
+        ys[arch.soc_final] = runs[-1][1][arch.soc_final]
+    return arch.summarise(veh, ys, soc0)
