@@ -94,8 +94,7 @@ def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
                    soc_initial=cond.soc_initial)
     unc, basis = _relative_uncertainty(test, results, cond)
     comp = compare(test, sim.test, dt=dt, window_s=window_s, on_speed_rpm=on_speed_rpm,
-                   fuel_density_kg_per_m3=cond.fuel_density_kg_per_m3,
-                   fuel_lhv_j_per_kg=cond.fuel_lhv_j_per_kg, uncertainty_rel=unc,
+                   fuel=cond.fuel, uncertainty_rel=unc,
                    uncertainty_basis=basis)
     match = vehicle_match(test, veh)
     if not match.matches:
@@ -109,10 +108,8 @@ def _relative_uncertainty(test: Test, results: Any, cond: Conditions) -> tuple[d
     from vehval.validate.compare import VERDICT_KEYS
 
     if results is None:
-        fuel = {"density_kg_per_m3": cond.fuel_density_kg_per_m3,
-                "lhv_j_per_kg": cond.fuel_lhv_j_per_kg}
         try:
-            results = compute_results(test, fuel=fuel)
+            results = compute_results(test, fuel=cond.fuel)
         except Exception:  # noqa: BLE001 - no verdict rather than no validation
             return {}, ""
     out = {}
