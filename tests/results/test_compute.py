@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 
-from vehval.constants import GALLON_US_M3, MILE_M
+from vehval.constants import MILE_M
 from vehval.fuels import fuel_properties
+from vehval.fuels.quantities import GALLON_US_M3
 from vehval.qa.findings import Kind, Severity
 from vehval.results import compute_results
 from vehval.results.soc import regression_correction, soc_correction

@@ -17,7 +17,7 @@ import numpy as np
 import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.fuels import known_fuels, table_fuel
+from vehval.fuels import known_fuels, resolve_fuel, table_fuel
 from vehval.identify.fuelmap import FuelMapFit, engine_power
 from vehval.identify.gears import (
     GearFit,
@@ -124,7 +124,7 @@ def _fuel_table(fm: FuelMapFit, a: Assumptions):
 def _engine_fuel(trace: Trace, a: Assumptions) -> tuple[dict, dict]:
     """The engine's fuel keys and their sources: the test fuel (:func:`resolve_fuel` of the
     test: template ``fuel:``, else its constants), named when it is a fuel of the table."""
-    fuel = trace.test_fuel
+    fuel = trace.test_fuel or resolve_fuel(constants=trace.constants)
     rho = a.fuel_density_kg_per_m3 or (fuel.density_kg_per_m3 if fuel is not None else None)
     lhv = a.fuel_lhv_j_per_kg or (fuel.lhv_j_per_kg if fuel is not None else None)
     if not rho or not lhv:
