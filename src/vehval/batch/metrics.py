@@ -58,8 +58,13 @@ def _power(test: Test, pwr: str, effort: str, flow: str, pref) -> tuple[np.ndarr
     return None
 
 
+#: Whole-test figures taken from the results stage when it ran.
+RESULTS_KEYS = ("distance_m", "fuel_mass_kg", "fuel_economy_mpg", "fuel_consumption_l_per_100km",
+                "fuel_energy_j")
+
+
 def test_metrics(test: Test, selected: dict[str, str] | None = None,
-                 fuel: Any = None) -> dict[str, Any]:
+                 fuel: Any = None, results: Any = None) -> dict[str, Any]:
     """Key metrics of a test.
 
     Parameters
@@ -74,6 +79,10 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None,
         finds for the test (template ``fuel:`` kept at import, else the constants
         ``fuel_density_kg_per_m3`` / ``fuel_lhv_j_per_kg``). Without one, fuel economy and
         energy are None: there is no default fuel.
+    results : vehval.results.TestResults, optional
+        The results stage of the test: its whole-test distance, fuel mass, fuel economy,
+        consumption and energy are the ones stated (one owner of each figure); the
+        integrals below serve tests without results.
 
     Returns
     -------
@@ -106,6 +115,9 @@ def test_metrics(test: Test, selected: dict[str, str] | None = None,
         if fe["fuel_volume_m3"] is not None and dist is not None and fm > 0 and dist > 0:
             out["fuel_economy_mpg"] = fe["fuel_economy_mpg"]
             out["fuel_consumption_l_per_100km"] = fe["fuel_consumption_l_per_100km"]
+    if results is not None:
+        for key in RESULTS_KEYS:
+            out[key] = results.value("test", key)
     soc = _pick(test, "ess_soc", selected)
     if soc is not None:
         _, v = _finite(soc)
