@@ -144,7 +144,7 @@ def match_cycle(speed: Signal | None, cycle_name: str | None,
         det = stored
         if det.get("method") != "cycle" or det.get("cycle") != base:
             return None
-        src = det.get("source")
+        src = str(det.get("source") or "")
         shift = (float((source_offsets_s or {}).get(src, 0.0))
                  - float(det.get("source_offset_s") or 0.0))
     else:  # a test built without import (no stored match): locate the cycle

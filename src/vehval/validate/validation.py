@@ -22,7 +22,6 @@ from vehval.validate.conditions import (
 from vehval.validate.match import VehicleMatch, vehicle_match
 from vehval.vehicle import Vehicle, load_vehicle
 
-
 #: Whole-test figures of the results stage stated as ``measured`` in validation.json.
 MEASURED_KEYS = ("distance_m", "fuel_mass_kg", "fuel_volume_m3", "fuel_economy_mpg",
                  "fuel_consumption_l_per_100km", "fuel_energy_j")
