@@ -61,11 +61,14 @@ def test_resolver_order_and_provenance():
     # 1. the template's fuel: key (kept in the test metadata at import) beats everything
     r = resolve_fuel(test=_test("diesel", fuel_density_kg_per_m3=800.0), vehicle=veh)
     assert (r.name, r.origin, r.density_kg_per_m3) == ("diesel", "template fuel", 851.0)
-    # 2. explicit constants beat the vehicle
+    # 2. explicit constants beat the vehicle, per value; no carbon fraction (no CO2)
     r = resolve_fuel(test=_test(None, fuel_density_kg_per_m3=800.0), vehicle=veh)
-    assert (r.name, r.origin, r.density_kg_per_m3, r.lhv_j_per_kg) == (
+    assert (r.name, r.origin, r.density_kg_per_m3, r.carbon_mass_fraction) == (
         "explicit", "template constants", 800.0, None)
     assert r.sources["density_kg_per_m3"] == "template constant fuel_density_kg_per_m3"
+    assert r.lhv_j_per_kg == table_fuel("gasoline_e0").lhv_j_per_kg
+    assert r.sources["lhv_j_per_kg"] == "vehicle prius_2004 engine.fuel_lhv_j_per_kg"
+    assert resolve_fuel(test=_test(None, fuel_density_kg_per_m3=800.0)).lhv_j_per_kg is None
     # explicit constants given by the caller beat the test's
     r = resolve_fuel(test=_test(None, fuel_density_kg_per_m3=800.0),
                      constants={"fuel_density_kg_per_m3": 810.0})

@@ -160,10 +160,10 @@ def _load_calculations_file(name_or_path: str | Path) -> CalculationFile:
     return calc
 
 
-def _fuel_origin(fuel: ResolvedFuel, key: str) -> str:
+def _fuel_origin(fuel: ResolvedFuel, prop: str, key: str) -> str:
     if fuel.origin == "template fuel":
         return f"template fuel {fuel.name}"
-    if fuel.origin == "template constants":
+    if fuel.sources.get(prop, "").startswith("template constant"):
         return f"template constant {key}"
     return f"vehicle engine.{key}"
 
@@ -188,7 +188,7 @@ def resolve_parameters(calc: CalculationFile, constants: dict[str, float] | None
             v = getattr(fuel, prop, None) if fuel is not None else None
             if v is not None:
                 values[name] = float(v)
-                origin[name] = _fuel_origin(fuel, str(spec.constant))
+                origin[name] = _fuel_origin(fuel, prop, str(spec.constant))
             else:
                 missing[name] = ("declare the test fuel: 'fuel:' in the template (e.g. fuel: "
                                  f"diesel) or template constant '{spec.constant}'")

@@ -7,7 +7,8 @@ The order:
 1. the template's ``fuel:`` key (a table name or explicit properties; kept in the test's
    metadata at import as ``meta.fuel``);
 2. explicit constants ``fuel_density_kg_per_m3`` / ``fuel_lhv_j_per_kg`` (explicit
-   ``constants`` given by the caller, then the test's, then the template's);
+   ``constants`` given by the caller, then the test's, then the template's); a property they
+   leave out is the vehicle's (density and LHV only: no carbon fraction, so no CO2);
 3. the vehicle file's engine: its ``fuel`` (a table name) with any explicit values it gives
    over the table's, or its explicit ``fuel_density_kg_per_m3`` / ``fuel_lhv_j_per_kg``.
 
@@ -160,12 +161,16 @@ def resolve_fuel(*, template: Any = None, test: Any = None,
         merged.update(getattr(meta, "constants", None) or {})
     merged.update(constants or {})
     values = {p: v for p, k in CONSTANT_KEYS.items() if (v := _number(merged.get(k))) is not None}
-    if values:
-        return ResolvedFuel(_explicit(values, {p: f"template constant {CONSTANT_KEYS[p]}"
-                                               for p in values}), "template constants")
     vf = vehicle_fuel(vehicle)
+    label = getattr(vehicle, "name", None) or "file"
+    if values:
+        sources = {p: f"template constant {CONSTANT_KEYS[p]}" for p in values}
+        for p in CONSTANT_KEYS:  # a property the constants leave out: the vehicle's, per value
+            if p not in values and vf is not None and getattr(vf, p) is not None:
+                values[p] = getattr(vf, p)
+                sources[p] = f"vehicle {label} engine.{CONSTANT_KEYS[p]}"
+        return ResolvedFuel(_explicit(values, sources), "template constants")
     if vf is not None:
-        label = getattr(vehicle, "name", None) or "file"
         return ResolvedFuel(vf, f"vehicle {label}")
     return None
 
