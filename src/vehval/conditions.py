@@ -1,9 +1,12 @@
-"""The test's physical conditions (mass, road load, fuel...), decided once, with provenance.
+"""The test's physical conditions (mass, road load...), decided once, with provenance.
+
+The fuel is not one of them: :func:`vehval.fuels.resolve_fuel` decides it (template ``fuel:``,
+explicit constants, vehicle file; no default).
 
 One policy for every stage (QA calculations, analysis, validation, batch metrics, report):
 a **template constant beats the vehicle's value**, which beats a documented default. The
-template describes the test as it was run (the dyno's inertia mass and coefficients, the
-fuel actually used); the vehicle file describes the car in general.
+template describes the test as it was run (the dyno's inertia mass and coefficients; the
+fuel is resolved by :mod:`vehval.fuels`); the vehicle file describes the car in general.
 
 Vehicle values are found by their **dotted path** only (``body.mass_kg``), never by a
 search for a bare key: ``max_torque_nm`` exists in several blocks, a search would pick one
@@ -18,10 +21,6 @@ from typing import Any, Mapping
 
 from vehval.errors import ConfigError
 
-#: When neither the template nor the vehicle gives the fuel (US test gasoline) [kg/m^3], [J/kg].
-DEFAULT_FUEL_DENSITY_KG_PER_M3 = 745.0
-DEFAULT_FUEL_LHV_J_PER_KG = 42.6e6
-
 #: Condition -> (template constant, vehicle dotted path, default). None: no such source.
 CONDITIONS: dict[str, tuple[str | None, str | None, float | None]] = {
     "test_mass_kg": ("test_mass_kg", "body.mass_kg", None),
@@ -30,10 +29,6 @@ CONDITIONS: dict[str, tuple[str | None, str | None, float | None]] = {
     "road_load_c_n_per_mps2": ("road_load_c_n_per_mps2", "body.road_load_c_n_per_mps2", None),
     "wheel_radius_m": ("wheel_radius_m", "driveline.wheel_radius_m", None),
     "final_drive_ratio": ("final_drive_ratio", "driveline.final_drive_ratio", None),
-    "fuel_density_kg_per_m3": ("fuel_density_kg_per_m3", "engine.fuel_density_kg_per_m3",
-                               DEFAULT_FUEL_DENSITY_KG_PER_M3),
-    "fuel_lhv_j_per_kg": ("fuel_lhv_j_per_kg", "engine.fuel_lhv_j_per_kg",
-                          DEFAULT_FUEL_LHV_J_PER_KG),
 }
 
 

@@ -137,6 +137,11 @@ class TestMeta:
     deleted: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     synthetic: bool = False
+    #: The template's ``fuel:`` (a fuel table name or explicit properties), kept at import.
+    fuel: str | dict | None = None
+    #: How the cycle was found in the record (:func:`vehval.cycles_match.identify_cycle`:
+    #: name, score, offsets, windows...), kept at import for the later stages.
+    cycle_match: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}

@@ -214,7 +214,8 @@ def _conversion(raw_unit: str | None, si_unit: str, fuel_density_kg_per_m3: floa
         if not fuel_density_kg_per_m3:
             raise UnitError(
                 f"converting volumetric '{raw_unit}' to '{si_unit}' needs the fuel density: "
-                "set constants.fuel_density_kg_per_m3 in the template")
+                "declare the fuel in the template ('fuel: diesel', a name of the fuel table, "
+                "or constants.fuel_density_kg_per_m3)")
         factor = float(fuel_density_kg_per_m3)
         q0 = ureg.Quantity(0.0, src).to("meter ** 3 / second").magnitude
         q1 = ureg.Quantity(1.0, src).to("meter ** 3 / second").magnitude

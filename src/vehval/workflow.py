@@ -484,7 +484,7 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     for cyc, idx in by_cycle.items():
         if len(idx) < 2:
             continue
-        var = variability([runs[i].validated for i in idx])
+        var = variability([runs[i].validated for i in idx], vehicle=veh)
         payload["tables"] += var.tables()
         rows = []
         for i in idx:

@@ -14,8 +14,8 @@ import pytest
 from iohelpers import write_d3
 
 from vehval.cycles import list_cycles, load_cycle, steady_cycle
+from vehval.cycles_match import describe, identify_cycle
 from vehval.errors import ConfigError, VehvalError
-from vehval.io.identify import describe, identify_cycle
 from vehval.io.importer import import_test, set_cycle
 from vehval.io.parquet import read_test
 from vehval.io.template import Template, load_template

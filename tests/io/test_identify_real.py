@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vehval.io.identify import identify_cycle
+from vehval.cycles_match import identify_cycle
 from vehval.io.readers import read_raw
 
 pytestmark = pytest.mark.realdata

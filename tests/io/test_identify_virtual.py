@@ -11,7 +11,7 @@ from __future__ import annotations
 import pytest
 
 from vehval.cycles import steady_cycle
-from vehval.io.identify import identify_cycle
+from vehval.cycles_match import identify_cycle
 from vehval.io.importer import import_test, set_cycle
 from vehval.io.propose import propose_template
 from vehval.io.template import load_template

@@ -129,6 +129,24 @@ def test_volumetric_fuel_needs_density(tmp_path):
                                "n.yaml"))
 
 
+def test_volumetric_fuel_takes_the_density_of_the_declared_fuel(tmp_path):
+    """The template's ``fuel: diesel`` is the one fuel of import and ``template check``."""
+    from vehval.fuels import table_fuel
+    from vehval.io.propose import check_template
+
+    f = tmp_path / "c.txt"
+    f.write_text("Time[s],Eng_FuelFlow_Direct_DI[ccps]\n0,1.0\n1,2.0\n")
+    text = ("fuel: diesel\nfiles:\n  - source: dyno\n    channels:\n"
+            "      Eng_FuelFlow_Direct_DI: {name: fuel_rate_test, unit: ccps}\n")
+    rho = table_fuel("diesel").density_kg_per_m3
+    test = import_test([f], _tmpl(tmp_path, text))
+    np.testing.assert_allclose(test["fuel_rate_test"].values, [1e-6 * rho, 2e-6 * rho], rtol=1e-12)
+    assert test.meta.fuel == "diesel"
+    assert check_template(_tmpl(tmp_path, text, "c.yaml"), [f]).ok
+    bare = check_template(_tmpl(tmp_path, text.replace("fuel: diesel\n", ""), "b.yaml"), [f])
+    assert not bare.ok and any("needs the fuel density" in e for e in bare.errors)
+
+
 def test_two_files_two_sources_and_matching(tmp_path):
     d = write_d3(tmp_path / "t1_d3.txt")
     o = tmp_path / "t1_obd.csv"

@@ -3,10 +3,11 @@
 import numpy as np
 import pytest
 
-from vehval.constants import GALLON_US_M3, MILE_M
+from vehval.constants import MILE_M
+from vehval.fuels import fuel_properties
+from vehval.fuels.quantities import GALLON_US_M3
 from vehval.qa.findings import Kind, Severity
 from vehval.results import compute_results
-from vehval.results.fuels import fuel_properties
 from vehval.results.soc import regression_correction, soc_correction
 from vehval.test import Signal
 
@@ -202,3 +203,30 @@ def test_ftp75_with_a_hot_soak_gets_three_bags_and_the_weighting():
     ftp = next(c for c in res.composites if c.name == "ftp75")
     assert ftp.groups == [(0.43, ["bag1", "bag2"]), (0.57, ["bag3", "bag2"])]
     assert res.value("bag3", "distance_m") == pytest.approx(res.value("bag1", "distance_m"), rel=0.01)
+
+
+def test_results_use_the_cycle_match_kept_at_import(monkeypatch):
+    """The import keeps the whole match in the metadata; the results stage places the phases
+    with it (shifted with its source by alignment) and never searches the record again."""
+    import vehval.cycles_match as cm
+    from vehval.io.importer import set_cycle
+
+    t, s = true_signals()
+    test = make_test(t + 30.0, s, phase=False)
+    test.meta.cycle = ""
+    set_cycle(test)
+    m = test.meta.cycle_match
+    assert test.meta.cycle == m["name"] == "udds" and m["method"] == "cycle"
+    assert m["signal"] == "veh_spd_test" and m["source"] == "dyno" and m["score"] > 0.9
+    assert m["offsets_s"] == [30.0] and m["source_offset_s"] == 0.0
+
+    def no_search(*a, **k):
+        raise AssertionError("the results stage searched the record again")
+
+    monkeypatch.setattr(cm, "identify_cycle", no_search)
+    res = compute_results(test, fuel="diesel")
+    assert res.phase_source.startswith("cycle udds")
+    assert res.phases[0].segments[0] == pytest.approx((30.0, 535.0), abs=0.2)
+    test.shift_source("dyno", -2.5)            # alignment after import moves the match too
+    res = compute_results(test, fuel="diesel")
+    assert res.phases[0].segments[0] == pytest.approx((27.5, 532.5), abs=0.2)

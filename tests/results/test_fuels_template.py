@@ -6,8 +6,8 @@ import pytest
 import yaml
 
 from vehval.errors import ConfigError
+from vehval.fuels import fuel_properties, known_fuels
 from vehval.io.template import load_template
-from vehval.results.fuels import fuel_properties, known_fuels
 
 BASE = {"template_version": 1, "files": [{"source": "dyno", "channels": {
     "Speed": {"name": "veh_spd_test", "unit": "mph"},

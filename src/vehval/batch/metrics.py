@@ -12,9 +12,7 @@ from typing import Any, Collection, Mapping
 
 import numpy as np
 
-from vehval.conditions import TestConditions
-from vehval.constants import GALLON_US_M3 as _M3_PER_US_GAL
-from vehval.constants import MILE_M as _M_PER_MILE
+from vehval.fuels import economy, resolve_fuel
 from vehval.test import Signal, Test
 
 
@@ -54,8 +52,13 @@ def _power(test: Test, pwr: str, effort: str, flow: str,
     return None
 
 
+#: Whole-test figures taken from the results stage when it ran.
+RESULTS_KEYS = ("distance_m", "fuel_mass_kg", "fuel_economy_mpg", "fuel_consumption_l_per_100km",
+                "fuel_energy_j")
+
+
 def test_metrics(test: Test, selected: Mapping[str, str] | Collection[str] | None = None,
-                 fuel: Any = None) -> dict[str, Any]:
+                 fuel: Any = None, results: Any = None) -> dict[str, Any]:
     """Key metrics of a test.
 
     Parameters
@@ -67,10 +70,15 @@ def test_metrics(test: Test, selected: Mapping[str, str] | Collection[str] | Non
         name. When given (QA ran), only those signals are used; a quantity QA kept in no
         source gives None. Each signal is chosen by :meth:`vehval.test.Test.best`, the
         rule every stage follows.
-    fuel : vehval.results.Fuel, optional
-        The declared fuel (template ``fuel:``); else the constants ``fuel_density_kg_per_m3``
-        and ``fuel_lhv_j_per_kg`` (or the vehicle's). With neither, fuel economy and energy
-        are None: the gasoline default of :mod:`vehval.conditions` is never used here.
+    fuel : Fuel or ResolvedFuel, optional
+        The test fuel (the results stage's); else the one :func:`vehval.fuels.resolve_fuel`
+        finds for the test (template ``fuel:`` kept at import, else the constants
+        ``fuel_density_kg_per_m3`` / ``fuel_lhv_j_per_kg``). Without one, fuel economy and
+        energy are None: there is no default fuel.
+    results : vehval.results.TestResults, optional
+        The results stage of the test: its whole-test distance, fuel mass, fuel economy,
+        consumption and energy are the ones stated (one owner of each figure); the
+        integrals below serve tests without results.
 
     Returns
     -------
@@ -81,15 +89,8 @@ def test_metrics(test: Test, selected: Mapping[str, str] | Collection[str] | Non
         positive discharged), ``eng_energy_j`` (positive brake energy),
         ``tractive_energy_j`` (positive) [J]; None where the signals are missing.
     """
-    cond = TestConditions.resolve(test)
-
-    def declared(name: str) -> float | None:
-        # the gasoline default of TestConditions is never used for a result
-        return cond.get(name) if cond.source(name) not in (None, "default") else None
-
-    density = (fuel.density_kg_per_m3 if fuel is not None else None) or declared(
-        "fuel_density_kg_per_m3")
-    lhv = (fuel.lhv_j_per_kg if fuel is not None else None) or declared("fuel_lhv_j_per_kg")
+    if fuel is None:
+        fuel = resolve_fuel(test=test)
     out: dict[str, Any] = {k: None for k in (
         "duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
         "fuel_consumption_l_per_100km", "soc_initial", "soc_final", "soc_change",
@@ -101,16 +102,19 @@ def test_metrics(test: Test, selected: Mapping[str, str] | Collection[str] | Non
     spd = test.best("veh_spd", ("test",), kept=kept)
     if spd is not None:
         out["distance_m"] = _integral(*_finite(spd))
-    fuel = test.best("fuel_rate", ("test",), kept=kept)
-    if fuel is not None:
-        out["fuel_mass_kg"] = _integral(*_finite(fuel))
+    rate = test.best("fuel_rate", ("test",), kept=kept)
+    if rate is not None:
+        out["fuel_mass_kg"] = _integral(*_finite(rate))
     fm, dist = out["fuel_mass_kg"], out["distance_m"]
     if fm is not None:
-        out["fuel_energy_j"] = fm * lhv if lhv else None
-        if density and dist is not None and fm > 0 and dist > 0:
-            gal = fm / density / _M3_PER_US_GAL
-            out["fuel_economy_mpg"] = dist / _M_PER_MILE / gal
-            out["fuel_consumption_l_per_100km"] = fm / density * 1e3 / (dist / 1e5)
+        fe = economy(fm, dist if dist is not None else math.nan, fuel)
+        out["fuel_energy_j"] = fe["fuel_energy_j"]
+        if fe["fuel_volume_m3"] is not None and dist is not None and fm > 0 and dist > 0:
+            out["fuel_economy_mpg"] = fe["fuel_economy_mpg"]
+            out["fuel_consumption_l_per_100km"] = fe["fuel_consumption_l_per_100km"]
+    if results is not None:
+        for key in RESULTS_KEYS:
+            out[key] = results.value("test", key)
     soc = test.best("ess_soc", ("test",), kept=kept)
     if soc is not None:
         _, v = _finite(soc)

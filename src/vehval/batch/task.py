@@ -193,7 +193,8 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     qa_dict = outputs.get("qa") or {}
     write_text_atomic(stage / "results.json", dump_json(res.to_dict()))
     result["results"] = results_summary(res)
-    result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None, fuel=res.fuel)
+    result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None, fuel=res.fuel,
+                                     results=res)
     if qa_dict:
         result["findings"] = _compact_findings(qa_dict)
         result["findings_by_severity"] = _by_severity(result["findings"])

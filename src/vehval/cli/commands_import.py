@@ -117,7 +117,7 @@ def _channel_stats(name: str, unit: str | None, t: np.ndarray | None, v: np.ndar
 def _raw_cycle(raw) -> dict:
     """Cycle of a raw file, identified from its vehicle-speed channel (matched like
     ``template init`` does), as ``{cycle, cycle_found}``; empty when the file has none."""
-    from vehval.io.identify import describe, identify_cycle
+    from vehval.cycles_match import describe, identify_cycle
     from vehval.io.propose import match_channel, unit_known
     from vehval.units import to_si
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.constants import MPH_M_PER_S
+from vehval.constants import MILE_M, MPH_M_PER_S
 from vehval.errors import InputFileError, VehvalError
 
 
@@ -48,8 +48,8 @@ def echo_results(res) -> None:
         d = res.value(p.name, "distance_m") or 0.0
         extra = (f"  IWR {dq['iwr_pct']:+.1f} %, RMSSE {dq['rmsse_mps'] / MPH_M_PER_S:.2f} mph"
                  if dq.get("iwr_pct") is not None else "")
-        typer.echo(f"  {p.name:18s} {d / 1609.344:6.2f} mi  {fe(p.name)}{extra}")
-    typer.echo(f"  {'whole test':18s} {(res.value('test', 'distance_m') or 0) / 1609.344:6.2f} mi  "
+        typer.echo(f"  {p.name:18s} {d / MILE_M:6.2f} mi  {fe(p.name)}{extra}")
+    typer.echo(f"  {'whole test':18s} {(res.value('test', 'distance_m') or 0) / MILE_M:6.2f} mi  "
                f"{fe('test')}")
     for c in res.composites:
         typer.echo(f"  = {c.name:16s} {fe(c.name)}  [{c.rule.split(':')[0]}]")

@@ -23,7 +23,6 @@ from typing import Any
 
 import numpy as np
 
-from vehval.constants import GALLON_US_M3, MILE_M
 from vehval.cycles import load_cycle
 from vehval.epa.consistency import (
     ListCheck,
@@ -40,6 +39,15 @@ from vehval.epa.procedures import (
     procedure_key,
 )
 from vehval.epa.reader import EpaTest
+from vehval.errors import ConfigError
+from vehval.fuels import (
+    combine_mpg,
+    fuel_economy_mpg,
+    fuel_energy_j,
+    fuel_volume_m3,
+    mpg_from_volume_per_distance,
+    resolve_fuel,
+)
 from vehval.sim.simulate import BALANCE_TOL as BALANCE_TOL  # charge balance [-]
 from vehval.sim.simulate import (
     Grid,
@@ -233,8 +241,7 @@ def _window_sum(t: np.ndarray, y: np.ndarray, windows, dt: float) -> float:
 
 
 def _mpg(distance_m: float, fuel_kg: float, rho: float) -> float:
-    gal = fuel_kg / rho / GALLON_US_M3
-    return distance_m / MILE_M / gal if gal > 0 else math.inf
+    return fuel_economy_mpg(distance_m, fuel_volume_m3(fuel_kg, rho), empty=math.inf)
 
 
 def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
@@ -249,7 +256,11 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
     conventional = not arch.has_battery
     col = arch.column
     soc0, runs, _ = balanced_plan(veh, grids)
-    rho = veh.engine.fuel_density_kg_per_m3
+    fuel = resolve_fuel(vehicle=veh)  # the vehicle's: the certification fuel of the tests
+    if fuel is None or not fuel.density_kg_per_m3 or not fuel.lhv_j_per_kg:
+        raise ConfigError(f"vehicle {veh.name}: no fuel density and LHV: name the fuel "
+                          "(engine.fuel) or give engine.fuel_density_kg_per_m3 and fuel_lhv_j_per_kg")
+    rho, lhv = fuel.density_kg_per_m3, fuel.lhv_j_per_kg
     bag_fuel, bag_dist, bag_batt = {}, {}, {}
     for bag in proc.bags:
         out = runs[bag.run][0]
@@ -272,13 +283,13 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
         cold = (bag_dist[1] + bag_dist[2]) / (bag_fuel[1] + bag_fuel[2])
         hot = (bag_dist[3] + bag_dist[hot_b]) / (bag_fuel[3] + bag_fuel[hot_b])
         fuel_per_m = FTP_WEIGHT_COLD / cold + FTP_WEIGHT_HOT / hot
-        overall = 1.0 / (fuel_per_m * corr) / MILE_M * GALLON_US_M3 * rho
+        overall = mpg_from_volume_per_distance(fuel_volume_m3(fuel_per_m * corr, rho))
     else:
         overall = summ["fuel_economy_soc_corrected_mpg"]
     return TestPrediction(
         test=test, procedure=proc.key, overall_mpg=float(overall), bags_mpg=bags,
         bag_distance_m=bag_dist,
-        bag_fuel_j={k: f * veh.engine.fuel_lhv_j_per_kg for k, f in bag_fuel.items()},
+        bag_fuel_j={k: fuel_energy_j(f, lhv) for k, f in bag_fuel.items()},
         bag_battery_j=bag_batt,
         soc_initial=float(soc0), soc_delta=float(summ["soc_delta"]),
         trace_n_miss=int(summ["trace_n_miss"]),
@@ -309,8 +320,8 @@ def _battery_share(pred: TestPrediction, bags) -> float | None:
 def _pair(pred: TestPrediction, t: EpaTest, first: int, second: int) -> tuple[float, float]:
     """Predicted and measured mpg of two bags combined by distance (one UDDS)."""
     d1, d2 = pred.bag_distance_m[first], pred.bag_distance_m[second]
-    meas = (d1 + d2) / (d1 / t.bags[first - 1] + d2 / t.bags[second - 1])
-    pred_mpg = (d1 + d2) / (d1 / pred.bags_mpg[first] + d2 / pred.bags_mpg[second])
+    meas = combine_mpg([d1, d2], [t.bags[first - 1], t.bags[second - 1]])
+    pred_mpg = combine_mpg([d1, d2], [pred.bags_mpg[first], pred.bags_mpg[second]])
     return pred_mpg, meas
 
 

@@ -24,9 +24,13 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from vehval.conditions import vehicle_value
 from vehval.equations.expr import parse_expression
 from vehval.errors import ConfigError, SignalError
+from vehval.fuels import CONSTANT_KEYS, ResolvedFuel, resolve_fuel
 from vehval.nomenclature import registry
 from vehval.safe_yaml import load_yaml
 from vehval.test import Signal, Test
+
+#: Template constant of a fuel property -> the property of the resolved fuel.
+FUEL_PARAMETERS = {key: prop for prop, key in CONSTANT_KEYS.items()}
 
 
 class _Strict(BaseModel):
@@ -156,12 +160,39 @@ def _load_calculations_file(name_or_path: str | Path) -> CalculationFile:
     return calc
 
 
+def _fuel_origin(fuel: ResolvedFuel, prop: str, key: str) -> str:
+    if fuel.origin == "template fuel":
+        return f"template fuel {fuel.name}"
+    if fuel.sources.get(prop, "").startswith("template constant"):
+        return f"template constant {key}"
+    return f"vehicle engine.{key}"
+
+
 def resolve_parameters(calc: CalculationFile, constants: dict[str, float] | None = None,
-                       vehicle: Any = None) -> tuple[dict[str, float], dict[str, str], dict[str, str]]:
-    """Parameter values, their provenance, and the reason each missing one is missing."""
+                       vehicle: Any = None, fuel: ResolvedFuel | None = None,
+                       ) -> tuple[dict[str, float], dict[str, str], dict[str, str]]:
+    """Parameter values, their provenance, and the reason each missing one is missing.
+
+    A fuel property (a parameter whose constant is ``fuel_lhv_j_per_kg`` or
+    ``fuel_density_kg_per_m3``) comes from the resolved fuel (:func:`vehval.fuels.resolve_fuel`
+    of the template's ``fuel:``, the constants and the vehicle; default: resolved here from
+    ``constants`` and ``vehicle``).
+    """
     constants = constants or {}
+    if fuel is None:
+        fuel = resolve_fuel(constants=constants, vehicle=vehicle)
     values, origin, missing = {}, {}, {}
     for name, spec in calc.parameters.items():
+        prop = FUEL_PARAMETERS.get(spec.constant or "")
+        if prop is not None:
+            v = getattr(fuel, prop, None) if fuel is not None else None
+            if fuel is not None and v is not None:
+                values[name] = float(v)
+                origin[name] = _fuel_origin(fuel, prop, str(spec.constant))
+            else:
+                missing[name] = ("declare the test fuel: 'fuel:' in the template (e.g. fuel: "
+                                 f"diesel) or template constant '{spec.constant}'")
+            continue
         if spec.constant and constants.get(spec.constant) is not None:
             values[name] = float(constants[spec.constant])
             origin[name] = f"template constant {spec.constant}"
@@ -247,7 +278,8 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
     if isinstance(calc, str):
         calc = load_calculations(calc)
     constants = dict(test.meta.constants if constants is None else constants)
-    pvals, porigin, pmissing = resolve_parameters(calc, constants, vehicle)
+    fuel = resolve_fuel(test=test, constants=constants, vehicle=vehicle)
+    pvals, porigin, pmissing = resolve_parameters(calc, constants, vehicle, fuel)
     reg = registry()
     measured: dict[str, Signal] = {}
     usable = [n for n in test.names if n not in exclude]

@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.fuels import known_fuels, resolve_fuel, table_fuel
 from vehval.identify.fuelmap import FuelMapFit, engine_power
 from vehval.identify.gears import (
     GearFit,
@@ -120,6 +121,33 @@ def _fuel_table(fm: FuelMapFit, a: Assumptions):
     return [float(x) for x in spd], [float(x) for x in trq], table, [float(x) for x in tmax]
 
 
+def _engine_fuel(trace: Trace, a: Assumptions) -> tuple[dict, dict]:
+    """The engine's fuel keys and their sources: the test fuel (:func:`resolve_fuel` of the
+    test: template ``fuel:``, else its constants), named when it is a fuel of the table."""
+    fuel = trace.test_fuel or resolve_fuel(constants=trace.constants)
+    rho = a.fuel_density_kg_per_m3 or (fuel.density_kg_per_m3 if fuel is not None else None)
+    lhv = a.fuel_lhv_j_per_kg or (fuel.lhv_j_per_kg if fuel is not None else None)
+    if not rho or not lhv:
+        have = f"the fuel of the {fuel.origin} gives no " + (
+            "density" if not rho else "LHV") if fuel is not None else "no fuel is declared"
+        raise IdentificationError(f"identify: {trace.test_id}: {have}; declare the test fuel "
+                                  "in the template ('fuel: diesel', a name of the fuel table, "
+                                  "or constants fuel_density_kg_per_m3 and fuel_lhv_j_per_kg)")
+    if fuel is not None and fuel.name in known_fuels():
+        keys: dict = {"fuel": fuel.name}
+        srcs = {"fuel": f"{fuel.origin} {fuel.name} (the test fuel)"}
+        table = table_fuel(fuel.name)
+        for key, prop, v in (("fuel_density_kg_per_m3", "density_kg_per_m3", rho),
+                             ("fuel_lhv_j_per_kg", "lhv_j_per_kg", lhv)):
+            if v != getattr(table, prop):
+                keys[key] = float(v)
+                srcs[key] = "given for the test, over the fuel table's"
+        return keys, srcs
+    return ({"fuel_density_kg_per_m3": float(rho), "fuel_lhv_j_per_kg": float(lhv)},
+            {"fuel_density_kg_per_m3": "template constant (test fuel)",
+             "fuel_lhv_j_per_kg": "template constant (test fuel)"})
+
+
 def identify_conventional(traces: list[Trace], name: str = "identified_car",
                           assumptions: Assumptions | None = None,
                           ac_trace: Trace | None = None,
@@ -130,12 +158,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     on) the A/C load, its model starting cold when that test does."""
     _check_inputs(traces)
     a = assumptions or Assumptions()
-    c0 = traces[0].constants
-    rho = a.fuel_density_kg_per_m3 or c0.get("fuel_density_kg_per_m3")
-    lhv = a.fuel_lhv_j_per_kg or c0.get("fuel_lhv_j_per_kg")
-    if not rho or not lhv:
-        raise IdentificationError("identify: the template gives no fuel_density_kg_per_m3 / "
-                                  "fuel_lhv_j_per_kg constants; add them to the template")
+    fuel_keys, fuel_sources = _engine_fuel(traces[0], a)
     tests = ", ".join(t.test_id for t in traces)
     rw = a.wheel_radius_m
     rl = fit_road_load(traces)
@@ -197,8 +220,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "max_torque_nm": tmax, "max_power_w": a.max_power_w,
             "max_speed_rpm": a.max_speed_rpm, "idle_speed_rpm": idle_w / RPM,
             "fire_speed_rpm": 0.5 * idle_w / RPM, "motoring_torque_nm": a.motoring_torque_nm,
-            "inertia_kg_m2": a.engine_inertia_kg_m2, "fuel_density_kg_per_m3": float(rho),
-            "fuel_lhv_j_per_kg": float(lhv),
+            "inertia_kg_m2": a.engine_inertia_kg_m2, **fuel_keys,
             "sources": {
                 "speed_rpm": "grid chosen to cover idle to the maximum speed",
                 "torque_nm": "grid chosen to cover the full-load curve",
@@ -210,8 +232,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                 "fire_speed_rpm": "half the idle speed (not used: the engine never stops)",
                 "motoring_torque_nm": a.sources["motoring_torque_nm"],
                 "inertia_kg_m2": a.sources["engine_inertia_kg_m2"],
-                "fuel_density_kg_per_m3": "template constant (test fuel)",
-                "fuel_lhv_j_per_kg": "template constant (test fuel)",
+                **fuel_sources,
             }},
         "engine_control": {
             "idle_fuel_rate_g_per_s": fm.idle_fuel_kg_s * 1e3,

@@ -16,9 +16,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from vehval.errors import SignalError
+from vehval.fuels import resolve_fuel
 from vehval.test import Test
 
 if TYPE_CHECKING:
+    from vehval.fuels import ResolvedFuel
     from vehval.results import TestResults
 
 REQUIRED = {
@@ -53,6 +55,7 @@ class Trace:
     coolant_start_c: float = float("nan")  # engine coolant over the first 5 s [°C]
     file: str = ""
     results: TestResults | None = None  # the results stage of the test, when computed
+    test_fuel: ResolvedFuel | None = None  # vehval.fuels.ResolvedFuel of the test (template fuel:/constants)
 
     @property
     def dt(self) -> float:
@@ -112,7 +115,7 @@ def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
                  a=acceleration(v, dt), force=sig["veh_frc_in"].at(t),
                  w_eng=np.maximum(sig["eng_spd_out"].at(t), 0.0), fuel=sig["fuel_rate"].at(t),
                  phase=np.round(ph.at(t, "previous")) if ph is not None else np.ones_like(t),
-                 constants=dict(test.meta.constants or {}),
+                 constants=dict(test.meta.constants or {}), test_fuel=resolve_fuel(test=test),
                  amb_temp_c=float(np.nanmean(amb.values)) if amb is not None else float("nan"),
                  coolant_start_c=_start_value(clt, t0), file=str(where))
 

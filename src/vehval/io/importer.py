@@ -16,6 +16,7 @@ from typing import Sequence
 import numpy as np
 
 from vehval.errors import ConfigError, InputFileError, UnitError
+from vehval.fuels import resolve_fuel
 from vehval.io.paths import check_input_file
 from vehval.io.propose import entry_for_file, find_channel
 from vehval.io.raw import RawTable
@@ -194,11 +195,8 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
     path = raw.path
     meta = test.meta
     notes = [f"{path.name}: {n}" for n in raw.notes]
-    density = t.constants.fuel_density_kg_per_m3
-    if density is None and t.fuel is not None:
-        from vehval.results.fuels import Fuel, fuel_properties
-        fuel: Fuel | None = fuel_properties(t.fuel)  # a Fuel: t.fuel is set
-        density = fuel.density_kg_per_m3 if fuel is not None else None
+    fuel = resolve_fuel(template=t)
+    density = fuel.density_kg_per_m3 if fuel is not None else None
     t_shared, order, time_col = _shared_time(raw, spec, idx, path, repair, notes)
     shared_repair = [n.removeprefix("warning: ") for n in notes if TIME_REPAIRED in n]
     mapped: set[str] = set()
@@ -285,34 +283,51 @@ def speed_signals(test: Test) -> list[Signal]:
 
 
 def set_cycle(test: Test, template: Template | None = None, *, identify: bool = True) -> None:
-    """Fill ``test.meta.cycle``: the template's ``cycle`` when given, else the cycle
-    identified from the measured vehicle speed (:func:`vehval.io.identify.identify_cycle`).
+    """Fill ``test.meta.cycle`` and ``test.meta.cycle_match``: the template's ``cycle`` when
+    given (located in the record), else the cycle identified from the measured vehicle speed
+    (:func:`vehval.cycles_match.identify_cycle`).
 
-    How the cycle was found is written to ``meta.notes`` (``cycle identified as udds (rms
-    0.21 m/s, offset 0.0 s) from veh_spd_test``); an unidentified cycle leaves
-    ``meta.cycle`` empty with a note saying why.
+    ``meta.cycle_match`` keeps the whole match (name, score, offsets, windows, rms...) with
+    the speed signal and the time offset of its source when it was found, so later stages
+    (the results phases) use it instead of searching again. How the cycle was found is
+    written to ``meta.notes`` (``cycle identified as udds (rms 0.21 m/s, offset 0.0 s) from
+    veh_spd_test``); an unidentified cycle leaves ``meta.cycle`` empty with a note saying why.
     """
-    from vehval.io.identify import describe, identify_cycle
+    from vehval.cycles import list_cycles
+    from vehval.cycles_match import describe, identify_cycle
 
     meta = test.meta
+    sigs = speed_signals(test)
+
+    def keep(name: str | None, score: float, details: dict, sig: Signal) -> None:
+        meta.cycle_match = {"name": name, "score": score, "signal": sig.name,
+                            "source": sig.source,
+                            "source_offset_s": meta.offsets_s.get(sig.source, 0.0), **details}
+
     if template is not None and template.cycle:
         meta.cycle = template.cycle
         meta.notes.append(f"cycle from the template: {template.cycle}")
+        base = template.cycle.split("_x")[0]
+        if identify and sigs and base in list_cycles():
+            name, score, details = identify_cycle(sigs[0].time, sigs[0].values, cycles=[base])
+            keep(name, score, details, sigs[0])
         return
     if not identify:
         return
-    sigs = speed_signals(test)
     if not sigs:
         meta.notes.append("cycle not identified: no measured vehicle speed (veh_spd_*_test)")
         return
     first = ""  # set by the first signal (there is one)
     for sig in sigs:
-        name, _, details = identify_cycle(sig.time, sig.values)
+        name, score, details = identify_cycle(sig.time, sig.values)
         if name is not None:
             meta.cycle = name
             meta.notes.append(f"{describe(name, details)} from {sig.name}")
+            keep(name, score, details, sig)
             return
         first = first or f"{describe(name, details)} (from {sig.name})"
+        if not meta.cycle_match:
+            keep(name, score, details, sig)
     meta.notes.append(first)
 
 
@@ -355,7 +370,9 @@ def import_test(files: Sequence[str | Path] | str | Path, template: Template | s
     tname = t.path.name if t.path else "template"
     meta = TestMeta(test_id=test_id or paths[0].stem, vehicle=t.vehicle or "",
                     files=[str(p) for p in paths], template=str(t.path) if t.path else None,
-                    constants=t.constants_dict(), synthetic=t.synthetic)
+                    constants=t.constants_dict(), synthetic=t.synthetic,
+                    fuel=(t.fuel if t.fuel is None or isinstance(t.fuel, str)
+                          else t.fuel.model_dump(exclude_none=True)))
     test = Test(meta=meta)
     used: dict[int, Path] = {}
     for path in paths:

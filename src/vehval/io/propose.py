@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import cast
 
 from vehval.errors import UnitError, VehvalError
+from vehval.fuels import resolve_fuel
 from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
 from vehval.io.template import ChannelSpec, FileFormat, FileSpec, Template, TimeSpec, as_template
@@ -317,7 +318,8 @@ def propose_template(files: Sequence[str | Path]) -> tuple[Template, list[str]]:
                             "values are taken as a fraction 0..1: set unit '%' if they are percent")
             if unit is not None and parse_unit(unit).dimensionality != parse_unit(spec.unit).dimensionality:
                 todo.append(f"{path.name}: channel '{name}' [{unit}] -> {full}: volumetric fuel "
-                            "flow needs constants.fuel_density_kg_per_m3")
+                            "flow needs the fuel density: declare the fuel ('fuel: diesel', a name of "
+                            "the fuel table) or constants.fuel_density_kg_per_m3")
             channels[name] = ChannelSpec(name=full, unit=unit)
         entries.append(FileSpec(match=_glob_escape(path.name) if len(paths) > 1 else None,
                                 source=src, format=cast(FileFormat, raw.fmt), time=time,
@@ -405,7 +407,8 @@ def check_template(template: Template | str | Path, files: Sequence[str | Path])
     t = as_template(template)
     reg = registry()
     rep = CheckReport()
-    density = t.constants.fuel_density_kg_per_m3
+    fuel = resolve_fuel(template=t)  # the template's fuel: or its constants
+    density = fuel.density_kg_per_m3 if fuel is not None else None
     taken: set[int] = set()
     for f in files:
         path = Path(f)

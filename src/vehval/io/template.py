@@ -337,7 +337,7 @@ class Template(_Strict):
         path = Path(path)
         text = self.to_yaml()
         if placeholders and self.fuel is None:
-            from vehval.results.fuels import known_fuels
+            from vehval.fuels import known_fuels
             text = ("# fuel: declare the test fuel, e.g. 'fuel: diesel' (known: "
                     f"{', '.join(known_fuels())}),\n"
                     "# or 'fuel: {density_kg_per_m3: ..., lhv_j_per_kg: ..., carbon_mass_fraction: ...}'.\n"
@@ -477,7 +477,7 @@ def semantic_errors(t: Template) -> list[str]:
 def _results_errors(t: Template, mapped: dict[str, str]) -> list[str]:
     """Checks of the results keys: fuel known, accuracy and phase channel on mapped signals."""
     from vehval.errors import VehvalError
-    from vehval.results.fuels import fuel_properties
+    from vehval.fuels import fuel_properties
 
     errors: list[str] = []
     try:

@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from vehval.conditions import TestConditions
 from vehval.constants import KMH_M_PER_S, LBF_N, MPH_M_PER_S
+from vehval.fuels import resolve_fuel
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.test import Test
 
@@ -75,7 +75,7 @@ def speed_unit_check(test: Test) -> tuple[list[Finding], float]:
     v = np.asarray(sig.values, float)
     if not np.any(np.nan_to_num(v) > 1.0):
         return [], 1.0
-    from vehval.io.identify import identify_cycle
+    from vehval.cycles_match import identify_cycle
 
     for f, (declared, probably) in SPEED_FACTORS.items():
         name, score, details = identify_cycle(sig.time, v * f)
@@ -138,7 +138,10 @@ def fuel_unit_check(test: Test, template: Any = None, vehicle: Any = None,
     t = np.asarray(frc.time, float)
     p = np.asarray(frc.values, float) * spd.at(t) * speed_factor
     e_wheel = _integral(t, np.maximum(p, 0.0))
-    lhv = TestConditions.resolve(test, template, vehicle)["fuel_lhv_j_per_kg"]
+    fuel_decl = resolve_fuel(template=template, test=test, vehicle=vehicle)
+    lhv = fuel_decl.lhv_j_per_kg if fuel_decl is not None else None
+    if not lhv:  # no fuel declared: the efficiency is unknown
+        return []
     e_fuel = _integral(np.asarray(fuel.time, float), np.maximum(np.asarray(fuel.values, float), 0.0)) * lhv
     if not (np.isfinite(e_wheel) and np.isfinite(e_fuel)) or e_fuel <= 0 or e_wheel <= 1e4:
         return []

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
-from vehval.conditions import DEFAULT_FUEL_LHV_J_PER_KG, TestConditions
+from vehval.fuels import resolve_fuel
 from vehval.test import Test
 
 RPM = 2.0 * np.pi / 60.0  # [rad/s] per rpm
@@ -26,6 +26,13 @@ class PlotSkipped(Exception):
 
 
 # ----------------------------------------------------------------------------- helpers
+
+def _test_lhv(test: Test) -> float | None:
+    """The LHV [J/kg] of the test's declared fuel (:func:`vehval.fuels.resolve_fuel`)."""
+    fuel = resolve_fuel(test=test)
+    return fuel.lhv_j_per_kg if fuel is not None else None
+
+
 def pick(test: Test, base: str, origins: tuple[str, ...] = ("test", "calc", "simu")):
     """The signal of ``base`` to plot (:meth:`vehval.test.Test.best`), or None."""
     return test.best(base, origins)
@@ -102,7 +109,7 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
     spd = np.asarray(eng.speed_rpm, float)
     trq = np.asarray(eng.torque_nm, float)
     fuel = np.asarray(eng.fuel_rate_g_per_s, float) * 1e-3  # [kg/s], rows = speed
-    lhv = float(getattr(eng, "fuel_lhv_j_per_kg", DEFAULT_FUEL_LHV_J_PER_KG))
+    lhv = float(eng.fuel_lhv_j_per_kg)
     pw = (spd[:, None] * RPM) * trq[None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
         eff = np.where((fuel > 0) & (pw > 0), pw / (fuel * lhv), np.nan) * 100.0
@@ -246,7 +253,7 @@ def willans(test: Test, lhv_j_per_kg: float | None = None) -> dict:
         (inverse marginal efficiency), ``intercept`` [W] (fuel power at zero output),
         ``marginal_efficiency`` [-] and ``r2`` [-].
     """
-    lhv = lhv_j_per_kg or TestConditions.resolve(test)["fuel_lhv_j_per_kg"]
+    lhv = lhv_j_per_kg or _test_lhv(test)
     fp = pick(test, "fuel_pwr")
     if fp is not None:
         t, fuel = fp.time, fp.values
@@ -254,6 +261,8 @@ def willans(test: Test, lhv_j_per_kg: float | None = None) -> dict:
         fr = pick(test, "fuel_rate")
         if fr is None:
             raise PlotSkipped("no fuel_rate or fuel_pwr signal")
+        if not lhv:
+            raise PlotSkipped("no fuel declared (template 'fuel:'): fuel power unknown")
         t, fuel = fr.time, fr.values * lhv
     ep = pick(test, "eng_pwr_out")
     if ep is not None:
@@ -309,9 +318,10 @@ def energy_flows(test: Test, origin: str = "test", lhv_j_per_kg: float | None = 
     Battery power is positive when discharging.
     """
     origins = (origin, "calc") if origin == "test" else (origin,)
-    lhv = lhv_j_per_kg or TestConditions.resolve(test)["fuel_lhv_j_per_kg"]
+    lhv = lhv_j_per_kg or _test_lhv(test)
     out: dict[str, float] = {}
-    fuel = _energy(test, "fuel_pwr", origins) or _energy(test, "fuel_rate", origins, scale=lhv)
+    fuel = _energy(test, "fuel_pwr", origins) or (
+        _energy(test, "fuel_rate", origins, scale=lhv) if lhv else None)
     eng = _energy(test, "eng_pwr_out", origins, sign=+1)
     if eng is None:
         w, tq = pick(test, "eng_spd_out", origins), pick(test, "eng_trq_out", origins)

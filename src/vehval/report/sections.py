@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.constants import MILE_M
 from vehval.nomenclature import registry
 from vehval.report import qa_view as qv
 from vehval.report.figures import PALETTE, FigSpec, scatter_fit_figure, time_traces_figure
@@ -91,7 +92,7 @@ def summary_section(test: Test, qa: dict, template: Any, title: str) -> Section:
     tmpl = template if isinstance(template, (str, type(None))) else getattr(template, "description", None) or type(template).__name__
     facts = [("Test", m.test_id or "—"), ("Vehicle", m.vehicle or "—"), ("Cycle", m.cycle or "—"),
              ("Duration", f"{dur:,.1f} s ({dur / 60:.1f} min)"),
-             ("Distance", f"{dist / 1000:,.3f} km ({dist / 1609.344:,.3f} mi)" if dist is not None else "—"),
+             ("Distance", f"{dist / 1000:,.3f} km ({dist / MILE_M:,.3f} mi)" if dist is not None else "—"),
              ("Template", str(tmpl or m.template or "—")),
              ("Signals", f"{len(test)} from sources {', '.join(s or '—' for s in test.sources)}"),
              ("Files", ", ".join(m.files) or "—")]

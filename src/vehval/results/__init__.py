@@ -6,13 +6,13 @@ US06 test runs); SAE J1711 SOC correction; SAE J2951 drive quality; and the unce
 every result from the declared sensor accuracies. See docs/results.md.
 """
 
+from vehval.fuels import Fuel, fuel_properties, known_fuels
 from vehval.results.compute import (
                                     RESULTS_VERSION,
                                     TestResults,
                                     compute_results,
                                     results_from_template,
 )
-from vehval.results.fuels import Fuel, fuel_properties, known_fuels
 
 __all__ = [
                                     "RESULTS_VERSION",

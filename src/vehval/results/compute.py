@@ -13,11 +13,23 @@ from typing import Any
 
 import numpy as np
 
-from vehval.constants import GALLON_US_M3, LITRE_M3, MILE_M, MPH_M_PER_S
+from vehval.constants import MPH_M_PER_S
+from vehval.fuels import (
+    Fuel,
+    ResolvedFuel,
+    co2_kg,
+    fuel_consumption_l_per_100km,
+    fuel_economy_mpg,
+    fuel_energy_j,
+    fuel_properties,
+    fuel_volume_m3,
+    l_per_100km_from_volume_per_distance,
+    mpg_from_volume_per_distance,
+    resolve_fuel,
+)
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.results.composites import Composite, composites_for
 from vehval.results.drive_quality import drive_quality
-from vehval.results.fuels import CO2_PER_C, Fuel, fuel_properties
 from vehval.results.phases import (
     Phase,
     match_cycle,
@@ -188,7 +200,8 @@ def _finding(message: str, signal: str = "", severity: Severity = Severity.WARNI
 
 def _phases(test: Test, speed: Signal | None, phase_channel: str | None,
             findings: list[Finding]) -> tuple[list[Phase], str, Any]:
-    match = match_cycle(speed, test.meta.cycle) if speed is not None else None
+    match = match_cycle(speed, test.meta.cycle, getattr(test.meta, "cycle_match", None),
+                        test.meta.offsets_s)
     name = phase_channel or ("test_phase_test" if "test_phase_test" in test else None)
     if name is not None:
         if name not in test:
@@ -217,11 +230,11 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     ----------
     test : Test
         Imported (and preferably QA-validated) test, SI signals.
-    fuel : str, dict, FuelSpec or Fuel, optional
-        The test fuel; default the explicit fuel of the test constants
-        ``fuel_density_kg_per_m3`` / ``fuel_lhv_j_per_kg`` when set. Without either, no
-        volume, energy or carbon-based result is given and a mass-flow fuel channel gets a
-        warning finding.
+    fuel : str, dict, FuelSpec, Fuel or ResolvedFuel, optional
+        The test fuel; default the fuel :func:`vehval.fuels.resolve_fuel` finds for the test
+        (the template ``fuel:`` kept at import, else the constants
+        ``fuel_density_kg_per_m3`` / ``fuel_lhv_j_per_kg``). Without one, no volume, energy
+        or carbon-based result is given and a mass-flow fuel channel gets a warning finding.
     accuracy : dict, optional
         Signal name -> ``AccuracySpec`` (template ``accuracy:``).
     phase_channel : str, optional
@@ -245,12 +258,13 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     """
     findings: list[Finding] = []
     notes: list[str] = []
-    c = test.meta.constants or {}
-    if fuel is None and c.get("fuel_density_kg_per_m3"):
-        fuel = {"density_kg_per_m3": c["fuel_density_kg_per_m3"],
-                "lhv_j_per_kg": c.get("fuel_lhv_j_per_kg")}
-        notes.append("fuel: properties from the template constants (fuel_density_kg_per_m3, "
-                     "fuel_lhv_j_per_kg); declare 'fuel:' for CO2 and the property sources")
+    if fuel is None:
+        fuel = resolve_fuel(test=test)
+    if isinstance(fuel, ResolvedFuel):
+        if fuel.origin == "template constants":
+            notes.append("fuel: properties from the template constants (fuel_density_kg_per_m3, "
+                         "fuel_lhv_j_per_kg); declare 'fuel:' for CO2 and the property sources")
+        fuel = fuel.fuel
     fuel_obj = fuel if isinstance(fuel, Fuel) else fuel_properties(fuel)
     accuracy = dict(accuracy or {})
     for name in accuracy:
@@ -346,16 +360,16 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                if fo is not None and fo.lhv_j_per_kg else None)
         cf = (fo.carbon_mass_fraction + prop(theta, "carbon_mass_fraction")
               if fo is not None and fo.carbon_mass_fraction else None)
-        vol = mass / rho if rho is not None else nan
+        vol = fuel_volume_m3(mass, rho) if rho is not None else nan
         q["fuel_volume_m3"] = vol
+        q["fuel_economy_mpg"] = fuel_economy_mpg(dist, vol)
+        q["fuel_consumption_l_per_100km"] = fuel_consumption_l_per_100km(vol, dist)
+        q["fuel_energy_j"] = fuel_energy_j(mass, lhv) if lhv is not None else nan
         with np.errstate(divide="ignore", invalid="ignore"):
-            q["fuel_economy_mpg"] = np.where(vol > 0, dist / vol * GALLON_US_M3 / MILE_M, np.nan)
-            q["fuel_consumption_l_per_100km"] = np.where(dist > 0, vol / LITRE_M3 / dist * 1e5, np.nan)
-            q["fuel_energy_j"] = mass * lhv if lhv is not None else nan
             if b_c is not None:
                 co2 = lin(b_c, co2_sig)
             else:
-                co2 = mass * cf * CO2_PER_C if cf is not None else nan
+                co2 = co2_kg(mass, cf) if cf is not None else nan
             q["co2_kg"] = co2
             q["co2_g_per_km"] = np.where(dist > 0, co2 / dist * 1e6, np.nan)
         if b_p is not None:
@@ -382,7 +396,7 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                         fm += hot["fuel_mass_kg"]
                         dd += hot["distance_m"]
                         cc += hot.get("co2_kg", np.nan) if b_c is not None else (
-                            hot["fuel_mass_kg"] * cf[:, 0] * CO2_PER_C if cf is not None else np.nan)
+                            co2_kg(hot["fuel_mass_kg"], cf[:, 0]) if cf is not None else np.nan)
                         continue
                     i = idx[nm]
                     fm += mass[:, i]
@@ -392,13 +406,12 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                 cpd += w * cc / dd
             pre = f"{comp.name}|"
             out[pre + "fuel_per_distance_kg_per_m"] = fpd
-            vpd = fpd / rho[:, 0] if rho is not None else np.full(n, np.nan)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                out[pre + "fuel_economy_mpg"] = np.where(vpd > 0, GALLON_US_M3 / MILE_M / vpd, np.nan)
-            out[pre + "fuel_consumption_l_per_100km"] = vpd / LITRE_M3 * 1e5
+            vpd = fuel_volume_m3(fpd, rho[:, 0]) if rho is not None else np.full(n, np.nan)
+            out[pre + "fuel_economy_mpg"] = mpg_from_volume_per_distance(vpd)
+            out[pre + "fuel_consumption_l_per_100km"] = l_per_100km_from_volume_per_distance(vpd)
             out[pre + "co2_g_per_km"] = cpd * 1e6
             out[pre + "fuel_energy_per_distance_j_per_m"] = (
-                fpd * lhv[:, 0] if lhv is not None else np.full(n, np.nan))
+                fuel_energy_j(fpd, lhv[:, 0]) if lhv is not None else np.full(n, np.nan))
         return out
 
     cold = None if cond["start"] is None else cond["start"] == "cold"
@@ -476,9 +489,9 @@ def _registry_bases() -> set[str]:
 
 
 def results_from_template(test: Test, template: Any, **kw: Any) -> TestResults:
-    """:func:`compute_results` with the template's ``fuel``, ``accuracy`` and
-    ``phase_channel``."""
-    fuel = template.fuel
+    """:func:`compute_results` with the template's fuel (:func:`vehval.fuels.resolve_fuel`),
+    ``accuracy`` and ``phase_channel``."""
+    fuel = resolve_fuel(template=template, test=test)
     kw.setdefault("soc_factor", getattr(template.constants, "soc_correction_fuel_j_per_battery_j",
                                         None))
     return compute_results(test, fuel=fuel, accuracy=template.accuracy,

@@ -115,33 +115,57 @@ class CycleMatch:
         return out
 
 
-def match_cycle(speed: Signal, cycle_name: str | None) -> CycleMatch | None:
-    """Locate the runs of the test's cycle in the record (None when none is found).
+def match_cycle(speed: Signal | None, cycle_name: str | None,
+                stored: dict[str, Any] | None = None,
+                source_offsets_s: dict[str, float] | None = None) -> CycleMatch | None:
+    """Where the runs of the test's cycle lie in the record (None when not found).
 
-    ``cycle_name`` is the identified name (``hwfet_x2``, ``udds``); the base cycle is
-    searched again to get the offset of each run.
+    Parameters
+    ----------
+    speed : Signal or None
+        Measured vehicle speed, searched only when the test holds no stored match.
+    cycle_name : str or None
+        The test's cycle (``hwfet_x2``, ``udds``).
+    stored : dict, optional
+        The match kept at import (``test.meta.cycle_match``, from
+        :func:`vehval.cycles_match.identify_cycle`); used as it is, its offsets moved by the
+        time shift its speed source received since (alignment).
+    source_offsets_s : dict, optional
+        ``test.meta.offsets_s``: source -> time shift applied so far [s].
     """
     from vehval.cycles import load_cycle
-    from vehval.io.identify import identify_cycle
 
     if not cycle_name:
         return None
     base = cycle_name.split("_x")[0]
     if base not in CYCLE_PARTS:
         return None
-    ok = np.isfinite(speed.values)
-    name, _, det = identify_cycle(speed.time[ok], speed.values[ok], cycles=[base])
-    if name is None or det.get("method") != "cycle":
-        return None
+    if stored:
+        det = stored
+        if det.get("method") != "cycle" or det.get("cycle") != base:
+            return None
+        src = str(det.get("source") or "")
+        shift = (float((source_offsets_s or {}).get(src, 0.0))
+                 - float(det.get("source_offset_s") or 0.0))
+    else:  # a test built without import (no stored match): locate the cycle
+        from vehval.cycles_match import identify_cycle
+
+        if speed is None:
+            return None
+        ok = np.isfinite(speed.values)
+        name, _, det = identify_cycle(speed.time[ok], speed.values[ok], cycles=[base])
+        if name is None or det.get("method") != "cycle":
+            return None
+        shift = 0.0
     dur = load_cycle(base).duration_s
     windows = []
     if det.get("split_by_soak") and len(det.get("windows_s", [])) == 2:
         split = 1369.0
-        off = float(det["offsets_s"][0])
-        tail_start = float(det["windows_s"][1][0])
+        off = float(det["offsets_s"][0]) + shift
+        tail_start = float(det["windows_s"][1][0]) + shift
         windows.append([(0.0, split, off), (split, dur, tail_start - (split + 1.0))])
     else:
-        windows = [[(0.0, dur, float(o))] for o in det["offsets_s"]]
+        windows = [[(0.0, dur, float(o) + shift)] for o in det["offsets_s"]]
     return CycleMatch(base, windows, det.get("rms_mps"))
 
 

@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from vehval.fuels import mpg_with_fuel_scaled
+
 __all__ = ["NEC_TOLERANCE", "regression_correction", "soc_correction"]
 
 #: |NEC| / fuel energy at or below which the result stands uncorrected (SAE J1711 3.x).
@@ -65,7 +67,8 @@ def soc_correction(values: dict[str, dict[str, float | None]], scopes: list[str]
             scale = ef_c / ef
             mpg = v.get("fuel_economy_mpg")
             entry.update(status="corrected", fuel_energy_corrected_j=ef_c,
-                         fuel_economy_mpg_corrected=mpg / scale if mpg else None)
+                         fuel_economy_mpg_corrected=mpg_with_fuel_scaled(mpg, scale) if mpg
+                         else None)
             worst = "corrected" if worst == "within_tolerance" else worst
         else:
             entry["status"] = "beyond_tolerance_uncorrected"

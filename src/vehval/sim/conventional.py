@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vehval.constants import GALLON_US_M3, MILE_M
 from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.fuels import fuel_consumption_l_per_100km, fuel_economy_mpg, fuel_volume_m3
 from vehval.sim.conventional_kernel import CONV_PARAMS, CONV_SUMMARY
 from vehval.vehicle.conventional import ConventionalVehicle
 
@@ -80,18 +80,16 @@ def summarise_conventional(veh: ConventionalVehicle, ys: np.ndarray) -> dict:
     load and the kinetic energy change).
     """
     s = {k: float(v) for k, v in zip(CONV_SUMMARY, ys)}
-    rho = veh.engine.fuel_density_kg_per_m3
     dist, fuel = s["distance_m"], s["fuel_mass_kg"]
-    gal = fuel / rho / GALLON_US_M3
+    vol = fuel_volume_m3(fuel, veh.engine.fuel_density_kg_per_m3)
     sinks = (s["eng_loss_j"] + s["aux_energy_j"] + s["eng_ke_change_j"] + s["converter_loss_j"]
              + s["gearbox_loss_j"] + s["brake_energy_j"] + s["road_energy_j"] + s["ke_end_j"]
              - s["ke_start_j"])
     scale = max(s["fuel_energy_j"], s["road_energy_j"], 1.0)
     pos = s["eng_out_energy_j"]
     s.update({
-        "fuel_economy_mpg": float(dist / MILE_M / gal) if gal > 0 else float("inf"),
-        "fuel_consumption_l_per_100km": float(fuel / rho * 1e3 / (dist / 1e5)) if dist > 0
-        else float("nan"),
+        "fuel_economy_mpg": fuel_economy_mpg(dist, vol, empty=float("inf")),
+        "fuel_consumption_l_per_100km": fuel_consumption_l_per_100km(vol, dist),
         "engine_mean_efficiency": pos / s["fuel_energy_j"] if s["fuel_energy_j"] > 0 else 0.0,
         "trace_n_miss": round(s["trace_n_miss"]),
         "gear_shifts": round(s["gear_shifts"]),

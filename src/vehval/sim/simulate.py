@@ -23,10 +23,9 @@ from typing import Any, Callable
 
 import numpy as np
 
-from vehval.constants import GALLON_US_M3 as GALLON_M3
-from vehval.constants import MILE_M
 from vehval.cycles import Cycle, load_cycle
 from vehval.errors import ConfigError
+from vehval.fuels import fuel_consumption_l_per_100km, fuel_economy_mpg, fuel_volume_m3
 from vehval.sim.conventional import conv_maps, conv_param_vector, summarise_conventional
 from vehval.sim.conventional_kernel import CONV_SIGNALS, CONV_SUMMARY, run_conventional
 from vehval.sim.grid import Grid, check_dt, cycle_grid, make_grid, time_grid
@@ -106,11 +105,10 @@ def summarise(veh: Vehicle, ys: np.ndarray, soc0: float) -> dict[str, Any]:
     fuel = s["fuel_mass_kg"]
 
     def mpg(mass_kg: float) -> float:
-        gal = mass_kg / rho / GALLON_M3
-        return float(dist / MILE_M / gal) if gal > 0 else float("inf")
+        return fuel_economy_mpg(dist, fuel_volume_m3(mass_kg, rho), empty=float("inf"))
 
     def l100(mass_kg: float) -> float:
-        return float(mass_kg / rho * 1e3 / (dist / 1e5)) if dist > 0 else float("nan")
+        return fuel_consumption_l_per_100km(fuel_volume_m3(mass_kg, rho), dist)
 
     eta_eng = s["eng_out_energy_j"] / s["fuel_energy_j"] if s["fuel_energy_j"] > 0 else 0.0
     if eta_eng <= 0.0:  # no engine use: best map efficiency

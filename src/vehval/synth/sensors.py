@@ -132,7 +132,7 @@ def parse_sensor_table(data: dict, origin: str = "sensors.yaml") -> dict[str, Fi
                 reg.parse(s.name)
                 if s.clean not in reg:
                     raise ConfigError(f"clean base name '{s.clean}' is not in the registry")
-                s.raw_conversion(745.0)
+                s.raw_conversion(1.0)  # any density: checks the units only
             except ConfigError as exc:
                 raise ConfigError(f"{origin}: files.{label}.channels.{ch}: {exc}") from None
             except Exception as exc:  # noqa: BLE001 - reported with its location

@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from vehval.conditions import DEFAULT_FUEL_DENSITY_KG_PER_M3, DEFAULT_FUEL_LHV_J_PER_KG
 from vehval.errors import SignalError
+from vehval.fuels import resolve_fuel
 from vehval.jsonsafe import clean
 from vehval.test import Test
 from vehval.validate import metrics as M
@@ -303,8 +303,9 @@ class Comparison:
         })
 
 
-def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float = 2.0,
-            fuel_density_kg_per_m3: float = DEFAULT_FUEL_DENSITY_KG_PER_M3, fuel_lhv_j_per_kg: float = DEFAULT_FUEL_LHV_J_PER_KG,
+def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float = 2.0,  # noqa: PLR0913 - keyword options of the comparison, each with a default
+            fuel: Any = None, fuel_density_kg_per_m3: float | None = None,
+            fuel_lhv_j_per_kg: float | None = None,
             on_speed_rpm: float = 400.0, bases: tuple[str, ...] | None = None,
             uncertainty_rel: dict[str, float] | None = None,
             uncertainty_basis: str = "") -> Comparison:
@@ -320,8 +321,11 @@ def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float =
         Step of the comparison grid [s]; default the simulation's sample period.
     window_s : float
         Tolerance window for matching engine start/stop events [s].
-    fuel_density_kg_per_m3, fuel_lhv_j_per_kg : float
-        Fuel properties for fuel economy [mpg] and fuel energy [J] (same on both sides).
+    fuel : ResolvedFuel or Fuel, optional
+        The test fuel (:func:`vehval.fuels.resolve_fuel`) for fuel economy [mpg] and fuel
+        energy [J], the same on both sides; without it they are NaN.
+    fuel_density_kg_per_m3, fuel_lhv_j_per_kg : float, optional
+        Explicit fuel properties instead of ``fuel``.
     on_speed_rpm : float
         Engine-on speed threshold [rpm] when the engine state comes from engine speed.
     bases : tuple of str, optional
@@ -352,8 +356,10 @@ def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float =
     method = engine_on_method(test, sim)
     if method is None:
         notes.append("no engine state, speed or fuel rate on both sides: engine on/off not compared")
-    kw: dict[str, Any] = dict(fuel_density_kg_per_m3=fuel_density_kg_per_m3, fuel_lhv_j_per_kg=fuel_lhv_j_per_kg,
-              on_method=method, on_speed_rpm=on_speed_rpm)
+    if fuel is None and (fuel_density_kg_per_m3 or fuel_lhv_j_per_kg):
+        fuel = resolve_fuel(constants={"fuel_density_kg_per_m3": fuel_density_kg_per_m3,
+                                       "fuel_lhv_j_per_kg": fuel_lhv_j_per_kg})
+    kw: dict[str, Any] = dict(fuel=fuel, on_method=method, on_speed_rpm=on_speed_rpm)
     tot_t = totals(test, "test", grid, **kw)
     tot_s = totals(sim, "simu", grid, **kw)
 

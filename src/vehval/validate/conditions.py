@@ -16,6 +16,7 @@ from pydantic import ValidationError
 from vehval.conditions import TestConditions
 from vehval.cycles import Cycle
 from vehval.errors import ConfigError, SignalError
+from vehval.fuels import require, resolve_fuel
 from vehval.test import Test
 from vehval.validate.quantities import pick_signal
 from vehval.vehicle import BLOCKS, Vehicle
@@ -85,7 +86,10 @@ class Conditions:
     overrides : dict
         Dotted vehicle parameters from the template constants (mass, road load).
     fuel_density_kg_per_m3, fuel_lhv_j_per_kg : float
-        Fuel properties for the comparison (template constants, else the vehicle's).
+        Properties of ``fuel``.
+    fuel : ResolvedFuel
+        The test fuel for the comparison (:func:`vehval.fuels.resolve_fuel`: the template's
+        ``fuel:``, else its constants, else the vehicle's).
     notes : list of str
         Everything that was adjusted (clipped speeds, clamped SOC...).
     """
@@ -96,6 +100,7 @@ class Conditions:
     fuel_density_kg_per_m3: float
     fuel_lhv_j_per_kg: float
     notes: list[str] = field(default_factory=list)
+    fuel: Any = None
 
     def to_dict(self) -> dict[str, Any]:
         return {"cycle": self.cycle.name, "t0_s": float(self.cycle.time_s[0]),
@@ -231,7 +236,8 @@ def simulation_conditions(test: Test, vehicle: Any, *, use_constants: bool = Tru
         for key, path in CONSTANT_OVERRIDES.items():
             if (cond.source(key) or "").startswith("template"):
                 overrides[path] = cond[key]
-    rho = cond["fuel_density_kg_per_m3"]
-    lhv = cond["fuel_lhv_j_per_kg"]
+    fuel = resolve_fuel(test=test, vehicle=vehicle)
     return Conditions(cycle=cyc, soc_initial=soc0, overrides=overrides,
-                      fuel_density_kg_per_m3=rho, fuel_lhv_j_per_kg=lhv, notes=notes)
+                      fuel_density_kg_per_m3=require(fuel, "density_kg_per_m3", "validation"),
+                      fuel_lhv_j_per_kg=require(fuel, "lhv_j_per_kg", "validation"),
+                      notes=notes, fuel=fuel)

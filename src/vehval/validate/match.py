@@ -6,7 +6,8 @@ what contradicts the pairing, from the test's own evidence:
 
 * **architecture**: a hybrid model on a test with no battery, motor or generator signal
   (or a conventional model on a test with them);
-* **fuel**: the template's fuel density more than 7 % from the vehicle's (diesel about
+* **fuel**: the test's declared fuel (template ``fuel:`` or constants) 7 % denser or lighter
+  than the vehicle's (diesel about
   830-850 kg/m³, gasoline about 740-750 kg/m³);
 * **mass**: the template's test mass more than 25 % from the vehicle's mass.
 """
@@ -17,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from vehval.conditions import TestConditions, vehicle_value
+from vehval.fuels import resolve_fuel, vehicle_fuel
 from vehval.test import Test
 
 #: Measured signal bases only a hybrid has.
@@ -67,18 +69,15 @@ def vehicle_match(test: Test, vehicle: Any) -> VehicleMatch:
     elif not hybrid_model and hybrid_test:
         out.problems.append("the model is a conventional car but the test has battery or "
                             "electric machine signals (a hybrid?)")
+    test_fuel, veh_fuel = resolve_fuel(test=test), vehicle_fuel(vehicle)
+    tv = test_fuel.density_kg_per_m3 if test_fuel is not None else None
+    vv = veh_fuel.density_kg_per_m3 if veh_fuel is not None else None
+    if tv and vv and abs(tv / vv - 1) > FUEL_DENSITY_TOL:
+        out.problems.append(f"fuel density {tv:g} kg/m³ in the test ({_fuel_kind(tv)}), "
+                            f"{vv:g} in the vehicle ({_fuel_kind(vv)})")
     cond = TestConditions.resolve(test, None, vehicle)
-    pairs = (("fuel_density_kg_per_m3", "engine.fuel_density_kg_per_m3", FUEL_DENSITY_TOL),
-             ("test_mass_kg", "body.mass_kg", MASS_TOL))
-    for key, path, tol in pairs:
-        if not (cond.source(key) or "").startswith("template"):
-            continue
-        tv, vv = cond[key], vehicle_value(vehicle, path)
-        if vv is None or not vv or abs(tv / vv - 1) <= tol:
-            continue
-        if key.startswith("fuel"):
-            out.problems.append(f"fuel density {tv:g} kg/m³ in the test ({_fuel_kind(tv)}), "
-                                f"{vv:g} in the vehicle ({_fuel_kind(vv)})")
-        else:
+    if (cond.source("test_mass_kg") or "").startswith("template"):
+        tv, vv = cond["test_mass_kg"], vehicle_value(vehicle, "body.mass_kg")
+        if vv and abs(tv / vv - 1) > MASS_TOL:
             out.problems.append(f"test mass {tv:g} kg, vehicle {vv:g} kg ({100 * (tv / vv - 1):+.0f} %)")
     return out

@@ -11,10 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from vehval.conditions import DEFAULT_FUEL_DENSITY_KG_PER_M3, DEFAULT_FUEL_LHV_J_PER_KG
-from vehval.constants import GALLON_US_M3 as GALLON_M3
-from vehval.constants import MILE_M
 from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.fuels import economy
 from vehval.test import Signal, Test
 from vehval.validate.metrics import energies, integrate, on_off_events
 
@@ -102,9 +100,11 @@ def _first_last(v: np.ndarray | None) -> tuple[float, float]:
 
 
 def totals(test: Test, origin: str, grid: np.ndarray, *,
-                    fuel_density_kg_per_m3: float = DEFAULT_FUEL_DENSITY_KG_PER_M3, fuel_lhv_j_per_kg: float = DEFAULT_FUEL_LHV_J_PER_KG,
-                    on_method: str | None = None, on_speed_rpm: float = 400.0) -> dict[str, Any]:
+           fuel: Any = None, on_method: str | None = None, on_speed_rpm: float = 400.0) -> dict[str, Any]:
     """Whole-test quantities of one side (``origin`` test or simu) over ``grid`` [s].
+
+    ``fuel`` (a resolved fuel, :func:`vehval.fuels.resolve_fuel`) gives the fuel energy,
+    economy and consumption through :func:`vehval.fuels.economy`; without it they are NaN.
 
     Returns
     -------
@@ -119,18 +119,16 @@ def totals(test: Test, origin: str, grid: np.ndarray, *,
     q: dict[str, Any] = {}
     spd = on_grid(test, "veh_spd", origin, grid)
     q["distance_m"] = integrate(grid, spd) if spd is not None else nan
-    fuel = on_grid(test, "fuel_rate", origin, grid)
-    if fuel is None:
+    rate = on_grid(test, "fuel_rate", origin, grid)
+    if rate is None:
         cum = on_grid(test, "fuel_mass", origin, grid)
         a, b = _first_last(cum)
         q["fuel_mass_kg"] = b - a
     else:
-        q["fuel_mass_kg"] = integrate(grid, fuel)
-    q["fuel_energy_j"] = q["fuel_mass_kg"] * fuel_lhv_j_per_kg
-    vol_m3 = q["fuel_mass_kg"] / fuel_density_kg_per_m3
-    dist = q["distance_m"]
-    q["fuel_economy_mpg"] = (dist / MILE_M) / (vol_m3 / GALLON_M3) if vol_m3 > 0 else nan
-    q["fuel_consumption_l_per_100km"] = vol_m3 * 1e3 / (dist / 1e5) if dist > 0 else nan
+        q["fuel_mass_kg"] = integrate(grid, rate)
+    fe = economy(q["fuel_mass_kg"], q["distance_m"], fuel)
+    for key in ("fuel_energy_j", "fuel_economy_mpg", "fuel_consumption_l_per_100km"):
+        q[key] = nan if fe[key] is None else fe[key]
     soc = on_grid(test, "ess_soc", origin, grid)
     q["soc_initial"], q["soc_final"] = _first_last(soc)
     q["soc_delta"] = q["soc_final"] - q["soc_initial"]

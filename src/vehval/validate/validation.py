@@ -22,16 +22,26 @@ from vehval.validate.conditions import (
 from vehval.validate.match import VehicleMatch, vehicle_match
 from vehval.vehicle import Vehicle, load_vehicle
 
+#: Whole-test figures of the results stage stated as ``measured`` in validation.json.
+MEASURED_KEYS = ("distance_m", "fuel_mass_kg", "fuel_volume_m3", "fuel_economy_mpg",
+                 "fuel_consumption_l_per_100km", "fuel_energy_j")
+
 
 @dataclass
 class Validation:
-    """One test validated: its conditions, the simulation and the comparison."""
+    """One test validated: its conditions, the simulation and the comparison.
+
+    ``measured`` holds the results stage's whole-test figures (:data:`MEASURED_KEYS`, the
+    figures every command states for the test); the comparison's ``totals_test`` reduce the
+    measured signals on the simulation's grid, like the simulated ones, for the errors.
+    """
 
     conditions: Conditions
     sim: SimResult
     comparison: Comparison
     overrides: dict[str, Any]
     match: VehicleMatch | None = None
+    measured: dict[str, Any] | None = None
 
     def payload(self, figures: bool = True) -> dict[str, Any]:
         """The ``validation`` dict of the report: ``{tables, figures, notes}``."""
@@ -49,6 +59,8 @@ class Validation:
         if self.match is not None:
             d["vehicle_match"] = self.match.to_dict()
         d["dt_s"] = self.sim.dt
+        if self.measured is not None:
+            d["measured"] = dict(self.measured)
         d["sim_summary"] = {k: v for k, v in self.sim.summary.items()
                             if isinstance(v, (int, float, str, bool))}
         return clean(d)
@@ -92,29 +104,39 @@ def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
     ov.update(overrides or {})
     sim = simulate(vehicle_variant(veh, ov) if ov else veh, cond.cycle, dt=dt,
                    soc_initial=cond.soc_initial)
-    unc, basis = _relative_uncertainty(test, results, cond)
+    if results is None:
+        results = _results(test, cond)
+    unc, basis = _relative_uncertainty(results)
+    measured = None
+    if results is not None:
+        measured = {k: results.value("test", k) for k in MEASURED_KEYS}
+        measured["fuel"] = results.fuel.name if results.fuel is not None else None
     comp = compare(test, sim.test, dt=dt, window_s=window_s, on_speed_rpm=on_speed_rpm,
-                   fuel_density_kg_per_m3=cond.fuel_density_kg_per_m3,
-                   fuel_lhv_j_per_kg=cond.fuel_lhv_j_per_kg, uncertainty_rel=unc,
+                   fuel=cond.fuel, uncertainty_rel=unc,
                    uncertainty_basis=basis)
     match = vehicle_match(test, veh)
     if not match.matches:
         cond.notes.insert(0, f"warning: {match.message()}")
-    return Validation(conditions=cond, sim=sim, comparison=comp, overrides=ov, match=match)
+    return Validation(conditions=cond, sim=sim, comparison=comp, overrides=ov, match=match,
+                      measured=measured)
 
 
-def _relative_uncertainty(test: Test, results: Any, cond: Conditions) -> tuple[dict[str, float], str]:
-    """Relative standard uncertainty of the whole-test quantities, and its basis."""
+def _results(test: Test, cond: Conditions) -> Any:
+    """The results stage of the test with the comparison's fuel (None when it fails)."""
     from vehval.results import compute_results
+
+    try:
+        return compute_results(test, fuel=cond.fuel)
+    except Exception:  # noqa: BLE001 - no verdict rather than no validation
+        return None
+
+
+def _relative_uncertainty(results: Any) -> tuple[dict[str, float], str]:
+    """Relative standard uncertainty of the whole-test quantities, and its basis."""
     from vehval.validate.compare import VERDICT_KEYS
 
     if results is None:
-        fuel = {"density_kg_per_m3": cond.fuel_density_kg_per_m3,
-                "lhv_j_per_kg": cond.fuel_lhv_j_per_kg}
-        try:
-            results = compute_results(test, fuel=fuel)
-        except Exception:  # noqa: BLE001 - no verdict rather than no validation
-            return {}, ""
+        return {}, ""
     out = {}
     for key in VERDICT_KEYS:
         v, u = results.value("test", key), results.uncertainty.get("test", {}).get(key)

@@ -16,8 +16,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from vehval.conditions import DEFAULT_FUEL_DENSITY_KG_PER_M3, DEFAULT_FUEL_LHV_J_PER_KG
 from vehval.errors import VehvalError
+from vehval.fuels import resolve_fuel
 from vehval.jsonsafe import clean
 from vehval.test import Test
 from vehval.validate.compare import SUMMARY_ROWS, Comparison
@@ -98,8 +98,7 @@ class Variability:
 
 
 def variability(tests: Sequence[Test], *, quantities: Sequence[str] = DEFAULT_QUANTITIES,
-                dt: float = 0.1, fuel_density_kg_per_m3: float = DEFAULT_FUEL_DENSITY_KG_PER_M3,
-                fuel_lhv_j_per_kg: float = DEFAULT_FUEL_LHV_J_PER_KG) -> Variability:
+                dt: float = 0.1, vehicle: Any = None) -> Variability:
     """Compare repeated tests of one cycle with each other.
 
     Parameters
@@ -110,6 +109,9 @@ def variability(tests: Sequence[Test], *, quantities: Sequence[str] = DEFAULT_QU
         Keys of :func:`vehval.validate.quantities.totals` to report.
     dt : float
         Step of the grid each test is reduced on [s].
+    vehicle : Vehicle, optional
+        Each test's fuel is :func:`vehval.fuels.resolve_fuel` of the test and this vehicle:
+        the fuel its validation uses (without a fuel, no fuel economy or energy).
 
     Raises
     ------
@@ -130,8 +132,7 @@ def variability(tests: Sequence[Test], *, quantities: Sequence[str] = DEFAULT_QU
             raise VehvalError(f"test '{t.meta.test_id or i}': no vehicle speed signal (veh_spd_test)")
         grid = uniform_grid(float(spd.time[0]), float(spd.time[-1]), dt)
         per.append(totals(t, "test", grid, on_method=engine_on_method(t),
-                          fuel_density_kg_per_m3=fuel_density_kg_per_m3,
-                          fuel_lhv_j_per_kg=fuel_lhv_j_per_kg))
+                          fuel=resolve_fuel(test=t, vehicle=vehicle)))
         ids.append(t.meta.test_id or f"test{i + 1}")
     values = {q: [float(p.get(q, math.nan)) for p in per] for q in quantities}
     values = {q: v for q, v in values.items() if any(np.isfinite(v))}

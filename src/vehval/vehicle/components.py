@@ -46,6 +46,9 @@ class EngineParams(Block):
     fire_speed_rpm: float = Field(gt=0, le=30_000)
     motoring_torque_nm: float = Field(ge=0, le=1e5)
     inertia_kg_m2: float = Field(gt=0, le=1e3)
+    fuel: str | None = None
+    """The fuel, a name of the fuel table (``gasoline_e0``); it gives the two values below
+    (with their sources) unless the file gives them explicitly."""
     fuel_density_kg_per_m3: float = Field(gt=0, le=2_000)
     fuel_lhv_j_per_kg: float = Field(ge=5e6, le=1.5e8)  # methanol to hydrogen
     displacement_l: float | None = Field(default=None, gt=0, le=20)
@@ -55,6 +58,29 @@ class EngineParams(Block):
     cold-start run is x (1 + fraction exp(-t / warmup_time_constant_s))); 0: no warm-up."""
     warmup_time_constant_s: float = Field(default=300.0, gt=0, le=1e4)
     """Decay time constant [s] of the warm-up extra fuel over the run time."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _fuel_from_table(cls, data):
+        """Fill the fuel density and LHV of a named ``fuel`` from the fuel table."""
+        if not isinstance(data, dict) or not data.get("fuel"):
+            return data
+        from vehval.errors import ConfigError
+        from vehval.fuels import table_fuel
+
+        try:
+            fuel = table_fuel(str(data["fuel"]))
+        except ConfigError as exc:
+            raise ValueError(str(exc).removeprefix("fuel: ")) from None
+        data = dict(data)
+        sources = dict(data.get("sources") or {})
+        for key, prop in (("fuel_density_kg_per_m3", "density_kg_per_m3"),
+                          ("fuel_lhv_j_per_kg", "lhv_j_per_kg")):
+            if data.get(key) is None:
+                data[key] = getattr(fuel, prop)
+                sources[key] = f"fuel table {fuel.name}: {fuel.sources[prop]}"
+        data["sources"] = sources
+        return data
 
     @model_validator(mode="after")
     def _maps(self):

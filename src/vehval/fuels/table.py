@@ -1,8 +1,9 @@
-"""Fuel properties as data: the packaged table ``vehval/data/fuels.yaml``, one source per value.
+"""The fuel table: the packaged ``vehval/data/fuels.yaml``, one sourced property set per fuel.
 
-A template declares its fuel by name (``fuel: diesel``) or by explicit properties
-(``fuel: {density_kg_per_m3: 851, lhv_j_per_kg: 42.8e6, carbon_mass_fraction: 0.869}``).
-Nothing here guesses a fuel: an unknown name is an error that lists the known ones.
+This is the only place where fuel properties (density, lower heating value, carbon mass
+fraction) live. A template or a vehicle file names a fuel of the table (``fuel: diesel``) or
+gives explicit properties; :mod:`vehval.fuels.resolve` decides which applies. Nothing here
+guesses a fuel: an unknown name is an error that lists the known ones.
 
 Examples
 --------
@@ -21,11 +22,11 @@ from typing import Any
 from vehval.errors import ConfigError
 from vehval.safe_yaml import load_yaml
 
-__all__ = ["CO2_PER_C", "Fuel", "fuel_properties", "known_fuels"]
+__all__ = ["PROPERTIES", "Fuel", "fuel_properties", "known_fuels", "table_fuel"]
 
-#: Mass of CO2 per mass of carbon [-]: 44.009 / 12.011 (IUPAC standard atomic weights).
-CO2_PER_C = 44.009 / 12.011
-_PROPS = ("density_kg_per_m3", "lhv_j_per_kg", "carbon_mass_fraction")
+#: The properties of a fuel (keys of the table and of a template's explicit ``fuel:``).
+PROPERTIES = ("density_kg_per_m3", "lhv_j_per_kg", "carbon_mass_fraction")
+_PROPS = PROPERTIES
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,26 @@ def known_fuels() -> list[str]:
     return sorted(_table())
 
 
+def _key(name: str) -> str:
+    return str(name).strip().lower().replace("-", "_").replace(" ", "_")
+
+
+def table_fuel(name: str) -> Fuel:
+    """The table entry ``name`` (case-insensitive).
+
+    Raises
+    ------
+    ConfigError
+        Unknown fuel name (the message lists the known ones).
+    """
+    base = _table().get(_key(name))
+    if base is None:
+        raise ConfigError(f"fuel: unknown fuel '{name}': known fuels are "
+                          f"{', '.join(known_fuels())}, or give density_kg_per_m3, "
+                          "lhv_j_per_kg and carbon_mass_fraction explicitly")
+    return base
+
+
 def fuel_properties(spec: str | dict | Any | None) -> Fuel | None:
     """Resolve a template's ``fuel:`` entry.
 
@@ -109,12 +130,7 @@ def fuel_properties(spec: str | dict | Any | None) -> Fuel | None:
     name = spec.get("name")
     base = None
     if name is not None:
-        key = str(name).strip().lower().replace("-", "_").replace(" ", "_")
-        base = _table().get(key)
-        if base is None:
-            raise ConfigError(f"fuel: unknown fuel '{name}': known fuels are "
-                              f"{', '.join(known_fuels())}, or give density_kg_per_m3, "
-                              "lhv_j_per_kg and carbon_mass_fraction explicitly")
+        base = table_fuel(str(name))
     explicit = {p: float(spec[p]) for p in _PROPS if spec.get(p) is not None}
     if base is None:
         return Fuel(name="explicit", description="properties given in the template",

@@ -1,0 +1,138 @@
+"""Fuel quantities: the one place where a fuel mass becomes a volume, an energy, CO2, and
+the distance per volume (mpg) or volume per distance (L/100 km).
+
+Every stage (results, batch metrics, the simulators, validation, EPA validation) calls these
+functions; ``tests/test_one_owner.py`` fails when such a conversion is written anywhere else.
+Inputs are SI (kg, m, m^3, kg/m^3, J/kg) floats or numpy arrays; the functions broadcast and
+return a float for scalar inputs.
+
+Examples
+--------
+>>> from vehval.fuels import table_fuel
+>>> round(fuel_economy_mpg(16093.44, fuel_volume_m3(2.8, 740.0)), 3)
+2.645
+>>> economy(2.8, 16093.44, table_fuel("gasoline_e0"))["fuel_consumption_l_per_100km"] > 0
+True
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vehval.constants import MILE_M
+
+__all__ = ["GALLON_US_M3", "LITRE_M3", "combine_mpg", "co2_kg", "economy",
+           "fuel_consumption_l_per_100km", "fuel_economy_mpg", "fuel_energy_j", "fuel_volume_m3",
+           "l_per_100km_from_volume_per_distance", "mpg_from_volume_per_distance", "mpg_with_fuel_scaled",
+           "CO2_PER_C"]
+
+#: US liquid gallon [m^3].
+GALLON_US_M3 = 3.785411784e-3
+#: Litre [m^3].
+LITRE_M3 = 1.0e-3
+#: Mass of CO2 per mass of carbon [-]: 44.009 / 12.011 (IUPAC standard atomic weights).
+CO2_PER_C = 44.009 / 12.011
+
+
+def _out(x: Any) -> Any:
+    a = np.asarray(x)
+    return float(a) if a.ndim == 0 else a
+
+
+def fuel_volume_m3(mass_kg: Any, density_kg_per_m3: Any) -> Any:
+    """Fuel volume [m^3] of a fuel mass [kg] at a density [kg/m^3]."""
+    return _out(np.asarray(mass_kg, float) / np.asarray(density_kg_per_m3, float))
+
+
+def fuel_economy_mpg(distance_m: Any, volume_m3: Any, *, empty: float = float("nan")) -> Any:
+    """Fuel economy [mile/US gal] of a distance [m] driven on a fuel volume [m^3].
+
+    ``empty`` is returned where the volume is not positive (nan by default; the simulators
+    say ``inf`` for a run that burned no fuel).
+    """
+    d = np.asarray(distance_m, float)
+    v = np.asarray(volume_m3, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _out(np.where(v > 0, d / MILE_M / (v / GALLON_US_M3), empty))
+
+
+def fuel_consumption_l_per_100km(volume_m3: Any, distance_m: Any) -> Any:
+    """Fuel consumption [L/100 km] of a fuel volume [m^3] over a distance [m] (nan where the
+    distance is not positive)."""
+    d = np.asarray(distance_m, float)
+    v = np.asarray(volume_m3, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _out(np.where(d > 0, v / LITRE_M3 / (d / 1e5), np.nan))
+
+
+def mpg_from_volume_per_distance(volume_per_distance_m3_per_m: Any) -> Any:
+    """Fuel economy [mile/US gal] from a fuel volume per distance [m^3/m] (nan where not
+    positive): the form of a distance-weighted composite."""
+    vpd = np.asarray(volume_per_distance_m3_per_m, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return _out(np.where(vpd > 0, GALLON_US_M3 / MILE_M / vpd, np.nan))
+
+
+def l_per_100km_from_volume_per_distance(volume_per_distance_m3_per_m: Any) -> Any:
+    """Fuel consumption [L/100 km] from a fuel volume per distance [m^3/m]."""
+    return _out(np.asarray(volume_per_distance_m3_per_m, float) / LITRE_M3 * 1e5)
+
+
+def combine_mpg(distances_m: Any, mpgs: Any) -> float:
+    """Fuel economy [mile/US gal] of several runs together: total distance over total
+    volume, each run's volume its distance [m] over its economy [mile/US gal]."""
+    d = np.asarray(distances_m, float)
+    e = np.asarray(mpgs, float)
+    return float(d.sum() / (d / e).sum())
+
+
+def mpg_with_fuel_scaled(mpg: Any, fuel_ratio: Any) -> Any:
+    """Fuel economy [mile/US gal] of the same distance on ``fuel_ratio`` times the fuel
+    (a charge-balance correction: ratio = corrected fuel / measured fuel [-])."""
+    return _out(np.asarray(mpg, float) / np.asarray(fuel_ratio, float))
+
+
+def fuel_energy_j(mass_kg: Any, lhv_j_per_kg: Any) -> Any:
+    """Fuel energy [J] of a fuel mass [kg] at a lower heating value [J/kg]."""
+    return _out(np.asarray(mass_kg, float) * np.asarray(lhv_j_per_kg, float))
+
+
+def co2_kg(mass_kg: Any, carbon_mass_fraction: Any) -> Any:
+    """CO2 [kg] from burning a fuel mass [kg] of a carbon mass fraction [-] completely."""
+    return _out(np.asarray(mass_kg, float) * np.asarray(carbon_mass_fraction, float) * CO2_PER_C)
+
+
+def economy(mass_kg: float, distance_m: float, fuel: Any, *,
+            empty: float = float("nan")) -> dict[str, float | None]:
+    """Whole-run fuel quantities of a fuel mass [kg] over a distance [m].
+
+    Parameters
+    ----------
+    mass_kg, distance_m : float
+        Fuel burned [kg] and distance driven [m].
+    fuel : Fuel, ResolvedFuel or None
+        The fuel (:mod:`vehval.fuels.resolve`); a property it lacks gives None.
+    empty : float
+        Fuel economy where no fuel was burned (nan or inf).
+
+    Returns
+    -------
+    dict
+        ``fuel_volume_m3`` [m^3], ``fuel_economy_mpg`` [mile/US gal],
+        ``fuel_consumption_l_per_100km`` [L/100 km], ``fuel_energy_j`` [J], ``co2_kg`` [kg].
+    """
+    rho = getattr(fuel, "density_kg_per_m3", None)
+    lhv = getattr(fuel, "lhv_j_per_kg", None)
+    cf = getattr(fuel, "carbon_mass_fraction", None)
+    vol = fuel_volume_m3(mass_kg, rho) if rho else None
+    return {
+        "fuel_volume_m3": vol,
+        "fuel_economy_mpg": fuel_economy_mpg(distance_m, vol, empty=empty) if vol is not None
+        else None,
+        "fuel_consumption_l_per_100km": fuel_consumption_l_per_100km(vol, distance_m)
+        if vol is not None else None,
+        "fuel_energy_j": fuel_energy_j(mass_kg, lhv) if lhv else None,
+        "co2_kg": co2_kg(mass_kg, cf) if cf else None,
+    }
