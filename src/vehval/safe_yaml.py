@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import stat
 from pathlib import Path
 
@@ -67,6 +68,12 @@ def _construct_float(loader: _StrictLoader, node: yaml.ScalarNode) -> float:
 
 _StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 _StrictLoader.add_constructor("tag:yaml.org,2002:float", _construct_float)
+#: Numbers with an exponent and no exponent sign (``42.8e6``, ``1e-3`` has one): YAML 1.2
+#: reads them as floats, PyYAML's 1.1 rules as strings; a user writing 42.8e6 means a number.
+_StrictLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."))
 
 
 #: Largest JSON document accepted [bytes] (validation.json with overlays of many tests).
