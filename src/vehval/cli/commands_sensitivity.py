@@ -55,7 +55,7 @@ def sensitivity_cmd(
                                help="Comma-separated cycle names."),
     params: Optional[str] = typer.Option(None, "--params", help="Comma-separated dotted "
                                          "parameters (default: all with an uncertainty)."),
-    dt: float = typer.Option(1.0, "--dt", callback=bounded("dt"), help="Time step [s], in [1e-4, 1]."),
+    dt: float = typer.Option(1.0, "--dt", callback=bounded("dt"), help="Time step [s], in [0.001, 1]."),
     monte_carlo: int = typer.Option(0, "--monte-carlo", callback=bounded("mc_sensitivity"),
                                     help="Monte Carlo draws (0: none)."),
     seed: int = typer.Option(0, "--seed", callback=bounded("seed"), help="Seed of the Monte Carlo draws."),

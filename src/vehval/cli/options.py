@@ -33,8 +33,8 @@ class Bound:
 SEED_MAX = 2**32 - 1
 
 BOUNDS: dict[str, Bound] = {
-    "dt": Bound(1e-4, 1.0, "s", "0.2 s is already within 0.3 % of 0.1 s on US06: a step "
-                "below 0.1 ms changes no result and only costs time and memory; one above 1 s "
+    "dt": Bound(1e-3, 1.0, "s", "0.2 s is already within 0.3 % of 0.1 s on US06: a step "
+                "below 1 ms changes no result and only costs time and memory; one above 1 s "
                 "misses the cycle's accelerations"),
     "soc": Bound(0.0, 1.0, "-", "a state of charge is a fraction"),
     "mc_results": Bound(0, 10_000_000, "draws", "GUM Supplement 1 asks for about 10^6 draws "
