@@ -4,7 +4,7 @@
 
 A generator per class builds its cases (several variants each, seeded) in a temporary
 folder; every case runs as a subprocess with a 60 s timeout (its process group is killed
-then) and is classified with the outcomes of ``scripts/attack_campaign.py`` plus ``breach``:
+then) and a 4 GiB address-space limit (1-2 GB in the memory class) and is classified with the outcomes of ``scripts/attack_campaign.py`` plus ``breach``:
 
 * ``breach``: the case's breach check holds (an outside file's content in the output or an
   outside file written; unescaped markup in a generated page; a report whose CSP allows
@@ -46,6 +46,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from attack_campaign import TEMPLATE, classify, write_d3  # noqa: E402
 
 HANG_S = 60
+#: address-space limit of every case that sets none: a bomb fails instead of taking the machine
+LIMIT_AS = 4 * 2**30
 KINDS = ["clean error", "handled", "internal error", "hang", "silently wrong", "breach"]
 XSS = ("<svg onload=alert('X5S')>", "<script>alert('X5S')</script>",
        "</script><script>alert('X5S')</script>", "<img src=x onerror=alert('X5S')>")
@@ -85,7 +87,7 @@ def run_case(case: Case) -> dict:
                     "outcome": "not run", "message": f"{type(exc).__name__}: {exc}"[:200]}
     env = {**os.environ, "PYTHONUNBUFFERED": "1", **case.env}
     env.pop("VEHVAL_DEBUG", None)
-    lim = case.limit_as
+    lim = case.limit_as or LIMIT_AS
 
     def pre() -> None:
         if lim:
@@ -133,8 +135,8 @@ def _html_breach(paths: list[Path]) -> Callable[[str], bool]:
                 if any(m in low for m in XSS_MARKS):
                     return True
                 for csp in re.findall(r'content-security-policy"\s+content="([^"]*)"', low):
-                    script = next((d for d in csp.split(";") if d.strip().startswith(
-                        ("script-src", "default-src"))), "")
+                    dirs = {d.split()[0]: d for d in csp.split(";") if d.split()}
+                    script = dirs.get("script-src", dirs.get("default-src", ""))
                     if "'unsafe-inline'" in script or "'unsafe-eval'" in script:
                         return True
         return False
@@ -605,9 +607,9 @@ def option_bounds(root: Path, rng: np.random.Generator) -> Iterator[Case]:
         "simulate", "--dt", "0.001", "--cycle", "steady:30kph:30s", "--json"],
         expect="ok", must="fuel_mass_kg")
     cyc = d / "long.csv"
-    yield Case("option bounds", "simulate a 10^7 s cycle at dt 0.1 (memory)", [
-        "simulate", "--cycle", cyc, "--dt", "0.1"], refusal_must="memory",
-        prepare=lambda: _text(cyc, "time_s,speed_mps\n0,0\n10000000,10\n"))
+    yield Case("option bounds", "simulate a 24 h cycle at dt 0.001 (memory)", [
+        "simulate", "--cycle", cyc, "--dt", "0.001"], refusal_must="memory",
+        prepare=lambda: _text(cyc, "time_s,speed_mps\n0,0\n86000,10\n"))
     yield Case("option bounds", "simulate --dt 0.001 under a 20 MB cap (memory)", [
         "simulate", "--dt", "0.001"], refusal_must="memory",
         env={"VEHVAL_MEMORY_CAP_MB": "20"})

@@ -86,3 +86,18 @@ def test_whole_campaign(tmp_path):
     bad = [r for r in rows if r["class"] not in KNOWN_OPEN
            and r["outcome"] not in ("clean error", "handled")]
     assert not bad, bad[:5]
+
+
+def test_page_breach_check(tmp_path):
+    """A payload raw in a page, or a script-src allowing inline or eval, is a breach; an
+    escaped payload under a strict script-src is not."""
+    page = tmp_path / "r.html"
+    check = CAMPAIGN._html_breach([tmp_path])
+    meta = '<meta http-equiv="Content-Security-Policy" content="default-src \'none\'; {}">'
+    page.write_text(meta.format("script-src 'sha256-abc'; style-src 'unsafe-inline'")
+                    + "&lt;svg onload=alert('X5S')&gt;")
+    assert not check("")
+    page.write_text(meta.format("script-src 'unsafe-inline' file:"))
+    assert check("")
+    page.write_text(meta.format("script-src 'sha256-abc'") + "<SVG onload=alert('X5S')>")
+    assert check("")
