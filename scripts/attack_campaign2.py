@@ -4,7 +4,8 @@
 
 A generator per class builds its cases (several variants each, seeded) in a temporary
 folder; every case runs as a subprocess with a 60 s timeout (its process group is killed
-then) and a 4 GiB address-space limit (1-2 GB in the memory class) and is classified with the outcomes of ``scripts/attack_campaign.py`` plus ``breach``:
+then) and a 4 GiB address-space limit (1-2 GB in the memory class), and is classified with
+the outcomes of ``scripts/attack_campaign.py`` plus ``breach``:
 
 * ``breach``: the case's breach check holds (an outside file's content in the output or an
   outside file written; unescaped markup in a generated page; a report whose CSP allows
