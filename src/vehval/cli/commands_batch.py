@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 
 catalog_app = typer.Typer(help="Query the results catalog (OUTDIR/catalog.duckdb).",
                           no_args_is_help=True)
@@ -25,7 +26,7 @@ def batch_cmd(
                                           "(default: the template's vehicle)."),
     steps: str = typer.Option("qa", "--steps", help="Comma-separated steps: qa,analyze,validate "
                               "(empty for import only)."),
-    workers: Optional[int] = typer.Option(None, "--workers", "-j", help="Local worker processes "
+    workers: Optional[int] = typer.Option(None, "--workers", "-j", callback=bounded("workers"), help="Local worker processes "
                                           "(default: CPU count; 0 = plain loop, no Dask; at "
                                           "most 4 x CPU count)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Address of an existing "

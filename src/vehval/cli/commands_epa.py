@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 
 epa_app = typer.Typer(help="EPA Test Car List: certification dyno results per test.",
                       no_args_is_help=True)
@@ -42,7 +43,7 @@ def list_cmd(
     paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
     make: str | None = typer.Option(None, "--make", help="Make, e.g. TOYOTA."),
     model: str | None = typer.Option(None, "--model", help="Model name or part of it."),
-    year: int | None = typer.Option(None, "--year", help="Model year."),
+    year: int | None = typer.Option(None, "--year", callback=bounded("year"), help="Model year."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
 ) -> None:
     """Vehicles (make, model, year) in the list with their test vehicles and test counts."""
@@ -69,7 +70,7 @@ def tests_cmd(
     paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
     make: str | None = typer.Option(None, "--make", help="Make, e.g. TOYOTA."),
     model: str | None = typer.Option(None, "--model", help="Model name or part of it."),
-    year: int | None = typer.Option(None, "--year", help="Model year."),
+    year: int | None = typer.Option(None, "--year", callback=bounded("year"), help="Model year."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON (SI units, keys as the "
                                  "EpaTest fields)."),
 ) -> None:
@@ -124,7 +125,7 @@ def validate_cmd(
     tests: str = typer.Option(..., "--tests", help="Test selector, e.g. "
                               "model=PRIUS,year=2016,originator=EPA (keys: make, model, year, "
                               "vehicle, originator, procedure, number, config)."),
-    dt: float = typer.Option(0.2, "--dt", help="Simulation step [s] (0.2 s: within 0.3 % "
+    dt: float = typer.Option(0.2, "--dt", callback=bounded("dt"), help="Simulation step [s] (0.2 s: within 0.3 % "
                              "of 0.1 s on US06)."),
     as_json: bool = typer.Option(False, "--json", help="Print the validation JSON."),
     outdir: Path | None = typer.Option(None, "-o", "--output",
@@ -224,10 +225,10 @@ def calibrate_cmd(
     param: list[str] = typer.Option(..., "--param", help="NAME=v1,v2,... candidate values of "
                                     "a parameter (dotted name; a bare name is "
                                     "controller.NAME); repeat for several."),
-    refine: int = typer.Option(2, "--refine", min=0, max=6, help="Rounds of coordinate "
+    refine: int = typer.Option(2, "--refine", callback=bounded("refine"), help="Rounds of coordinate "
                                "refinement after the grid."),
-    dt: float = typer.Option(0.2, "--dt", help="Simulation step [s]."),
-    workers: int = typer.Option(0, "--workers", min=0, max=64, help="Processes evaluating "
+    dt: float = typer.Option(0.2, "--dt", callback=bounded("dt"), help="Simulation step [s]."),
+    workers: int = typer.Option(0, "--workers", callback=bounded("workers"), help="Processes evaluating "
                                 "settings in parallel (0: one per CPU, at most 8; the result "
                                 "does not depend on it)."),
     as_json: bool = typer.Option(False, "--json", help="Print the calibration JSON."),

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 
 
 def _summary(d: dict, outdir: Path) -> dict:
@@ -26,7 +27,7 @@ def qa_cmd(
     outdir: Path = typer.Option(..., "-o", "--outdir", help="Output directory."),
     as_json: bool = typer.Option(False, "--json", help="Print findings.json (plus outdir and files) on stdout."),
     report: bool = typer.Option(False, "--report", help="Also write the HTML QA report."),
-    max_offset: float = typer.Option(30.0, "--max-offset", help="Alignment search range ±[s]."),
+    max_offset: float = typer.Option(30.0, "--max-offset", callback=bounded("max_offset"), help="Alignment search range ±[s]."),
 ) -> None:
     """Import, align, check (QA levels 1-3), calculate and select signals.
 

@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 from vehval.constants import MILE_M, MPH_M_PER_S
 from vehval.errors import InputFileError, VehvalError
 
@@ -64,7 +65,7 @@ def results_cmd(
                                 help="Vehicle file name or path (default: the template's)."),
     outdir: Path = typer.Option(..., "-o", "--outdir", help="Output directory."),
     as_json: bool = typer.Option(False, "--json", help="Print results.json on stdout."),
-    monte_carlo: int = typer.Option(0, "--monte-carlo", min=0,
+    monte_carlo: int = typer.Option(0, "--monte-carlo", callback=bounded("mc_results"),
                                     help="Monte Carlo draws (0: first-order propagation)."),
     hot_start: list[Path] = typer.Option(None, "--hot-start",
                                          help="Hot-start UDDS files whose bag 1 stands in for "

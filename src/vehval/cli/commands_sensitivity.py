@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 
 
 @app.command("sensitivity")
@@ -18,9 +19,10 @@ def sensitivity_cmd(
                                help="Comma-separated cycle names."),
     params: Optional[str] = typer.Option(None, "--params", help="Comma-separated dotted "
                                          "parameters (default: all with an uncertainty)."),
-    dt: float = typer.Option(1.0, "--dt", help="Time step [s], in (0, 1]."),
-    monte_carlo: int = typer.Option(0, "--monte-carlo", help="Monte Carlo draws (0: none)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the Monte Carlo draws."),
+    dt: float = typer.Option(1.0, "--dt", callback=bounded("dt"), help="Time step [s], in [0.001, 1]."),
+    monte_carlo: int = typer.Option(0, "--monte-carlo", callback=bounded("mc_sensitivity"),
+                                    help="Monte Carlo draws (0: none)."),
+    seed: int = typer.Option(0, "--seed", callback=bounded("seed"), help="Seed of the Monte Carlo draws."),
     as_json: bool = typer.Option(False, "--json", help="Print the result as one JSON object."),
     outdir: Optional[Path] = typer.Option(None, "-o", "--output",
                                           help="Directory for sensitivity.json and .html."),

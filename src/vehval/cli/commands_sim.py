@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 
 vehicle_app = typer.Typer(help="Vehicle parameter files.", no_args_is_help=True)
 app.add_typer(vehicle_app, name="vehicle")
@@ -49,8 +50,8 @@ def _write_outputs(result, outdir: Path, audit: dict | None = None) -> list[str]
 def simulate_cmd(
     vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
     cycle: str = typer.Option("udds", "--cycle", help="Cycle name or file (see `vehval cycles`)."),
-    dt: float = typer.Option(0.1, "--dt", help="Time step [s], in (0, 1]."),
-    soc_initial: Optional[float] = typer.Option(None, "--soc-initial",
+    dt: float = typer.Option(0.1, "--dt", callback=bounded("dt"), help="Time step [s], in [0.001, 1]."),
+    soc_initial: Optional[float] = typer.Option(None, "--soc-initial", callback=bounded("soc"),
                                                 help="Initial SOC [-] (default: SOC target)."),
     charge_balance: bool = typer.Option(False, "--charge-balance",
                                         help="Iterate the initial SOC until SOC end = start."),

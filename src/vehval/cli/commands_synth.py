@@ -8,6 +8,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 from vehval.errors import ConfigError, VehvalError
 
 
@@ -21,7 +22,7 @@ def _pairs(items: list[str], option: str) -> dict:
 def synth_cmd(
     vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
     cycle: str = typer.Option("udds", "--cycle", help="Cycle name, 'steady:60kph:300s' or CSV path."),
-    seed: int = typer.Option(7, "--seed", help="Seed of every random draw (same seed, same bytes)."),
+    seed: int = typer.Option(7, "--seed", callback=bounded("seed"), help="Seed of every random draw (same seed, same bytes)."),
     faults: str = typer.Option("default", "--faults",
                                help="'default' (a representative mix), 'none', or a fault YAML file."),
     out: Path = typer.Option(..., "-o", "--out", help="Output directory (written atomically)."),

@@ -14,6 +14,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 from vehval.errors import ConfigError
 from vehval.io.paths import check_outputs, sanitize_id, vehicle_path
 
@@ -50,12 +51,12 @@ def validate_cmd(
     vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
     output: Path = typer.Option(..., "-o", "--output", help="Output directory (written atomically)."),
     test_group: list[str] = typer.Option([], "--test", metavar="A,B", help="Files (comma-separated) of one test; repeatable."),
-    dt: float = typer.Option(0.1, "--dt", help="Simulation step (s)."),
-    window_s: float = typer.Option(2.0, "--window", help="Engine start/stop matching window (s)."),
-    fuel_tol: float = typer.Option(5.0, "--fuel-tol", help="Ladder tolerance on the fuel error (%)."),
-    soc_tol: float = typer.Option(5.0, "--soc-tol", help="Ladder tolerance on the SOC error (%) (relative error of final SOC)."),
-    soc_points: float = typer.Option(None, "--soc-points", help="Optional tolerance on the ΔSOC mismatch (SOC points)."),
-    smooth_hz: float = typer.Option(None, "--smooth-hz", help="Low-pass the measured speed given to the driver at this cut-off (Hz; zero phase). Default: as measured."),
+    dt: float = typer.Option(0.1, "--dt", callback=bounded("dt"), help="Simulation step (s)."),
+    window_s: float = typer.Option(2.0, "--window", callback=bounded("window"), help="Engine start/stop matching window (s)."),
+    fuel_tol: float = typer.Option(5.0, "--fuel-tol", callback=bounded("tolerance_pct"), help="Ladder tolerance on the fuel error (%)."),
+    soc_tol: float = typer.Option(5.0, "--soc-tol", callback=bounded("tolerance_pct"), help="Ladder tolerance on the SOC error (%) (relative error of final SOC)."),
+    soc_points: float = typer.Option(None, "--soc-points", callback=bounded("soc_points"), help="Optional tolerance on the ΔSOC mismatch (SOC points)."),
+    smooth_hz: float = typer.Option(None, "--smooth-hz", callback=bounded("smooth_hz"), help="Low-pass the measured speed given to the driver at this cut-off (Hz; zero phase). Default: as measured."),
     no_qa: bool = typer.Option(False, "--no-qa", help="Use the imported signals without the QA pipeline."),
     report: bool = typer.Option(False, "--report", help="Also write report.html and tables.xlsx per test."),
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
@@ -116,12 +117,12 @@ def calibrate_cmd(
     params: str = typer.Option("controller.engine_on_power_w,controller.soc_gain_w,controller.regen_fraction_max",
                                "--params", help="Comma-separated dotted parameters to tune (bare names mean controller.<name>)."),
     start: Path = typer.Option(None, "--start", help="JSON with start values (e.g. control.json of the analysis: its 'controller' mapping)."),
-    dt: float = typer.Option(1.0, "--dt", help="Simulation step during the search (s)."),
-    popsize: int = typer.Option(8, "--popsize", help="Differential-evolution population multiplier."),
-    maxiter: int = typer.Option(40, "--maxiter", help="Differential-evolution generations (at most; it stops earlier once converged)."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the search."),
+    dt: float = typer.Option(1.0, "--dt", callback=bounded("dt"), help="Simulation step during the search (s)."),
+    popsize: int = typer.Option(8, "--popsize", callback=bounded("popsize"), help="Differential-evolution population multiplier."),
+    maxiter: int = typer.Option(40, "--maxiter", callback=bounded("maxiter"), help="Differential-evolution generations (at most; it stops earlier once converged)."),
+    seed: int = typer.Option(0, "--seed", callback=bounded("seed"), help="Seed of the search."),
     mode: str = typer.Option("traces", "--mode", help="Objective of the search: traces (recorded signals, default) or batch (summaries, parallel, faster)."),
-    smooth_hz: float = typer.Option(None, "--smooth-hz", help="Low-pass the measured speed given to the driver at this cut-off (Hz; zero phase). Default: as measured."),
+    smooth_hz: float = typer.Option(None, "--smooth-hz", callback=bounded("smooth_hz"), help="Low-pass the measured speed given to the driver at this cut-off (Hz; zero phase). Default: as measured."),
     no_qa: bool = typer.Option(False, "--no-qa", help="Use the imported signals without the QA pipeline."),
     as_json: bool = typer.Option(False, "--json", help="Print calibration.json to stdout."),
 ) -> None:

@@ -23,6 +23,7 @@ from functools import cache
 
 from vehval.epa.procedures import FTP75, FTP_WEIGHT_COLD, FTP_WEIGHT_HOT, US06, procedure_key
 from vehval.epa.reader import EpaTest
+from vehval.fuels import combine_mpg
 
 #: largest accepted |recombined / listed - 1| [-]
 TOLERANCE = 0.025
@@ -69,8 +70,8 @@ def _bag_distances(key: str) -> dict[int, float]:
 
 
 def _harmonic(d: dict[int, float], values: dict[int, float]) -> float:
-    """Distance-weighted combination of fuel economies (fuel per distance added)."""
-    return sum(d[k] for k in values) / sum(d[k] / v for k, v in values.items())
+    """Distance-weighted combination of bag fuel economies (:func:`vehval.fuels.combine_mpg`)."""
+    return combine_mpg([d[k] for k in values], list(values.values()))
 
 
 def recombine(test: EpaTest) -> float | None:
@@ -86,8 +87,9 @@ def recombine(test: EpaTest) -> float | None:
     if key == "ftp75" and {1, 2, 3} <= set(b):
         d = _bag_distances("ftp75")
         cold = _harmonic(d, {1: b[1], 2: b[2]})
+        # no bag 4 listed: bag 2 stands for it (same driving), as the lab combines them
         hot = (_harmonic(d, {3: b[3], 4: b[4]}) if 4 in b else
-               (d[3] + d[2]) / (d[3] / b[3] + d[2] / b[2]))
+               combine_mpg([d[3], d[2]], [b[3], b[2]]))
         return 1.0 / (FTP_WEIGHT_COLD / cold + FTP_WEIGHT_HOT / hot)
     return None
 

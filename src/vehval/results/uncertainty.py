@@ -177,6 +177,11 @@ def propagate(evaluate: Callable[[dict[str, np.ndarray]], dict[str, np.ndarray]]
         unc[key] = {"u": u, "U": COVERAGE_K * u, "k": COVERAGE_K, "method": method,
                     "contributors": contrib}
     if method == "monte_carlo" and m:
+        from vehval.sim.budget import check_samples
+
+        # the draws, the result arrays and their per-scope intermediates
+        check_samples(draws, m + 3 * len(res) + 16, f"{draws} Monte Carlo draws",
+                      "ask for fewer draws (--monte-carlo)")
         rng = np.random.default_rng(seed)
         draw = {p.name: rng.uniform(-p.limit, p.limit, draws) for p in params}
         mc = evaluate(draw)
