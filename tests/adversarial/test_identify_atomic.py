@@ -116,8 +116,11 @@ def test_identify_killed_at_every_rename(tmp_path, conventional_test):
         r = re.search(r"Identification of (\w+)", rep.read_text()).group(1)
         return v, r
 
-    first = _killrun(0, args("OLD"))
-    assert first.returncode == 0, first.stderr
+    # the second run counts the renames: a first run in a fresh environment may also rename
+    # files of its own caches (the compiled kernels), which later runs do not
+    for _ in range(2):
+        first = _killrun(0, args("OLD"))
+        assert first.returncode == 0, first.stderr
     steps = int(re.search(r"renames=(\d+)", first.stderr).group(1))
     assert steps >= 3
     for k in range(1, steps + 1):

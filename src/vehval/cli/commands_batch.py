@@ -38,7 +38,7 @@ def batch_cmd(
     quiet: bool = typer.Option(False, "--quiet", "-q", help="No progress bar."),
     dashboard: bool = typer.Option(False, "--dashboard", help="Start the Dask dashboard of the "
                                    "local cluster (loopback, free port; off by default)."),
-    test_timeout: float = typer.Option(600.0, "--test-timeout", help="Stop waiting for a test "
+    test_timeout: float = typer.Option(600.0, "--test-timeout", callback=bounded("test_timeout"), help="Stop waiting for a test "
                                        "after this many seconds: it is recorded as failed and "
                                        "the batch goes on (0 = no limit)."),
 ) -> None:
@@ -82,9 +82,9 @@ def catalog_query(
                               "view latest_tests."),
     db: Optional[Path] = typer.Option(None, "--db", help="Catalog file (default ./catalog.duckdb)."),
     as_json: bool = typer.Option(False, "--json", help="Print a JSON list of row objects."),
-    limit: int = typer.Option(10_000, "--limit", help="Print at most this many rows (a line on "
+    limit: int = typer.Option(10_000, "--limit", callback=bounded("query_rows"), help="Print at most this many rows (a line on "
                               "stderr says when more exist)."),
-    timeout: float = typer.Option(30.0, "--timeout", help="Stop the query after this many "
+    timeout: float = typer.Option(30.0, "--timeout", callback=bounded("query_timeout"), help="Stop the query after this many "
                                   "seconds."),
 ) -> None:
     """Run one read-only SQL statement (SELECT or EXPLAIN) on the catalog and print the rows.
@@ -124,7 +124,7 @@ def _print_table(cols: list[str], rows: list[list[str]], group_by: tuple[str, ..
 def catalog_summary(
     db: Optional[Path] = typer.Option(None, "--db", help="Catalog file (default ./catalog.duckdb)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
-    timeout: float = typer.Option(30.0, "--timeout", help="Stop after this many seconds."),
+    timeout: float = typer.Option(30.0, "--timeout", callback=bounded("query_timeout"), help="Stop after this many seconds."),
 ) -> None:
     """Test-to-test variability per vehicle and cycle: n, mean, std, CV of the key metrics."""
     from vehval.catalog import open_catalog

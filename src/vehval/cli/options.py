@@ -58,6 +58,12 @@ BOUNDS: dict[str, Bound] = {
     "smooth_hz": Bound(1e-3, 50.0, "Hz", "a cut-off below the 100 Hz rate of a fast "
                        "acquisition and above one cycle per 1000 s"),
     "year": Bound(1900, 2100, "-", "a model year"),
+    "test_timeout": Bound(0.0, 7 * 86400.0, "s", "0 means no limit; a week is far beyond the "
+                          "longest test a batch runs"),
+    "query_rows": Bound(1, 10_000_000, "rows", "rows are printed to the terminal; export "
+                        "larger results with the catalog's own SQL through DuckDB"),
+    "query_timeout": Bound(0.1, 3600.0, "s", "a catalog query over thousands of tests takes "
+                           "seconds; an hour means a runaway join"),
 }
 
 
