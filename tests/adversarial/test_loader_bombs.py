@@ -4,6 +4,7 @@ are refused with one clear line before anything large is built."""
 from __future__ import annotations
 
 import json
+import re
 import resource
 
 import numpy as np
@@ -158,6 +159,8 @@ def test_epa_list_reads_and_streams(tmp_path):
     ('"unclosed,' + EPA_ROW, "line 3"),
     ("x" * 140_000 + "," + EPA_ROW, "longer than 131,072 characters"),
     ('2019,"TOYOTA\nMORE",' + EPA_ROW[5:], "not closed on its line"),
+    (EPA_ROW.replace("TOYOTA", "TOY\x00OTA"), "line 3: a NUL byte"),
+    (EPA_ROW + "," + ",".join(["1"] * 1000), "line 3: 1022 fields, the header has 22"),
 ])
 def test_epa_list_bad_quoting_is_a_clear_error(tmp_path, capsys, bad, match):
     p = tmp_path / "19tstcar.csv"
@@ -203,6 +206,28 @@ def test_template_numbers_and_units_refused(tmp_path, edit, match):
     key = {"scale": "scale: must be a number", "rate_hz": "rate_hz:", "Ym": "Dyno_Speed.unit",
            "offset": "offset: must be a number"}
     assert any(v in msg for k, v in key.items() if k in match), msg
+
+
+@pytest.mark.parametrize("extra, match", [
+    ("scale: 1.0e+308", "scale 1e+308 is outside"), ("scale: 0", "scale 0 is outside"),
+    ("scale: 1.0e-12", "scale 1e-12 is outside"), ("offset: -1.0e+308", "offset -1e+308 is beyond"),
+])
+def test_template_scale_and_offset_bounded(tmp_path, extra, match):
+    """A factor of 1e308 turns every sample into inf; 0 erases the channel: both refused."""
+    p = tmp_path / "T.yaml"
+    p.write_text(TEMPLATE.replace("Dyno_Speed: {name: veh_spd_test, unit: mph}",
+                                  f"Dyno_Speed: {{name: veh_spd_test, unit: mph, {extra}}}"))
+    with pytest.raises(ConfigError, match=re.escape(match)):
+        load_template(p)
+
+
+def test_template_plain_scales_still_load(tmp_path):
+    p = tmp_path / "T.yaml"
+    p.write_text(TEMPLATE.replace("Dyno_Speed: {name: veh_spd_test, unit: mph}",
+                                  "Dyno_Speed: {name: veh_spd_test, unit: mph, scale: -2.5e-3, "
+                                  "offset: 273.15}"))
+    spec = load_template(p)
+    assert spec is not None
 
 
 def test_text_file_over_budget_refused_before_reading(tmp_path, monkeypatch):

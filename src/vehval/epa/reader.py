@@ -266,6 +266,12 @@ def _read(path: Path, rows) -> list[EpaTest]:
     for lineno, row in rows:
         if not any(cell.strip() for cell in row):
             continue
+        if len(row) > len(header) and any(cell.strip() for cell in row[len(header):]):
+            raise InputFileError(f"{path}: line {lineno}: {len(row)} fields, the header has "
+                                 f"{len(header)}: fix or remove the line")
+        if any("\x00" in cell for cell in row):
+            raise InputFileError(f"{path}: line {lineno}: a NUL byte in a field (binary data "
+                                 "in a text list: a damaged file): fix or remove the line")
         row = row + [""] * (len(header) - len(row))
 
         f = {field: _cell(row, index, col) for col, field in {**REQUIRED, **OPTIONAL}.items()}

@@ -104,6 +104,10 @@ class TimeSpec(_Strict):
         return self
 
 
+#: Magnitude range of a channel's ``scale`` and the largest ``offset`` [SI units].
+MIN_SCALE, MAX_SCALE = 1e-9, 1e9
+
+
 class ChannelSpec(_Strict):
     """One raw channel: its standard name and raw unit, or its deletion.
 
@@ -133,6 +137,14 @@ class ChannelSpec(_Strict):
 
     @model_validator(mode="after")
     def _named(self) -> ChannelSpec:
+        # a unit factor beyond 1e9 (or below 1e-9) is a typing error, and 1e308 overflows the
+        # samples to inf; an offset beyond 1e9 SI units is no physical zero shift
+        if self.scale == 0.0 or not (MIN_SCALE <= abs(self.scale) <= MAX_SCALE):
+            raise ValueError(f"scale {self.scale:g} is outside [{MIN_SCALE:g}, {MAX_SCALE:g}] "
+                             "in magnitude (and not 0): give the unit in 'unit' and a plain factor")
+        if abs(self.offset) > MAX_SCALE:
+            raise ValueError(f"offset {self.offset:g} is beyond +-{MAX_SCALE:g} SI units: "
+                             "give the offset in the signal's SI unit")
         if not self.delete and not self.name:
             raise ValueError("give the standard 'name' or set 'delete: true' with a 'reason'")
         return self
