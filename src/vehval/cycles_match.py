@@ -113,6 +113,10 @@ def _r(x: float, nd: int = 3) -> float:
 
 
 # ------------------------------------------------------------------------------ inputs
+#: Longest record searched for a drive cycle [s]: a week (a 1 s grid of 604,800 points).
+MAX_MATCH_SPAN_S = 7 * 86400.0
+
+
 def _bin_1hz(time_s: np.ndarray, speed_mps: np.ndarray) -> _Grid:
     """The speed on a 1 s grid: the mean of each 1 s bin for data faster than 4 Hz, linear
     interpolation for slower loggers; grid points more than 2 s from any sample (logging
@@ -126,7 +130,9 @@ def _bin_1hz(time_s: np.ndarray, speed_mps: np.ndarray) -> _Grid:
     t, v = t[ok], np.maximum(v[ok], 0.0)
     order = np.argsort(t, kind="stable")
     t, v = t[order], v[order]
-    if t.size < 2 or t[-1] - t[0] < 10.0:
+    if t.size < 2 or not (10.0 <= t[-1] - t[0] <= MAX_MATCH_SPAN_S):
+        # shorter than any cycle, or a time base no drive cycle can be found in (a damaged
+        # timestamp of 4e300 s would ask for a 1 s grid beyond any memory): no match
         return _Grid(0.0, np.zeros(0), np.zeros(0, dtype=bool))
     t0 = float(np.ceil(t[0] - 0.5))
     n = int(np.floor(t[-1] + 0.5 - t0)) + 1

@@ -241,3 +241,12 @@ def test_propose_unknown_header_unit_goes_to_todo(tmp_path):
     assert source_tag(read_raw(q)) == "obd"
     q.write_text("Timestamp,Pressure,Flow\n0,1,2\n1,2,3\n", encoding="utf-8")
     assert source_tag(read_raw(q)) == "log"  # nothing OBD-like: the file stem
+
+
+def test_a_damaged_timestamp_far_out_gives_no_match_not_a_huge_grid():
+    """One timestamp at 4e300 s (a damaged file) must not ask for a 1 s grid over it."""
+    c = load_cycle("udds")
+    t = np.append(c.time_s, 4e300)
+    v = np.append(c.speed_mps, 0.0)
+    got, score, _ = identify_cycle(t, v)
+    assert got is None and score == 0.0
