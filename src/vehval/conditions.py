@@ -51,7 +51,8 @@ def vehicle_value(vehicle: Any, path: str) -> Any:
     return cur
 
 
-def _number(value: Any) -> float | None:
+def finite_number(value: Any) -> float | None:
+    """``value`` as a finite float; None when it is missing, a boolean or not a finite number."""
     if value is None or isinstance(value, bool):
         return None
     try:
@@ -102,11 +103,11 @@ class TestConditions:
         merged.update(constants or {})
         out: dict[str, Resolved] = {}
         for name, (const, path, default) in CONDITIONS.items():
-            v = _number(merged.get(const)) if const else None
+            v = finite_number(merged.get(const)) if const else None
             if v is not None:
                 out[name] = Resolved(v, f"template constant {const}")
                 continue
-            v = _number(vehicle_value(vehicle, path)) if (vehicle is not None and path) else None
+            v = finite_number(vehicle_value(vehicle, path)) if (vehicle is not None and path) else None
             if v is not None:
                 out[name] = Resolved(v, f"vehicle {path}")
             elif default is not None:

@@ -18,11 +18,10 @@ fuel property is not computed (:func:`require` says what to declare).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from vehval.conditions import vehicle_value
+from vehval.conditions import finite_number, vehicle_value
 from vehval.errors import ConfigError
 from vehval.fuels.table import PROPERTIES, Fuel, fuel_properties, table_fuel
 
@@ -78,13 +77,9 @@ class ResolvedFuel:
 
 
 def _number(value: Any) -> float | None:
-    if value is None or isinstance(value, bool):
-        return None
-    try:
-        f = float(value)
-    except (TypeError, ValueError):
-        return None
-    return f if math.isfinite(f) and f > 0 else None
+    """A fuel property: a finite, positive number; else None."""
+    f = finite_number(value)
+    return f if f is not None and f > 0 else None
 
 
 def _explicit(values: Mapping[str, float], sources: Mapping[str, str],
