@@ -15,18 +15,12 @@ import numpy as np
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.fuels import fuel_consumption_l_per_100km, fuel_economy_mpg, fuel_volume_m3
 from vehval.sim.conventional_kernel import CONV_PARAMS, CONV_SUMMARY
+from vehval.sim.packing import CHASSIS_FROM_FILE
 from vehval.vehicle.conventional import ConventionalVehicle
 
 #: layout name (``CONV_PARAMS``) -> (vehicle block, key, factor to SI): read from the file
 CONV_FROM_FILE: dict[str, tuple[str, str, float]] = {
-    "mass": ("body", "mass_kg", 1.0), "rl_a": ("body", "road_load_a_n", 1.0),
-    "rl_b": ("body", "road_load_b_n_per_mps", 1.0),
-    "rl_c": ("body", "road_load_c_n_per_mps2", 1.0),
-    "r_wheel": ("driveline", "wheel_radius_m", 1.0),
-    "fd_ratio": ("driveline", "final_drive_ratio", 1.0),
-    "fd_eff": ("driveline", "final_drive_efficiency", 1.0),
-    "j_wheel": ("driveline", "wheel_inertia_kg_m2", 1.0),
-    "brk_max": ("driveline", "brake_max_force_n", 1.0),
+    **CHASSIS_FROM_FILE,
     "gb_eff": ("gearbox", "efficiency", 1.0), "shift_time": ("gearbox", "shift_time_s", 1.0),
     "tc_k": ("converter", "capacity_nm_s2_per_rad2", 1.0),
     "j_eng": ("engine", "inertia_kg_m2", 1.0), "eng_idle": ("engine", "idle_speed_rpm", RPM),

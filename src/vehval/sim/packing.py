@@ -35,15 +35,20 @@ def best_engine_efficiency(veh: Vehicle) -> float:
 
 
 #: layout name -> (vehicle block, key, factor to SI): the parameters read from the file
-FROM_FILE: dict[str, tuple[str, str, float]] = {
+#: The chassis keys every architecture reads: body and driveline to the wheels.
+CHASSIS_FROM_FILE: dict[str, tuple[str, str, float]] = {
     "mass": ("body", "mass_kg", 1.0), "rl_a": ("body", "road_load_a_n", 1.0),
     "rl_b": ("body", "road_load_b_n_per_mps", 1.0),
-    "rl_c": ("body", "road_load_c_n_per_mps2", 1.0), "aux_w": ("body", "aux_power_w", 1.0),
+    "rl_c": ("body", "road_load_c_n_per_mps2", 1.0),
     "r_wheel": ("driveline", "wheel_radius_m", 1.0),
     "fd_ratio": ("driveline", "final_drive_ratio", 1.0),
     "fd_eff": ("driveline", "final_drive_efficiency", 1.0),
     "j_wheel": ("driveline", "wheel_inertia_kg_m2", 1.0),
     "brk_max": ("driveline", "brake_max_force_n", 1.0),
+}
+
+FROM_FILE: dict[str, tuple[str, str, float]] = {
+    **CHASSIS_FROM_FILE, "aux_w": ("body", "aux_power_w", 1.0),
     "n_sun": ("planetary", "sun_teeth", 1.0), "n_ring": ("planetary", "ring_teeth", 1.0),
     "j_carrier": ("planetary", "carrier_inertia_kg_m2", 1.0),
     "j_ring": ("planetary", "ring_inertia_kg_m2", 1.0),
