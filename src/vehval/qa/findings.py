@@ -99,6 +99,9 @@ class Finding:
         QA level (0 alignment, 1, 2, 3; 4 the results stage).
     related : list of str
         Other signals involved (the other source, the calculated signal...).
+    fix : str
+        What to do about it, in one line (e.g. "declare fuel_rate_test in g/s, not
+        mg/s (x1000)"); empty when there is nothing specific to say.
     """
 
     signal: str
@@ -110,6 +113,7 @@ class Finding:
     numbers: dict = field(default_factory=dict)
     level: int = 1
     related: list[str] = field(default_factory=list)
+    fix: str = ""
 
     def __post_init__(self) -> None:
         self.kind = Kind(self.kind)
@@ -121,7 +125,7 @@ class Finding:
         return self.start_s <= end_s and start_s <= self.end_s
 
     def to_dict(self) -> dict:
-        return {
+        out = {
             "signal": self.signal,
             "kind": self.kind.value,
             "level": self.level,
@@ -132,13 +136,16 @@ class Finding:
             "numbers": clean(self.numbers),
             "related": list(self.related),
         }
+        if self.fix:                     # optional key: only when there is a fix to name
+            out["fix"] = self.fix
+        return out
 
     @classmethod
     def from_dict(cls, d: dict) -> "Finding":
         return cls(signal=d["signal"], kind=Kind(d["kind"]), start_s=d["start_s"],
                    end_s=d["end_s"], severity=Severity(d["severity"]), message=d["message"],
                    numbers=dict(d.get("numbers", {})), level=d.get("level", 1),
-                   related=list(d.get("related", [])))
+                   related=list(d.get("related", [])), fix=str(d.get("fix", "")))
 
 
 def summarise(findings: Iterable[Finding]) -> dict:
