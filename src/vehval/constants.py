@@ -26,19 +26,3 @@ LBF_N = 4.4482216152605
 #: One pound (mass) [kg].
 LB_KG = 0.45359237
 
-
-#: Engineering display unit of an SI unit: SI unit -> (display unit, factor SI -> display).
-#: Data stay SI; reports and tables convert at display time only.
-DISPLAY_UNITS: dict[str, tuple[str, float]] = {
-    "m/s": ("mph", 1.0 / MPH_M_PER_S),
-    "rad/s": ("rpm", 1.0 / RPM_RAD_PER_S),
-    "kg/s": ("g/s", 1.0e3),
-    "W": ("kW", 1.0e-3),
-    "J": ("kJ", 1.0e-3),
-}
-
-
-def display_unit(si_unit: str) -> tuple[str, float]:
-    """Engineering display unit of ``si_unit`` and the factor SI -> display (unchanged, 1.0,
-    for units without one)."""
-    return DISPLAY_UNITS.get(si_unit, (si_unit, 1.0))

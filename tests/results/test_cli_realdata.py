@@ -143,9 +143,9 @@ def test_report_shows_results_first(tmp_path, cli):
 
 
 def test_display_units_round_trip():
-    from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S, display_unit
-    assert display_unit("m/s") == ("mph", pytest.approx(1 / MPH_M_PER_S))
-    unit, k = display_unit("rad/s")
-    assert unit == "rpm" and 3000 / k * RPM_RAD_PER_S * k == pytest.approx(3000 * RPM_RAD_PER_S)
-    assert 104.71975511965977 * k == pytest.approx(1000.0)   # 1000 rpm in rad/s, shown as rpm
-    assert display_unit("N*m") == ("N*m", 1.0)
+    from vehval.constants import MPH_M_PER_S
+    from vehval.display import unit_for
+    assert unit_for("m/s", system_name="us").factor == pytest.approx(1 / MPH_M_PER_S)
+    rpm = unit_for("rad/s")
+    assert rpm.label == "rpm" and 104.71975511965977 * rpm.factor == pytest.approx(1000.0)
+    assert unit_for("N*m").label == "N·m" and unit_for("N*m").factor == 1.0

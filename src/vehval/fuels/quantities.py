@@ -23,7 +23,7 @@ import numpy as np
 
 from vehval.constants import MILE_M
 
-__all__ = ["GALLON_US_M3", "LITRE_M3", "combine_mpg", "co2_kg", "economy",
+__all__ = ["GALLON_US_M3", "LITRE_M3", "VOLUME_DISPLAY", "combine_mpg", "co2_kg", "economy",
            "fuel_consumption_l_per_100km", "fuel_economy_mpg", "fuel_energy_j", "fuel_volume_m3",
            "l_per_100km_from_volume_per_distance", "mpg_from_volume_per_distance", "mpg_with_fuel_scaled",
            "CO2_PER_C"]
@@ -32,6 +32,9 @@ __all__ = ["GALLON_US_M3", "LITRE_M3", "combine_mpg", "co2_kg", "economy",
 GALLON_US_M3 = 3.785411784e-3
 #: Litre [m^3].
 LITRE_M3 = 1.0e-3
+#: Fuel volume as people read it, per unit system: (unit, factor m^3 -> unit).
+VOLUME_DISPLAY: dict[str, tuple[str, float]] = {"us": ("gal", 1.0 / GALLON_US_M3),
+                                                "metric": ("L", 1.0 / LITRE_M3)}
 #: Mass of CO2 per mass of carbon [-]: 44.009 / 12.011 (IUPAC standard atomic weights).
 CO2_PER_C = 44.009 / 12.011
 

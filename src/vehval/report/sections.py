@@ -51,12 +51,17 @@ def label(test: Test, name: str) -> str:
 
 def display_label(test: Test, name: str) -> tuple[str, float]:
     """``name [display unit]`` for time-trace axes, and the factor SI -> display unit
-    (mph, rpm, g/s, kW, kJ: :data:`vehval.constants.DISPLAY_UNITS`)."""
-    from vehval.constants import display_unit
+    (the one display-unit table, :mod:`vehval.display`; offsets are zero for every unit
+    the nomenclature uses)."""
+    from vehval.display import unit_for
 
-    unit = test[name].unit if name in test else ""
-    shown, k = display_unit(unit)
-    return (f"{name} [{shown}]" if shown and shown != "dimensionless" else name), k
+    if name not in test:
+        return name, 1.0
+    sig = test[name]
+    finite = sig.values[np.isfinite(sig.values)]
+    unit = unit_for(sig.unit, signal=name,
+                    magnitude=float(np.max(np.abs(finite))) if finite.size else None)
+    return (f"{name} [{unit.label}]" if unit.label else name), unit.factor
 
 
 def _trace(test: Test, name: str, i: int, **kw) -> dict:
@@ -394,9 +399,8 @@ def signals_section(test: Test) -> Section:
             chunk = bases[k:k + PANELS_PER_FIGURE]
             panels = []
             for base, names in chunk:
-                from vehval.constants import display_unit
-                unit = display_unit(test[names[0]].unit)[0]
-                panels.append({"ylabel": f"{base} [{unit}]" if unit != "dimensionless" else base,
+                unit_suffix = display_label(test, names[0])[0][len(names[0]):]  # " [kW]" or ""
+                panels.append({"ylabel": f"{base}{unit_suffix}",
                                "traces": [_trace(test, n, i) for i, n in enumerate(sorted(names))]})
             part = f" ({k // PANELS_PER_FIGURE + 1})" if len(bases) > PANELS_PER_FIGURE else ""
             sec.figures.append(FigSpec(f"{cat.capitalize()}{part}", time_traces_figure(panels),

@@ -1,0 +1,236 @@
+"""Display units: the one table that turns SI values into what an engineer reads.
+
+Data files and JSON stay SI. Everything a person reads (screen, report, Excel, batch index)
+converts here, at display time only, in one of two unit systems:
+
+* ``us`` (the default: the regulatory figures vehval states are EPA's): mph, mi, mpg, lbf, lb;
+* ``metric``: km/h, km, L/100 km, N, kg.
+
+Both systems share the engineering units a test cell reads whatever its country: rpm, g/s,
+kW, kJ or MJ, degC, kPa, N·m, %. The system is chosen with the CLI's global
+``--units us|metric`` or the ``VEHVAL_UNITS`` environment variable (the CLI sets it).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Iterable
+
+import numpy as np
+
+from vehval.constants import KMH_M_PER_S, LB_KG, LBF_N, MILE_M, MPH_M_PER_S, RPM_RAD_PER_S
+from vehval.fuels.quantities import VOLUME_DISPLAY
+
+#: The unit systems a person can choose.
+SYSTEMS: tuple[str, ...] = ("us", "metric")
+#: The system used when none is chosen.
+DEFAULT_SYSTEM = "us"
+#: Environment variable holding the chosen system (set by the CLI's ``--units``).
+ENV_VAR = "VEHVAL_UNITS"
+
+
+@dataclass(frozen=True)
+class DisplayUnit:
+    """A display unit: ``shown = value_si * factor + offset``.
+
+    Attributes
+    ----------
+    label : str
+        The unit as printed (``"mph"``, ``"degC"``...).
+    factor : float
+        Multiplier SI -> display [display unit per SI unit].
+    offset : float
+        Added after the factor (temperatures in kelvin only) [display unit].
+    """
+
+    label: str
+    factor: float = 1.0
+    offset: float = 0.0
+
+    def convert(self, value_si: float | np.ndarray) -> float | np.ndarray:
+        """SI value(s) -> display value(s)."""
+        return value_si * self.factor + self.offset
+
+
+def _same(label: str, factor: float = 1.0, offset: float = 0.0) -> dict[str, DisplayUnit]:
+    unit = DisplayUnit(label, factor, offset)
+    return {"us": unit, "metric": unit}
+
+
+#: SI unit (as the nomenclature writes it) -> system -> display unit.
+TABLE: dict[str, dict[str, DisplayUnit]] = {
+    "m/s": {"us": DisplayUnit("mph", 1.0 / MPH_M_PER_S),
+            "metric": DisplayUnit("km/h", 1.0 / KMH_M_PER_S)},
+    "m/s**2": {"us": DisplayUnit("mph/s", 1.0 / MPH_M_PER_S),
+               "metric": DisplayUnit("m/s²")},
+    "m": {"us": DisplayUnit("mi", 1.0 / MILE_M), "metric": DisplayUnit("km", 1.0e-3)},
+    "m**3": {name: DisplayUnit(*VOLUME_DISPLAY[name]) for name in ("us", "metric")},
+    "kg": {"us": DisplayUnit("lb", 1.0 / LB_KG), "metric": DisplayUnit("kg")},
+    "N": {"us": DisplayUnit("lbf", 1.0 / LBF_N), "metric": DisplayUnit("N")},
+    "rad/s": _same("rpm", 1.0 / RPM_RAD_PER_S),
+    "kg/s": _same("g/s", 1.0e3),
+    "W": _same("kW", 1.0e-3),
+    "Pa": _same("kPa", 1.0e-3),
+    "K": _same("degC", 1.0, -273.15),
+    "degC": _same("degC"),
+    "N*m": _same("N·m"),
+    "s": _same("s"),
+    "V": _same("V"),
+    "A": _same("A"),
+    "ohm": _same("Ω"),
+    "W/m**2": _same("W/m²"),
+}
+#: Energies: kJ below this magnitude [J], MJ from it.
+_MJ_FROM_J = 1.0e6
+_ALIASES = {"m/s^2": "m/s**2", "m^3": "m**3", "N m": "N*m", "N.m": "N*m", "Nm": "N*m",
+            "kelvin": "K", "celsius": "degC", "": "dimensionless", "1": "dimensionless"}
+_PERCENT = DisplayUnit("%", 100.0)
+_PLAIN = DisplayUnit("")
+
+
+def system(chosen: str | None = None) -> str:
+    """The unit system in force: ``chosen``, else ``$VEHVAL_UNITS``, else the default.
+
+    Raises
+    ------
+    ValueError
+        When the system is not one of :data:`SYSTEMS` (the message lists them).
+    """
+    name = (chosen or os.environ.get(ENV_VAR) or DEFAULT_SYSTEM).strip().lower()
+    if name not in SYSTEMS:
+        raise ValueError(f"unknown unit system {name!r}: use one of {', '.join(SYSTEMS)}")
+    return name
+
+
+def _is_fraction(signal: str | None) -> bool:
+    """True for a dimensionless signal whose plausible range lies within [0, 1] (SOC,
+    efficiency, pedal position, relative humidity): shown in percent."""
+    if not signal:
+        return False
+    from vehval.errors import SignalError
+    from vehval.nomenclature import registry
+
+    reg = registry()
+    try:
+        spec = reg.spec_of(signal) if signal.rsplit("_", 1)[-1] in ("test", "calc", "simu") \
+            else reg[signal]
+    except (SignalError, KeyError):
+        return False                     # an unknown name is simply not a fraction
+    lo, hi = spec.range
+    return spec.unit == "dimensionless" and 0.0 <= lo and 0.0 < hi <= 1.0
+
+
+def unit_for(si_unit: str, *, system_name: str | None = None, signal: str | None = None,
+             magnitude: float | None = None) -> DisplayUnit:
+    """Display unit of an SI unit.
+
+    Parameters
+    ----------
+    si_unit : str
+        The SI unit as the nomenclature writes it (``"m/s"``, ``"rad/s"``, ``"J"``...).
+    system_name : str, optional
+        ``us`` or ``metric``; default :func:`system`.
+    signal : str, optional
+        Standard signal name: a dimensionless fraction (SOC, efficiency) is shown in %.
+    magnitude : float, optional
+        Typical absolute value [SI] (an axis maximum, the value itself): picks kJ or MJ.
+
+    Returns
+    -------
+    DisplayUnit
+        Unchanged (factor 1) for a unit the table does not know.
+    """
+    key = _ALIASES.get(si_unit.strip(), si_unit.strip())
+    if key == "J":
+        big = magnitude is not None and math.isfinite(magnitude) and abs(magnitude) >= _MJ_FROM_J
+        return DisplayUnit("MJ", 1.0e-6) if big else DisplayUnit("kJ", 1.0e-3)
+    if key == "dimensionless":
+        return _PERCENT if _is_fraction(signal) else _PLAIN
+    row = TABLE.get(key)
+    if row is None:
+        return DisplayUnit(si_unit)
+    return row[system(system_name)]
+
+
+def to_display(values_si: np.ndarray, si_unit: str, *, system_name: str | None = None,
+               signal: str | None = None) -> tuple[np.ndarray, str]:
+    """An SI array in its display unit (kJ/MJ chosen from the array's largest magnitude).
+
+    Returns
+    -------
+    (ndarray, str)
+        The converted values and the unit label.
+    """
+    arr = np.asarray(values_si, dtype=float)
+    finite = arr[np.isfinite(arr)]
+    magnitude = float(np.max(np.abs(finite))) if finite.size else None
+    unit = unit_for(si_unit, system_name=system_name, signal=signal, magnitude=magnitude)
+    return np.asarray(unit.convert(arr), dtype=float), unit.label
+
+
+def number(value: float, digits: int = 4) -> str:
+    """A number with ``digits`` significant digits, in plain notation between 1e-3 and
+    1e7 (``-0.001``, ``30.2``, ``54.80``...), scientific outside; ``n/a`` when not finite."""
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    if value == 0:
+        return "0"
+    exponent = math.floor(math.log10(abs(value)))
+    if exponent < -3 or exponent >= 7:
+        return f"{value:.{max(digits - 1, 0)}e}"
+    decimals = max(digits - 1 - exponent, 0)
+    return f"{value:,.{decimals}f}".replace(",", "\u2009") if exponent >= 4 else f"{value:.{decimals}f}"
+
+
+def format_value(value_si: float, si_unit: str, *, system_name: str | None = None,
+                 signal: str | None = None, digits: int = 4) -> str:
+    """One SI value as a person reads it: ``"-0.001000 g/s"`` -> ``"-0.001 g/s"``.
+
+    Examples
+    --------
+    >>> format_value(25.0, "m/s", system_name="metric")
+    '90.00 km/h'
+    >>> format_value(3.02e7, "J")
+    '30.20 MJ'
+    """
+    if value_si is None or not math.isfinite(float(value_si)):
+        return "n/a"
+    unit = unit_for(si_unit, system_name=system_name, signal=signal, magnitude=float(value_si))
+    shown = number(float(unit.convert(float(value_si))), digits)
+    return f"{shown} {unit.label}".rstrip()
+
+
+#: Suffixes of result keys (``distance_m``, ``fuel_mass_kg``...) -> SI unit.
+KEY_SUFFIX_UNITS: dict[str, str] = {
+    "_mps": "m/s", "_m": "m", "_kg": "kg", "_j": "J", "_w": "W", "_s": "s", "_m3": "m**3",
+    "_pa": "Pa", "_n": "N", "_rad_per_s": "rad/s", "_kg_per_s": "kg/s", "_k": "K",
+}
+
+
+def format_keyed(key: str, value_si: float, *, system_name: str | None = None,
+                 digits: int = 4) -> str:
+    """A value whose key names its SI unit by suffix (``distance_m``, ``fuel_energy_j``...).
+
+    Keys already in a display unit (``fuel_economy_mpg``, ``co2_g_per_km``,
+    ``fuel_consumption_l_per_100km``) and unknown suffixes keep their value unchanged.
+    """
+    for suffix in sorted(KEY_SUFFIX_UNITS, key=len, reverse=True):
+        if key.endswith(suffix):
+            return format_value(value_si, KEY_SUFFIX_UNITS[suffix], system_name=system_name,
+                                digits=digits)
+    return number(float(value_si), digits) if value_si is not None else "n/a"
+
+
+def fuel_figures(mpg: float | None, l_per_100km: float | None, *,
+                 system_name: str | None = None) -> list[tuple[str, float | None]]:
+    """The fuel figures in reading order: ``us`` mpg first then L/100 km, ``metric`` the
+    reverse. Both are always given: a laboratory quotes both."""
+    pair = [("mpg", mpg), ("L/100 km", l_per_100km)]
+    return pair if system(system_name) == "us" else pair[::-1]
+
+
+def labels(units: Iterable[str], *, system_name: str | None = None) -> list[str]:
+    """Display labels of several SI units (table headers)."""
+    return [unit_for(u, system_name=system_name).label for u in units]

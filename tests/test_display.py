@@ -1,0 +1,68 @@
+"""The display-unit table: SI -> what a person reads, in both unit systems."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from vehval import display
+
+
+@pytest.mark.parametrize("si, value, system, expected", [
+    ("m/s", 0.44704, "us", "1.000 mph"),
+    ("m/s", 25.0, "metric", "90.00 km/h"),
+    ("rad/s", np.pi * 100 / 3.0, "us", "1000 rpm"),        # 1000 rpm
+    ("kg/s", -1e-6, "us", "-0.001000 g/s"),                   # the "-1e-06 kg/s" of the issue
+    ("Pa", -5.6e4, "metric", "-56.00 kPa"),
+    ("J", 3.02e7, "us", "30.20 MJ"),
+    ("J", 5.0e3, "us", "5.000 kJ"),
+    ("W", 12_500.0, "metric", "12.50 kW"),
+    ("K", 298.15, "us", "25.00 degC"),
+    ("N", 4.4482216152605, "us", "1.000 lbf"),
+    ("kg", 0.45359237, "us", "1.000 lb"),
+    ("m", 1609.344, "us", "1.000 mi"),
+    ("m", 1500.0, "metric", "1.500 km"),
+    ("m/s**2", 1.0, "metric", "1.000 m/s²"),
+])
+def test_hand_computed_conversions(si, value, system, expected):
+    assert display.format_value(value, si, system_name=system) == expected
+
+
+def test_fractions_show_in_percent_by_the_nomenclature_range():
+    assert display.unit_for("dimensionless", signal="ess_soc_test").label == "%"
+    assert display.format_value(0.0784, "dimensionless", signal="amb_rh_test") == "7.840 %"
+    # a dimensionless count is not a fraction
+    assert display.unit_for("dimensionless", signal="gb_gear_test").label == ""
+    assert display.unit_for("dimensionless", signal="not_a_signal_test").label == ""
+
+
+def test_round_trip_every_table_entry_both_systems():
+    for si, row in display.TABLE.items():
+        for system in display.SYSTEMS:
+            unit = row[system]
+            x = np.array([-3.0, 0.0, 7.5, 1234.0])
+            back = (unit.convert(x) - unit.offset) / unit.factor
+            np.testing.assert_allclose(back, x, rtol=1e-12, atol=1e-12, err_msg=f"{si} {system}")
+
+
+def test_array_display_picks_one_unit_for_the_axis():
+    values, label = display.to_display(np.array([1e5, 2e6, np.nan]), "J")
+    assert label == "MJ"
+    np.testing.assert_allclose(values[:2], [0.1, 2.0])
+
+
+def test_system_choice_environment_and_errors(monkeypatch):
+    monkeypatch.delenv(display.ENV_VAR, raising=False)
+    assert display.system() == display.DEFAULT_SYSTEM
+    monkeypatch.setenv(display.ENV_VAR, "metric")
+    assert display.unit_for("m/s").label == "km/h"
+    assert [n for n, _ in display.fuel_figures(50.0, 4.7)] == ["L/100 km", "mpg"]
+    with pytest.raises(ValueError, match="us, metric"):
+        display.system("imperial")
+
+
+def test_keyed_result_values():
+    assert display.format_keyed("distance_m", 11_990.0, system_name="us") == "7.450 mi"
+    assert display.format_keyed("fuel_energy_j", 3.02e7) == "30.20 MJ"
+    assert display.format_keyed("fuel_economy_mpg", 54.8) == "54.80"
+    assert display.number(float("nan")) == "n/a"
