@@ -7,7 +7,6 @@ values, so both show exactly the same data as ``findings.json``.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from typing import Any, Iterable
@@ -54,24 +53,38 @@ def slug(text: str) -> str:
 
 
 def plain(value: Any) -> Any:
-    """A JSON/Excel friendly scalar: numpy scalars unwrapped, containers as JSON text."""
+    """A JSON/Excel friendly scalar: numpy scalars unwrapped; containers as readable text
+    (``limit = 0.5; count = 3``, numbers to 4 significant digits, a key naming its SI unit
+    by suffix shown in its display unit: :func:`vehval.display.format_keyed`)."""
     if value is None or isinstance(value, (str, bool, int)):
         return value
     if isinstance(value, float):
         return value
     if isinstance(value, np.generic):
         return value.item()
-    if isinstance(value, (list, tuple, dict, np.ndarray)):
-        return json.dumps(value, default=_json_default, ensure_ascii=False)
+    if isinstance(value, dict):
+        return "; ".join(f"{k} = {_readable(v, str(k))}" for k, v in value.items())
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return ", ".join(_readable(v) for v in value)
     return str(value)
 
 
-def _json_default(obj: Any) -> Any:
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return str(obj)
+def _readable(value: Any, key: str = "") -> str:
+    """One value inside a container, as a person reads it (no JSON)."""
+    from vehval.display import format_keyed, number
+
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, bool) or value is None:
+        return "n/a" if value is None else str(value).lower()
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return format_keyed(key, value) if key else number(value)
+    if isinstance(value, (dict, list, tuple, np.ndarray)):
+        inner = plain(value)
+        return f"({inner})" if inner else "()"
+    return str(value)
 
 
 def rows_table(title: str, rows: Iterable[dict], *, key: str = "", note: str = "",
