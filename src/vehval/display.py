@@ -231,6 +231,18 @@ def fuel_figures(mpg: float | None, l_per_100km: float | None, *,
     return pair if system(system_name) == "us" else pair[::-1]
 
 
+def fuel_text(mpg: float | None, l_per_100km: float | None, *,
+              system_name: str | None = None) -> str:
+    """``"54.8 mpg (4.29 L/100 km)"`` (us) or ``"4.29 L/100 km (54.8 mpg)"`` (metric)."""
+    def one(name: str, value: float | None) -> str:
+        if value is None or not math.isfinite(value):
+            return f"n/a {name}"
+        return f"{value:.1f} {name}" if name == "mpg" else f"{value:.2f} {name}"
+
+    (a, va), (b, vb) = fuel_figures(mpg, l_per_100km, system_name=system_name)
+    return f"{one(a, va)} ({one(b, vb)})"
+
+
 def labels(units: Iterable[str], *, system_name: str | None = None) -> list[str]:
     """Display labels of several SI units (table headers)."""
     return [unit_for(u, system_name=system_name).label for u in units]

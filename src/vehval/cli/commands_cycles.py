@@ -24,9 +24,16 @@ def list_cmd(as_json: bool = typer.Option(False, "--json", help="Print JSON.")) 
         return
     from vehval.cli.table import render
 
-    cols = ["name", "duration [s]", "distance [km]", "max [km/h]", "mean [km/h]", "regulation"]
-    typer.echo(render(cols, [[r["name"], f"{r['duration_s']:g}", f"{r['distance_km']:.2f}",
-                              f"{r['max_speed_kph']:.1f}", f"{r['mean_speed_kph']:.1f}",
+    from vehval.constants import KMH_M_PER_S
+    from vehval.display import unit_for
+
+    dist, spd = unit_for("m"), unit_for("m/s")
+    cols = ["name", "duration [s]", f"distance [{dist.label}]", f"max [{spd.label}]",
+            f"mean [{spd.label}]", "regulation"]
+    typer.echo(render(cols, [[r["name"], f"{r['duration_s']:g}",
+                              f"{dist.convert(1000 * r['distance_km']):.2f}",
+                              f"{spd.convert(r['max_speed_kph'] * KMH_M_PER_S):.1f}",
+                              f"{spd.convert(r['mean_speed_kph'] * KMH_M_PER_S):.1f}",
                               r["regulation"]] for r in rows],
                       shrink=["regulation"], title="vehval drive cycles"))
 

@@ -99,28 +99,30 @@ def simulate_cmd(
             doc["audit"] = aud
         typer.echo(json.dumps(doc))
         return
+    from vehval.display import format_value, fuel_text
+
+    miss = format_value(s["trace_max_miss_mps"], "m/s", digits=3)
     typer.echo(f"{s['vehicle']} on {s['cycle']} (dt = {s['dt_s']:g} s)")
-    typer.echo(f"  distance            {s['distance_m'] / 1000:8.3f} km")
-    typer.echo(f"  fuel                {s['fuel_mass_kg'] * 1000:8.1f} g")
-    typer.echo(f"  fuel economy        {s['fuel_economy_mpg']:8.1f} mpg "
-               f"({s['fuel_consumption_l_per_100km']:.2f} L/100 km)")
+    typer.echo(f"  distance            {format_value(s['distance_m'], 'm')}")
+    typer.echo(f"  fuel                {s['fuel_mass_kg'] * 1000:.1f} g")
+    typer.echo(f"  fuel economy        "
+               f"{fuel_text(s['fuel_economy_mpg'], s['fuel_consumption_l_per_100km'])}")
     if s.get("architecture") == "conventional":
         typer.echo(f"  gear shifts         {s['gear_shifts']:8d}")
         typer.echo(f"  fuel cut            {s['fuel_cut_time_s']:8.1f} s, idle "
                    f"{s['idle_time_s']:.1f} s, converter open {s['unlocked_time_s']:.1f} s")
-        typer.echo(f"  trace max miss      {s['trace_max_miss_mps']:8.3f} m/s "
-                   "(outside ±2 mph / ±1 s)")
-        typer.echo(f"  energy balance      {s['energy_balance_rel']:8.1e} (relative residual)")
+        typer.echo(f"  trace max miss      {miss} (outside ±2 mph / ±1 s)")
+        typer.echo(f"  energy balance      {s['energy_balance_rel']:.1e} (relative residual)")
         if written and outdir is not None:
             typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
         return
-    typer.echo(f"  SOC-corrected       {s['fuel_economy_soc_corrected_mpg']:8.1f} mpg")
-    typer.echo(f"  SOC                 {s['soc_initial']:.3f} -> {s['soc_final']:.3f}")
-    typer.echo(f"  engine on           {100 * s['engine_on_fraction']:8.1f} % "
+    typer.echo(f"  SOC-corrected       {s['fuel_economy_soc_corrected_mpg']:.1f} mpg")
+    typer.echo(f"  SOC                 {100 * s['soc_initial']:.1f} % -> "
+               f"{100 * s['soc_final']:.1f} %")
+    typer.echo(f"  engine on           {100 * s['engine_on_fraction']:.1f} % "
                f"({s['engine_starts']} starts)")
-    typer.echo(f"  trace max miss      {s['trace_max_miss_mps']:8.3f} m/s "
-               "(outside ±2 mph / ±1 s)")
-    typer.echo(f"  energy balance      {s['energy_balance_rel']:8.1e} (relative residual)")
+    typer.echo(f"  trace max miss      {miss} (outside ±2 mph / ±1 s)")
+    typer.echo(f"  energy balance      {s['energy_balance_rel']:.1e} (relative residual)")
     if aud is not None:
         from vehval.sim.audit import audit_lines
 
