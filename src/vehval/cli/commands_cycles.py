@@ -23,7 +23,6 @@ def list_cmd(as_json: bool = typer.Option(False, "--json", help="Print JSON.")) 
         typer.echo(json.dumps(rows, indent=1))
         return
     from vehval.cli.table import render
-
     from vehval.constants import KMH_M_PER_S
     from vehval.display import unit_for
 
