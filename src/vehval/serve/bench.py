@@ -226,7 +226,8 @@ class Bench:
         return {"saved": self.template_path.is_file(), "files": out_files,
                 "fuel": tmpl.fuel if isinstance(tmpl.fuel, str) or tmpl.fuel is None else "explicit",
                 "fuels": list(known_fuels()), "findings": findings,
-                "selection": (self.state.findings or {}).get("selection") or {},
+                "selection": _with_user_drops((self.state.findings or {}).get("selection") or {},
+                                              tmpl.selection.drop),
                 "user_selection": tmpl.selection.model_dump(),
                 "headline": headline(self.state.results),
                 "summary": (self.state.findings or {}).get("summary"),
@@ -326,6 +327,14 @@ def headline(results: dict | None) -> dict | None:
     return {"name": "test", "fuel_economy_mpg": v.get("fuel_economy_mpg"),
             "fuel_consumption_l_per_100km": v.get("fuel_consumption_l_per_100km"),
             "withheld": why}
+
+
+def _with_user_drops(selection: dict, user_drop: dict[str, str]) -> dict:
+    """QA's selection plus the user's drops (removed at import, so QA never saw them)."""
+    dropped = dict(selection.get("dropped") or {})
+    for name, reason in user_drop.items():
+        dropped.setdefault(name, f"dropped by the user: {reason}")
+    return {"kept": dict(selection.get("kept") or {}), "dropped": dropped}
 
 
 def _placeholder_text(tmpl: Any) -> str:

@@ -47,6 +47,9 @@ def series(time: np.ndarray, values: np.ndarray, t0: float | None = None,
     m = t.size
     exact = m <= n
     if not exact:
-        t, y = decimate_minmax(t, y, max(n // 2, 1))
+        td, yd = decimate_minmax(t, y, max((n - 2) // 2, 1))
+        if td.size > n:  # gaps keep a third point per bucket
+            td, yd = decimate_minmax(t, y, max((n - 2) // 3, 1))
+        t, y = td, yd
     return {"t": _finite_or_none(t), "y": _finite_or_none(y), "exact": bool(exact),
             "n_window": int(m), "span": span}

@@ -33,7 +33,10 @@ def _inline_comment(line: str) -> str:
         elif ch in "'\"":
             quote = ch
         elif ch == "#" and i > 0 and line[i - 1] in " \t":
-            return line[i - 1:].rstrip("\n")
+            j = i
+            while j > 0 and line[j - 1] in " \t":
+                j -= 1
+            return line[j:].rstrip("\n")
     return ""
 
 
