@@ -65,3 +65,26 @@ def expected_mpg(synth_dir: Path, density_kg_per_m3: float) -> float:
 def copy_tree(src: Path, dst: Path) -> Path:
     shutil.copytree(src, dst)
     return dst
+
+
+@pytest.fixture(scope="session")
+def batch_ws(synth_dir, tmp_path_factory) -> Path:
+    """``WS/in/{udds,japan1015}/`` (virtual tests), ``WS/template.yaml`` (no ``cycle:``: each
+    test's cycle is identified) and ``WS/out/`` from ``vehval batch`` (QA, reports)."""
+    from vehval.batch import run_batch
+
+    ws = tmp_path_factory.mktemp("batchws")
+    hw = tmp_path_factory.mktemp("synth_jp") / "japan1015"
+    assert main(["synth", "--vehicle", "prius_2004", "--cycle", "japan1015", "--seed", "4",
+                 "--faults", "none", "-o", str(hw)]) == 0
+    for name, src in (("udds", synth_dir), ("japan1015", hw)):
+        d = ws / "in" / name
+        d.mkdir(parents=True)
+        for f in (*src.glob("*_d3.txt"), *src.glob("*_obd.csv")):
+            shutil.copy(f, d / f.name)
+    text = (synth_dir / "template.yaml").read_text(encoding="utf-8")
+    (ws / "template.yaml").write_text(
+        "\n".join(ln for ln in text.splitlines() if not ln.startswith("cycle:")) + "\n",
+        encoding="utf-8")
+    run_batch(ws / "in", ws / "template.yaml", ws / "out", steps=["qa"], workers=0, progress=False)
+    return ws

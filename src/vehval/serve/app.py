@@ -325,6 +325,7 @@ def create_app(workspace: str | Path, *, token: str | None = None,
     routes = [
         Route("/", home), Route("/test", test_page), Route("/catalog", catalog_page),
         Route("/static/{name}", static), Route("/files/{path:path}", files),
+        Route("/favicon.ico", lambda request: Response(status_code=204)),
         Route("/api/test", _api(api_test)), Route("/api/channel", _api(api_channel)),
         Route("/api/signal", _api(api_signal)),
         Route("/api/template", _api(api_save), methods=["POST"]),

@@ -30,6 +30,9 @@ OVERLAY = {"speed": (("veh_spd",), "vehicle speed [m/s]"),
            "soc": (("ess_soc",), "battery SOC [-]")}
 
 _cache_lock = threading.Lock()
+#: One catalog connection at a time: DuckDB shares one database per file and process, and a
+#: second connect would try to set the locked configuration again.
+_db_lock = threading.Lock()
 _tests: dict[tuple, Any] = {}
 
 
@@ -49,7 +52,7 @@ def rows(db: Path, filters: dict[str, str]) -> dict:
     """Tests of the catalog (latest row of each), filtered; plus the values each filter offers."""
     from vehval.catalog import open_catalog
 
-    with open_catalog(db, read_only=True, timeout_s=20.0) as cat:
+    with _db_lock, open_catalog(db, read_only=True, timeout_s=20.0) as cat:
         where, params = [], []
         for key, col in FILTERS.items():
             val = filters.get(key)
@@ -72,7 +75,7 @@ def _test_record(db: Path, test_id: str) -> tuple[list[str], dict]:
     from vehval.catalog import open_catalog
     from vehval.safe_yaml import load_json
 
-    with open_catalog(db, read_only=True, timeout_s=20.0) as cat:
+    with _db_lock, open_catalog(db, read_only=True, timeout_s=20.0) as cat:
         _, data = cat.query("SELECT t.files, r.settings, t.outputs FROM latest_tests t "
                             "JOIN runs r USING (run_id) WHERE t.test_id = ?", [test_id])
     if not data:

@@ -245,7 +245,7 @@
         for (const n of r.notes || []) out.append(el("p", {text: n}));
       } catch (e) { out.textContent = ""; showError(e.message); }
     });
-    busy(api("/api/test", {dir}));
+    busy(api("/api/test", {dir}).then(m => (m.saved && !m.summary && !m.error) ? api("/api/run", {dir}, {}) : m));
   }
 
   // ------------------------------------------------------------------ catalog page
