@@ -4,6 +4,13 @@
   const csrf = document.querySelector('meta[name="vehval-csrf"]').content;
   const page = document.body.dataset.page;
   const N = 4000;  // points per trace (min/max decimated beyond, exact when zoomed in)
+  // plotly.js loads asynchronously: the tables show before it is parsed
+  const plotlyReady = new Promise(resolve => {
+    if (window.Plotly) { resolve(); return; }
+    const tag = document.getElementById("plotly-js");
+    tag.addEventListener("load", () => resolve());
+    const poll = setInterval(() => { if (window.Plotly) { clearInterval(poll); resolve(); } }, 50);
+  });
 
   function el(tag, attrs, ...kids) {
     const e = document.createElement(tag);
@@ -39,6 +46,7 @@
   // a plot whose traces reload exactly when zoomed in (fetchers: window -> promise of traces)
   function zoomPlot(div, fetchers, layout) {
     const draw = async (t0, t1) => {
+      await plotlyReady;
       const traces = await Promise.all(fetchers.map(f => f(t0, t1)));
       const lay = Object.assign({margin: {t: 30, r: 10, b: 40, l: 60}, showlegend: true,
                                  xaxis: {title: {text: "time [s]"}}}, layout || {});
@@ -54,10 +62,12 @@
     if (div.dataset.zoomBound) return;
     div.dataset.zoomBound = "1";
     div.on("plotly_relayout", ev => {
+      const r = ev["xaxis.range"] || (ev["xaxis.range[0]"] !== undefined ? [ev["xaxis.range[0]"], ev["xaxis.range[1]"]] : null);
+      if (div._drawing) return;
       if (ev["xaxis.autorange"]) div._draw(null, null).catch(e => showError(e.message));
-      else if (ev["xaxis.range[0]"] !== undefined && !div._drawing) {
+      else if (r) {
         div._drawing = true;
-        div._draw(ev["xaxis.range[0]"], ev["xaxis.range[1]"]).catch(e => showError(e.message)).finally(() => { div._drawing = false; });
+        div._draw(r[0], r[1]).catch(e => showError(e.message)).finally(() => { div._drawing = false; });
       }
     });
   }
@@ -231,6 +241,7 @@
       try {
         const r = await api("/api/model", {dir}, {});
         out.textContent = "";
+        await plotlyReady;
         for (const t of r.tables) {
           out.append(el("h3", {text: t.title}));
           out.append(el("table", {class: "data model-table"}, el("thead", {}, el("tr", {}, ...t.columns.map(c => el("th", {text: c})))),
@@ -283,6 +294,7 @@
       try {
         const traces = await Promise.all(picks.map(async id => { const s = await api("/api/catalog/trace", {db, test: id, q, n: N}); return Object.assign(trace(s, id), {label: s.label}); }));
         const div = document.getElementById("overlayplot");
+        await plotlyReady;
         await Plotly.react(div, traces, {title: {text: traces.length ? traces[0].label : ""}, margin: {t: 30, r: 10, b: 40, l: 60}, xaxis: {title: {text: "time [s]"}}}, {responsive: true, displaylogo: false});
         div.dataset.traces = String(traces.length);
       } catch (e) { showError(e.message); }
