@@ -45,7 +45,7 @@ def browser():
         b.close()
 
 
-class Session:
+class Visit:
     """A workbench server and a page recording its requests and console errors."""
 
     def __init__(self, browser, ws: Path) -> None:
@@ -93,7 +93,7 @@ def _runs(page) -> int:
 
 def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
     init = yaml.safe_load((workspace / "virtual" / "template.yaml").read_text(encoding="utf-8"))
-    s = Session(browser, workspace)
+    s = Visit(browser, workspace)
     try:
         page = s.page
         page.goto(s.server.url)
@@ -149,7 +149,7 @@ def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
 
 
 def test_catalog_in_chromium(browser, batch_ws):
-    s = Session(browser, batch_ws)
+    s = Visit(browser, batch_ws)
     try:
         page = s.page
         page.goto(s.server.url)
