@@ -140,3 +140,20 @@ def test_channel_plot_is_decimated_then_exact_on_zoom(workspace):
     assert zoom["exact"] and zoom["unit"] == "mph"
     sel = (t >= 100 - 0.1 - 1e-9) & (t <= 200 + 0.1 + 1e-9)
     np.testing.assert_array_equal(np.array(zoom["y"], float), y[sel])  # rtol 0: the file's samples
+
+
+def test_bad_raw_file_shows_the_cli_message(tmp_path, capsys):
+    test = tmp_path / "ws" / "broken"
+    test.mkdir(parents=True)
+    (test / "run.csv").write_bytes(b"Time[s],Speed[km/h]\n0,1\n1,\x00\x00garbage\n2")
+    c = _client(tmp_path / "ws")
+    r = c.get("/api/test", params={"dir": "broken"})
+    assert r.status_code == 200
+    page_msg = r.json()["error"]
+    assert page_msg
+    capsys.readouterr()
+    rc = main(["template", "init", str(test / "run.csv"), "-o", str(tmp_path / "t.yaml")])
+    cli = capsys.readouterr().err.strip()
+    assert rc == 2 and cli.startswith("vehval: error: ")
+    # the same sentence; the CLI names the path as given, the page the file's own path
+    assert cli.split("run.csv", 1)[1] == page_msg.split("run.csv", 1)[1]

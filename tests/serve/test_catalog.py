@@ -41,5 +41,10 @@ def test_rows_filters_and_overlay_match_the_catalog(batch_ws):
                                                  "q": q, "n": 1000}).json()
         assert "error" not in tr, tr
         assert len(tr["t"]) <= 1000 and tr["span"][1] > 1300  # UDDS: 1369 s
+    ph = c.get("/api/catalog/trace", params={"db": "out/catalog.duckdb", "test": "udds",
+                                             "q": "speed", "axis": "phase"}).json()
+    assert [p["phase"] for p in ph["phases"]] == [1, 2]  # UDDS bags 1 and 2
+    assert all(p["t"][0] == 0.0 for p in ph["phases"])
+    assert ph["phases"][0]["span"][1] == pytest.approx(505.0, abs=1.0)  # bag 1: 505 s
     bad = c.get("/api/catalog", params={"db": "../x.duckdb"})
     assert bad.status_code == 403

@@ -306,7 +306,8 @@ def api_trace(wb: Workbench, q: Any, body: dict) -> dict:
     from vehval.serve.catalog_view import test_traces
 
     db = sec.inside_workspace(wb.root, q.get("db"))
-    return test_traces(wb.root, db, q.get("test", ""), q.get("q", "speed"), _n(q))
+    return test_traces(wb.root, db, q.get("test", ""), q.get("q", "speed"), _n(q),
+                       per_phase=q.get("axis") == "phase")
 
 
 def create_app(workspace: str | Path, *, token: str | None = None,

@@ -12,6 +12,8 @@ import threading
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from vehval.errors import InputFileError, VehvalError
 from vehval.serve.security import inside_workspace
 from vehval.serve.series import series
@@ -92,8 +94,25 @@ def _workspace_path(root: Path, p: str) -> Path:
     return inside_workspace(root, full.relative_to(root).as_posix())
 
 
-def test_traces(root: Path, db: Path, test_id: str, quantity: str, n: int) -> dict:
-    """One quantity of one catalog test, imported again from its raw files [SI]."""
+def _per_phase(test: Any, time: np.ndarray, values: np.ndarray, n: int) -> list[dict]:
+    """The trace cut at the test's phase (bag) changes, each on its own time from 0 [s]."""
+    ph = test.best("test_phase", ("test",))
+    if ph is None:
+        raise VehvalError(f"{test.meta.test_id}: no phase channel (test_phase_test): "
+                          "overlay on the time axis instead")
+    k = np.round(ph.at(time))
+    out = []
+    for num in np.unique(k[np.isfinite(k) & (k > 0)]):
+        sel = k == num
+        t = time[sel]
+        out.append({"phase": int(num), **series(t - t[0], values[sel], None, None, n)})
+    return out
+
+
+def test_traces(root: Path, db: Path, test_id: str, quantity: str, n: int,
+                per_phase: bool = False) -> dict:
+    """One quantity of one catalog test, imported again from its raw files [SI]; with
+    ``per_phase`` one trace per phase, each from its own start."""
     if quantity not in OVERLAY:
         raise InputFileError(f"overlay: unknown quantity '{quantity}' ({', '.join(OVERLAY)})")
     files, settings = _test_record(db, test_id)
@@ -117,6 +136,10 @@ def test_traces(root: Path, db: Path, test_id: str, quantity: str, n: int) -> di
     for base in bases:
         sig = test.best(base, ("test",))
         if sig is not None:
-            return {"test_id": test_id, "signal": sig.name, "unit": sig.unit, "label": label,
-                    **series(sig.time, sig.values, None, None, n)}
+            out = {"test_id": test_id, "signal": sig.name, "unit": sig.unit, "label": label,
+                   **series(sig.time, sig.values, None, None, n)}
+            if per_phase:
+                out["phases"] = _per_phase(test, np.asarray(sig.time, float),
+                                           np.asarray(sig.values, float), n)
+            return out
     raise VehvalError(f"{test_id}: no {label.split(' [')[0]} signal in the test")

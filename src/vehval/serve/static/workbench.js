@@ -292,7 +292,13 @@
       const picks = [...document.querySelectorAll("input.pick:checked")].map(i => i.value);
       const q = document.getElementById("quantity").value;
       try {
-        const traces = await Promise.all(picks.map(async id => { const s = await api("/api/catalog/trace", {db, test: id, q, n: N}); return Object.assign(trace(s, id), {label: s.label}); }));
+        const axis = document.getElementById("axis").value;
+        const per = await Promise.all(picks.map(async id => {
+          const s = await api("/api/catalog/trace", {db, test: id, q, n: N, axis});
+          if (axis !== "phase") return [Object.assign(trace(s, id), {label: s.label})];
+          return s.phases.map(p => Object.assign(trace(p, id + " phase " + p.phase), {label: s.label + " per phase"}));
+        }));
+        const traces = per.flat();
         const div = document.getElementById("overlayplot");
         await plotlyReady;
         await Plotly.react(div, traces, {title: {text: traces.length ? traces[0].label : ""}, margin: {t: 30, r: 10, b: 40, l: 60}, xaxis: {title: {text: "time [s]"}}}, {responsive: true, displaylogo: false});
