@@ -99,6 +99,8 @@ def test_drop_in_page_equals_cli_selection(workspace, tmp_path):
     assert main(["qa", str(workspace / "virtual" / "run_d3.txt"), "-t", str(tpl),
                  "-o", str(tmp_path / "out")]) == 0
     assert page_final == (tmp_path / "out" / "template_final.yaml").read_text(encoding="utf-8")
+    # the decision is recorded with the user's reason (the signal is removed at import)
+    assert yaml.safe_load(page_final)["selection"]["drop"]["dyno_frc_test"] == reason
     # clearing the decision removes it from the template
     m = c.post("/api/selection", params={"dir": "virtual"},
                json={"signal": "dyno_frc_test", "action": "clear"}).json()
