@@ -126,3 +126,17 @@ def test_inside_workspace(tmp_path):
         inside_workspace(root, "../a")
     with pytest.raises(OutsideWorkspace):
         inside_workspace(root, str(root / "a"))  # absolute, even when inside
+
+
+def test_workspace_html_runs_sandboxed(app, ws):
+    (ws / "t1" / "page.html").write_text("<script>fetch('/api/test?dir=t1')</script>", encoding="utf-8")
+    (ws / "t1" / "x.js").write_text("alert(1)", encoding="utf-8")
+    c = _authed(app)
+    r = c.get("/files/t1/page.html")
+    assert r.status_code == 200 and "sandbox allow-scripts" in r.headers["content-security-policy"]
+    assert "allow-same-origin" not in r.headers["content-security-policy"]
+    assert c.get("/files/t1/x.js").status_code == 404  # no script of the workspace is served
+    # plotly.js alone is public (a sandboxed report loads it without the cookie)
+    anon = TestClient(app, base_url=BASE)
+    assert anon.get("/static/plotly.min.js").status_code == 200
+    assert anon.get("/static/workbench.js").status_code == 403

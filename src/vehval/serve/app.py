@@ -8,6 +8,7 @@ a small JSON API; every write is a POST guarded by the CSRF value (:mod:`.securi
 from __future__ import annotations
 
 import os
+import re
 import socket
 import threading
 from functools import lru_cache
@@ -28,11 +29,15 @@ from vehval.serve import security as sec
 from vehval.serve.bench import NOT_DATA, QA_DIR, RAW_EXT, TEMPLATE_NAME, Bench
 
 STATIC = Path(__file__).with_name("static")
+#: The one path served without the token: the plotly.js bundled with plotly (a report from the
+#: workspace runs sandboxed, without the cookie, and loads it from here).
+PUBLIC_PATH = "/static/plotly.min.js"
+#: A batch report's reference to its shared plotly.js copy (``../../assets/plotly-X.min.js``).
+_ASSET_SRC = re.compile(rb'src="[^"<>]*assets/plotly-[0-9A-Za-z.\-]*\.min\.js"')
 #: Files of the workspace the page may open, and their media type.
 SERVED_TYPES = {".html": "text/html; charset=utf-8", ".json": "application/json",
                 ".yaml": "text/plain; charset=utf-8", ".txt": "text/plain; charset=utf-8",
-                ".csv": "text/plain; charset=utf-8", ".js": "text/javascript",
-                ".png": "image/png", ".svg": "image/svg+xml"}
+                ".csv": "text/plain; charset=utf-8", ".png": "image/png"}
 #: Folders never listed as tests (outputs).
 SKIP_DIRS = {QA_DIR, "assets", "tests", "__pycache__", "node_modules"}
 
@@ -59,6 +64,8 @@ class _Guard(BaseHTTPMiddleware):
         wb: Workbench = request.app.state.workbench
         if not sec.host_allowed(request.headers.get("host"), wb.extra_hosts):
             return _forbidden("host not allowed: open the workbench at 127.0.0.1")
+        if request.url.path == PUBLIC_PATH and request.method == "GET":
+            return await call_next(request)  # plotly.js itself: no secret, no data
         given = request.query_params.get("token")
         if given is not None:
             if not sec.same(given, wb.token):
@@ -225,11 +232,11 @@ async def files(request: Request) -> Response:
     body = path.read_bytes()
     headers = {}
     if path.suffix.lower() == ".html":
-        # a batch report loads the shared plotly.js by a relative path ('file:' in its own
-        # policy): served here it comes from the workbench ('self')
+        # a page from the workspace runs sandboxed (an origin of its own: no cookie, no API);
+        # a batch report's shared plotly.js ('file:' in its own policy) comes from the
+        # workbench's public copy instead
+        body = _ASSET_SRC.sub(f'src="{PUBLIC_PATH}"'.encode(), body, count=1)
         body = body.replace(b" file:;", b" 'self';", 1)
-        headers["Content-Security-Policy"] = sec.REPORT_CSP
-    elif path.suffix.lower() == ".js":
         headers["Content-Security-Policy"] = sec.REPORT_CSP
     return Response(body, media_type=kind, headers=headers)
 

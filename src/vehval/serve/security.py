@@ -36,11 +36,12 @@ PAGE_CSP = ("default-src 'none'; script-src 'self'; style-src 'self' 'unsafe-inl
             "img-src 'self' data: blob:; font-src data:; connect-src 'self'; worker-src 'none'; "
             "object-src 'none'; frame-src 'self'; media-src 'none'; form-action 'self'; "
             "base-uri 'none'; frame-ancestors 'self'")
-#: Policy added to a report served from the workspace (its own meta policy still applies).
+#: Policy added to a report served from the workspace (its own meta policy still applies):
+#: sandboxed, so a hostile HTML file in the workspace cannot act as the workbench.
 REPORT_CSP = ("default-src 'none'; script-src 'self' 'unsafe-inline'; style-src 'unsafe-inline'; "
               "img-src data: blob:; font-src data:; connect-src 'none'; worker-src 'none'; "
               "object-src 'none'; frame-src 'none'; form-action 'none'; base-uri 'none'; "
-              "frame-ancestors 'self'")
+              "frame-ancestors 'self'; sandbox allow-scripts allow-popups")
 
 
 class OutsideWorkspace(InputFileError):
