@@ -28,7 +28,7 @@ LAYERS: dict[str, int] = {
     "validate": 7, "epa": 7,
     "report": 8, "catalog": 8,
     "workflow": 9, "batch": 9, "identify": 9,
-    "cli": 10,
+    "cli": 10, "serve": 10,
 }
 
 

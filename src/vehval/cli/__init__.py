@@ -32,6 +32,7 @@ def _register() -> None:
         commands_report,  # noqa: F401
         commands_results,  # noqa: F401
         commands_sensitivity,  # noqa: F401
+        commands_serve,  # noqa: F401
         commands_sim,  # noqa: F401
         commands_synth,  # noqa: F401
         commands_validate,  # noqa: F401

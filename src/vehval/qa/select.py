@@ -254,5 +254,8 @@ def save_final_template(template: Any, selection: Selection, path: str | Path) -
     for name, reason in sorted(selection.dropped.items()):
         prefix = "dropped by the user: "
         drop[name] = user.drop.get(name, reason[len(prefix):] if reason.startswith(prefix) else reason)
+    for name, reason in user.drop.items():  # dropped at import: never reached the selection
+        drop.setdefault(name, reason)
+    drop = dict(sorted(drop.items()))
     final = template.model_copy(update={"selection": TemplateSelection(keep=list(user.keep), drop=drop)})
     return final.save(path)

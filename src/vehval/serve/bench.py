@@ -1,0 +1,407 @@
+"""One test folder of the workspace on the workbench: its template, raw channels, QA state.
+
+A test folder holds the raw files of one test and (once saved) its ``template.yaml``. The
+bench proposes a template when there is none (what ``vehval template init`` writes), applies
+the edits of the page to the template's YAML (comments kept), and reruns import, QA and the
+results stage, writing what ``vehval qa FOLDER/FILES -t template.yaml -o FOLDER/qa`` writes.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import json
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vehval.errors import ConfigError, InputFileError, VehvalError
+from vehval.serve.series import series
+from vehval.serve.yamlcomments import carry_comments
+
+#: The template file of a test folder, and the folder QA writes into.
+TEMPLATE_NAME = "template.yaml"
+QA_DIR = "qa"
+#: Files of a folder that are never raw data.
+NOT_DATA = {"clean.parquet", "validated.parquet", "template.yaml", "template_final.yaml",
+            "truth.json", "readme.txt", "findings.json", "results.json"}
+RAW_EXT = {".txt", ".csv", ".tsv", ".dat", ".mf4", ".mdf", ".parquet", ".pq"}
+#: Finding kinds shown as unit hints beside a channel.
+UNIT_KINDS = ("unit", "unit_suspect")
+
+
+def data_files(folder: Path, template: Any = None) -> list[Path]:
+    """Raw data files of a test folder (the template's ``match`` globs when it has them)."""
+    files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
+    globs = [f.match for f in template.files if f.match] if template is not None else []
+    if globs and len(globs) == len(template.files):
+        return [p for p in files if any(fnmatch.fnmatch(p.name, g) for g in globs)]
+    return [p for p in files if p.suffix.lower() in RAW_EXT and p.name.lower() not in NOT_DATA]
+
+
+@dataclass
+class BenchState:
+    """What the page shows of a test after the last run (or the error that stopped it)."""
+
+    findings: dict | None = None
+    results: dict | None = None
+    error: str | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+class Bench:
+    """The workbench's view of one test folder.
+
+    Parameters
+    ----------
+    folder : Path
+        The test folder (inside the workspace, resolved).
+    """
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.lock = threading.RLock()
+        self._raw: dict[str, tuple[float, Any]] = {}
+        self.run: Any = None
+        self.state = BenchState()
+        self._load_outputs()
+
+    # ------------------------------------------------------------------ template
+    @property
+    def template_path(self) -> Path:
+        return self.folder / TEMPLATE_NAME
+
+    def template_text(self) -> str:
+        """The saved template, or the proposal ``vehval template init`` would write."""
+        if self.template_path.is_file():
+            return self.template_path.read_text(encoding="utf-8")
+        from vehval.io.propose import propose_template
+
+        tmpl, _ = propose_template(data_files(self.folder))
+        return _placeholder_text(tmpl)
+
+    def template(self) -> Any:
+        """The template model (saved or proposed), validated as ``vehval`` loads it."""
+        from vehval.safe_yaml import load_yaml
+
+        return _validate(load_yaml(self.template_text(), TEMPLATE_NAME))
+
+    def raw(self, name: str) -> Any:
+        """The raw table of one data file of the folder (cached while unchanged)."""
+        from vehval.io.readers import read_raw
+
+        path = self.folder / name
+        if path.parent != self.folder or not path.is_file():
+            raise InputFileError(f"{name}: not a data file of {self.folder.name}")
+        mtime = path.stat().st_mtime
+        hit = self._raw.get(name)
+        if hit is None or hit[0] != mtime:
+            hit = (mtime, read_raw(path))
+            self._raw[name] = hit
+        return hit[1]
+
+    # ------------------------------------------------------------------ edits
+    def save_edits(self, edits: dict) -> None:
+        """Apply the page's edits to the template YAML and write it (comments kept).
+
+        ``edits``: ``channels`` (list of ``{file, raw, name, unit, delete, reason}``, ``file``
+        the index of the file entry), ``sources`` (``{file index: source tag}``), ``fuel``
+        (a fuel name, or ``""`` to leave it out).
+        """
+        from vehval.safe_yaml import load_yaml
+
+        with self.lock:
+            old = self.template_text()
+            data = load_yaml(old, TEMPLATE_NAME)
+            files = data.get("files") if isinstance(data, dict) else None
+            if not isinstance(files, list):
+                raise ConfigError(f"{TEMPLATE_NAME}: no 'files:' list to edit")
+            for ch in edits.get("channels") or []:
+                _edit_channel(files, ch)
+            for idx, src in (edits.get("sources") or {}).items():
+                _entry(files, idx)["source"] = str(src)
+            if "fuel" in edits:
+                if edits["fuel"]:
+                    data["fuel"] = str(edits["fuel"])
+                else:
+                    data.pop("fuel", None)
+            self._write(old, data)
+
+    def decide(self, signal: str, action: str, reason: str = "") -> None:
+        """Keep or drop a signal (the template's ``selection``), or clear the user's decision."""
+        from vehval.safe_yaml import load_yaml
+
+        if action not in ("keep", "drop", "clear"):
+            raise ConfigError(f"selection: unknown action '{action}' (keep, drop or clear)")
+        if action == "drop" and not reason.strip():
+            raise ConfigError(f"selection: give the reason for dropping {signal}")
+        with self.lock:
+            old = self.template_text()
+            data = load_yaml(old, TEMPLATE_NAME)
+            sel = data.setdefault("selection", {}) or {}
+            data["selection"] = sel
+            keep = [k for k in sel.get("keep") or [] if k != signal]
+            drop = {k: v for k, v in (sel.get("drop") or {}).items() if k != signal}
+            if action == "keep":
+                keep.append(signal)
+            elif action == "drop":
+                drop[signal] = reason.strip()
+            sel["keep"], sel["drop"] = keep, drop
+            self._write(old, data)
+
+    def _write(self, old: str, data: dict) -> None:
+        from vehval.io.atomic import write_text_atomic
+
+        tmpl = _validate(data)
+        write_text_atomic(self.template_path, carry_comments(old, tmpl.to_yaml()))
+
+    # ------------------------------------------------------------------ runs
+    def rerun(self) -> BenchState:
+        """Import, QA and results as ``vehval qa`` does; outputs written into ``qa/``."""
+        from vehval.io.atomic import atomic_dir, write_text_atomic
+        from vehval.io.parquet import write_test
+        from vehval.qa.select import save_final_template
+        from vehval.workflow import TestRun
+
+        with self.lock:
+            try:
+                if not self.template_path.is_file():
+                    raise ConfigError(f"{TEMPLATE_NAME}: save the template before running QA")
+                from vehval.io.template import load_template
+
+                tmpl = load_template(self.template_path)
+                run = TestRun.load(data_files(self.folder, tmpl), tmpl)
+                qa = run.qa()
+                results = run.results().results
+                with atomic_dir(self.folder / QA_DIR) as stage:
+                    write_text_atomic(stage / "findings.json", json.dumps(qa.document, indent=1))
+                    write_text_atomic(stage / "results.json", json.dumps(results.to_dict(), indent=1))
+                    write_test(qa.result.validated, stage / "validated.parquet")
+                    save_final_template(run.template, qa.result.selection,
+                                        stage / "template_final.yaml")
+            except VehvalError as exc:
+                self.state = BenchState(error=str(exc), findings=self.state.findings,
+                                        results=self.state.results)
+                return self.state
+            self.run = run
+            self.state = BenchState(findings=qa.document, results=results.to_dict(),
+                                    notes=list(qa.document.get("notes") or []))
+            return self.state
+
+    def _load_outputs(self) -> None:
+        """The last QA outputs of the folder (``qa/``), when present."""
+        from vehval.safe_yaml import load_json
+
+        d = self.folder / QA_DIR
+        try:
+            if (d / "findings.json").is_file():
+                self.state.findings = load_json((d / "findings.json").read_text(encoding="utf-8"))
+            if (d / "results.json").is_file():
+                self.state.results = load_json((d / "results.json").read_text(encoding="utf-8"))
+        except VehvalError as exc:
+            self.state.error = str(exc)
+
+    # ------------------------------------------------------------------ views
+    def overview(self) -> dict:
+        """The page's model: files and channels with their mapping and hints, findings,
+        selection, headline result, error."""
+        try:
+            tmpl = self.template()
+            files = data_files(self.folder, tmpl if self.template_path.is_file() else None)
+        except VehvalError as exc:
+            return {"error": str(exc), "files": [], "saved": self.template_path.is_file()}
+        findings = (self.state.findings or {}).get("findings") or []
+        hints: dict[str, list[dict]] = {}
+        for f in findings:
+            if f.get("kind") in UNIT_KINDS:
+                hints.setdefault(f.get("signal") or "", []).append(f)
+        out_files = []
+        for i, entry in enumerate(tmpl.files):
+            path = _file_for(entry, files, i)
+            out_files.append(self._file_view(i, entry, path, hints))
+        from vehval.fuels import known_fuels
+
+        return {"saved": self.template_path.is_file(), "files": out_files,
+                "fuel": tmpl.fuel if isinstance(tmpl.fuel, str) or tmpl.fuel is None else "explicit",
+                "fuels": list(known_fuels()), "findings": findings,
+                "selection": _with_user_drops((self.state.findings or {}).get("selection") or {},
+                                              tmpl.selection.drop),
+                "user_selection": tmpl.selection.model_dump(),
+                "headline": headline(self.state.results),
+                "summary": (self.state.findings or {}).get("summary"),
+                "error": self.state.error, "notes": self.state.notes}
+
+    def _file_view(self, i: int, entry: Any, path: Path | None, hints: dict) -> dict:
+        from vehval.io.propose import match_channel, unit_known
+        from vehval.nomenclature import registry
+
+        reg = registry()
+        raw = self.raw(path.name) if path is not None else None
+        header = dict(zip(raw.names, raw.units)) if raw is not None else {}
+        chans = []
+        names = list(entry.channels)
+        names += [n for n in header if n not in entry.channels and n != getattr(raw, "time_name", None)]
+        for raw_name in names:
+            spec = entry.channels.get(raw_name)
+            hunit = header.get(raw_name)
+            proposed = match_channel(raw_name, hunit if unit_known(hunit) else None)
+            si = None
+            if spec is not None and spec.name:
+                try:
+                    si = reg[reg.parse(spec.name).base].unit
+                except VehvalError:
+                    si = None
+            base = None
+            if spec is not None and spec.name:
+                try:
+                    base = reg.parse(spec.name).base
+                except VehvalError:
+                    base = None
+            confidence = ("unmapped" if spec is None or spec.delete
+                          else "high" if proposed is not None and proposed == base and unit_known(hunit)
+                          else "medium" if proposed is not None and proposed == base else "edited")
+            chans.append({"raw": raw_name, "header_unit": hunit, "in_file": raw_name in header,
+                          "in_template": spec is not None,
+                          "name": spec.name if spec else None, "unit": spec.unit if spec else None,
+                          "delete": bool(spec.delete) if spec else True,
+                          "reason": spec.reason if spec else "not in the template",
+                          "si_unit": si, "confidence": confidence,
+                          "hints": hints.get(spec.name or "", []) if spec else []})
+        return {"index": i, "file": path.name if path else None, "match": entry.match,
+                "source": entry.source, "format": entry.format, "channels": chans,
+                "notes": list(raw.notes) if raw is not None else []}
+
+    def channel(self, file: str, raw_name: str, t0: float | None, t1: float | None,
+                n: int) -> dict:
+        """Samples of one raw channel in its file's (engineering) unit, for a plot."""
+        raw = self.raw(file)
+        if raw_name not in raw.data:
+            raise InputFileError(f"{file}: no channel '{raw_name}'")
+        y = np.asarray(raw.data[raw_name], float)
+        if raw_name in raw.times:
+            t = np.asarray(raw.times[raw_name], float)
+        elif raw.time_name is not None:
+            t = np.asarray(raw.data[raw.time_name], float)
+        else:
+            t = np.arange(y.size, dtype=float)
+        unit = dict(zip(raw.names, raw.units)).get(raw_name)
+        return {"file": file, "raw": raw_name, "unit": unit, **series(t, y, t0, t1, n)}
+
+    def signal(self, name: str, t0: float | None, t1: float | None, n: int) -> dict:
+        """Samples of one imported signal [SI], on the test's aligned time, for triage."""
+        run = self._ensure_run()
+        test = run.qa().validated
+        sig = test[name] if name in test else None
+        if sig is None and name in run.test:
+            sig = run.test[name]
+        if sig is None:
+            raise InputFileError(f"{name}: no such signal in the test")
+        return {"name": name, "unit": sig.unit, **series(sig.time, sig.values, t0, t1, n)}
+
+    def _ensure_run(self) -> Any:
+        if self.run is None:
+            self.rerun()
+            if self.run is None:
+                raise ConfigError(self.state.error or "the test could not be run")
+        return self.run
+
+
+def headline(results: dict | None) -> dict | None:
+    """The headline figure of ``results.json``: its ``headline`` when it has one, else the
+    first regulatory composite, else the whole test (with ``withheld`` when withheld)."""
+    if not results:
+        return None
+    if isinstance(results.get("headline"), dict):
+        return dict(results["headline"])
+    for comp in results.get("composites") or []:
+        v = comp.get("values") or {}
+        if v.get("fuel_economy_mpg") is not None:
+            return {"name": comp.get("name"), "fuel_economy_mpg": v.get("fuel_economy_mpg"),
+                    "fuel_consumption_l_per_100km": v.get("fuel_consumption_l_per_100km"),
+                    "withheld": comp.get("withheld")}
+    v = (results.get("test_total") or {}).get("values") or {}
+    why = None if v.get("fuel_economy_mpg") is not None else \
+        "; ".join(str(n) for n in results.get("notes") or []) or "no fuel economy"
+    return {"name": "test", "fuel_economy_mpg": v.get("fuel_economy_mpg"),
+            "fuel_consumption_l_per_100km": v.get("fuel_consumption_l_per_100km"),
+            "withheld": why}
+
+
+def _with_user_drops(selection: dict, user_drop: dict[str, str]) -> dict:
+    """QA's selection plus the user's drops (removed at import, so QA never saw them)."""
+    dropped = dict(selection.get("dropped") or {})
+    for name, reason in user_drop.items():
+        dropped.setdefault(name, f"dropped by the user: {reason}")
+    return {"kept": dict(selection.get("kept") or {}), "dropped": dropped}
+
+
+def _placeholder_text(tmpl: Any) -> str:
+    """The text ``template init`` writes for ``tmpl`` (with its ``# fuel:`` placeholder)."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as d:
+        p = tmpl.save(Path(d) / TEMPLATE_NAME, placeholders=True)
+        return p.read_text(encoding="utf-8")
+
+
+def _validate(data: Any) -> Any:
+    """A template model from YAML data, with the messages ``load_template`` gives."""
+    from pydantic import ValidationError
+
+    from vehval.io.template import Template, _message, semantic_errors
+
+    if not isinstance(data, dict):
+        raise ConfigError(f"{TEMPLATE_NAME}: a template must be a YAML mapping with 'files:'")
+    try:
+        t = Template.model_validate(data)
+    except ValidationError as exc:
+        msgs = [_message(e) for e in exc.errors()]
+        raise ConfigError(f"{TEMPLATE_NAME}: " + f"\n  {TEMPLATE_NAME}: ".join(msgs)) from None
+    problems = semantic_errors(t)
+    if problems:
+        raise ConfigError(f"{TEMPLATE_NAME}: " + f"\n  {TEMPLATE_NAME}: ".join(problems))
+    return t
+
+
+def _entry(files: list, idx: Any) -> dict:
+    try:
+        entry = files[int(idx)]
+    except (ValueError, TypeError, IndexError):
+        raise ConfigError(f"{TEMPLATE_NAME}: no file entry {idx!r}") from None
+    if not isinstance(entry, dict):
+        raise ConfigError(f"{TEMPLATE_NAME}: files[{idx}] is not a mapping")
+    return entry
+
+
+def _edit_channel(files: list, ch: dict) -> None:
+    """One channel edit on the YAML data: only the keys the page sends change."""
+    entry = _entry(files, ch.get("file"))
+    raw = str(ch.get("raw") or "")
+    if not raw:
+        raise ConfigError(f"{TEMPLATE_NAME}: a channel edit needs the raw channel name")
+    chans = entry.setdefault("channels", {})
+    spec = dict(chans.get(raw) or {})
+    for key in ("name", "unit", "reason"):
+        if key in ch:
+            val = ch[key]
+            if val is None or str(val).strip() == "":
+                spec.pop(key, None)
+            else:
+                spec[key] = str(val).strip()
+    if "delete" in ch:
+        if ch["delete"]:
+            spec["delete"] = True
+            spec.setdefault("reason", "deleted in the workbench")
+        else:
+            spec.pop("delete", None)
+            spec.pop("reason", None)
+    chans[raw] = spec
+
+
+def _file_for(entry: Any, files: list[Path], i: int) -> Path | None:
+    if entry.match:
+        hits = [p for p in files if fnmatch.fnmatch(p.name, entry.match)]
+        return hits[0] if hits else None
+    return files[i] if i < len(files) else None

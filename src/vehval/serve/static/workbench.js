@@ -1,0 +1,315 @@
+// vehval workbench: one script for every page (no inline script: the page policy forbids it).
+"use strict";
+(function () {
+  const csrf = document.querySelector('meta[name="vehval-csrf"]').content;
+  const page = document.body.dataset.page;
+  const N = 4000;  // points per trace (min/max decimated beyond, exact when zoomed in)
+  // plotly.js loads asynchronously: the tables show before it is parsed
+  const plotlyReady = new Promise(resolve => {
+    if (window.Plotly) { resolve(); return; }
+    const tag = document.getElementById("plotly-js");
+    tag.addEventListener("load", () => resolve());
+    const poll = setInterval(() => { if (window.Plotly) { clearInterval(poll); resolve(); } }, 50);
+  });
+
+  function el(tag, attrs, ...kids) {
+    const e = document.createElement(tag);
+    for (const [k, v] of Object.entries(attrs || {})) {
+      if (v === null || v === undefined || v === false) continue;
+      if (k === "class") e.className = v; else if (k === "text") e.textContent = v;
+      else if (k.startsWith("data-")) e.setAttribute(k, v); else e[k] = v;
+    }
+    for (const k of kids) if (k !== null && k !== undefined) e.append(k instanceof Node ? k : String(k));
+    return e;
+  }
+  function qs(params) { return new URLSearchParams(Object.entries(params).filter(([, v]) => v !== null && v !== undefined)).toString(); }
+  function showError(msg) {
+    const box = document.getElementById("error");
+    if (!box) return;
+    box.hidden = !msg; box.textContent = msg ? "vehval: error: " + msg : "";
+  }
+  async function api(path, params, body) {
+    const opts = {credentials: "same-origin", headers: {}};
+    if (body !== undefined) {
+      opts.method = "POST"; opts.body = JSON.stringify(body);
+      opts.headers["Content-Type"] = "application/json"; opts.headers["X-CSRF-Token"] = csrf;
+    }
+    const r = await fetch(path + "?" + qs(params || {}), opts);
+    let data;
+    try { data = await r.json(); } catch (e) { data = {error: "HTTP " + r.status}; }
+    if (!r.ok) throw new Error(data.error || ("HTTP " + r.status));
+    return data;
+  }
+  function fmt(x, d) { return (x === null || x === undefined) ? "" : (typeof x === "number" ? x.toFixed(d === undefined ? 3 : d) : String(x)); }
+  function trace(s, name) { return {type: "scatter", mode: "lines", x: s.t, y: s.y, name: name, line: {width: 1}}; }
+
+  // a plot whose traces reload exactly when zoomed in (fetchers: window -> promise of traces)
+  function zoomPlot(div, fetchers, layout) {
+    const draw = async (t0, t1) => {
+      await plotlyReady;
+      const traces = await Promise.all(fetchers.map(f => f(t0, t1)));
+      const lay = Object.assign({margin: {t: 30, r: 10, b: 40, l: 60}, showlegend: true,
+                                 xaxis: {title: {text: "time [s]"}}}, layout || {});
+      if (t0 !== null) lay.xaxis = Object.assign({}, lay.xaxis, {range: [t0, t1]});
+      await Plotly.react(div, traces, lay, {responsive: true, displaylogo: false});
+      div.dataset.exact = traces.every(t => t.exact) ? "1" : "0";
+      div.dataset.points = String(traces.reduce((n, t) => n + t.x.length, 0));
+    };
+    div._fetchers = fetchers; div._draw = draw;
+    return draw;
+  }
+  function bindZoom(div) {
+    if (div.dataset.zoomBound) return;
+    div.dataset.zoomBound = "1";
+    div.on("plotly_relayout", ev => {
+      const r = ev["xaxis.range"] || (ev["xaxis.range[0]"] !== undefined ? [ev["xaxis.range[0]"], ev["xaxis.range[1]"]] : null);
+      if (div._drawing) return;
+      if (ev["xaxis.autorange"]) div._draw(null, null).catch(e => showError(e.message));
+      else if (r) {
+        div._drawing = true;
+        div._draw(r[0], r[1]).catch(e => showError(e.message)).finally(() => { div._drawing = false; });
+      }
+    });
+  }
+  async function plotWith(div, fetchers, layout, t0, t1) {
+    const draw = zoomPlot(div, fetchers, layout);
+    div._drawing = true;
+    try { await draw(t0 === undefined ? null : t0, t1 === undefined ? null : t1); } finally { div._drawing = false; }
+    bindZoom(div);
+  }
+
+  // ------------------------------------------------------------------ test page
+  function testPage() {
+    const dir = document.body.dataset.dir;
+    let model = null;
+    document.querySelectorAll(".tabs button").forEach(b => b.addEventListener("click", () => {
+      document.querySelectorAll(".tabs button").forEach(x => x.classList.toggle("on", x === b));
+      for (const t of ["template", "triage", "model"]) document.getElementById("tab-" + t).hidden = (t !== b.dataset.tab);
+    }));
+
+    function headline(h) {
+      const box = document.getElementById("headline");
+      box.textContent = "";
+      if (!h) { box.append("No result yet: save the template or rerun QA."); return; }
+      if (h.fuel_economy_mpg !== null && h.fuel_economy_mpg !== undefined && !h.withheld) {
+        box.append(el("b", {text: (h.name || "test") + ": "}),
+                   el("span", {id: "headline-mpg", text: h.fuel_economy_mpg.toFixed(1)}), " mpg",
+                   h.fuel_consumption_l_per_100km ? " (" + h.fuel_consumption_l_per_100km.toFixed(2) + " L/100 km)" : "");
+      } else {
+        box.append(el("b", {text: (h.name || "test") + ": "}),
+                   el("span", {class: "withheld", id: "headline-withheld",
+                               text: "withheld: " + (typeof h.withheld === "string" ? h.withheld : JSON.stringify(h.withheld || "no fuel economy"))}));
+      }
+    }
+
+    function render(m) {
+      model = m;
+      showError(m.error);
+      headline(m.headline);
+      const fuel = document.getElementById("fuel");
+      fuel.textContent = "";
+      fuel.append(el("option", {value: "", text: "(not declared)"}));
+      for (const f of m.fuels || []) fuel.append(el("option", {value: f, text: f, selected: m.fuel === f}));
+      if (m.fuel && !(m.fuels || []).includes(m.fuel)) fuel.append(el("option", {value: m.fuel, text: m.fuel, selected: true}));
+      document.getElementById("saved-note").textContent = m.saved ? "" : "(proposed by template init: not saved yet)";
+      const files = document.getElementById("files");
+      files.textContent = "";
+      for (const f of m.files) {
+        files.append(el("h2", {text: (f.file || "(no file matches " + (f.match || "") + ")") + " "},
+                        "source ", el("input", {class: "src", value: f.source, "data-file": f.index, size: 8})));
+        const tb = el("tbody");
+        for (const c of f.channels) {
+          const hints = el("div", {class: "hints"});
+          for (const h of c.hints) hints.append(el("div", {class: "hint", text: (h.fix ? h.fix + " — " : "") + h.message}));
+          const row = el("tr", {"data-file": f.index, "data-raw": c.raw, class: c.delete ? "deleted" : ""},
+            el("td", {}, el("code", {text: c.raw}), c.header_unit ? " [" + c.header_unit + "]" : ""),
+            el("td", {}, el("input", {class: "ch-name", value: c.name || "", "data-orig": c.name || ""})),
+            el("td", {}, el("input", {class: "ch-unit", value: c.unit || "", "data-orig": c.unit || "", placeholder: c.header_unit || ""})),
+            el("td", {text: c.si_unit || ""}),
+            el("td", {class: "conf-" + c.confidence, text: c.confidence}),
+            el("td", {}, el("input", {type: "checkbox", class: "ch-delete", checked: c.delete, "data-orig": c.delete ? "1" : "0"}),
+               " ", el("input", {class: "ch-reason", value: c.delete ? (c.reason || "") : "", placeholder: "reason", size: 12})),
+            el("td", {}, hints),
+            el("td", {}, c.in_file ? el("button", {class: "plot-ch", text: "plot"}) : ""));
+          tb.append(row);
+        }
+        files.append(el("table", {class: "data channels"},
+          el("thead", {}, el("tr", {}, ...["raw channel [file unit]", "standard name", "unit", "SI", "confidence", "delete", "QA unit hints", ""].map(t => el("th", {text: t})))), tb));
+      }
+      files.querySelectorAll("button.plot-ch").forEach(b => b.addEventListener("click", () => {
+        const tr = b.closest("tr");
+        const f = model.files[Number(tr.dataset.file)];
+        plotChannel(f.file, tr.dataset.raw).catch(e => showError(e.message));
+        files.querySelectorAll("tr.sel").forEach(r => r.classList.remove("sel")); tr.classList.add("sel");
+      }));
+      renderTriage(m);
+    }
+
+    async function plotChannel(file, raw) {
+      const div = document.getElementById("chplot");
+      let unit = "";
+      const fetcher = async (t0, t1) => {
+        const s = await api("/api/channel", {dir, file, raw, t0, t1, n: N});
+        unit = s.unit || "";
+        return Object.assign(trace(s, raw + (unit ? " [" + unit + "]" : "")), {exact: s.exact});
+      };
+      await plotWith(div, [fetcher], {title: {text: raw + " as in " + file}, yaxis: {title: {text: unit}}});
+      div.dataset.channel = raw;
+    }
+
+    function renderTriage(m) {
+      const s = m.summary;
+      document.getElementById("summary").textContent = s ? `${s.total} findings (${s.by_severity.error} error, ${s.by_severity.warning} warning, ${s.by_severity.info} info); kept ${s.kept}, dropped ${s.dropped}, computed ${s.computed}` : "QA has not run.";
+      const tb = document.querySelector("#findings tbody");
+      tb.textContent = "";
+      for (const f of m.findings || []) {
+        const tr = el("tr", {class: "finding"},
+          el("td", {class: "sev-" + f.severity, text: f.severity}), el("td", {text: f.kind}),
+          el("td", {text: f.signal}), el("td", {text: f.start_s === null ? "" : fmt(f.start_s, 1) + " – " + fmt(f.end_s, 1)}),
+          el("td", {text: f.message}), el("td", {text: f.fix || ""}));
+        tr.addEventListener("click", () => { openFinding(f).catch(e => showError(e.message)); tb.querySelectorAll("tr.sel").forEach(r => r.classList.remove("sel")); tr.classList.add("sel"); });
+        tb.append(tr);
+      }
+      const sel = m.selection || {kept: {}, dropped: {}};
+      const user = m.user_selection || {keep: [], drop: {}};
+      const st = document.querySelector("#selection tbody");
+      st.textContent = "";
+      const names = [...Object.keys(sel.kept || {}), ...Object.keys(sel.dropped || {})].sort();
+      for (const n of names) {
+        const kept = n in (sel.kept || {});
+        const reason = kept ? sel.kept[n] : sel.dropped[n];
+        const userSet = user.keep.includes(n) || n in user.drop;
+        const rin = el("input", {class: "drop-reason", placeholder: "reason to drop", size: 24});
+        const actions = el("td", {}, rin, " ",
+          el("button", {class: "drop-btn", text: "drop"}), " ", el("button", {class: "keep-btn", text: "keep"}),
+          userSet ? el("button", {class: "clear-btn", text: "clear"}) : null);
+        const tr = el("tr", {"data-signal": n}, el("td", {}, el("code", {text: n})),
+                      el("td", {text: kept ? "kept" : "dropped"}), el("td", {text: reason}), actions);
+        actions.querySelector(".drop-btn").addEventListener("click", () => decide(n, "drop", rin.value));
+        actions.querySelector(".keep-btn").addEventListener("click", () => decide(n, "keep", ""));
+        const cb = actions.querySelector(".clear-btn");
+        if (cb) cb.addEventListener("click", () => decide(n, "clear", ""));
+        st.append(tr);
+      }
+    }
+
+    async function openFinding(f) {
+      const names = [f.signal, ...(f.related || [])].filter((x, i, a) => x && a.indexOf(x) === i);
+      let t0 = f.start_s, t1 = f.end_s;
+      if (t0 !== null && t1 !== null) { const pad = Math.max(5, 0.2 * (t1 - t0)); t0 -= pad; t1 += pad; }
+      else { t0 = null; t1 = null; }
+      const fetchers = names.map(n => async (a, b) => {
+        try {
+          const s = await api("/api/signal", {dir, name: n, t0: a, t1: b, n: N});
+          return Object.assign(trace(s, n + " [" + s.unit + "]"), {exact: s.exact});
+        } catch (e) { return {type: "scatter", x: [], y: [], name: n + " (not available)", exact: true}; }
+      });
+      const div = document.getElementById("findplot");
+      await plotWith(div, fetchers, {title: {text: f.kind + ": " + f.signal}}, t0, t1);
+      div.dataset.finding = f.kind + ":" + f.signal;
+    }
+
+    async function busy(p) {
+      const b = document.getElementById("busy");
+      b.hidden = false; document.body.dataset.busy = "1";
+      try { render(await p); } catch (e) { showError(e.message); } finally { b.hidden = true; document.body.dataset.busy = "0"; document.body.dataset.runs = String(Number(document.body.dataset.runs || 0) + 1); }
+    }
+    function decide(signal, action, reason) { busy(api("/api/selection", {dir}, {signal, action, reason})); }
+
+    document.getElementById("save").addEventListener("click", () => {
+      const edits = {channels: [], sources: {}, fuel: document.getElementById("fuel").value};
+      document.querySelectorAll("#files tr[data-raw]").forEach(tr => {
+        const name = tr.querySelector(".ch-name"), unit = tr.querySelector(".ch-unit"), del = tr.querySelector(".ch-delete");
+        const ch = {file: Number(tr.dataset.file), raw: tr.dataset.raw};
+        let changed = false;
+        if (name.value !== name.dataset.orig) { ch.name = name.value; changed = true; }
+        if (unit.value !== unit.dataset.orig) { ch.unit = unit.value; changed = true; }
+        if ((del.checked ? "1" : "0") !== del.dataset.orig) {
+          ch.delete = del.checked; changed = true;
+          if (del.checked) ch.reason = tr.querySelector(".ch-reason").value || "deleted in the workbench";
+        }
+        if (changed) edits.channels.push(ch);
+      });
+      document.querySelectorAll("#files input.src").forEach(i => { if (i.value !== model.files[Number(i.dataset.file)].source) edits.sources[i.dataset.file] = i.value; });
+      if ((model.fuel || "") === edits.fuel) delete edits.fuel;
+      busy(api("/api/template", {dir}, edits));
+    });
+    document.getElementById("rerun").addEventListener("click", () => busy(api("/api/run", {dir}, {})));
+    document.getElementById("run-model").addEventListener("click", async () => {
+      const out = document.getElementById("model-out");
+      out.textContent = "simulating...";
+      try {
+        const r = await api("/api/model", {dir}, {});
+        out.textContent = "";
+        await plotlyReady;
+        for (const t of r.tables) {
+          out.append(el("h3", {text: t.title}));
+          out.append(el("table", {class: "data model-table"}, el("thead", {}, el("tr", {}, ...t.columns.map(c => el("th", {text: c})))),
+            el("tbody", {}, ...t.rows.map(row => el("tr", {}, ...(Array.isArray(row) ? row : t.columns.map(c => row[c])).map(v => el("td", {text: fmt(v)})))))));
+        }
+        for (const tr of r.traces) {
+          const div = el("div", {class: "plot model-plot"});
+          out.append(div);
+          await Plotly.newPlot(div, [trace(tr.measured, tr.measured.name), trace(tr.simulated, tr.simulated.name)],
+                               {title: {text: tr.base + " [" + tr.unit + "]"}, margin: {t: 30, r: 10, b: 40, l: 60}, xaxis: {title: {text: "time [s]"}}}, {responsive: true, displaylogo: false});
+        }
+        for (const n of r.notes || []) out.append(el("p", {text: n}));
+      } catch (e) { out.textContent = ""; showError(e.message); }
+    });
+    busy(api("/api/test", {dir}).then(m => (m.saved && !m.summary && !m.error) ? api("/api/run", {dir}, {}) : m));
+  }
+
+  // ------------------------------------------------------------------ catalog page
+  function catalogPage() {
+    const db = document.body.dataset.db;
+    let rows = [];
+    async function load() {
+      const params = {db};
+      document.querySelectorAll("select[data-filter]").forEach(s => { if (s.value) params[s.dataset.filter] = s.value; });
+      try {
+        const r = await api("/api/catalog", params);
+        rows = r.rows;
+        document.querySelectorAll("select[data-filter]").forEach(s => {
+          const cur = s.value; s.textContent = "";
+          s.append(el("option", {value: "", text: "(all)"}));
+          for (const v of r.options[s.dataset.filter] || []) s.append(el("option", {value: v, text: v, selected: v === cur}));
+        });
+        const head = document.querySelector("#catalog thead"), body = document.querySelector("#catalog tbody");
+        head.textContent = ""; body.textContent = "";
+        head.append(el("tr", {}, el("th", {text: "overlay"}), ...r.columns.map(c => el("th", {text: c})), el("th", {text: "report"})));
+        for (const row of rows) {
+          body.append(el("tr", {"data-test": row.test_id},
+            el("td", {}, el("input", {type: "checkbox", class: "pick", value: row.test_id})),
+            ...r.columns.map(c => el("td", {"data-col": c, text: typeof row[c] === "number" ? String(row[c]) : (row[c] === null ? "" : String(row[c]))})),
+            el("td", {}, row.report ? el("a", {href: "/files/" + row.report.split("/").map(encodeURIComponent).join("/"), target: "_blank", text: "report"}) : "")));
+        }
+        document.body.dataset.rows = String(rows.length);
+        showError(null);
+      } catch (e) { showError(e.message); }
+    }
+    document.querySelectorAll("select[data-filter]").forEach(s => s.addEventListener("change", load));
+    document.getElementById("overlay").addEventListener("click", async () => {
+      const picks = [...document.querySelectorAll("input.pick:checked")].map(i => i.value);
+      const q = document.getElementById("quantity").value;
+      try {
+        const axis = document.getElementById("axis").value;
+        const per = await Promise.all(picks.map(async id => {
+          const s = await api("/api/catalog/trace", {db, test: id, q, n: N, axis});
+          if (axis !== "phase") return [Object.assign(trace(s, id), {label: s.label})];
+          return s.phases.map(p => Object.assign(trace(p, id + " phase " + p.phase), {label: s.label + " per phase"}));
+        }));
+        const traces = per.flat();
+        const div = document.getElementById("overlayplot");
+        await plotlyReady;
+        await Plotly.react(div, traces, {title: {text: traces.length ? traces[0].label : ""}, margin: {t: 30, r: 10, b: 40, l: 60}, xaxis: {title: {text: "time [s]"}}}, {responsive: true, displaylogo: false});
+        div.dataset.traces = String(traces.length);
+      } catch (e) { showError(e.message); }
+    });
+    load();
+  }
+
+  window.addEventListener("DOMContentLoaded", () => {
+    if (page === "test") testPage();
+    else if (page === "catalog") catalogPage();
+  });
+})();

@@ -1,0 +1,99 @@
+"""Keep a YAML file's comments when the workbench rewrites it.
+
+The template is rewritten from its model (:meth:`vehval.io.template.Template.to_yaml`, the
+text ``vehval template init`` writes); the comment lines of the file as it was (the
+``# fuel:`` placeholder of ``template init``, the user's own notes) are put back before the
+line they stood before, and an end-of-line comment stays on its key's line.
+"""
+
+from __future__ import annotations
+
+import re
+
+_KEY = re.compile(r"^(\s*(?:-\s+)?)((?:'[^']*'|\"[^\"]*\"|[^:#\s][^:#]*?)):(\s|$)")
+
+
+def _is_comment(line: str) -> bool:
+    s = line.strip()
+    return not s or s.startswith("#")
+
+
+def _key(line: str) -> str | None:
+    m = _KEY.match(line)
+    return (m.group(1) + m.group(2)) if m else None
+
+
+def _inline_comment(line: str) -> str:
+    """The end-of-line comment of a YAML line (`` # ...``), outside quotes; ``""`` if none."""
+    quote = ""
+    for i, ch in enumerate(line):
+        if quote:
+            if ch == quote:
+                quote = ""
+        elif ch in "'\"":
+            quote = ch
+        elif ch == "#" and i > 0 and line[i - 1] in " \t":
+            j = i
+            while j > 0 and line[j - 1] in " \t":
+                j -= 1
+            return line[j:].rstrip("\n")
+    return ""
+
+
+def carry_comments(old: str, new: str) -> str:
+    """``new`` with the comment lines of ``old`` put back.
+
+    Parameters
+    ----------
+    old : str
+        The file as it was (with comments).
+    new : str
+        The file as regenerated (no comments).
+
+    Returns
+    -------
+    str
+        ``new`` where each block of comment (and blank) lines of ``old`` precedes the line it
+        preceded in ``old`` (found by exact text, else by its key at the same indentation,
+        in order); blocks whose line is gone go where it was, at the end when nothing is left.
+    """
+    anchors: list[tuple[str, str | None, list[str]]] = []
+    pending: list[str] = []
+    for line in old.splitlines():
+        if _is_comment(line):
+            pending.append(line)
+        else:
+            anchors.append((line, _key(line), pending))
+            pending = []
+    trailing = pending
+    used = [False] * len(anchors)
+    out: list[str] = []
+    pos = 0  # anchors are searched from the last one used, so repeated keys pair in order
+
+    def find(pred) -> int | None:
+        for order in (range(pos, len(anchors)), range(0, pos)):
+            for i in order:
+                if not used[i] and pred(i):
+                    return i
+        return None
+
+    for line in new.splitlines():
+        i = find(lambda j: anchors[j][0] == line)
+        key = _key(line)
+        if i is None and key is not None:
+            i = find(lambda j: anchors[j][1] == key)
+        if i is not None:
+            # comment blocks of anchors skipped on the way (lines removed) come first
+            for j in range(pos, i):
+                if not used[j] and anchors[j][2] and anchors[j][0] not in new:
+                    out.extend(anchors[j][2])
+                    anchors[j] = (anchors[j][0], anchors[j][1], [])
+            used[i] = True
+            out.extend(anchors[i][2])
+            if anchors[i][0] != line and not _inline_comment(line):
+                line += _inline_comment(anchors[i][0])
+            pos = i + 1
+        out.append(line)
+    out.extend(c for i, a in enumerate(anchors) if not used[i] for c in a[2])
+    out.extend(trailing)
+    return "\n".join(out) + "\n"

@@ -1,0 +1,90 @@
+"""A workspace with one virtual test for the workbench tests.
+
+The virtual dyno (``vehval synth``, no injected fault) writes a D3 facility file; its fuel
+flow column is rewritten in g/s but labelled ``[mg/s]`` (a unit error of the kind a facility
+file carries), so ``vehval template init`` declares it mg/s. Only the D3 file is kept.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from vehval.cli import main
+
+#: Density of the virtual test's fuel (vehval synth's gasoline) [g/cm³].
+SYNTH_DENSITY_G_PER_CC = 0.74
+FUEL_COLUMN = "Eng_FuelFlow_Direct"
+
+
+def _relabel_fuel(src: Path, dst: Path) -> None:
+    lines = src.read_text(encoding="utf-8").splitlines()
+    head = lines[0].split("\t")
+    i = head.index(f"{FUEL_COLUMN}[ccps]")
+    head[i] = f"{FUEL_COLUMN}[mg/s]"
+    out = ["\t".join(head)]
+    for line in lines[1:]:
+        cells = line.split("\t")
+        if len(cells) > i and cells[i].strip():
+            cells[i] = f"{float(cells[i]) * SYNTH_DENSITY_G_PER_CC:.5f}"  # cm³/s -> g/s
+        out.append("\t".join(cells))
+    dst.write_text("\n".join(out) + "\n", encoding="utf-8")
+
+
+@pytest.fixture(scope="session")
+def synth_dir(tmp_path_factory) -> Path:
+    d = tmp_path_factory.mktemp("synth") / "udds"
+    assert main(["synth", "--vehicle", "prius_2004", "--cycle", "udds", "--seed", "3",
+                 "--faults", "none", "-o", str(d)]) == 0
+    return d
+
+
+@pytest.fixture()
+def workspace(synth_dir, tmp_path) -> Path:
+    """``WS/virtual/``: the relabelled D3 file, and ``template.yaml`` from `template init`."""
+    ws = tmp_path / "ws"
+    test = ws / "virtual"
+    test.mkdir(parents=True)
+    d3 = next(synth_dir.glob("*_d3.txt"))
+    _relabel_fuel(d3, test / "run_d3.txt")
+    assert main(["template", "init", str(test / "run_d3.txt"), "-o", str(test / "template.yaml")]) == 0
+    return ws
+
+
+def expected_mpg(synth_dir: Path, density_kg_per_m3: float) -> float:
+    """Fuel economy of the simulation behind the virtual test [mpg] at the given density."""
+    truth = json.loads((synth_dir / "truth.json").read_text(encoding="utf-8"))
+    s = truth["simulation"]["summary"]
+    litres = s["fuel_mass_kg"] / density_kg_per_m3 * 1000.0
+    return (s["distance_m"] / 1609.344) / (litres / 3.785411784)
+
+
+def copy_tree(src: Path, dst: Path) -> Path:
+    shutil.copytree(src, dst)
+    return dst
+
+
+@pytest.fixture(scope="session")
+def batch_ws(synth_dir, tmp_path_factory) -> Path:
+    """``WS/in/{udds,japan1015}/`` (virtual tests), ``WS/template.yaml`` (no ``cycle:``: each
+    test's cycle is identified) and ``WS/out/`` from ``vehval batch`` (QA, reports)."""
+    from vehval.batch import run_batch
+
+    ws = tmp_path_factory.mktemp("batchws")
+    hw = tmp_path_factory.mktemp("synth_jp") / "japan1015"
+    assert main(["synth", "--vehicle", "prius_2004", "--cycle", "japan1015", "--seed", "4",
+                 "--faults", "none", "-o", str(hw)]) == 0
+    for name, src in (("udds", synth_dir), ("japan1015", hw)):
+        d = ws / "in" / name
+        d.mkdir(parents=True)
+        for f in (*src.glob("*_d3.txt"), *src.glob("*_obd.csv")):
+            shutil.copy(f, d / f.name)
+    text = (synth_dir / "template.yaml").read_text(encoding="utf-8")
+    (ws / "template.yaml").write_text(
+        "\n".join(ln for ln in text.splitlines() if not ln.startswith("cycle:")) + "\n",
+        encoding="utf-8")
+    run_batch(ws / "in", ws / "template.yaml", ws / "out", steps=["qa"], workers=0, progress=False)
+    return ws

@@ -1,0 +1,180 @@
+"""The workbench in headless Chromium: the unit fix, triage and catalog flows of issue 30.
+
+A real server (uvicorn, 127.0.0.1, a free port) runs in a thread; the browser opens the URL
+with the token, as a user would from the printed line. Every request the browser makes is
+recorded: none may go anywhere but the workbench. Needs Debian's /usr/bin/chromium and the
+python playwright package (never Playwright's browser download); skipped cleanly otherwise.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+from pathlib import Path
+from urllib.parse import urlparse
+
+import pytest
+import yaml
+
+from vehval.catalog import open_catalog
+from vehval.io.template import Template
+
+from .conftest import FUEL_COLUMN, expected_mpg
+
+pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("serve_browser")]
+
+CHROMIUM = os.environ.get("VEHVAL_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+TIMEOUT_MS = 60_000  # QA on a 1,370 s test, on a loaded 2-core machine
+
+
+@pytest.fixture()
+def browser():
+    if not Path(CHROMIUM).exists():
+        pytest.skip("chromium not installed (run `make browser`)")
+    sync_api = pytest.importorskip("playwright.sync_api")
+    pytest.importorskip("uvicorn")
+    with sync_api.sync_playwright() as p:
+        try:
+            b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        except Exception as exc:  # noqa: BLE001 - a broken browser install is a skip
+            pytest.skip(f"chromium does not start: {exc}")
+        yield b
+        b.close()
+
+
+class Visit:
+    """A workbench server and a page recording its requests and console errors."""
+
+    def __init__(self, browser, ws: Path) -> None:
+        from vehval.serve.app import start
+
+        self.server = start(ws)
+        self.origin = "{0.scheme}://{0.netloc}".format(urlparse(self.server.url))
+        self.context = browser.new_context(viewport={"width": 1300, "height": 900})
+        self.requests: list[str] = []
+        self.errors: list[str] = []
+        self.context.on("request", lambda r: self.requests.append(r.url))
+        self.page = self.context.new_page()
+        self.page.set_default_timeout(TIMEOUT_MS)
+        self.page.on("console", lambda m: self.errors.append(m.text) if m.type == "error" else None)
+        self.page.on("pageerror", lambda e: self.errors.append(str(e)))
+
+    def foreign(self) -> list[str]:
+        return [u for u in self.requests if not (u.startswith(self.origin + "/")
+                                                 or u.startswith(("data:", "blob:", "about:")))]
+
+    def close(self) -> None:
+        self.context.close()
+        self.server.stop()
+
+
+def _wait(page, expr: str, timeout_s: float = TIMEOUT_MS / 1000) -> None:
+    """Poll a JS expression until true (``page.wait_for_function`` evaluates a string,
+    which the page's policy forbids: no 'unsafe-eval')."""
+    deadline = time.monotonic() + timeout_s
+    while not page.evaluate(f"() => Boolean({expr})"):
+        if time.monotonic() > deadline:
+            shown = page.evaluate("() => (document.getElementById('error') || {}).textContent")
+            raise AssertionError(f"timed out waiting for {expr} (page error: {shown!r})")
+        page.wait_for_timeout(100)
+
+
+def _wait_run(page, before: int) -> None:
+    _wait(page, f"Number(document.body.dataset.runs || 0) > {before} "
+                "&& document.body.dataset.busy === '0'")
+
+
+def _runs(page) -> int:
+    return int(page.evaluate("Number(document.body.dataset.runs || 0)"))
+
+
+def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
+    init = yaml.safe_load((workspace / "virtual" / "template.yaml").read_text(encoding="utf-8"))
+    s = Visit(browser, workspace)
+    try:
+        page = s.page
+        page.goto(s.server.url)
+        assert "token" not in page.url  # the token went into a cookie
+        page.click("text=virtual")
+        _wait_run(page, 0)  # the page runs QA on open (template saved, no result yet)
+        # declare the fuel: QA reruns and the fuel row shows the unit hint
+        page.select_option("#fuel", "gasoline_e0")
+        n = _runs(page)
+        page.click("#save")
+        _wait_run(page, n)
+        row = page.locator(f'tr[data-raw="{FUEL_COLUMN}"]')
+        hint = row.locator(".hint").first.text_content()
+        assert "fuel_rate_test" in hint
+        wrong = float(page.text_content("#headline-mpg"))
+        # the engineer plots the channel, then fixes the unit there
+        row.locator("button.plot-ch").click()
+        _wait(page, f"document.getElementById('chplot').dataset.channel === '{FUEL_COLUMN}'")
+        row.locator("input.ch-unit").fill("g/s")
+        n = _runs(page)
+        page.click("#save")
+        _wait_run(page, n)
+        mpg = float(page.text_content("#headline-mpg"))
+        expected = expected_mpg(synth_dir, 740.0)  # gasoline_e0: 740 kg/m³
+        assert mpg == pytest.approx(expected, rel=0.03) and wrong > 100 * expected
+        assert page.locator(f'tr[data-raw="{FUEL_COLUMN}"] .hint').count() == 0
+        saved = yaml.safe_load((workspace / "virtual" / "template.yaml").read_text(encoding="utf-8"))
+        init["fuel"] = "gasoline_e0"
+        init["files"][0]["channels"][FUEL_COLUMN]["unit"] = "g/s"
+        assert saved == init  # `template init` + the two edits
+        # triage: a finding opens its window; a signal is dropped with a reason
+        page.click("button[data-tab=triage]")
+        page.locator("#findings tr.finding").first.click()
+        _wait(page, "document.getElementById('findplot').dataset.finding")
+        sel = page.locator('#selection tr[data-signal="dyno_frc_test"]')
+        sel.locator("input.drop-reason").fill("load cell drifting this week")
+        n = _runs(page)
+        sel.locator("button.drop-btn").click()
+        _wait_run(page, n)
+        assert "dropped" in page.locator('#selection tr[data-signal="dyno_frc_test"]').text_content()
+        final = yaml.safe_load((workspace / "virtual" / "qa" / "template_final.yaml")
+                               .read_text(encoding="utf-8"))
+        assert final["selection"]["drop"]["dyno_frc_test"] == "load cell drifting this week"
+        init["selection"] = {"drop": {"dyno_frc_test": "load cell drifting this week"}}
+        assert Template.model_validate(init).model_dump() == Template.model_validate(
+            yaml.safe_load((workspace / "virtual" / "template.yaml").read_text(encoding="utf-8"))
+        ).model_dump()
+        assert s.errors == []
+        assert s.foreign() == []
+        assert any(u.endswith("/static/plotly.min.js") for u in s.requests)
+    finally:
+        s.close()
+
+
+def test_catalog_in_chromium(browser, batch_ws):
+    s = Visit(browser, batch_ws)
+    try:
+        page = s.page
+        page.goto(s.server.url)
+        page.click("text=out/catalog.duckdb")
+        _wait(page, "document.body.dataset.rows === '2'")
+        with open_catalog(batch_ws / "out" / "catalog.duckdb", read_only=True) as cat:
+            _, rows = cat.query("SELECT test_id, fuel_economy_mpg FROM latest_tests ORDER BY 1")
+        for test_id, mpg in rows:
+            cell = page.locator(f'tr[data-test="{test_id}"] td[data-col="fuel_economy_mpg"]')
+            assert cell.text_content() == str(mpg)  # the catalog's number, as stored
+        page.select_option('select[data-filter="cycle"]', "japan1015")
+        _wait(page, "document.body.dataset.rows === '1'")
+        page.select_option('select[data-filter="cycle"]', "")
+        _wait(page, "document.body.dataset.rows === '2'")
+        page.locator("input.pick").nth(0).check()
+        page.locator("input.pick").nth(1).check()
+        page.select_option("#quantity", "speed")
+        page.click("#overlay")
+        _wait(page, "document.getElementById('overlayplot').dataset.traces === '2'")
+        assert page.locator("#overlayplot .scatterlayer .trace").count() == 2
+        # a test's report (shared plotly.js of the batch) opens from the workbench
+        href = page.locator('tr[data-test="udds"] a').get_attribute("href")
+        page.goto(s.origin + href)
+        _wait(page, "typeof Plotly === 'object'")
+        assert s.errors == []
+        assert s.foreign() == []
+    finally:
+        s.close()

@@ -1,0 +1,43 @@
+"""Comments of a template survive the workbench's rewrite."""
+
+from __future__ import annotations
+
+from vehval.serve.yamlcomments import carry_comments
+
+OLD = """# fuel: declare the test fuel
+# fuel: diesel
+template_version: 1
+description: proposed
+files:
+- source: dyno
+  # the facility file
+  channels:
+    Speed: {name: veh_spd_test, unit: mph}  # checked on the roll
+    Fuel: {name: fuel_rate_test, unit: mg/s}
+- source: obd
+  channels:
+    Speed: {name: veh_spd_obd_test, unit: km/h}
+# end note
+"""
+
+
+def test_comments_kept_in_place():
+    new = OLD.replace("unit: mg/s", "unit: g/s")
+    new = "\n".join(line.split("  #")[0] for line in new.splitlines() if not line.lstrip().startswith("#"))
+    out = carry_comments(OLD, new + "\n")
+    assert out == OLD.replace("unit: mg/s", "unit: g/s")
+
+
+def test_changed_line_keeps_its_end_of_line_comment_and_new_keys_go_in():
+    new = ("template_version: 1\ndescription: proposed\nfuel: gasoline_e0\nfiles:\n- source: dyno\n"
+           "  channels:\n    Speed: {name: veh_spd_test, unit: km/h}\n"
+           "    Fuel: {name: fuel_rate_test, unit: mg/s}\n- source: obd\n  channels:\n"
+           "    Speed: {name: veh_spd_obd_test, unit: km/h}\n")
+    out = carry_comments(OLD, new).splitlines()
+    assert out[:3] == ["# fuel: declare the test fuel", "# fuel: diesel", "template_version: 1"]
+    assert "fuel: gasoline_e0" in out
+    assert "    Speed: {name: veh_spd_test, unit: km/h}  # checked on the roll" in out
+    assert out.index("  # the facility file") == out.index("  channels:") - 0 - 1
+    assert out[-1] == "# end note"
+    # the second file's Speed line (same key) has no comment: it gets none
+    assert "    Speed: {name: veh_spd_obd_test, unit: km/h}" in out
