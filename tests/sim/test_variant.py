@@ -128,3 +128,32 @@ def test_rated_pack_keeps_the_voltage_sag_at_its_rating():
                 share_ref = peak / ref.ocv_v[k] * ref.resistance_discharge_ohm[k] / ref.ocv_v[k]
                 share_new = p_w / li.ocv_v[k] * li.resistance_discharge_ohm[k] / li.ocv_v[k]
                 assert share_new == pytest.approx(share_ref, rel=1e-12)
+
+
+@pytest.mark.parametrize("cycle", ["udds", "us06"])
+def test_eco_variant_keeps_the_known_behaviour(cycle):
+    """The Li-ion variant: electric launch, engine off at standstill, SOC window, no trace
+    miss, Willis through the reduction gear and energy closure at every step."""
+    from vehval.sim.simulate import simulate
+
+    veh = load_vehicle("prius_2016_eco")
+    r = simulate(veh, cycle, dt=0.2, charge_balance=True)
+    s = r.summary
+
+    def sig(base):
+        return np.asarray(r.test[f"{base}_simu"].values, float)
+
+    v, w_eng = sig("veh_spd"), sig("eng_spd_out")
+    assert s["trace_n_miss"] == 0
+    assert abs(s["energy_balance_rel"]) < 1e-9  # closure to round-off over the run
+    soc = sig("ess_soc")
+    assert veh.battery.soc_min <= soc.min() and soc.max() <= veh.battery.soc_max
+    rg = veh.driveline.mg2_reduction_ratio
+    willis = sig("mot_spd_out") / rg * 78 + sig("gen_spd_out") * 30 - w_eng * 108
+    assert np.max(np.abs(willis)) < 1e-6  # every step, round-off [rad/s x teeth]
+    # standstill well after the first launch: engine off (warm car, no cold start here)
+    stopped = (v == 0) & (r.test["veh_spd_simu"].time > 30)
+    assert np.all(w_eng[stopped] == 0)
+    if cycle == "udds":  # the first launch is electric: engine still off at 3 m/s
+        first = int(np.argmax(v > 3.0))
+        assert w_eng[first] == 0

@@ -80,7 +80,7 @@ def _items(veh: Vehicle, res) -> list[dict[str, Any]]:
                            "of a per cent of its 1 kWh a day) is below 1 W"})
     fuel_j = float(s["fuel_energy_j"])
     for r in rows:
-        r["share_of_fuel"] = r["energy_j"] / fuel_j if fuel_j > 0 else float("nan")
+        r["share_of_fuel"] = float(r["energy_j"]) / fuel_j if fuel_j > 0 else float("nan")
     return rows
 
 
