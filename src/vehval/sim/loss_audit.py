@@ -56,7 +56,7 @@ def _items(veh: Vehicle, res) -> list[dict[str, Any]]:
     fuel = np.asarray(sig["fuel_rate_simu"].values, float)
     motoring = (t_eng < 0) & (fuel <= 0)
     e_motoring = float(np.sum(-t_eng[motoring] * w_eng[motoring]) * dt)
-    rows = [
+    rows: list[dict[str, Any]] = [
         {"key": "accessories", "energy_j": float(s["aux_energy_j"]),
          "what": "electrical accessory load x cycle time", "source": _src(veh, "body.aux_power_w")},
         {"key": "engine_start_idle_fuel", "energy_j": float(s.get("idle_fuel_energy_j", 0.0)),
