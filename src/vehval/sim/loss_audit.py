@@ -105,13 +105,9 @@ def fixed_loss_audit(vehicle: Vehicle | str, cycle: str, dt: float = 0.2,
     items = _items(veh, res)
     rows = [{f"body.{k}": getattr(veh.body, k) * f for k in _BODY} for f in LOAD_SCALES]
     sweep = simulate_batch(veh, cycle, rows, dt=dt, workers=workers, soc_initial=soc0)
-    # SOC-corrected fuel energy from the corrected mpg (same distance and fuel in every run)
-    lhv, rho = veh.engine.fuel_lhv_j_per_kg, veh.engine.fuel_density_kg_per_m3
-    gal = 3.785411784e-3
-    fuel_j = []
-    for r in sweep:
-        miles = float(r["distance_m"]) / 1609.344
-        fuel_j.append(miles / float(r[MPG]) * gal * rho * lhv)
+    # SOC-corrected fuel energy (J1711 energy method, the summary's corrected fuel mass)
+    lhv = veh.engine.fuel_lhv_j_per_kg
+    fuel_j = [float(r["fuel_mass_soc_corrected_kg"]) * lhv for r in sweep]
     x = np.asarray(LOAD_SCALES, float)
     slope, icpt = np.polyfit(x, np.asarray(fuel_j), 1)
     f1 = float(slope + icpt)
