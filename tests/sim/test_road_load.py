@@ -105,3 +105,19 @@ def test_cli_road_load_needs_both_list_and_selector(capsys):
                "model=PRIUS,year=2016"])
     err = capsys.readouterr().err.strip()
     assert rc == 2 and "--epa" in err and len(err.splitlines()) == 1
+
+
+def test_cli_road_load_json_and_output(tmp_path, capsys):
+    from vehval.cli import main
+
+    rc = main(["sensitivity", "--road-load", "--cycles", "ece15", "--dt", "1", "--json",
+               "-o", str(tmp_path / "rl")])
+    assert rc == 0
+    doc = json.loads(capsys.readouterr().out)
+    r = doc["derivatives"]["cycles"]["ece15"]
+    assert doc["vehicle"] == "prius_2004" and "pairs" not in doc
+    assert set(r["elasticity"]) == {"body.mass_kg", "body.road_load_a_n",
+                                    "body.road_load_b_n_per_mps",
+                                    "body.road_load_c_n_per_mps2", "all"}
+    assert r["tractive_energy_j"] > 0 and r["per_100_lb_pct"] < 0
+    assert json.loads((tmp_path / "rl" / "road_load.json").read_text()) == doc
