@@ -26,6 +26,14 @@ def sensitivity_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print the result as one JSON object."),
     outdir: Optional[Path] = typer.Option(None, "-o", "--output",
                                           help="Directory for sensitivity.json and .html."),
+    road_load: bool = typer.Option(False, "--road-load", help="Instead of the tornado: the "
+                                   "fuel economy's elasticity to test weight and road load "
+                                   "(A, B, C) per cycle; with --epa, between the list's "
+                                   "configurations, model against list."),
+    epa: Optional[list[Path]] = typer.Option(None, "--epa", help="EPA Test Car List files or "
+                                             "directories (with --road-load)."),
+    tests: Optional[list[str]] = typer.Option(None, "--tests", help="EPA test selector "
+                                              "(repeatable), e.g. 'model=PRIUS Eco,year=2016'."),
 ) -> None:
     """Rank the vehicle's uncertain parameters by their effect on fuel economy (tornado)."""
     from vehval.errors import ConfigError
@@ -35,6 +43,9 @@ def sensitivity_cmd(
     names = [c.strip() for c in cycles.split(",") if c.strip()]
     if not names:
         raise ConfigError("--cycles: give at least one cycle name, e.g. udds,hwfet")
+    if road_load or epa or tests:
+        _road_load(vehicle, names, dt, epa, tests, as_json, outdir)
+        return
     if monte_carlo < 0:
         raise ConfigError(f"--monte-carlo must be >= 0, got {monte_carlo}")
     plist = [p.strip() for p in params.split(",") if p.strip()] if params else None
@@ -64,3 +75,63 @@ def sensitivity_cmd(
                    f"(5/50/95 %, n = {m['n']})")
     if outdir is not None:
         typer.echo(f"  wrote {outdir / 'sensitivity.json'} and {outdir / 'sensitivity.html'}")
+
+
+def _road_load(vehicle: str, cycles: list[str], dt: float, epa: Optional[list[Path]],
+               tests: Optional[list[str]], as_json: bool, outdir: Optional[Path]) -> None:
+    """``--road-load``: elasticities per cycle and, with ``--epa``, model against list."""
+    from vehval.errors import ConfigError
+    from vehval.jsonsafe import clean
+    from vehval.sim.sensitivity import configuration_pairs, load_derivatives
+
+    if bool(epa) != bool(tests):
+        raise ConfigError("--road-load against the list needs both --epa LISTS and --tests "
+                          "SELECTOR (one per configuration set, e.g. --tests 'model=PRIUS Eco,"
+                          "year=2016' --tests 'model=PRIUS,year=2016')")
+    res: dict = {"vehicle": vehicle, "derivatives": load_derivatives(vehicle, cycles, dt=dt)}
+    res["vehicle"] = res["derivatives"]["vehicle"]
+    if epa and tests:
+        from vehval.epa import apply_selector, read_lists
+        from vehval.epa.validation import validate_tests
+
+        listed = read_lists(epa)
+        rows = []
+        for sel in tests:
+            chosen = apply_selector(listed, sel)
+            val = validate_tests(vehicle, chosen, dt=dt)
+            by_test = {p.test.label: p.test for p in val.predictions}
+            for c in val.comparisons:
+                if c.item != "overall" or c.measured_mpg is None or c.list_doubtful:
+                    continue
+                t = by_test[c.test]
+                rows.append({"procedure": c.procedure, "label": sel, "mass_kg": t.mass_kg,
+                             "road_load_a_n": t.target_a_n,
+                             "road_load_b_n_per_mps": t.target_b_n_per_mps,
+                             "road_load_c_n_per_mps2": t.target_c_n_per_mps2,
+                             "measured_mpg": c.measured_mpg, "predicted_mpg": c.predicted_mpg})
+        res["pairs"] = configuration_pairs(rows)
+    res = clean(res)
+    if outdir is not None:
+        from vehval.io.atomic import atomic_dir
+
+        with atomic_dir(outdir) as stage:
+            (stage / "road_load.json").write_text(json.dumps(res, indent=1), encoding="utf-8")
+    if as_json:
+        typer.echo(json.dumps(res))
+        return
+    d = res["derivatives"]
+    typer.echo(f"{res['vehicle']}: d ln mpg / d ln x (dt = {d['dt_s']:g} s, "
+               f"+-{100 * d['rel_step']:g} %)")
+    typer.echo(f"  {'cycle':10s} {'mpg':>6s} {'weight':>7s} {'A':>7s} {'B':>7s} {'C':>7s} "
+               f"{'all':>7s} {'%/100 lb':>9s}")
+    for cyc, r in d["cycles"].items():
+        e = r["elasticity"]
+        typer.echo(f"  {cyc:10s} {r['mpg']:6.1f} " + " ".join(
+            f"{e[k]:+7.3f}" for k in (*e,)) + f" {r['per_100_lb_pct']:+9.2f}")
+    for p in res.get("pairs", []):
+        typer.echo(f"  {p['procedure']:6s} {p['config']} vs {p['reference']}: tractive energy "
+                   f"{p['tractive_change_pct']:+.1f} %, mpg list {p['measured_change_pct']:+.1f} "
+                   f"% / model {p['predicted_change_pct']:+.1f} % (elasticity list "
+                   f"{p['measured_elasticity']:.2f}, model {p['predicted_elasticity']:.2f})")
+    if outdir is not None:
+        typer.echo(f"  wrote {outdir / 'road_load.json'}")

@@ -188,3 +188,139 @@ def tornado_figure(result: dict[str, Any], cycle: str, top: int = 20) -> dict:
                                          f"(base {result['base'][cycle]['mpg']:.1f} mpg)"},
                        "xaxis": {"title": {"text": "change of SOC-corrected mpg [%]"}},
                        "margin": {"l": 260, "r": 20, "t": 40, "b": 50}}}
+
+
+# --- fuel economy against road load and test weight -------------------------------------
+
+#: body parameters of the road-load derivative (test weight and the coast-down A, B, C)
+LOAD_KEYS = ("body.mass_kg", "body.road_load_a_n", "body.road_load_b_n_per_mps",
+             "body.road_load_c_n_per_mps2")
+
+
+def tractive_energy_j(cycle: Any, mass_kg: float, a_n: float, b_n_per_mps: float,
+                      c_n_per_mps2: float) -> float:
+    """Positive work at the wheels [J] to drive ``cycle`` at a test weight and road load.
+
+    ``∫ max(F v, 0) dt`` with ``F = m dv/dt + A + B v + C v²`` on the cycle's own trace
+    (no powertrain, no rotating inertia): the road-load measure the list's figures scale with.
+    """
+    from vehval.cycles import load_cycle
+
+    cyc = load_cycle(cycle)
+    t = np.asarray(cyc.time_s, float)
+    v = np.asarray(cyc.speed_mps, float)
+    dt = np.diff(t)
+    vm = 0.5 * (v[1:] + v[:-1])
+    acc = np.diff(v) / dt
+    f = mass_kg * acc + a_n * (vm > 0) + b_n_per_mps * vm + c_n_per_mps2 * vm * vm
+    return float(np.sum(np.maximum(f * vm, 0.0) * dt))
+
+
+def load_derivatives(vehicle: Vehicle | str, cycles: Sequence[str] = ("udds", "hwfet", "us06"),
+                     dt: float = 0.2, rel_step: float = 0.05,
+                     workers: int = 1) -> dict[str, Any]:
+    """Elasticities of charge-balanced fuel economy to test weight and road load.
+
+    Each of :data:`LOAD_KEYS` is moved by ``-+rel_step`` (central difference) from the
+    vehicle's value, from the initial SOC of the charge-balanced base run; and all four
+    together (the road load scaled as a whole, which scales the tractive energy by the same
+    factor).
+
+    Returns
+    -------
+    dict
+        {cycle: {``mpg`` (SOC-corrected base), ``soc_initial``, ``tractive_energy_j``,
+        ``elasticity`` ({key: d ln mpg / d ln x}, plus ``all`` for the four together),
+        ``per_100_lb_pct`` (mpg change [%] per 100 lb of test weight)}}.
+    """
+    veh = load_vehicle(vehicle)
+    b = veh.body
+    out: dict[str, Any] = {}
+    base_vals = {k: float(getattr(b, k.split(".", 1)[1])) for k in LOAD_KEYS}
+    variants: list[dict[str, float]] = []
+    for k in LOAD_KEYS:
+        variants += [{k: base_vals[k] * (1 - rel_step)}, {k: base_vals[k] * (1 + rel_step)}]
+    variants += [{k: v * (1 - rel_step) for k, v in base_vals.items()},
+                 {k: v * (1 + rel_step) for k, v in base_vals.items()}]
+    step = np.log((1 + rel_step) / (1 - rel_step))
+    for cyc in cycles:
+        r = simulate(veh, cyc, dt=dt, charge_balance=True)
+        soc0 = float(r.summary["soc_initial"])
+        mpg = _run_variants(veh, cyc, variants, dt, soc0, workers)
+        el = {}
+        for j, k in enumerate([*LOAD_KEYS, "all"]):
+            el[k] = float(np.log(mpg[2 * j + 1] / mpg[2 * j]) / step)
+        lb = 0.45359237
+        out[cyc] = {"mpg": float(r.summary[MPG]), "soc_initial": soc0,
+                    "tractive_energy_j": tractive_energy_j(cyc, *base_vals.values()),
+                    "elasticity": el,
+                    "per_100_lb_pct": 100 * el["body.mass_kg"] * 100 * lb / base_vals[
+                        "body.mass_kg"]}
+    return {"vehicle": veh.name, "dt_s": dt, "rel_step": rel_step, "cycles": out}
+
+
+#: the cycle whose trace measures a procedure's road load (an FTP-75 drives the UDDS)
+PROCEDURE_CYCLE = {"ftp75": "udds", "hwfet": "hwfet", "us06": "us06"}
+
+
+def configuration_pairs(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Fuel economy between test configurations, measured (list) against predicted (model).
+
+    Parameters
+    ----------
+    rows : sequence of dict
+        One whole-test figure each: ``procedure`` (``ftp75``, ``hwfet``, ``us06``),
+        ``mass_kg``, ``road_load_a_n``, ``road_load_b_n_per_mps``,
+        ``road_load_c_n_per_mps2``, ``measured_mpg``, ``predicted_mpg``, ``label`` (the
+        selection it came from).
+
+    Returns
+    -------
+    list of dict
+        Per procedure, every configuration (weight and road load) against the one with the
+        largest tractive energy: ``procedure``, ``reference``, ``config`` (labels with the
+        test weight and A), ``n_ref``, ``n``, ``tractive_change_pct`` (tractive energy over
+        the procedure's cycle), ``measured_change_pct`` and ``predicted_change_pct`` (mean
+        mpg), ``measured_elasticity`` and ``predicted_elasticity`` (-d ln mpg / d ln
+        tractive energy). A car without regenerative braking whose losses all scale with the
+        road load at a constant efficiency has 1; fixed losses make it smaller; a hybrid
+        recovers part of the inertial work, and less road load leaves more of it to recover,
+        which can make it larger (on a UDDS).
+    """
+    groups: dict[tuple, dict[str, Any]] = {}
+    for r in rows:
+        if r["procedure"] not in PROCEDURE_CYCLE or r.get("measured_mpg") is None:
+            continue
+        cfg = tuple(round(float(r[k]), 4) for k in
+                    ("mass_kg", "road_load_a_n", "road_load_b_n_per_mps",
+                     "road_load_c_n_per_mps2"))
+        g = groups.setdefault((r["procedure"], cfg), {"meas": [], "pred": [], "labels": set()})
+        g["meas"].append(float(r["measured_mpg"]))
+        g["pred"].append(float(r["predicted_mpg"]))
+        g["labels"].add(str(r.get("label", "")))
+    out = []
+    for proc in PROCEDURE_CYCLE:
+        cfgs = [(cfg, g) for (p, cfg), g in groups.items() if p == proc]
+        if len(cfgs) < 2:
+            continue
+        energy = {cfg: tractive_energy_j(PROCEDURE_CYCLE[proc], *cfg) for cfg, _ in cfgs}
+        ref_cfg, ref = max(cfgs, key=lambda c: energy[c[0]])
+        m0, p0 = float(np.mean(ref["meas"])), float(np.mean(ref["pred"]))
+        for cfg, g in cfgs:
+            if cfg == ref_cfg:
+                continue
+            de = np.log(energy[cfg] / energy[ref_cfg])
+            dm = np.log(float(np.mean(g["meas"])) / m0)
+            dp = np.log(float(np.mean(g["pred"])) / p0)
+
+            def name(c, labels):
+                return (f"{'/'.join(sorted(labels))} ({c[0] / 0.45359237:.0f} lb, "
+                        f"A {c[1]:.1f} N)")
+            out.append({"procedure": proc, "reference": name(ref_cfg, ref["labels"]),
+                        "config": name(cfg, g["labels"]), "n_ref": len(ref["meas"]),
+                        "n": len(g["meas"]), "tractive_change_pct": 100 * float(np.expm1(de)),
+                        "measured_change_pct": 100 * float(np.expm1(dm)),
+                        "predicted_change_pct": 100 * float(np.expm1(dp)),
+                        "measured_elasticity": float(-dm / de) if de else float("nan"),
+                        "predicted_elasticity": float(-dp / de) if de else float("nan")})
+    return out

@@ -33,6 +33,7 @@ from vehval.vehicle.components import (
 from vehval.vehicle.control import ControllerParams, DriverParams
 from vehval.vehicle.conventional import ConventionalVehicle
 from vehval.vehicle.maps import best_efficiency_line
+from vehval.vehicle.variant import resolve_variant
 
 BLOCKS = ("body", "engine", "mg1", "mg2", "battery", "boost", "planetary", "driveline",
           "controller", "driver")
@@ -56,6 +57,8 @@ class Vehicle(BaseModel):
     driveline: DrivelineParams
     controller: ControllerParams
     driver: DriverParams
+    variant_of: str | None = None
+    """Base vehicle of a variant file (see :mod:`vehval.vehicle.variant`); None otherwise."""
     _file: str = PrivateAttr(default="")
 
     @property
@@ -159,6 +162,24 @@ def _validate(data: Any, where: str):
     return veh
 
 
+def _find(text: str, here: Path | None = None) -> Path:
+    """The file of a vehicle name or path (a relative path first beside ``here``)."""
+    path = Path(text)
+    if here is not None and not path.is_absolute() and (here / path).exists():
+        return here / path
+    if not (path.suffix in (".yaml", ".yml") or path.exists()):
+        path = _vehicles_dir() / f"{text}.yaml"
+        if not path.exists():
+            raise ConfigError(f"unknown vehicle '{text}': known vehicles are "
+                              f"{', '.join(list_vehicles())}, or give a path to a YAML file")
+    return path
+
+
+def _read_base(name: str, here: Path) -> tuple[Any, str]:
+    path = _find(name, here)
+    return read_yaml(path), str(path)
+
+
 def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
     """Load a vehicle by name (shipped file) or from a YAML path.
 
@@ -170,14 +191,10 @@ def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
     """
     if isinstance(name_or_path, (Vehicle, ConventionalVehicle)):
         return name_or_path
-    text = str(name_or_path)
-    path = Path(text)
-    if not (path.suffix in (".yaml", ".yml") or path.exists()):
-        path = _vehicles_dir() / f"{text}.yaml"
-        if not path.exists():
-            raise ConfigError(f"unknown vehicle '{text}': known vehicles are "
-                              f"{', '.join(list_vehicles())}, or give a path to a YAML file")
+    path = _find(str(name_or_path))
     data = read_yaml(path)
+    if isinstance(data, dict) and data.get("variant_of") is not None:
+        data = resolve_variant(data, str(path), lambda n: _read_base(n, path.parent))
     veh = _validate(data, str(path))
     veh._file = str(path)
     return veh

@@ -174,7 +174,9 @@ def scale_battery(ref: BatteryParams, *, n_cells: int, n_modules: int, capacity_
         Chemistry of the new pack. Default: the reference's.
     power_limit_w : float, optional
         Rated charge and discharge power [W]: the limit curves keep their shape over SOC,
-        scaled to this peak. Default: the reference's x ``k_v k_c`` (same C-rate).
+        scaled to this peak. Default: the reference's x ``k_v k_c`` (same C-rate). The
+        resistances are scaled by ``k_v² / k_p`` so that the rated power is drawn at the same
+        fraction of the OCV as in the reference (at the same C-rate: ``k_v / k_c``).
     ref_name : str
         How the sources name the reference pack.
 
@@ -211,12 +213,17 @@ def scale_battery(ref: BatteryParams, *, n_cells: int, n_modules: int, capacity_
     power_how = (f"{how} x {k_p:.4g} (to the {power_limit_w:g} W rating, shape over SOC kept)"
                  if power_limit_w is not None else
                  f"{how} x k_v k_c = {k_p:.4g} (same C-rate limits)")
+    # resistance: the rated power at the same fraction of the OCV (same current share of
+    # the short-circuit current): R x k_v^2 / k_p; at the same C-rate (k_p = k_v k_c) this
+    # is R x k_v / k_c, the same loss fraction at the same C-rate
+    k_r = k_v * k_v / k_p
+    r_how = (f"{how} x k_v^2 / k_p = {k_r:.4g} (the rated power at the same fraction of "
+             "the OCV" + ("; at the same C-rate k_v / k_c: the same loss fraction)"
+                          if power_limit_w is None else ")"))
     sources = {
         "soc": f"{ref_name} breakpoints", "soc_min": f"{ref_name}", "soc_max": f"{ref_name}",
         "ocv_v": f"{how} x k_v = {k_v:.4g} (OCV shape over SOC of {ref_name})",
-        "resistance_discharge_ohm": f"{how} x k_v / k_c = {k_v / k_c:.4g} (same loss "
-                                    "fraction at the same C-rate)",
-        "resistance_charge_ohm": f"{how} x k_v / k_c = {k_v / k_c:.4g}",
+        "resistance_discharge_ohm": r_how, "resistance_charge_ohm": r_how,
         "discharge_power_limit_w": power_how, "charge_power_limit_w": power_how,
         "capacity_ah": "given", "n_cells": "given", "n_modules": "given",
         "nominal_voltage_v": (f"{ref_name}'s voltage per cell x {n_cells} cells"
@@ -226,8 +233,8 @@ def scale_battery(ref: BatteryParams, *, n_cells: int, n_modules: int, capacity_
         sources["chemistry"] = "given" if chemistry else ref_name
     return BatteryParams(
         soc=list(ref.soc), ocv_v=times(ref.ocv_v, k_v),
-        resistance_discharge_ohm=times(ref.resistance_discharge_ohm, k_v / k_c),
-        resistance_charge_ohm=times(ref.resistance_charge_ohm, k_v / k_c),
+        resistance_discharge_ohm=times(ref.resistance_discharge_ohm, k_r),
+        resistance_charge_ohm=times(ref.resistance_charge_ohm, k_r),
         discharge_power_limit_w=times(ref.discharge_power_limit_w, k_p),
         charge_power_limit_w=times(ref.charge_power_limit_w, k_p),
         capacity_ah=capacity_ah, n_cells=n_cells, n_modules=n_modules,
