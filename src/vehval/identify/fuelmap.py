@@ -98,13 +98,13 @@ def _columns(w, p, standing, overrun, fired):
     ws = w / W_SCALE
     ps = np.maximum(p, 0.0) / P_SCALE  # the engine's map starts at zero torque
     f = fired.astype(float)
-    return np.column_stack([f, f * ws, f * ws * ws, f * ps, f * ps * ws, f * ps * ps,
+    return np.column_stack([f, f * ws, f * ws * ws, f * ps, f * ps * ws,
                             overrun.astype(float), standing.astype(float)])
 
 
 def _unscale(th) -> dict[str, float]:
     return {"c0": th[0], "c1": th[1] / W_SCALE, "c2": th[2] / W_SCALE ** 2,
-            "d0": th[3] / P_SCALE, "d1": th[4] / (P_SCALE * W_SCALE), "e": th[5] / P_SCALE ** 2}
+            "d0": th[3] / P_SCALE, "d1": th[4] / (P_SCALE * W_SCALE), "e": 0.0}
 
 
 def fit_fuel_map(traces: list[Trace], powers: list[np.ndarray], idle_rad_s: float,
@@ -174,7 +174,7 @@ def fit_fuel_map(traces: list[Trace], powers: list[np.ndarray], idle_rad_s: floa
     pts_f = np.concatenate([np.r_[tr.fuel[k:], np.full(k, np.nan)][(p > 0) & (tr.v > STANDING_MPS)]
                             for tr, p in zip(traces, powers)])
     return FuelMapFit(willans={k_: float(v) for k_, v in _unscale(th).items()},
-                      idle_fuel_kg_s=float(th[7]), overrun_fuel_kg_s=float(max(th[6], 0.0)),
+                      idle_fuel_kg_s=float(th[6]), overrun_fuel_kg_s=float(max(th[5], 0.0)),
                       fuel_cut_speed_rad_s=float(cut), delay_s=float(best[0]),
                       tau_s=float(best[1]), r2=r2, r2_5s=r2_5, total_error_rel=err,
                       n_fired=int(fired_w.size),
