@@ -32,6 +32,7 @@ from vehval.identify.losses import DragFit, fit_ac_load, fit_drag
 from vehval.identify.roadload import RoadLoadFit, fit_road_load
 from vehval.identify.spec import Assumptions, resolve
 from vehval.identify.traces import IdentificationError, Trace
+from vehval.identify.uncertainty import coverage_grid
 from vehval.identify.warmup import WarmupFit, fit_warmup, hot_partner
 from vehval.io.atomic import write_text_atomic
 from vehval.vehicle import ConventionalVehicle
@@ -54,9 +55,11 @@ class Identification:
     ac: dict | None = None
     warmup: WarmupFit | None = None
     assumptions: Assumptions | None = None
+    coverage: dict | None = None
 
     def summary(self) -> dict:
         return {"assumptions": None if self.assumptions is None else self.assumptions.provenance,
+                "coverage": self.coverage,
                 "tests": [t.test_id for t in self.traces], "road_load": self.road_load.to_dict(),
                 "gears": self.gears.to_dict(), "gear_ratio_check": self.gear_ratio_check,
                 "fuel_map": self.fuel_map.to_dict(), "n_shifts": len(self.shifts),
@@ -115,7 +118,8 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                           assumptions: Assumptions | None = None,
                           ac_trace: Trace | None = None,
                           cold_trace: Trace | None = None,
-                          declared: dict | None = None) -> Identification:
+                          declared: dict | None = None,
+                          drag_evidence: bool = True) -> Identification:
     """Identify road load, gearbox, converter, shift schedule, driveline drag and fuel map
     from ``traces``; with ``cold_trace`` (a cold start on the cycle of one of ``traces``) the
     warm-up fuel (:mod:`vehval.identify.warmup`); with ``ac_trace`` (a test run with the A/C
@@ -151,7 +155,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
 
     drag, fm = fit_drag(traces, lambda d: [power(t, g, d) for t, g in zip(traces, gears)],
                         idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
-                        a.driven_axle_loss_share)
+                        a.driven_axle_loss_share, drag_evidence)
     spd, trq, table, tmax = _fuel_table(fm, a)
     check = []
     for k, r in enumerate(gf.ratios):
@@ -262,7 +266,9 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             }},
     }
     result = Identification(road_load=rl, gears=gf, fuel_map=fm, traces=traces,
-                            gear_ratio_check=check, shifts=events, drag=drag, assumptions=a)
+                            gear_ratio_check=check, shifts=events, drag=drag, assumptions=a,
+                            coverage=coverage_grid(fm.points["w"], fm.points["p"],
+                                                   traces[0].dt))
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
     if cold_trace is not None:
