@@ -35,7 +35,8 @@ def _combos(traces: list[Trace], pairs: bool) -> tuple[list[tuple[int, ...]], li
         raise IdentificationError(
             f"cross-validation --pairs: {n} tests given; a pair leaves nothing to predict: give "
             "at least three tests")
-    out, skipped = [], []
+    out: list[tuple[int, ...]] = []
+    skipped: list[str] = []
     for i, j in itertools.combinations(range(n), 2):
         ci, cj = traces[i].cycle.lower(), traces[j].cycle.lower()
         if ci and ci == cj:

@@ -107,7 +107,7 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     sel = phase > 0 if np.any(phase > 0) else np.ones(phase.size, dtype=bool)
     mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
     ident = getattr(vehicle, "identification", None) or {}
-    sels = {int(r["phase"]): (phase == r["phase"], [1.0]) for r in phases}
+    sels: dict = {int(r["phase"]): (phase == r["phase"], [1.0]) for r in phases}
     tot = sum(r["predicted_g"] for r in phases) or 1.0
     sels["test"] = (sel, [r["predicted_g"] / tot for r in phases] or [1.0])
     unc = interval_parts(ident, res.test, dt, sels)
@@ -124,6 +124,31 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     _add_interval(out, unc.get("test"))
     out.update(stage.get("test", {}))
     return out
+
+
+MASS_TOL = 0.15    # [-] relative inertia-mass difference beyond which the car is another
+FORCE_TOL = 0.30   # [-] relative road-force difference at 20 m/s beyond which likewise
+
+
+def check_same_car(vehicle, trace: Trace) -> None:
+    """Refuse, in one line, to predict ``trace`` with a vehicle of another car: the test's own
+    inertia mass and road force at 20 m/s (least squares on its moving samples) are compared
+    with the vehicle's (tolerances ``MASS_TOL``, ``FORCE_TOL`` + 50 N)."""
+    from vehval.identify.roadload import _solve
+    body = vehicle.body
+    lag = float(((getattr(vehicle, "identification", None) or {}).get("road_load") or {})
+                .get("lag_s", 0.0))
+    theta = _solve([trace], lag, 1.0)[4]
+    a, b, c, m = (float(x) for x in theta)
+    f_t = a + 20 * b + 400 * c
+    f_v = body.road_load_a_n + 20 * body.road_load_b_n_per_mps + 400 * body.road_load_c_n_per_mps2
+    if (abs(m / body.mass_kg - 1) > MASS_TOL
+            or abs(f_t - f_v) > FORCE_TOL * abs(f_v) + 50.0):
+        raise ConfigError(
+            f"{trace.file or trace.test_id}: the vehicle {vehicle.name} is not the tested car: "
+            f"inertia mass {body.mass_kg:.0f} kg against the test's {m:.0f} kg, road force at "
+            f"20 m/s {f_v:.0f} N against {f_t:.0f} N; give this car's vehicle file (or "
+            "identify it from its tests)")
 
 
 def _add_interval(row: dict, part: dict | None) -> None:
