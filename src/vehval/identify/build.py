@@ -129,7 +129,8 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     _check_inputs(traces)
     fuel = traces[0].test_fuel or resolve_fuel(constants=traces[0].constants)
     a = assumptions or resolve(declared or {}, None if fuel is None else fuel.name,
-                               _wheel_power_max(traces))
+                               _wheel_power_max(traces),
+                               None if fuel is None else fuel.density_kg_per_m3)
     fuel_keys, fuel_sources = _engine_fuel(traces[0], a)
     tests = ", ".join(t.test_id for t in traces)
     rw = a.wheel_radius_m
@@ -156,6 +157,8 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     drag, fm = fit_drag(traces, lambda d: [power(t, g, d) for t, g in zip(traces, gears)],
                         idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
                         a.driven_axle_loss_share, drag_evidence)
+    pw = fm.points["p"]
+    a.floor_full_load(float(np.percentile(pw / np.maximum(fm.points["w"], 1.0), 99.5)))
     spd, trq, table, tmax = _fuel_table(fm, a)
     check = []
     for k, r in enumerate(gf.ratios):

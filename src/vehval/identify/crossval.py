@@ -12,7 +12,10 @@ documents the assumption; the identified values are the same).
 from __future__ import annotations
 
 import itertools
+import multiprocessing as mp
+import os
 import time
+from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
@@ -46,9 +49,45 @@ def _combos(traces: list[Trace], pairs: bool) -> tuple[list[tuple[int, ...]], li
     return out, skipped
 
 
+def _run_combo(arg) -> list[dict]:
+    """Identify from one set of tests and predict the others (one worker's job)."""
+    from vehval.identify.build import identify_conventional
+    from vehval.identify.predict import predict_trace
+
+    traces, combo, declared, ac = arg
+    used = [traces[i] for i in combo]
+    names = [t.test_id for t in used]
+    held = [t for k, t in enumerate(traces) if k not in combo]
+    try:
+        idf = identify_conventional(used, "cross_validation", declared=declared,
+                                    drag_evidence=False)
+    except IdentificationError as exc:
+        return [{"identified_from": names, "test": t.test_id, "cycle": t.cycle,
+                 "error": str(exc)} for t in held]
+    rows = []
+    for t in held:
+        p = predict_trace(idf.vehicle, t, ac=ac)
+        lo_hi = p.get("pi95_g")
+        rows.append({
+            "identified_from": names, "test": t.test_id, "cycle": t.cycle,
+            "measured_g": p["fuel_measured_g"], "predicted_g": p["fuel_predicted_g"],
+            "error_rel": p["error_rel"], "pi95_rel": p.get("pi95_rel"), "pi95_g": lo_hi,
+            "inside_pi95": (None if lo_hi is None else
+                            bool(lo_hi[0] <= p["fuel_measured_g"] <= lo_hi[1])),
+            "uncovered_share": p.get("uncovered_share"), "n_gears": len(idf.gears.ratios),
+            "gear_notes": idf.gears.notes,
+            "phases": [{k: ph.get(k) for k in ("phase", "measured_g", "predicted_g",
+                                               "error_rel", "pi95_rel", "uncovered_share")}
+                       for ph in p["phases"]]})
+    return rows
+
+
 def cross_validate(traces: list[Trace], pairs: bool = False, declared: dict | None = None,
-                   ac: str = "auto") -> dict:
+                   ac: str = "auto", jobs: int | None = None) -> dict:
     """Predicted vs measured fuel of each held-out test (see the module docstring).
+
+    The identifications run in up to ``jobs`` processes (default: the CPU count, at most 2;
+    each holds the traces, a few tens of MB).
 
     Returns
     -------
@@ -58,37 +97,17 @@ def cross_validate(traces: list[Trace], pairs: bool = False, declared: dict | No
     ``median_abs_error``, ``mean_abs_error``, ``max_abs_error``, ``share_within_5pct``,
     ``pi95_coverage``, ``median_pi95_rel``, ``n_failed``} and ``elapsed_s``.
     """
-    from vehval.identify.build import identify_conventional
-    from vehval.identify.predict import predict_trace
 
     t0 = time.perf_counter()
     combos, skipped = _combos(traces, pairs)
-    rows: list[dict] = []
-    for combo in combos:
-        used = [traces[i] for i in combo]
-        names = [t.test_id for t in used]
-        held = [t for k, t in enumerate(traces) if k not in combo]
-        try:
-            idf = identify_conventional(used, "cross_validation", declared=declared,
-                                        drag_evidence=False)
-        except IdentificationError as exc:
-            rows += [{"identified_from": names, "test": t.test_id, "cycle": t.cycle,
-                      "error": str(exc)} for t in held]
-            continue
-        for t in held:
-            p = predict_trace(idf.vehicle, t, ac=ac)
-            lo_hi = p.get("pi95_g")
-            rows.append({
-                "identified_from": names, "test": t.test_id, "cycle": t.cycle,
-                "measured_g": p["fuel_measured_g"], "predicted_g": p["fuel_predicted_g"],
-                "error_rel": p["error_rel"], "pi95_rel": p.get("pi95_rel"), "pi95_g": lo_hi,
-                "inside_pi95": (None if lo_hi is None else
-                                bool(lo_hi[0] <= p["fuel_measured_g"] <= lo_hi[1])),
-                "uncovered_share": p.get("uncovered_share"), "n_gears": len(idf.gears.ratios),
-                "gear_notes": idf.gears.notes,
-                "phases": [{k: ph.get(k) for k in ("phase", "measured_g", "predicted_g",
-                                                   "error_rel", "pi95_rel", "uncovered_share")}
-                           for ph in p["phases"]]})
+    args = [(traces, combo, declared, ac) for combo in combos]
+    n_jobs = max(1, min(jobs if jobs is not None else (os.cpu_count() or 1), 2, len(combos)))
+    if n_jobs > 1 and "fork" in mp.get_all_start_methods():
+        with ProcessPoolExecutor(n_jobs, mp_context=mp.get_context("fork")) as pool:
+            parts = list(pool.map(_run_combo, args))
+    else:
+        parts = [_run_combo(a) for a in args]
+    rows = [r for part in parts for r in part]
     return {"mode": "pairs" if pairs else "leave-one-out", "rows": rows, "skipped": skipped,
             "summary": summarise(rows), "elapsed_s": time.perf_counter() - t0}
 

@@ -59,6 +59,7 @@ SPECIFIC_POWER_KW_PER_L = {"diesel": 50.0, "gasoline": 60.0}
 BMEP_PA = {"diesel": 20e5, "gasoline": 12e5}
 RATED_SPEED_RPM = {"diesel": 4000.0, "gasoline": 6000.0}
 FMEP_PA = 2e5
+DIESEL_DENSITY = 800.0  # [kg/m³] test fuels at least this dense are diesel (petrol ~745)
 INERTIA_KG_M2_PER_L = 0.12
 TYRE_RE = re.compile(r"^\s*(\d{3})\s*/\s*(\d{2})\s*Z?R\s*(\d{2})\s*$", re.IGNORECASE)
 _RANGES = {"rated_power_kw": (5, 1000), "rated_speed_rpm": (1500, 12000),
@@ -146,14 +147,33 @@ class Assumptions:
         p = self.provenance.get(key)
         return "" if p is None else f"{p['origin']}: {p['source']}"
 
+    def floor_full_load(self, torque_seen_nm: float) -> None:
+        """Raise a generic peak torque to 1.1 x the highest engine torque [N·m] the tests
+        showed: the generic full-load curve is never below the measurements."""
+        prov = self.provenance
+        t_pk = float(prov.get("peak_torque_nm", {}).get("value") or max(self.full_load_nm))
+        if (prov.get("peak_torque_nm", {}).get("origin") != "generic"
+                or 1.1 * torque_seen_nm <= t_pk):
+            return
+        new_t = 1.1 * torque_seen_nm
+        rpm, nm = full_load_curve(self.max_power_w, float(prov["rated_speed_rpm"]["value"]),
+                                  self.max_speed_rpm, new_t)
+        self.full_load_rpm, self.full_load_nm = tuple(rpm), tuple(nm)
+        why = f"; raised to 1.1 x the highest engine torque of the tests ({torque_seen_nm:.0f} N·m)"
+        prov["peak_torque_nm"] = {**prov["peak_torque_nm"], "value": new_t,
+                                  "source": prov["peak_torque_nm"]["source"] + why}
+        prov["full_load"] = {**prov["full_load"], "source": prov["full_load"]["source"] + why}
+
     def generic(self) -> list[str]:
         """Keys whose value is a generic estimate (not declared)."""
         return [k for k, p in self.provenance.items() if p["origin"] == "generic"]
 
 
-def resolve(declared: dict, fuel_name: str | None, wheel_power_max_w: float) -> Assumptions:
-    """:class:`Assumptions` from ``declared`` (:func:`load_spec`), the test fuel's name (engine
-    type when the spec gives none) and the tests' highest wheel power [W] (rated power when
+def resolve(declared: dict, fuel_name: str | None, wheel_power_max_w: float,
+            fuel_density: float | None = None) -> Assumptions:
+    """:class:`Assumptions` from ``declared`` (:func:`load_spec`), the test fuel's name and
+    density [kg/m³] (engine type when the spec gives none: diesel when named so or denser
+    than ``DIESEL_DENSITY``) and the tests' highest wheel power [W] (rated power when
     neither it nor a displacement is declared)."""
     prov: dict = {}
 
@@ -169,8 +189,11 @@ def resolve(declared: dict, fuel_name: str | None, wheel_power_max_w: float) -> 
 
     kind = dec("fuel")
     if kind is None:
-        kind = "diesel" if fuel_name and "diesel" in fuel_name.lower() else "gasoline"
-        put("fuel", kind, "generic", f"engine type from the test fuel ({fuel_name or 'not named'})")
+        named = bool(fuel_name and "diesel" in fuel_name.lower())
+        dense = fuel_density is not None and fuel_density >= DIESEL_DENSITY
+        kind = "diesel" if named or dense else "gasoline"
+        put("fuel", kind, "generic", f"engine type from the test fuel ({fuel_name or 'not named'}"
+            + (f", {fuel_density:.0f} kg/m³" if fuel_density else "") + ")")
     n_rated = dec("rated_speed_rpm")
     if n_rated is None:
         n_rated = put("rated_speed_rpm", RATED_SPEED_RPM[kind], "generic",
