@@ -14,6 +14,7 @@ HERE = Path(__file__).resolve().parent
 REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
 CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 TEMPLATE = HERE.parent / "qa" / "templates" / "cruze.yaml"
+SPEC = HERE / "cruze_spec.yaml"
 
 pytestmark = [pytest.mark.realdata, pytest.mark.slow,
               pytest.mark.skipif(not CRUZE.is_dir(), reason="real data not available")]
@@ -27,8 +28,9 @@ def _traces(*ids):
 @pytest.fixture(scope="module")
 def identified():
     from vehval.identify import identify_conventional
+    from vehval.identify.spec import load_spec
     return identify_conventional(_traces("61410013", "61410004"), "cruze_diesel_2014",
-                                 ac_trace=_traces("61410021")[0])
+                                 ac_trace=_traces("61410021")[0], declared=load_spec(SPEC))
 
 
 def test_gear_ratios_match_the_data_within_1_percent(identified):

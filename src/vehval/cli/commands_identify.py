@@ -18,15 +18,25 @@ def _table(rows: list[dict]) -> str:
     for r in rows:
         lines.append(f"{r['test']:<22} {r['cycle']:<10} {r['amb_temp_c']:>6.1f} "
                      f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f} "
-                     f"{100 * r['error_rel']:>+8.2f}  A/C {'on' if r['ac_on'] else 'off'}: "
+                     f"{100 * r['error_rel']:>+8.2f}{_pi(r)}  A/C {'on' if r['ac_on'] else 'off'}: "
                      f"{r['ac_reason']}; {_start(r)}")
         for p in r["phases"]:
             u = p.get("results_fuel_U_g")
             unc = f"  (results stage: {p['results_fuel_g']:.1f} ± {u:.1f} g)" if u else ""
             lines.append(f"  {p.get('results_name', 'phase ' + str(p['phase'])):<38} "
                          f"{p['measured_g']:>11.1f} {p['predicted_g']:>12.1f} "
-                         f"{100 * p['error_rel']:>+8.2f}{unc}")
+                         f"{100 * p['error_rel']:>+8.2f}{_pi(p)}{unc}")
     return "\n".join(lines)
+
+
+def _pi(r: dict) -> str:
+    """`` ±x.x % (95 %), y % uncovered`` and ``in sample`` marks of a result row."""
+    out = ""
+    if r.get("pi95_rel") is not None:
+        out += f" ±{100 * r['pi95_rel']:.1f} % (95 %), {100 * r['uncovered_share']:.0f} % uncovered"
+    if r.get("in_sample"):
+        out += " [in sample]"
+    return out
 
 
 def _start(r: dict) -> str:
@@ -44,11 +54,21 @@ def identify_cmd(
     files: list[Path] = typer.Argument(..., help="Raw test files (one test per file)."),
     template: Path = typer.Option(..., "-t", "--template", help="Import template."),
     architecture: str = typer.Option("conventional", "--architecture", help="Model to identify (conventional)."),
-    output: Path = typer.Option(..., "-o", "--output", help="Vehicle YAML to write (atomically)."),
+    output: Path = typer.Option(None, "-o", "--output", help="Vehicle YAML to write (atomically); with --cross-validate the table as JSON."),
     name: str = typer.Option(None, "--name", help="Vehicle name (default: the output file stem)."),
     report: Path = typer.Option(None, "--report", help="Also write an HTML report (fitted map with the measured points, traces)."),
     ac_test: Path = typer.Option(None, "--ac-test", help="A test run with the A/C on (not one of FILES): identifies the A/C compressor load from its phases after the first."),
     cold_test: Path = typer.Option(None, "--cold-test", help="A cold-start test (not one of FILES) on the cycle of a hot-start test among FILES: identifies the warm-up fuel (fraction and time constant) from the two tests' measured fuel."),
+    spec: Path = typer.Option(None, "--spec", help="Specification YAML (rated power and speed, peak torque, displacement, fuel, tyre, gears...; see docs/identification.md): values the data cannot separate."),
+    rated_power_kw: float = typer.Option(None, "--rated-power-kw", help="Rated engine power [kW] (over the spec)."),
+    rated_speed_rpm: float = typer.Option(None, "--rated-speed-rpm", help="Engine speed at rated power [rpm]."),
+    peak_torque_nm: float = typer.Option(None, "--peak-torque-nm", help="Peak engine torque [N m]."),
+    displacement_l: float = typer.Option(None, "--displacement-l", help="Engine displacement [L]."),
+    engine_fuel: str = typer.Option(None, "--engine-fuel", help="Engine type for the generic scaling: diesel or gasoline (default: from the test fuel)."),
+    tyre: str = typer.Option(None, "--tyre", help="Tyre size, e.g. 225/50 R17 (wheel radius)."),
+    gears: int = typer.Option(None, "--gears", help="Number of forward gears (honoured; refused when the data show more)."),
+    cross_validate: bool = typer.Option(False, "--cross-validate", help="Identify from all tests but one and predict that one, for each test; prints the table (and writes it as JSON with -o)."),
+    pairs: bool = typer.Option(False, "--pairs", help="With --cross-validate: identify from every pair of tests of distinct cycles and predict every other test."),
     as_json: bool = typer.Option(False, "--json", help="Print the identification summary as JSON."),
 ) -> None:
     """Identify a conventional car (road load, gears, converter, shifts, driveline drag, fuel map,
@@ -57,9 +77,21 @@ def identify_cmd(
         raise ConfigError(f"--architecture {architecture}: identification from dyno data exists "
                           "for 'conventional' cars only")
     from vehval.identify.build import identify_conventional, write_vehicle
+    from vehval.identify.spec import load_spec
     from vehval.identify.traces import load_traces
     from vehval.io.paths import check_outputs
-    extra = [p for p in (ac_test, cold_test) if p is not None]
+    declared = load_spec(spec, {
+        "rated_power_kw": rated_power_kw, "rated_speed_rpm": rated_speed_rpm,
+        "peak_torque_nm": peak_torque_nm, "displacement_l": displacement_l,
+        "fuel": engine_fuel, "tyre": tyre, "gears": gears})
+    if pairs and not cross_validate:
+        raise ConfigError("--pairs: give it with --cross-validate")
+    if cross_validate:
+        _cross_validate(files, template, declared, pairs, output, as_json, spec)
+        return
+    if output is None:
+        raise ConfigError("identify: give the vehicle file to write (-o FILE)")
+    extra = [p for p in (ac_test, cold_test, spec) if p is not None]
     check_outputs(outfile=output, inputs=[*files, *extra, template])
     if report is not None:
         check_outputs(outfile=report, inputs=[*files, *extra, template, output])
@@ -71,7 +103,8 @@ def identify_cmd(
     ac_trace = load_traces([ac_test], template)[0] if ac_test is not None else None
     cold_trace = load_traces([cold_test], template)[0] if cold_test is not None else None
     idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
-                                cold_trace=cold_trace)
+                                cold_trace=cold_trace, declared=declared)
+    _check_mass(idf, declared)
     from vehval.io.atomic import atomic_files
     preds = None
     if report is not None:
@@ -87,13 +120,34 @@ def identify_cmd(
     if as_json:
         typer.echo(json.dumps(idf.summary(), indent=2))
         return
+    _print_identification(idf, output, report)
+
+
+def _check_mass(idf, declared: dict) -> None:
+    """A declared test mass far from the identified inertia: another car's specification."""
+    if "test_mass_kg" not in declared:
+        return
+    m_dec, m_id = float(declared["test_mass_kg"][0]), idf.road_load.values["mass_kg"]
+    if abs(m_id / m_dec - 1) > 0.15:
+        raise ConfigError(
+            f"identify: the declared test mass {m_dec:.0f} kg ({declared['test_mass_kg'][2]}) "
+            f"is far from the inertia identified from the tests ({m_id:.0f} kg): is the "
+            "specification of another car?")
+
+
+def _print_identification(idf, output: Path, report: Path | None) -> None:
     rl = idf.road_load
     typer.echo(f"wrote {output}")
     typer.echo(f"road load: A {rl.values['road_load_a_n']:.1f} N, B "
                f"{rl.values['road_load_b_n_per_mps']:.2f} N/(m/s), C "
                f"{rl.values['road_load_c_n_per_mps2']:.4f} N/(m/s)^2, mass "
                f"{rl.values['mass_kg']:.0f} kg (R^2 {rl.r2:.4f})")
-    typer.echo("gear ratios (engine/wheel): " + ", ".join(f"{r:.3f}" for r in idf.gears.ratios))
+    g = idf.gears
+    typer.echo("gear ratios (engine/wheel): " + ", ".join(f"{r:.3f}" for r in g.ratios)
+               + ("" if g.declared is None else f" ({len(g.ratios)} of the {g.declared} "
+                  "declared gears)"))
+    for note in g.notes:
+        typer.echo(f"gears: {note}")
     fm = idf.fuel_map
     typer.echo(f"fuel map: R^2 {fm.r2:.3f} (5 s means {fm.r2_5s:.3f}), idle "
                f"{fm.idle_fuel_kg_s * 1e3:.3f} g/s, fuel cut above "
@@ -109,8 +163,36 @@ def identify_cmd(
     if idf.ac is not None:
         typer.echo(f"A/C load: {idf.ac['ac_power_w']:.0f} W (from {idf.ac['test']}, phases "
                    f"{', '.join(map(str, idf.ac['phases']))})")
+    a = idf.assumptions
+    if a is not None:
+        for k in a.generic():
+            p = a.provenance[k]
+            val = "" if p["value"] is None else (
+                f" {p['value']:.4g}" if isinstance(p["value"], float) else f" {p['value']}")
+            typer.echo(f"generic value: {k}{val} ({p['source']})")
     if report is not None:
         typer.echo(f"wrote {report}")
+
+
+def _cross_validate(files, template, declared, pairs, output, as_json, spec) -> None:
+    from vehval.identify.crossval import cross_validate, table
+    from vehval.identify.traces import load_traces
+    if len(files) < 2:
+        raise ConfigError(f"--cross-validate: one test given ({files[0] if files else 'none'}); "
+                          "it needs at least two (identify from some, predict the others)")
+    if output is not None:
+        from vehval.io.paths import check_outputs
+        check_outputs(outfile=output, inputs=[*files, template] + ([spec] if spec else []))
+    result = cross_validate(load_traces(files, template), pairs=pairs, declared=declared)
+    if output is not None:
+        from vehval.io.atomic import write_text_atomic
+        write_text_atomic(output, json.dumps(result, indent=1) + "\n")
+    if as_json:
+        typer.echo(json.dumps(result, indent=2))
+    else:
+        typer.echo(table(result))
+        if output is not None:
+            typer.echo(f"wrote {output}")
 
 
 @app.command("predict")
@@ -133,7 +215,13 @@ def predict_cmd(
     if report is not None:
         from vehval.io.paths import check_outputs
         check_outputs(outfile=report, inputs=[*files, template])
-    preds = [predict_trace(veh, t, ac=ac) for t in load_traces(files, template)]
+    from vehval.identify.predict import check_same_car, poor_coverage
+    traces = load_traces(files, template)
+    for t in traces:
+        check_same_car(veh, t)
+    preds = [predict_trace(veh, t, ac=ac) for t in traces]
+    for line in poor_coverage(preds):
+        typer.echo(f"vehval: warning: {line}", err=True)
     if report is not None:
         from vehval.identify.report import write_prediction_report
         write_prediction_report(veh.name, preds, report)

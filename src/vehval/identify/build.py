@@ -30,52 +30,14 @@ from vehval.identify.gears import (
 )
 from vehval.identify.losses import DragFit, fit_ac_load, fit_drag
 from vehval.identify.roadload import RoadLoadFit, fit_road_load
+from vehval.identify.spec import Assumptions, resolve
 from vehval.identify.traces import IdentificationError, Trace
+from vehval.identify.uncertainty import coverage_grid
 from vehval.identify.warmup import WarmupFit, fit_warmup, hot_partner
 from vehval.io.atomic import write_text_atomic
 from vehval.vehicle import ConventionalVehicle
-from vehval.vehicle.conventional import DRIVEN_AXLE_LOSS_SHARE
 
 MIN_DRIVE_S = 600.0  # [s] of moving data needed in total
-
-
-@dataclass
-class Assumptions:
-    """Values the dyno data cannot separate, each with its documented source."""
-
-    wheel_radius_m: float = 0.317
-    gearbox_efficiency: float = 0.93
-    accessory_power_w: float = 300.0
-    engine_inertia_kg_m2: float = 0.25
-    max_power_w: float = 112600.0
-    max_speed_rpm: float = 4500.0
-    full_load_rpm: tuple = (600, 1000, 1500, 2000, 2750, 3500, 4000, 4500)
-    full_load_nm: tuple = (150, 220, 320, 358, 358, 290, 269, 220)
-    motoring_torque_nm: float = 30.0
-    driven_axle_loss_share: float = DRIVEN_AXLE_LOSS_SHARE
-    fuel_density_kg_per_m3: float | None = None
-    fuel_lhv_j_per_kg: float | None = None
-    sources: dict = field(default_factory=lambda: {
-        "wheel_radius_m": "engineering estimate: rolling radius of a 225/50 R17 tyre; the "
-                          "gear ratios are identified as engine-to-wheel ratios with it, so "
-                          "the model is consistent whatever the true radius",
-        "gearbox_efficiency": "engineering estimate for a 6-speed planetary automatic with "
-                              "final drive (the fuel map is identified with it, so it is "
-                              "consistent inside the model)",
-        "accessory_power_w": "engineering estimate (alternator, pumps); not separable from "
-                             "the engine's friction fuel in dyno data",
-        "engine_inertia_kg_m2": "engineering estimate for a 2.0 L diesel with flywheel and "
-                                "converter pump",
-        "max_power_w": "manufacturer rating of the 2014 Cruze 2.0 L diesel: 151 hp",
-        "max_speed_rpm": "engineering estimate for a passenger-car diesel",
-        "full_load": "curve shape through the manufacturer ratings (264 lb·ft = 358 N·m, "
-                     "151 hp at 4000 rpm): engineering estimate",
-        "motoring_torque_nm": "engineering estimate of a 2.0 L diesel's motoring torque",
-        "driven_axle_loss_share": "engineering estimate: the share of the car's own losses on "
-                                  "the rollers (target - set coefficients) on the driven axle, "
-                                  "two of the four tyres plus the differential (the fuel data "
-                                  "cannot separate it)",
-    })
 
 
 @dataclass
@@ -92,9 +54,13 @@ class Identification:
     drag: DragFit | None = None
     ac: dict | None = None
     warmup: WarmupFit | None = None
+    assumptions: Assumptions | None = None
+    coverage: dict | None = None
 
     def summary(self) -> dict:
-        return {"tests": [t.test_id for t in self.traces], "road_load": self.road_load.to_dict(),
+        return {"assumptions": None if self.assumptions is None else self.assumptions.provenance,
+                "coverage": self.coverage,
+                "tests": [t.test_id for t in self.traces], "road_load": self.road_load.to_dict(),
                 "gears": self.gears.to_dict(), "gear_ratio_check": self.gear_ratio_check,
                 "fuel_map": self.fuel_map.to_dict(), "n_shifts": len(self.shifts),
                 "drag": None if self.drag is None else self.drag.to_dict(), "ac": self.ac,
@@ -151,24 +117,32 @@ def _engine_fuel(trace: Trace, a: Assumptions) -> tuple[dict, dict]:
 def identify_conventional(traces: list[Trace], name: str = "identified_car",
                           assumptions: Assumptions | None = None,
                           ac_trace: Trace | None = None,
-                          cold_trace: Trace | None = None) -> Identification:
+                          cold_trace: Trace | None = None,
+                          declared: dict | None = None,
+                          drag_evidence: bool = True) -> Identification:
     """Identify road load, gearbox, converter, shift schedule, driveline drag and fuel map
     from ``traces``; with ``cold_trace`` (a cold start on the cycle of one of ``traces``) the
     warm-up fuel (:mod:`vehval.identify.warmup`); with ``ac_trace`` (a test run with the A/C
-    on) the A/C load, its model starting cold when that test does."""
+    on) the A/C load, its model starting cold when that test does. What the data cannot
+    separate comes from ``assumptions``, else from ``declared`` (:func:`.spec.load_spec`)
+    and the generic scaling of :func:`.spec.resolve`."""
     _check_inputs(traces)
-    a = assumptions or Assumptions()
+    fuel = traces[0].test_fuel or resolve_fuel(constants=traces[0].constants)
+    a = assumptions or resolve(declared or {}, None if fuel is None else fuel.name,
+                               _wheel_power_max(traces),
+                               None if fuel is None else fuel.density_kg_per_m3)
     fuel_keys, fuel_sources = _engine_fuel(traces[0], a)
     tests = ", ".join(t.test_id for t in traces)
     rw = a.wheel_radius_m
     rl = fit_road_load(traces)
-    gf = find_gears(traces, rw)
+    gf = find_gears(traces, rw, a.gears)
     gl = [assign_gears(t, gf.ratios, rw, gf.locked_in_data[0]) for t in traces]
     gears, locks = [g for g, _ in gl], [lk for _, lk in gl]
     idle_w = float(np.median(np.concatenate([t.w_eng[(t.v < 0.05) & (t.w_eng > 30)]
                                              for t in traces])))
     v_cap = float(max(t.v.max() for t in traces)) + 10.0
-    lock_v = lockup_speeds(traces, gears, locks, len(gf.ratios), v_cap)
+    lock_v, lock_how = lockup_speeds(traces, gears, locks, len(gf.ratios), v_cap, gf.ratios, rw,
+                                    gf.locked_in_data)
     k_tc, n_k = converter_capacity(traces, gears, locks, gf.ratios, rw, a.gearbox_efficiency,
                                    rl.lag_s)
     events = [e for t, g, lk in zip(traces, gears, locks)
@@ -182,7 +156,9 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
 
     drag, fm = fit_drag(traces, lambda d: [power(t, g, d) for t, g in zip(traces, gears)],
                         idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
-                        a.driven_axle_loss_share)
+                        a.driven_axle_loss_share, drag_evidence)
+    pw = fm.points["p"]
+    a.floor_full_load(float(np.percentile(pw / np.maximum(fm.points["w"], 1.0), 99.5)))
     spd, trq, table, tmax = _fuel_table(fm, a)
     check = []
     for k, r in enumerate(gf.ratios):
@@ -225,13 +201,13 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                 "speed_rpm": "grid chosen to cover idle to the maximum speed",
                 "torque_nm": "grid chosen to cover the full-load curve",
                 "fuel_rate_g_per_s": f"identified Willans surface (fuel = c0 + c1 w + c2 w² + (d0 + d1 w) P + e P²) from {tests}: {fq}; measured engine power {fm.power_range_w[0] / 1e3:.1f}-{fm.power_range_w[1] / 1e3:.1f} kW, beyond it extrapolated",
-                "max_torque_nm": a.sources["full_load"],
-                "max_power_w": a.sources["max_power_w"],
-                "max_speed_rpm": a.sources["max_speed_rpm"],
+                "max_torque_nm": a.source("full_load"),
+                "max_power_w": a.source("rated_power_kw"),
+                "max_speed_rpm": a.source("max_speed_rpm"),
                 "idle_speed_rpm": f"identified: median engine speed standing still in {tests}",
                 "fire_speed_rpm": "half the idle speed (not used: the engine never stops)",
-                "motoring_torque_nm": a.sources["motoring_torque_nm"],
-                "inertia_kg_m2": a.sources["engine_inertia_kg_m2"],
+                "motoring_torque_nm": a.source("motoring_torque_nm"),
+                "inertia_kg_m2": a.source("engine_inertia_kg_m2"),
                 **fuel_sources,
             }},
         "engine_control": {
@@ -245,7 +221,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                 "idle_fuel_rate_g_per_s": f"identified (standing state of the fuel model) from {tests}: {fq}",
                 "fuel_cut_min_speed_rpm": f"identified (best R² over 1.05-2 x idle) from {tests}",
                 "overrun_fuel_rate_g_per_s": f"identified (overrun state of the fuel model) from {tests}",
-                "accessory_power_w": a.sources["accessory_power_w"],
+                "accessory_power_w": a.source("accessory_power_w"),
             }},
         "gearbox": {
             "ratios": [float(r) for r in gf.ratios], "efficiency": a.gearbox_efficiency,
@@ -255,10 +231,10 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "drag_force_n": drag.force_n, "drag_force_n_per_mps": drag.force_n_per_mps,
             "sources": {
                 "drag_force_n": f"from {tests} and the template's target coefficients: {drag.note}; "
-                                f"{a.sources['driven_axle_loss_share']}",
+                                + a.source("driven_axle_loss_share"),
                 "drag_force_n_per_mps": f"identified with drag_force_n from {tests}",
                 "ratios": f"identified: engine-to-wheel speed ratio clusters in {tests} (final drive included); {ratio_src}",
-                "efficiency": a.sources["gearbox_efficiency"],
+                "efficiency": a.source("gearbox_efficiency"),
                 "upshift_speed_mps": f"identified from {sum(1 for e in events if e[1] == e[0] + 1)} observed upshifts in {tests} (line of speed on load)",
                 "upshift_speed_full_load_mps": "identified with upshift_speed_mps (extrapolated to full load)",
                 "downshift_speed_mps": f"identified from {sum(1 for e in events if e[1] == e[0] - 1)} observed downshifts in {tests}",
@@ -269,7 +245,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "capacity_nm_s2_per_rad2": k_tc, "lockup_speed_mps": lock_v,
             "sources": {
                 "capacity_nm_s2_per_rad2": f"identified: median of T / (w_e (w_e - w_t)) over {n_k} open-converter samples in {tests}",
-                "lockup_speed_mps": f"identified: per gear, speed from which >= 70 % of samples are locked in {tests} ({v_cap:.0f} = never locked)",
+                "lockup_speed_mps": f"per gear, speed above which the converter is locked (fewest misclassified samples) in {tests} ({v_cap:.0f} = never locked): " + ", ".join(f"{k + 1}: {h}" for k, h in enumerate(lock_how)) + " (assumed: the identified gears' median lock-up engine speed)",
             }},
         "driveline": {
             "final_drive_ratio": 1.0, "final_drive_efficiency": 1.0, "wheel_radius_m": rw,
@@ -277,7 +253,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "sources": {
                 "final_drive_ratio": "1: the identified gear ratios are engine-to-wheel ratios (the data cannot separate the final drive)",
                 "final_drive_efficiency": "1: losses are in gearbox.efficiency",
-                "wheel_radius_m": a.sources["wheel_radius_m"],
+                "wheel_radius_m": a.source("wheel_radius_m"),
                 "wheel_inertia_kg_m2": "0: rotating inertia is in the identified effective mass",
                 "brake_max_force_n": "engineering estimate: about 0.9 g at the test mass",
             }},
@@ -293,7 +269,9 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             }},
     }
     result = Identification(road_load=rl, gears=gf, fuel_map=fm, traces=traces,
-                            gear_ratio_check=check, shifts=events, drag=drag)
+                            gear_ratio_check=check, shifts=events, drag=drag, assumptions=a,
+                            coverage=coverage_grid(fm.points["w"], fm.points["p"],
+                                                   traces[0].dt))
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
     if cold_trace is not None:
@@ -314,6 +292,11 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             f"measured {ac['fuel_measured_g']:.1f} g (without it {ac['fuel_model_without_ac_g']:.1f} g)")
         result.vehicle.identification = _jsonable(result.summary())
     return result
+
+
+def _wheel_power_max(traces: list[Trace]) -> float:
+    """Highest wheel power [W] of ``traces`` (99.9th percentile of force x speed)."""
+    return float(max(np.percentile(t.force * t.v, 99.9) for t in traces))
 
 
 def _shift_time(traces, gears, locks) -> float:

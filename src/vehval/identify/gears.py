@@ -2,12 +2,14 @@
 
 With the converter locked the engine turns at ``ratio_i · ω_wheel``: the ratio
 ``ω_eng / ω_wheel`` of moving samples clusters at the overall ratios (gearbox x final drive).
-Clusters are the peaks of a histogram of ``log(ratio)`` (0.5 % bins, smoothed); a peak is
-a gear when it holds at least ``MIN_SHARE`` of the samples and stands 8 % apart from a
-stronger one; its ratio is the median of the samples within ±1.5 % of the peak.
+Clusters are the peaks of a histogram of ``log(ratio)`` (0.5 % bins, smoothed), each 8 %
+apart from a stronger one; its ratio is the median of the samples within ±1.5 % of the peak.
+A peak is a gear when it is sharp (its samples within ±0.5 % at least ``MIN_CONTRAST``
+times what the background 3-8 % away would put there) and holds at least ``MIN_SHARE`` of
+the samples; a sharp peak holding fewer is a gear seen briefly, used when a declared gear
+count asks for it and reported otherwise.
 Samples within ±2 % of a gear are *locked* in it; samples between two gears are that
-gear's converter slip (the engine turns faster than the turbine). Only sharp clusters
-(relative inter-quartile range below 1.2 %) are gears: slip makes broad humps.
+gear's converter slip (the engine turns faster than the turbine): slip makes broad humps.
 
 A first gear in which the converter never locks leaves no cluster, only launches whose
 ratio lies well above the lowest locked gear (more than 25 % above it, in more than 1 % of
@@ -17,7 +19,7 @@ slip is in it, so it is an upper bound, flagged ``locked_in_data: false``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -27,7 +29,9 @@ MIN_SPEED_MPS = 1.5      # [m/s] ratio only defined when moving
 MIN_SHARE = 0.004        # [-] smallest share of moving samples a gear cluster may hold
 LOCK_TOL = 0.02          # [-] relative band around a gear ratio counted as locked
 PEAK_SEP = 0.08          # [-] minimum relative distance between two gear ratios
-SHARP_IQR = 0.012        # [-] a gear cluster is narrower than this (relative IQR)
+SHARP_IQR_MAX = 0.016    # [-] a gear cluster is narrower than this (relative IQR, ±2 % band)
+MIN_CONTRAST = 4.0       # [-] core samples over a flat background's share (see _candidates)
+MIN_CORE = 20            # [-] samples a candidate peak needs within its 1.5 % band
 MIN_DWELL_S = 1.0        # [s] a gear held shorter than this is a transient, not a shift
 
 
@@ -39,10 +43,13 @@ class GearFit:
     samples: list[int]
     spread: list[float]          # relative IQR of the locked samples around each ratio
     locked_in_data: list[bool]
+    declared: int | None = None   # gear count declared (spec or --gears)
+    notes: list[str] = field(default_factory=list)  # gears seen briefly or not at all
 
     def to_dict(self) -> dict:
         return {"ratios": [float(r) for r in self.ratios], "samples": self.samples,
-                "relative_iqr": self.spread, "locked_in_data": self.locked_in_data}
+                "relative_iqr": self.spread, "locked_in_data": self.locked_in_data,
+                "declared": self.declared, "notes": self.notes}
 
 
 def speed_ratio(tr: Trace, wheel_radius_m: float) -> np.ndarray:
@@ -53,52 +60,105 @@ def speed_ratio(tr: Trace, wheel_radius_m: float) -> np.ndarray:
     return out
 
 
-def find_gears(traces: list[Trace], wheel_radius_m: float) -> GearFit:
-    """Gear ratios from the clusters of the engine-to-wheel speed ratio of ``traces``."""
-    r = np.concatenate([speed_ratio(t, wheel_radius_m) for t in traces])
-    r = r[np.isfinite(r) & (r > 0.3) & (r < 40)]
-    if r.size < 200:
-        raise IdentificationError("gears: fewer than 200 moving samples with engine speed; "
-                                  "give longer driven tests")
+def _candidates(r: np.ndarray) -> list[dict]:
+    """Sharp clusters of the ratio samples ``r``: peaks of the smoothed log histogram, each
+    with its median ratio, the samples within ±0.5 % (``core``) and ±2 % (``band``), and its
+    contrast (core samples over those a flat background would put there, the background
+    counted 3-8 % away)."""
     lr = np.log(r)
     bins = np.arange(lr.min(), lr.max() + 0.005, 0.005)
     h, edges = np.histogram(lr, bins=bins)
     hs = smooth(h.astype(float), 3)
     centres = 0.5 * (edges[1:] + edges[:-1])
-    order = np.argsort(hs)[::-1]
-    peaks: list[float] = []
-    for i in order:
-        if hs[i] * 3 < MIN_SHARE * r.size:   # 3 bins = 1.5 % band
+    out: list[dict] = []
+    for i in np.argsort(hs)[::-1]:
+        if hs[i] * 3 < MIN_CORE:
             break
         c = centres[i]
-        if all(abs(c - p) > np.log(1 + PEAK_SEP) for p in peaks):
-            peaks.append(c)
-    if not peaks:
-        raise IdentificationError("gears: no engine-to-wheel speed ratio cluster found "
-                                  "(is the engine speed channel right?)")
-    ratios, counts, spread = [], [], []
-    for p in sorted(peaks, reverse=True):
-        near = r[np.abs(lr - p) < np.log(1.015)]
-        med = float(np.median(near))
-        band = r[np.abs(r / med - 1) < LOCK_TOL]
+        if any(abs(c - np.log(d["ratio"])) <= np.log(1 + PEAK_SEP) for d in out):
+            continue
+        med = float(np.median(r[np.abs(lr - c) < np.log(1.015)]))
+        rel = np.abs(r / med - 1)
+        core, band = int(np.count_nonzero(rel < 0.005)), r[rel < LOCK_TOL]
+        bg = np.count_nonzero((rel > 0.03) & (rel < 0.08)) / 10.0
         q1, q3 = np.percentile(band, [25, 75])
-        if (q3 - q1) / med < SHARP_IQR:
-            ratios.append(med)
-            counts.append(int(band.size))
-            spread.append(float((q3 - q1) / med))
-    if not ratios:
+        out.append({"ratio": med, "core": core, "band": int(band.size),
+                    "share": band.size / r.size, "iqr": float((q3 - q1) / med),
+                    "contrast": core / max(bg, 1.0)})
+    return out
+
+
+def _is_gear(c: dict) -> bool:
+    return c["contrast"] >= MIN_CONTRAST and c["iqr"] < SHARP_IQR_MAX
+
+
+def find_gears(traces: list[Trace], wheel_radius_m: float,
+               declared: int | None = None) -> GearFit:
+    """Gear ratios from the clusters of the engine-to-wheel speed ratio of ``traces``.
+
+    A sharp cluster (contrast >= ``MIN_CONTRAST`` over the local background) holding at least
+    ``MIN_SHARE`` of the samples is a gear; a sharp one holding fewer is a gear *seen briefly*:
+    used when a ``declared`` gear count asks for it, else reported in ``notes``. With a
+    declared count the data contradict (more sharp clusters than gears) the call fails.
+    """
+    r = np.concatenate([speed_ratio(t, wheel_radius_m) for t in traces])
+    r = r[np.isfinite(r) & (r > 0.3) & (r < 40)]
+    if r.size < 200:
+        raise IdentificationError("gears: fewer than 200 moving samples with engine speed; "
+                                  "give longer driven tests")
+    cands = [c for c in _candidates(r) if _is_gear(c)]
+    if not cands:
         raise IdentificationError("gears: no sharp engine-to-wheel speed ratio cluster "
                                   "(the converter never locks?): cannot identify the gears")
+    strong = [c for c in cands if c["share"] >= MIN_SHARE]
+    brief = [c for c in cands if c["share"] < MIN_SHARE]
+    notes: list[str] = []
+    chosen = list(strong)
+    launch = r[r > 1.25 * max(c["ratio"] for c in chosen)]
+    has_launch = launch.size > 0.01 * r.size
+    if declared is not None:
+        if len(strong) > declared:
+            raise IdentificationError(
+                f"gears: {declared} gears declared, but the data show {len(strong)} locked "
+                f"gear ratios ({', '.join(format(c['ratio'], '.3f') for c in sorted(strong, key=lambda c: -c['ratio']))}); "
+                "check --gears (or the spec's gears)")
+        for c in sorted(brief, key=lambda c: -c["contrast"]):
+            if len(chosen) + has_launch >= declared:
+                break
+            chosen.append(c)
+            notes.append(f"ratio {c['ratio']:.3f} seen briefly ({c['band']} samples, contrast "
+                         f"{c['contrast']:.0f}): used as a gear, {declared} gears declared")
+        launch = r[r > 1.25 * max(c["ratio"] for c in chosen)]
+        has_launch = launch.size > 0.01 * r.size and len(chosen) < declared
+    else:
+        notes += [f"ratio {c['ratio']:.3f} seen briefly ({c['band']} samples, "
+                  f"{100 * c['share']:.2f} % of the moving samples, contrast "
+                  f"{c['contrast']:.0f}): not used; declare the gear count (--gears) to use it"
+                  for c in brief]
+    chosen.sort(key=lambda c: -c["ratio"])
+    ratios = [c["ratio"] for c in chosen]
+    counts = [c["band"] for c in chosen]
+    spread = [c["iqr"] for c in chosen]
     locked = [True] * len(ratios)
-    launch = r[r > 1.25 * ratios[0]]
-    if launch.size > 0.01 * r.size:
+    if has_launch:
         ratios.insert(0, float(np.median(launch)))
         counts.insert(0, int(launch.size))
         q1, q3 = np.percentile(launch, [25, 75])
         spread.insert(0, float((q3 - q1) / ratios[0]))
         locked.insert(0, False)
+    lr_ = [x for x, lk in zip(ratios, locked) if lk]
+    steps = np.asarray(lr_[:-1]) / np.asarray(lr_[1:])
+    if steps.size >= 2:
+        typical = float(np.median(steps))
+        for k in np.nonzero(steps > 1.3 * typical)[0]:
+            notes.append(f"step {lr_[k]:.3f} -> {lr_[k + 1]:.3f} is {steps[k]:.2f}, "
+                         f"against {typical:.2f} elsewhere: a gear between them may not be "
+                         "seen locked in these tests")
+    if declared is not None and len(ratios) < declared:
+        notes.append(f"{declared} gears declared, the data show {len(ratios)}: "
+                     f"{declared - len(ratios)} gear(s) never seen locked in these tests")
     return GearFit(ratios=np.asarray(ratios), samples=counts, spread=spread,
-                   locked_in_data=locked)
+                   locked_in_data=locked, declared=declared, notes=notes)
 
 
 def assign_gears(tr: Trace, ratios: np.ndarray, wheel_radius_m: float,
@@ -152,29 +212,56 @@ def assign_gears(tr: Trace, ratios: np.ndarray, wheel_radius_m: float,
     return gear, locked
 
 
-def lockup_speeds(traces, gears, locks, n_gears: int, v_cap: float) -> list[float]:
-    """Per gear: the lower edge [m/s] of the lowest 1 m/s speed bin from which every faster
-    bin (with >= 20 samples of that gear) is >= 70 % locked; ``v_cap`` when none is."""
+def lockup_speeds(traces, gears, locks, n_gears: int, v_cap: float,
+                  ratios=None, wheel_radius_m: float = 0.0,
+                  locked_in_data=None) -> tuple[list[float], list[str]]:
+    """Per gear: the speed [m/s, floored] above which the converter is locked (the threshold
+    that misclassifies the fewest of the gear's samples: locked below + open above), and how
+    it was found.
+
+    A gear with fewer than 20 locked samples (seen too briefly) takes the median lock-up
+    *engine* speed of the identified gears, turned into its vehicle speed with ``ratios``
+    (``assumed``); a gear never locked (an unlocked first gear) gets ``v_cap``."""
     v = np.concatenate([t.v for t in traces])
     g = np.concatenate(gears)
     lk = np.concatenate(locks)
-    out = []
+    out: list[float | None] = []
+    how: list[str] = []
     for k in range(1, n_gears + 1):
         m = g == k
-        edges = np.arange(0.0, max(float(v[m].max(initial=0.0)), 1.0) + 1.0, 1.0)
-        idx = np.digitize(v[m], edges) - 1
-        cnt = np.bincount(idx, minlength=edges.size)
-        loc = np.bincount(idx, weights=lk[m].astype(float), minlength=edges.size)
-        good = [(c < 20) or (lc / c >= 0.7) for c, lc in zip(cnt, loc)]
-        filled = [c >= 20 for c in cnt]
-        found = v_cap
-        for j in range(edges.size - 1, -1, -1):
-            if not good[j]:
-                break
-            if filled[j]:
-                found = float(edges[j])
-        out.append(float(found) if np.count_nonzero(lk & m) >= 20 else float(v_cap))
-    return out
+        if locked_in_data is not None and not locked_in_data[k - 1]:
+            out.append(None)
+            how.append("never locked")
+            continue
+        if np.count_nonzero(lk & m) < 20:
+            out.append(None)
+            how.append("assumed" if np.any(lk & m) else "never locked")
+            continue
+        vm, lm = v[m], lk[m]
+        order = np.argsort(vm)
+        vs, ls = vm[order], lm[order].astype(int)
+        # decision stump: v* minimising locked samples below it + open samples above it
+        below_locked = np.r_[0, np.cumsum(ls)]
+        above_open = np.r_[np.cumsum((1 - ls)[::-1])[::-1], 0]
+        j = int(np.argmin(below_locked + above_open))
+        share = float(ls[j:].mean()) if j < ls.size else 0.0
+        if j >= ls.size or share < 0.5:
+            out.append(v_cap)
+            how.append("identified: mostly open")
+            continue
+        out.append(float(np.floor(vs[j])))
+        how.append("identified")
+    known = [(k, x) for k, x in enumerate(out) if x is not None and how[k] == "identified"
+             and x < v_cap]
+    w_lock = (float(np.median([x * ratios[k] / wheel_radius_m for k, x in known]))
+              if known and ratios is not None and wheel_radius_m > 0 else None)
+    res = []
+    for k, x in enumerate(out):
+        if x is None:
+            x = (v_cap if how[k] == "never locked" or w_lock is None
+                 else float(np.round(w_lock * wheel_radius_m / ratios[k])))
+        res.append(float(x))
+    return res, how
 
 
 def converter_capacity(traces, gears, locks, ratios, wheel_radius_m, efficiency,
@@ -225,9 +312,10 @@ def shift_lines(events: list[tuple], ratios: np.ndarray, v_top: float, w_max: fl
                 wheel_radius_m: float):
     """Up and down lines per gear pair: (speed at zero load, at full load) [m/s].
 
-    Least squares of speed on load when a pair has >= 4 shifts over a load spread > 0.15,
-    else the median speed (flat line). A pair with no shift observed gets the engine speed
-    of the observed shifts (median, in the lower gear) turned into a vehicle speed.
+    Least squares of speed on load when a pair has >= 4 shifts over a load spread > 0.15;
+    otherwise (few shifts, or all at one load: a line cannot be fitted) the pair takes the
+    line shared by every pair in engine speed (lower gear), ``w = a + b load``, fitted the same
+    way on all shifts of that kind, turned into the pair's vehicle speed.
     Downshift lines are kept at least 10 % below the upshift lines (hysteresis); no line
     asks the engine for more than 95 % of its maximum speed ``w_max`` [rad/s].
     """
@@ -239,8 +327,19 @@ def shift_lines(events: list[tuple], ratios: np.ndarray, v_top: float, w_max: fl
             if sel(a, b):
                 low = min(a, b)
                 per_pair[low - 1].append((v, ld))
-        eng_spd = [v * ratios[i] for i in range(n) for v, _ in per_pair[i]]
-        w_ref = float(np.median(eng_spd)) if eng_spd else None
+        # shared line in engine speed (lower gear): w = a + b load, over every pair's shifts
+        allp = np.asarray([(v * ratios[i] / wheel_radius_m, ld) for i in range(n)
+                           for v, ld in per_pair[i]]).reshape(-1, 2)
+        wb0: float | None
+        wb1: float = 0.0
+        if len(allp) >= 4 and np.ptp(allp[:, 1]) > 0.15:
+            wb1, _ = np.polyfit(allp[:, 1], allp[:, 0], 1)
+            wb1 = max(float(wb1), 0.0)
+            wb0 = float(np.median(allp[:, 0] - wb1 * allp[:, 1]))
+        elif len(allp):
+            wb0, wb1 = float(np.median(allp[:, 0])), 0.0
+        else:
+            wb0 = None
         z, f = [], []
         for i in range(n):
             pts = np.asarray(per_pair[i]) if per_pair[i] else np.zeros((0, 2))
@@ -248,10 +347,9 @@ def shift_lines(events: list[tuple], ratios: np.ndarray, v_top: float, w_max: fl
                 b1, b0 = np.polyfit(pts[:, 1], pts[:, 0], 1)
                 b1 = max(b1, 0.0)
                 b0 = float(np.median(pts[:, 0] - b1 * pts[:, 1]))
-            elif len(pts):
-                b0, b1 = float(np.median(pts[:, 0])), 0.0
-            elif w_ref is not None:
-                b0, b1 = w_ref / ratios[i], 0.0
+            elif wb0 is not None:
+                k = wheel_radius_m / ratios[i]
+                b0, b1 = wb0 * k, wb1 * k
             else:
                 b0, b1 = v_top * (i + 1) / (n + 1), 0.0
             cap = 0.95 * w_max * wheel_radius_m / ratios[i]

@@ -67,10 +67,11 @@ def dyno_losses(traces: list[Trace], set_a: float, set_b: float) -> tuple[float,
 
 
 def fit_drag(traces: list[Trace], power_fn, idle_rad_s: float, set_a: float,
-             set_b: float, share: float) -> tuple[DragFit, FuelMapFit]:
+             set_b: float, share: float, evidence: bool = True) -> tuple[DragFit, FuelMapFit]:
     """Driveline drag as ``share`` of the dyno losses, the fuel model fitted with it, and
     the fuel model's 5 s R² over shares 0-1 as evidence (see the module docstring).
 
+    ``evidence=False`` skips the R² curve (cross-validation runs many identifications).
     ``power_fn(drag)`` returns the rebuilt engine powers [W] of ``traces`` for a drag
     (A_d, B_d).
     """
@@ -86,7 +87,7 @@ def fit_drag(traces: list[Trace], power_fn, idle_rad_s: float, set_a: float,
     meter, cut = (fm.delay_s, fm.tau_s), fm.fuel_cut_speed_rad_s
     curve = {s: fm.r2_5s if s == share else
              fit_fuel_map(traces, power_fn((s * da, s * db)), idle_rad_s, meter, cut).r2_5s
-             for s in DRAG_SHARES}
+             for s in (DRAG_SHARES if evidence else (share,))}
     lo, hi = min(curve.values()), max(curve.values())
     note = (f"assumed share {share:.2f} of the dyno losses (target - set: {da:.1f} N + "
             f"{db:.3f} N/(m/s)); the fuel data do not identify it (R² of 5 s means "

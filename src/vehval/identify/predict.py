@@ -25,6 +25,7 @@ import numpy as np
 from vehval.cycles import Cycle
 from vehval.errors import ConfigError
 from vehval.identify.traces import Trace
+from vehval.identify.uncertainty import POOR_COVERAGE, interval_parts
 from vehval.identify.warmup import cold_start_state
 from vehval.sim.simulate import simulate
 
@@ -66,7 +67,10 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     whole test, ``trace_max_miss_mps``, ``ac_on`` and ``ac_reason`` (the A/C state the
     model ran with; see :func:`ac_state`), ``starts_cold`` (the test starts cold: True, False
     or None, unknown), ``cold_start`` and ``cold_reason`` (whether the model ran with its
-    warm-up fuel, and why), ``sim`` (the
+    warm-up fuel, and why), ``in_sample`` (the test is one the vehicle was identified from,
+    by its identification's ``tests``), ``uncovered_share``, ``pi95_rel`` and ``pi95_g``
+    (coverage and 95 % prediction interval, :mod:`vehval.identify.uncertainty`; also per
+    phase; None for a vehicle without identification uncertainty), ``sim`` (the
     :class:`~vehval.sim.simulate.SimResult`) and ``trace``.
     """
     m = trace.t >= 0.0
@@ -102,14 +106,74 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     # soak, often with the engine off, which the model cannot know), else everything
     sel = phase > 0 if np.any(phase > 0) else np.ones(phase.size, dtype=bool)
     mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
+    ident = getattr(vehicle, "identification", None) or {}
+    sels: dict = {int(r["phase"]): (phase == r["phase"], [1.0]) for r in phases}
+    tot = sum(r["predicted_g"] for r in phases) or 1.0
+    sels["test"] = (sel, [r["predicted_g"] / tot for r in phases] or [1.0])
+    unc = interval_parts(ident, res.test, dt, sels)
+    for r in phases:
+        _add_interval(r, unc.get(int(r["phase"])))
     out = {"test": trace.test_id, "cycle": trace.cycle, "amb_temp_c": trace.amb_temp_c,
             "fuel_measured_g": mg, "fuel_predicted_g": pg,
             "error_rel": pg / mg - 1 if mg > 0 else float("nan"), "phases": phases,
             "trace_max_miss_mps": res.summary["trace_max_miss_mps"], "ac_on": ac_on,
             "ac_reason": ac_reason, "starts_cold": cold, "cold_start": cold_run,
             "cold_reason": cold_reason,
+            "in_sample": trace.test_id in (ident.get("tests") or []),
             "sim": res, "trace": trace}
+    _add_interval(out, unc.get("test"))
     out.update(stage.get("test", {}))
+    return out
+
+
+MASS_TOL = 0.15    # [-] relative inertia-mass difference beyond which the car is another
+FORCE_TOL = 0.30   # [-] relative road-force difference at 20 m/s beyond which likewise
+
+
+def check_same_car(vehicle, trace: Trace) -> None:
+    """Refuse, in one line, to predict ``trace`` with a vehicle of another car: the test's own
+    inertia mass and road force at 20 m/s (least squares on its moving samples) are compared
+    with the vehicle's (tolerances ``MASS_TOL``, ``FORCE_TOL`` + 50 N)."""
+    from vehval.identify.roadload import _solve
+    body = vehicle.body
+    lag = float(((getattr(vehicle, "identification", None) or {}).get("road_load") or {})
+                .get("lag_s", 0.0))
+    theta = _solve([trace], lag, 1.0)[4]
+    a, b, c, m = (float(x) for x in theta)
+    f_t = a + 20 * b + 400 * c
+    f_v = body.road_load_a_n + 20 * body.road_load_b_n_per_mps + 400 * body.road_load_c_n_per_mps2
+    if (abs(m / body.mass_kg - 1) > MASS_TOL
+            or abs(f_t - f_v) > FORCE_TOL * abs(f_v) + 50.0):
+        raise ConfigError(
+            f"{trace.file or trace.test_id}: the vehicle {vehicle.name} is not the tested car: "
+            f"inertia mass {body.mass_kg:.0f} kg against the test's {m:.0f} kg, road force at "
+            f"20 m/s {f_v:.0f} N against {f_t:.0f} N; give this car's vehicle file (or "
+            "identify it from its tests)")
+
+
+def _add_interval(row: dict, part: dict | None) -> None:
+    """Add ``uncovered_share``, ``pi95_rel`` and ``pi95_g`` [low, high] to a result row
+    (None when the vehicle carries no identification uncertainty)."""
+    if part is None:
+        row.update(uncovered_share=None, pi95_rel=None, pi95_g=None)
+        return
+    h = part["pi95_rel"]
+    pg = row["predicted_g"] if "predicted_g" in row else row["fuel_predicted_g"]
+    row.update(uncovered_share=part["uncovered_share"], pi95_rel=h,
+               pi95_g=[pg * (1 - h), pg * (1 + h)])
+
+
+def poor_coverage(rows: list[dict]) -> list[str]:
+    """One warning line per phase whose predicted fuel is more than ``POOR_COVERAGE``
+    uncovered by the identification data."""
+    out = []
+    for r in rows:
+        for p in r["phases"]:
+            u = p.get("uncovered_share")
+            if u is not None and u > POOR_COVERAGE:
+                out.append(f"{r['test']} {p.get('results_name', 'phase ' + str(p['phase']))}: "
+                           f"{100 * u:.0f} % of the predicted fuel from operating points the "
+                           "identification data did not cover (extrapolated)")
     return out
 
 

@@ -74,9 +74,10 @@ def _solve(traces, lag_s, min_speed):
     if y.size < 50:
         raise IdentificationError(f"road load: only {y.size} moving samples in "
                                   f"{', '.join(t.test_id for t in traces)}; give a driven test")
-    theta, *_ = np.linalg.lstsq(x, y, rcond=None)
-    r = y - x @ theta
-    return x, y, xs, ys, theta, float(1 - (r @ r) / np.sum((y - y.mean()) ** 2))
+    # normal equations by einsum (no threaded BLAS: it spin-waits on a loaded machine)
+    theta = np.linalg.solve(np.einsum("ij,ik->jk", x, x), np.einsum("ij,i->j", x, y))
+    r = y - np.einsum("ij,j->i", x, theta)
+    return x, y, xs, ys, theta, float(1 - np.sum(r * r) / np.sum((y - y.mean()) ** 2))
 
 
 def fit_road_load(traces: list[Trace], min_speed: float = MIN_SPEED_MPS) -> RoadLoadFit:
@@ -93,7 +94,7 @@ def fit_road_load(traces: list[Trace], min_speed: float = MIN_SPEED_MPS) -> Road
             res_rho.append(float(np.corrcoef(ri[:-1], ri[1:])[0, 1]))
     rho = min(max(float(np.mean(res_rho)) if res_rho else 0.0, 0.0), 0.999)
     n_eff = max(n * (1 - rho) / (1 + rho), p + 1.0)
-    s2 = float(r @ r) / (n - p)
+    s2 = float(np.sum(r * r)) / (n - p)
     cov = s2 * np.linalg.inv(x.T @ x) * (n / n_eff)
     half = 1.96 * np.sqrt(np.diag(cov))
     tpl = {}
@@ -118,5 +119,5 @@ def check_road_load(fit: RoadLoadFit, trace: Trace, min_speed: float = MIN_SPEED
     m = trace.v > min_speed
     y = force_at_lag(trace, fit.lag_s)[m]
     r = y - fit.force(trace.v[m], trace.a[m])
-    return {"test": trace.test_id, "r2": float(1 - (r @ r) / np.sum((y - y.mean()) ** 2)),
+    return {"test": trace.test_id, "r2": float(1 - np.sum(r * r) / np.sum((y - y.mean()) ** 2)),
             "mean_offset_n": float(r.mean()), "rmse_n": float(np.sqrt(np.mean(r * r)))}
