@@ -146,7 +146,9 @@ def _engine(e: dict, rated_power_w: float, displacement_l: float,
     spd = np.asarray(e["speed_rpm"], float)
     trq = np.asarray(e["torque_nm"], float)
     tmax = np.asarray(e["max_torque_nm"], float)
-    lhv = float(e["fuel_lhv_j_per_kg"])
+    from vehval.fuels import table_fuel
+
+    lhv = float(table_fuel(str(e["fuel"])).lhv_j_per_kg)   # the 2004 file names its fuel
     eff_old = peak_efficiency(spd, trq, e["fuel_rate_g_per_s"], tmax, lhv)
     k_n = ENGINE_SPEED_RATED_RPM / e["max_speed_rpm"]
     k_t = ENGINE_TORQUE_MAX_NM / max(e["max_torque_nm"])
@@ -169,8 +171,7 @@ def _engine(e: dict, rated_power_w: float, displacement_l: float,
             max_power_w=rated_power_w, max_speed_rpm=ENGINE_SPEED_RATED_RPM,
             idle_speed_rpm=e["idle_speed_rpm"], fire_speed_rpm=e["fire_speed_rpm"],
             motoring_torque_nm=e["motoring_torque_nm"], inertia_kg_m2=e["inertia_kg_m2"],
-            fuel_density_kg_per_m3=e["fuel_density_kg_per_m3"], fuel_lhv_j_per_kg=lhv,
-            sources={})
+            fuel=e["fuel"], sources={})
         p_line, w_line, t_line = best_efficiency_line(scaled)
         a = scaled.arrays()
         from vehval.vehicle.maps import bilinear
@@ -202,8 +203,7 @@ def _engine(e: dict, rated_power_w: float, displacement_l: float,
         "idle_speed_rpm": e["idle_speed_rpm"], "fire_speed_rpm": e["fire_speed_rpm"],
         "motoring_torque_nm": round(e["motoring_torque_nm"] * k_d, 2),
         "inertia_kg_m2": round(e["inertia_kg_m2"] * k_d, 4),
-        "fuel_density_kg_per_m3": e["fuel_density_kg_per_m3"],
-        "fuel_lhv_j_per_kg": lhv,
+        "fuel": e["fuel"],
         "displacement_l": displacement_l,
         "sources": {
             "speed_rpm": how, "torque_nm": how,
@@ -223,8 +223,8 @@ def _engine(e: dict, rated_power_w: float, displacement_l: float,
                                    f"{displacement_l} L / 1.497 L): same friction mean "
                                    "effective pressure"),
             "inertia_kg_m2": f"2004 value x displacement ratio {k_d:.3f}",
-            "fuel_density_kg_per_m3": "DESIGN.md public fact: US test gasoline about 0.74 kg/L",
-            "fuel_lhv_j_per_kg": "DESIGN.md public fact: 42.6-43 MJ/kg",
+            "fuel": ("US Tier 2 certification gasoline, the fuel of the EPA certification "
+                     "tests the model is validated on (fuel table gasoline_e0)"),
             "displacement_l": "EPA Test Car List 2016, 'Test Veh Displacement (L)' of the PRIUS "
                               f"rows; {SPECS}: kfz-tech.de 1798 cm^3",
         },
