@@ -136,3 +136,24 @@ def test_headline_is_the_last_run_of_a_two_run_hwfet_and_the_whole_test_otherwis
 
 def test_exit_code_is_distinct():
     assert EXIT_WITHHELD == 4
+
+
+def test_an_error_the_import_repaired_withholds_nothing():
+    res = _res()
+    f = _err("fuel_rate_test", kind=Kind.RATE_IRREGULAR, span=(-10.0, 2000.0))
+    f.numbers = {"repaired_at_import": True}       # a repeated time stamp dropped at import
+    apply_gate(res, [f])
+    assert res.withheld == {}
+
+
+def test_a_source_qa_dropped_for_an_error_is_withheld_not_merely_missing():
+    t, s = true_signals()
+    test = make_test(t, s)
+    test.drop("fuel_rate_test")    # what the selection leaves when it drops the only source
+    res = compute_results(test, fuel=EXPLICIT)
+    assert "fuel" not in res.inputs and res.value("test", "fuel_economy_mpg") is None
+    apply_gate(res, [_err("fuel_rate_test", kind=Kind.ALL_ZERO, span=(0.0, 0.0))])
+    w = res.withheld["test"]
+    assert w["signals"] == ["fuel_rate_test"] and "fuel_economy_mpg" in w["quantities"]
+    assert headline(res)["withheld"] is not None
+    assert res.value("test", "distance_m") is not None and "distance_m" not in w["quantities"]

@@ -16,12 +16,9 @@ consumer (screen, report, batch index, catalog, Excel) reads instead of choosing
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any, Iterable
+from typing import Any, Iterable
 
 from vehval.qa.findings import Finding, Kind, Severity
-
-if TYPE_CHECKING:
-    from vehval.results.compute import TestResults
 
 __all__ = ["EXIT_WITHHELD", "apply_gate", "dependencies", "headline", "withheld_count"]
 
@@ -113,7 +110,7 @@ def _entry(quantities: list[str], hits: list[Finding], forced: bool) -> dict[str
             **({"forced": True} if forced else {})}
 
 
-def _scopes(res: TestResults) -> list[tuple[str, str, list[tuple[float, float]]]]:
+def _scopes(res: Any) -> list[tuple[str, str, list[tuple[float, float]]]]:
     """(scope, kind, record-time segments) of every stated figure."""
     segs = {p.name: list(p.segments) for p in res.phases}
     out = [(p.name, "phase", segs[p.name]) for p in res.phases]
@@ -124,13 +121,13 @@ def _scopes(res: TestResults) -> list[tuple[str, str, list[tuple[float, float]]]
     return out
 
 
-def apply_gate(res: TestResults, findings: Iterable[Finding | dict] = (), *,
-               force: bool = False) -> TestResults:
+def apply_gate(res: Any, findings: Iterable[Finding | dict] = (), *,
+               force: bool = False) -> Any:
     """Withhold the figures of ``res`` computed from signals QA holds an error on.
 
     Parameters
     ----------
-    res : TestResults
+    res : vehval.results.TestResults
         Computed results (changed in place and returned).
     findings : iterable of Finding or dict
         QA findings of the test (``findings.json`` entries or :class:`Finding`); the
@@ -140,23 +137,31 @@ def apply_gate(res: TestResults, findings: Iterable[Finding | dict] = (), *,
 
     Returns
     -------
-    TestResults
+    vehval.results.TestResults
         ``res``, with ``withheld`` per scope and ``forced`` set.
     """
     errors = [f if isinstance(f, Finding) else Finding.from_dict(f) for f in findings]
-    errors = [f for f in errors + list(res.findings) if f.severity == Severity.ERROR]
+    # an error the import already repaired (a repeated time stamp dropped) leaves sound values
+    errors = [f for f in errors + list(res.findings) if f.severity == Severity.ERROR
+              and not (f.numbers or {}).get("repaired_at_import")]
     res.withheld = {}
     res.forced = bool(force)
     if not errors:
         return res
+    # a role with no signal because QA's selection dropped its only source for an error:
+    # its figures are withheld for that error, not merely "n/a"
+    dropped = {role: sorted({f.signal for f in errors if _is_measured(f.signal, base)})
+               for role, base in _ROLE_BASE.items() if not res.inputs.get(role)}
+    inputs = {**res.inputs, **{r: names for r, names in dropped.items() if names}}
+    lost = {n for names in dropped.values() for n in names}
     for scope, kind, segs in _scopes(res):
-        deps = dependencies(res.inputs, kind)
+        deps = dependencies(inputs, kind)
         vals = res.values.get(scope, {})
         out: list[str] = []
         hits: list[Finding] = []
         for q, sigs in deps.items():
-            if vals.get(q) is None:      # nothing stated, nothing to withhold
-                continue
+            if vals.get(q) is None and not lost & set(sigs):
+                continue                 # nothing stated, nothing to withhold
             h = [f for f in errors if f.signal in sigs and _overlaps(f, segs)]
             if h:
                 out.append(q)
@@ -171,12 +176,22 @@ def apply_gate(res: TestResults, findings: Iterable[Finding | dict] = (), *,
     return res
 
 
-def withheld_count(res: TestResults) -> int:
+#: Role of :attr:`TestResults.inputs` -> base name of its measured signals.
+_ROLE_BASE = {"speed": "veh_spd", "fuel": "fuel_rate", "co2": "co2_rate"}
+
+
+def _is_measured(name: str, base: str) -> bool:
+    """``name`` is a measured signal (``*_test``) of ``base`` (``fuel_rate_test``,
+    ``fuel_rate_bench_test``)."""
+    return name.startswith(base + "_") and name.endswith("_test")
+
+
+def withheld_count(res: Any) -> int:
     """Number of scopes (phases, whole test, composites) with a withheld figure."""
     return len(res.withheld)
 
 
-def headline(res: TestResults) -> dict[str, Any]:
+def headline(res: Any) -> dict[str, Any]:
     """The test's headline: the regulatory figure of its cycle.
 
     HWFET, US06 and SC03: the last run (the first prepares); UDDS: bags 1+2; FTP-75: the
