@@ -98,3 +98,30 @@ def test_qa_force_gives_the_stated_despite_banner(mg_test, cli, tmp_path):
     assert code == 0
     html = (tmp_path / "qa" / "report.html").read_text(encoding="utf-8")
     assert "headline-forced" in html and "Stated despite QA errors" in html
+
+
+# ---------------------------------------------------------------- the example, real data
+def _cruze_template(tmp_path, fuel_unit: str):
+    from .test_cli_realdata import CRUZE_TEMPLATE
+
+    text = CRUZE_TEMPLATE.read_text()
+    text = text.replace("  fuel_density_kg_per_m3: 851\n", "").replace(
+        "  fuel_lhv_j_per_kg: 42.8e6\n", "") + "fuel: diesel\n"
+    text = text.replace("{name: fuel_rate_test, unit: g/s}", f"{{name: fuel_rate_test, unit: {fuel_unit}}}")
+    p = tmp_path / f"cruze_{fuel_unit.replace('/', '_')}.yaml"
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.realdata
+def test_cruze_fuel_declared_mg_per_s_is_withheld_not_33857_mpg(cli, tmp_path):
+    from .test_cli_realdata import CRUZE
+
+    if not CRUZE.is_dir():
+        pytest.skip("real data not available")
+    f = CRUZE / "61410013 Test Data.txt"
+    code, out, _ = cli("results", f, "-t", _cruze_template(tmp_path, "mg/s"), "-o", tmp_path / "r")
+    assert code == 4 and "WITHHELD (fuel_rate_test)" in out
+    assert "33856" not in out and "33,857" not in out
+    doc = json.loads((tmp_path / "r" / "results.json").read_text())
+    assert doc["headline"]["name"] == "udds" and doc["headline"]["fuel_economy_mpg"] is None

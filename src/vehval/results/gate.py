@@ -97,7 +97,7 @@ def _fix(f: Finding) -> str:
 
 def _entry(quantities: list[str], hits: list[Finding], forced: bool) -> dict[str, Any]:
     signals = sorted({f.signal for f in hits})
-    first = {}
+    first: dict[str, Finding] = {}
     for f in hits:              # one reason and one fix per signal, the first error of each
         first.setdefault(f.signal, f)
     reason = "; ".join(f"QA error on {s} ({first[s].kind.value}): {first[s].message}"
