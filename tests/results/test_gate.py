@@ -157,3 +157,18 @@ def test_a_source_qa_dropped_for_an_error_is_withheld_not_merely_missing():
     assert w["signals"] == ["fuel_rate_test"] and "fuel_economy_mpg" in w["quantities"]
     assert headline(res)["withheld"] is not None
     assert res.value("test", "distance_m") is not None and "distance_m" not in w["quantities"]
+
+
+def test_the_soc_correction_is_withheld_with_the_fuel_energy():
+    t, s = true_signals()
+    test = make_test(t, s)
+    from vehval.test import Signal
+
+    test.add(Signal.standard("ess_pwr_test", t, np.full(t.size, 2000.0), source="dyno"))
+    res = compute_results(test, fuel=EXPLICIT)
+    assert res.soc["status"] == "beyond_tolerance_uncorrected"
+    assert any(f.message == res.soc["message"] for f in res.findings)
+    apply_gate(res, [_err("fuel_rate_test", kind=Kind.UNIT_SUSPECT)])
+    assert res.soc["status"] == "withheld" and "fuel_rate_test" in res.soc["message"]
+    assert not any("battery net energy change" in f.message for f in res.findings)
+    assert res.value("test", "ess_energy_net_j") is not None      # the battery is fine

@@ -173,7 +173,23 @@ def apply_gate(res: Any, findings: Iterable[Finding | dict] = (), *,
             for q in out:
                 vals[q] = None
                 res.uncertainty.get(scope, {}).pop(q, None)
+    if not force:
+        _gate_soc(res)
     return res
+
+
+def _gate_soc(res: Any) -> None:
+    """The J1711 ratio is battery energy over fuel energy: withheld with the fuel energy."""
+    held = [w for w in res.withheld.values() if "fuel_energy_j" in w["quantities"]]
+    soc = res.soc or {}
+    if not held or soc.get("status") in (None, "not_applicable"):
+        return
+    old = soc.get("message")
+    res.findings = [f for f in res.findings if not (old and f.message == old)]
+    res.soc = {"status": "withheld", "tolerance": soc.get("tolerance"), "method": None,
+               "message": "SOC correction (SAE J1711) withheld: it compares the battery energy "
+                          "with the fuel energy, which is withheld (" + held[0]["reason"] + ")",
+               "scopes": {}}
 
 
 #: Role of :attr:`TestResults.inputs` -> base name of its measured signals.
