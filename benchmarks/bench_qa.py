@@ -2,7 +2,9 @@
 
 Baseline: ``vehval.io.readers.read_raw`` of the same D3 file (parse only), measured in the
 same run. Measured: ``run_qa`` (alignment, QA levels 1-3, calculations, selection) on the
-imported test; the target is that the analysis adds less than 2 s. The CAN-logger-like second
+imported test; the target is that the analysis adds less than 2 s. The QA gate of the results
+(:func:`vehval.results.gate.apply_gate`) is measured on and off: ``run_qa`` + results with
+it against without, target under 10 % more. The CAN-logger-like second
 source needed by alignment and QA2 is made from three of the file's channels (1 Hz with
 jitter and a known 2.3 s clock offset), so every stage does real work.
 """
@@ -72,6 +74,7 @@ def run() -> list[dict]:
         t_qa = best_of(qa, n=3)
         r = result["r"]
         off = r.alignment[0].offset_s if r.alignment else float("nan")
+        t_res, t_gate, n_err = _results_and_gate(r, tpl)
     note = (f"{n_sig} signals x {n_samp} samples; {len(r.findings)} findings, "
             f"{len(r.calculations.computed)} calc signals; CAN offset found {off:+.3f} s (true +2.300 s)")
     return [
@@ -79,7 +82,38 @@ def run() -> list[dict]:
             note="align + QA1 + QA2 + calc + QA3 + select (run_qa); target: under 2 s; " + note),
         row("qa_chain_vs_read", t_qa, "s", baseline=t_read,
             note="ratio of the analysis time to read_raw of the same file (parse only)"),
+        row("qa_results_gate_on_vs_off", t_qa + t_res + t_gate, "s", baseline=t_qa + t_res,
+            target=1.10,
+            note=(f"`vehval qa` work (run_qa + results) with the QA gate of the results "
+                  f"(apply_gate, {len(r.findings)} findings, {n_err} errors) against without; "
+                  f"target: under 10 % more; gate alone {1e3 * t_gate:.2f} ms")),
     ]
+
+
+def _results_and_gate(r, tpl) -> tuple[float, float, int]:
+    """Best times [s] of the results stage and of its QA gate (on a fresh copy each time),
+    and the number of error findings the gate sees. An error finding on the fuel channel
+    is added so the gate withholds figures (its worst case: every scope checked)."""
+    import copy
+    import time
+
+    from vehval.qa.findings import Finding, Kind, Severity
+    from vehval.results import results_from_template
+    from vehval.results.gate import apply_gate
+
+    test = r.validated
+    t_res = best_of(lambda: results_from_template(test, tpl), n=3)
+    res = results_from_template(test, tpl)
+    fuel = (res.inputs.get("fuel") or res.inputs.get("speed") or ["veh_spd_test"])[0]
+    findings = list(r.findings) + [Finding(fuel, Kind.UNIT_SUSPECT, float("nan"), float("nan"),
+                                           Severity.ERROR, "benchmark: unit suspect")]
+    best = float("inf")
+    for _ in range(5):
+        work = copy.deepcopy(res)
+        t0 = time.perf_counter()
+        apply_gate(work, findings)
+        best = min(best, time.perf_counter() - t0)
+    return t_res, best, sum(f.severity == Severity.ERROR for f in findings)
 
 
 if __name__ == "__main__":  # pragma: no cover

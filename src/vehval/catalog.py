@@ -34,7 +34,7 @@ from typing import Any, Iterable, Iterator
 from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.jsonsafe import clean
 
-SCHEMA_VERSION = 2
+SCHEMA_VERSION = 3
 
 #: Key metrics stored as DOUBLE columns of ``tests`` (name -> description [unit]).
 METRIC_COLUMNS: dict[str, str] = {
@@ -66,9 +66,16 @@ PHASE_COLUMNS: dict[str, str] = {
     "rmsse_mps": "SAE J2951 RMS speed error [m/s]",
 }
 
-#: Metrics summarised by :func:`summary` (variability per vehicle and cycle).
-SUMMARY_METRICS = ("fuel_economy_mpg", "fuel_mass_kg", "soc_change", "fuel_energy_j",
-                   "ess_energy_j", "eng_energy_j", "tractive_energy_j")
+#: The headline of a test (the regulatory figure of its cycle, docs/results.md) in ``tests``.
+HEADLINE_COLUMNS: dict[str, str] = {
+    "headline_mpg": "headline fuel economy [mile/US gal]; NULL when withheld",
+    "headline_u_mpg": "its expanded uncertainty U, k = 2 [mile/US gal]",
+    "headline_l_per_100km": "headline fuel consumption [L/100 km]; NULL when withheld",
+}
+
+#: Metrics summarised by :func:`summary` (variability per vehicle, cycle and conditions).
+SUMMARY_METRICS = ("headline_mpg", "fuel_economy_mpg", "fuel_mass_kg", "soc_change",
+                   "fuel_energy_j", "ess_energy_j", "eng_energy_j", "tractive_energy_j")
 
 _DDL = [
     """CREATE TABLE IF NOT EXISTS schema_info (
@@ -83,7 +90,10 @@ _DDL = [
     "    vehicle VARCHAR, cycle VARCHAR, files VARCHAR[], file_hashes JSON,\n"
     "    input_hash VARCHAR, elapsed_s DOUBLE,\n"
     + "".join(f"    {c} DOUBLE,\n" for c in METRIC_COLUMNS)
-    + "    fuel VARCHAR, cell_temp_c DOUBLE, start_condition VARCHAR,\n"
+    + "    fuel VARCHAR, cell_temp_c DOUBLE, start_condition VARCHAR, ac VARCHAR,\n"
+    "    headline_name VARCHAR, headline_rule VARCHAR,\n"
+    + "".join(f"    {c} DOUBLE,\n" for c in HEADLINE_COLUMNS)
+    + "    withheld_reason VARCHAR, withheld_count INTEGER,\n"
     "    n_findings INTEGER, n_findings_by_severity JSON, qa_summary JSON,\n"
     "    validation JSON, validation_errors JSON, outputs VARCHAR[],\n"
     "    PRIMARY KEY (test_id, run_id))",
@@ -94,7 +104,8 @@ _DDL = [
     "    test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, scope VARCHAR NOT NULL,\n"
     "    kind VARCHAR NOT NULL, part VARCHAR, run INTEGER,\n"
     + "".join(f"    {c} DOUBLE,\n" for c in PHASE_COLUMNS)
-    + "    PRIMARY KEY (test_id, run_id, scope))",
+    + "    withheld_reason VARCHAR,\n"
+    "    PRIMARY KEY (test_id, run_id, scope))",
     """CREATE OR REPLACE VIEW latest_tests AS
         SELECT t.* FROM tests t JOIN runs r USING (run_id)
         QUALIFY row_number() OVER (PARTITION BY t.test_id
@@ -326,14 +337,23 @@ class Catalog:
                _num(result.get("elapsed_s"))]
         row += [_num(metrics.get(c)) for c in METRIC_COLUMNS]
         res = result.get("results") or {}
-        row += [res.get("fuel"), _num(res.get("cell_temp_c")), res.get("start")]
+        head = res.get("headline") or {}
+        held = head.get("withheld") if not head.get("forced") else None
+        row += [res.get("fuel"), _num(res.get("cell_temp_c")), res.get("start"), res.get("ac"),
+                head.get("name"), head.get("rule"),
+                None if held else _num(head.get("fuel_economy_mpg")),
+                None if held else _num(head.get("fuel_economy_u_mpg")),
+                None if held else _num(head.get("fuel_consumption_l_per_100km")),
+                (held or {}).get("reason"), res.get("withheld_count")]
         row += [len(findings), to_json(result.get("findings_by_severity") or {}),
                 to_json(result.get("qa_summary")), to_json(validation), to_json(val_errors),
                 [str(o) for o in result.get("outputs", [])]]
         cols = (["test_id", "run_id", "status", "error", "error_type", "source_run_id", "vehicle",
                  "cycle", "files", "file_hashes", "input_hash", "elapsed_s"] + list(METRIC_COLUMNS)
-                + ["fuel", "cell_temp_c", "start_condition", "n_findings", "n_findings_by_severity", "qa_summary", "validation",
-                   "validation_errors", "outputs"])
+                + ["fuel", "cell_temp_c", "start_condition", "ac", "headline_name", "headline_rule"]
+                + list(HEADLINE_COLUMNS)
+                + ["withheld_reason", "withheld_count", "n_findings", "n_findings_by_severity",
+                   "qa_summary", "validation", "validation_errors", "outputs"])
         self.con.execute("BEGIN TRANSACTION")
         try:
             self.con.execute("DELETE FROM tests WHERE test_id = ? AND run_id = ?", [row[0], run_id])
@@ -341,7 +361,7 @@ class Catalog:
             self.con.execute("DELETE FROM phase_results WHERE test_id = ? AND run_id = ?",
                              [row[0], run_id])
             prow = [[row[0], run_id, r.get("scope"), r.get("kind"), r.get("part"), r.get("run")]
-                    + [_num(r.get(c)) for c in PHASE_COLUMNS]
+                    + [_num(r.get(c)) for c in PHASE_COLUMNS] + [r.get("withheld_reason")]
                     for r in res.get("rows") or [] if r.get("scope")]
             if prow:
                 self.con.executemany(
@@ -447,26 +467,36 @@ class Catalog:
         return QueryResult(cols, rows[:limit], len(rows) > limit)
 
     def summary(self, metrics: Iterable[str] = SUMMARY_METRICS) -> list[dict]:
-        """Test-to-test variability per vehicle and cycle over the latest result of each test.
+        """Test-to-test variability per vehicle, cycle and test conditions over the latest
+        result of each test.
 
-        Returns one dict per (vehicle, cycle, metric): ``n``, ``mean``, ``std`` (sample,
-        ddof = 1), ``cv`` (std / |mean|, None when the mean is 0), ``min``, ``max``.
-        Only tests whose latest result is ``ok`` (computed or skipped as unchanged) count.
+        The conditions are the start (``cold``/``hot``), the cell temperature band
+        (:data:`TEMPERATURE_BANDS_SQL`) and the A/C (``on``/``off``), each ``unknown`` when
+        not known: a cold UDDS, a hot UDDS, a -7 degC UDDS and a 35 degC UDDS with the A/C on
+        are separate groups. Returns one dict per (vehicle, cycle, start, temperature band,
+        A/C, metric): ``n``, ``mean``, ``std`` (sample, ddof = 1), ``cv`` (std / |mean|, None
+        when the mean is 0), ``min``, ``max``. Only tests whose latest result is ``ok``
+        (computed or skipped as unchanged) count; ``headline_mpg`` is NULL (not counted) for a
+        test whose headline was withheld.
         """
+        known = {**METRIC_COLUMNS, **HEADLINE_COLUMNS}
         out: list[dict] = []
         for m in metrics:
-            if m not in METRIC_COLUMNS:
-                raise VehvalError(f"unknown metric '{m}'; known: {', '.join(METRIC_COLUMNS)}")
+            if m not in known:
+                raise VehvalError(f"unknown metric '{m}'; known: {', '.join(known)}")
             _, rows = self.query(
-                f"""SELECT coalesce(vehicle, ''), coalesce(cycle, ''), count({m}), avg({m}),
+                f"""SELECT coalesce(t.vehicle, ''), coalesce(t.cycle, ''),
+                           coalesce(t.start_condition, 'unknown'), {TEMPERATURE_BANDS_SQL},
+                           coalesce(t.ac, 'unknown'), count({m}), avg({m}),
                            stddev_samp({m}), min({m}), max({m})
-                    FROM latest_tests
-                    WHERE status IN ('ok', 'skipped') AND error IS NULL AND {m} IS NOT NULL
-                    GROUP BY 1, 2 ORDER BY 1, 2""")
-            for veh, cyc, n, mean, std, lo, hi in rows:
+                    FROM latest_tests t
+                    WHERE t.status IN ('ok', 'skipped') AND t.error IS NULL AND {m} IS NOT NULL
+                    GROUP BY 1, 2, 3, 4, 5 ORDER BY 1, 2, 3, 4, 5""")
+            for veh, cyc, start, band, ac, n, mean, std, lo, hi in rows:
                 cv = (std / abs(mean)) if (std is not None and mean) else None
-                out.append({"vehicle": veh, "cycle": cyc, "metric": m, "n": int(n), "mean": mean,
-                            "std": std, "cv": cv, "min": lo, "max": hi})
+                out.append({"vehicle": veh, "cycle": cyc, "start": start,
+                            "temperature_band": band, "ac": ac, "metric": m, "n": int(n),
+                            "mean": mean, "std": std, "cv": cv, "min": lo, "max": hi})
         return out
 
 
@@ -489,23 +519,24 @@ TEMPERATURE_BANDS_SQL = ("CASE WHEN t.cell_temp_c IS NULL THEN 'unknown' "
 
 def results_variability(catalog: "Catalog") -> list[dict]:
     """Fuel economy variability of the latest result of every test, grouped by vehicle,
-    cycle, cell temperature band, cold or hot start and result scope (phase, whole test,
+    cycle, cell temperature band, cold or hot start, A/C and result scope (phase, whole test,
     composite): ``n``, ``mean``, ``std`` (ddof 1), ``cv``, ``mean_u`` (mean expanded
     uncertainty of one test, k = 2) [mpg]."""
     _, rows = catalog.query(
         f"""SELECT coalesce(t.vehicle, ''), coalesce(t.cycle, ''), {TEMPERATURE_BANDS_SQL},
-                   coalesce(t.start_condition, 'unknown'), p.scope, p.kind, count(*),
+                   coalesce(t.start_condition, 'unknown'), coalesce(t.ac, 'unknown'),
+                   p.scope, p.kind, count(*),
                    avg(p.fuel_economy_mpg), stddev_samp(p.fuel_economy_mpg),
                    avg(p.fuel_economy_u_mpg)
             FROM latest_tests t JOIN phase_results p
               ON p.test_id = t.test_id AND p.run_id = t.run_id
             WHERE t.status IN ('ok', 'skipped') AND t.error IS NULL
               AND p.fuel_economy_mpg IS NOT NULL
-            GROUP BY 1, 2, 3, 4, 5, 6 ORDER BY 1, 2, 3, 4, 6 DESC, 5""")
+            GROUP BY 1, 2, 3, 4, 5, 6, 7 ORDER BY 1, 2, 3, 4, 5, 7 DESC, 6""")
     out = []
-    for veh, cyc, band, start, scope, kind, n, mean, std, mu in rows:
+    for veh, cyc, band, start, ac, scope, kind, n, mean, std, mu in rows:
         out.append({"vehicle": veh, "cycle": cyc, "temperature_band": band, "start": start,
-                    "scope": scope, "kind": kind, "n": int(n), "mean": mean, "std": std,
+                    "ac": ac, "scope": scope, "kind": kind, "n": int(n), "mean": mean, "std": std,
                     "cv": (std / abs(mean)) if (std is not None and mean) else None,
                     "mean_u": mu})
     return out

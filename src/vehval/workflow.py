@@ -262,20 +262,24 @@ class TestRun:
         return self.test
 
     def results(self, *, method: str = "first_order", draws: int = 1000, seed: int = 0,
-                hot_start_bag1: dict | None = None) -> ResultsOutcome:
+                hot_start_bag1: dict | None = None, force: bool = False) -> ResultsOutcome:
         """Test results from the validated signals with the template's ``fuel``, ``accuracy``
-        and ``phase_channel`` (see :func:`vehval.results.compute_results`); runs once per run
-        unless called again with other options."""
+        and ``phase_channel`` (see :func:`vehval.results.compute_results`), gated by QA's
+        error findings (:func:`vehval.results.gate.apply_gate`; ``force`` states withheld
+        figures anyway); runs once per run unless called again with other options."""
         from vehval.results import compute_results, results_from_template
+        from vehval.results.gate import apply_gate
 
         opts: dict[str, Any] = {"method": method, "draws": draws, "seed": seed,
                                 "hot_start_bag1": hot_start_bag1}
-        if self._results is None or getattr(self, "_results_opts", None) != opts:
+        if (self._results is None or getattr(self, "_results_opts", None) != opts
+                or self._results.results.forced != force):
             test = self.validated
             if self.template is not None:
                 res = results_from_template(test, self.template, **opts)
             else:
                 res = compute_results(test, **opts)
+            apply_gate(res, self._qa.result.findings if self._qa is not None else (), force=force)
             self._results = ResultsOutcome(res)
             self._results_opts = opts
         return self._results

@@ -41,7 +41,7 @@ def test_batch_writes_phase_results_and_groups_them(tmp_path):
     doc = json.loads((out / "tests" / "u0" / "results.json").read_text())
     assert [p["name"] for p in doc["phases"]] == ["bag1", "bag2"]
     with open_catalog(out / "catalog.duckdb", read_only=True) as cat:
-        assert cat.query("SELECT version FROM schema_info")[1] == [(SCHEMA_VERSION,)] == [(2,)]
+        assert cat.query("SELECT version FROM schema_info")[1] == [(SCHEMA_VERSION,)] == [(3,)]
         _, rows = cat.query("SELECT test_id, scope, kind, fuel_economy_mpg, fuel_economy_u_mpg "
                             "FROM phase_results WHERE run_id = ? ORDER BY 1, 3, 2", [s.run_id])
         scopes = {(r[0], r[1], r[2]) for r in rows}
@@ -68,3 +68,43 @@ def test_batch_without_fuel_gives_no_fuel_economy(tmp_path):
         _, rows = cat.query("SELECT fuel_economy_mpg, fuel_mass_kg FROM tests WHERE run_id = ?",
                             [s.run_id])
     assert rows[0][0] is None and rows[0][1] > 0         # never a silent gasoline density
+
+
+def test_batch_headline_withheld_reason_conditions_and_exit_code(tmp_path, cli):
+    """A batch of three UDDS tests: one at 24 degC, one at 35 degC, one whose fuel channel
+    reads zero throughout (QA error): the catalog's headline equals results.json's, the
+    zero-fuel test's headline is withheld with its reason, the two cells are separate
+    groups of `catalog summary`, no SOC chart for a car without a battery, and exit 4."""
+    inp, out = tmp_path / "in", tmp_path / "out"
+    tpl = _write(inp, n=3)
+    for i, (cell, zero_fuel) in enumerate(((24.0, False), (35.0, False), (24.0, True))):
+        f = inp / f"u{i}" / "run.csv"
+        data = np.loadtxt(f, delimiter=",", skiprows=1)
+        data[:, 4] = cell
+        if zero_fuel:
+            data[:, 2] = 0.0
+        np.savetxt(f, data, delimiter=",", fmt="%.6f",
+                   header="Time[s],Speed[mph],Fuel[g/s],Phase,Cell[degC]", comments="")
+    code, _, err = cli("batch", inp, "-t", tpl, "-o", out, "--workers", "0", "-q")
+    assert code == 4, err
+    assert "withheld u2: headline udds (fuel_rate_test)" in err
+    doc = json.loads((out / "tests" / "u0" / "results.json").read_text())
+    assert doc["headline"]["name"] == "udds" and doc["withheld_count"] == 0
+    with open_catalog(out / "catalog.duckdb", read_only=True) as cat:
+        _, rows = cat.query("SELECT test_id, headline_name, headline_mpg, withheld_reason, ac "
+                            "FROM latest_tests ORDER BY test_id")
+        summary = cat.summary()
+    by_id = {r[0]: r for r in rows}
+    assert by_id["u0"][1] == "udds"
+    assert by_id["u0"][2] == pytest.approx(doc["headline"]["fuel_economy_mpg"], rel=1e-12)
+    assert by_id["u0"][3] is None and by_id["u0"][4] == "off" and by_id["u1"][4] == "on"
+    assert by_id["u2"][2] is None and "fuel_rate_test" in by_id["u2"][3]
+    groups = {(s["cycle"], s["start"], s["temperature_band"], s["ac"])
+              for s in summary if s["metric"] == "headline_mpg"}
+    assert len(groups) == 2                          # 24 degC / A/C off and 35 degC / A/C on
+    head = [s for s in summary if s["metric"] == "headline_mpg"]
+    assert sum(s["n"] for s in head) == 2            # the withheld headline is not counted
+    html = (out / "index.html").read_text()
+    assert "fe_soc" not in html and "withheld" in html
+    code, text, _ = cli("catalog", "summary", "--db", out / "catalog.duckdb")
+    assert code == 0 and "hot (> 30 degC)" in text and "headline_mpg" in text

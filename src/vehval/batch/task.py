@@ -231,11 +231,13 @@ def results_summary(res: Any) -> dict:
         row = {"scope": name, "kind": kind, "part": part or None, "run": run or None,
                **{k: vals.get(k) for k in PHASE_FIELDS},
                "fuel_economy_u_mpg": res.expanded(name, "fuel_economy_mpg"),
-               "iwr_pct": dq.get("iwr_pct"), "rmsse_mps": dq.get("rmsse_mps")}
+               "iwr_pct": dq.get("iwr_pct"), "rmsse_mps": dq.get("rmsse_mps"),
+               "withheld_reason": (res.withheld.get(name) or {}).get("reason")}
         rows.append(row)
     return {"phase_source": res.phase_source, "fuel": res.fuel.name if res.fuel else None,
             "cell_temp_c": res.conditions.get("cell_temp_c"), "start": res.conditions.get("start"),
-            "rows": rows}
+            "ac": res.conditions.get("ac"), "headline": res.headline(),
+            "withheld_count": len(res.withheld), "forced": res.forced, "rows": rows}
 
 
 def process_test(job: dict) -> dict:

@@ -42,7 +42,10 @@ def batch_cmd(
                                        "after this many seconds: it is recorded as failed and "
                                        "the batch goes on (0 = no limit)."),
 ) -> None:
-    """Process many tests at once; rerun to resume: unchanged tests are skipped."""
+    """Process many tests at once; rerun to resume: unchanged tests are skipped.
+
+    Exit code 1: a test failed or an input was skipped; 4: every test ran but at least one
+    headline was withheld for QA errors."""
     from vehval.batch import run_batch
     from vehval.io.paths import check_outputs, vehicle_path
     from vehval.io.template import check_cycle_name
@@ -68,8 +71,19 @@ def batch_cmd(
     for r in failed:
         when = " (unchanged since an earlier run)" if r.get("batch_status") == "skipped" else ""
         typer.echo(f"  failed {r['test_id']}{when}: {r.get('error')}", err=True)
+    held = [r for r in res.results if r.get("status") != "failed"
+            and ((r.get("results") or {}).get("headline") or {}).get("withheld")
+            and not ((r.get("results") or {}).get("headline") or {}).get("forced")]
+    for r in held:
+        w = r["results"]["headline"]["withheld"]
+        typer.echo(f"  withheld {r['test_id']}: headline {r['results']['headline'].get('name')} "
+                   f"({', '.join(w.get('signals') or [])}): {w.get('fix')}", err=True)
     if failed or res.skipped_inputs:
         raise typer.Exit(1)
+    if held:
+        from vehval.results.gate import EXIT_WITHHELD
+
+        raise typer.Exit(EXIT_WITHHELD)
 
 
 def _db(db: Optional[Path]) -> Path:
@@ -126,7 +140,8 @@ def catalog_summary(
     as_json: bool = typer.Option(False, "--json", help="Print JSON."),
     timeout: float = typer.Option(30.0, "--timeout", callback=bounded("query_timeout"), help="Stop after this many seconds."),
 ) -> None:
-    """Test-to-test variability per vehicle and cycle: n, mean, std, CV of the key metrics."""
+    """Test-to-test variability per vehicle, cycle and test conditions (start, cell
+    temperature band, A/C): n, mean, std, CV of the headline and the key metrics."""
     from vehval.catalog import open_catalog
     from vehval.errors import VehvalError
 
@@ -137,8 +152,10 @@ def catalog_summary(
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
         return
-    cols = ["vehicle", "cycle", "metric", "n", "mean", "std", "cv [%]", "min", "max"]
-    _print_table(cols, [[r["vehicle"], r["cycle"], r["metric"], str(r["n"]), _cell(r["mean"], 5),
+    cols = ["vehicle", "cycle", "start", "cell", "a/c", "metric", "n", "mean", "std", "cv [%]",
+            "min", "max"]
+    _print_table(cols, [[r["vehicle"], r["cycle"], r["start"], r["temperature_band"], r["ac"],
+                         r["metric"], str(r["n"]), _cell(r["mean"], 5),
                          _cell(r["std"], 4), "" if r["cv"] is None else f"{100 * r['cv']:.2f}",
                          _cell(r["min"], 5), _cell(r["max"], 5)] for r in rows],
-                 group_by=("vehicle", "cycle"))
+                 group_by=("vehicle", "cycle", "start", "cell", "a/c"))

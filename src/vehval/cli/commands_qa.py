@@ -28,12 +28,16 @@ def qa_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print findings.json (plus outdir and files) on stdout."),
     report: bool = typer.Option(False, "--report", help="Also write the HTML QA report."),
     max_offset: float = typer.Option(30.0, "--max-offset", callback=bounded("max_offset"), help="Alignment search range ±[s]."),
+    force: bool = typer.Option(False, "--force", help="State result figures QA errors would "
+                               "withhold, under a banner (exit 0 instead of 4)."),
 ) -> None:
     """Import, align, check (QA levels 1-3), calculate and select signals.
 
     Writes findings.json, validated.parquet and template_final.yaml into OUTDIR (atomically);
-    with --report also report.html and tables.xlsx.
+    with --report also report.html and tables.xlsx. Exit code 4: a result figure was
+    withheld for a QA error on its signals.
     """
+    from vehval.cli.commands_results import echo_results, withheld_exit
     from vehval.io.atomic import atomic_dir, write_text_atomic
     from vehval.io.parquet import write_test
     from vehval.io.paths import check_outputs, vehicle_path
@@ -46,7 +50,7 @@ def qa_cmd(
     run = TestRun.load(files, template, vehicle)
     qa = run.qa(max_offset_s=max_offset)
     result, doc = qa.result, qa.document  # doc: findings.json
-    results = run.results().results
+    results = run.results(force=force).results
     with atomic_dir(outdir) as stage:
         write_text_atomic(stage / "findings.json", json.dumps(doc, indent=1))
         write_text_atomic(stage / "results.json", json.dumps(results.to_dict(), indent=1))
@@ -61,9 +65,9 @@ def qa_cmd(
         # the public contract: findings.json's keys, plus where the files went
         full = dict(doc, outdir=summ["outdir"], files=summ["files"])
         typer.echo(json.dumps(full, indent=1))
+        withheld_exit(results.to_dict())
         return
     s = summ["summary"]
-    from vehval.cli.commands_results import echo_results
     echo_results(results)
     for f in results.findings:
         typer.echo(f"  {f.severity.value:7s} {f.kind.value:14s} {f.message}")
@@ -81,3 +85,4 @@ def qa_cmd(
         if str(note).startswith("warning"):
             typer.echo(f"  {note}", err=True)
     typer.echo(f"wrote {outdir}/: {', '.join(summ['files'])}")
+    withheld_exit(results.to_dict())

@@ -79,7 +79,10 @@ def report_cmd(
     title: str = typer.Option(None, "--title", help="Report title."),
     excel: bool = typer.Option(True, "--excel/--no-excel", help="Also write tables.xlsx beside the report."),
 ) -> None:
-    """Write a self-contained report.html (and tables.xlsx): QA, control strategy and validation."""
+    """Write a self-contained report.html (and tables.xlsx): QA, control strategy and validation.
+
+    Exit code 4: the results.json it shows has a figure withheld for QA errors (run
+    `vehval results --force` or `vehval qa --force` to state them under a banner)."""
     from vehval.io.parquet import read_test
     from vehval.io.paths import check_outputs
     from vehval.report import build_reports, load_json, write_report
@@ -113,3 +116,9 @@ def report_cmd(
                                       if k in found))
     if qa is None:
         typer.echo(f"note: no {FINDINGS} found: the report has no QA sections")
+    if res is not None:
+        from vehval.cli.commands_results import headline_lines, withheld_exit
+
+        for line in headline_lines(res):
+            typer.echo(line)
+        withheld_exit(res)

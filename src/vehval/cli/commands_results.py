@@ -31,10 +31,42 @@ def hot_start_bag1(files: list[Path], template) -> dict[str, float]:
             if (v := vals.get(k)) is not None}
 
 
+def headline_lines(doc: dict) -> list[str]:
+    """The headline of a results.json document: its figure, or why it is withheld."""
+    h = doc.get("headline") or {}
+    name = h.get("name") or "test"
+    held = h.get("withheld")
+    if held and not h.get("forced"):
+        return [f"headline {name}: WITHHELD ({', '.join(held['signals'])}): {held['reason']}",
+                f"  fix: {held['fix']}",
+                "  (--force states it anyway, under a banner)"]
+    mpg, lp = h.get("fuel_economy_mpg"), h.get("fuel_consumption_l_per_100km")
+    if mpg is None:
+        return [f"headline {name}: fuel economy n/a"]
+    u = h.get("fuel_economy_u_mpg")
+    line = (f"headline {name}: {mpg:.2f} +- {u or 0:.2f} mpg"
+            + (f" ({lp:.2f} L/100 km)" if lp is not None else ""))
+    if held:
+        return [f"STATED DESPITE QA ERRORS (--force): {line}", f"  withheld reason: {held['reason']}",
+                f"  fix: {held['fix']}"]
+    return [line]
+
+
+def withheld_exit(doc: dict) -> None:
+    """Exit code 4 when a figure of a results.json document was withheld (not forced)."""
+    from vehval.results.gate import EXIT_WITHHELD
+
+    if doc.get("withheld_count") and not doc.get("forced"):
+        raise typer.Exit(EXIT_WITHHELD)
+
+
 def echo_results(res) -> None:
     """Headline lines: phases and composites with their expanded uncertainty."""
     def fe(scope: str) -> str:
         v = res.value(scope, "fuel_economy_mpg")
+        held = res.withheld.get(scope)
+        if held and "fuel_economy_mpg" in held["quantities"] and not res.forced:
+            return f"fuel economy withheld ({', '.join(held['signals'])})"
         if v is None:
             m = res.value(scope, "fuel_mass_kg")
             return "fuel economy n/a" + (f" (fuel {m * 1e3:.1f} g)" if m is not None else "")
@@ -44,6 +76,8 @@ def echo_results(res) -> None:
 
     typer.echo(f"{res.test_id}: cycle {res.cycle or '(not identified)'}; phases from "
                f"{res.phase_source}; fuel {res.fuel.name if res.fuel else '(not declared)'}")
+    for line in headline_lines({"headline": res.headline()}):
+        typer.echo(f"  {line}")
     for p in res.phases:
         dq = res.drive_quality.get(p.name) or {}
         d = res.value(p.name, "distance_m") or 0.0
@@ -55,6 +89,10 @@ def echo_results(res) -> None:
     for c in res.composites:
         typer.echo(f"  = {c.name:16s} {fe(c.name)}  [{c.rule.split(':')[0]}]")
     typer.echo(f"  uncertainty: {res.method.replace('_', ' ')}, k = 2; SOC: {res.soc['status']}")
+    if res.withheld:
+        typer.echo(f"  {len(res.withheld)} figure(s) "
+                   + ("stated despite QA errors (--force)" if res.forced else
+                      "withheld for QA errors (exit code 4)"))
 
 
 @app.command("results")
@@ -70,23 +108,29 @@ def results_cmd(
     hot_start: list[Path] = typer.Option(None, "--hot-start",
                                          help="Hot-start UDDS files whose bag 1 stands in for "
                                               "the FTP bag 3 of a cold-start UDDS."),
+    force: bool = typer.Option(False, "--force",
+                               help="State figures QA errors would withhold, under a banner "
+                                    "(exit 0 instead of 4)."),
 ) -> None:
     """Results per phase, whole test and regulatory composites, with uncertainty (k = 2),
-    SOC correction and drive quality. Writes results.json into OUTDIR (atomically)."""
+    SOC correction and drive quality. Writes results.json into OUTDIR (atomically).
+    Exit code 4: computed, but a figure was withheld for a QA error on its signals."""
     from vehval.io.atomic import atomic_dir, write_text_atomic
     from vehval.workflow import TestRun
 
     run = TestRun.load(files, template, vehicle)
     hot = hot_start_bag1(list(hot_start), run.template) if hot_start else None
     res = run.results(method="monte_carlo" if monte_carlo else "first_order",
-                      draws=monte_carlo or 1000, hot_start_bag1=hot).results
+                      draws=monte_carlo or 1000, hot_start_bag1=hot, force=force).results
     doc = res.to_dict()
     with atomic_dir(outdir) as stage:
         write_text_atomic(stage / "results.json", json.dumps(doc, indent=1))
     if as_json:
         typer.echo(json.dumps(dict(doc, outdir=str(outdir), files=["results.json"]), indent=1))
+        withheld_exit(doc)
         return
     echo_results(res)
     for f in res.findings:
         typer.echo(f"  {f.severity.value:7s} {f.kind.value:14s} {f.message}")
     typer.echo(f"wrote {outdir}/: results.json")
+    withheld_exit(doc)

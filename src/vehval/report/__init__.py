@@ -64,5 +64,6 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
                          results=results)
     with atomic_dir(outdir, whole=False) as stage:
         (stage / html_name).write_text(html, encoding="utf-8")
-        write_tables(stage / excel_name, qa, test, control=control, validation=validation)
+        write_tables(stage / excel_name, qa, test, control=control, validation=validation,
+                     results=results)
     return {"report": outdir / html_name, "tables": outdir / excel_name}

@@ -16,9 +16,10 @@ from vehval.report.document import Block, cell, figure, h1, h2, para, render_doc
 from vehval.report.figures import FigSpec
 
 #: Result columns of the tests table: (catalog column, header, scale, format).
-COLUMNS = [("distance_m", "distance [km]", 1e-3, "{:.2f}"),
+COLUMNS = [("headline_mpg", "headline [mpg]", 1.0, "{:.2f}"),
+           ("distance_m", "distance [km]", 1e-3, "{:.2f}"),
            ("fuel_mass_kg", "fuel [kg]", 1.0, "{:.3f}"),
-           ("fuel_economy_mpg", "fuel economy [mpg]", 1.0, "{:.1f}"),
+           ("fuel_economy_mpg", "whole test [mpg]", 1.0, "{:.2f}"),
            ("soc_change", "ΔSOC [%]", 100.0, "{:+.2f}"),
            ("ess_energy_j", "battery energy [kWh]", 1 / 3.6e6, "{:+.3f}"),
            ("eng_energy_j", "engine energy [kWh]", 1 / 3.6e6, "{:.3f}")]
@@ -49,38 +50,41 @@ def _tests_table(tests: Sequence[dict]) -> Block:
             if "report.html" in (r["outputs"] or []) else None
         sev = json.loads(r["n_findings_by_severity"]) if r["n_findings_by_severity"] else {}
         status = str(r["status"])
+        held = r.get("withheld_reason")
+        vals = [cell("withheld", "err") if c == "headline_mpg" and held else _num(r.get(c), s, p)
+                for c, _, s, p in COLUMNS]
         rows.append([cell(tid, href=link), cell(status, status if status in _STATUS else ""),
-                     r["vehicle"] or "", r["cycle"] or "",
+                     r["vehicle"] or "", r["cycle"] or "", r.get("headline_name") or "",
                      ", ".join(f"{v} {k}" for k, v in sorted(sev.items()))]
-                    + [_num(r[c], s, p) for c, _, s, p in COLUMNS]
-                    + [cell(r["error"] or "", "err")])
-    return table(["test", "status", "vehicle", "cycle", "findings"] + [c[1] for c in COLUMNS]
-                 + ["error"], rows)
+                    + vals + [cell(r["error"] or held or "", "err")])
+    return table(["test", "status", "vehicle", "cycle", "headline", "findings"]
+                 + [c[1] for c in COLUMNS] + ["error / withheld because"], rows)
 
 
 def _variability(var: Sequence[dict]) -> list[Block]:
     out = [h2("Test-to-test variability (latest result of every test)")]
     if not var:
         return out + [para("No successful test yet.")]
-    rows = [[v["vehicle"], v["cycle"], v["metric"], _num(v["n"], pattern="{:.0f}"),
+    rows = [[v["vehicle"], v["cycle"], v.get("start", ""), v.get("temperature_band", ""),
+             v.get("ac", ""), v["metric"], _num(v["n"], pattern="{:.0f}"),
              _num(v["mean"]), _num(v["std"]),
              cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
              _num(v["min"]), _num(v["max"])] for v in var]
-    return out + [table(["vehicle", "cycle", "metric", "n", "mean", "std", "CV [%]", "min", "max"],
-                        rows)]
+    return out + [table(["vehicle", "cycle", "start", "cell temperature", "A/C", "metric", "n",
+                         "mean", "std", "CV [%]", "min", "max"], rows)]
 
 
 def _results(var: Sequence[dict]) -> list[Block]:
     out = [h2("Fuel economy by cycle and test conditions (latest result of every test)")]
     if not var:
         return out + [para("No per-phase results (no fuel declared, or no successful test).")]
-    rows = [[str(v[k]) for k in ("vehicle", "cycle", "temperature_band", "start")]
+    rows = [[str(v.get(k, "")) for k in ("vehicle", "cycle", "temperature_band", "start", "ac")]
             + [f"{v['scope'] if v['kind'] != 'test' else 'whole test'} ({v['kind']})",
                _num(v["n"], pattern="{:.0f}"), _num(v["mean"], pattern="{:.2f}"),
                _num(v["std"], pattern="{:.2f}"),
                cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
                _num(v["mean_u"], pattern="{:.2f}")] for v in var]
-    return out + [table(["vehicle", "cycle", "cell temperature", "start", "result", "n",
+    return out + [table(["vehicle", "cycle", "cell temperature", "start", "A/C", "result", "n",
                          "mean [mpg]", "std [mpg]", "CV [%]", "mean U (k = 2) [mpg]"], rows)]
 
 
@@ -105,19 +109,24 @@ def _phase_figure(phase_rows: Sequence[tuple]) -> list[Block]:
 
 
 def _soc_figure(tests: Sequence[dict]) -> list[Block]:
+    """Headline fuel economy against SOC change; nothing when no test has a battery SOC
+    (a conventional car)."""
     groups: dict[tuple, list[dict]] = {}
     for r in tests:
-        if r["fuel_economy_mpg"] is not None and r["soc_change"] is not None:
+        fe = r.get("headline_mpg")
+        if fe is not None and r.get("soc_change") is not None:
             groups.setdefault((r["vehicle"] or "", r["cycle"] or ""), []).append(r)
+    if not groups:
+        return []
     data = [{"type": "scatter", "x": [100 * r["soc_change"] for r in rs],
-             "y": [r["fuel_economy_mpg"] for r in rs], "mode": "markers",
+             "y": [r["headline_mpg"] for r in rs], "mode": "markers",
              "text": [str(r["test_id"]) for r in rs], "name": f"{veh} {cyc}".strip()}
             for (veh, cyc), rs in sorted(groups.items())]
     layout = {"xaxis": {"title": {"text": "ΔSOC [%]"}},
-              "yaxis": {"title": {"text": "fuel economy [mpg]"}}, "height": 450,
+              "yaxis": {"title": {"text": "headline fuel economy [mpg]"}}, "height": 450,
               "margin": {"l": 60, "r": 20, "t": 30, "b": 50}}
     return [h2("Fuel economy vs SOC change"),
-            figure(FigSpec("Fuel economy against battery SOC change, per test",
+            figure(FigSpec("Headline fuel economy against battery SOC change, per test",
                            {"data": data, "layout": layout}, key="fe_soc"))]
 
 

@@ -261,8 +261,26 @@ def plugin_tables(control: Any = None, validation: Any = None) -> dict[str, list
     return {k: v or [rows_table(k, [])] for k, v in sheets.items()}
 
 
+def results_tables(results: Any = None) -> dict[str, list[Table]]:
+    """The ``Results`` sheet: the headline and the results section's tables (a withheld
+    figure reads "withheld", never a number)."""
+    if results is None:
+        return {}
+    from vehval.report.results_view import results_section
+
+    doc = qv.as_dict(results)
+    tables = []
+    banner = S.headline_banner(doc)
+    if banner is not None:
+        tables.append(Table("Headline", ["headline", "detail"],
+                            [[banner["title"], line] for line in banner["lines"] or [""]],
+                            key="results-headline"))
+    tables += results_section(doc).tables
+    return {"Results": tables}
+
+
 def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: float | None = None,
-                 control: Any = None, validation: Any = None) -> Path:
+                 control: Any = None, validation: Any = None, results: Any = None) -> Path:
     """Write ``tables.xlsx``: the report tables, one sheet per group, and the time series.
 
     Parameters
@@ -278,6 +296,8 @@ def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: flo
     control, validation : dict, optional
         ``control.json`` / ``validation.json``: their report tables in the ``Control`` and
         ``Validation`` sheets.
+    results : dict, optional
+        ``results.json``: the ``Results`` sheet (first).
 
     Returns
     -------
@@ -292,7 +312,8 @@ def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: flo
         fmt = {"title": wb.add_format({"bold": True, "font_size": 12}),
                "head": wb.add_format({"bold": True, "bg_color": "#E9EEF3", "bottom": 1})}
         exact = _exact_worksheet_class()
-        for name, tables in {**qa_tables(qa, test), **plugin_tables(control, validation)}.items():
+        for name, tables in {**results_tables(results), **qa_tables(qa, test),
+                             **plugin_tables(control, validation)}.items():
             ws = wb.add_worksheet(name, worksheet_class=exact)
             _write_tables(ws, tables, fmt)
             ws.freeze_panes(2, 0)

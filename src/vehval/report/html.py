@@ -159,7 +159,8 @@ def render_report(test: Test, qa: Any = None, *, template: Any = None, vehicle: 
         "report.html.j2", title=title, css="report.css", plotly=True, plotly_js=plotly_js,
         figures=[f for sec in secs for f in sec.figures], subtitle=subtitle,
         generated=_dt.datetime.now().strftime("%Y-%m-%d %H:%M"), version=__version__,
-        synthetic=_is_virtual(test, template), sections=secs, fmt=fmt_cell)
+        synthetic=_is_virtual(test, template), sections=secs, fmt=fmt_cell,
+        headline=S.headline_banner(as_dict(results) if results is not None else None))
 
 
 def write_report(path: str | Path, *, test: Test, qa: Any = None, template: Any = None,

@@ -21,23 +21,37 @@ def _r(x: Any, nd: int) -> Any:
     return None if x is None else round(float(x), nd)
 
 
+def _held(block: dict, key: str) -> dict | None:
+    """The block's withheld entry when it covers ``key``."""
+    w = block.get("withheld") or {}
+    return w if key in (w.get("quantities") or []) else None
+
+
 def _pm(block: dict, key: str, scale: float = 1.0, nd: int = 2) -> str:
     v = (block.get("values") or {}).get(key)
+    held = _held(block, key)
     if v is None:
-        return "—"
+        return "withheld" if held else "—"
     u = (block.get("uncertainty") or {}).get(key)
     txt = f"{v * scale:.{nd}f}"
-    return txt + (f" ± {u['U'] * scale:.{nd}f}" if u else "")
+    return txt + (f" ± {u['U'] * scale:.{nd}f}" if u else "") + (" (forced)" if held else "")
+
+
+def _num_or_held(block: dict, key: str, value: Any) -> Any:
+    """A number, or "withheld" for a withheld quantity."""
+    return "withheld" if value is None and _held(block, key) else value
 
 
 def _row(name: str, block: dict) -> list:
     v = block.get("values") or {}
     dq = block.get("drive_quality") or {}
     d = v.get("distance_m")
-    return [name, _r(d / MILE_M if d is not None else None, 3), _r(v.get("duration_s"), 1),
+    return [name, _num_or_held(block, "distance_m", _r(d / MILE_M if d is not None else None, 3)),
+            _r(v.get("duration_s"), 1),
             _r((v.get("mean_speed_mps") or 0) / MPH_M_PER_S, 2) if v.get("mean_speed_mps") else None,
             _r((v.get("max_speed_mps") or 0) / MPH_M_PER_S, 2) if v.get("max_speed_mps") else None,
-            _r(v["fuel_mass_kg"] * 1e3, 1) if v.get("fuel_mass_kg") is not None else None,
+            _r(v["fuel_mass_kg"] * 1e3, 1) if v.get("fuel_mass_kg") is not None else
+            _num_or_held(block, "fuel_mass_kg", None),
             _pm(block, "fuel_economy_mpg"), _pm(block, "fuel_consumption_l_per_100km"),
             _pm(block, "co2_g_per_km", nd=1),
             _r(v["ess_energy_net_j"] / KWH_J, 4) if v.get("ess_energy_net_j") is not None else None,
@@ -61,16 +75,15 @@ def results_section(doc: dict) -> Section:
                   intro=("Results per phase, for the whole test and as the regulatory composites, "
                          "each with its expanded uncertainty (k = 2, about 95 %) propagated from the "
                          "declared sensor accuracies. Drive quality per SAE J2951."))
-    head = None
-    for c in doc.get("composites") or []:
-        if (c.get("values") or {}).get("fuel_economy_mpg") is not None:
-            head = c
-            break
+    hl = doc.get("headline") or {}
+    blocks = {c.get("name"): c for c in doc.get("composites") or []}
+    head = blocks.get(hl.get("name")) if hl.get("kind") == "composite" else None
+    hblock = head or doc.get("test_total") or {}
     sec.facts = [
         ("Cycle", str((doc.get("test") or {}).get("cycle") or "not identified")),
-        ("Headline", f"{head['name']}: {_pm(head, 'fuel_economy_mpg')} mpg, "
-                     f"{_pm(head, 'fuel_consumption_l_per_100km')} L/100 km" if head else
-         f"whole test: {_pm(doc.get('test_total') or {}, 'fuel_economy_mpg')} mpg"),
+        ("Headline", f"{'whole test' if head is None else head['name']}: "
+                     f"{_pm(hblock, 'fuel_economy_mpg')} mpg, "
+                     f"{_pm(hblock, 'fuel_consumption_l_per_100km')} L/100 km"),
         ("Fuel", f"{fuel.get('name')} ({fuel.get('density_kg_per_m3')} kg/m³, "
                  f"{(fuel.get('lhv_j_per_kg') or 0) / 1e6:.2f} MJ/kg)" if fuel else
          "not declared: no volume-based result"),
@@ -128,5 +141,16 @@ def results_section(doc: dict) -> Section:
                "layout": {"title": {"text": "Fuel economy per phase (± U, k = 2)"},
                           "yaxis": {"title": {"text": "mpg"}}, "height": 360}}
         sec.figures.append(FigSpec("Fuel economy per phase", fig))
+    held = [[p.get("name") or "whole test", ", ".join(w.get("quantities") or []),
+             ", ".join(w.get("signals") or []), w.get("reason"), w.get("fix"),
+             "yes" if w.get("forced") else "no"]
+            for p in [*(doc.get("phases") or []), dict(doc.get("test_total") or {}, name="whole test"),
+                      *(doc.get("composites") or [])] if (w := p.get("withheld"))]
+    if held:
+        sec.tables.insert(0, Table("Withheld for QA errors", ["figure", "quantities", "signals",
+                                   "reason", "fix", "stated (--force)"], held,
+                                   key="results-withheld",
+                                   note="a figure computed from a signal QA holds an error on "
+                                        "is not stated (docs/results.md)"))
     sec.notes = [f.get("message") for f in doc.get("findings") or []] + list(doc.get("notes") or [])
     return sec

@@ -30,6 +30,7 @@ from vehval.fuels import (
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.results.composites import Composite, composites_for
 from vehval.results.drive_quality import drive_quality
+from vehval.results.gate import headline
 from vehval.results.phases import (
     Phase,
     match_cycle,
@@ -70,6 +71,9 @@ COMPOSITE_QUANTITIES = {"fuel_economy_mpg": "mile/US gal",
                         "fuel_energy_per_distance_j_per_m": "J/m"}
 #: Coolant within this many kelvin of the cell temperature at the start: a cold start.
 COLD_START_BAND_K = 10.0
+#: Cell temperature [degC] at or above which a test runs with the A/C on (the hot-ambient
+#: tests: SC03 at 35 degC, hot UDDS/FTP with A/C max); below it the A/C is off.
+AC_HOT_CELL_C = 30.0
 _SCOPE_TEST = "test"
 
 
@@ -123,6 +127,11 @@ class TestResults:
     draws: int | None = None
     findings: list[Finding] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    #: Role (speed, fuel, co2, ess, phase) -> the signals the figures were computed from.
+    inputs: dict[str, list[str]] = field(default_factory=dict)
+    #: Scope -> withheld entry (:func:`vehval.results.gate.apply_gate`).
+    withheld: dict[str, dict] = field(default_factory=dict)
+    forced: bool = False
 
     def value(self, scope: str, quantity: str) -> float | None:
         """A result value [SI] of a scope (``test``, a phase name or a composite name)."""
@@ -136,7 +145,12 @@ class TestResults:
     def _block(self, scope: str) -> dict:
         return {"values": self.values.get(scope, {}),
                 "uncertainty": self.uncertainty.get(scope, {}),
-                "drive_quality": self.drive_quality.get(scope)}
+                "drive_quality": self.drive_quality.get(scope),
+                "withheld": self.withheld.get(scope)}
+
+    def headline(self) -> dict[str, Any]:
+        """The regulatory figure of the test's cycle (:func:`vehval.results.gate.headline`)."""
+        return headline(self)
 
     def to_dict(self) -> dict[str, Any]:
         return _clean({
@@ -148,8 +162,13 @@ class TestResults:
             "phases": [dict(p.to_dict(), **self._block(p.name)) for p in self.phases],
             "test_total": self._block(_SCOPE_TEST),
             "composites": [dict(c.to_dict(), values=self.values.get(c.name, {}),
-                                uncertainty=self.uncertainty.get(c.name, {}))
+                                uncertainty=self.uncertainty.get(c.name, {}),
+                                withheld=self.withheld.get(c.name))
                            for c in self.composites],
+            "headline": self.headline(),
+            "withheld_count": len(self.withheld),
+            "forced": self.forced,
+            "inputs": {k: list(v) for k, v in self.inputs.items()},
             "soc_correction": self.soc,
             "uncertainty": {"method": self.method, "k": 2, "draws": self.draws,
                             "accuracy": {k: a.to_dict() for k, a in self.accuracy.items()},
@@ -174,6 +193,17 @@ def _clean(x: Any) -> Any:
     return x
 
 
+def _ac(cycle: str, cell_c: float | None) -> tuple[str | None, str | None]:
+    """A/C ``on``/``off`` (None: unknown) and its basis, from the cycle and the cell."""
+    if cycle.lower().startswith("sc03"):
+        return "on", "SC03 (40 CFR 86.160: run with the A/C on)"
+    if cell_c is None:
+        return None, None
+    if cell_c >= AC_HOT_CELL_C:
+        return "on", f"cell {cell_c:.1f} degC >= {AC_HOT_CELL_C:g} degC (hot-ambient test)"
+    return "off", f"cell {cell_c:.1f} degC < {AC_HOT_CELL_C:g} degC, not an SC03 test"
+
+
 def _conditions(test: Test, kept: list[str] | None) -> dict[str, Any]:
     out: dict[str, Any] = {"cell_temp_c": None, "start": None, "start_basis": None}
     amb = test.best("amb_temp", ("test",), kept=kept)
@@ -189,6 +219,7 @@ def _conditions(test: Test, kept: list[str] | None) -> dict[str, Any]:
             out["start_basis"] = (f"coolant {c0:.1f} degC at the start, cell "
                                   f"{out['cell_temp_c']:.1f} degC (cold when within "
                                   f"{COLD_START_BAND_K:g} K)")
+    out["ac"], out["ac_basis"] = _ac(test.meta.cycle or "", out["cell_temp_c"])
     return out
 
 
@@ -290,6 +321,13 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
             "(mpg, L/100 km), fuel energy or CO2; declare 'fuel:' in the template "
             "(e.g. fuel: diesel)", fuel_sig.name))
     phases, phase_source, match = _phases(test, speed, phase_channel, findings)
+    inputs = {role: [s.name] for role, s in (("speed", speed), ("fuel", fuel_sig),
+                                             ("co2", co2_sig)) if s is not None}
+    ess = [s.name for s in (pwr, volt, curr) if s is not None]
+    if ess:
+        inputs["ess"] = ess
+    if phase_source.startswith("phase channel "):
+        inputs["phase"] = [phase_source.removeprefix("phase channel ")]
     t0, t1 = test.span()
     scopes = [p.name for p in phases] + [_SCOPE_TEST]
     segs = [p.segments for p in phases] + [[(t0, t1)]]
@@ -471,7 +509,7 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                        uncertainty=uncertainty, composites=composites, drive_quality=dq,
                        soc=soc, accuracy=acc, parameters=params, conditions=cond,
                        method=method, draws=draws if method == "monte_carlo" else None,
-                       findings=findings, notes=notes)
+                       findings=findings, notes=notes, inputs=inputs)
 
 
 def _round_unc(d: dict) -> dict:
