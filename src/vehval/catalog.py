@@ -105,7 +105,7 @@ _DDL = [
     "    kind VARCHAR NOT NULL, part VARCHAR, run INTEGER,\n"
     + "".join(f"    {c} DOUBLE,\n" for c in PHASE_COLUMNS)
     + "    withheld_reason VARCHAR,\n"
-    "    PRIMARY KEY (test_id, run_id, scope))",
+    "    PRIMARY KEY (test_id, run_id, kind, scope))",  # a phase and a composite may share a name (hwfet)
     """CREATE OR REPLACE VIEW latest_tests AS
         SELECT t.* FROM tests t JOIN runs r USING (run_id)
         QUALIFY row_number() OVER (PARTITION BY t.test_id

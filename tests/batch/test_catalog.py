@@ -89,3 +89,19 @@ def test_metrics_skip_a_quantity_qa_dropped():
     with_qa = test_metrics(test, {"veh_spd": "veh_spd_test"})   # fuel_rate_test dropped
     assert with_qa["fuel_mass_kg"] is None and with_qa["fuel_economy_mpg"] is None
     assert with_qa["distance_m"] == np.float64(999.0) or abs(with_qa["distance_m"] - 999.0) < 1e-6
+
+
+def test_a_phase_and_a_composite_may_share_a_name(tmp_path):
+    # a one-run HWFET: the phase is named "hwfet" and so is its regulatory composite
+    res = _res("h", "r1", 55.0, 0.0, cycle="hwfet")
+    res["results"] = {"rows": [
+        {"scope": "hwfet", "kind": "phase", "fuel_economy_mpg": 55.0},
+        {"scope": "test_total", "kind": "test_total", "fuel_economy_mpg": 55.0},
+        {"scope": "hwfet", "kind": "composite", "fuel_economy_mpg": 55.0}]}
+    with open_catalog(tmp_path / "c.duckdb") as cat:
+        cat.start_run("r1", {})
+        cat.add_result("r1", res)
+        cat.finish_run("r1")
+    with open_catalog(tmp_path / "c.duckdb", read_only=True) as cat:
+        _, rows = cat.query("SELECT kind, scope FROM phase_results ORDER BY kind")
+    assert rows == [("composite", "hwfet"), ("phase", "hwfet"), ("test_total", "test_total")]
