@@ -71,8 +71,14 @@ def qa_cmd(
     echo_results(results)
     for f in results.findings:
         typer.echo(f"  {f.severity.value:7s} {f.kind.value:14s} {f.message}")
-    typer.echo(f"{result.test_id}: {s['total']} findings ({s['by_severity']['error']} error, "
-               f"{s['by_severity']['warning']} warning, {s['by_severity']['info']} info); "
+    # the counts cover every finding printed: QA's and the results stage's
+    sev = dict(s["by_severity"])
+    for f in results.findings:
+        sev[f.severity.value] = sev.get(f.severity.value, 0) + 1
+    extra = f", {len(results.findings)} of them from the results stage" if results.findings else ""
+    typer.echo(f"{result.test_id}: {s['total'] + len(results.findings)} findings "
+               f"({sev.get('error', 0)} error, {sev.get('warning', 0)} warning, "
+               f"{sev.get('info', 0)} info{extra}); "
                f"kept {s['kept']}, dropped {s['dropped']}, computed {s['computed']}")
     for a in summ["alignment"]:
         off = "n/a" if a["offset_s"] is None else f"{a['offset_s']:+.3f} s"
