@@ -274,10 +274,9 @@ def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, 
         if (abs(value) <= zero_tol and not noisy) or abs(value) <= 1.5 * res:
             value = 0.0          # quantised "zero" (e.g. -1e-6 kg/s at fuel cut) counts as zero
         t0, t1 = float(t[i0]), float(t[j1])
-        if res > 0:
-            typical = _typical_change(v, j1 - i0, i0, j1)
-            if typical is not None and typical < opts.stuck_quanta * res:
-                continue         # a slow signal at its resolution: holding is its normal way
+        typical = _typical_change(v, j1 - i0, i0, j1) if res > 0 else None
+        if typical is not None and typical < opts.stuck_quanta * res:
+            continue             # a slow signal at its resolution: holding is its normal way
         mover = None
         for psig, dup in partners:
             if value == 0 and not dup:
