@@ -301,7 +301,7 @@ def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, 
             msg = (f"{sig.name} stays exactly at {float(v[i0]):.6g} {sig.unit} for {t1 - t0:.1f} s "
                    f"while {psig.name} varies by {100 * frac:.0f} % of its range")
             nums = {"value": value, "duration_s": t1 - t0, "samples": j1 - i0 + 1,
-                    "partner_range_fraction": frac, "resolution": res}
+                    "partner_range_fraction": frac}
             found.append(Finding(sig.name, Kind.STUCK, t0, t1, sev, msg, nums,
                                  related=[psig.name]))
         elif noisy and abs(value) > 1e-3 * span:
@@ -530,8 +530,7 @@ def spike_findings(sig: Signal, v: np.ndarray, t: np.ndarray,
               lambda i0, i1: (f"{sig.name} has a spike of {_peak(resid, i0, i1):+.4g} {sig.unit} "
                               f"at {t[i0]:.1f} s (threshold {thr:.3g} {sig.unit})"),
               lambda i0, i1: {"value": float(v[i0 + int(np.nanargmax(np.abs(resid[i0:i1 + 1])))]),
-                              "deviation": _peak(resid, i0, i1), "threshold": thr,
-                              "resolution": q}, opts,
+                              "deviation": _peak(resid, i0, i1), "threshold": thr}, opts,
               cap=opts.max_spikes_corroborated)
     return out
 
