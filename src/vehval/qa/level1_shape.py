@@ -34,8 +34,12 @@ NON_NEGATIVE = frozenset({"fuel_rate", "fuel_pwr", "fuel_mass", "fuel_energy", "
 #: Quantity tokens of signals expected to vary during a drive (constant = suspicious).
 DYNAMIC_QUANTITIES = frozenset({"spd", "trq", "frc", "acc", "pwr", "curr", "rate"})
 #: Quantity tokens that respond within about 0.1-0.2 s (injection, machine torque, battery
-#: current and power): sampled at 0.5 s or slower they can leave and return within a sample.
-FAST_QUANTITIES = frozenset({"rate", "trq", "curr", "pwr"})
+#: current and power, engine load, pedal and throttle positions moved by a foot or an
+#: actuator): sampled at 0.5 s or slower they can leave and return within a sample.
+FAST_QUANTITIES = frozenset({"rate", "trq", "curr", "pwr", "load", "pos"})
+#: Bases that respond as fast, whatever their quantity token (the intake manifold fills in
+#: tens of milliseconds: its pressure follows the throttle and engine starts at once).
+FAST_BASES = frozenset({"eng_pres_intake"})
 #: Extra correlated bases used only as "partner moves" evidence for stuck detection.
 _EXTRA_PARTNERS = (("eng_spd_out", "eng_trq_out"), ("eng_spd_out", "gen_spd_out"),
                    ("mot_spd_out", "whl_spd"), ("veh_spd", "veh_frc_in"),
@@ -507,7 +511,8 @@ def spike_findings(sig: Signal, v: np.ndarray, t: np.ndarray,
     band = np.nanpercentile(v, [0.5, 99.5]) if np.isfinite(v).any() else np.full(2, np.nan)
     band = band + np.array([-0.5, 0.5]) * (band[1] - band[0])
     slow = []
-    if qty in FAST_QUANTITIES and sig.sample_period >= opts.slow_sample_s:
+    fast = qty in FAST_QUANTITIES or (p is not None and p.base in FAST_BASES)
+    if fast and sig.sample_period >= opts.slow_sample_s:
         for i0, i1 in list(rs):
             seg = v[i0:i1 + 1]
             if np.all((seg >= band[0]) & (seg <= band[1])):
