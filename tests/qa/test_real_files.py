@@ -91,3 +91,50 @@ def test_nothing_crashes_on_real_files(path):
     assert set(d) >= {"test", "alignment", "findings", "table2", "table3", "calculations",
                       "selection", "summary"}
     assert np.isfinite(d["test"]["duration_s"])
+
+
+PRIUS_C = REAL / "obd_2014_toyota_prius_c"
+CAMRY = REAL / "d3_2018_toyota_camry_1hz_subset"
+
+
+def _no_quantisation_spike_or_stuck_error(res, test):
+    from vehval.qa.level1_shape import resolution
+    stuck = [f.message for f in res.findings if f.kind == Kind.STUCK
+             and f.severity == Severity.ERROR]
+    assert stuck == []
+    for f in res.findings:
+        if f.kind == Kind.SPIKE and f.severity != Severity.INFO:
+            q = resolution(test[f.signal].values)
+            assert abs(f.numbers["deviation"]) > 2 * q, f.message
+
+
+@pytest.mark.skipif(not PRIUS_C.is_dir(), reason="real data not available")
+def test_prius_c_logs_raise_no_quantisation_spike_and_no_stuck_error():
+    from vehval.io.importer import import_test
+    from vehval.io.template import load_template
+    tpl = load_template(HERE.parent / "io" / "templates" / "prius_c_obd.yaml")
+    for path in sorted(PRIUS_C.glob("output*.csv")):
+        test = import_test([path], tpl, repair_time=True)
+        _no_quantisation_spike_or_stuck_error(run_qa(test, None, tpl), test)
+
+
+@pytest.mark.skipif(not CAMRY.is_dir(), reason="real data not available")
+def test_camry_fuel_spikes_are_only_the_isolated_outliers():
+    # docs/qa.md lists the 5 remaining warnings with their evidence
+    total = 0
+    for path in sorted(CAMRY.glob("6*Test Data.txt")):
+        res = _propose_and_qa(path)
+        warn = [f for f in res.findings if f.severity != Severity.INFO]
+        assert {(f.kind, f.signal) for f in warn} <= {(Kind.SPIKE, "fuel_rate_test")}
+        total += len(warn)
+    assert total <= 5
+
+
+def test_cruze_tests_raise_no_warning_and_only_the_unmeasured_fuel_error():
+    for path in sorted(CRUZE.glob("6*Test Data.txt")):
+        res = _qa(path)
+        bad = [(f.severity, f.kind, f.signal) for f in res.findings if f.severity != Severity.INFO]
+        expected = ([(Severity.ERROR, Kind.ALL_ZERO, "fuel_rate_test")]
+                    if path.name.startswith("61410007") else [])
+        assert bad == expected, (path.name, [f.message for f in res.findings
+                                             if f.severity != Severity.INFO])

@@ -55,3 +55,33 @@ def test_window_violations_counted_per_event():
 def test_too_short_is_none():
     t = np.arange(5) * 0.1
     assert drive_quality(t, t, t) is None
+
+
+def test_one_hz_driven_data_are_resampled_to_ten_hz():
+    # J2951 step 1: the 1 Hz samples of a trace with knots on whole seconds, linearly
+    # interpolated to 10 Hz, are the 10 Hz trace: the hand values of the 10 Hz case hold
+    t, vt = _trace()
+    t1 = t[::10]
+    dq = drive_quality(t1, 1.02 * vt[::10], vt[::10], mass_kg=1000.0, road_load=(0.0, 0.0, 0.0))
+    assert dq.samples == 601                                  # 60 s on the 10 Hz grid
+    assert dq.iwr_pct == pytest.approx(4.04, abs=1e-9)
+    assert dq.dr_pct == pytest.approx(2.0, abs=1e-9)
+
+
+def test_cruise_corrections_raise_iwr_by_the_hand_computed_work():
+    # the driver holds the 20 m/s cruise (20..40 s) with +-e corrections every 0.1 s,
+    # starting below: 99 rises of 2e at 20 m/s and a last rise of e (mean 20 - e/2) back to
+    # the trace at 40 s. Reference IWT = M x 20^2 / 2 (0 -> 20 m/s), M = 1.015 x 1000 kg.
+    t, vt = _trace()
+    e = 0.01
+    vd = vt.copy()
+    idx = np.flatnonzero((t > 20.05) & (t < 39.95))
+    assert idx.size == 199
+    vd[idx] += e * np.where(np.arange(idx.size) % 2 == 0, -1.0, 1.0)
+    dq = drive_quality(t, vd, vt, mass_kg=1000.0)
+    cruise_work = 99 * 2 * e * 20.0 + e * (20.0 - e / 2)        # [m^2/s^2] per kg of M
+    assert dq.iwt_target_cruise_pct == pytest.approx(100 * cruise_work / 200.0, rel=1e-9)
+    assert dq.iwr_pct == pytest.approx(100 * cruise_work / 200.0, rel=1e-9)
+    assert dq.within_tolerance is False                        # 19.9 % > 4 %
+    # at 1 Hz the samples 21..39 s all fall on +e: one rise of e at 21 s (mean 20 + e/2)
+    assert dq.iwr_1hz_pct == pytest.approx(100 * e * (20.0 + e / 2) / 200.0, rel=1e-9)

@@ -339,6 +339,18 @@ def residual_drift(test: Test, measured: str, calculated: str, rng: float,
     if ok.sum() < 5 * opts.drift_blocks or not rng > 0:
         return None
     t, r = c.time[ok], res[ok]
+    like = _road_load_terms(test, measured, t)
+    fitted: dict[str, float] = {}
+    if like is not None:
+        # compare like with like: the dyno applies its *set* coefficients, the calculation
+        # uses the *target* ones; their difference (the car's own losses on the rolls,
+        # dA + dB v + dC v^2) and an inertia mismatch (dm a) depend on speed and
+        # acceleration, not on time. Fit them with the time trend and keep only the trend.
+        x = np.column_stack([np.ones(t.size), like, t - t[0]])
+        coef = np.linalg.lstsq(x, r, rcond=None)[0]
+        r = r - like @ coef[1:4]
+        fitted = {"offset_a_n": float(coef[0]), "offset_b_n_per_mps": float(coef[1]),
+                  "offset_c_n_per_mps2": float(coef[2]), "inertia_offset_kg": float(coef[3])}
     blocks = np.array_split(np.arange(r.size), opts.drift_blocks)
     med = np.array([np.median(r[b]) for b in blocks])
     tb = np.array([t[b].mean() for b in blocks])
@@ -357,12 +369,34 @@ def residual_drift(test: Test, measured: str, calculated: str, rng: float,
         return None
     start_i = int(np.argmax(np.abs(med - med[0]) > 0.25 * abs(total)))
     t0 = float(t[blocks[max(start_i - 1, 0)][0]])
+    like_note = (" (beyond the speed- and acceleration-dependent difference of set and target "
+                 "road load and inertia, fitted and removed)" if fitted else "")
     return Finding(measured, Kind.OFFSET, t0, float(t[-1]), Severity.WARNING,
                    f"{measured} drifts from {calculated} by {total:+.4g} {c.unit} over the test "
-                   f"({100 * abs(total) / rng:.1f} % of its range): zero drift of the sensor?",
+                   f"({100 * abs(total) / rng:.1f} % of its range){like_note}: zero drift of "
+                   "the sensor?",
                    {"drift": float(total), "test_range": rng, "block_medians": med.tolist(),
-                    "median_se": se},
+                    "median_se": se, **fitted},
                    related=[calculated])
+
+
+def _road_load_terms(test: Test, measured: str, t: np.ndarray) -> np.ndarray | None:
+    """Speed v, v^2 and acceleration a at ``t`` (columns) when ``measured`` is the tractive
+    force compared with the road-load equation (``veh_frc_in``), else None."""
+    if not measured.startswith("veh_frc_in"):
+        return None
+    spd = test.best("veh_spd", ("test",))
+    if spd is None or t.size < 10:
+        return None
+    v = spd.at(t)
+    grid_v = spd.at(spd.time)
+    acc = np.gradient(grid_v, spd.time) if spd.time.size > 2 else np.zeros(spd.time.size)
+    # acceleration smoothed over about 1 s (the speed's noise is not the car's)
+    n = max(1, int(round(1.0 / max(spd.sample_period, 1e-3))))
+    acc = np.convolve(acc, np.ones(n) / n, mode="same") if n > 1 else acc
+    a = np.interp(t, spd.time, acc)
+    out = np.column_stack([v, v * v, a])
+    return out if np.isfinite(out).all() else None
 
 
 def run_checks(test: Test, calc: CalcResult) -> tuple[list[dict], list[Finding]]:

@@ -1,24 +1,40 @@
-"""Drive quality per SAE J2951 (2011): how closely the driver followed the speed trace.
+"""Drive quality per SAE J2951 (JAN2014): how closely the driver followed the speed trace.
 
-For the driven trace (D) and the reference trace (T) on the same samples, each interval i
-between samples has mean speed v = (v_i + v_i+1)/2, acceleration a = (v_i+1 - v_i)/dt and
-distance d = v dt. With the road load F_RL = A + B v + C v^2 and the inertia force
-F_I = 1.015 m a (J2951's equivalent inertia mass, rotating parts 1.5 %):
+The computation, step by step, as the standard lays it out (SAE J2951 JAN2014, section 4
+"data", section 5 "calculations"; the clause numbers below are those of that issue as
+reproduced in EPA's adoption, 40 CFR 1066.425(j), which applies J2951 with its own
+tolerances; where a detail could not be confirmed against the standard's text it is said
+so, here and in docs/results.md):
 
-* CE  = sum of max(F_RL + F_I, 0) d   cycle energy (positive tractive work) [J]
-* IWT = sum of max(F_I, 0) d          inertial work [J]
-* ASC = sum of |a| dt                 absolute speed change [m/s]
-* D   = sum of d                      distance [m]
+1. Sampling (J2951 §4): both traces at 10 Hz. The driven speed is resampled onto a 10 Hz
+   grid (linear interpolation; data faster than 10 Hz are first averaged over each 0.1 s
+   interval), the reference (a 1 Hz schedule) is linearly interpolated onto the same grid.
+   No further filtering of the driven speed: none is prescribed that could be confirmed,
+   and a filter would change IWR (see the sensitivity figure ``iwr_1hz_pct`` below).
+2. Per interval i between grid points (J2951 §5): mean speed v = (v_i + v_i+1)/2,
+   acceleration a = (v_i+1 - v_i)/dt, distance d = v dt.
+3. Forces (J2951 §5): road load F_RL = A + B v + C v^2 with the *target* coefficients,
+   inertial force F_I = M a with M = 1.015 x ETW (equivalent test weight; the 1.5 %
+   allowance for rotating parts is J2951's as the project reads it, not confirmed against
+   the text; IWR, DR, ASCR and RMSSE do not depend on M).
+4. Sums over the phase: CE = sum max(F_RL + F_I, 0) d (cycle energy) [J], IWT = sum
+   max(F_I, 0) d (inertial work) [J], ASC = sum |a| dt [m/s], D = sum d [m].
+5. Ratings (J2951 §5), in percent of the reference: ER = CE_D/CE_T - 1, DR = D_D/D_T - 1,
+   EER = 1 - (1 + DR)/(1 + ER), ASCR = ASC_D/ASC_T - 1, IWR = IWT_D/IWT_T - 1;
+   RMSSE = sqrt(mean((v_D - v_T)^2)) over the grid [m/s].
+6. Tolerances (40 CFR 1066.425(j)): IWR within -2.0 % to +4.0 % and RMSSE at most 0.8 mph,
+   per phase. EPA sets them for its own cycles; on other cycles (NEDC, WLTC) the check is
+   reported for information.
 
-and the ratings, in percent of the reference: ER = CE_D/CE_T - 1, DR = D_D/D_T - 1,
-EER = 1 - (1 + DR)/(1 + ER), ASCR = ASC_D/ASC_T - 1, IWR = IWT_D/IWT_T - 1;
-RMSSE = sqrt(mean((v_D - v_T)^2)) [m/s]. IWR, DR, ASCR and RMSSE do not need the test mass
-or road load; ER and EER do.
+Two figures explain a result without changing it: ``iwr_1hz_pct``, IWR from the same
+traces sampled at 1 Hz (the schedule's own rate: speed noise and sub-second corrections
+add positive inertial work at 10 Hz that 1 Hz does not see), and
+``iwt_target_cruise_pct``, the driven positive inertial work where the reference holds a
+constant speed, in percent of the reference IWT (corrections while cruising, which a
+modal cycle such as the NEDC rewards with a large IWR).
 
 Trace violations follow 40 CFR 86.115-78(c): the driven speed must stay within 2 mph above
 the highest and below the lowest reference speed within +-1 s of each instant.
-The tolerances checked are those EPA applies to J2951 (40 CFR 1066.425(j)): IWR within
--2.0 % to +4.0 % and RMSSE at most 0.8 mph, per phase.
 """
 
 from __future__ import annotations
@@ -33,16 +49,20 @@ from vehval.constants import MPH_M_PER_S
 
 __all__ = [
     "IWR_TOLERANCE_PCT",
+    "RATE_HZ",
     "RMSSE_TOLERANCE_MPS",
     "ROTATING_MASS_FACTOR",
     "WINDOW_SPEED_MPS",
     "WINDOW_TIME_S",
     "DriveQuality",
     "drive_quality",
+    "on_grid",
 ]
 
-#: Equivalent inertia mass factor of SAE J2951 (test mass x 1.015) [-].
+#: Equivalent inertia mass factor of SAE J2951 (ETW x 1.015) [-] (step 3).
 ROTATING_MASS_FACTOR = 1.015
+#: Sample rate of the J2951 computation [Hz] (step 1).
+RATE_HZ = 10.0
 #: Tolerances (40 CFR 1066.425(j)): IWR band [%], RMSSE limit [m/s] (0.8 mph).
 IWR_TOLERANCE_PCT = (-2.0, 4.0)
 RMSSE_TOLERANCE_MPS = 0.8 * MPH_M_PER_S
@@ -53,7 +73,11 @@ WINDOW_TIME_S = 1.0
 
 @dataclass
 class DriveQuality:
-    """J2951 metrics of one phase. Ratings in percent, RMSSE in m/s, None when undefined."""
+    """J2951 metrics of one phase. Ratings in percent, RMSSE in m/s, None when undefined.
+
+    ``samples`` counts the 10 Hz grid points; ``iwr_1hz_pct`` and ``iwt_target_cruise_pct``
+    explain IWR (module docstring) and take no part in ``within_tolerance``.
+    """
 
     er_pct: float | None
     dr_pct: float | None
@@ -65,6 +89,8 @@ class DriveQuality:
     violation_s: float
     samples: int
     within_tolerance: bool | None
+    iwr_1hz_pct: float | None = None
+    iwt_target_cruise_pct: float | None = None
 
     def to_dict(self) -> dict[str, Any]:
         d = {k: (None if v is None else (round(v, 4) if isinstance(v, float) else v))
@@ -73,8 +99,30 @@ class DriveQuality:
         return d
 
 
+def on_grid(t: np.ndarray, v: np.ndarray, rate_hz: float = RATE_HZ) -> tuple[np.ndarray, np.ndarray]:
+    """``v`` on a uniform ``rate_hz`` grid from ``t[0]`` (J2951 step 1) [s], [m/s].
+
+    Samples faster than the grid are averaged over each grid interval (centred on the grid
+    point) before the linear interpolation; slower or equal ones are interpolated.
+    """
+    step = 1.0 / rate_hz
+    grid = t[0] + step * np.arange(int(np.floor((t[-1] - t[0]) / step + 1e-9)) + 1)
+    period = float(np.median(np.diff(t))) if t.size > 1 else step
+    if period < 0.75 * step:
+        c = np.concatenate([[0.0], np.cumsum(v)])
+        lo = np.searchsorted(t, grid - 0.5 * step, side="left")
+        hi = np.searchsorted(t, grid + 0.5 * step, side="left")
+        n = hi - lo
+        mean = np.where(n > 0, (c[hi] - c[lo]) / np.maximum(n, 1), np.nan)
+        ok = np.isfinite(mean)
+        return grid[ok], mean[ok]
+    return grid, np.interp(grid, t, v)
+
+
 def _works(t: np.ndarray, v: np.ndarray, mass_kg: float | None,
-           road: tuple[float, float, float] | None) -> dict[str, float]:
+           road: tuple[float, float, float] | None,
+           cruise: np.ndarray | None = None) -> dict[str, float]:
+    """Sums of J2951 step 4 over one trace (steps 2-3 per interval)."""
     dt = np.diff(t)
     vm = 0.5 * (v[1:] + v[:-1])
     a = np.diff(v) / dt
@@ -83,7 +131,10 @@ def _works(t: np.ndarray, v: np.ndarray, mass_kg: float | None,
     out = {"D": float(d[keep].sum()), "ASC": float(np.abs(a * dt)[keep].sum())}
     m = (mass_kg or 1.0) * ROTATING_MASS_FACTOR
     fi = m * a
-    out["IWT"] = float((np.maximum(fi, 0.0) * d)[keep].sum())
+    wi = np.maximum(fi, 0.0) * d
+    out["IWT"] = float(wi[keep].sum())
+    if cruise is not None:
+        out["IWT_cruise"] = float(wi[keep & cruise].sum())
     if mass_kg and road is not None:
         A, B, C = road
         f = A + B * vm + C * vm * vm + fi
@@ -114,59 +165,75 @@ def drive_quality(time_s: np.ndarray, driven_mps: np.ndarray, reference_mps: np.
                   mass_kg: float | None = None,
                   road_load: tuple[float, float, float] | None = None,
                   segments: list[tuple[float, float]] | None = None) -> DriveQuality | None:
-    """SAE J2951 metrics of a driven trace against its reference.
+    """SAE J2951 metrics of a driven trace against its reference (module docstring).
 
     Parameters
     ----------
     time_s : array
-        Sample times [s] (10 Hz in J2951).
+        Sample times [s] (any rate: the computation resamples to 10 Hz).
     driven_mps, reference_mps : array
         Driven and reference speed at ``time_s`` [m/s]; NaN samples are left out.
     mass_kg : float, optional
-        Test mass [kg]; needed, with ``road_load``, for ER and EER.
+        Equivalent test weight ETW [kg]; needed, with ``road_load``, for ER and EER.
     road_load : (A, B, C), optional
-        Road-load coefficients [N], [N/(m/s)], [N/(m/s)^2].
+        Target road-load coefficients [N], [N/(m/s)], [N/(m/s)^2].
     segments : list of (start, end), optional
         Record-time intervals [s] to evaluate (each one separately, then summed).
 
     Returns
     -------
     DriveQuality or None
-        None when fewer than 10 common samples exist.
+        None when fewer than 10 common grid points exist.
     """
     t = np.asarray(time_s, float)
     vd, vt = np.asarray(driven_mps, float), np.asarray(reference_mps, float)
     segs = segments or [(float(t[0]), float(t[-1]))] if t.size else []
-    tot_d: dict[str, float] = {}
-    tot_t: dict[str, float] = {}
+    tot: dict[str, dict[str, float]] = {"D": {}, "T": {}, "D1": {}, "T1": {}}
     sq, n, events, vio_s = 0.0, 0, 0, 0.0
     for a, b in segs:
         m = (t >= a) & (t <= b) & np.isfinite(vd) & np.isfinite(vt)
         if m.sum() < 3:
             continue
-        ts, ds, rs = t[m], vd[m], vt[m]
-        for tot, v in ((tot_d, ds), (tot_t, rs)):
-            for k, x in _works(ts, v, mass_kg, road_load).items():
-                tot[k] = tot.get(k, 0.0) + x
+        gd_t, ds = on_grid(t[m], vd[m])
+        ts, rs = on_grid(t[m], vt[m])
+        if ts.size != gd_t.size:            # averaging dropped empty intervals: common points
+            keep = np.isin(ts, gd_t)
+            ts, rs = ts[keep], rs[keep]
+            ds = ds[np.isin(gd_t, ts)]
+        if ts.size < 3:
+            continue
+        cruise = np.diff(rs) == 0
+        for key, v, cr in (("D", ds, cruise), ("T", rs, None)):
+            for k, x in _works(ts, v, mass_kg, road_load, cr).items():
+                tot[key][k] = tot[key].get(k, 0.0) + x
+        t1 = ts[::round(RATE_HZ)]
+        if t1.size >= 3:                  # the same traces at 1 Hz (sensitivity figure)
+            for key, v in (("D1", ds), ("T1", rs)):
+                x = _works(t1, v[::round(RATE_HZ)], mass_kg, None)["IWT"]
+                tot[key]["IWT"] = tot[key].get("IWT", 0.0) + x
         sq += float(np.sum((ds - rs) ** 2))
-        n += int(m.sum())
+        n += int(ts.size)
         e, s = _violations(ts, ds, rs)
         events += e
         vio_s += s
     if n < 10:
         return None
-    er = _ratio_pct(tot_d.get("CE"), tot_t.get("CE"))
-    dr = _ratio_pct(tot_d["D"], tot_t["D"])
+    td, tt = tot["D"], tot["T"]
+    er = _ratio_pct(td.get("CE"), tt.get("CE"))
+    dr = _ratio_pct(td["D"], tt["D"])
     eer = None
     if er is not None and dr is not None and er != -100.0:
         eer = (1.0 - (1.0 + dr / 100.0) / (1.0 + er / 100.0)) * 100.0
-    iwr = _ratio_pct(tot_d["IWT"], tot_t["IWT"])
+    iwr = _ratio_pct(td["IWT"], tt["IWT"])
     rmsse = float(np.sqrt(sq / n))
     within = None
     if iwr is not None:
         within = bool(IWR_TOLERANCE_PCT[0] <= iwr <= IWR_TOLERANCE_PCT[1]
                       and rmsse <= RMSSE_TOLERANCE_MPS)
+    cruise_pct = (100.0 * td["IWT_cruise"] / tt["IWT"]) if tt["IWT"] > 0 else None
     return DriveQuality(er_pct=er, dr_pct=dr, eer_pct=eer,
-                        ascr_pct=_ratio_pct(tot_d["ASC"], tot_t["ASC"]), iwr_pct=iwr,
+                        ascr_pct=_ratio_pct(td["ASC"], tt["ASC"]), iwr_pct=iwr,
                         rmsse_mps=rmsse, violations=events, violation_s=vio_s, samples=n,
-                        within_tolerance=within)
+                        within_tolerance=within,
+                        iwr_1hz_pct=_ratio_pct(tot["D1"].get("IWT"), tot["T1"].get("IWT")),
+                        iwt_target_cruise_pct=cruise_pct)

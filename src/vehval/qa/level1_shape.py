@@ -1,0 +1,595 @@
+"""QA level 1, the shape of a signal: spikes and stuck segments, and their partners.
+
+Both checks know the signal's resolution, inferred from the data (:func:`resolution`): a
+deviation of a count or two of a quantised 1 Hz OBD value (0.1 V, 1 kPa, one SOC count) is
+quantisation, not a spike; a slow signal (a battery temperature at 0.1 °C resolution) that
+holds its value for a minute while it normally changes by less than a few counts in a
+minute is not stuck.
+
+Stuck detection is robust to legitimately constant signals: a run of exactly repeated
+values counts only when it is non-zero and long enough, and either a partner signal (the
+same quantity from another source, or a strongly correlated quantity) moves meanwhile, or
+the signal is noisy elsewhere (exact repetition is then beyond its noise). Zero runs count
+only against a duplicate of the same quantity that is clearly non-zero meanwhile.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
+
+from vehval.align import CORRELATED_BASES
+from vehval.errors import SignalError
+from vehval.nomenclature import registry
+from vehval.qa.findings import Finding, Kind, Severity, merge_runs, runs
+from vehval.qa.level2 import PER_INSTANCE, is_instance_qualifier
+from vehval.test import Signal, Test
+
+#: Base names that cannot be negative (beyond sensor noise).
+NON_NEGATIVE = frozenset({"fuel_rate", "fuel_pwr", "fuel_mass", "fuel_energy", "brk_frc",
+                          "brk_pwr", "brk_pres", "eng_spd_out"})
+#: Quantity tokens of signals expected to vary during a drive (constant = suspicious).
+DYNAMIC_QUANTITIES = frozenset({"spd", "trq", "frc", "acc", "pwr", "curr", "rate"})
+#: Quantity tokens that respond within about 0.1-0.2 s (injection, machine torque, battery
+#: current and power, engine load, pedal and throttle positions moved by a foot or an
+#: actuator): sampled at 0.5 s or slower they can leave and return within a sample.
+FAST_QUANTITIES = frozenset({"rate", "trq", "curr", "pwr", "load", "pos"})
+#: Bases that respond as fast, whatever their quantity token (the intake manifold fills in
+#: tens of milliseconds: its pressure follows the throttle and engine starts at once).
+FAST_BASES = frozenset({"eng_pres_intake"})
+#: Extra correlated bases used only as "partner moves" evidence for stuck detection.
+_EXTRA_PARTNERS = (("eng_spd_out", "eng_trq_out"), ("eng_spd_out", "gen_spd_out"),
+                   ("mot_spd_out", "whl_spd"), ("veh_spd", "veh_frc_in"),
+                   ("ess_curr", "ess_volt"), ("mot_trq_out", "veh_frc_in"))
+
+
+@dataclass
+class Level1Options:
+    """Thresholds of QA level 1 (all documented in docs/qa.md)."""
+
+    stuck_min_s: float = 5.0          # shortest exactly-repeated run considered [s]
+    stuck_min_samples: int = 4
+    noisy_repeat_fraction: float = 0.02   # below: the signal is "noisy" (repeats are rare)
+    partner_move_fraction: float = 0.05   # duplicate moves: range in run > this x its range
+    correlated_move_fraction: float = 0.2  # same for a merely correlated partner
+    spike_corroboration_k: float = 4.0  # partner residual above this x its sigma: real event ...
+    spike_corroboration_ratio: float = 0.05  # ... and, relative to its range, at least this
+                                      # fraction of the spike's size relative to the signal's range
+    spike_k: float = 10.0             # Hampel threshold in robust sigmas
+    spike_range_fraction: float = 0.2  # and at least this fraction of the signal range
+    spike_window: int = 5             # Hampel window [samples], odd
+    gap_factor: float = 2.5           # time gap: step > this x median period
+    jitter_info: float = 0.05         # std(dt)/median(dt) above this -> info
+    vehicle_limit_tolerance: float = 0.03  # margin: this x the larger |limit|
+    max_findings_per_kind: int = 10   # per signal; further runs are merged into one
+    max_spikes_corroborated: int = 200  # spikes judged one by one before the cap applies
+    out_of_range_fraction: float = 0.1  # above: the whole channel is out of range (error)
+    sparse_min_samples: int = 10      # fewer finite samples: too few for any test
+    sparse_max_period_s: float = 10.0  # fewer samples than one per this over the test: sparse
+    slow_sample_s: float = 0.5        # fast quantities sampled this slowly or slower: a
+                                      # one-sample excursion inside their range may be real
+    spike_quanta: float = 2.5         # a spike exceeds this many counts of the resolution
+    spike_local_k: float = 5.0        # ... and this x the robust scatter of its neighbourhood
+    spike_local_window: int = 21      # neighbourhood of that scatter [samples], odd
+    stuck_quanta: float = 3.0         # a hold counts when the signal normally moves this
+                                      # many counts of its resolution over the hold's duration
+
+
+def parse_name(name: str):
+    """The parsed name, or None when it is not in the nomenclature."""
+    try:
+        return registry().parse(name)
+    except SignalError:
+        return None
+
+
+def robust_noise(values: np.ndarray, window: int = 5) -> tuple[float, np.ndarray]:
+    """Robust noise sigma and the Hampel residual ``v - rolling median`` (NaN-aware).
+
+    Returns
+    -------
+    sigma : float
+        1.4826 × median absolute residual (same unit as ``values``).
+    resid : numpy.ndarray
+        Residual per sample (NaN at the edges and around NaN samples).
+    """
+    v = np.asarray(values, float)
+    resid = np.full(v.shape, np.nan)
+    h = window // 2
+    if v.size < window:
+        return 0.0, resid
+    med = np.median(sliding_window_view(v, window), axis=1)
+    resid[h:v.size - h] = v[h:v.size - h] - med
+    r = np.abs(resid[np.isfinite(resid)])
+    sigma = 1.4826 * float(np.median(r)) if r.size else 0.0
+    return sigma, resid
+
+
+def _robust_range(v: np.ndarray) -> float:
+    f = v[np.isfinite(v)]
+    if f.size == 0:
+        return 0.0
+    lo, hi = np.percentile(f, [0.5, 99.5])
+    return float(hi - lo)
+
+
+def _span(sig: Signal, i0: int, i1: int) -> tuple[float, float]:
+    return float(sig.time[i0]), float(sig.time[min(i1, sig.time.size - 1)])
+
+
+def emit_runs(out: list[Finding], sig: Signal, rs: list[tuple[int, int]], kind: Kind,
+               severity: Severity, text, numbers, opts: Level1Options,
+               cap: int | None = None) -> None:
+    """One finding per run; beyond the cap (default ``max_findings_per_kind``) the
+    remaining runs are merged into one."""
+    cap = cap or opts.max_findings_per_kind
+    head, tail = rs[:cap - 1], rs[cap - 1:]
+    if len(rs) <= cap:
+        head, tail = rs, []
+    for i0, i1 in head:
+        s0, s1 = _span(sig, i0, i1)
+        out.append(Finding(sig.name, kind, s0, s1, severity, text(i0, i1), numbers(i0, i1)))
+    if tail:
+        s0, s1 = _span(sig, tail[0][0], tail[-1][1])
+        nums = numbers(tail[0][0], tail[-1][1])
+        nums["runs_merged"] = len(tail)
+        out.append(Finding(sig.name, kind, s0, s1, severity,
+                           f"{len(tail)} more occurrences between {s0:.1f} s and {s1:.1f} s",
+                           nums))
+
+
+def partners_of(test: Test, name: str, instances: bool = True) -> list[tuple[Signal, bool]]:
+    """Signals expected to move with ``name``: ``(signal, is_duplicate)`` pairs.
+
+    Numbered instances of a quantity (battery temperatures ``bt1``..``bt4``, module voltages
+    ``m1``.., the 12 V supply at two points ``aux_volt`` / ``aux_volt_b2``) measure it at
+    different places: with ``instances=False`` they are no partners (as in level 2: one may
+    hold while another moves), otherwise they count as duplicates (all modules jump
+    together in a real current transient).
+    """
+    p = parse_name(name)
+    if p is None:
+        return []
+    out = []
+    for other in test:
+        if other.name == name:
+            continue
+        q = parse_name(other.name)
+        if q is None or q.origin != "test":
+            continue
+        if q.base == p.base:
+            if not instances and (is_instance_qualifier(p.source)
+                                  or is_instance_qualifier(q.source) or p.base in PER_INSTANCE):
+                continue      # another module, another sensor position: not a duplicate
+            out.append((other, True))
+        elif "target" in p.base or "target" in q.base:
+            continue          # a target may legitimately hold while the actual value moves
+        elif ((p.base, q.base) in CORRELATED_BASES or (q.base, p.base) in CORRELATED_BASES
+              or (p.base, q.base) in _EXTRA_PARTNERS or (q.base, p.base) in _EXTRA_PARTNERS):
+            out.append((other, False))
+    return out
+
+
+def _moves(partner: Signal, t0: float, t1: float, frac: float,
+           min_abs: float = 0.0, cache: dict | None = None) -> tuple[bool, float]:
+    """Does ``partner`` vary within [t0, t1] by more than ``frac`` of its overall range
+    (and more than ``min_abs``, e.g. a few quantisation steps of either signal)?
+
+    The partner's movement is taken on its 5-sample rolling median within the span, so an
+    isolated spike or dropout of the partner (a 0 V sentinel of an OBD voltage) is not a move.
+    """
+    full = cache.get(partner.name) if cache is not None else None
+    if full is None:
+        full = _robust_range(partner.values)
+        if cache is not None:
+            cache[partner.name] = full
+    if full <= 0:
+        return False, 0.0
+    sel = (partner.time >= t0) & (partner.time <= t1)
+    seg = partner.values[sel]
+    seg = seg[np.isfinite(seg)]
+    if seg.size < 2:
+        return False, 0.0
+    if seg.size >= 5:
+        seg = np.median(sliding_window_view(seg, 5), axis=1)
+    rng = float(seg.max() - seg.min())
+    return rng > max(frac * full, min_abs), rng / full
+
+
+def _typical_change(v: np.ndarray, lag: int, i0: int, j1: int) -> float | None:
+    """Median |v[k + lag] - v[k]| over the windows that do not overlap samples i0..j1 (how
+    much the signal normally changes over ``lag`` samples); None when too few windows."""
+    if lag < 1 or lag >= v.size:
+        return None
+    d = np.abs(v[lag:] - v[:-lag])
+    k = np.arange(d.size)
+    ok = np.isfinite(d) & ((k + lag < i0) | (k > j1))
+    if ok.sum() < max(lag, 10):
+        return None
+    return float(np.median(d[ok]))
+
+
+def _engine_stopped(test: Test, t0: float, t1: float) -> bool:
+    """Is a measured engine speed below 10 rad/s (about 100 rpm) over [t0, t1]?"""
+    for other in test:
+        q = parse_name(other.name)
+        if q is None or q.origin != "test" or q.base != "eng_spd_out":
+            continue
+        seg = other.values[(other.time >= t0) & (other.time <= t1)]
+        seg = seg[np.isfinite(seg)]
+        if seg.size >= 2:
+            return bool(np.max(np.abs(seg)) < 10.0)
+    return False
+
+
+def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, PLR0912, PLR0915 - the stuck-signal exceptions (idle, saturation, held, slow) in turn
+                   range_cache: dict | None = None) -> list[Finding]:
+    """Stuck findings of one signal (exactly repeated value; see the module docstring).
+
+    Quantisation-aware: a hold within 1.5 counts of zero is a zero; a duplicate partner must
+    move by more than 3 counts of the coarser of the two resolutions; and a hold is not
+    judged at all when the signal, elsewhere in the test, normally changes by less than
+    ``stuck_quanta`` counts of its resolution over the hold's duration (a battery temperature
+    at 0.1 °C holding for a minute while it rises 0.1 °C a minute).
+    """
+    v, t = sig.values, sig.time
+    if v.size < opts.stuck_min_samples or sig.resample == "previous":
+        return []
+    same = (np.diff(v) == 0)
+    rs = runs(same)                    # run (i0, i1) of diffs -> samples i0..i1+1 equal
+    if not rs:
+        return []
+    cand = []
+    for i0, i1 in rs:
+        j1 = i1 + 1
+        if j1 - i0 + 1 < opts.stuck_min_samples or t[j1] - t[i0] < opts.stuck_min_s:
+            continue
+        cand.append((i0, j1))
+    if not cand:
+        return []
+    cand_len = sum(j1 - i0 for i0, j1 in cand)
+    # how often the signal repeats a value outside the candidate runs; exact zeros (a
+    # speed at standstill, a torque with the engine off) are legitimate holds and do not
+    # count: they say nothing about the sensor's resolution
+    span = _robust_range(v)
+    zero_tol = 0.01 * span
+    in_cand = np.zeros(v.size - 1, bool)
+    for i0, j1 in cand:
+        in_cand[i0:j1] = True
+    moving = np.isfinite(np.diff(v)) & (np.abs(v[:-1]) > zero_tol) & ~in_cand
+    repeat_frac = int((same & moving).sum()) / max(1, int(moving.sum()))
+    covered = cand_len / max(1, v.size - 1)
+    noisy = repeat_frac < opts.noisy_repeat_fraction and covered < 0.5
+    partners = partners_of(test, sig.name, instances=False)
+    if any(dup for _, dup in partners):
+        partners = [(p, dup) for p, dup in partners if dup]
+    nz = np.abs(np.diff(v))
+    nz = nz[np.isfinite(nz) & (nz > 0)]
+    quantum = float(np.median(nz)) if nz.size else 0.0
+    res = resolution(v)
+    p_res = {p.name: resolution(p.values) for p, dup in partners if dup}
+    is_engine = sig.name.startswith("eng_")
+    found: list[Finding] = []
+    for i0, j1 in sorted(cand, key=lambda r: r[0] - r[1])[:50]:
+        value = float(v[i0])
+        if (abs(value) <= zero_tol and not noisy) or abs(value) <= 1.5 * res:
+            value = 0.0          # quantised "zero" (e.g. -1e-6 kg/s at fuel cut) counts as zero
+        t0, t1 = float(t[i0]), float(t[j1])
+        typical = _typical_change(v, j1 - i0, i0, j1) if res > 0 else None
+        if typical is not None and typical < opts.stuck_quanta * res:
+            continue             # a slow signal at its resolution: holding is its normal way
+        mover = None
+        for psig, dup in partners:
+            if value == 0 and not dup:
+                continue
+            if not dup and is_engine and _engine_stopped(test, t0, t1):
+                continue         # an engine quantity holds while the engine is stopped
+            min_abs = 3 * max(quantum, p_res.get(psig.name, 0.0)) if dup else 0.0
+            ok, frac = _moves(psig, t0, t1, opts.partner_move_fraction if dup
+                              else opts.correlated_move_fraction, min_abs, range_cache)
+            if ok and value == 0:
+                pv = psig.values[(psig.time >= t0) & (psig.time <= t1)]
+                ok = bool(np.nanmedian(np.abs(pv)) > 0.1 * max(_robust_range(psig.values), 1e-12))
+            if ok:
+                mover = (psig, dup, frac)
+                if dup:
+                    break
+        if value == 0 and mover is None:
+            continue
+        if mover is not None:
+            psig, dup, frac = mover
+            sev = Severity.ERROR if dup else Severity.WARNING
+            msg = (f"{sig.name} stays exactly at {float(v[i0]):.6g} {sig.unit} for {t1 - t0:.1f} s "
+                   f"while {psig.name} varies by {100 * frac:.0f} % of its range")
+            nums = {"value": value, "duration_s": t1 - t0, "samples": j1 - i0 + 1,
+                    "partner_range_fraction": frac}
+            found.append(Finding(sig.name, Kind.STUCK, t0, t1, sev, msg, nums,
+                                 related=[psig.name]))
+        elif noisy and abs(value) > 1e-3 * span:
+            # (a hold within 0.1 % of the range from zero, such as a 0.001 mph roll creep at
+            # standstill, is a standstill when no partner says otherwise)
+            msg = (f"{sig.name} repeats exactly {float(v[i0]):.6g} {sig.unit} for {t1 - t0:.1f} s "
+                   f"although it changes at almost every sample elsewhere (stuck sensor?)")
+            found.append(Finding(sig.name, Kind.STUCK, t0, t1, Severity.WARNING, msg,
+                                 {"value": value, "duration_s": t1 - t0,
+                                  "samples": j1 - i0 + 1, "repeat_fraction": repeat_frac}))
+    found.sort(key=lambda f: f.start_s)
+    return found[:opts.max_findings_per_kind]
+
+
+def _peak(resid: np.ndarray, i0: int, i1: int) -> float:
+    seg = resid[i0:i1 + 1]
+    return float(seg[int(np.nanargmax(np.abs(seg)))])
+
+
+#: Extra pairs whose simultaneous jumps reveal a physical event (not a sensor spike).
+#: (power split: MG1 reacts the engine torque, so an engine-torque step moves the battery
+#: current at once)
+_EVENT_PARTNERS = (("ess_curr", "ess_volt"), ("eng_spd_target", "eng_spd_out"),
+                   ("eng_trq_out", "ess_curr"),
+                   ("mot_trq_out", "ess_curr"), ("mot_trq_out", "ess_volt"),
+                   ("gen_trq_out", "ess_curr"), ("gen_trq_out", "ess_volt"),
+                   ("eng_trq_out", "eng_spd_out"), ("ess_pwr", "ess_volt"))
+#: Pairs where a fast change of the partner's level (not a spike of it) is the event: MG1
+#: stopping or cranking the engine draws or returns battery power at once, while the engine
+#: speed ramps (a ramp leaves no Hampel residual). Fraction of the partner's range that it
+#: must move within one of its samples either side of the spike.
+_STEP_PARTNERS = {("ess_curr", "eng_spd_out"): 0.05}
+
+
+def corroborate_spikes(test: Test, found: list[Finding], opts: Level1Options) -> None:
+    """Demote to info the spikes that a related signal shows at the same time.
+
+    A sensor spike is local to one channel; a jump seen at the same instant on a
+    physically related channel (battery voltage sag with a current step, OBD torque and
+    voltage in the same polling round) is a real event. The partner is looked at through
+    the spiking signal's own sampling: it is interpolated at the spiking signal's sample
+    times and the same Hampel residual is taken. So a 1 Hz OBD sample that "spikes" because
+    1 Hz cannot follow a real transient is confirmed by a 10 Hz partner showing the same
+    transient at 1 Hz, while a one-sample spike at 10 Hz cannot be confirmed by a 1 Hz
+    partner (interpolated, it shows no jump). A partner at least as fast as the spiking signal
+    is also looked at at its own rate within half a sample period of the spike (a 0.2 s
+    motor-torque pulse caught by one 1 Hz OBD sample shows in the 10 Hz battery current
+    between the OBD samples). To confirm, the partner's jump must exceed
+    ``spike_corroboration_k`` of its noise and, relative to its range, be at least
+    ``spike_corroboration_ratio`` of the spike's size relative to the signal's range (a real
+    event moves the partner visibly: in the virtual tests a real 0.2 s engine-torque pulse
+    moves the fuel rate by 10 % of the pulse's relative size, while a 3000 N spike on the
+    tractive force coincides with wheel-torque transients of at most 1.5 %).
+    """
+    seen: dict[tuple[str, str], tuple[float, np.ndarray, float]] = {}
+    ranges: dict[str, float] = {}
+
+    def seen_by(sig: Signal | None, other: Signal) -> tuple[float, np.ndarray, float]:
+        """Partner's (sigma, Hampel residual, range) at ``sig``'s times (None: its own)."""
+        key = (sig.name if sig is not None else "", other.name)
+        if key not in seen:
+            x = other.at(sig.time, "linear") if sig is not None else other.values
+            sigma, resid = robust_noise(x, opts.spike_window)
+            seen[key] = (sigma, resid, _robust_range(x))
+        return seen[key]
+
+    def jumps(sigma: float, resid: np.ndarray, rng: float, sel: np.ndarray, rel_spike: float) -> bool:
+        r = np.abs(resid[sel])
+        r = r[np.isfinite(r)]
+        return bool(r.size and rng > 0 and r.max() > opts.spike_corroboration_k * sigma
+                    and r.max() / rng >= opts.spike_corroboration_ratio * rel_spike)
+
+    for f in found:
+        if f.kind != Kind.SPIKE or f.severity == Severity.INFO:
+            continue
+        sig = test[f.signal]
+        p = parse_name(sig.name)
+        if sig.name not in ranges:
+            ranges[sig.name] = _robust_range(sig.values)
+        rel_spike = abs(f.numbers.get("deviation", np.nan)) / ranges[sig.name] \
+            if ranges[sig.name] > 0 else np.nan
+        partners = [ps for ps, _ in partners_of(test, sig.name)]
+        for other in test:
+            q = parse_name(other.name)
+            if q is None or q.origin != "test" or other.name == sig.name or p is None:
+                continue
+            if (p.base, q.base) in _EVENT_PARTNERS or (q.base, p.base) in _EVENT_PARTNERS:
+                partners.append(other)
+        if not np.isfinite(rel_spike):
+            continue
+        h = 0.5 * sig.sample_period
+        sel = (sig.time >= f.start_s - h) & (sig.time <= f.end_s + h)
+        for other in partners:
+            real = jumps(*seen_by(sig, other), sel, rel_spike)
+            if not real and other.sample_period <= 1.5 * sig.sample_period:
+                # a partner at least as fast, at its own rate, within half a sample period
+                own = (other.time >= f.start_s - h) & (other.time <= f.end_s + h)
+                real = jumps(*seen_by(None, other), own, rel_spike)
+            if real:
+                f.severity = Severity.INFO
+                f.message += f"; {other.name} jumps at the same time: a real transient, not a sensor spike"
+                f.related.append(other.name)
+                break
+        if f.severity != Severity.INFO and p is not None:
+            _corroborate_by_step(test, f, p.base, sig.sample_period)
+
+
+def _corroborate_by_step(test: Test, f: Finding, base: str, period: float) -> None:
+    """Demote a spike to info when a :data:`_STEP_PARTNERS` partner, sampled at least as fast,
+    changes level by its fraction of range within one sample either side of the spike."""
+    for other in test:
+        q = parse_name(other.name)
+        frac = _STEP_PARTNERS.get((base, q.base)) if q is not None and q.origin == "test" else None
+        if frac is None or other.sample_period > 1.5 * period:
+            continue
+        h = other.sample_period * 1.01
+        moved, share = _moves(other, f.start_s - h, f.end_s + h, frac)
+        if moved:
+            f.severity = Severity.INFO
+            f.message += (f"; {other.name} changes by {100 * share:.0f} % of its range at the "
+                          "same time: a real transient (engine stop or start), not a sensor spike")
+            f.related.append(other.name)
+            return
+
+
+def resolution(values: np.ndarray) -> float:
+    """Resolution of a quantised signal, inferred from its successive steps [its unit].
+
+    The smallest recurring step (the third smallest non-zero step, float noise of the unit
+    conversion left out, so one or two odd steps do not set it) is the count; the signal is quantised when at least 80 % of its
+    steps are within a quarter count of a whole number of counts (a thermistor table's
+    slightly unequal counts, 0.098-0.109 °C, pass). 0 for a continuous signal.
+    """
+    v = np.asarray(values, float)
+    v = v[np.isfinite(v)]
+    if v.size < 10:
+        return 0.0
+    d = np.abs(np.diff(v))
+    d = d[d > 1e-9 * max(float(np.max(np.abs(v))), 1e-300)]
+    if d.size < 10:
+        return 0.0
+    q = float(np.partition(d, 2)[2])
+    k = d / q
+    on_grid = np.abs(k - np.round(k)) <= 0.25
+    return q if float(on_grid.mean()) >= 0.8 else 0.0
+
+
+def _local_scatter(resid: np.ndarray, window: int) -> np.ndarray:
+    """Robust scatter (1.4826 x median |residual|) of each sample's neighbourhood."""
+    a = np.abs(resid)
+    out = np.full(a.shape, np.nan)
+    h = window // 2
+    if a.size < window:
+        return out
+    with warnings.catch_warnings():       # an all-NaN neighbourhood gives NaN: not judged
+        warnings.simplefilter("ignore", RuntimeWarning)
+        med = np.nanmedian(sliding_window_view(a, window), axis=1)
+    out[h:a.size - h] = 1.4826 * med
+    return out
+
+
+def spike_findings(sig: Signal, v: np.ndarray, t: np.ndarray,
+                   opts: Level1Options) -> list[Finding]:
+    """Spike findings of one signal (Hampel filter, quantisation- and scatter-aware).
+
+    A sample is a spike when its residual from the rolling median (window ``spike_window``)
+    exceeds the largest of: ``spike_k`` robust sigmas of the whole signal,
+    ``spike_range_fraction`` of its robust range, ``spike_quanta`` counts of its resolution
+    (rounding puts up to half a count on the sample and on the median, a slow real change one
+    more count within the window: up to 2 counts are quantisation), and ``spike_local_k``
+    times the robust scatter of the residuals in its neighbourhood (``spike_local_window``):
+    a sample that departs from its neighbours no more than they do from theirs is not an
+    outlier (a 1 Hz point sample of a pulsating injector flow).
+    """
+    out: list[Finding] = []
+    sigma, resid = robust_noise(v, opts.spike_window)
+    rrange = _robust_range(v)
+    if sig.resample != "linear" or not rrange > 0:
+        return out
+    q = resolution(v)
+    thr = max(opts.spike_k * sigma, opts.spike_range_fraction * rrange, opts.spike_quanta * q)
+    with np.errstate(invalid="ignore"):
+        local = opts.spike_local_k * _local_scatter(resid, opts.spike_local_window)
+        spikes = np.isfinite(resid) & (np.abs(resid) > thr) & ~(np.abs(resid) <= local)
+    rs = [r for r in runs(spikes) if r[1] - r[0] < opts.spike_window // 2 + 1]
+    # a spike leaves and returns: the samples just before and after it agree within
+    # half its size; an edge followed by a decay (a current pulse as the engine
+    # starts) does not return and is a transient, reported as info
+    steps = []
+    for i0, i1 in list(rs):
+        if 0 < i0 and i1 + 1 < v.size:
+            before, after = v[i0 - 1], v[i1 + 1]
+            if np.isfinite(before) and np.isfinite(after) and \
+                    abs(after - before) > 0.5 * abs(_peak(resid, i0, i1)):
+                steps.append((i0, i1))
+                rs.remove((i0, i1))
+    # a fast quantity sampled slowly (a 1 Hz point sample of a pulsating fuel flow) may
+    # leave and return within one sample for real: inside the signal's own range (its
+    # 0.5-99.5 % band widened by half its width: the test's one hardest tip-in is the top of
+    # the band), that is not evidence of a sensor fault
+    p = parse_name(sig.name)
+    qty = p.base.split("_")[1] if p is not None and "_" in p.base else ""
+    band = np.nanpercentile(v, [0.5, 99.5]) if np.isfinite(v).any() else np.full(2, np.nan)
+    band = band + np.array([-0.5, 0.5]) * (band[1] - band[0])
+    slow = []
+    fast = qty in FAST_QUANTITIES or (p is not None and p.base in FAST_BASES)
+    if fast and sig.sample_period >= opts.slow_sample_s:
+        for i0, i1 in list(rs):
+            seg = v[i0:i1 + 1]
+            if np.all((seg >= band[0]) & (seg <= band[1])):
+                slow.append((i0, i1))
+                rs.remove((i0, i1))
+    rs = merge_runs(rs, t, 1.0)
+    emit_runs(out, sig, merge_runs(slow, t, 1.0), Kind.SPIKE, Severity.INFO,
+              lambda i0, i1: (f"{sig.name} departs by {_peak(resid, i0, i1):+.4g} {sig.unit} at "
+                              f"{t[i0]:.1f} s for one sample and returns, within its own range: "
+                              f"sampled every {sig.sample_period:.3g} s, a quantity that changes "
+                              f"within 0.2 s can do that for real; not judged a sensor spike"),
+              lambda i0, i1: {"deviation": _peak(resid, i0, i1), "threshold": thr,
+                              "period_s": sig.sample_period}, opts)
+    emit_runs(out, sig, merge_runs(steps, t, 1.0), Kind.SPIKE, Severity.INFO,
+              lambda i0, i1: (f"{sig.name} jumps by {_peak(resid, i0, i1):+.4g} {sig.unit} at "
+                              f"{t[i0]:.1f} s and does not return to its previous level: a "
+                              f"transient, not a sensor spike"),
+              lambda i0, i1: {"deviation": _peak(resid, i0, i1), "threshold": thr}, opts)
+    emit_runs(out, sig, rs, Kind.SPIKE, Severity.WARNING,
+              lambda i0, i1: (f"{sig.name} has a spike of {_peak(resid, i0, i1):+.4g} {sig.unit} "
+                              f"at {t[i0]:.1f} s (threshold {thr:.3g} {sig.unit})"),
+              lambda i0, i1: {"value": float(v[i0 + int(np.nanargmax(np.abs(resid[i0:i1 + 1])))]),
+                              "deviation": _peak(resid, i0, i1), "threshold": thr}, opts,
+              cap=opts.max_spikes_corroborated)
+    return out
+
+
+def cap_spikes(found: list[Finding], cap: int) -> list[Finding]:
+    """Merge the spikes of a signal beyond ``cap`` per severity into one finding (after each
+    was judged: a sensor spike is never hidden among real transients)."""
+    groups: dict[tuple[str, Severity], list[Finding]] = {}
+    for f in found:
+        if f.kind == Kind.SPIKE:
+            groups.setdefault((f.signal, f.severity), []).append(f)
+    drop: set[int] = set()
+    for (name, sev), fs in groups.items():
+        if len(fs) <= cap:
+            continue
+        tail = fs[cap - 1:]
+        drop.update(id(f) for f in tail)
+        merged = sum(int(f.numbers.get("runs_merged", 1)) for f in tail)
+        s0, s1 = min(f.start_s for f in tail), max(f.end_s for f in tail)
+        what = "real transients" if sev == Severity.INFO else "more spikes"
+        found.append(Finding(name, Kind.SPIKE, s0, s1, sev,
+                             f"{merged} more occurrences between {s0:.1f} s and {s1:.1f} s "
+                             f"({what})", {**tail[0].numbers, "runs_merged": merged}))
+    return [f for f in found if id(f) not in drop]
+
+
+def corroborate_spikes_with_calc(test: Test, findings: list[Finding], computed: dict,
+                                 agree: float = 0.5) -> None:
+    """Demote to info the spikes that the signal's calculated counterpart reproduces.
+
+    Run after the calculations: a spike on ``X`` whose ``X_calc`` (computed from other
+    measured signals, never from ``X``) is within ``agree`` × the spike's deviation of the
+    measured value at the spike instant is a real event (a generator speed swinging to
+    -380 rad/s within one 1 Hz OBD sample as the engine stops, which the Willis equation
+    gives from the engine and motor speeds); a sensor spike leaves its calculated value.
+    """
+    for f in findings:
+        if f.kind != Kind.SPIKE or f.severity == Severity.INFO:
+            continue
+        p = parse_name(f.signal)
+        if p is None:
+            continue
+        cname = f"{p.base}_calc"
+        info = computed.get(cname)
+        if info is None or cname not in test or f.signal in info.get("inputs", {}).values():
+            continue
+        sig = test[f.signal]
+        sel = (sig.time >= f.start_s - 1e-9) & (sig.time <= f.end_s + 1e-9)
+        dev = abs(float(f.numbers.get("deviation", np.nan)))
+        if not sel.any() or not dev > 0:
+            continue
+        diff = np.abs(sig.values[sel] - test[cname].at(sig.time[sel]))
+        if np.isfinite(diff).all() and float(np.max(diff)) <= agree * dev:
+            f.severity = Severity.INFO
+            f.message += (f"; {cname} = {info.get('expr', '')} shows the same value "
+                          f"(within {float(np.max(diff)):.3g} {sig.unit}): a real transient")
+            f.related.append(cname)
