@@ -202,6 +202,28 @@ def format_value(value_si: float, si_unit: str, *, system_name: str | None = Non
     return f"{shown} {unit.label}".rstrip()
 
 
+def format_delta(value_si: float, si_unit: str, *, signal: str | None = None, digits: int = 4,
+                 signed: bool = False, system_name: str | None = None) -> str:
+    """A difference, step or threshold of an SI quantity in its display unit (the factor
+    only: a temperature difference has no offset). ``signed`` prints ``+`` for positive."""
+    if value_si is None or not math.isfinite(float(value_si)):
+        return "n/a"
+    unit = unit_for(si_unit, system_name=system_name, signal=signal, magnitude=float(value_si))
+    shown = number(float(value_si) * unit.factor, digits)
+    if signed and not shown.startswith("-"):
+        shown = "+" + shown
+    return f"{shown} {unit.label}".rstrip()
+
+
+def format_range(lo_si: float, hi_si: float, si_unit: str, *, signal: str | None = None,
+                 digits: int = 4, system_name: str | None = None) -> str:
+    """``[lo, hi] unit`` of an SI interval in the display unit (both ends one unit)."""
+    mag = max(abs(lo_si), abs(hi_si)) if math.isfinite(lo_si) and math.isfinite(hi_si) else None
+    unit = unit_for(si_unit, system_name=system_name, signal=signal, magnitude=mag)
+    lo, hi = (number(float(unit.convert(x)), digits) for x in (lo_si, hi_si))
+    return f"[{lo}, {hi}] {unit.label}".rstrip()
+
+
 #: Suffixes of result keys (``distance_m``, ``fuel_mass_kg``...) -> SI unit.
 KEY_SUFFIX_UNITS: dict[str, str] = {
     "_mps": "m/s", "_m": "m", "_kg": "kg", "_j": "J", "_w": "W", "_s": "s", "_m3": "m**3",

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Iterable
+from typing import Callable, Iterable
 
 import numpy as np
 
@@ -146,6 +146,23 @@ class Finding:
                    end_s=d["end_s"], severity=Severity(d["severity"]), message=d["message"],
                    numbers=dict(d.get("numbers", {})), level=d.get("level", 1),
                    related=list(d.get("related", [])), fix=str(d.get("fix", "")))
+
+
+def message_units(signal: str, si_unit: str) -> tuple[Callable[[float], str],
+                                                      Callable[[float, float], str]]:
+    """Formatters for a finding's sentence: a value and a range of ``signal`` in the
+    display units people read (:mod:`vehval.display`); ``numbers`` stay SI."""
+    from vehval.display import format_range, format_value
+
+    return (lambda x: format_value(x, si_unit, signal=signal),
+            lambda lo, hi: format_range(lo, hi, si_unit, signal=signal))
+
+
+def delta_units(signal: str, si_unit: str) -> Callable[..., str]:
+    """Formatter of a difference, step or threshold of ``signal`` in its display unit."""
+    from vehval.display import format_delta
+
+    return lambda x, signed=False: format_delta(x, si_unit, signal=signal, signed=signed)
 
 
 def summarise(findings: Iterable[Finding]) -> dict:

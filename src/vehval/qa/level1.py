@@ -13,7 +13,7 @@ import numpy as np
 
 from vehval.io.importer import TIME_REPAIRED
 from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity, merge_runs, runs
+from vehval.qa.findings import Finding, Kind, Severity, merge_runs, message_units, runs
 from vehval.qa.level1_shape import (
     DYNAMIC_QUANTITIES,
     NON_NEGATIVE,
@@ -155,11 +155,12 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
 
     # range against the registry and the vehicle ------------------------------------------
     lo, hi = spec.range
+    shown, shown_range = message_units(sig.name, sig.unit)
     outside = fin & ((v < lo) | (v > hi))
     rs = merge_runs(runs(outside), t, 1.0)
     emit_runs(out, sig, rs, Kind.RANGE, Severity.ERROR,
-               lambda i0, i1: (f"{sig.name} reaches {_extreme(v, i0, i1, lo, hi):.6g} {sig.unit}, "
-                               f"outside the plausible range [{lo:.6g}, {hi:.6g}] {sig.unit}"),
+               lambda i0, i1: (f"{sig.name} reaches {shown(_extreme(v, i0, i1, lo, hi))}, "
+                               f"outside the plausible range {shown_range(lo, hi)}"),
                lambda i0, i1: {"value": _extreme(v, i0, i1, lo, hi), "limit_min": lo, "limit_max": hi},
                opts)
     if limits and base in limits:
@@ -171,8 +172,8 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
         over = fin & ~outside & ((v > vhi + margin) | (v < vlo - margin))
         rs = merge_runs(runs(over), t, 1.0)
         emit_runs(out, sig, rs, Kind.VEHICLE_LIMIT, Severity.ERROR,
-                   lambda i0, i1: (f"{sig.name} reaches {_extreme(v, i0, i1, vlo, vhi):.6g} {sig.unit}, "
-                                   f"beyond the vehicle's limit [{vlo:.6g}, {vhi:.6g}] {sig.unit}"),
+                   lambda i0, i1: (f"{sig.name} reaches {shown(_extreme(v, i0, i1, vlo, vhi))}, "
+                                   f"beyond the vehicle's limit {shown_range(vlo, vhi)}"),
                    lambda i0, i1: {"value": _extreme(v, i0, i1, vlo, vhi), "limit_min": vlo,
                                    "limit_max": vhi}, opts)
 
@@ -187,7 +188,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
     if vf.size > 10 and np.all(vf == vf[0]):
         sev = Severity.WARNING if qty in DYNAMIC_QUANTITIES and sig.resample == "linear" else Severity.INFO
         out.append(Finding(sig.name, Kind.CONSTANT, t_start, t_end, sev,
-                           f"{sig.name} is constant at {vf[0]:.6g} {sig.unit} over the whole test",
+                           f"{sig.name} is constant at {shown(float(vf[0]))} over the whole test",
                            {"value": float(vf[0])}))
         return out
 
@@ -208,7 +209,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
             i0, i1 = rs[0][0], rs[-1][1]
             out.append(Finding(sig.name, Kind.NEGATIVE, float(t[i0]), float(t[i1]), sev,
                                f"{sig.name} is negative in {len(rs)} stretch(es) "
-                               f"({100 * frac:.1f} % of samples, down to {vmin:.4g} {sig.unit})"
+                               f"({100 * frac:.1f} % of samples, down to {shown(vmin)})"
                                + ("; beyond the sensor noise" if beyond else "; within noise"),
                                {"value": vmin, "limit_min": 0.0, "fraction": frac,
                                 "noise_sigma": sigma, "runs": len(rs)}))

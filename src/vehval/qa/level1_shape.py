@@ -24,7 +24,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 from vehval.align import CORRELATED_BASES
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity, merge_runs, runs
+from vehval.qa.findings import Finding, Kind, Severity, delta_units, merge_runs, message_units, runs
 from vehval.qa.level2 import PER_INSTANCE, is_instance_qualifier
 from vehval.test import Signal, Test
 
@@ -238,6 +238,7 @@ def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, 
     v, t = sig.values, sig.time
     if v.size < opts.stuck_min_samples or sig.resample == "previous":
         return []
+    shown = message_units(sig.name, sig.unit)[0]
     same = (np.diff(v) == 0)
     rs = runs(same)                    # run (i0, i1) of diffs -> samples i0..i1+1 equal
     if not rs:
@@ -302,7 +303,7 @@ def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, 
         if mover is not None:
             psig, dup, frac = mover
             sev = Severity.ERROR if dup else Severity.WARNING
-            msg = (f"{sig.name} stays exactly at {float(v[i0]):.6g} {sig.unit} for {t1 - t0:.1f} s "
+            msg = (f"{sig.name} stays exactly at {shown(float(v[i0]))} for {t1 - t0:.1f} s "
                    f"while {psig.name} varies by {100 * frac:.0f} % of its range")
             nums = {"value": value, "duration_s": t1 - t0, "samples": j1 - i0 + 1,
                     "partner_range_fraction": frac}
@@ -311,7 +312,7 @@ def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, 
         elif noisy and abs(value) > 1e-3 * span:
             # (a hold within 0.1 % of the range from zero, such as a 0.001 mph roll creep at
             # standstill, is a standstill when no partner says otherwise)
-            msg = (f"{sig.name} repeats exactly {float(v[i0]):.6g} {sig.unit} for {t1 - t0:.1f} s "
+            msg = (f"{sig.name} repeats exactly {shown(float(v[i0]))} for {t1 - t0:.1f} s "
                    f"although it changes at almost every sample elsewhere (stuck sensor?)")
             found.append(Finding(sig.name, Kind.STUCK, t0, t1, Severity.WARNING, msg,
                                  {"value": value, "duration_s": t1 - t0,
@@ -480,6 +481,7 @@ def spike_findings(sig: Signal, v: np.ndarray, t: np.ndarray,
     a sample that departs from its neighbours no more than they do from theirs is not an
     outlier (a 1 Hz point sample of a pulsating injector flow).
     """
+    delta = delta_units(sig.name, sig.unit)
     out: list[Finding] = []
     sigma, resid = robust_noise(v, opts.spike_window)
     rrange = _robust_range(v)
@@ -520,20 +522,20 @@ def spike_findings(sig: Signal, v: np.ndarray, t: np.ndarray,
                 rs.remove((i0, i1))
     rs = merge_runs(rs, t, 1.0)
     emit_runs(out, sig, merge_runs(slow, t, 1.0), Kind.SPIKE, Severity.INFO,
-              lambda i0, i1: (f"{sig.name} departs by {_peak(resid, i0, i1):+.4g} {sig.unit} at "
+              lambda i0, i1: (f"{sig.name} departs by {delta(_peak(resid, i0, i1), signed=True)} at "
                               f"{t[i0]:.1f} s for one sample and returns, within its own range: "
                               f"sampled every {sig.sample_period:.3g} s, a quantity that changes "
                               f"within 0.2 s can do that for real; not judged a sensor spike"),
               lambda i0, i1: {"deviation": _peak(resid, i0, i1), "threshold": thr,
                               "period_s": sig.sample_period}, opts)
     emit_runs(out, sig, merge_runs(steps, t, 1.0), Kind.SPIKE, Severity.INFO,
-              lambda i0, i1: (f"{sig.name} jumps by {_peak(resid, i0, i1):+.4g} {sig.unit} at "
+              lambda i0, i1: (f"{sig.name} jumps by {delta(_peak(resid, i0, i1), signed=True)} at "
                               f"{t[i0]:.1f} s and does not return to its previous level: a "
                               f"transient, not a sensor spike"),
               lambda i0, i1: {"deviation": _peak(resid, i0, i1), "threshold": thr}, opts)
     emit_runs(out, sig, rs, Kind.SPIKE, Severity.WARNING,
-              lambda i0, i1: (f"{sig.name} has a spike of {_peak(resid, i0, i1):+.4g} {sig.unit} "
-                              f"at {t[i0]:.1f} s (threshold {thr:.3g} {sig.unit})"),
+              lambda i0, i1: (f"{sig.name} has a spike of {delta(_peak(resid, i0, i1), signed=True)} "
+                              f"at {t[i0]:.1f} s (threshold {delta(thr)})"),
               lambda i0, i1: {"value": float(v[i0 + int(np.nanargmax(np.abs(resid[i0:i1 + 1])))]),
                               "deviation": _peak(resid, i0, i1), "threshold": thr}, opts,
               cap=opts.max_spikes_corroborated)
@@ -591,5 +593,5 @@ def corroborate_spikes_with_calc(test: Test, findings: list[Finding], computed: 
         if np.isfinite(diff).all() and float(np.max(diff)) <= agree * dev:
             f.severity = Severity.INFO
             f.message += (f"; {cname} = {info.get('expr', '')} shows the same value "
-                          f"(within {float(np.max(diff)):.3g} {sig.unit}): a real transient")
+                          f"(within {delta_units(sig.name, sig.unit)(float(np.max(diff)))}): a real transient")
             f.related.append(cname)

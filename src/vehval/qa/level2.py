@@ -21,7 +21,7 @@ from vehval.constants import MILE_M
 from vehval.errors import SignalError
 from vehval.jsonsafe import finite_or_none
 from vehval.nomenclature import preference_rank, registry
-from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
+from vehval.qa.findings import Finding, Kind, Severity, delta_units, untrusted_mask
 from vehval.test import Signal, Test
 
 #: Unit factors a wrong unit typically produces (slope of other vs ref).
@@ -169,18 +169,18 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
             sev = Severity.ERROR if abs(slope - 1) > opts.gain_error else Severity.WARNING
             out.append(Finding(blamed, Kind.GAIN, s0, s1, sev,
                                f"{row.other} reads {slope:.3f} x {row.ref} (fit slope {row.slope:.3f}, "
-                               f"offset {row.offset:+.3g} {row.unit}): gain differs by "
+                               f"offset {delta_units(row.ref, row.unit)(row.offset, signed=True)}): gain differs by "
                                f"{100 * (slope - 1):+.1f} %", nums, related=rel))
         elif row.ref_range > 0 and abs(row.mean_diff) > opts.offset_tol * row.ref_range:
             out.append(Finding(blamed, Kind.OFFSET, s0, s1, Severity.WARNING,
-                               f"{row.other} is offset from {row.ref} by {row.mean_diff:+.4g} {row.unit} "
+                               f"{row.other} is offset from {row.ref} by {delta_units(row.ref, row.unit)(row.mean_diff, signed=True)} "
                                f"on average ({100 * abs(row.mean_diff) / row.ref_range:.0f} % of its range)",
                                nums, related=rel))
     if (row.r2 < opts.r2_min and not any(f.kind in (Kind.UNIT, Kind.GAIN) for f in out)
             and row.mean_abs_diff > opts.low_agreement_diff * row.ref_range):
         out.append(Finding(blamed, Kind.LOW_AGREEMENT, s0, s1, Severity.WARNING,
                            f"{row.other} and {row.ref} agree poorly (R² {row.r2:.3f}, mean "
-                           f"difference {row.mean_abs_diff:.4g} {row.unit})", nums, related=rel))
+                           f"difference {delta_units(row.ref, row.unit)(row.mean_abs_diff)})", nums, related=rel))
     lag_thr = max(opts.lag_min_s, 1.5 * ref_period, 0.5 * row.slow_period_s)
     if np.isfinite(row.residual_lag_s) and abs(row.residual_lag_s) > lag_thr and row.r2 > 0.5:
         out.append(Finding(blamed, Kind.LAG, s0, s1, Severity.WARNING,

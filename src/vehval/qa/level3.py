@@ -31,7 +31,7 @@ from vehval.equations.calc import CalcResult
 from vehval.errors import SignalError
 from vehval.jsonsafe import finite_or_none
 from vehval.nomenclature import registry
-from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
+from vehval.qa.findings import Finding, Kind, Severity, delta_units, untrusted_mask
 from vehval.test import Test
 
 #: Cumulative outputs: a drift shows in them, a correlation is meaningless.
@@ -263,7 +263,7 @@ def _row_findings(test: Test, measured: str, cname: str, info: dict, row: CalcCo
             measured, Kind.CALC_MISMATCH, float(test[cname].time[0]),
             float(test[cname].time[-1]), Severity.WARNING,
             f"{measured} disagrees with {cname} = {info['expr']} (R² {row.r2:.3f}, mean "
-            f"difference {row.mean_abs_diff:.4g} {row.unit} = {100 * row.rel_diff:.1f} % of "
+            f"difference {delta_units(measured, row.unit)(row.mean_abs_diff)} = {100 * row.rel_diff:.1f} % of "
             f"its range); check it or the inputs ({ins})",
             {"r2": row.r2, "mean_abs_diff": row.mean_abs_diff, "test_range": row.test_range,
              "rel_diff": row.rel_diff, "slope": row.slope},
@@ -312,7 +312,7 @@ def local_mismatch(test: Test, measured: str, calculated: str, rng: float, info:
             continue
         dev = float(np.nanmax(np.abs(res[i0:i1 + 1])))
         out.append(Finding(measured, Kind.CALC_MISMATCH, t0, t1, Severity.WARNING,
-                           f"{measured} departs from {calculated} by up to {dev:.4g} {c.unit} "
+                           f"{measured} departs from {calculated} by up to {delta_units(measured, c.unit)(dev)} "
                            f"({100 * dev / rng:.0f} % of its range) from {t0:.1f} s to {t1:.1f} s",
                            {"max_deviation": dev, "test_range": rng, "duration_s": t1 - t0},
                            related=[calculated] + list(info.get("inputs", {}).values())))
@@ -372,7 +372,7 @@ def residual_drift(test: Test, measured: str, calculated: str, rng: float,
     like_note = (" (beyond the speed- and acceleration-dependent difference of set and target "
                  "road load and inertia, fitted and removed)" if fitted else "")
     return Finding(measured, Kind.OFFSET, t0, float(t[-1]), Severity.WARNING,
-                   f"{measured} drifts from {calculated} by {total:+.4g} {c.unit} over the test "
+                   f"{measured} drifts from {calculated} by {delta_units(measured, c.unit)(total, signed=True)} over the test "
                    f"({100 * abs(total) / rng:.1f} % of its range){like_note}: zero drift of "
                    "the sensor?",
                    {"drift": float(total), "test_range": rng, "block_medians": med.tolist(),
