@@ -97,3 +97,12 @@ def test_budget_reads_the_address_space_limit():
         assert budget.budget_bytes() <= left // 2
     finally:
         resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
+
+def test_identify_option_bounds_equal_the_spec_file_ranges():
+    # the command-line options and the spec file's keys accept the same values
+    from vehval.cli.options import BOUNDS
+    from vehval.identify.spec import _RANGES
+
+    for key in ("rated_power_kw", "rated_speed_rpm", "peak_torque_nm", "displacement_l", "gears"):
+        assert (BOUNDS[key].lo, BOUNDS[key].hi) == _RANGES[key], key

@@ -107,7 +107,7 @@ def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
     check_recovery(d["controller"], d["rule"]["bounds"], d["rule_agreement"], truth,
                    identified, bounded)
     msgs = " | ".join(f["message"] for f in d["findings"])
-    assert "1.275" in msgs and "QA flagged" in msgs         # SOC PID at 127.5 % excluded
+    assert "127.5 %" in msgs and "QA flagged" in msgs         # SOC PID at 127.5 % excluded
     assert "reversed" in msgs                                # battery power sign corrected
     # the QA ran: it dropped the reversed current clamp, so the SOC is coulomb counted from
     # its calculated battery power over the voltage

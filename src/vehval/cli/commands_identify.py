@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 from vehval.errors import ConfigError
 
 
@@ -60,13 +61,13 @@ def identify_cmd(
     ac_test: Path = typer.Option(None, "--ac-test", help="A test run with the A/C on (not one of FILES): identifies the A/C compressor load from its phases after the first."),
     cold_test: Path = typer.Option(None, "--cold-test", help="A cold-start test (not one of FILES) on the cycle of a hot-start test among FILES: identifies the warm-up fuel (fraction and time constant) from the two tests' measured fuel."),
     spec: Path = typer.Option(None, "--spec", help="Specification YAML (rated power and speed, peak torque, displacement, fuel, tyre, gears...; see docs/identification.md): values the data cannot separate."),
-    rated_power_kw: float = typer.Option(None, "--rated-power-kw", help="Rated engine power [kW] (over the spec)."),
-    rated_speed_rpm: float = typer.Option(None, "--rated-speed-rpm", help="Engine speed at rated power [rpm]."),
-    peak_torque_nm: float = typer.Option(None, "--peak-torque-nm", help="Peak engine torque [N m]."),
-    displacement_l: float = typer.Option(None, "--displacement-l", help="Engine displacement [L]."),
+    rated_power_kw: float = typer.Option(None, "--rated-power-kw", callback=bounded("rated_power_kw"), help="Rated engine power [kW] (over the spec)."),
+    rated_speed_rpm: float = typer.Option(None, "--rated-speed-rpm", callback=bounded("rated_speed_rpm"), help="Engine speed at rated power [rpm]."),
+    peak_torque_nm: float = typer.Option(None, "--peak-torque-nm", callback=bounded("peak_torque_nm"), help="Peak engine torque [N m]."),
+    displacement_l: float = typer.Option(None, "--displacement-l", callback=bounded("displacement_l"), help="Engine displacement [L]."),
     engine_fuel: str = typer.Option(None, "--engine-fuel", help="Engine type for the generic scaling: diesel or gasoline (default: from the test fuel)."),
     tyre: str = typer.Option(None, "--tyre", help="Tyre size, e.g. 225/50 R17 (wheel radius)."),
-    gears: int = typer.Option(None, "--gears", help="Number of forward gears (honoured; refused when the data show more)."),
+    gears: int = typer.Option(None, "--gears", callback=bounded("gears"), help="Number of forward gears (honoured; refused when the data show more)."),
     cross_validate: bool = typer.Option(False, "--cross-validate", help="Identify from all tests but one and predict that one, for each test; prints the table (and writes it as JSON with -o)."),
     pairs: bool = typer.Option(False, "--pairs", help="With --cross-validate: identify from every pair of tests of distinct cycles and predict every other test."),
     as_json: bool = typer.Option(False, "--json", help="Print the identification summary as JSON."),

@@ -7,12 +7,13 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import bounded
 
 
 @app.command("serve")
 def serve_cmd(
     workspace: Path = typer.Argument(Path("."), help="Workspace folder (default: the current one)."),
-    port: int = typer.Option(8890, "--port", min=0, max=65535, help="Port (0: any free port)."),
+    port: int = typer.Option(8890, "--port", callback=bounded("port"), help="Port (0: any free port)."),
     host: str = typer.Option("127.0.0.1", "--host",
                              help="Address to listen on (default loopback only)."),
     no_browser: bool = typer.Option(False, "--no-browser", help="Do not open a browser."),

@@ -64,6 +64,14 @@ BOUNDS: dict[str, Bound] = {
                         "larger results with the catalog's own SQL through DuckDB"),
     "query_timeout": Bound(0.1, 3600.0, "s", "a catalog query over thousands of tests takes "
                            "seconds; an hour means a runaway join"),
+    # identify's declared specification: the same limits as the spec file's keys
+    # (vehval.identify.spec._RANGES; a test keeps the two equal)
+    "rated_power_kw": Bound(5, 1000, "kW", "passenger cars and light trucks"),
+    "rated_speed_rpm": Bound(1500, 12000, "rpm", "engine speed at rated power of road engines"),
+    "peak_torque_nm": Bound(20, 2000, "N·m", "peak engine torque of road engines"),
+    "displacement_l": Bound(0.3, 10, "L", "displacement of road engines"),
+    "gears": Bound(1, 12, "gears", "forward gears of production gearboxes"),
+    "port": Bound(0, 65535, "-", "a TCP port; 0 picks a free one"),
 }
 
 
