@@ -56,7 +56,9 @@ def test_unit_fix_flow(workspace, synth_dir):
     hints = _fuel_hints(m)
     assert hints and hints[0]["kind"] in ("unit", "unit_suspect")
     assert "fuel_rate_test" in hints[0]["message"]
-    wrong = m["headline"]["fuel_economy_mpg"]
+    # the impossible figure is withheld by the QA gate, naming the signal
+    assert m["headline"]["fuel_economy_mpg"] is None
+    assert "fuel_rate_test" in str(m["headline"]["withheld"])
     # mg/s -> g/s: the headline comes within range
     m = c.post("/api/template", params={"dir": "virtual"},
                json={"channels": [{"file": 0, "raw": FUEL_COLUMN, "unit": "g/s"}]}).json()
@@ -64,7 +66,7 @@ def test_unit_fix_flow(workspace, synth_dir):
     mpg = m["headline"]["fuel_economy_mpg"]
     expected = expected_mpg(synth_dir, DENSITY)
     # the measured fuel is the simulation's plus sensor noise (no fault injected): 3 %
-    assert mpg == pytest.approx(expected, rel=0.03) and wrong > 100 * expected
+    assert mpg == pytest.approx(expected, rel=0.03) and not m["headline"].get("withheld")
     # the saved template is init's plus the two edits, comments kept
     saved = (workspace / "virtual" / "template.yaml").read_text(encoding="utf-8")
     data["fuel"] = FUEL

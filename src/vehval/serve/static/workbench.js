@@ -87,6 +87,15 @@
       for (const t of ["template", "triage", "model"]) document.getElementById("tab-" + t).hidden = (t !== b.dataset.tab);
     }));
 
+    function withheldText(w) {
+      // the gate's entry: {signals, reason, fix, ...}; a plain reason otherwise
+      if (!w) return "no fuel economy";
+      if (typeof w === "string") return w;
+      const parts = [w.reason || "QA error on " + (w.signals || []).join(", ")];
+      if (w.fix) parts.push("fix: " + w.fix);
+      return parts.join("; ");
+    }
+
     function headline(h) {
       const box = document.getElementById("headline");
       box.textContent = "";
@@ -98,7 +107,7 @@
       } else {
         box.append(el("b", {text: (h.name || "test") + ": "}),
                    el("span", {class: "withheld", id: "headline-withheld",
-                               text: "withheld: " + (typeof h.withheld === "string" ? h.withheld : JSON.stringify(h.withheld || "no fuel economy"))}));
+                               text: "withheld: " + withheldText(h.withheld)}));
       }
     }
 
