@@ -322,7 +322,16 @@ def expectation(mutation: str, tpl: dict, ds: Dataset) -> tuple[str, str] | None
     if exp is None or not exp[1].startswith("@"):
         return exp
     unit = _channels(tpl)[ds.roles[exp[1][1:]]]["unit"]
-    return exp[0], f"in {unit},"
+    return exp[0], f"@{unit}"
+
+
+def _same_unit(a: str | None, b: str) -> bool:
+    from vehval.units import parse_unit
+
+    try:
+        return bool(a) and parse_unit(a) == parse_unit(b)
+    except Exception:  # noqa: BLE001 - an unparsable spelling is not the unit
+        return False
 
 
 def classify(expect: tuple[str, str] | None, base: dict,
@@ -331,15 +340,20 @@ def classify(expect: tuple[str, str] | None, base: dict,
     code, err, doc, findings, notes = run
     if code not in (0, 4):
         line = err.strip().splitlines()[-1] if err.strip() else f"exit {code}"
-        ok = expect is not None and expect[1].strip() in line
+        ok = expect is not None and expect[1].lstrip("@") in line
         return ("refused" + (" with hint" if ok else ""), line[:160], [])
     hinted = ""
     if expect is not None:
         fam, text = expect
         for f in findings:
-            if f.get("severity") in ("warning", "error") and f["signal"].startswith(fam) \
-                    and text in (f.get("fix") or f.get("message", "")) \
-                    and (f.get("fix") or not text.startswith("in ")):  # a unit hint is a fix
+            if f.get("severity") not in ("warning", "error") or not f["signal"].startswith(fam):
+                continue
+            if text.startswith("@"):                 # a unit hint: the probable unit is right
+                ok = bool(f.get("fix")) and _same_unit(
+                    (f.get("numbers") or {}).get("probable_unit"), text[1:])
+            else:
+                ok = text in (f.get("fix") or f.get("message", ""))
+            if ok:
                 hinted = f.get("fix") or f["message"][:120]
                 break
         if not hinted and text:
@@ -354,7 +368,7 @@ def classify(expect: tuple[str, str] | None, base: dict,
         tol = max(u0 or 0.0, 1e-9 * max(1.0, abs(v0)))
         if abs(v - v0) > tol:
             breaches.append(f"{k}: {v0:.5g} -> {v:.5g} (U {u0 if u0 is not None else 0:.3g})")
-    touched = held & set(ref)
+    touched = (held & set(ref)) | (set(ref) - set(now))    # withheld or no longer stated
     if breaches:
         return "BREACH", hinted, breaches
     if touched:
@@ -363,12 +377,13 @@ def classify(expect: tuple[str, str] | None, base: dict,
 
 
 def campaign(data: Path, every: bool = False, only: list[str] | None = None,
-             log: Callable[[str], None] = print) -> list[Outcome]:
-    """Run every mutation on every dataset found under ``data``."""
+             log: Callable[[str], None] = print, datasets: list[Dataset] | None = None,
+             mutations: list[str] | None = None) -> list[Outcome]:
+    """Run every mutation (or ``mutations``) on every dataset found under ``data``."""
     outcomes: list[Outcome] = []
     with tempfile.TemporaryDirectory(prefix="vehval-mut-") as tmp:
         root = Path(tmp)
-        for ds in DATASETS:
+        for ds in datasets or DATASETS:
             if only and ds.name not in only:
                 continue
             files = sorted((data / ds.folder).glob(ds.pattern))
@@ -381,6 +396,8 @@ def campaign(data: Path, every: bool = False, only: list[str] | None = None,
                     log(f"{ds.name} {f.name}: reference run failed: {base[1].strip()[-200:]}")
                     continue
                 for mut, (how, _exp) in MUTATIONS.items():
+                    if mutations and mut not in mutations:
+                        continue
                     case = root / ds.name / f.stem / mut.replace(" ", "_").replace("/", "_")
                     copy_dir = case / "data"
                     copy_dir.mkdir(parents=True)

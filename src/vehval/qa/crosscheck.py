@@ -17,6 +17,8 @@ when the statistic is impossible as declared it names the unit that makes it pos
 - **temperatures**: ambient in -45..60 °C, coolant at most 135 °C and, after 15 min of a
   running engine, at least 45 °C (degC, degF, K);
 - **pressures**: ambient 60..110 kPa, intake manifold 15..250 kPa (Pa, hPa, kPa, bar, psi);
+- **phase channel**: whole numbers, few values, few changes (a wrong channel mapped as
+  the phase counter);
 - **file header against template**: a unit the template declares over the file header's
   own when no physics check can tell which of the two is right.
 
@@ -54,6 +56,10 @@ ENGINE_SPEED_BAND = (500 * math.pi / 30, 4500 * math.pi / 30)
 AMBIENT_TEMP_BAND = (-45.0, 60.0)
 COOLANT_MAX_BAND = (-45.0, 135.0)
 COOLANT_WARM_BAND = (45.0, 135.0)
+#: Where a candidate reading is most likely (the test-cell standard, a thermostat) [degC]:
+#: ranks two units that both fit.
+AMBIENT_TEMP_TYPICAL = 22.0
+COOLANT_TYPICAL = 90.0
 #: Engine running time [s] after which the coolant must have warmed past 45 degC.
 WARM_UP_S = 900.0
 #: Median ambient pressure and intake manifold pressure [Pa].
@@ -62,6 +68,9 @@ INTAKE_PRES_BAND = (15e3, 250e3)
 #: Base names whose headline figures depend on the signal (a header conflict is an error).
 FIGURE_BASES = ("fuel_rate", "veh_spd")
 LB_KG = 0.45359237
+#: A phase channel counts phases: at most this many distinct values and changes.
+PHASE_MAX_VALUES = 40
+PHASE_MAX_CHANGES = 200
 
 
 class _Verdicts:
@@ -87,8 +96,8 @@ def _integral(t: np.ndarray, y: np.ndarray) -> float:
 def _judge(test: Test, sig: Signal, stat: Callable[[np.ndarray], float],
            band: tuple[float, float], verdicts: _Verdicts, what: str, *,
            density: float | None = None, numbers: dict | None = None,
-           related: list[str] | None = None, severity: Severity = Severity.ERROR
-           ) -> list[Finding]:
+           related: list[str] | None = None, severity: Severity = Severity.ERROR,
+           center: float | None = None) -> list[Finding]:
     """One finding when ``stat`` of ``sig`` is outside ``band`` as declared and inside
     it in another unit; records the verdict for the header check."""
     if not sig.raw_unit:
@@ -103,7 +112,7 @@ def _judge(test: Test, sig: Signal, stat: Callable[[np.ndarray], float],
         if hdr is None or vals is None or not (lo <= stat(vals) <= hi):
             verdicts.ok.add(sig.name)
         return []
-    hints = probable_units(sig, stat, band, density=density)
+    hints = probable_units(sig, stat, band, density=density, center=center)
     if not hints:
         return []
     verdicts.flagged.add(sig.name)
@@ -155,10 +164,13 @@ def fuel_energy_check(test: Test, template: Any, vehicle: Any, constants: dict,
         def eff(vals: np.ndarray) -> float:
             e = fuel_j(vals)
             return e_wheel / e if e > 0 else float("inf")
-        return _judge(test, fuel, eff, EFFICIENCY_BAND, verdicts,
-                      f"the tank-to-wheel efficiency ({e_wheel / 1e6:.3g} MJ at the wheels "
-                      f"from {source} over the fuel energy)", density=density,
-                      numbers={"wheel_energy_j": e_wheel}, related=related)
+        out = _judge(test, fuel, eff, EFFICIENCY_BAND, verdicts,
+                     f"the tank-to-wheel efficiency ({e_wheel / 1e6:.3g} MJ at the wheels "
+                     f"from {source} over the fuel energy)", density=density,
+                     numbers={"wheel_energy_j": e_wheel}, related=related)
+        for f in out:
+            f.numbers["efficiency"] = f.numbers["statistic"]
+        return out
     ts = np.asarray(spd.time, float)
     dist = _integral(ts, np.abs(np.nan_to_num(np.asarray(spd.values, float))))
     if not (math.isfinite(dist) and dist > 1000.0):
@@ -198,6 +210,8 @@ def speed_cycle_check(test: Test, verdicts: _Verdicts) -> list[Finding]:
         return 0.0
     out = _judge(test, sig, follows, (0.5, 1.5), verdicts,
                  "the match to a drive cycle (1 = follows one)")
+    if not out and sig.name not in verdicts.ok:
+        out = _swapped_speed(test, sig, cycles, verdicts)
     for f in out:
         best = reinterpret(sig, f.numbers["probable_unit"])
         top = round(float(np.nanmax(best)), 6) if best is not None else None
@@ -207,6 +221,46 @@ def speed_cycle_check(test: Test, verdicts: _Verdicts) -> list[Finding]:
                      + f.message.split(": ", 2)[-1])
         f.numbers["cycle"] = cyc
     return out
+
+
+def _swapped_speed(test: Test, sig: Signal, cycles: list[str] | None, verdicts: _Verdicts
+                   ) -> list[Finding]:
+    """Another channel of the speed's file that follows a cycle read as a speed: the
+    template probably swapped the two mappings."""
+    from vehval.cycles_match import identify_cycle
+    from vehval.units import conversion
+
+    for other in test:
+        if other is sig or other.file != sig.file or not other.raw_unit \
+                or other.name.startswith("veh_spd"):
+            continue
+        try:
+            scale, off = conversion(other.raw_unit, other.unit, fuel_density_kg_per_m3=1000.0)
+        except Exception:  # noqa: BLE001 - a unit that does not convert back is skipped
+            continue
+        if not scale:
+            continue
+        raw = (np.asarray(other.values, float) - off) / scale
+        for unit in ("mph", "km/h", "m/s"):
+            v = raw * conversion(unit, "m/s")[0]
+            top = float(np.nanmax(v)) if np.isfinite(v).any() else 0.0
+            if not 5.0 <= top <= 70.0:
+                continue
+            name, _score, details = identify_cycle(other.time, v, cycles=cycles)
+            if not (name and details.get("method") == "cycle"):
+                continue
+            verdicts.flagged.add(sig.name)
+            t0, t1 = _span(test)
+            return [Finding(
+                sig.name, Kind.UNIT_SUSPECT, t0, t1, Severity.ERROR,
+                f"{sig.name} (raw '{sig.raw_name}') follows no drive cycle in any speed unit, "
+                f"but {other.name} (raw '{other.raw_name}') follows {name} read in {unit}: the "
+                "template probably swapped the two channels",
+                {"probable_channel": other.raw_name, "probable_unit": unit, "cycle": name},
+                level=3, related=[other.name],
+                fix=f"map '{other.raw_name}' to {sig.name} in {unit}, and '{sig.raw_name}' to "
+                    f"what it measures (swapped with {other.name}?)")]
+    return []
 
 
 def _smooth(y: np.ndarray, n: int) -> np.ndarray:
@@ -245,6 +299,7 @@ def mass_gain(force: np.ndarray, time: np.ndarray, speed: np.ndarray, mass_kg: f
     vs = _smooth(v, n)
     a = np.gradient(vs, t)
     use = (vs > 1.0) & (np.abs(a) > 0.1)
+    use[:n] = use[-n:] = False                         # the moving mean's edges
     if use.sum() < 30:
         return float("nan")
     x = np.column_stack([mass_kg * a[use], np.ones(use.sum()), vs[use], vs[use] ** 2])
@@ -349,13 +404,13 @@ def temperature_check(test: Test, verdicts: _Verdicts) -> list[Finding]:
             continue
         if sig.name.startswith("amb_temp"):
             out += _judge(test, sig, median, AMBIENT_TEMP_BAND, verdicts,
-                          "the median ambient temperature [degC]")
+                          "the median ambient temperature [degC]", center=AMBIENT_TEMP_TYPICAL)
         elif sig.name.startswith("eng_temp_coolant"):
             band = COOLANT_WARM_BAND if warm else COOLANT_MAX_BAND
             out += _judge(test, sig, top, band, verdicts,
                           "the coolant's highest temperature [degC]"
                           + (f" after {WARM_UP_S / 60:.0f} min of a running engine"
-                             if warm else ""))
+                             if warm else ""), center=COOLANT_TYPICAL)
     return out
 
 
@@ -375,6 +430,34 @@ def pressure_check(test: Test, verdicts: _Verdicts) -> list[Finding]:
         elif sig.name.startswith("eng_pres_intake"):
             out += _judge(test, sig, median, INTAKE_PRES_BAND, verdicts,
                           "the median intake manifold pressure [Pa]")
+    return out
+
+
+def phase_channel_check(test: Test) -> list[Finding]:
+    """A phase channel must count phases: whole numbers, few values, few changes."""
+    out: list[Finding] = []
+    for sig in test:
+        if not (sig.name.startswith("test_phase") and sig.name.endswith("_test")):
+            continue
+        v = np.asarray(sig.values, float)
+        v = v[np.isfinite(v)]
+        if v.size < 10:
+            continue
+        frac = float(np.mean(np.abs(v - np.round(v)) > 0.01))
+        distinct = int(np.unique(np.round(v, 6)).size)
+        changes = int(np.count_nonzero(np.diff(v)))
+        if frac <= 0.01 and distinct <= PHASE_MAX_VALUES and changes <= PHASE_MAX_CHANGES:
+            continue
+        t0, t1 = _span(test)
+        raw = sig.raw_name or sig.name
+        out.append(Finding(
+            sig.name, Kind.UNIT_SUSPECT, t0, t1, Severity.ERROR,
+            f"{sig.name} (raw '{raw}') is no phase counter: {frac:.0%} of its samples are not "
+            f"whole numbers, {distinct} distinct values, {changes} changes: a wrong channel "
+            "mapped as the phase channel",
+            {"non_integer_fraction": frac, "distinct": distinct, "changes": changes},
+            level=3, fix=f"map the file's phase (bag) column to {sig.name}, not '{raw}', or "
+                         "remove the mapping to take the phases from the identified cycle"))
     return out
 
 
@@ -428,6 +511,7 @@ def run_crosschecks(test: Test, template: Any = None, vehicle: Any = None,
     found += engine_speed_check(test, verdicts)
     found += temperature_check(test, verdicts)
     found += pressure_check(test, verdicts)
+    found += phase_channel_check(test)
     density, _ = _fuel_density(template, test, vehicle)
     found += header_conflict_check(test, verdicts, density)
     return found

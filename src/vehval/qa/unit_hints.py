@@ -118,8 +118,9 @@ def probable_units(sig: Signal, stat: Callable[[np.ndarray], float], band: tuple
         if not (math.isfinite(s) and lo <= s <= hi):
             continue
         f = factor(sig, unit, density)
-        if math.isfinite(f) and abs(f - 1.0) < 0.02 and not _same(unit, hdr):
-            continue                        # the same scale under another name
+        cur = np.asarray(sig.values, float)
+        if np.allclose(vals, cur, rtol=0.02, equal_nan=True) and not _same(unit, hdr):
+            continue                        # the same unit under another name
         dist = abs(math.log(s / mid)) if lo > 0 and s > 0 else abs(s - mid)
         rank = (0 if _same(unit, hdr) else 1,
                 0 if is_volume(unit) == is_volume(sig.raw_unit) else 1, dist)
@@ -138,18 +139,28 @@ def fmt_factor(f: float) -> str:
     return f"x{f:.4g}"
 
 
+def change_text(sig: Signal, hint: UnitHint) -> str:
+    """The factor, or the offset for a temperature (``x1000``, ``-273.15``)."""
+    if abs(hint.factor - 1.0) < 1e-9:
+        vals = reinterpret(sig, hint.unit)
+        if vals is not None:
+            d = float(np.nanmedian(vals - np.asarray(sig.values, float)))
+            return f"{d:+.5g} {sig.unit}"
+    return fmt_factor(hint.factor)
+
+
 def fix_text(sig: Signal, hint: UnitHint) -> str:
     """One-line fix: "declare Fuel_Flow in g/s, not mg/s (x1000)"."""
     raw = sig.raw_name or sig.name
     return (f"declare {raw} ({sig.name}) in {hint.unit}, not {sig.raw_unit} "
-            f"({fmt_factor(hint.factor)})")
+            f"({change_text(sig, hint)})")
 
 
 def hint_sentence(sig: Signal, hints: list[UnitHint]) -> str:
     """``declared mg/s; the data say g/s (x1000)`` plus the other fitting units."""
     best = hints[0]
     text = (f"declared {sig.raw_unit}; the data say {best.unit} "
-            f"({sig.raw_unit} -> {best.unit} is {fmt_factor(best.factor)})")
+            f"({sig.raw_unit} -> {best.unit} is {change_text(sig, best)})")
     others = [h.unit for h in hints[1:3]]
     if others:
         text += f" (also possible: {', '.join(others)})"
