@@ -241,7 +241,7 @@ MUTATIONS: dict[str, tuple[Callable[[dict, Dataset, Path], Any], tuple[str, str]
     "temperature degC as degF": (_unit("degF", "temp"), ("amb_temp", "@temp")),
     "coolant degC as K": (_unit("K", "coolant"), ("eng_temp_coolant", "@coolant")),
     "pressure kPa as Pa": (_unit("Pa", "pressure"), ("amb_pres", "@pressure")),
-    "swapped channels": (_swap, ("", "")),
+    "swapped channels": (_swap, ("veh_spd", "")),
     "wrong phase channel": (_wrong_phase, ("test_phase", "")),
     "shifted time base (+7.3 s)": (_shift_time, None),
     "wrong fuel": (_wrong_fuel, None),

@@ -29,6 +29,7 @@ on). All checks are whole-test integrals or percentiles: cheap next to the QA le
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, Callable
 
@@ -68,6 +69,10 @@ INTAKE_PRES_BAND = (15e3, 250e3)
 #: Base names whose headline figures depend on the signal (a header conflict is an error).
 FIGURE_BASES = ("fuel_rate", "veh_spd")
 LB_KG = 0.45359237
+#: Top speed [m/s] (99.9th percentile) of a test that drives a car at all, on a dyno or a road.
+SPEED_TOP_BAND = (5.0, 70.0)
+#: Relative difference of a trace's top speed from a cycle's it can follow.
+CYCLE_TOP_TOL = 0.15
 #: A phase channel counts phases: at most this many distinct values and changes.
 PHASE_MAX_VALUES = 40
 PHASE_MAX_CHANGES = 200
@@ -183,8 +188,11 @@ def fuel_energy_check(test: Test, template: Any, vehicle: Any, constants: dict,
                   density=density, numbers={"distance_m": dist}, related=related)
 
 
-def speed_cycle_check(test: Test, verdicts: _Verdicts) -> list[Finding]:
-    """The speed trace against the drive cycles, in each speed unit."""
+def speed_cycle_check(test: Test, verdicts: _Verdicts, density: float | None = None
+                      ) -> list[Finding]:
+    """The speed trace against the drive cycles, in each speed unit, then the other
+    channels of its file read as a speed (a swapped mapping; ``density`` [kg/m³] reads a
+    volumetric fuel flow back to its raw numbers)."""
     sig = test.best("veh_spd", ("test",))
     if sig is None or not sig.raw_unit:
         return []
@@ -192,26 +200,34 @@ def speed_cycle_check(test: Test, verdicts: _Verdicts) -> list[Finding]:
     if not np.any(np.nan_to_num(v) > 1.0):
         return []
     match = test.meta.cycle_match or {}
-    if match.get("name") and match.get("signal") == sig.name:
+    if match.get("name") and match.get("signal") == sig.name and match.get("method") == "cycle":
         verdicts.ok.add(sig.name)                 # follows its cycle as declared
         return []
     from vehval.cycles import list_cycles
     from vehval.cycles_match import identify_cycle
 
-    base = (test.meta.cycle or "").split("_x")[0]
+    base = (test.meta.cycle or "").split("_x")[0] if match.get("method") != "steady" else ""
     cycles = [base] if base and base in list_cycles() else None
     found: dict[float, str] = {}               # cycle found, by the trace's top speed
+    declared_tried = match.get("signal") == sig.name and not base   # import identified it
 
     def follows(vals: np.ndarray) -> float:
-        name, _score, details = identify_cycle(sig.time, vals, cycles=cycles)
+        if declared_tried and vals is v:
+            return 0.0
+        near = cycles_near(vals, cycles)
+        if not near:
+            return 0.0
+        name, _score, details = identify_cycle(sig.time, vals, cycles=near)
         if name and details.get("method") == "cycle":
             found[round(float(np.nanmax(vals)), 6)] = name
             return 1.0
         return 0.0
     out = _judge(test, sig, follows, (0.5, 1.5), verdicts,
                  "the match to a drive cycle (1 = follows one)")
-    if not out and sig.name not in verdicts.ok:
-        out = _swapped_speed(test, sig, cycles, verdicts)
+    top = float(np.nanpercentile(v, 99.9)) if np.isfinite(v).any() else 0.0
+    if not out and sig.name not in verdicts.ok and not SPEED_TOP_BAND[0] <= top <= SPEED_TOP_BAND[1]:
+        # no car's speed: perhaps another channel's numbers (searched only then: it costs)
+        out = _swapped_speed(test, sig, cycles, verdicts, density)
     for f in out:
         best = reinterpret(sig, f.numbers["probable_unit"])
         top = round(float(np.nanmax(best)), 6) if best is not None else None
@@ -223,8 +239,30 @@ def speed_cycle_check(test: Test, verdicts: _Verdicts) -> list[Finding]:
     return out
 
 
-def _swapped_speed(test: Test, sig: Signal, cycles: list[str] | None, verdicts: _Verdicts
-                   ) -> list[Finding]:
+@functools.lru_cache(maxsize=1)
+def _cycle_tops() -> dict[str, float]:
+    from vehval.cycles import list_cycles, load_cycle
+
+    return {n: float(np.max(load_cycle(n).speed_mps)) for n in list_cycles()}
+
+
+def cycles_near(speed_mps: np.ndarray, cycles: list[str] | None = None) -> list[str]:
+    """Package cycles whose top speed is within ``CYCLE_TOP_TOL`` of the trace's (99.9th
+    percentile): the only ones it can follow (a cheap filter before the identification)."""
+    v = np.asarray(speed_mps, float)
+    v = v[np.isfinite(v)]
+    if v.size < 10:
+        return []
+    top = float(np.percentile(v, 99.9))
+    if not top > 1.0:
+        return []
+    tops = _cycle_tops()
+    names = cycles if cycles is not None else list(tops)
+    return [n for n in names if n in tops and abs(top / tops[n] - 1.0) <= CYCLE_TOP_TOL]
+
+
+def _swapped_speed(test: Test, sig: Signal, cycles: list[str] | None, verdicts: _Verdicts,
+                   density: float | None) -> list[Finding]:
     """Another channel of the speed's file that follows a cycle read as a speed: the
     template probably swapped the two mappings."""
     from vehval.cycles_match import identify_cycle
@@ -235,7 +273,8 @@ def _swapped_speed(test: Test, sig: Signal, cycles: list[str] | None, verdicts: 
                 or other.name.startswith("veh_spd"):
             continue
         try:
-            scale, off = conversion(other.raw_unit, other.unit, fuel_density_kg_per_m3=1000.0)
+            scale, off = conversion(other.raw_unit, other.unit,
+                                    fuel_density_kg_per_m3=density or 1000.0)
         except Exception:  # noqa: BLE001 - a unit that does not convert back is skipped
             continue
         if not scale:
@@ -243,10 +282,10 @@ def _swapped_speed(test: Test, sig: Signal, cycles: list[str] | None, verdicts: 
         raw = (np.asarray(other.values, float) - off) / scale
         for unit in ("mph", "km/h", "m/s"):
             v = raw * conversion(unit, "m/s")[0]
-            top = float(np.nanmax(v)) if np.isfinite(v).any() else 0.0
-            if not 5.0 <= top <= 70.0:
+            near = cycles_near(v, cycles)
+            if not near:
                 continue
-            name, _score, details = identify_cycle(other.time, v, cycles=cycles)
+            name, _score, details = identify_cycle(other.time, v, cycles=near)
             if not (name and details.get("method") == "cycle"):
                 continue
             verdicts.flagged.add(sig.name)
@@ -505,13 +544,13 @@ def run_crosschecks(test: Test, template: Any = None, vehicle: Any = None,
     """
     verdicts = _Verdicts()
     consts = dict(constants or {})
-    found = speed_cycle_check(test, verdicts)
+    density, _ = _fuel_density(template, test, vehicle)
+    found = speed_cycle_check(test, verdicts, density)
     found += force_mass_check(test, consts, verdicts)
     found += fuel_energy_check(test, template, vehicle, consts, verdicts)
     found += engine_speed_check(test, verdicts)
     found += temperature_check(test, verdicts)
     found += pressure_check(test, verdicts)
     found += phase_channel_check(test)
-    density, _ = _fuel_density(template, test, vehicle)
     found += header_conflict_check(test, verdicts, density)
     return found
