@@ -9,7 +9,8 @@ when the statistic is impossible as declared it names the unit that makes it pos
   test's tank-to-wheel efficiency) in 4..45 %; without a force signal, the fuel energy per
   distance in 0.5..15 MJ/km;
 - **speed trace against the drive cycle**: the measured speed follows no known cycle as
-  declared but does in another speed unit (km/h, mph, m/s, ft/s);
+  declared but does in another speed unit (km/h, mph, m/s), or another channel of its
+  file does (swapped mappings); with no cycle at all, the top speed in 5..70 m/s;
 - **force against mass x acceleration**: the measured tractive force regressed on
   ``m·a`` and a free road-load polynomial; a gain of 0.454 names a test mass written in lb,
   4.448 a force in lbf;
@@ -36,8 +37,16 @@ from typing import Any, Callable
 import numpy as np
 
 from vehval.qa.findings import Finding, Kind, Severity
-from vehval.qa.unit_hints import (UnitHint, factor, fix_text, fmt_factor, header_unit,
-                                  hint_sentence, probable_units, reinterpret)
+from vehval.qa.unit_hints import (
+    UnitHint,
+    factor,
+    fix_text,
+    fmt_factor,
+    header_unit,
+    hint_sentence,
+    probable_units,
+    reinterpret,
+)
 from vehval.test import Signal, Test
 
 #: Whole-test tank-to-wheel efficiency a car can show (positive wheel energy / fuel energy):
@@ -91,6 +100,13 @@ def _span(test: Test) -> tuple[float, float]:
     return float(t0), float(t1)
 
 
+def _values_at(sig: Signal, t: np.ndarray) -> np.ndarray:
+    """``sig`` at times ``t`` [s], without resampling when it is sampled there already."""
+    if sig.time.shape == t.shape and np.array_equal(sig.time, t):
+        return np.asarray(sig.values, float)
+    return sig.at(t)
+
+
 def _integral(t: np.ndarray, y: np.ndarray) -> float:
     ok = np.isfinite(t) & np.isfinite(y)
     if ok.sum() < 2:
@@ -101,8 +117,7 @@ def _integral(t: np.ndarray, y: np.ndarray) -> float:
 def _judge(test: Test, sig: Signal, stat: Callable[[np.ndarray], float],
            band: tuple[float, float], verdicts: _Verdicts, what: str, *,
            density: float | None = None, numbers: dict | None = None,
-           related: list[str] | None = None, severity: Severity = Severity.ERROR,
-           center: float | None = None) -> list[Finding]:
+           related: list[str] | None = None, center: float | None = None) -> list[Finding]:
     """One finding when ``stat`` of ``sig`` is outside ``band`` as declared and inside
     it in another unit; records the verdict for the header check."""
     if not sig.raw_unit:
@@ -124,7 +139,7 @@ def _judge(test: Test, sig: Signal, stat: Callable[[np.ndarray], float],
     t0, t1 = _span(test)
     best: UnitHint = hints[0]
     return [Finding(
-        sig.name, Kind.UNIT_SUSPECT, t0, t1, severity,
+        sig.name, Kind.UNIT_SUSPECT, t0, t1, Severity.ERROR,
         f"{sig.name}: {what} is {s0:.4g} as declared, outside {lo:.4g}..{hi:.4g}, and "
         f"{best.value:.4g} read in {best.unit}: {hint_sentence(sig, hints)}",
         {"statistic": s0, "band": [lo, hi], "factor": best.factor, "probable_unit": best.unit,
@@ -160,7 +175,7 @@ def fuel_energy_check(test: Test, template: Any, vehicle: Any, constants: dict,
     frc = test.best("veh_frc_in", ("test",))
     if frc is not None and frc.name not in verdicts.flagged:
         t = np.asarray(frc.time, float)
-        e_wheel = _integral(t, np.maximum(np.asarray(frc.values, float) * spd.at(t), 0.0))
+        e_wheel = _integral(t, np.maximum(np.asarray(frc.values, float) * _values_at(spd, t), 0.0))
         source = f"{frc.name} x {spd.name}"
         related = [frc.name, spd.name]
     else:
@@ -224,18 +239,21 @@ def speed_cycle_check(test: Test, verdicts: _Verdicts, density: float | None = N
         return 0.0
     out = _judge(test, sig, follows, (0.5, 1.5), verdicts,
                  "the match to a drive cycle (1 = follows one)")
-    top = float(np.nanpercentile(v, 99.9)) if np.isfinite(v).any() else 0.0
-    if not out and sig.name not in verdicts.ok and not SPEED_TOP_BAND[0] <= top <= SPEED_TOP_BAND[1]:
-        # no car's speed: perhaps another channel's numbers (searched only then: it costs)
-        out = _swapped_speed(test, sig, cycles, verdicts, density)
     for f in out:
         best = reinterpret(sig, f.numbers["probable_unit"])
-        top = round(float(np.nanmax(best)), 6) if best is not None else None
-        cyc = found.get(top, "a cycle") if top is not None else "a cycle"
+        key = round(float(np.nanmax(best)), 6) if best is not None else None
+        cyc = found.get(key, "a cycle") if key is not None else "a cycle"
         f.message = (f"{sig.name} follows no known drive cycle as declared but follows {cyc} "
                      f"read in {f.numbers['probable_unit']}: "
                      + f.message.split(": ", 2)[-1])
         f.numbers["cycle"] = cyc
+    top = _top(v)
+    if not out and sig.name not in verdicts.ok and not SPEED_TOP_BAND[0] <= top <= SPEED_TOP_BAND[1]:
+        # no car's speed: perhaps another channel's numbers (searched only then: it costs)
+        out = _swapped_speed(test, sig, cycles, verdicts, density)
+        if not out:                     # no cycle anywhere: at least a car's top speed
+            out = _judge(test, sig, _top, SPEED_TOP_BAND, verdicts,
+                         "the top speed [m/s] (99.9th percentile)")
     return out
 
 
@@ -259,6 +277,11 @@ def cycles_near(speed_mps: np.ndarray, cycles: list[str] | None = None) -> list[
     tops = _cycle_tops()
     names = cycles if cycles is not None else list(tops)
     return [n for n in names if n in tops and abs(top / tops[n] - 1.0) <= CYCLE_TOP_TOL]
+
+
+def _top(vals: np.ndarray) -> float:
+    v = vals[np.isfinite(vals)]
+    return float(np.percentile(v, 99.9)) if v.size >= 10 else float("nan")
 
 
 def _swapped_speed(test: Test, sig: Signal, cycles: list[str] | None, verdicts: _Verdicts,
@@ -339,6 +362,7 @@ def mass_gain(force: np.ndarray, time: np.ndarray, speed: np.ndarray, mass_kg: f
     a = np.gradient(vs, t)
     use = (vs > 1.0) & (np.abs(a) > 0.1)
     use[:n] = use[-n:] = False                         # the moving mean's edges
+    use[np.arange(use.size) % max(1, n // 2) != 0] = False   # 2 samples per second suffice
     if use.sum() < 30:
         return float("nan")
     x = np.column_stack([mass_kg * a[use], np.ones(use.sum()), vs[use], vs[use] ** 2])
@@ -358,7 +382,7 @@ def force_mass_check(test: Test, constants: dict, verdicts: _Verdicts) -> list[F
     except (TypeError, ValueError):
         return []
     t = np.asarray(frc.time, float)
-    v = spd.at(t)
+    v = _values_at(spd, t)
     gain = mass_gain(np.asarray(frc.values, float), t, v, mass)
     lo, hi = MASS_GAIN_BAND
     if not math.isfinite(gain) or lo <= gain <= hi:

@@ -27,7 +27,7 @@ from vehval.units import conversion
 CANDIDATES: dict[str, tuple[str, ...]] = {
     "kg/s": ("mg/s", "g/s", "kg/s", "g/min", "g/h", "kg/h", "lb/h",
              "ccps", "mL/min", "L/s", "L/h", "gal/h"),
-    "m/s": ("m/s", "km/h", "mph", "ft/s"),
+    "m/s": ("m/s", "km/h", "mph"),
     "rad/s": ("rad/s", "rpm"),
     "degC": ("degC", "degF", "K"),
     "Pa": ("Pa", "hPa", "kPa", "bar", "psi"),
@@ -51,7 +51,7 @@ def header_unit(sig: Signal) -> str | None:
 
 def is_volume(unit: str | None) -> bool:
     """True for a volume-rate spelling (``ccps``, ``L/h``...)."""
-    return bool(unit) and unit.strip().lower().replace(" ", "") in VOLUME_UNITS
+    return unit is not None and unit.strip().lower().replace(" ", "") in VOLUME_UNITS
 
 
 def _conv(unit: str | None, si_unit: str, density: float | None) -> tuple[float, float] | None:
