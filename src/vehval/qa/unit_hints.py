@@ -141,11 +141,13 @@ def fmt_factor(f: float) -> str:
 
 def change_text(sig: Signal, hint: UnitHint) -> str:
     """The factor, or the offset for a temperature (``x1000``, ``-273.15``)."""
-    if abs(hint.factor - 1.0) < 1e-9:
-        vals = reinterpret(sig, hint.unit)
+    declared = _conv(sig.raw_unit, sig.unit, None)
+    other = _conv(hint.unit, sig.unit, None)
+    if declared is not None and other is not None and (declared[1] or other[1]):
+        vals = reinterpret(sig, hint.unit)        # affine (temperatures): the shift
         if vals is not None:
             d = float(np.nanmedian(vals - np.asarray(sig.values, float)))
-            return f"{d:+.5g} {sig.unit}"
+            return f"{d:+.5g} {sig.unit} at the median"
     return fmt_factor(hint.factor)
 
 
