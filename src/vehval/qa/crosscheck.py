@@ -157,8 +157,8 @@ def _fuel_density(template: Any, test: Test, vehicle: Any) -> tuple[float | None
     return fuel.density_kg_per_m3, fuel.lhv_j_per_kg
 
 
-def fuel_energy_check(test: Test, template: Any, vehicle: Any, constants: dict,
-                      verdicts: _Verdicts) -> list[Finding]:
+def fuel_energy_check(test: Test, template: Any, vehicle: Any, verdicts: _Verdicts
+                      ) -> list[Finding]:
     """Fuel energy against tractive energy over the whole test (or per distance)."""
     fuel = test.best("fuel_rate", ("test",))
     spd = test.best("veh_spd", ("test",))
@@ -571,7 +571,7 @@ def run_crosschecks(test: Test, template: Any = None, vehicle: Any = None,
     density, _ = _fuel_density(template, test, vehicle)
     found = speed_cycle_check(test, verdicts, density)
     found += force_mass_check(test, consts, verdicts)
-    found += fuel_energy_check(test, template, vehicle, consts, verdicts)
+    found += fuel_energy_check(test, template, vehicle, verdicts)
     found += engine_speed_check(test, verdicts)
     found += temperature_check(test, verdicts)
     found += pressure_check(test, verdicts)
