@@ -45,7 +45,7 @@ def test_speed_in_mph_declared_kmh_is_named(dyno_file, tmp_path):
     found = _qa(dyno_file, tmp_path, Dyno_Speed="km/h")
     speed = [f for f in found if f.signal == "veh_spd_test"]
     assert speed, [f.message for f in found]
-    assert "probably in mph, declared km/h" in speed[0].message
+    assert "declared km/h; the data say mph" in speed[0].message
     assert speed[0].numbers["factor"] == pytest.approx(1.609344)
 
 
@@ -78,5 +78,5 @@ def test_cruze_with_kmh_and_kg_per_h_declared(tmp_path):
     (tmp_path / "t.yaml").write_text(bad)
     found = TestRun.load([CRUZE], tmp_path / "t.yaml").qa().result.findings
     msgs = {f.signal: f.message for f in found if f.kind == Kind.UNIT_SUSPECT}
-    assert "probably in mph, declared km/h" in msgs["veh_spd_test"]
+    assert "declared km/h; the data say mph" in msgs["veh_spd_test"]
     assert "declared kg/h" in msgs["fuel_rate_test"]

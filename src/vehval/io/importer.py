@@ -265,14 +265,28 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
             f"is in this file (it has: {', '.join(raw.names[:8])}"
             f"{'...' if len(raw.names) > 8 else ''}): wrong template or wrong file? "
             "Run `vehval template check` or `vehval template init` on it")
+    extra = [n for n in raw.names if n not in mapped and n != time_col]
     if missing:
         notes.append(f"warning: {path.name}: template channel(s) not in the file: "
-                     + ", ".join(missing))
-    extra = [n for n in raw.names if n not in mapped and n != time_col]
+                     + ", ".join(_did_you_mean(k, extra) for k in missing))
     if extra:
         notes.append(f"warning: {path.name}: channel(s) in the file but not in the template "
                      "(not imported): " + ", ".join(extra))
     meta.notes.extend(notes)
+
+
+def _did_you_mean(key: str, unmapped: list[str]) -> str:
+    """``key`` with the closest raw channel the template leaves unmapped, if any:
+    "Fuel_Flow_Modl (did you mean 'Fuel_Flow_Modal'? fix the key in the template)"."""
+    import difflib
+
+    close = difflib.get_close_matches(key, unmapped, n=1, cutoff=0.75)
+    if not close:
+        low = {n.lower(): n for n in unmapped}
+        close = [low[c] for c in difflib.get_close_matches(key.lower(), list(low), n=1,
+                                                           cutoff=0.75)]
+    return (f"{key} (did you mean '{close[0]}'? fix the channel name in the template)"
+            if close else key)
 
 
 def speed_signals(test: Test) -> list[Signal]:
