@@ -22,6 +22,11 @@ def hot_start_bag1(files: list[Path], template) -> dict[str, float]:
         if not f.exists():
             raise InputFileError(f"{f}: file not found (--hot-start): check the path")
     hot = results_from_template(import_test(files, template), template)
+    if hot.conditions.get("start") == "cold":
+        raise VehvalError(f"--hot-start {files[0]}: the test starts cold "
+                          f"({hot.conditions.get('start_basis')}): its bag 1 cannot stand in "
+                          "for the FTP bag 3 (hot start after the 10 min soak, 40 CFR 86.137); "
+                          "give the hot-start UDDS run after the cold one")
     bag1 = next((p for p in hot.phases if p.part == "bag1" and p.run == 1), None)
     if bag1 is None or hot.cycle.split("_x")[0] not in ("udds", "ftp75"):
         raise VehvalError(f"--hot-start {files[0]}: not a UDDS test with a bag 1 (cycle "
@@ -54,6 +59,11 @@ def echo_results(res) -> None:
                f"{fe('test')}")
     for c in res.composites:
         typer.echo(f"  = {c.name:16s} {fe(c.name)}  [{c.rule.split(':')[0]}]")
+        for cav in getattr(c, "caveats", []):
+            typer.echo(f"      ! {cav}")
+    for note in res.notes:
+        if note.startswith("FTP-75:"):
+            typer.echo(f"  ! {note}")
     typer.echo(f"  uncertainty: {res.method.replace('_', ' ')}, k = 2; SOC: {res.soc['status']}")
 
 
