@@ -91,12 +91,20 @@ def results_cmd(
     res = run.results(method="monte_carlo" if monte_carlo else "first_order",
                       draws=monte_carlo or 1000, hot_start_bag1=hot).results
     doc = res.to_dict()
+    qa = run.qa_outcome
+    written = ["results.json"]
     with atomic_dir(outdir) as stage:
         write_text_atomic(stage / "results.json", json.dumps(doc, indent=1))
+        if qa is not None:  # what `vehval report OUTDIR` reads, as `vehval qa` writes it
+            from vehval.io.parquet import write_test
+
+            write_text_atomic(stage / "findings.json", json.dumps(qa.document, indent=1))
+            write_test(qa.result.validated, stage / "validated.parquet")
+            written += ["findings.json", "validated.parquet"]
     if as_json:
-        typer.echo(json.dumps(dict(doc, outdir=str(outdir), files=["results.json"]), indent=1))
+        typer.echo(json.dumps(dict(doc, outdir=str(outdir), files=written), indent=1))
         return
     echo_results(res)
     for f in res.findings:
         typer.echo(f"  {f.severity.value:7s} {f.kind.value:14s} {f.message}")
-    typer.echo(f"wrote {outdir}/: results.json")
+    typer.echo(f"wrote {outdir}/: {', '.join(written)}")
