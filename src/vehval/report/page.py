@@ -18,7 +18,9 @@ offline, a relative ``file://`` path, no network).
 
 from __future__ import annotations
 
+import hashlib
 import json
+import os
 import re
 from dataclasses import dataclass
 from functools import lru_cache
@@ -37,18 +39,41 @@ from vehval.report.safety import content_security_policy, script_hash
 INLINE = "inline"
 
 
+def plotly_cache_dir() -> Path:
+    """Where the compressed plotly.js is kept between runs: ``$VEHVAL_CACHE_DIR/plotly``,
+    else ``~/.cache/vehval/plotly``."""
+    env = os.environ.get("VEHVAL_CACHE_DIR")
+    return (Path(env) if env else Path.home() / ".cache" / "vehval") / "plotly"
+
+
 @lru_cache(maxsize=1)
 def _plotly_gz() -> str:
     """The embedded plotly.js, gzip-compressed and base64-encoded (unpacked by ``boot.js``).
 
-    About 1.9 MB instead of 4.8 MB; the unpacked text is exactly the hashed source.
+    About 1.9 MB instead of 4.8 MB; the unpacked text is exactly the hashed source (a copy
+    that does not unpack to it would not run under the page's policy). Compressing takes
+    about a second, so the result is kept in :func:`plotly_cache_dir`, named after the
+    source's hash; without a writable cache it is computed each time.
     """
     import base64
     import gzip
 
-    js = _plotly_assets()[0]
-    return base64.b64encode(gzip.compress(js.encode("utf-8"), compresslevel=9,
+    js, js_hash, version, _ = _plotly_assets()
+    tag = hashlib.sha256(js_hash.encode()).hexdigest()[:16]
+    path = plotly_cache_dir() / f"plotly-{version}-{tag}.js.gz.b64"
+    try:
+        return path.read_text(encoding="ascii")
+    except (OSError, UnicodeDecodeError):
+        pass
+    text = base64.b64encode(gzip.compress(js.encode("utf-8"), compresslevel=9,
                                           mtime=0)).decode("ascii")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with atomic_path(path) as tmp:
+            tmp.write_text(text, encoding="ascii")
+    except OSError:
+        pass
+    return text
 
 
 @lru_cache(maxsize=1)
