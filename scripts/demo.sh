@@ -90,8 +90,8 @@ echo "wrote $OUT/analysis/control.json"
 # test for a conventional car; never the package's Prius against another car
 REPORT_DIRS=("$OUT/qa" "$OUT/analysis")
 case "$VEHICLE_CHOICE" in
-  vehicle\ *)
-    VEHICLE="${VEHICLE_CHOICE#vehicle }"
+  vehicle\ *|predict\ *)
+    VEHICLE="${VEHICLE_CHOICE#* }"
     stage 5 "simulation of the vehicle model ($VEHICLE)" ;;
   identify)
     VEHICLE="$OUT/identified/vehicle.yaml"
@@ -113,8 +113,8 @@ if [ -n "$VEHICLE" ]; then
   "$VEHVAL" simulate --vehicle "$VEHICLE" --cycle "$CYCLE" "${SIMOPT[@]}" -o "$OUT/simulation"
 
   # ------------------------------------------------------------------------- 6 validate
-  if [ "$VEHICLE_CHOICE" = "identify" ]; then
-    stage 6 "prediction of the test's fuel with the identified model"
+  if [ "$VEHICLE_CHOICE" = "identify" ] || [ "${VEHICLE_CHOICE%% *}" = "predict" ]; then
+    stage 6 "prediction of the test's fuel with the conventional car's model"
     "$VEHVAL" predict "$VEHICLE" "${FILES[@]}" -t "$TEMPLATE" --report "$OUT/prediction.html"
   else
     stage 6 "validation of the model against the test"

@@ -2,7 +2,8 @@
 
 Prints the vehicle choice on the first line, then one data file per line:
 
-* ``vehicle <name or path>``: DEMO_VEHICLE, else the template's ``vehicle:``;
+* ``vehicle <name or path>``: DEMO_VEHICLE, else the template's ``vehicle:`` (``predict
+  <name or path>`` when it is a conventional car: predicted, not validated);
 * ``identify``: the template maps no hybrid signal (battery, motor, generator): a
   conventional car, whose model is identified from the test itself;
 * ``none``: a hybrid with no vehicle file named: the model stages are skipped (the package's
@@ -47,7 +48,14 @@ def main(data: str, template: str) -> int:
     names = [ch.name or "" for f in tpl.files for ch in f.channels.values()]
     vehicle = os.environ.get("DEMO_VEHICLE") or tpl.vehicle
     if vehicle:
-        print(f"vehicle {vehicle}")
+        from vehval.vehicle import load_vehicle
+
+        try:
+            arch = getattr(load_vehicle(vehicle), "architecture", "power_split")
+        except VehvalError as exc:
+            print(f"vehval: error: {exc}", file=sys.stderr)
+            return 2
+        print(f"{'predict' if arch == 'conventional' else 'vehicle'} {vehicle}")
     elif any(n.startswith(HYBRID_PREFIXES) for n in names):
         print("none")
     else:
