@@ -171,3 +171,22 @@ def test_camry_61811011_ftp75_from_its_own_bags(tmp_path, cli):
     assert ours == pytest.approx(hand, rel=1e-3)
     assert comp["udds"]["groups"][0]["phases"] == ["run 1 bag1", "run 1 bag2"]
     assert "= ftp75" in out and "hot soak 10.1 min pause" in comp["ftp75"]["rule"]
+
+
+CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
+CRUZE_TEMPLATE = HERE.parents[0] / "qa" / "templates" / "cruze.yaml"
+
+
+@pytest.mark.realdata
+@pytest.mark.skipif(not CRUZE.is_dir(), reason="real data not available")
+@pytest.mark.parametrize("tid, word", [("61410028", "cold-temperature"), ("61410021", "hot-cell")])
+def test_cruze_cold_and_ac_tests_give_no_unqualified_ftp_figure(tid, word, tmp_path, cli):
+    import json
+    code, out, err = cli("results", CRUZE / f"{tid} Test Data.txt", "-t", CRUZE_TEMPLATE,
+                         "-o", tmp_path / "o")
+    assert code == 0, err
+    doc = json.loads((tmp_path / "o" / "results.json").read_text())
+    assert doc["composites"]
+    for c in doc["composites"]:
+        assert any("40 CFR 86.130" in cav and word in cav for cav in c["caveats"]), c["name"]
+    assert out.count("! cell") == len(doc["composites"])       # said on screen, each one
