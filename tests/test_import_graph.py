@@ -29,6 +29,7 @@ LAYERS: dict[str, int] = {
     "report": 8, "catalog": 8,
     "workflow": 9, "batch": 9, "identify": 9,
     "cli": 10, "serve": 10,
+    "progress": 0,
 }
 
 

@@ -36,9 +36,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.optimize import minimize_scalar
-from scipy.signal import correlate
 
+from vehval.cycles_match import correlate
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
 from vehval.test import Signal, Test
@@ -300,6 +299,8 @@ def estimate_pair(ref: Signal, other: Signal, max_offset_s: float = 30.0,
         best = float(scan[int(np.argmin(costs))]) if costs.size else coarse
         if costs.size and costs.min() < cost(coarse):
             coarse = best
+        from scipy.optimize import minimize_scalar  # on use: scipy.optimize is slow to import
+
         res = minimize_scalar(cost, bounds=(coarse - 1.5 * dt, coarse + 1.5 * dt),
                               method="bounded", options={"xatol": dt / 200})
         if res.success and -res.fun >= -cost(coarse) - 1e-12:

@@ -77,3 +77,35 @@ def configure() -> str:
     config.CACHE_DIR = str(target)  # type: ignore[attr-defined]  # numba reads it at run time
     _configured = str(target)
     return _configured
+
+
+_announced: set[str] = set()
+
+
+def is_cached(module: str, function: str, directory: str | Path | None = None) -> bool:
+    """True when the cache holds a compiled ``module.function`` (numba's ``.nbi`` index).
+
+    ``directory`` defaults to this source version's cache (:func:`configure`).
+    """
+    d = Path(directory if directory is not None else configure())
+    if not d.is_dir():
+        return False
+    return any(True for _ in d.rglob(f"{module}.{function}-*.nbi"))
+
+
+def compile_notice(module: str, function: str, what: str, *, stream=None,
+                   directory: str | Path | None = None) -> bool:
+    """Say once per process, on stderr, that ``what`` is compiled now (not in the cache).
+
+    The first simulation after an install or a source change compiles the kernel (about
+    20 s); this one line says so before the wait. Returns True when the line was written.
+    """
+    key = f"{module}.{function}"
+    if key in _announced or is_cached(module, function, directory):
+        return False
+    _announced.add(key)
+    out = stream if stream is not None else sys.stderr
+    out.write(f"vehval: compiling the {what} (first run after an install or an update, "
+              "about 20 s; cached for the next runs)\n")
+    out.flush()
+    return True

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Sequence
 
+from vehval import progress
 from vehval.errors import ConfigError, InputFileError
 from vehval.protocols import TemplateLike, VehicleLike
 from vehval.test import Test
@@ -466,7 +467,11 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     if veh is None:
         raise ConfigError("validation needs a vehicle model: pass --vehicle or set 'vehicle:' "
                           "in the template")
-    vals = [r.validate(dt=dt, window_s=window_s, smooth_hz=smooth_hz) for r in runs]
+    progress.add(len(runs))
+    vals = []
+    for one in runs:
+        vals.append(one.validate(dt=dt, window_s=window_s, smooth_hz=smooth_hz))
+        progress.advance()
     lad = ladder([v.validation.comparison for v in vals], tolerances)
     payload: dict[str, Any] = {
         "title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "

@@ -227,11 +227,14 @@ def test_page_shows_hostile_text_escaped(pages, name):
         attrs, body = m.group("attrs"), m.group("body")
         if 'type="application/json"' in attrs:
             assert "</" not in body and "<!--" not in body
+        elif 'type="application/octet-stream"' in attrs:   # the compressed plotly.js: base64
+            assert attrs == ' id="plotly-gz" type="application/octet-stream"'
+            assert re.fullmatch(r"[A-Za-z0-9+/=]*", body)
         elif "src=" in attrs:
             assert re.fullmatch(r' id="plotly-js" src="[^"/:\\][^":\\]*"', attrs) and body == "", attrs
             assert "file:" in script_src
         else:
-            assert re.fullmatch(r' id="(plotly-js|vv-render)"', attrs), attrs
+            assert re.fullmatch(r' id="(vv-boot|vv-render)"', attrs), attrs
             assert script_hash(body) in script_src
     # the payload's entity-encoded part is shown as typed, not decoded into a tag
     assert "&amp;#x3c;img src=x onerror=alert(2)&amp;#x3e;" in visible

@@ -32,16 +32,28 @@ def report(tmp_path_factory):
 
 
 def _strip_plotly(text: str) -> str:
-    return re.sub(r'<script id="plotly-js">.*?</script>', "", text, count=1, flags=re.S)
+    return re.sub(r'<script id="plotly-gz" type="application/octet-stream">.*?</script>', "",
+                  text, count=1, flags=re.S)
 
 
 def test_plotly_embedded_once(report):
+    """plotly.js is embedded once, gzip + base64, and unpacks to exactly the hashed source."""
+    import base64
+    import gzip
+
     from plotly.offline import get_plotlyjs
-    head = get_plotlyjs()[:200]
-    assert report.count(head) == 1
-    assert report.count('<script id="plotly-js">') == 1
-    # figures are JSON data blocks, not copies of the library
-    assert len(report) < len(get_plotlyjs()) + 3_000_000
+
+    from vehval.report.safety import script_hash
+    blocks = re.findall(r'<script id="plotly-gz" type="application/octet-stream">(.*?)</script>',
+                        report, flags=re.S)
+    assert len(blocks) == 1 and report.count('<script id="vv-boot">') == 1
+    js = gzip.decompress(base64.b64decode(blocks[0])).decode("utf-8")
+    assert js == get_plotlyjs().replace("</script", "<\\/script")
+    assert script_hash(js) in report.replace("&#39;", "'")     # listed in the page's policy
+    assert get_plotlyjs()[:200] not in report                     # not also in clear text
+    # figures are JSON data blocks, not copies of the library; the library is compressed
+    assert len(blocks[0]) < 0.5 * len(js)
+    assert len(report) < len(blocks[0]) + 3_000_000
 
 
 def test_every_table_present(report):

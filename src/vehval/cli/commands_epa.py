@@ -134,10 +134,11 @@ def validate_cmd(
 ) -> None:
     """Simulate each selected EPA test with its own weight and road load; compare per bag."""
     from vehval import jsonsafe
+    from vehval.cli.progress import bar
     from vehval.epa.validation import validate_tests
     from vehval.report.epa import share_text
-
-    val = validate_tests(vehicle, _selected(paths, tests, dt), dt=dt)
+    with bar("epa validate: simulating tests", as_json=as_json):
+        val = validate_tests(vehicle, _selected(paths, tests, dt), dt=dt)
     if not val.predictions:
         from collections import Counter
 

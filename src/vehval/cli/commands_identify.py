@@ -103,8 +103,10 @@ def identify_cmd(
     traces = load_traces(files, template)
     ac_trace = load_traces([ac_test], template)[0] if ac_test is not None else None
     cold_trace = load_traces([cold_test], template)[0] if cold_test is not None else None
-    idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
-                                cold_trace=cold_trace, declared=declared)
+    from vehval.cli.progress import bar
+    with bar("identify: fitting the car (road load, gears, fuel map)", as_json=as_json):
+        idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
+                                    cold_trace=cold_trace, declared=declared)
     _check_mass(idf, declared)
     from vehval.io.atomic import atomic_files
     preds = None

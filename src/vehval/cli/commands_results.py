@@ -22,6 +22,11 @@ def hot_start_bag1(files: list[Path], template) -> dict[str, float]:
         if not f.exists():
             raise InputFileError(f"{f}: file not found (--hot-start): check the path")
     hot = results_from_template(import_test(files, template), template)
+    if hot.conditions.get("start") == "cold":
+        raise VehvalError(f"--hot-start {files[0]}: the test starts cold "
+                          f"({hot.conditions.get('start_basis')}): its bag 1 cannot stand in "
+                          "for the FTP bag 3 (hot start after the 10 min soak, 40 CFR 86.137); "
+                          "give the hot-start UDDS run after the cold one")
     bag1 = next((p for p in hot.phases if p.part == "bag1" and p.run == 1), None)
     if bag1 is None or hot.cycle.split("_x")[0] not in ("udds", "ftp75"):
         raise VehvalError(f"--hot-start {files[0]}: not a UDDS test with a bag 1 (cycle "
@@ -88,6 +93,11 @@ def echo_results(res) -> None:
                f"{fe('test')}")
     for c in res.composites:
         typer.echo(f"  = {c.name:16s} {fe(c.name)}  [{c.rule.split(':')[0]}]")
+        for cav in getattr(c, "caveats", []):
+            typer.echo(f"      ! {cav}")
+    for note in res.notes:
+        if note.startswith("FTP-75:"):
+            typer.echo(f"  ! {note}")
     typer.echo(f"  uncertainty: {res.method.replace('_', ' ')}, k = 2; SOC: {res.soc['status']}")
     if res.withheld:
         typer.echo(f"  {len(res.withheld)} figure(s) "
@@ -123,14 +133,22 @@ def results_cmd(
     res = run.results(method="monte_carlo" if monte_carlo else "first_order",
                       draws=monte_carlo or 1000, hot_start_bag1=hot, force=force).results
     doc = res.to_dict()
+    qa = run.qa_outcome
+    written = ["results.json"]
     with atomic_dir(outdir) as stage:
         write_text_atomic(stage / "results.json", json.dumps(doc, indent=1))
+        if qa is not None:  # what `vehval report OUTDIR` reads, as `vehval qa` writes it
+            from vehval.io.parquet import write_test
+
+            write_text_atomic(stage / "findings.json", json.dumps(qa.document, indent=1))
+            write_test(qa.result.validated, stage / "validated.parquet")
+            written += ["findings.json", "validated.parquet"]
     if as_json:
-        typer.echo(json.dumps(dict(doc, outdir=str(outdir), files=["results.json"]), indent=1))
+        typer.echo(json.dumps(dict(doc, outdir=str(outdir), files=written), indent=1))
         withheld_exit(doc)
         return
     echo_results(res)
     for f in res.findings:
         typer.echo(f"  {f.severity.value:7s} {f.kind.value:14s} {f.message}")
-    typer.echo(f"wrote {outdir}/: results.json")
+    typer.echo(f"wrote {outdir}/: {', '.join(written)}")
     withheld_exit(doc)

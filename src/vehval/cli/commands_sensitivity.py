@@ -49,7 +49,9 @@ def sensitivity_cmd(
     if monte_carlo < 0:
         raise ConfigError(f"--monte-carlo must be >= 0, got {monte_carlo}")
     plist = [p.strip() for p in params.split(",") if p.strip()] if params else None
-    res = clean(sensitivity(vehicle, names, plist, dt=dt, monte_carlo=monte_carlo, seed=seed))
+    from vehval.cli.progress import bar
+    with bar("sensitivity: simulating", as_json=as_json):
+        res = clean(sensitivity(vehicle, names, plist, dt=dt, monte_carlo=monte_carlo, seed=seed))
     if outdir is not None:
         from vehval.io.atomic import atomic_dir
         from vehval.report.page import plotly_asset_name, write_plotly_asset

@@ -72,8 +72,10 @@ def validate_cmd(
     check_outputs(outdir=output, inputs=[*(files or []), template, vehicle_path(vehicle)],
                   writes=["validation.json", "metrics.json", "report.html", "tables.xlsx"])
     runs = runs_from_args(files or [], test_group, template, vehicle, use_qa=not no_qa)
-    suite = validate_runs(runs, _tolerances(fuel_tol, soc_tol, soc_points), dt=dt,
-                          window_s=window_s, smooth_hz=smooth_hz)
+    from vehval.cli.progress import bar
+    with bar("validate: simulating tests", as_json=as_json):
+        suite = validate_runs(runs, _tolerances(fuel_tol, soc_tol, soc_points), dt=dt,
+                              window_s=window_s, smooth_hz=smooth_hz)
     metrics, lad = suite.metrics, suite.ladder
     with atomic_dir(output) as stage:      # every output of the run, reports included
         (stage / "validation.json").write_text(dumps(suite.payload), encoding="utf-8")
@@ -154,8 +156,13 @@ def calibrate_cmd(
             start_values = json.loads(Path(start).read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError) as exc:
             raise ConfigError(f"{start}: cannot read the start values ({exc})") from None
-    res = calibrate(tests, veh, names, start=start_values, holdout_tests=hold, dt=dt,
-                    popsize=popsize, maxiter=maxiter, seed=seed, mode=mode, smooth_hz=smooth_hz)
+    from vehval import progress
+    from vehval.cli.progress import bar
+    with bar("calibrate: generations (at most)", as_json=as_json):
+        progress.add(maxiter)
+        res = calibrate(tests, veh, names, start=start_values, holdout_tests=hold, dt=dt,
+                        popsize=popsize, maxiter=maxiter, seed=seed, mode=mode,
+                        smooth_hz=smooth_hz, progress=lambda _i, _j: progress.advance())
     doc = res.to_dict()
     with atomic_dir(output) as stage:
         (stage / "calibration.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")

@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval import progress
 from vehval.cycles import load_cycle
 from vehval.epa.consistency import (
     ListCheck,
@@ -388,8 +389,10 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     veh = load_vehicle(vehicle)
     cold_model = has_cold_start_model(veh)
     res = EpaValidation(vehicle=veh.name)
+    progress.add(len(tests))
     for t in tests:
         proc, why = plan_for(t)
+        progress.advance()
         if proc is None:
             res.skipped.append({"test": t.label, "vehicle_id": t.vehicle_id,
                                 "procedure": procedure_key(t),

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-DEFAULT_BUCKETS = 2000
+#: Display buckets of a time trace: about one per pixel of a report plot on a wide screen
+#: (the data files keep every sample).
+DEFAULT_BUCKETS = 1200
 
 
 def bucket_index(time: np.ndarray, n_buckets: int) -> np.ndarray:
@@ -98,7 +100,7 @@ def decimate_minmax(time: np.ndarray, values: np.ndarray, n_buckets: int = DEFAU
     values : numpy.ndarray
         Samples (NaN marks missing data).
     n_buckets : int
-        Number of display buckets (default 2,000: about one per pixel of a wide plot).
+        Number of display buckets (default 1,200: about one per pixel of a report plot).
 
     Returns
     -------

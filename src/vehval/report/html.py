@@ -49,7 +49,14 @@ def resolve_vehicle(vehicle: Any, test: Test) -> tuple[Any, str | None]:
 
 
 def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S.Section:
-    """Operating points on maps, histograms, Willans line and the energy Sankey diagram."""
+    """Operating points on maps, histograms, Willans line and the energy flow diagram.
+
+    The energy flow is the architecture's own audit (:mod:`vehval.report.energy_flow`);
+    hybrid-only plots (MG1, MG2, battery) appear for a hybrid only.
+    """
+    from vehval.report import energy_flow as ef
+
+    hybrid = ef.is_hybrid(test, vehicle)
     sec = S.Section("engineering", "Engineering plots",
                     intro="Operating points on the component maps of the vehicle file, distributions, "
                           "Willans line and the energy flow over the test.")
@@ -58,12 +65,21 @@ def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S
     makers: list[tuple[str, Any]] = []
     if vehicle is not None:
         makers += [("Engine map", lambda: plots.engine_map_figure(test, vehicle))]
-    makers += [("Motor map", lambda: plots.machine_map_figure(test, vehicle, "mot")),
-               ("Generator map", lambda: plots.machine_map_figure(test, vehicle, "gen")),
-               ("Battery current during braking", lambda: plots.regen_current_histogram(test)),
-               ("Engine power distribution", lambda: plots.engine_power_histogram(test)),
-               ("Willans line", lambda: plots.willans_figure(test)),
-               ("Energy flow", lambda: plots.sankey_figure(plots.energy_flows(test)))]
+    if hybrid:
+        makers += [("Motor map", lambda: plots.machine_map_figure(test, vehicle, "mot")),
+                   ("Generator map", lambda: plots.machine_map_figure(test, vehicle, "gen")),
+                   ("Battery current during braking", lambda: plots.regen_current_histogram(test))]
+    makers += [("Engine power distribution", lambda: plots.engine_power_histogram(test)),
+               ("Willans line", lambda: plots.willans_figure(test))]
+    audit = None
+    if hybrid:
+        makers.append(("Energy flow", lambda: plots.sankey_figure(plots.energy_flows(test))))
+    else:
+        try:
+            audit = ef.conventional_audit(test)
+            makers.append(("Energy flow", lambda: ef.conventional_sankey(audit)))
+        except plots.PlotSkipped as exc:
+            sec.notes.append(f"Energy flow: skipped ({exc}).")
     for title, make in makers:
         try:
             fig = make()
@@ -72,6 +88,11 @@ def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S
             continue
         fig, caption = normalise_figure(fig)  # the plot's own title becomes the caption
         sec.figures.append(FigSpec(caption or title, fig))
+    if audit is not None:
+        sec.tables.append(S.Table("Energy audit over the test (conventional)",
+                                  ["item", "energy [MJ]", "share of the fuel energy [%]"],
+                                  ef.audit_rows(audit), key="energies"))
+        return sec
     flows = plots.energy_flows(test)
     if flows:
         sec.tables.append(S.Table("Energies over the test", ["quantity", "energy [MJ]"],
@@ -126,7 +147,8 @@ def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle:
         from vehval.report.results_view import results_section
         secs.insert(0, results_section(as_dict(results)))
     if control is not None:
-        secs.append(control_section(as_dict(control)))
+        from vehval.report.energy_flow import is_hybrid
+        secs.append(control_section(as_dict(control), hybrid=is_hybrid(test, veh)))
     if validation is not None:
         secs.append(validation_section(as_dict(validation)))
     return secs

@@ -235,12 +235,22 @@ def regen_share_figure(brk: dict) -> dict | None:
                        "yaxis": _axis("deceleration [m/s²] (bin centre)")}}
 
 
-def control_section(doc: dict) -> Section:
-    """The control-strategy section from ``control.json`` (or a plain payload)."""
+#: Tables and facts of the control section about a hybrid's controller only.
+HYBRID_ONLY_TABLES = ("Estimated controller parameters",)
+
+
+def control_section(doc: dict, hybrid: bool = True) -> Section:
+    """The control-strategy section from ``control.json`` (or a plain payload).
+
+    ``hybrid=False`` (a conventional car) leaves out the hybrid controller's content: the
+    SOC window and regulation, the power thresholds of the engine on/off rule.
+    """
     if not is_control_doc(doc):
         return payload_section("control", "Control strategy", doc)
     payload = doc["report"] if isinstance(doc.get("report"), dict) else {}
     sec = payload_section("control", "Control strategy", payload, rest=False)
+    if not hybrid:
+        sec.tables = [t for t in sec.tables if t.title not in HYBRID_ONLY_TABLES]
     sec.intro = sec.intro or ("Control strategy estimated from the test data (vehval analyze): "
                               "engine on/off rule, operating modes, engine operating points, SOC "
                               "regulation and braking split.")
@@ -256,6 +266,9 @@ def control_section(doc: dict) -> Section:
                   if isinstance(op.get("share_within_band"), (int, float)) else "—"),
                  ("SOC window", (f"{_fmt(soc.get('soc_min'), '.3f')} – {_fmt(soc.get('soc_max'), '.3f')}"
                                  f" (mean {_fmt(soc.get('soc_mean'), '.3f')})"))]
+    if not hybrid:
+        sec.facts = sec.facts[:-1]   # no SOC window
+        soc = {}
     if soc.get("why"):
         sec.notes.append(f"SOC regulation: {soc['why']}")
     if (doc.get("braking") or {}).get("basis"):

@@ -391,7 +391,7 @@ def signals_section(test: Test) -> Section:
     order = list(reg.categories) + ["other"]
     sec = Section("signals", "Time traces",
                   intro="Every signal of the validated test, by component. Traces are decimated for "
-                        "display (minimum and maximum of each of 2,000 time buckets: no extreme is "
+                        "display (minimum and maximum of each of 1,200 time buckets: no extreme is "
                         "lost). Zoom one plot and every time axis follows.")
     for cat in sorted(groups, key=lambda c: order.index(c) if c in order else len(order)):
         bases = list(groups[cat].items())

@@ -138,12 +138,21 @@ def to_tables(obj: Any, title: str, *, key: str = "") -> list[Table]:
         if isinstance(v, dict) and v and all(isinstance(x, dict) for x in v.values()):
             rows = [{"name": kk, **vv} for kk, vv in v.items()]
             tables.append(rows_table(sub, rows, key=f"{key}-{slug(k)}"))
+        elif isinstance(v, dict) and v and all(_scalar_list(x) for x in v.values()):
+            # e.g. not computed: name -> reasons: one list, not one table per name
+            tables.append(Table(sub, ["name", "value"],
+                                [[str(a), "; ".join(str(plain(y)) for y in b)] for a, b in v.items()],
+                                key=f"{key}-{slug(k)}"))
         elif isinstance(v, dict) and v and all(not isinstance(x, (dict, list)) for x in v.values()):
             tables.append(Table(sub, ["item", "value"], [[str(a), plain(b)] for a, b in v.items()],
                                 key=f"{key}-{slug(k)}"))
         else:
             tables.extend(to_tables(v, sub, key=f"{key}-{slug(k)}"))
     return tables
+
+
+def _scalar_list(x: Any) -> bool:
+    return isinstance(x, list) and all(not isinstance(y, (dict, list)) for y in x)
 
 
 def table_from_spec(spec: dict, default_title: str) -> Table:

@@ -454,7 +454,8 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
 
     cold = None if cond["start"] is None else cond["start"] == "cold"
     composites = composites_for(match.cycle if match else None, phases, cold_start=cold,
-                                hot_bag1=hot is not None)
+                                hot_bag1=hot is not None, match=match, speed=speed,
+                                fuel=fuel_sig, conditions=cond, notes=notes)
     theta_params = params
 
     def evaluate_full(theta):

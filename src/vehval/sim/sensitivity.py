@@ -19,6 +19,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from vehval import progress
 from vehval.errors import ConfigError
 from vehval.sim.batch import simulate_batch
 from vehval.sim.simulate import simulate
@@ -117,13 +118,17 @@ def sensitivity(vehicle: Vehicle | str, cycles: Sequence[str] = DEFAULT_CYCLES,
     veh = load_vehicle(vehicle)
     unc = uncertain_parameters(veh, params)
     base = {}
+    progress.add((3 if monte_carlo else 2) * len(cycles))  # base, variants (, draws) per cycle
     for cyc in cycles:
         r = simulate(veh, cyc, dt=dt, charge_balance=True)
         base[cyc] = {"mpg": r.summary[MPG], "soc_initial": r.summary["soc_initial"]}
+        progress.advance()
     rows = []
     variants = [{u.key: u.low} for u in unc] + [{u.key: u.high} for u in unc]
-    per_cycle = {cyc: _run_variants(veh, cyc, variants, dt, base[cyc]["soc_initial"], workers)
-                 for cyc in cycles}
+    per_cycle = {}
+    for cyc in cycles:
+        per_cycle[cyc] = _run_variants(veh, cyc, variants, dt, base[cyc]["soc_initial"], workers)
+        progress.advance()
     n = len(unc)
     for j, u in enumerate(unc):
         res = {}
@@ -170,6 +175,7 @@ def _monte_carlo(veh, unc, cycles, dt, base, workers, n, seed) -> dict[str, Any]
         p5, p50, p95 = (np.percentile(ok, [5, 50, 95]).tolist() if ok.size
                         else [float("nan")] * 3)
         out[cyc] = {"p5": p5, "p50": p50, "p95": p95, "n": int(ok.size)}
+        progress.advance()
     return out
 
 

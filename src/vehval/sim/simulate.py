@@ -26,6 +26,7 @@ import numpy as np
 from vehval.cycles import Cycle, load_cycle
 from vehval.errors import ConfigError
 from vehval.fuels import fuel_consumption_l_per_100km, fuel_economy_mpg, fuel_volume_m3
+from vehval.numba_cache import compile_notice
 from vehval.sim.conventional import conv_maps, conv_param_vector, summarise_conventional
 from vehval.sim.conventional_kernel import CONV_SIGNALS, CONV_SUMMARY, run_conventional
 from vehval.sim.grid import Grid, check_dt, cycle_grid, make_grid, time_grid
@@ -254,6 +255,7 @@ class Architecture:
 def _run_power_split(veh: Vehicle, grid: Grid, soc0: float,
                      record: bool) -> tuple[np.ndarray, np.ndarray]:
     p = pack(veh, soc0, grid.cold_start)
+    compile_notice("kernel", "run", "power-split simulation kernel")
     out = np.zeros((grid.t.size if record else 1, len(SIGNALS)))
     return out, run(grid.vt, grid.lo, grid.hi, grid.dt, p.prm, p.maps, out, record)
 
@@ -261,6 +263,7 @@ def _run_power_split(veh: Vehicle, grid: Grid, soc0: float,
 def _run_conventional(veh: Any, grid: Grid, soc0: float,
                       record: bool) -> tuple[np.ndarray, np.ndarray]:
     out = np.zeros((grid.t.size if record else 1, len(CONV_SIGNALS)))
+    compile_notice("conventional_kernel", "run_conventional", "conventional simulation kernel")
     ys = run_conventional(grid.vt, grid.lo, grid.hi, grid.dt,
                           conv_param_vector(veh, grid.cold_start), *conv_maps(veh),  # type: ignore[call-arg]  # numba Dispatcher stub
                           out, record)

@@ -2,6 +2,7 @@
    viewport) and keep the time axes of linked plots in step. No network access. */
 (function () {
   "use strict";
+  var ready = window.vehvalPlotly || Promise.resolve();  /* boot.js: plotly.js unpacked */
   var template = JSON.parse(document.getElementById("vv-template").textContent);
   var config = {responsive: true, displaylogo: false, scrollZoom: false,
                 modeBarButtonsToRemove: ["sendDataToCloud", "lasso2d", "select2d"]};
@@ -39,19 +40,25 @@
   }
   function render(el) {
     if (pending[el.id]) return pending[el.id];
+    pending[el.id] = ready.then(function () { return draw(el); }, function (err) {
+      el.textContent = "Figure not drawn: " + err.message;
+      return el;
+    });
+    return pending[el.id];
+  }
+  function draw(el) {
     var spec = JSON.parse(document.getElementById(el.dataset.src).textContent);
     var layout = spec.layout || {};
     layout.template = template;
     if (el.dataset.linked && xrange && linked()) {
       xkeys({layout: layout}).forEach(function (k) { layout[k].range = xrange.slice(); layout[k].autorange = false; });
     }
-    pending[el.id] = Plotly.newPlot(el, spec.data || [], layout, config).then(function () {
+    return Plotly.newPlot(el, spec.data || [], layout, config).then(function () {
       el.dataset.rendered = "1";
       el.style.minHeight = "";
       if (el.dataset.linked) el.on("plotly_relayout", function (ev) { onRelayout(el, ev); });
       return el;
     });
-    return pending[el.id];
   }
   function renderAll() { return Promise.all(figs.map(render)); }
   window.vehvalReport = {renderAll: renderAll, figures: figs};
