@@ -454,6 +454,7 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
                   window_s: float = 2.0, smooth_hz: float | None = None) -> SuiteOutcome:
     """Validate each run, rank them on the tolerance ladder and compare the model error with
     the test-to-test variability of repeated cycles."""
+    from vehval.calibration.provenance import calibration_tests
     from vehval.validate import error_vs_repeatability, ladder, variability
 
     if not runs:
@@ -463,7 +464,8 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
         raise ConfigError("validation needs a vehicle model: pass --vehicle or set 'vehicle:' "
                           "in the template")
     vals = [r.validate(dt=dt, window_s=window_s, smooth_hz=smooth_hz) for r in runs]
-    lad = ladder([v.validation.comparison for v in vals], tolerances)
+    lad = ladder([v.validation.comparison for v in vals], tolerances,
+                 calibrated=calibration_tests(veh))
     payload: dict[str, Any] = {
         "title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "
         "initial SOC, mass and road load", "tables": [], "figures": [], "notes": []}

@@ -124,3 +124,11 @@ def test_prius_2016_against_its_epa_run_tests():
     assert val.stats()["spread_correlation"]["pooled"] >= 0.95
     assert all(p.trace_n_miss == 0 and abs(p.energy_balance_rel) < 1e-9
                for p in val.predictions)
+    # in-sample honesty: the six MFR tests (controller) and the four FTP-75s (cold start)
+    # are calibration tests of the file; the headline counts the held-out figures only
+    ins = {c.test for c in val.comparisons if c.in_sample}
+    assert len(ins) == 8 and all(c.originator == "MFR" or c.procedure == "ftp75"
+                                 for c in val.comparisons if c.in_sample)
+    held, fit = val.stats(), val.stats(in_sample=True)
+    assert held["n_judged"] == 8 and held["n_within_tolerance"] == 8
+    assert fit["n_judged"] == 36 and held["n_judged_in_sample"] == 36

@@ -158,12 +158,13 @@ def validate_cmd(
         typer.echo(jsonsafe.dumps(val), nl=False)
         return
     typer.echo(f"{'test':14s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
-               f"{'err %':>6} {'batt %':>6}  judged")
+               f"{'err %':>6} {'batt %':>6} {'sample':9s} judged")
     for c in val.comparisons:
         batt = share_text(c.battery_share)
         typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
                    f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f} "
-                   f"{batt:>6}  {_judged_text(c)}")
+                   f"{batt:>6} {'in-sample' if c.in_sample else 'held-out':9s} "
+                   f"{_judged_text(c)}")
     st = val.stats()
     for p in val.predictions:
         if p.list_check is not None and not p.list_check.ok:
@@ -172,16 +173,25 @@ def validate_cmd(
     _echo_mismatches([(p.test.label, p.vehicle_check) for p in val.predictions])
     for s in val.skipped:
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
-    r, mean = st["spread_correlation"]["pooled"], st["mean_error"]
-    typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped; "
-               f"{st['n_within_tolerance']}/{st['n_judged']} judged figures within "
-               f"{100 * st['tolerance']:.0f} %; mean error "
-               f"{'-' if mean is None else f'{100 * mean:+.1f} %'}"
-               f"; r = {'-' if r is None else f'{r:.3f}'}")
+    typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped, "
+               f"{st['n_tests_in_sample']} of them calibration tests of the vehicle file")
+    typer.echo("held-out: " + _stats_text(st))
+    if st["n_judged_in_sample"]:
+        typer.echo("in-sample (the vehicle file was calibrated on these tests; not a "
+                   "prediction): " + _stats_text(val.stats(in_sample=True)))
     typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
                "(J1711 balances the whole test, not each bag)")
     if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _stats_text(st: dict) -> str:
+    """``n/N judged figures within 5 %; mean error ...; r = ...`` of one stats dict."""
+    r, mean = st["spread_correlation"]["pooled"], st["mean_error"]
+    return (f"{st['n_within_tolerance']}/{st['n_judged']} judged figures within "
+            f"{100 * st['tolerance']:.0f} %; mean error "
+            f"{'-' if mean is None else f'{100 * mean:+.1f} %'}"
+            f"; r = {'-' if r is None else f'{r:.3f}'}")
 
 
 def _echo_mismatches(checks, err: bool = False) -> None:
