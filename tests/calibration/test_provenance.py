@@ -20,6 +20,9 @@ def test_ids_in_source_reads_both_formats():
     # a folded YAML string (line breaks inside the list) reads the same
     assert ids_in_source("calibrated by vehval epa calibrate on the EPA Test Car List "
                            "tests A1,\n  B2 (grid)") == ["A1", "B2"]
+    assert ids_in_source("calibrated by vehval epa vehicle on tests 61811011 Test Data, "
+                         "61811012 Test Data on 2026-01-02: RMS") == [
+        "61811011 Test Data", "61811012 Test Data"]  # ids with spaces
     assert ids_in_source("engineering estimate; fitted by least squares") == []
     assert ids_in_source("2004 value, calibrated elsewhere") == []
 

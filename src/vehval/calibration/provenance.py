@@ -135,7 +135,7 @@ def write_vehicle_yaml(vehicle: Any, path: str | Path, by: str) -> Path:
 #: ``calibrated by <command> on [the ... ]tests <id>, <id>...`` in a value's source text
 _CALIBRATED_ON = re.compile(
     r"calibrated by vehval[\w ]*? on (?:the [\w ]*?)?tests? "
-    r"([^\s,;:()]+(?:, [^\s,;:()]+)*)")
+    r"(.+?)(?= on \d{4}-\d{2}-\d{2}\b| \(|[:;]|$)")
 
 
 def ids_in_source(text: str) -> list[str]:
