@@ -459,6 +459,7 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
                   window_s: float = 2.0, smooth_hz: float | None = None) -> SuiteOutcome:
     """Validate each run, rank them on the tolerance ladder and compare the model error with
     the test-to-test variability of repeated cycles."""
+    from vehval.calibration.provenance import calibration_tests
     from vehval.validate import error_vs_repeatability, ladder, variability
 
     if not runs:
@@ -472,7 +473,8 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     for one in runs:
         vals.append(one.validate(dt=dt, window_s=window_s, smooth_hz=smooth_hz))
         progress.advance()
-    lad = ladder([v.validation.comparison for v in vals], tolerances)
+    lad = ladder([v.validation.comparison for v in vals], tolerances,
+                 calibrated=calibration_tests(veh))
     payload: dict[str, Any] = {
         "title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "
         "initial SOC, mass and road load", "tables": [], "figures": [], "notes": []}

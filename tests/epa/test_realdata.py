@@ -124,3 +124,43 @@ def test_prius_2016_against_its_epa_run_tests():
     assert val.stats()["spread_correlation"]["pooled"] >= 0.95
     assert all(p.trace_n_miss == 0 and abs(p.energy_balance_rel) < 1e-9
                for p in val.predictions)
+    # in-sample honesty: the six MFR tests (controller) and the four FTP-75s (cold start)
+    # are calibration tests of the file; the headline counts the held-out figures only
+    ins = {c.test for c in val.comparisons if c.in_sample}
+    assert len(ins) == 8 and all(c.originator == "MFR" or c.procedure == "ftp75"
+                                 for c in val.comparisons if c.in_sample)
+    held, fit = val.stats(), val.stats(in_sample=True)
+    assert held["n_judged"] == 8 and held["n_within_tolerance"] == 8
+    assert fit["n_judged"] == 36 and held["n_judged_in_sample"] == 36
+
+
+CAMRY = REAL / "d3_2018_toyota_camry_1hz_subset"
+
+
+@pytest.mark.skipif(not CAMRY.is_dir(), reason="Camry D3 subset not found")
+def test_camry_from_specs_all_splits(tmp_path):
+    """2018 Camry (speed and fuel only, 1 Hz) from the 2019 list's CAMRY XLE/XSE row, fuel
+    model calibrated on every two of the four tests: docs/validation.md gives the table.
+    The calibration tests fit within 2 %; the held-out figures do not all hold 5 % (US06
+    and HWFET pull the fuel model apart: the largest held-out error is 11.6 %)."""
+    from vehval.epa.specs import specs_from_tests
+    from vehval.epa.specs_fit import all_splits, dyno_run
+    from vehval.workflow import TestRun
+
+    tmpl = tmp_path / "camry.yaml"
+    tmpl.write_text("template_version: 1\nfuel: gasoline_e0\nfiles:\n- source: dyno\n"
+                    "  format: d3\n  time: {column: Time}\n  channels:\n"
+                    "    Eng_FuelFlow_Direct_DI: {name: fuel_rate_test, unit: ccps}\n"
+                    "    Dyno_Spd: {name: veh_spd_test, unit: mph}\n", encoding="utf-8")
+    runs = [dyno_run(TestRun.load([f], tmpl, use_qa=False).test)
+            for f in sorted(CAMRY.glob("*Test Data.txt"))]
+    assert [r.cold for r in runs] == [True, False, False, False]  # 61811011: FTP-75 type
+    specs = specs_from_tests(apply_selector(read_lists([EPA / "19tstcar.csv"]),
+                                            {"make": "TOYOTA", "model": "CAMRY XLE/XSE",
+                                             "year": "2019"}))
+    assert specs.gears == 8 and specs.n_v_ratio == pytest.approx(24.7)
+    rows = all_splits(specs, runs, 2, dt=0.5)
+    assert len(rows) == 6
+    assert all(abs(e) < 0.035 for r in rows for e in r["calibration_errors"].values())
+    worst = [r["max_abs_held_out"] for r in rows]
+    assert max(worst) < 0.15 and min(worst) < 0.07

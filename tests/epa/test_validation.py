@@ -225,3 +225,59 @@ def test_cli_validate_names_tests_of_another_car(tmp_path, capsys):
     assert all(not t["vehicle_check"]["ok"] for t in data["tests"])
     assert all(c["judged"] for c in data["comparisons"])  # still judged: the user's choice
     assert "may be another car" in (out / "report.html").read_text()
+
+
+def _calibrated_on(vehicle, tests: list[str]):
+    """``vehicle`` with one controller value whose provenance names ``tests``."""
+    from vehval.calibration import Provenance, vehicle_with_values
+
+    name = "controller.soc_gain_w"
+    prov = Provenance(by="vehval epa calibrate", tests=tests, objective="RMS error",
+                      start_value=0.1, best_value=0.05, method="grid",
+                      start={name: vehicle.controller.soc_gain_w}, ranges={name: "grid 1, 2"},
+                      dt=1.0, percent=True)
+    return vehicle_with_values(vehicle, {name: vehicle.controller.soc_gain_w}, prov.text)
+
+
+def test_in_sample_figures_counted_apart(prius_list, prius_2016, tmp_path):
+    tests = [t for t in read_test_car_list(prius_list) if t.test_number in ("T1", "T4")]
+    veh = _calibrated_on(prius_2016, ["T4"])
+    val = validate_tests(veh, tests, dt=1.0)
+    marks = {c.test: c.in_sample for c in val.comparisons}
+    assert marks == {"T1": False, "T4": True}
+    st, ins = val.stats(), val.stats(in_sample=True)
+    assert st["n_judged"] == 1 and ins["n_judged"] == 1  # one HWFET figure each
+    assert st["n_judged_held_out"] == 1 and st["n_judged_in_sample"] == 1
+    t1 = next(c for c in val.comparisons if c.test == "T1")
+    assert st["mean_error"] == pytest.approx(t1.error)  # the headline: held-out only
+    assert st["n_tests_in_sample"] == 1
+    data = val.to_dict()
+    assert data["stats_in_sample"]["figures"] == "in-sample"
+    assert data["calibration_tests"]["T4"] == ["controller.soc_gain_w"]
+    assert [t["in_sample"] for t in data["tests"]] == [False, True]
+    assert [c["in_sample"] for c in data["comparisons"]] == [False, True]
+    # the same vehicle file without the provenance: nothing is in-sample
+    plain = validate_tests(prius_2016, tests, dt=1.0)
+    assert plain.stats()["n_judged"] == 2 and plain.stats(in_sample=True)["n_judged"] == 0
+
+
+def test_in_sample_marked_in_cli_and_report(prius_list, prius_2016, tmp_path, capsys):
+    import yaml
+
+    from vehval.calibration.provenance import _plain
+
+    veh = _calibrated_on(prius_2016, ["T4"])
+    path = tmp_path / "cal.yaml"
+    path.write_text(yaml.safe_dump(_plain(veh.model_dump(exclude_none=True)), sort_keys=False),
+                    encoding="utf-8")
+    out = tmp_path / "out"
+    code = main(["epa", "validate", str(prius_list), "--vehicle", str(path), "--tests",
+                 "number=T4", "--dt", "1", "-o", str(out)])
+    assert code == 0
+    text = capsys.readouterr().out
+    assert "in-sample" in text and "held-out: 0/0 judged figures" in text
+    assert "in-sample (the vehicle file was calibrated on these tests" in text
+    html = (out / "report.html").read_text(encoding="utf-8")
+    assert "In-sample, apart" in html and "square: in-sample" in html
+    data = json.loads((out / "epa_validation.json").read_text(encoding="utf-8"))
+    assert data["stats"]["n_judged"] == 0 and data["stats_in_sample"]["n_judged"] == 1

@@ -156,3 +156,28 @@ def test_calibration_on_clean_tests_never_makes_the_holdout_worse(nominal):
     assert abs(a["fuel_pct"]) <= abs(b["fuel_pct"]) + HOLDOUT_TOL_POINTS + 1e-9, (b, a, res.notes)
     if res.rejected:
         assert res.best == res.start and "over-fitting guard" in res.notes[-1]
+
+
+def test_calibration_marks_in_sample_and_summarises_held_out_apart(nominal):
+    from vehval.validate.calibration import CalibrationResult
+
+    errs = {"a": {"fuel_pct": 4.0, "soc_pct": 1.0}, "b": {"fuel_pct": 2.0, "soc_pct": 1.0},
+            "c": {"fuel_pct": 6.0, "soc_pct": 3.0}}
+    after = {k: {"fuel_pct": v["fuel_pct"] / 2, "soc_pct": v["soc_pct"]} for k, v in errs.items()}
+    res = CalibrationResult(
+        parameters=["controller.soc_gain_w"], start={"controller.soc_gain_w": 1.0},
+        bounds={"controller.soc_gain_w": (0.5, 2.0)}, best={"controller.soc_gain_w": 1.5},
+        objective_start=1.0, objective_best=0.5, tests=["a"], holdout=["b", "c"],
+        before=errs, after=after, n_evaluations=1, n_simulations=1, elapsed_s=0.0,
+        method="grid", dt=1.0, vehicle=nominal, prior={"c": ["engine.warmup_fuel_fraction"]})
+    # c is held out of this tuning but the start vehicle was fitted on it: in-sample
+    assert [res.in_sample(t) for t in ("a", "b", "c")] == [True, False, True]
+    assert [r[-1] for r in res.rows()] == ["in-sample", "held-out", "in-sample"]
+    assert res.rows()[2][1].startswith("held out (in-sample")
+    st, ins = res.sample_stats(), res.sample_stats(in_sample=True)
+    assert st["tests"] == ["b"] and st["fuel_pct_before"] == 2.0 and st["fuel_pct_after"] == 1.0
+    assert ins["tests"] == ["a", "c"] and ins["fuel_pct_before"] == 5.0
+    d = res.to_dict()
+    assert d["in_sample"] == {"a": True, "b": False, "c": True}
+    assert d["stats"]["n_tests"] == 1 and d["stats_in_sample"]["n_tests"] == 2
+    assert "held-out: 1 tests, mean |fuel error| 2.00 -> 1.00 %" in d["tables"][1]["note"]

@@ -96,3 +96,19 @@ def test_ladder_verdicts_and_rungs():
     assert not ladder([good], {"soc_points": 0.1}).passed
     with pytest.raises(ConfigError):
         Tolerances.from_mapping({"fuel": 3})
+
+
+def test_ladder_marks_in_sample_tests():
+    good = compare(hand_test(fuel_g_per_s=0.5, soc1=0.58, cycle="udds", test_id="u"),
+                   hand_test(fuel_g_per_s=0.51, soc1=0.585, origin="simu"), dt=1.0)
+    bad = compare(hand_test(cycle="nedc", test_id="n"),
+                  hand_test(fuel_g_per_s=0.6, soc1=0.58, origin="simu"), dt=1.0)
+    res = ladder([good, bad], calibrated={"u": ["controller.soc_gain_w"]})
+    assert {e.test_id: e.in_sample for e in res.entries} == {"u": True, "n": False}
+    assert res.sample_counts() == {"n_held_out": 1, "n_held_out_passed": 0,
+                                   "n_in_sample": 1, "n_in_sample_passed": 1}
+    assert res.summary().startswith("held-out: 0/1 tests pass; in-sample")
+    d = res.to_dict()
+    assert d["n_in_sample_passed"] == 1 and d["calibration_tests"] == {"u": ["controller.soc_gain_w"]}
+    assert [r[-1] for r in d["tables"][0]["rows"]] == ["held-out", "in-sample"]
+    assert ladder([good, bad]).summary() == "held-out: 1/2 tests pass"

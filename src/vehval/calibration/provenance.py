@@ -7,15 +7,22 @@ Every calibrated value's ``sources`` entry in the written vehicle file reads::
 
 Untuned values keep their sources. Vehicle files written before this format (older
 ``vehval epa calibrate`` and conventional calibrations) keep their text: a source is read
-as written, never parsed.
+as written, never rewritten.
+
+Which tests a vehicle file was calibrated on is read back from these texts
+(:func:`calibration_tests`, :func:`in_sample`): a figure of such a test is *in-sample* for
+the file (the file was fitted to it), every other figure is *held out*. Both the current
+text and the older ``calibrated by <command> on the EPA Test Car List tests <ids>`` are
+understood.
 """
 
 from __future__ import annotations
 
 import datetime as _dt
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 import numpy as np
 import yaml
@@ -123,3 +130,62 @@ def write_vehicle_yaml(vehicle: Any, path: str | Path, by: str) -> Path:
                                             sort_keys=False, width=100, allow_unicode=True))
     write_text_atomic(path, text)
     return Path(path)
+
+
+#: ``calibrated by <command> on [the ... ]tests <id>, <id>...`` in a value's source text
+_CALIBRATED_ON = re.compile(
+    r"calibrated by vehval[\w ]*? on (?:the [\w ]*?)?tests? "
+    r"(.+?)(?= on \d{4}-\d{2}-\d{2}\b| \(|[:;]|$)")
+
+
+def ids_in_source(text: str) -> list[str]:
+    """Test ids a source text says the value was calibrated on ([] when it does not).
+
+    Examples
+    --------
+    >>> ids_in_source("calibrated by vehval calibrate on tests a, b on 2026-01-02: ...")
+    ['a', 'b']
+    """
+    out: list[str] = []
+    for m in _CALIBRATED_ON.finditer(" ".join(str(text).split())):
+        out += [t for t in m.group(1).split(", ") if t not in out]
+    return out
+
+
+def _sources(vehicle: Any) -> Iterable[tuple[str, str]]:
+    """(dotted parameter name, source text) of every block of a vehicle (model or dict)."""
+    data = vehicle if isinstance(vehicle, dict) else vehicle.model_dump()
+    for blk, body in data.items():
+        if isinstance(body, dict) and isinstance(body.get("sources"), dict):
+            for key, text in body["sources"].items():
+                if isinstance(text, str):
+                    yield f"{blk}.{key}", text
+
+
+def calibration_tests(vehicle: Any) -> dict[str, list[str]]:
+    """Test id -> the parameters (dotted names) the vehicle file was calibrated on it.
+
+    Read from the provenance of the calibrated values (``sources``); tests are listed in
+    the order they first appear, parameters sorted.
+
+    Parameters
+    ----------
+    vehicle : Vehicle or dict
+        A loaded vehicle (any architecture) or its ``model_dump()``.
+    """
+    out: dict[str, list[str]] = {}
+    for name, text in _sources(vehicle):
+        for t in ids_in_source(text):
+            params = out.setdefault(t, [])
+            if name not in params:
+                params.append(name)
+    return {t: sorted(p) for t, p in out.items()}
+
+
+def in_sample(vehicle: Any, test_id: str,
+              calibrated: dict[str, list[str]] | None = None) -> bool:
+    """Whether ``test_id`` is one the vehicle file was calibrated on (its figures are then
+    in-sample, not a prediction). ``calibrated``: :func:`calibration_tests` of the vehicle,
+    when already computed."""
+    cal = calibration_tests(vehicle) if calibrated is None else calibrated
+    return str(test_id) in cal

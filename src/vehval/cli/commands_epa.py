@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -159,12 +160,13 @@ def validate_cmd(
         typer.echo(jsonsafe.dumps(val), nl=False)
         return
     typer.echo(f"{'test':14s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
-               f"{'err %':>6} {'batt %':>6}  judged")
+               f"{'err %':>6} {'batt %':>6} {'sample':9s} judged")
     for c in val.comparisons:
         batt = share_text(c.battery_share)
         typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
                    f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f} "
-                   f"{batt:>6}  {_judged_text(c)}")
+                   f"{batt:>6} {'in-sample' if c.in_sample else 'held-out':9s} "
+                   f"{_judged_text(c)}")
     st = val.stats()
     for p in val.predictions:
         if p.list_check is not None and not p.list_check.ok:
@@ -173,16 +175,25 @@ def validate_cmd(
     _echo_mismatches([(p.test.label, p.vehicle_check) for p in val.predictions])
     for s in val.skipped:
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
-    r, mean = st["spread_correlation"]["pooled"], st["mean_error"]
-    typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped; "
-               f"{st['n_within_tolerance']}/{st['n_judged']} judged figures within "
-               f"{100 * st['tolerance']:.0f} %; mean error "
-               f"{'-' if mean is None else f'{100 * mean:+.1f} %'}"
-               f"; r = {'-' if r is None else f'{r:.3f}'}")
+    typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped, "
+               f"{st['n_tests_in_sample']} of them calibration tests of the vehicle file")
+    typer.echo("held-out: " + _stats_text(st))
+    if st["n_judged_in_sample"]:
+        typer.echo("in-sample (the vehicle file was calibrated on these tests; not a "
+                   "prediction): " + _stats_text(val.stats(in_sample=True)))
     typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
                "(J1711 balances the whole test, not each bag)")
     if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _stats_text(st: dict) -> str:
+    """``n/N judged figures within 5 %; mean error ...; r = ...`` of one stats dict."""
+    r, mean = st["spread_correlation"]["pooled"], st["mean_error"]
+    return (f"{st['n_within_tolerance']}/{st['n_judged']} judged figures within "
+            f"{100 * st['tolerance']:.0f} %; mean error "
+            f"{'-' if mean is None else f'{100 * mean:+.1f} %'}"
+            f"; r = {'-' if r is None else f'{r:.3f}'}")
 
 
 def _echo_mismatches(checks, err: bool = False) -> None:
@@ -260,3 +271,97 @@ def calibrate_cmd(
                f"% (max {100 * cal.best_max:.1f} %)")
     if output is not None:
         typer.echo(f"wrote {output}")
+
+
+@epa_app.command("vehicle")
+def vehicle_cmd(
+    paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
+    make: str = typer.Option(..., "--make", help="Make, e.g. TOYOTA."),
+    model: str = typer.Option(..., "--model", help="Model name as listed, e.g. "
+                              "'CAMRY XLE/XSE' (one test-vehicle configuration)."),
+    year: int = typer.Option(..., "--year", callback=bounded("year"), help="Model year."),
+    vehicle_id: str | None = typer.Option(None, "--vehicle-id", help="Test vehicle ID, "
+                                          "when the model has several configurations."),
+    calibrate: list[Path] = typer.Option([], "--calibrate", help="A dyno test (one file: "
+                                         "vehicle speed and fuel rate) to fit the fuel "
+                                         "model on; repeatable."),
+    predict: list[Path] = typer.Option([], "--predict", help="A held-out dyno test to "
+                                       "predict; repeatable."),
+    template: Path | None = typer.Option(None, "-t", "--template", help="Import template "
+                                         "of the dyno test files."),
+    splits: int = typer.Option(0, "--splits", min=0, max=20, help="Also fit on "
+                               "every N of all the given tests and predict the others "
+                               "(0: no)."),
+    dt: float = typer.Option(0.5, "--dt", callback=bounded("dt"), help="Simulation step [s]."),
+    as_json: bool = typer.Option(False, "--json", help="Print the result JSON."),
+    output: Path = typer.Option(..., "-o", "--output", help="Write the vehicle YAML here."),
+) -> None:
+    """A conventional vehicle from its EPA Test Car List specification, its fuel model
+    calibrated on dyno tests with speed and fuel only."""
+    from vehval import jsonsafe
+    from vehval.calibration.provenance import write_vehicle_yaml
+    from vehval.epa import read_lists, select_tests
+    from vehval.epa.specs import specs_from_tests, vehicle_from_specs
+    from vehval.epa.specs_fit import (
+        all_splits,
+        calibrate_specs,
+        cold_note,
+        dyno_run,
+        predict_runs,
+    )
+    from vehval.errors import ConfigError
+    from vehval.io.paths import check_outputs
+
+    check_outputs(outfile=output, inputs=[*paths, *calibrate, *predict, template])
+    rows = select_tests(read_lists(paths), make, model, year)
+    if vehicle_id:
+        rows = [t for t in rows if t.vehicle_id == vehicle_id]
+    specs = specs_from_tests(rows)
+    files = [*calibrate, *predict]
+    if files and template is None:
+        raise ConfigError("give the import template of the dyno tests with -t")
+    runs = {}
+    for f in files:
+        from vehval.workflow import TestRun
+
+        test = TestRun.load([f], template, use_qa=False).test
+        runs[f] = dyno_run(test, test.meta.test_id or f.stem)
+    cal = [runs[f] for f in calibrate]
+    held = [runs[f] for f in predict]
+    fit = calibrate_specs(specs, cal, dt) if cal else None
+    veh = fit.vehicle() if fit is not None else vehicle_from_specs(specs)
+    pred = predict_runs(fit.model() if fit else veh, held, dt) if held else {}
+    split_rows = all_splits(specs, list(runs.values()), splits, dt) if splits else []
+    write_vehicle_yaml(veh, output, "vehval epa vehicle")
+    tests_doc: list[dict[str, Any]] = [{"test": r.test_id, "in_sample": f in calibrate,
+                  "fuel_measured_kg": r.fuel_kg, "distance_m": r.distance_m,
+                  "cold_start": r.cold, "note": cold_note(r),
+                  "error": (fit.errors.get(r.test_id) if f in calibrate and fit
+                            else pred.get(r.test_id))} for f, r in runs.items()]
+    doc = {"vehicle": veh.name, "specs": specs.to_dict(),
+           "calibration": fit.to_dict() if fit else None,
+           "tests": tests_doc,
+           "splits": split_rows}
+    if as_json:
+        typer.echo(jsonsafe.dumps(doc), nl=False)
+        return
+    typer.echo(f"{specs.make} {specs.model} {specs.year} ({specs.vehicle_id}): "
+               f"{specs.mass_kg:.0f} kg, {specs.displacement_l:g} L, "
+               f"{specs.rated_power_w / 1e3:.0f} kW, {specs.gears}-speed, axle "
+               f"{specs.axle_ratio:g}, N/V {specs.n_v_ratio:g}")
+    if fit is not None:
+        idle = "-" if fit.idle_fuel_g_per_s is None else f"{fit.idle_fuel_g_per_s:.3f}"
+        typer.echo(f"fitted on {', '.join(fit.tests)}: indicated efficiency "
+                   f"{fit.indicated_efficiency:.4f}, friction scale {fit.friction_scale:.3f}, "
+                   f"idle {idle} g/s")
+    for row in tests_doc:
+        err = "-" if row["error"] is None else f"{100 * row['error']:+.1f} %"
+        typer.echo(f"{row['test'][:24]:24s} {'in-sample' if row['in_sample'] else 'held-out':9s}"
+                   f" fuel error {err:>8}  ({row['note']})")
+    if held:
+        worst = max(abs(e) for e in pred.values())
+        typer.echo(f"held-out: {len(pred)} tests, largest |fuel error| {100 * worst:.1f} %")
+    for sp in split_rows:
+        errs = ", ".join(f"{k} {100 * v:+.1f} %" for k, v in sp["held_out_errors"].items())
+        typer.echo(f"split: fit on {', '.join(sp['calibration'])} -> {errs}")
+    typer.echo(f"wrote {output}")

@@ -104,7 +104,9 @@ def validate_cmd(
     for e in lad.entries:
         typer.echo(f"{e.test_id} ({_cycle(e.cycle, e.rung)}): fuel {_pct(e.errors['fuel_pct'], 2)}, "
                    f"SOC {_pct(e.errors['soc_pct'], 2)}, engine state agreement "
-                   f"{_pct(e.errors['engine_on_agreement_pct'], 1)}: {'pass' if e.passed else 'FAIL'}")
+                   f"{_pct(e.errors['engine_on_agreement_pct'], 1)}: {'pass' if e.passed else 'FAIL'}"
+                   f"{' (in-sample)' if e.in_sample else ''}")
+    typer.echo(lad.summary())
     typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
 
 
@@ -179,6 +181,7 @@ def calibrate_cmd(
                    f"{_pct(row[3], 2)}, SOC error {_pct(row[4], 2, '')} -> {_pct(row[5], 2)}")
     typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
                f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
+    typer.echo(res.tables()[1]["note"])
     typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")
 
 

@@ -52,6 +52,8 @@ OPTIONAL = {
     "Vehicle Manufacturer Name": "manufacturer",
     "CO2 (g/mi)": "co2_g_per_mi",
     "Test Fuel Type Description": "fuel",
+    "# of Gears": "gears",
+    "Tested Transmission Type Code": "transmission",
 }
 #: the model-year column is named differently across years
 YEAR_COLUMNS = ("Model Year", "Year")
@@ -108,6 +110,11 @@ class EpaTest:
         Rated engine power [W] (NaN when absent).
     source : str
         ``file:line`` of the row.
+    gears : int
+        ``# of Gears`` (0 when absent; 1 for a CVT).
+    transmission : str
+        ``Tested Transmission Type Code`` (``A``, ``SA``, ``M``, ``AM``, ``CVT``...; '' when
+        absent).
     """
 
     year: int
@@ -138,6 +145,8 @@ class EpaTest:
     rated_power_w: float
     manufacturer: str
     source: str
+    gears: int = 0  # number of gears (0 when absent; 1 for a CVT)
+    transmission: str = ""  # tested transmission type code (A, SA, M, AM, CVT...; '' absent)
 
     @property
     def label(self) -> str:
@@ -298,6 +307,8 @@ def _read(path: Path, rows) -> list[EpaTest]:
             rated_power_w=_num(f["rated_hp"]) * HP_W,
             manufacturer=f["manufacturer"],
             source=f"{path.name}:{lineno}",
+            gears=int(_num(f["gears"])) if not math.isnan(_num(f["gears"])) else 0,
+            transmission=f["transmission"].upper(),
         ))
     return tests
 

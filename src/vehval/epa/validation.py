@@ -12,6 +12,12 @@ fuel energy). Hot-start figures (bags 2-4, hot UDDS, HWFET, US06) are judged;
 the cold-start figures (FTP bag 1, cold UDDS and the composite) only when the vehicle models
 the cold start (warm-up fuel, a hybrid's engine-on hold, applied to the FTP's first run),
 else they are reported as the cold-start gap.
+
+In-sample honesty: a figure of a test the vehicle file was calibrated on (read from the
+provenance of its calibrated values, :func:`vehval.calibration.provenance.calibration_tests`)
+is marked ``in_sample``; the headline statistics (:meth:`EpaValidation.stats`) count only
+held-out judged figures, the in-sample ones are summarised apart
+(``stats(in_sample=True)``).
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from vehval import progress
+from vehval.calibration.provenance import calibration_tests
 from vehval.cycles import load_cycle
 from vehval.epa.consistency import (
     ListCheck,
@@ -80,6 +87,7 @@ class Comparison:
     cold_start: bool = False  # the figure contains a cold start
     battery_share: float | None = None  # model: battery chemical / fuel energy [-]
     list_doubtful: bool = False  # the list's own figures of this test disagree (not judged)
+    in_sample: bool = False  # the vehicle file was calibrated on this test
 
     @property
     def error(self) -> float:
@@ -97,7 +105,7 @@ class Comparison:
                 "cold_start": self.cold_start,
                 "battery_share": (None if self.battery_share is None
                                   else round(self.battery_share, 5)),
-                "list_doubtful": self.list_doubtful}
+                "list_doubtful": self.list_doubtful, "in_sample": self.in_sample}
 
 
 @dataclass
@@ -130,10 +138,20 @@ class EpaValidation:
     predictions: list[TestPrediction] = field(default_factory=list)
     comparisons: list[Comparison] = field(default_factory=list)
     skipped: list[dict[str, str]] = field(default_factory=list)
+    #: test id -> parameters the vehicle file was calibrated on it (its figures in-sample)
+    calibrated: dict[str, list[str]] = field(default_factory=dict)
 
-    def stats(self) -> dict[str, Any]:
-        """Counts, errors of the judged figures and the correlation of spreads."""
-        judged = [c for c in self.comparisons if c.judged]
+    def stats(self, in_sample: bool = False) -> dict[str, Any]:
+        """Counts, errors of the judged figures and the correlation of spreads.
+
+        Parameters
+        ----------
+        in_sample : bool
+            False (the headline): the held-out judged figures only; True: the judged
+            figures of the tests the vehicle file was calibrated on.
+        """
+        figures = [c for c in self.comparisons if c.in_sample == in_sample]
+        judged = [c for c in figures if c.judged]
         err = np.array([c.error for c in judged])
         out: dict[str, Any] = {
             "n_tests_selected": len(self.predictions) + len(self.skipped),
@@ -141,7 +159,11 @@ class EpaValidation:
             "n_tests_skipped": len(self.skipped),
             "n_tests_vehicle_mismatch": sum(map(len, group_mismatches(
                 (p.test.label, p.vehicle_check) for p in self.predictions).values())),
+            "figures": "in-sample" if in_sample else "held-out",
+            "n_tests_in_sample": sum(p.test.label in self.calibrated for p in self.predictions),
             "n_judged": len(judged),
+            "n_judged_held_out": sum(c.judged and not c.in_sample for c in self.comparisons),
+            "n_judged_in_sample": sum(c.judged and c.in_sample for c in self.comparisons),
             "n_within_tolerance": int(np.sum(np.abs(err) <= TOLERANCE)) if err.size else 0,
             "n_within_3pct": int(np.sum(np.abs(err) <= 0.03)) if err.size else 0,
             "tolerance": TOLERANCE,
@@ -149,12 +171,14 @@ class EpaValidation:
             "mean_abs_error": float(np.abs(err).mean()) if err.size else None,
             "max_abs_error": float(np.abs(err).max()) if err.size else None,
         }
-        out["spread_correlation"] = spread_correlation(self.comparisons)
-        out["per_kind"] = per_kind_errors(self.comparisons)
+        out["spread_correlation"] = spread_correlation(figures)
+        out["per_kind"] = per_kind_errors(figures)
         return out
 
     def to_dict(self) -> dict[str, Any]:
         return {"vehicle": self.vehicle, "stats": self.stats(),
+                "stats_in_sample": self.stats(in_sample=True),
+                "calibration_tests": self.calibrated,
                 "comparisons": [c.to_dict() for c in self.comparisons],
                 "tests": [{"test": p.test.label, "vehicle_id": p.test.vehicle_id,
                            "originator": p.test.originator, "procedure": p.procedure,
@@ -169,6 +193,8 @@ class EpaValidation:
                                           else p.list_check.to_dict()),
                            "vehicle_check": (None if p.vehicle_check is None
                                              else p.vehicle_check.to_dict()),
+                           "in_sample": p.test.label in self.calibrated,
+                           "calibrated_parameters": self.calibrated.get(p.test.label, []),
                            "source": p.test.source} for p in self.predictions],
                 "skipped": self.skipped}
 
@@ -388,7 +414,7 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     """
     veh = load_vehicle(vehicle)
     cold_model = has_cold_start_model(veh)
-    res = EpaValidation(vehicle=veh.name)
+    res = EpaValidation(vehicle=veh.name, calibrated=calibration_tests(veh))
     progress.add(len(tests))
     for t in tests:
         proc, why = plan_for(t)
@@ -407,5 +433,7 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
             for c in rows:
                 c.judged, c.list_doubtful = False, True
                 c.note = f"list figures doubtful: {pred.list_check.note}"
+        for c in rows:
+            c.in_sample = t.label in res.calibrated
         res.comparisons.extend(rows)
     return res

@@ -1,5 +1,8 @@
 """EPA validation report: the per-test / per-bag table and a predicted-vs-measured plot.
 
+The headline counts held-out figures only; the figures of the tests the vehicle file was
+calibrated on are marked in-sample in the table and the plot and summarised apart.
+
 One self-contained HTML file (inline SVG, no script; template ``epa.html.j2``), plus ``epa_validation.json`` (the
 :meth:`~vehval.epa.validation.EpaValidation.to_dict` contract) and ``epa_validation.csv``.
 """
@@ -27,8 +30,9 @@ def scatter_plot(val: EpaValidation, size: int = 420) -> dict | None:
     """Predicted vs measured fuel economy [mpg]: the geometry of the SVG scatter with the
     1:1 and ±5 % lines (drawn by ``epa.html.j2``); None without a figure.
 
-    Judged figures are filled circles, figures not judged (cold start without a cold-start
-    model, or a test whose listed figures disagree) open circles. Coordinates are [px]
+    Judged figures are filled, figures not judged (cold start without a cold-start
+    model, or a test whose listed figures disagree) open; held-out figures are circles,
+    in-sample ones (a calibration test of the vehicle file) squares. Coordinates are [px]
     strings, every label is text (escaped by the template).
     """
     pts = [(c.measured_mpg, c.predicted_mpg, c) for c in val.comparisons]
@@ -56,9 +60,11 @@ def scatter_plot(val: EpaValidation, size: int = 420) -> dict | None:
     for x, y, c in pts:
         col = _COLORS.get(c.procedure, "#555")
         points.append({"cx": f"{sx(x):.1f}", "cy": f"{sy(y):.1f}", "stroke": col,
-                       "fill": col if c.judged else "none",
+                       "x": f"{sx(x) - 3.5:.1f}", "y": f"{sy(y) - 3.5:.1f}",
+                       "fill": col if c.judged else "none", "in_sample": c.in_sample,
                        "title": f"{c.test} {c.procedure} {c.item}: predicted {c.predicted_mpg:.1f}, "
-                                f"measured {c.measured_mpg:.1f} mpg ({100 * c.error:+.1f} %)"})
+                                f"measured {c.measured_mpg:.1f} mpg ({100 * c.error:+.1f} %"
+                                f"{', in-sample' if c.in_sample else ''})"})
     legend = [{"label": label, "color": _COLORS[key], "cy": m + 14 + 14 * i, "ty": m + 18 + 14 * i}
               for i, (label, key) in enumerate((("FTP-75", "ftp75"), ("HWFET", "hwfet"),
                                                ("US06", "us06")))]
@@ -72,6 +78,14 @@ def share_text(x: float | None) -> str:
     return "-" if x is None else f"{round(100 * x, 1) + 0.0:+.1f}"  # + 0.0: no "-0.0"
 
 
+def _figures_text(st: dict) -> str:
+    """``n of N judged figures within 5 % (...); mean error ...`` of one stats dict."""
+    return (f"{st['n_within_tolerance']} of {st['n_judged']} judged figures within "
+            f"{100 * st['tolerance']:.0f} % ({st['n_within_3pct']} within 3 %); mean error "
+            f"{100 * (st['mean_error'] or 0):+.1f} %, mean |error| "
+            f"{100 * (st['mean_abs_error'] or 0):.1f} %.")
+
+
 def render_html(val: EpaValidation) -> str:
     """The whole report page (``epa.html.j2``): every text of the list is escaped there."""
     st = val.stats()
@@ -82,6 +96,7 @@ def render_html(val: EpaValidation) -> str:
         classes.append("" if not c.judged else ("ok" if ok else "bad"))
         rows.append([c.test, c.originator, c.procedure, c.item, f"{c.predicted_mpg:.1f}",
                      f"{c.measured_mpg:.1f}", f"{100 * c.error:+.1f}", share_text(c.battery_share),
+                     "in-sample" if c.in_sample else "held-out",
                      "yes" if c.judged else "no", c.note])
     r_kind = corr["per_kind"]
     kinds = [[k, v["n"], v["n_within_tolerance"], f"{100 * v['mean_error']:+.1f}",
@@ -95,14 +110,19 @@ def render_html(val: EpaValidation) -> str:
                 "vehicle file on a car it may not describe." for note, labels in groups.items()]
     tol = f"{100 * TOLERANCE:.0f}"
     summary = (f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped;\n"
-               f"{st['n_within_tolerance']} of {st['n_judged']} judged figures within\n"
-               f"{tol} % ({st['n_within_3pct']} within 3 %); mean error\n"
-               f"{100 * (st['mean_error'] or 0):+.1f} %, mean |error| "
-               f"{100 * (st['mean_abs_error'] or 0):.1f} %.\n"
-               "Correlation of predicted and measured judged figures: r = "
+               f"held-out: {_figures_text(st)}\n"
+               "Correlation of predicted and measured held-out judged figures: r = "
                f"{'-' if pooled is None else f'{pooled:.3f}'}.")
+    in_sample = ""
+    if st["n_judged_in_sample"]:
+        ins = val.stats(in_sample=True)
+        in_sample = (f"In-sample, apart: the vehicle file was calibrated on "
+                     f"{ins['n_tests_in_sample']} of these tests "
+                     f"({', '.join(sorted(val.calibrated))}); their figures are not a "
+                     f"prediction: {_figures_text(ins)}")
     return render_page("epa.html.j2", title=f"vehval EPA validation: {val.vehicle}", css="epa.css",
-                       vehicle=val.vehicle, summary=summary, mismatch=mismatch,
+                       vehicle=val.vehicle, summary=summary, in_sample=in_sample,
+                       mismatch=mismatch,
                        plot=scatter_plot(val), tol=tol, kinds=kinds, rows=rows,
                        row_classes=classes, skipped=skipped)
 

@@ -41,7 +41,7 @@ from vehval.calibration import (
     vehicle_with_values,
     write_vehicle_yaml,
 )
-from vehval.calibration.provenance import bounds_text
+from vehval.calibration.provenance import bounds_text, calibration_tests
 from vehval.errors import ConfigError
 from vehval.jsonsafe import clean
 from vehval.sim.simulate import simulate
@@ -150,6 +150,35 @@ class CalibrationResult:
     notes: list[str] = field(default_factory=list)
     #: Tuned values the over-fitting guard refused (empty when the tuned values were kept).
     rejected: dict[str, float] = field(default_factory=dict)
+    #: Tests the starting vehicle file was already calibrated on -> its parameters tuned there.
+    prior: dict[str, list[str]] = field(default_factory=dict)
+
+    def in_sample(self, tid: str) -> bool:
+        """A tuning test, or a test the starting vehicle file was calibrated on: its errors
+        are a fit, not a prediction."""
+        return tid in self.tests or tid in self.prior
+
+    def _role(self, tid: str) -> str:
+        if tid in self.tests:
+            return "tuned"
+        return ("held out (in-sample: the start vehicle was calibrated on it)"
+                if tid in self.prior else "held out")
+
+    def sample_stats(self, in_sample: bool = False) -> dict[str, Any]:
+        """Mean |fuel error| and |SOC error| [%] before and after over the held-out tests
+        (``in_sample`` False, the headline) or over the in-sample ones (True)."""
+        ids = [t for t in self.tests + self.holdout if self.in_sample(t) == in_sample]
+
+        def mean(errs: dict[str, dict[str, float]], key: str) -> float | None:
+            v = [abs(errs[t][key]) for t in ids
+                 if t in errs and errs[t].get(key) is not None and math.isfinite(errs[t][key])]
+            return float(np.mean(v)) if v else None
+
+        return {"tests": ids, "n_tests": len(ids),
+                "fuel_pct_before": mean(self.before, "fuel_pct"),
+                "fuel_pct_after": mean(self.after, "fuel_pct"),
+                "soc_pct_before": mean(self.before, "soc_pct"),
+                "soc_pct_after": mean(self.after, "soc_pct")}
 
     def provenance(self, name: str) -> str:
         """Source text recorded for a tuned parameter in the calibrated vehicle file
@@ -174,13 +203,15 @@ class CalibrationResult:
         return write_vehicle_yaml(self.calibrated_vehicle(), path, "vehval calibrate")
 
     def rows(self) -> list[list[Any]]:
-        """[test, role, fuel err before %, after %, SOC err before %, after %, engine agreement before %, after %]."""
+        """[test, role, fuel err before %, after %, SOC err before %, after %, engine agreement
+        before %, after %, sample ("in-sample" or "held-out")]."""
         out = []
         for tid in self.tests + self.holdout:
             b, a = self.before.get(tid, {}), self.after.get(tid, {})
-            out.append([tid, "tuned" if tid in self.tests else "held out",
+            out.append([tid, self._role(tid),
                         b.get("fuel_pct"), a.get("fuel_pct"), b.get("soc_pct"), a.get("soc_pct"),
-                        b.get("engine_on_agreement_pct"), a.get("engine_on_agreement_pct")])
+                        b.get("engine_on_agreement_pct"), a.get("engine_on_agreement_pct"),
+                        "in-sample" if self.in_sample(tid) else "held-out"])
         return out
 
     def tables(self) -> list[dict]:
@@ -194,8 +225,10 @@ class CalibrationResult:
                      f"{self.n_simulations} simulations in {self.elapsed_s:.1f} s ({self.method})"},
             {"title": "Errors before and after calibration",
              "columns": ["test", "role", "fuel before [%]", "fuel after [%]", "SOC before [%]",
-                         "SOC after [%]", "engine agreement before [%]", "engine agreement after [%]"],
-             "rows": self.rows()},
+                         "SOC after [%]", "engine agreement before [%]", "engine agreement after [%]",
+                         "sample"],
+             "rows": self.rows(),
+             "note": _sample_note(self.sample_stats(), self.sample_stats(in_sample=True))},
         ]
 
     def to_dict(self) -> dict[str, Any]:
@@ -208,8 +241,22 @@ class CalibrationResult:
             "elapsed_s": self.elapsed_s, "method": self.method, "dt_s": self.dt, "date": self.date,
             "speed_smoothing_hz": self.smooth_hz, "notes": self.notes,
             "rejected": self.rejected,
+            "in_sample": {t: self.in_sample(t) for t in self.tests + self.holdout},
+            "stats": self.sample_stats(), "stats_in_sample": self.sample_stats(in_sample=True),
+            "prior_calibration_tests": self.prior,
             "provenance": {n: self.provenance(n) for n in self.parameters},
             "history": self.history, "tables": self.tables()})
+
+
+def _sample_note(held: dict[str, Any], ins: dict[str, Any]) -> str:
+    """One line: mean |fuel error| before -> after on held-out tests, in-sample apart."""
+    def part(st: dict[str, Any]) -> str:
+        b, a = st["fuel_pct_before"], st["fuel_pct_after"]
+        if b is None or a is None:
+            return f"{st['n_tests']} tests"
+        return f"{st['n_tests']} tests, mean |fuel error| {b:.2f} -> {a:.2f} %"
+
+    return f"held-out: {part(held)}; in-sample (a fit, not a prediction): {part(ins)}"
 
 
 class _Problem:
@@ -408,6 +455,9 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
     roles = [("tuned", list(zip(tests, ids))), ("held out", list(zip(holdout_tests, hold_ids)))]
     for _role, (_t, tid), b, a in before_after(evaluate, roles, x0, best):
         before[tid], after[tid] = b, a
+    prior = calibration_tests(veh0)
+    notes += [f"held-out test {tid} is in-sample: the start vehicle was calibrated on it "
+              f"({', '.join(prior[tid])})" for tid in hold_ids if tid in prior]
     rejected: dict[str, float] = {}
     worse = holdout_worse(before, after, hold_ids)
     if worse:
@@ -423,7 +473,7 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         n_evaluations=prob.n_eval, n_simulations=prob.n_sim,
         elapsed_s=time.perf_counter() - t_start, method=method, dt=dt, vehicle=veh0,
         date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz, notes=notes,
-        rejected=rejected)
+        rejected=rejected, prior=prior)
 
 
 def _errors(v) -> dict[str, float]:

@@ -13,6 +13,10 @@ Error definitions (documented in docs/validation.md):
   error of the final SOC; it stays well defined on charge-sustaining tests where ΔSOC ≈ 0
   (a relative error of ΔSOC itself would blow up). The ΔSOC mismatch in SOC points
   (100 · |ΔSOC_sim − ΔSOC_test|) is reported alongside and may be bounded too.
+
+A test the vehicle file was calibrated on (its provenance,
+:func:`vehval.calibration.provenance.calibration_tests`) is marked in-sample: its verdict is
+a fit, not a prediction; the summary counts held-out tests and in-sample ones apart.
 """
 
 from __future__ import annotations
@@ -110,6 +114,7 @@ class LadderEntry:
     errors: dict[str, float]
     passed: bool
     failures: list[str] = field(default_factory=list)
+    in_sample: bool = False  # the vehicle file was calibrated on this test
 
 
 def verdict(comp: Comparison, tol: Tolerances) -> tuple[bool, list[str], dict[str, float]]:
@@ -140,6 +145,24 @@ class LadderResult:
 
     entries: list[LadderEntry]
     tolerances: Tolerances
+    #: test id -> parameters the vehicle file was calibrated on it
+    calibrated: dict[str, list[str]] = field(default_factory=dict)
+
+    def sample_counts(self) -> dict[str, int]:
+        """Tests and passes, held-out and in-sample apart."""
+        held = [e for e in self.entries if not e.in_sample]
+        ins = [e for e in self.entries if e.in_sample]
+        return {"n_held_out": len(held), "n_held_out_passed": sum(e.passed for e in held),
+                "n_in_sample": len(ins), "n_in_sample_passed": sum(e.passed for e in ins)}
+
+    def summary(self) -> str:
+        """``held-out: 3/4 tests pass; in-sample (a fit, not a prediction): 1/1``."""
+        n = self.sample_counts()
+        text = f"held-out: {n['n_held_out_passed']}/{n['n_held_out']} tests pass"
+        if n["n_in_sample"]:
+            text += (f"; in-sample (the vehicle file was calibrated on them, a fit, not a "
+                     f"prediction): {n['n_in_sample_passed']}/{n['n_in_sample']}")
+        return text
 
     @property
     def passed(self) -> bool:
@@ -169,24 +192,29 @@ class LadderResult:
         t = self.tolerances
         rows = [[RUNG_LABELS[e.rung], e.cycle, e.test_id, e.errors["fuel_pct"], e.errors["soc_pct"],
                  e.errors["soc_points"], e.errors["engine_on_agreement_pct"],
-                 "pass" if e.passed else "FAIL: " + "; ".join(e.failures)] for e in self.entries]
+                 "pass" if e.passed else "FAIL: " + "; ".join(e.failures),
+                 "in-sample" if e.in_sample else "held-out"] for e in self.entries]
         return [{"title": "Validation ladder",
                  "columns": ["rung", "cycle", "test", "fuel error [%]", "SOC error [%]",
-                             "ΔSOC error [points]", "engine state agreement [%]", "verdict"],
+                             "ΔSOC error [points]", "engine state agreement [%]", "verdict",
+                             "sample"],
                  "rows": rows,
                  "note": f"tolerances: fuel ≤ {t.fuel_pct} %, SOC ≤ {t.soc_pct} % (relative error of "
                          f"final SOC), ΔSOC ≤ {t.soc_points} points, engine agreement ≥ "
-                         f"{t.engine_on_agreement_min_pct} % (None = not checked)"}]
+                         f"{t.engine_on_agreement_min_pct} % (None = not checked); "
+                         f"{self.summary()}"}]
 
     def to_dict(self) -> dict[str, Any]:
         return clean({"passed": self.passed, "tolerances": asdict(self.tolerances),
                        "rung_passed": self.rung_passed(),
                        "highest_rung_passed": self.highest_rung_passed(),
+                       **self.sample_counts(), "calibration_tests": self.calibrated,
                        "entries": [asdict(e) for e in self.entries], "tables": self.tables()})
 
 
 def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | None = None,
-           rungs: dict[str, str] | None = None) -> LadderResult:
+           rungs: dict[str, str] | None = None,
+           calibrated: dict[str, list[str]] | None = None) -> LadderResult:
     """Place comparisons on the ladder and judge each against the tolerances.
 
     Parameters
@@ -197,6 +225,9 @@ def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | No
         Defaults: fuel and SOC within 5 %.
     rungs : dict, optional
         test id -> rung, overriding the classification by cycle name.
+    calibrated : dict, optional
+        test id -> parameters the vehicle file was calibrated on it
+        (:func:`vehval.calibration.provenance.calibration_tests`): those tests are in-sample.
     """
     tol = tolerances if isinstance(tolerances, Tolerances) else Tolerances.from_mapping(tolerances)
     entries = []
@@ -205,6 +236,7 @@ def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | No
         if rung not in RUNGS:
             raise ConfigError(f"test '{c.test_id}': unknown rung '{rung}' (use {', '.join(RUNGS)})")
         ok, fails, err = verdict(c, tol)
-        entries.append(LadderEntry(c.test_id, c.cycle, rung, err, ok, fails))
+        entries.append(LadderEntry(c.test_id, c.cycle, rung, err, ok, fails,
+                                   in_sample=c.test_id in (calibrated or {})))
     entries.sort(key=lambda e: (RUNGS.index(e.rung), e.cycle, e.test_id))
-    return LadderResult(entries, tol)
+    return LadderResult(entries, tol, dict(calibrated or {}))

@@ -1,0 +1,387 @@
+"""A conventional vehicle from public specifications: one EPA Test Car List configuration.
+
+A test with only speed and fuel (no force, no engine speed) cannot identify a car; its
+public specification can describe most of it. An EPA Test Car List row gives the
+equivalent test weight, the road-load target A/B/C, the axle ratio, N/V (engine rpm per
+mph in top gear), the number of gears and the transmission type, the displacement and
+the rated power. :func:`specs_from_tests` reads them, :func:`vehicle_from_specs` builds
+the :class:`~vehval.vehicle.conventional.ConventionalVehicle` the simulator runs, deriving
+what the list does not state with generic, documented scaling (constants below):
+
+* engine fuel: a Willans line over the whole map, fuel power = (brake power + friction
+  power) / indicated efficiency, with the friction mean effective pressure of a
+  spark-ignition engine (Heywood 1988, eq. 13.13: FMEP [bar] = 0.97 + 0.15 N/1000 +
+  0.05 (N/1000)^2, N in rpm) times the displacement. Two factors stay free and are the
+  calibrated parameters (:mod:`vehval.epa.specs_fit`): the indicated efficiency
+  (``indicated_efficiency``) and a friction scale (``friction_scale``, 1 = Heywood's
+  curve; it absorbs the throttled pumping work); near full load the fuel rises by
+  ``ENRICHMENT`` (power enrichment); the warm idle fuel rate is measured in the
+  calibration tests when they are given;
+* full load: the BMEP of a naturally aspirated gasoline engine up to the power limit of
+  the rated power, rated at a generic speed;
+* gearbox: top-gear overall ratio from N/V (engine speed per vehicle speed, exact), the
+  other gears geometric over a ratio spread typical of the gear count; shift lines from
+  engine speeds; a lock-up converter sized by its stall speed;
+* cold start: the extra fuel of the FTP's first bag over its third in the list's own
+  FTP rows of the configuration (the same car, same road load), placed as the vehicle's
+  warm-up fuel with a generic time constant.
+
+Every value carries its source in the vehicle file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+
+from vehval.constants import MPH_M_PER_S as MPH
+from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.epa.procedures import procedure_key
+from vehval.epa.reader import EpaTest
+from vehval.errors import ConfigError
+from vehval.vehicle.conventional import ConventionalVehicle
+
+#: generic values for what a Test Car List row does not state (engineering estimates)
+FMEP_BAR = (0.97, 0.15, 0.05)  # Heywood eq. 13.13: a + b (N/1000) + c (N/1000)^2 [bar]
+INDICATED_EFFICIENCY = 0.38  # start value: gross indicated efficiency of a modern SI engine
+BMEP_MAX_PA = 12.0e5  # full-load BMEP of a naturally aspirated gasoline engine [Pa]
+RATED_SPEED_RPM = 6000.0  # speed of the rated power of a gasoline car engine [rpm]
+IDLE_SPEED_RPM = 700.0  # warm idle [rpm]
+ENRICHMENT, ENRICH_FROM = 0.1, 0.75  # extra fuel at full load [-], from this share of it
+STALL_SPEED_RPM = 2500.0  # torque-converter stall speed at peak torque [rpm]
+WHEEL_RADIUS_M = 0.33  # rolling radius [m]: only engine speed / vehicle speed matters
+ACCESSORY_POWER_W = 300.0  # alternator, pumps [W]
+FUEL_CUT_IDLE_RATIO = 1.3  # fuel cut on overrun above this x idle speed [-]
+WARMUP_TIME_CONSTANT_S = 200.0  # decay of a cold engine's extra fuel [s]
+#: ratio spread (first / top) of production automatics by gear count
+RATIO_SPREAD = {3: 2.8, 4: 4.0, 5: 4.9, 6: 6.0, 7: 7.0, 8: 7.6, 9: 9.2, 10: 10.0}
+UPSHIFT_RPM, DOWNSHIFT_RPM = 1300.0, 1000.0  # at zero load, engine speed in the higher gear
+#: at full load: upshift at this share of the rated speed, downshift below this share
+UPSHIFT_FULL, DOWNSHIFT_FULL = 0.9, 0.6
+LOCKUP_RPM = 1200.0  # converter locks from 2nd gear once the locked engine speed passes it
+_SPEC_KEYS = ("mass_kg", "target_a_n", "target_b_n_per_mps", "target_c_n_per_mps2",
+              "axle_ratio", "n_v_ratio", "displacement_l", "rated_power_w")
+
+
+@dataclass
+class Specs:
+    """Public specification of one test-vehicle configuration (SI; see module docstring).
+
+    Attributes
+    ----------
+    name : str
+        Vehicle name (``toyota_camry_xle_xse_2019``).
+    mass_kg : float
+        Equivalent test weight [kg].
+    target_a_n, target_b_n_per_mps, target_c_n_per_mps2 : float
+        Road-load target coefficients [N, N/(m/s), N/(m/s)^2].
+    axle_ratio : float
+        Final drive ratio [-].
+    n_v_ratio : float
+        Engine speed per vehicle speed in top gear [rpm/mph].
+    gears : int
+        Number of gears.
+    displacement_l : float
+        Displacement [L].
+    rated_power_w : float
+        Rated power [W].
+    cold_bag_ratio : float
+        FTP bag 3 / bag 1 fuel economy of the configuration's FTP rows [-] (NaN: none).
+    rows : list of str
+        ``test (file:line)`` of the rows used.
+    """
+
+    name: str
+    make: str
+    model: str
+    year: int
+    vehicle_id: str
+    mass_kg: float
+    target_a_n: float
+    target_b_n_per_mps: float
+    target_c_n_per_mps2: float
+    axle_ratio: float
+    n_v_ratio: float
+    gears: int
+    transmission: str
+    displacement_l: float
+    rated_power_w: float
+    cold_bag_ratio: float = math.nan
+    rows: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @property
+    def where(self) -> str:
+        """Source text of a listed value."""
+        return (f"EPA Test Car List {self.year}, {self.make} {self.model}, test vehicle "
+                f"{self.vehicle_id} ({', '.join(self.rows)})")
+
+
+def specs_from_tests(tests: list[EpaTest]) -> Specs:
+    """The specification of the one configuration the selected list rows describe.
+
+    The rows must agree on the test vehicle's weight, road load, axle ratio, N/V,
+    gears, displacement and rated power (one car); an automatic with a torque converter
+    (transmission ``A`` or ``SA``, 3-10 gears) is required.
+    """
+    if not tests:
+        raise ConfigError("no EPA list row selected: name the make, model and year")
+    t0 = tests[0]
+    for key in _SPEC_KEYS:
+        vals = [getattr(t, key) for t in tests]
+        if any(not math.isfinite(v) or v <= 0 for v in vals) and key not in (
+                "target_b_n_per_mps", "target_c_n_per_mps2", "target_a_n"):
+            raise ConfigError(f"EPA list row {t0.label} ({t0.source}): no {key}; the specs "
+                              "need weight, road load, axle ratio, N/V, displacement and "
+                              "rated power")
+        if max(vals) - min(vals) > 1e-6 * max(abs(v) for v in vals) + 1e-9:
+            shown = ", ".join(sorted({f"{v:.6g}" for v in vals}))
+            raise ConfigError(f"the selected rows describe more than one configuration "
+                              f"({key}: {shown}): narrow the selection (e.g. the model name "
+                              "'CAMRY XLE/XSE' or vehicle=ID)")
+    gears = {t.gears for t in tests}
+    trans = {t.transmission for t in tests}
+    if len(gears) != 1 or len(trans) != 1:
+        raise ConfigError("the selected rows differ in transmission or gear count: narrow "
+                          "the selection")
+    if t0.transmission not in ("A", "SA") or t0.gears not in RATIO_SPREAD:
+        raise ConfigError(f"{t0.label}: transmission '{t0.transmission or '?'}' with "
+                          f"{t0.gears} gears: the conventional model is an automatic with "
+                          f"a torque converter and {min(RATIO_SPREAD)}-{max(RATIO_SPREAD)} "
+                          "gears (CVT, manual and hybrid are not modelled from specs)")
+    ratios = []
+    for t in tests:
+        if procedure_key(t) == "ftp75" and all(math.isfinite(b) for b in t.bags[:3]):
+            ratios.append(t.bags[2] / t.bags[0])
+    name = f"{t0.make} {t0.model} {t0.year}".lower()
+    return Specs(
+        name="".join(c if c.isalnum() else "_" for c in name).strip("_"),
+        make=t0.make, model=t0.model, year=t0.year, vehicle_id=t0.vehicle_id,
+        **{k: float(getattr(t0, k)) for k in _SPEC_KEYS}, gears=t0.gears,
+        transmission=t0.transmission,
+        cold_bag_ratio=float(np.mean(ratios)) if ratios else math.nan,
+        rows=[f"{t.label} ({t.source})" for t in tests])
+
+
+def friction_torque_nm(speed_rpm: np.ndarray, displacement_l: float,
+                       scale: float = 1.0) -> np.ndarray:
+    """Friction torque [N·m] of a four-stroke engine: FMEP (Heywood eq. 13.13, times
+    ``scale``) x displacement / (4 pi)."""
+    n = np.asarray(speed_rpm, float) / 1000.0
+    fmep = scale * (FMEP_BAR[0] + FMEP_BAR[1] * n + FMEP_BAR[2] * n ** 2) * 1e5  # [Pa]
+    return fmep * displacement_l * 1e-3 / (4 * math.pi)
+
+
+def gear_ratios(specs: Specs) -> tuple[list[float], float]:
+    """Gearbox ratios (first first) and the top gear's overall ratio [-] from N/V."""
+    top_overall = specs.n_v_ratio * RPM * WHEEL_RADIUS_M / MPH
+    top = top_overall / specs.axle_ratio
+    n = specs.gears
+    spread = RATIO_SPREAD[n]
+    return [top * spread ** ((n - 1 - i) / (n - 1)) for i in range(n)], top_overall
+
+
+def _fuel_rate_g_per_s(speed_rpm, torque_nm, specs: Specs, eta: float, k_f: float):
+    """Willans map [g/s]: (brake + friction power) / (indicated efficiency x LHV)."""
+    lhv = _lhv()
+    w = np.asarray(speed_rpm, float)[:, None] * RPM
+    tf = friction_torque_nm(np.asarray(speed_rpm, float), specs.displacement_l, k_f)[:, None]
+    p_ind = (np.asarray(torque_nm, float)[None, :] + tf) * w
+    return np.maximum(p_ind, 0.0) / (eta * lhv) * 1e3
+
+
+def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFFICIENCY,
+                       friction_scale: float = 1.0, cold_start: bool = True,
+                       note: str = "", idle_fuel_g_per_s: float | None = None,
+                       idle_source: str = "",
+                       enrichment: float = ENRICHMENT) -> ConventionalVehicle:
+    """The conventional vehicle of ``specs`` with the two free fuel parameters.
+
+    Parameters
+    ----------
+    specs : Specs
+        From :func:`specs_from_tests`.
+    indicated_efficiency : float
+        Slope of the Willans line: brake + friction power over fuel power [-].
+    friction_scale : float
+        Factor on Heywood's friction MEP [-].
+    cold_start : bool
+        Include the warm-up fuel from the list's FTP bags (when it has them).
+    note : str
+        Appended to the description (e.g. the calibration).
+    idle_fuel_g_per_s : float, optional
+        Measured warm idle fuel rate [g/s] (``idle_source`` says where from); default the
+        fuel map at idle with the accessory load.
+    enrichment : float
+        Extra fuel at full load [-] (power enrichment, knock-limited spark), rising
+        linearly from ``ENRICH_FROM`` x the full-load torque.
+    """
+    if not (0.1 <= indicated_efficiency <= 0.6 and 0.2 <= friction_scale <= 4.0
+            and 0.0 <= enrichment <= 1.0):
+        raise ConfigError(f"indicated efficiency {indicated_efficiency:g} (0.1-0.6) or "
+                          f"friction scale {friction_scale:g} (0.2-4) or enrichment "
+                          f"{enrichment:g} (0-1) out of range")
+    s, where = specs, specs.where
+    eta, kf = float(indicated_efficiency), float(friction_scale)
+    vd = s.displacement_l
+    w_rated = RATED_SPEED_RPM * RPM
+    t_peak = max(BMEP_MAX_PA * vd * 1e-3 / (4 * math.pi), s.rated_power_w / w_rated)
+    max_rpm = 1.1 * RATED_SPEED_RPM
+    speeds = np.linspace(IDLE_SPEED_RPM * 0.8, max_rpm, 16)
+    shape = np.interp(speeds, [0.0, 0.6 * RATED_SPEED_RPM, max_rpm], [0.75, 1.0, 1.0])
+    tmax = np.minimum(t_peak * shape, s.rated_power_w / (speeds * RPM))
+    torques = np.linspace(0.0, 1.05 * t_peak, 14)
+    fuel = _fuel_rate_g_per_s(speeds, torques, s, eta, kf)
+    # power enrichment near full load: + ENRICHMENT from ENRICH_FROM x full load up
+    load = torques[None, :] / tmax[:, None]
+    fuel = fuel * (1.0 + enrichment * np.clip((load - ENRICH_FROM) / (1 - ENRICH_FROM), 0, 1))
+    tf = friction_torque_nm(np.array([IDLE_SPEED_RPM, 2000.0]), vd, kf)
+    idle_fuel = float((ACCESSORY_POWER_W + tf[0] * IDLE_SPEED_RPM * RPM) / (
+        eta * _lhv()) * 1e3)
+    idle_src = f"the fuel map at idle with the accessory load ({willans_text(eta, kf, s)})"
+    if idle_fuel_g_per_s is not None:
+        idle_fuel, idle_src = float(idle_fuel_g_per_s), idle_source or "measured"
+    ratios, top_overall = gear_ratios(s)
+    overall = np.array(ratios) * s.axle_ratio
+    r = WHEEL_RADIUS_M
+
+    def v_at(rpm: float, ov: float) -> float:
+        return rpm * RPM * r / ov
+
+    n = len(ratios)
+    up0 = [v_at(UPSHIFT_RPM, overall[i + 1]) for i in range(n - 1)]
+    upf = [max(v_at(UPSHIFT_FULL * RATED_SPEED_RPM, overall[i]), up0[i] * 1.2)
+           for i in range(n - 1)]
+    dn0 = [v_at(DOWNSHIFT_RPM, overall[i + 1]) for i in range(n - 1)]
+    dnf = [min(v_at(DOWNSHIFT_FULL * RATED_SPEED_RPM, overall[i + 1]), 0.8 * upf[i])
+           for i in range(n - 1)]
+    lock = [100.0] + [v_at(LOCKUP_RPM, overall[i]) for i in range(1, n)]
+    warm = 0.0
+    warm_src = "no FTP bags of the configuration in the list: no warm-up model"
+    if cold_start and math.isfinite(s.cold_bag_ratio):
+        warm = warmup_fraction(s.cold_bag_ratio)
+        warm_src = (f"from the list's FTP rows of the configuration: bag 3 / bag 1 fuel "
+                    f"economy {s.cold_bag_ratio:.4f} (the cold UDDS transient phase burns "
+                    f"{100 * (s.cold_bag_ratio - 1):.1f} % more than the hot one), placed as "
+                    f"x (1 + f exp(-t / {WARMUP_TIME_CONSTANT_S:g} s)) over bag 1 (505 s): "
+                    f"f = {warm:.4f}")
+    est = "engineering estimate (generic, vehval.epa.specs)"
+    willans = willans_text(eta, kf, s)
+    data = {
+        "architecture": "conventional", "name": s.name,
+        "description": (f"{s.make} {s.model} ({s.year} EPA Test Car List, test vehicle "
+                        f"{s.vehicle_id}) from its public specification: vehval epa "
+                        f"vehicle{note}"),
+        "body": {"mass_kg": s.mass_kg, "road_load_a_n": s.target_a_n,
+                 "road_load_b_n_per_mps": max(s.target_b_n_per_mps, 0.0),
+                 "road_load_c_n_per_mps2": max(s.target_c_n_per_mps2, 0.0),
+                 "aux_power_w": 0.0,
+                 "sources": {"mass_kg": f"equivalent test weight, {where}",
+                             "road_load_a_n": f"road-load target A, {where}",
+                             "road_load_b_n_per_mps": f"road-load target B, {where}",
+                             "road_load_c_n_per_mps2": f"road-load target C, {where}",
+                             "aux_power_w": "accessories are in engine_control"}},
+        "engine": {"speed_rpm": speeds.tolist(), "torque_nm": torques.tolist(),
+                   "fuel_rate_g_per_s": fuel.tolist(), "max_torque_nm": tmax.tolist(),
+                   "max_power_w": s.rated_power_w, "max_speed_rpm": max_rpm,
+                   "idle_speed_rpm": IDLE_SPEED_RPM, "fire_speed_rpm": IDLE_SPEED_RPM / 2,
+                   "motoring_torque_nm": float(tf[1]),
+                   "inertia_kg_m2": 0.15 + 0.05 * vd, "fuel": "gasoline_e0",
+                   "displacement_l": vd, "warmup_fuel_fraction": warm,
+                   "warmup_time_constant_s": WARMUP_TIME_CONSTANT_S,
+                   "sources": {
+                       "speed_rpm": "grid from below idle to the maximum speed",
+                       "torque_nm": "grid up to the peak torque",
+                       "fuel_rate_g_per_s": willans,
+                       "max_torque_nm": (f"{BMEP_MAX_PA / 1e5:g} bar BMEP x displacement, "
+                                         f"limited by the rated power at "
+                                         f"{RATED_SPEED_RPM:g} rpm: {est}"),
+                       "max_power_w": f"rated horsepower, {where}",
+                       "max_speed_rpm": f"1.1 x the rated-power speed: {est}",
+                       "idle_speed_rpm": est, "fire_speed_rpm": f"half the idle: {est}",
+                       "motoring_torque_nm": f"friction torque at 2000 rpm of the {willans}",
+                       "inertia_kg_m2": f"0.15 + 0.05 kg m^2 per litre: {est}",
+                       "fuel": "Tier 2 certification gasoline, the fuel of the list's tests",
+                       "displacement_l": f"test vehicle displacement, {where}",
+                       "warmup_fuel_fraction": warm_src,
+                       "warmup_time_constant_s": est}},
+        "engine_control": {
+            "idle_fuel_rate_g_per_s": idle_fuel,
+            "fuel_cut_min_speed_rpm": FUEL_CUT_IDLE_RATIO * IDLE_SPEED_RPM,
+            "overrun_fuel_rate_g_per_s": 0.0, "accessory_power_w": ACCESSORY_POWER_W,
+            "sources": {"idle_fuel_rate_g_per_s": idle_src,
+                        "fuel_cut_min_speed_rpm": f"{FUEL_CUT_IDLE_RATIO:g} x idle: {est}",
+                        "overrun_fuel_rate_g_per_s": f"full fuel cut on overrun: {est}",
+                        "accessory_power_w": est}},
+        "gearbox": {
+            "ratios": ratios, "efficiency": 0.95, "upshift_speed_mps": up0,
+            "upshift_speed_full_load_mps": upf, "downshift_speed_mps": dn0,
+            "downshift_speed_full_load_mps": dnf, "shift_time_s": 0.6,
+            "sources": {
+                "ratios": (f"top gear from N/V {s.n_v_ratio:g} rpm/mph and axle ratio "
+                           f"{s.axle_ratio:g} with the rolling radius {r} m (overall top "
+                           f"ratio {top_overall:.4f}; exact in engine speed per vehicle "
+                           f"speed), {where}; the other {s.gears - 1} geometric over a ratio "
+                           f"spread {RATIO_SPREAD[s.gears]:g} typical of {s.gears}-speed "
+                           f"automatics: {est}"),
+                "efficiency": est,
+                "upshift_speed_mps": f"engine at {UPSHIFT_RPM:g} rpm after the upshift: {est}",
+                "upshift_speed_full_load_mps": f"{UPSHIFT_FULL:g} x rated speed before the "
+                                               f"upshift: {est}",
+                "downshift_speed_mps": f"engine below {DOWNSHIFT_RPM:g} rpm: {est}",
+                "downshift_speed_full_load_mps": f"{DOWNSHIFT_FULL:g} x rated speed (at most "
+                                                 f"0.8 x the upshift speed): {est}",
+                "shift_time_s": est}},
+        "converter": {
+            "capacity_nm_s2_per_rad2": t_peak / (STALL_SPEED_RPM * RPM) ** 2,
+            "lockup_speed_mps": lock,
+            "sources": {"capacity_nm_s2_per_rad2": f"peak torque at a stall speed of "
+                                                   f"{STALL_SPEED_RPM:g} rpm: {est}",
+                        "lockup_speed_mps": f"locked from 2nd gear above {LOCKUP_RPM:g} rpm "
+                                            f"(1st: never): {est}"}},
+        "driveline": {
+            "final_drive_ratio": s.axle_ratio, "final_drive_efficiency": 0.97,
+            "wheel_radius_m": r, "wheel_inertia_kg_m2": 0.0,
+            "brake_max_force_n": 0.9 * 9.81 * s.mass_kg,
+            "sources": {"final_drive_ratio": f"axle ratio, {where}",
+                        "final_drive_efficiency": est,
+                        "wheel_radius_m": f"{est}; the ratios are set with it (N/V)",
+                        "wheel_inertia_kg_m2": "0: the equivalent test weight is the inertia",
+                        "brake_max_force_n": f"0.9 g at the test weight: {est}"}},
+        "driver": {"response_time_s": 0.5, "ki_n_per_m": 50.0, "integrator_limit_n": 1500.0,
+                   "max_force_n": 0.8 * 9.81 * s.mass_kg, "tolerance_speed_mph": 2.0,
+                   "tolerance_time_s": 1.0,
+                   "sources": {k: "engineering choice (speed-trace follower)" for k in (
+                       "response_time_s", "ki_n_per_m", "integrator_limit_n", "max_force_n",
+                       "tolerance_speed_mph", "tolerance_time_s")}},
+    }
+    return ConventionalVehicle.model_validate(data)
+
+
+def willans_text(eta: float, kf: float, s: Specs) -> str:
+    """Source text of the Willans fuel map."""
+    return (f"Willans line: (brake + friction power) / (indicated efficiency {eta:.4g} x "
+            f"LHV); friction MEP {kf:.4g} x Heywood eq. 13.13 (0.97 + 0.15 N/1000 + 0.05 "
+            f"(N/1000)^2 bar) x displacement {s.displacement_l:g} L ({s.where})")
+
+
+def _lhv() -> float:
+    from vehval.fuels import table_fuel
+
+    lhv = table_fuel("gasoline_e0").lhv_j_per_kg
+    if lhv is None:
+        raise ConfigError("fuel table: gasoline_e0 has no lower heating value")
+    return float(lhv)
+
+
+def warmup_fraction(bag_ratio: float, tau: float = WARMUP_TIME_CONSTANT_S,
+                    bag_s: float = 505.0) -> float:
+    """Warm-up fraction f whose extra fuel f exp(-t / tau) over a bag of ``bag_s`` seconds
+    equals the cold bag's excess ``bag_ratio - 1`` (fuel rate taken as even over the bag)."""
+    mean_decay = tau / bag_s * (1.0 - math.exp(-bag_s / tau))
+    return max(bag_ratio - 1.0, 0.0) / mean_decay

@@ -1,0 +1,176 @@
+"""A conventional vehicle from EPA list specifications, calibrated on speed-and-fuel tests."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from tests.epa.conftest import FULL_HEADER, row, write_list
+from vehval.calibration.provenance import calibration_tests
+from vehval.cli import main
+from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S
+from vehval.cycles import load_cycle
+from vehval.epa import read_test_car_list
+from vehval.epa.specs import specs_from_tests, vehicle_from_specs, warmup_fraction
+from vehval.epa.specs_fit import DynoRun, calibrate_specs, dyno_run, predict_runs
+from vehval.errors import ConfigError
+from vehval.sim.simulate import simulate
+from vehval.test import Signal, Test, TestMeta
+from vehval.vehicle import load_vehicle
+
+HEADER = [*FULL_HEADER, "# of Gears", "Tested Transmission Type Code"]
+
+
+def _camry_rows(**kw) -> list[dict]:
+    """A sedan's FTP and HWFET rows (one configuration; figures of a 2.5 L 8-speed)."""
+    base = dict(model="SEDAN XLE", make="MAKER", vid="18-AV3A", cfg="1", orig="MFR",
+                weight=3625, target=(26.508, 0.1976, 0.00733), year=2019)
+    base.update(kw)
+    rows = [row(number="F1", code=21, desc="Federal fuel 2-day exhaust", fe=37.0,
+                bags=(36.1, 35.5, 40.9, ""), **base),
+            row(number="H1", code=3, desc="HWFE", fe=58.2, **base)]
+    for r in rows:  # displacement, power, axle, N/V of the configuration
+        r.update({"Test Veh Displacement (L)": "2.487", "Rated Horsepower": "203",
+                  "Axle Ratio": "2.80", "N/V Ratio": "24.7", "# of Gears": "8",
+                  "Tested Transmission Type Code": "A"})
+    return rows
+
+
+@pytest.fixture
+def specs(tmp_path):
+    path = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    return specs_from_tests(read_test_car_list(path))
+
+
+def test_specs_from_list_rows(specs):
+    assert specs.gears == 8 and specs.transmission == "A"
+    assert specs.displacement_l == pytest.approx(2.487)
+    assert specs.rated_power_w == pytest.approx(203 * 745.69987, rel=1e-6)
+    assert specs.cold_bag_ratio == pytest.approx(40.9 / 36.1)
+    assert len(specs.rows) == 2
+
+
+def test_specs_refuse_mixed_configurations_and_cvt(tmp_path):
+    rows = _camry_rows() + _camry_rows(vid="18-GV2A", weight=3875)
+    path = write_list(tmp_path / "mixed.csv", rows, header=HEADER)
+    with pytest.raises(ConfigError, match="more than one configuration"):
+        specs_from_tests(read_test_car_list(path))
+    cvt = _camry_rows()
+    for r in cvt:
+        r.update({"Tested Transmission Type Code": "CVT", "# of Gears": "1"})
+    path = write_list(tmp_path / "cvt.csv", cvt, header=HEADER)
+    with pytest.raises(ConfigError, match="automatic with a torque converter"):
+        specs_from_tests(read_test_car_list(path))
+
+
+def test_vehicle_from_specs_keeps_n_v_and_sources(specs):
+    veh = vehicle_from_specs(specs)
+    top = veh.overall_ratios()[-1]
+    # engine rpm per mph in top gear is the listed N/V, whatever the rolling radius
+    nv = top / veh.driveline.wheel_radius_m * MPH_M_PER_S / RPM_RAD_PER_S
+    assert nv == pytest.approx(24.7, rel=1e-9)
+    assert veh.body.mass_kg == pytest.approx(3625 * 0.45359237)
+    assert "EPA Test Car List 2019" in veh.sources()["body.road_load_c_n_per_mps2"]
+    assert all(src.strip() for src in veh.sources().values())
+    assert veh.engine.warmup_fuel_fraction == pytest.approx(warmup_fraction(40.9 / 36.1))
+    # fuel is exactly inversely proportional to the indicated efficiency
+    a = simulate(vehicle_from_specs(specs, 0.36), "hwfet", dt=1.0).summary["fuel_mass_kg"]
+    b = simulate(vehicle_from_specs(specs, 0.45), "hwfet", dt=1.0).summary["fuel_mass_kg"]
+    assert a / b == pytest.approx(0.45 / 0.36, rel=1e-9)
+
+
+def test_warmup_fraction_reproduces_the_bag_ratio():
+    f = warmup_fraction(1.12, tau=200.0, bag_s=505.0)
+    t = np.arange(0.0, 505.0, 0.01)
+    assert np.mean(1.0 + f * np.exp(-t / 200.0)) == pytest.approx(1.12, rel=1e-4)
+    assert warmup_fraction(0.98) == 0.0
+
+
+def _virtual_run(veh, cycle: str, tid: str, dt: float = 1.0) -> DynoRun:
+    cyc = load_cycle(cycle)
+    fuel = simulate(veh, cyc, dt=dt).summary["fuel_mass_kg"]
+    return DynoRun(test_id=tid, runs=[cyc], fuel_kg=fuel, distance_m=1.0, cold=False)
+
+
+def test_calibration_recovers_a_known_fuel_model(specs):
+    truth = vehicle_from_specs(specs, 0.42, 1.3)
+    cal = [_virtual_run(truth, "udds", "u"), _virtual_run(truth, "us06", "s")]
+    fit = calibrate_specs(specs, cal, dt=1.0)
+    assert fit.indicated_efficiency == pytest.approx(0.42, rel=0.02)
+    assert fit.friction_scale == pytest.approx(1.3, abs=0.08)  # the prior pulls towards 1
+    assert max(abs(e) for e in fit.errors.values()) < 0.006
+    held = predict_runs(fit.model(), [_virtual_run(truth, "hwfet", "h")], dt=1.0)
+    assert abs(held["h"]) < 0.01
+    # the written vehicle names its calibration tests: their figures are in-sample
+    assert set(calibration_tests(fit.vehicle())) == {"u", "s"}
+
+
+def _test_with_soak(v: np.ndarray, fuel: np.ndarray) -> Test:
+    t = np.arange(v.size, dtype=float)
+    test = Test(meta=TestMeta(test_id="ftp"))
+    test.add(Signal.standard("veh_spd_test", t, v))
+    test.add(Signal.standard("fuel_rate_test", t, fuel))
+    return test
+
+
+def test_dyno_run_leaves_the_soak_out():
+    udds = load_cycle("udds")
+    v1 = np.interp(np.arange(0, 1370.0), udds.time_s, udds.speed_mps)
+    v = np.r_[v1, np.zeros(600), v1]
+    fuel = np.where(v > 0, 1e-3, 2e-4)
+    fuel[1370:1970] = 0.0  # engine off in the soak
+    run = dyno_run(_test_with_soak(v, fuel))
+    # the whole standstill around the 600 s soak (the UDDS ends and starts standing) is
+    # left out, but one second either side of it
+    assert run.cold and len(run.runs) == 2 and 598.0 <= run.soak_s <= 640.0
+    idle_left_out = (run.soak_s - 598.0) * 2e-4
+    assert run.fuel_kg == pytest.approx(float(np.sum(fuel)) - idle_left_out, abs=5e-4)
+    assert sum(r.time_s.size for r in run.runs) == v.size - run.soak_s
+    assert run.idle_fuel_kg_s == pytest.approx(2e-4)
+    warm = dyno_run(_test_with_soak(v1, np.where(v1 > 0, 1e-3, 2e-4)))
+    assert not warm.cold and len(warm.runs) == 1
+
+
+def _write_d3(path, veh, cycle: str) -> None:
+    """A speed-and-fuel file like the D3 1 Hz subsets (time, fuel [cc/s], speed [mph])."""
+    res = simulate(veh, cycle, dt=1.0)
+    t = res.test["veh_spd_simu"].time
+    v = res.test["veh_spd_simu"].values / MPH_M_PER_S
+    q = res.test["fuel_rate_simu"].values / veh.engine.fuel_density_kg_per_m3 * 1e6
+    lines = ["Time[s],Eng_FuelFlow_Direct_DI[ccps],Dyno_Spd[mph]"]
+    lines += [f"{a:.1f},{b:.5f},{c:.4f}" for a, b, c in zip(t, q, v)]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def test_cli_builds_calibrates_and_marks_in_sample(tmp_path, specs, capsys):
+    lists = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    truth = vehicle_from_specs(specs, 0.43, 1.1, cold_start=False)
+    for name, cyc in (("t1", "udds"), ("t2", "us06"), ("t3", "hwfet")):
+        _write_d3(tmp_path / f"{name} Test Data.txt", truth, cyc)
+    tmpl = tmp_path / "t.yaml"
+    tmpl.write_text("template_version: 1\nfuel: gasoline_e0\nfiles:\n- source: dyno\n"
+                    "  format: d3\n  time: {column: Time}\n  channels:\n"
+                    "    Eng_FuelFlow_Direct_DI: {name: fuel_rate_test, unit: ccps}\n"
+                    "    Dyno_Spd: {name: veh_spd_test, unit: mph}\n", encoding="utf-8")
+    out = tmp_path / "sedan.yaml"
+    args = ["epa", "vehicle", str(lists), "--make", "MAKER", "--model", "SEDAN XLE",
+            "--year", "2019", "--calibrate", str(tmp_path / "t1 Test Data.txt"),
+            "--calibrate", str(tmp_path / "t2 Test Data.txt"),
+            "--predict", str(tmp_path / "t3 Test Data.txt"), "-t", str(tmpl), "--dt", "1",
+            "-o", str(out), "--json"]
+    assert main(args) == 0
+    doc = json.loads(capsys.readouterr().out)
+    marks = {t["test"]: t["in_sample"] for t in doc["tests"]}
+    assert list(marks.values()) == [True, True, False]
+    held = [t for t in doc["tests"] if not t["in_sample"]][0]
+    assert abs(held["error"]) < 0.02  # the held-out HWFET of the virtual car
+    assert doc["calibration"]["indicated_efficiency"] == pytest.approx(0.43, rel=0.05)
+    veh = load_vehicle(out)
+    assert len(calibration_tests(veh)) == 2
+    assert math.isfinite(veh.engine_control.idle_fuel_rate_g_per_s)
+    # no template: refused with the option to give
+    assert main([a for a in args if a not in ("-t", str(tmpl))][:-1]) == 2
+    assert "give the import template" in capsys.readouterr().err
