@@ -71,6 +71,8 @@ BOUNDS: dict[str, Bound] = {
     "peak_torque_nm": Bound(20, 2000, "N·m", "peak engine torque of road engines"),
     "displacement_l": Bound(0.3, 10, "L", "displacement of road engines"),
     "gears": Bound(1, 12, "gears", "forward gears of production gearboxes"),
+    "splits": Bound(0, 20, "tests", "each split fits the model once: every N of the given "
+                    "tests, so N is at most the few tests a car has"),
     "port": Bound(0, 65535, "-", "a TCP port; 0 picks a free one"),
 }
 
