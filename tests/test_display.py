@@ -9,20 +9,20 @@ from vehval import display
 
 
 @pytest.mark.parametrize("si, value, system, expected", [
-    ("m/s", 0.44704, "us", "1.000 mph"),
-    ("m/s", 25.0, "metric", "90.00 km/h"),
+    ("m/s", 0.44704, "us", "1 mph"),
+    ("m/s", 25.0, "metric", "90 km/h"),
     ("rad/s", np.pi * 100 / 3.0, "us", "1000 rpm"),        # 1000 rpm
-    ("kg/s", -1e-6, "us", "-0.001000 g/s"),                   # the "-1e-06 kg/s" of the issue
-    ("Pa", -5.6e4, "metric", "-56.00 kPa"),
-    ("J", 3.02e7, "us", "30.20 MJ"),
-    ("J", 5.0e3, "us", "5.000 kJ"),
-    ("W", 12_500.0, "metric", "12.50 kW"),
-    ("K", 298.15, "us", "25.00 degC"),
-    ("N", 4.4482216152605, "us", "1.000 lbf"),
-    ("kg", 0.45359237, "us", "1.000 lb"),
-    ("m", 1609.344, "us", "1.000 mi"),
-    ("m", 1500.0, "metric", "1.500 km"),
-    ("m/s**2", 1.0, "metric", "1.000 m/s²"),
+    ("kg/s", -1e-6, "us", "-0.001 g/s"),                   # the "-1e-06 kg/s" of the issue
+    ("Pa", -5.6e4, "metric", "-56 kPa"),
+    ("J", 3.02e7, "us", "30.2 MJ"),
+    ("J", 5.0e3, "us", "5 kJ"),
+    ("W", 12_500.0, "metric", "12.5 kW"),
+    ("K", 298.15, "us", "25 degC"),
+    ("N", 4.4482216152605, "us", "1 lbf"),
+    ("kg", 0.45359237, "us", "1 lb"),
+    ("m", 1609.344, "us", "1 mi"),
+    ("m", 1500.0, "metric", "1.5 km"),
+    ("m/s**2", 1.0, "metric", "1 m/s²"),
 ])
 def test_hand_computed_conversions(si, value, system, expected):
     assert display.format_value(value, si, system_name=system) == expected
@@ -30,7 +30,7 @@ def test_hand_computed_conversions(si, value, system, expected):
 
 def test_fractions_show_in_percent_by_the_nomenclature_range():
     assert display.unit_for("dimensionless", signal="ess_soc_test").label == "%"
-    assert display.format_value(0.0784, "dimensionless", signal="amb_rh_test") == "7.840 %"
+    assert display.format_value(0.0784, "dimensionless", signal="amb_rh_test") == "7.84 %"
     # a dimensionless count is not a fraction
     assert display.unit_for("dimensionless", signal="gb_gear_test").label == ""
     assert display.unit_for("dimensionless", signal="not_a_signal_test").label == ""
@@ -62,7 +62,8 @@ def test_system_choice_environment_and_errors(monkeypatch):
 
 
 def test_keyed_result_values():
-    assert display.format_keyed("distance_m", 11_990.0, system_name="us") == "7.450 mi"
-    assert display.format_keyed("fuel_energy_j", 3.02e7) == "30.20 MJ"
-    assert display.format_keyed("fuel_economy_mpg", 54.8) == "54.80"
+    assert display.format_keyed("distance_m", 11_990.0, system_name="us") == "7.45 mi"
+    assert display.format_keyed("fuel_energy_j", 3.02e7) == "30.2 MJ"
+    assert display.format_keyed("fuel_economy_mpg", 54.8) == "54.8"
     assert display.number(float("nan")) == "n/a"
+    assert display.number(-1e-6) == "-1e-06" and display.number(12345.6) == "12\u2009346"

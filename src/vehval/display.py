@@ -171,29 +171,42 @@ def to_display(values_si: np.ndarray, si_unit: str, *, system_name: str | None =
 
 
 def number(value: float, digits: int = 4) -> str:
-    """A number with ``digits`` significant digits, in plain notation between 1e-3 and
-    1e7 (``-0.001``, ``30.2``, ``54.80``...), scientific outside; ``n/a`` when not finite."""
+    """A number to ``digits`` significant digits without trailing zeros, in plain notation
+    between 1e-3 and 1e7 (``-0.001``, ``30.2``, ``12 345``), scientific outside; ``n/a`` when
+    not finite."""
     if value is None or not math.isfinite(value):
         return "n/a"
     if value == 0:
         return "0"
     exponent = math.floor(math.log10(abs(value)))
     if exponent < -3 or exponent >= 7:
-        return f"{value:.{max(digits - 1, 0)}e}"
+        mantissa, _, exp = f"{value:.{max(digits - 1, 0)}e}".partition("e")
+        if "." in mantissa:
+            mantissa = mantissa.rstrip("0").rstrip(".")
+        return f"{mantissa}e{exp}"
     decimals = max(digits - 1 - exponent, 0)
-    return f"{value:,.{decimals}f}".replace(",", "\u2009") if exponent >= 4 else f"{value:.{decimals}f}"
+    text = f"{value:.{decimals}f}"
+    if "." in text:                      # significant digits only: 0.032, not 0.03200
+        text = text.rstrip("0").rstrip(".")
+    if exponent >= 4:                    # thin-space thousands: 12 345
+        whole, _, frac = text.partition(".")
+        sign = "-" if whole.startswith("-") else ""
+        digits_ = whole.lstrip("-")
+        groups = [digits_[max(i - 3, 0):i] for i in range(len(digits_), 0, -3)][::-1]
+        text = sign + "\u2009".join(groups) + (f".{frac}" if frac else "")
+    return text
 
 
 def format_value(value_si: float, si_unit: str, *, system_name: str | None = None,
                  signal: str | None = None, digits: int = 4) -> str:
-    """One SI value as a person reads it: ``"-0.001000 g/s"`` -> ``"-0.001 g/s"``.
+    """One SI value as a person reads it: ``-1e-06`` kg/s -> ``"-0.001 g/s"``.
 
     Examples
     --------
     >>> format_value(25.0, "m/s", system_name="metric")
-    '90.00 km/h'
+    '90 km/h'
     >>> format_value(3.02e7, "J")
-    '30.20 MJ'
+    '30.2 MJ'
     """
     if value_si is None or not math.isfinite(float(value_si)):
         return "n/a"
