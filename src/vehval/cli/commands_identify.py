@@ -14,6 +14,8 @@ from vehval.errors import ConfigError
 
 
 def _table(rows: list[dict]) -> str:
+    from vehval.display import fuel_text
+
     lines = [f"{'test':<22} {'cycle':<10} {'T [C]':>6} {'measured g':>11} {'predicted g':>12} "
              f"{'error %':>8}"]
     for r in rows:
@@ -21,6 +23,11 @@ def _table(rows: list[dict]) -> str:
                      f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f} "
                      f"{100 * r['error_rel']:>+8.2f}{_pi(r)}  A/C {'on' if r['ac_on'] else 'off'}: "
                      f"{r['ac_reason']}; {_start(r)}")
+        if r.get("fuel_economy_measured_mpg") is not None:
+            lines.append(f"  {'fuel economy':<38} measured "
+                         f"{fuel_text(r['fuel_economy_measured_mpg'], r['fuel_consumption_measured_l_per_100km'])}"
+                         f", predicted "
+                         f"{fuel_text(r['fuel_economy_predicted_mpg'], r['fuel_consumption_predicted_l_per_100km'])}")
         for p in r["phases"]:
             u = p.get("results_fuel_U_g")
             unc = f"  (results stage: {p['results_fuel_g']:.1f} ± {u:.1f} g)" if u else ""
@@ -46,8 +53,30 @@ def _start(r: dict) -> str:
     return f"{start_label(r)}: {r['cold_reason']}"
 
 
-def _public(r: dict) -> dict:
-    return {k: v for k, v in r.items() if k not in ("sim", "trace")}
+def _public(r: dict, vehicle=None) -> dict:
+    """A prediction row without its arrays, with the fuel economy of the measured and the
+    predicted fuel over the test's own distance (the test's fuel, else the vehicle's)."""
+    out = {k: v for k, v in r.items() if k not in ("sim", "trace")}
+    trace = r.get("trace")
+    if trace is None:
+        return out
+    import numpy as np
+
+    from vehval.fuels import fuel_consumption_l_per_100km, fuel_economy_mpg, fuel_volume_m3
+
+    sel = trace.phase > 0 if np.any(trace.phase > 0) else np.ones(trace.phase.size, dtype=bool)
+    dist = float(np.sum(trace.v[sel]) * trace.dt)
+    dens = trace.test_fuel.density_kg_per_m3 if trace.test_fuel is not None else None
+    if dens is None and vehicle is not None:
+        dens = getattr(vehicle.engine, "fuel_density_kg_per_m3", None)
+    out["distance_m"] = dist
+    for which in ("measured", "predicted"):
+        vol = fuel_volume_m3(out[f"fuel_{which}_g"] / 1e3, dens) if dens else None
+        out[f"fuel_economy_{which}_mpg"] = (float(fuel_economy_mpg(dist, vol))
+                                            if vol else None)
+        out[f"fuel_consumption_{which}_l_per_100km"] = (
+            float(fuel_consumption_l_per_100km(vol, dist)) if vol else None)
+    return out
 
 
 @app.command("identify")
@@ -228,7 +257,7 @@ def predict_cmd(
     if report is not None:
         from vehval.identify.report import write_prediction_report
         write_prediction_report(veh.name, preds, report)
-    rows = [_public(p) for p in preds]
+    rows = [_public(p, veh) for p in preds]
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
     else:
