@@ -9,7 +9,6 @@ import typer
 
 from vehval.cli.app import app
 from vehval.cli.options import bounded
-from vehval.constants import MILE_M, MPH_M_PER_S
 from vehval.errors import InputFileError, VehvalError
 
 
@@ -48,9 +47,14 @@ def headline_lines(doc: dict) -> list[str]:
     mpg, lp = h.get("fuel_economy_mpg"), h.get("fuel_consumption_l_per_100km")
     if mpg is None:
         return [f"headline {name}: fuel economy n/a"]
+    from vehval.display import system as display_system
+
     u = h.get("fuel_economy_u_mpg")
-    line = (f"headline {name}: {mpg:.2f} +- {u or 0:.2f} mpg"
-            + (f" ({lp:.2f} L/100 km)" if lp is not None else ""))
+    first, second = f"{mpg:.2f} +- {u or 0:.2f} mpg", (f"{lp:.2f} L/100 km" if lp is not None
+                                                       else "")
+    if second and display_system() == "metric":
+        first, second = second, first
+    line = f"headline {name}: {first}" + (f" ({second})" if second else "")
     if held:
         return [f"STATED DESPITE QA ERRORS (--force): {line}", f"  withheld reason: {held['reason']}",
                 f"  fix: {held['fix']}"]
@@ -77,7 +81,17 @@ def echo_results(res) -> None:
             return "fuel economy n/a" + (f" (fuel {m * 1e3:.1f} g)" if m is not None else "")
         u = res.expanded(scope, "fuel_economy_mpg")
         lp = res.value(scope, "fuel_consumption_l_per_100km")
-        return f"{v:6.2f} +- {u or 0:.2f} mpg ({lp:.2f} L/100 km)"
+        ul = res.expanded(scope, "fuel_consumption_l_per_100km")
+        mpg = f"{v:6.2f} +- {u or 0:.2f} mpg"
+        if lp is None:
+            return mpg
+        lkm = f"{lp:.2f} +- {ul or 0:.2f} L/100 km" if ul is not None else f"{lp:.2f} L/100 km"
+        return f"{mpg} ({lkm})" if display_system() == "us" else f"{lkm} ({mpg.strip()})"
+
+    from vehval.display import system as display_system
+    from vehval.display import unit_for
+
+    dist_u, spd_u = unit_for("m"), unit_for("m/s")
 
     typer.echo(f"{res.test_id}: cycle {res.cycle or '(not identified)'}; phases from "
                f"{res.phase_source}; fuel {res.fuel.name if res.fuel else '(not declared)'}")
@@ -86,11 +100,11 @@ def echo_results(res) -> None:
     for p in res.phases:
         dq = res.drive_quality.get(p.name) or {}
         d = res.value(p.name, "distance_m") or 0.0
-        extra = (f"  IWR {dq['iwr_pct']:+.1f} %, RMSSE {dq['rmsse_mps'] / MPH_M_PER_S:.2f} mph"
-                 if dq.get("iwr_pct") is not None else "")
-        typer.echo(f"  {p.name:18s} {d / MILE_M:6.2f} mi  {fe(p.name)}{extra}")
-    typer.echo(f"  {'whole test':18s} {(res.value('test', 'distance_m') or 0) / MILE_M:6.2f} mi  "
-               f"{fe('test')}")
+        extra = (f"  IWR {dq['iwr_pct']:+.1f} %, RMSSE {spd_u.convert(dq['rmsse_mps']):.2f} "
+                 f"{spd_u.label}" if dq.get("iwr_pct") is not None else "")
+        typer.echo(f"  {p.name:18s} {dist_u.convert(d):6.2f} {dist_u.label}  {fe(p.name)}{extra}")
+    typer.echo(f"  {'whole test':18s} {dist_u.convert(res.value('test', 'distance_m') or 0):6.2f} "
+               f"{dist_u.label}  {fe('test')}")
     for c in res.composites:
         typer.echo(f"  = {c.name:16s} {fe(c.name)}  [{c.rule.split(':')[0]}]")
         for cav in getattr(c, "caveats", []):
