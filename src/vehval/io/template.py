@@ -513,6 +513,26 @@ def _results_errors(t: Template, mapped: dict[str, str]) -> list[str]:
     return errors
 
 
+def template_from_data(data: dict, label: str) -> Template:
+    """A template model from parsed YAML data, every problem named after ``label`` (the
+    file name) on its own line, as :func:`load_template` reports them.
+
+    Raises
+    ------
+    ConfigError
+        Unknown or misspelled key, bad value, unknown signal name or unit.
+    """
+    try:
+        t = Template.model_validate(data)
+    except ValidationError as exc:
+        msgs = [_message(e) for e in exc.errors()]
+        raise ConfigError(f"{label}: " + f"\n  {label}: ".join(msgs)) from None
+    problems = semantic_errors(t)
+    if problems:
+        raise ConfigError(f"{label}: " + f"\n  {label}: ".join(problems))
+    return t
+
+
 def load_template(path: str | Path) -> Template:
     """Load and validate a template file.
 
@@ -531,14 +551,7 @@ def load_template(path: str | Path) -> Template:
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: a template must be a YAML mapping with 'files:' "
                           "(see docs/templates.md)")
-    try:
-        t = Template.model_validate(data)
-    except ValidationError as exc:
-        msgs = [_message(e) for e in exc.errors()]
-        raise ConfigError(f"{path.name}: " + f"\n  {path.name}: ".join(msgs)) from None
-    problems = semantic_errors(t)
-    if problems:
-        raise ConfigError(f"{path.name}: " + f"\n  {path.name}: ".join(problems))
+    t = template_from_data(data, path.name)
     t._path = path
     return t
 

@@ -348,21 +348,11 @@ def _placeholder_text(tmpl: Any) -> str:
 
 def _validate(data: Any) -> Any:
     """A template model from YAML data, with the messages ``load_template`` gives."""
-    from pydantic import ValidationError
-
-    from vehval.io.template import Template, _message, semantic_errors
+    from vehval.io.template import template_from_data
 
     if not isinstance(data, dict):
         raise ConfigError(f"{TEMPLATE_NAME}: a template must be a YAML mapping with 'files:'")
-    try:
-        t = Template.model_validate(data)
-    except ValidationError as exc:
-        msgs = [_message(e) for e in exc.errors()]
-        raise ConfigError(f"{TEMPLATE_NAME}: " + f"\n  {TEMPLATE_NAME}: ".join(msgs)) from None
-    problems = semantic_errors(t)
-    if problems:
-        raise ConfigError(f"{TEMPLATE_NAME}: " + f"\n  {TEMPLATE_NAME}: ".join(problems))
-    return t
+    return template_from_data(data, TEMPLATE_NAME)
 
 
 def _entry(files: list, idx: Any) -> dict:
