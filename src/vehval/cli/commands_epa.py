@@ -288,7 +288,7 @@ def vehicle_cmd(
                                        "predict; repeatable."),
     template: Path | None = typer.Option(None, "-t", "--template", help="Import template "
                                          "of the dyno test files."),
-    splits: int = typer.Option(0, "--splits", min=0, max=20, help="Also fit on "
+    splits: int = typer.Option(0, "--splits", callback=bounded("splits"), help="Also fit on "
                                "every N of all the given tests and predict the others "
                                "(0: no)."),
     dt: float = typer.Option(0.5, "--dt", callback=bounded("dt"), help="Simulation step [s]."),

@@ -44,6 +44,8 @@ BOUNDS: dict[str, Bound] = {
     "seed": Bound(0, SEED_MAX, "-", "numpy and scipy generators take seeds in [0, 2^32 - 1]"),
     "workers": Bound(0, 64, "processes", "each worker process holds its own copy of the "
                      "model and a test, a few hundred MB; more than 64 only exhausts memory"),
+    "splits": Bound(0, 20, "tests", "calibration tests per split; every split is one "
+                    "calibration, and more tests than the dyno campaign has give no split"),
     "refine": Bound(0, 6, "rounds", "each round halves the grid step; after six the step is "
                     "below 2 % of the grid's and the judged figures no longer change"),
     "popsize": Bound(1, 100, "x parameters", "scipy's differential evolution; the search "
