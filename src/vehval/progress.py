@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 from contextvars import ContextVar
-from typing import Iterator, Protocol
+from typing import Any, Iterator, Protocol
 
-__all__ = ["Listener", "add", "advance", "listening"]
+__all__ = ["Listener", "add", "advance", "bar", "listening"]
 
 
 class Listener(Protocol):
@@ -50,3 +50,21 @@ def listening(listener: Listener | None) -> Iterator[None]:
         yield
     finally:
         _listener.reset(token)
+
+
+def bar(label: str, *, extra: tuple[str, ...] = (), **kwargs: Any) -> Any:
+    """The package's one progress-bar layout (rich, imported on use): ``label``, the bar,
+    done / total, ``extra`` text columns, elapsed time and the ETA. ``kwargs`` go to
+    :class:`rich.progress.Progress` (``console``, ``transient``, ``disable``...)."""
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    return Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(),
+                    *(TextColumn(e) for e in extra), TimeElapsedColumn(), TextColumn("ETA"),
+                    TimeRemainingColumn(), **kwargs)

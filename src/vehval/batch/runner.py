@@ -402,18 +402,10 @@ def _check_outdir_not_a_test(target: str | Path, out: Path, tmpl: Any, own: list
 def _execute(jobs: list[dict], record: Callable[[dict], None], workers: int | None,
              scheduler: str | None, progress: bool, total: int, done: int,
              dashboard: bool = False) -> None:
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
+    from vehval.progress import bar as progress_bar
 
-    bar = Progress(TextColumn("[bold]batch"), BarColumn(), MofNCompleteColumn(),
-                   TextColumn("{task.fields[last]}"), TimeElapsedColumn(), TimeRemainingColumn(),
-                   disable=not progress, transient=False)
+    bar = progress_bar("[bold]batch", extra=("{task.fields[last]}",), disable=not progress,
+                       transient=False)
     with bar:
         task = bar.add_task("batch", total=total, completed=done, last="")
 

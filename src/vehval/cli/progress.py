@@ -51,19 +51,9 @@ def bar(description: str, *, as_json: bool = False, show: bool | None = None) ->
             yield
         return
     from rich.console import Console
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
 
-    console = Console(stderr=True)
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-                  console=console, transient=True) as prog:
+    with _progress.bar("{task.description}", console=Console(stderr=True),
+                       transient=True) as prog:
         task = prog.add_task(description, total=None)
         with _progress.listening(_RichListener(prog, task)):
             yield
