@@ -70,6 +70,26 @@ def test_cold_and_hot_udds_in_one_record_give_the_ftp75_from_its_own_bags():
     assert "hot soak" in names["ftp75"].rule
 
 
+def test_the_headline_of_a_cold_soak_hot_record_is_the_ftp75_with_its_caveats():
+    from vehval.report.results_view import results_section
+    from vehval.report.sections import headline_banner
+
+    test, *_ = _two_runs(SOAK_S[0])
+    res = compute_results(test, fuel=EXPLICIT)
+    h = res.headline()
+    assert h["name"] == "ftp75" and h["kind"] == "composite"
+    assert h["fuel_economy_mpg"] == res.value("ftp75", "fuel_economy_mpg")
+    assert h["caveats"] and any("40 CFR 86.132" in c for c in h["caveats"])
+    doc = res.to_dict()
+    banner = headline_banner(doc)
+    assert banner["title"].startswith("ftp75:")
+    assert any(line.startswith("Caveat: ") and "86.132" in line for line in banner["lines"])
+    table = next(t for t in results_section(doc).tables if t.key == "results-composites")
+    col = table.columns.index("caveats")
+    rows = {r[0]: r for r in table.rows}
+    assert "86.132" in rows["ftp75"][col]
+
+
 def test_a_short_pause_is_not_the_hot_soak_and_gives_no_ftp75():
     test, *_ = _two_runs(120.0)
     res = compute_results(test, fuel=EXPLICIT)

@@ -58,7 +58,17 @@ def headline_lines(doc: dict) -> list[str]:
     if held:
         return [f"STATED DESPITE QA ERRORS (--force): {line}", f"  withheld reason: {held['reason']}",
                 f"  fix: {held['fix']}"]
-    return [line]
+    return [line] + [f"  ! caveat: {c}" for c in h.get("caveats") or []]
+
+
+def _fuel_declared(fuel) -> str:
+    """The declared fuel as the figures use it: name, density, heating value."""
+    if fuel is None:
+        return "(not declared)"
+    rho, lhv = fuel.density_kg_per_m3, fuel.lhv_j_per_kg
+    props = ", ".join(([f"{rho:g} kg/m3"] if rho else []) + ([f"{lhv / 1e6:.1f} MJ/kg"] if lhv else []))
+    origin = getattr(fuel, "origin", "declared")
+    return f"{fuel.name} ({props}; {origin}: not checkable from the data)" if props else fuel.name
 
 
 def withheld_exit(doc: dict) -> None:
@@ -94,7 +104,7 @@ def echo_results(res) -> None:
     dist_u, spd_u = unit_for("m"), unit_for("m/s")
 
     typer.echo(f"{res.test_id}: cycle {res.cycle or '(not identified)'}; phases from "
-               f"{res.phase_source}; fuel {res.fuel.name if res.fuel else '(not declared)'}")
+               f"{res.phase_source}; fuel {_fuel_declared(res.fuel)}")
     for line in headline_lines({"headline": res.headline()}):
         typer.echo(f"  {line}")
     for p in res.phases:

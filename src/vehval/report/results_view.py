@@ -83,7 +83,9 @@ def results_section(doc: dict) -> Section:
         ("Cycle", str((doc.get("test") or {}).get("cycle") or "not identified")),
         ("Headline", f"{'whole test' if head is None else head['name']}: "
                      f"{_pm(hblock, 'fuel_economy_mpg')} mpg, "
-                     f"{_pm(hblock, 'fuel_consumption_l_per_100km')} L/100 km"),
+                     f"{_pm(hblock, 'fuel_consumption_l_per_100km')} L/100 km"
+                     + (f" (caveat: {'; '.join(head['caveats'])})"
+                        if head and head.get("caveats") else "")),
         ("Fuel", f"{fuel.get('name')} ({fuel.get('density_kg_per_m3')} kg/m³, "
                  f"{(fuel.get('lhv_j_per_kg') or 0) / 1e6:.2f} MJ/kg)" if fuel else
          "not declared: no volume-based result"),
@@ -101,12 +103,16 @@ def results_section(doc: dict) -> Section:
     sec.tables.append(Table("Results per phase", cols, rows, key="results-phases",
                             note="value ± expanded uncertainty U (k = 2)"))
     crow = [[c["name"], _pm(c, "fuel_economy_mpg"), _pm(c, "fuel_consumption_l_per_100km"),
-             _pm(c, "co2_g_per_km", nd=1), c.get("rule"), c.get("substitute") or ""]
+             _pm(c, "co2_g_per_km", nd=1), c.get("rule"), c.get("substitute") or "",
+             "; ".join(c.get("caveats") or []) or "none"]
             for c in doc.get("composites") or []]
     if crow:
         sec.tables.append(Table("Regulatory composites", ["composite", "fuel economy [mpg]",
-                                "consumption [L/100 km]", "CO2 [g/km]", "rule", "substitute"],
-                                crow, key="results-composites"))
+                                "consumption [L/100 km]", "CO2 [g/km]", "rule", "substitute",
+                                "caveats"],
+                                crow, key="results-composites",
+                                note="a caveat names a departure from the procedure's conditions "
+                                     "(clause cited): the figure is not the regulatory one"))
     dq_rows = [_dq_row(p["name"], p.get("drive_quality")) for p in doc.get("phases") or []]
     if any(r[1:] != [None] * 6 + [None, None, "—"] for r in dq_rows):
         sec.tables.append(Table(

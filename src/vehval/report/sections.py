@@ -441,6 +441,7 @@ def headline_banner(results: dict | None) -> dict | None:
         return {"kind": "forced", "title": f"Stated despite QA errors: {shown} {figure}",
                 "lines": lines}
     lines = [rule] if rule else []
+    lines += [f"Caveat: {c}" for c in h.get("caveats") or []]
     if n:
         lines.append(f"{n} other figure(s) withheld for QA errors: see the results section.")
     return {"kind": "headline", "title": f"{shown}: {figure}", "lines": lines}

@@ -210,8 +210,8 @@ def withheld_count(res: Any) -> int:
 def headline(res: Any) -> dict[str, Any]:
     """The test's headline: the regulatory figure of its cycle.
 
-    HWFET, US06 and SC03: the last run (the first prepares); UDDS: bags 1+2; FTP-75: the
-    0.43/0.57 weighting; NEDC, WLTC: the whole run; a cycle without a composite: the whole
+    HWFET, US06 and SC03: the last run (the first prepares); UDDS: bags 1+2; FTP-75 (also
+    a file holding the cold UDDS, the soak and the hot UDDS): the 0.43/0.57 weighting; NEDC, WLTC: the whole run; a cycle without a composite: the whole
     test, named ``test``.
 
     Returns
@@ -219,9 +219,13 @@ def headline(res: Any) -> dict[str, Any]:
     dict
         ``name``, ``kind`` (``composite`` or ``test``), ``rule``, ``fuel_economy_mpg``
         [mile/US gal], ``fuel_economy_u_mpg`` (U, k = 2), ``fuel_consumption_l_per_100km``,
-        ``withheld`` (the scope's entry or None) and ``forced``.
+        ``withheld`` (the scope's entry or None), ``forced`` and ``caveats`` (the
+        composite's departures from the procedure's conditions, each naming its clause).
     """
     base = (res.cycle or "").split("_x")[0]
+    names = {c.name for c in res.composites}
+    if base == "udds" and (res.cycle or "") != "udds" and "ftp75" in names:
+        base = "ftp75"               # cold UDDS, soak, hot UDDS in one file: the FTP-75 test
     comp = next((c for c in res.composites if c.name == base), None)
     if comp is None and res.composites:
         comp = res.composites[0]
@@ -234,4 +238,5 @@ def headline(res: Any) -> dict[str, Any]:
             "fuel_economy_mpg": res.value(name, "fuel_economy_mpg"),
             "fuel_economy_u_mpg": res.expanded(name, "fuel_economy_mpg"),
             "fuel_consumption_l_per_100km": res.value(name, "fuel_consumption_l_per_100km"),
-            "withheld": held, "forced": bool(held and res.forced)}
+            "withheld": held, "forced": bool(held and res.forced),
+            "caveats": list(getattr(comp, "caveats", None) or [])}
