@@ -197,3 +197,43 @@ def test_cruze_reported_cases(tmp_path, edit, signal, fix):
 def test_cruze_as_published_has_no_unit_finding(tmp_path):
     res = _cruze(tmp_path, lambda t: None)
     assert [f.message for f in res.findings if f.kind == Kind.UNIT_SUSPECT] == []
+
+
+def _obd_speed(raw: np.ndarray, unit: str, source: str = "obd") -> Test:
+    s = _sig("veh_spd_obd_test", raw, unit, "m/s")
+    s.source = source
+    return _test(s)
+
+
+def _road_kmh(n: int = T.size) -> np.ndarray:
+    """Whole km/h of an on-road drive (what SAE J1979 PID 0x0D gives)."""
+    t = np.arange(n, dtype=float)
+    return np.round(np.clip(45.0 + 40.0 * np.sin(t / 60.0), 0.0, None))
+
+
+@pytest.mark.parametrize("unit, factor", [("mph", 1 / 1.609344), ("m/s", 1 / 3.6)])
+def test_whole_numbered_obd_speed_declared_mph_or_mps_is_the_pids_kmh(unit, factor):
+    from vehval.qa.obd_checks import obd_speed_unit_check
+
+    out = obd_speed_unit_check(_obd_speed(_road_kmh(), unit), set())
+    assert len(out) == 1
+    f = out[0]
+    assert f.kind == Kind.UNIT_SUSPECT and f.severity == Severity.ERROR
+    assert f.numbers["probable_unit"] == "km/h" and f.numbers["declared_unit"] == unit
+    assert f.numbers["factor"] == pytest.approx(factor, rel=1e-6)
+    assert "J1979" in f.message and f.fix.startswith("declare VEH_SPD_OBD_TEST (veh_spd_obd_test) in km/h")
+
+
+def test_obd_speed_in_kmh_fractional_mph_dyno_source_or_vouched_speed_raise_nothing():
+    from vehval.qa.obd_checks import obd_speed_unit_check
+
+    kmh = _road_kmh()
+    assert obd_speed_unit_check(_obd_speed(kmh, "km/h"), set()) == []
+    # a logger that converts to mph writes fractions: nothing to say
+    assert obd_speed_unit_check(_obd_speed(kmh / 1.609344, "mph"), set()) == []
+    # a dyno's whole-numbered speed is not the OBD PID
+    assert obd_speed_unit_check(_obd_speed(kmh, "mph", source="dyno"), set()) == []
+    # a speed another check found right as declared (it follows its cycle) is not questioned
+    assert obd_speed_unit_check(_obd_speed(kmh, "mph"), {"veh_spd_obd_test"}) == []
+    # a log too short or too flat to say anything
+    assert obd_speed_unit_check(_obd_speed(np.full(T.size, 50.0), "mph"), set()) == []

@@ -103,18 +103,23 @@ def echo_results(res) -> None:
 
     dist_u, spd_u = unit_for("m"), unit_for("m/s")
 
+    def dist(scope: str) -> str:
+        d = res.value(scope, "distance_m")
+        if d is not None:
+            return f"{dist_u.convert(d):6.2f} {dist_u.label}"
+        held = "distance_m" in (res.withheld.get(scope) or {}).get("quantities", [])
+        return f"{'withheld' if held else 'n/a':>{7 + len(dist_u.label)}s}"
+
     typer.echo(f"{res.test_id}: cycle {res.cycle or '(not identified)'}; phases from "
                f"{res.phase_source}; fuel {_fuel_declared(res.fuel)}")
     for line in headline_lines({"headline": res.headline()}):
         typer.echo(f"  {line}")
     for p in res.phases:
         dq = res.drive_quality.get(p.name) or {}
-        d = res.value(p.name, "distance_m") or 0.0
         extra = (f"  IWR {dq['iwr_pct']:+.1f} %, RMSSE {spd_u.convert(dq['rmsse_mps']):.2f} "
                  f"{spd_u.label}" if dq.get("iwr_pct") is not None else "")
-        typer.echo(f"  {p.name:18s} {dist_u.convert(d):6.2f} {dist_u.label}  {fe(p.name)}{extra}")
-    typer.echo(f"  {'whole test':18s} {dist_u.convert(res.value('test', 'distance_m') or 0):6.2f} "
-               f"{dist_u.label}  {fe('test')}")
+        typer.echo(f"  {p.name:18s} {dist(p.name)}  {fe(p.name)}{extra}")
+    typer.echo(f"  {'whole test':18s} {dist('test')}  {fe('test')}")
     for c in res.composites:
         typer.echo(f"  = {c.name:16s} {fe(c.name)}  [{c.rule.split(':')[0]}]")
         for cav in getattr(c, "caveats", []):

@@ -21,7 +21,9 @@ when the statistic is impossible as declared it names the unit that makes it pos
 - **phase channel**: whole numbers, few values, few changes (a wrong channel mapped as
   the phase counter);
 - **file header against template**: a unit the template declares over the file header's
-  own when no physics check can tell which of the two is right.
+  own when no physics check can tell which of the two is right;
+- **OBD speed** (:mod:`vehval.qa.obd_checks`): whole-numbered raw speeds of an OBD source
+  declared in mph or m/s are SAE J1979's whole km/h.
 
 A check raises an **error** when the physics make the signal impossible as declared, and a
 **warning** when it is only suspicious (the header conflict on a signal no result depends
@@ -577,4 +579,8 @@ def run_crosschecks(test: Test, template: Any = None, vehicle: Any = None,
     found += pressure_check(test, verdicts)
     found += phase_channel_check(test)
     found += header_conflict_check(test, verdicts, density)
+    from vehval.qa.obd_checks import obd_speed_unit_check
+
+    done = {f.signal for f in found}
+    found += [f for f in obd_speed_unit_check(test, verdicts.ok) if f.signal not in done]
     return found
