@@ -183,7 +183,11 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
         sev = Severity.INFO if sig.resample == "previous" else Severity.ERROR
         out.append(Finding(sig.name, Kind.ALL_ZERO, t_start, t_end, sev,
                            f"{sig.name} is zero over the whole test: the channel was probably "
-                           "not measured or not connected", {"samples": int(vf.size)}))
+                           "not measured or not connected", {"samples": int(vf.size)},
+                           fix=(f"{sig.raw_name or sig.name} holds no measurement in this test: "
+                                "nothing can be computed from it; if the test did not measure "
+                                "it, leave it out of this test's template, else check the "
+                                "sensor and its connection")))
         return out
     if vf.size > 10 and np.all(vf == vf[0]):
         sev = Severity.WARNING if qty in DYNAMIC_QUANTITIES and sig.resample == "linear" else Severity.INFO
