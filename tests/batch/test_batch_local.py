@@ -194,3 +194,21 @@ def test_shutdown_ignores_a_closed_connection(caplog):
         shutdown(client, cluster)           # no exception
     assert client.closed and cluster.closed
     assert not [r for r in caplog.records if "CommClosedError" in r.getMessage()]
+
+
+def test_the_templates_vehicle_name_fills_the_vehicle_column(tmp_path, template_path, capsys):
+    """A car with no vehicle file (a conventional car) is labelled by the template's
+    ``vehicle_name``; ``--vehicle`` or ``vehicle:`` would take precedence."""
+    inp, out = tmp_path / "in", tmp_path / "out"
+    for i in range(2):
+        write_d3(inp / f"t{i}.txt", seed=i)
+    tpl = tmp_path / "named.yaml"
+    tpl.write_text(template_path.read_text().replace(
+        "template_version: 1\n", "template_version: 1\nvehicle_name: 2014 Test Car Diesel\n"))
+    rc = main(["batch", str(inp), "-t", str(tpl), "-o", str(out), "--steps", "", "--no-report",
+               "--workers", "0", "-q", "--cycle", "hump120"])
+    assert rc == 0
+    capsys.readouterr()
+    assert main(["catalog", "summary", "--db", str(out / "catalog.duckdb"), "--json"]) == 0
+    summ = json.loads(capsys.readouterr().out)
+    assert summ and {r["vehicle"] for r in summ} == {"2014 Test Car Diesel"}

@@ -175,7 +175,8 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     test = run.test
     if not test.meta.test_id:
         test.meta.test_id = job["test_id"]
-    result["vehicle"] = job.get("vehicle_name") or test.meta.vehicle or None
+    result["vehicle"] = (job.get("vehicle_name") or test.meta.vehicle
+                         or getattr(template, "vehicle_name", None) or None)
     result["cycle"] = test.meta.cycle or job.get("cycle") or None
     outputs: dict[str, Any] = {}
     report_parts: dict[str, Any] = {}

@@ -266,6 +266,9 @@ class Template(_Strict):
     ----------
     vehicle : str, optional
         Vehicle file (name or path) for limits and parameters.
+    vehicle_name : str, optional
+        What was tested (make, model, year), for the catalog and the batch index when no
+        vehicle file is given (a conventional car has none until ``vehval identify``).
     cycle : str, optional
         Drive cycle of every test imported with this template (for templates dedicated to
         one cycle); when omitted the importer identifies the cycle from the vehicle speed.
@@ -285,6 +288,7 @@ class Template(_Strict):
 
     template_version: Literal[1] = 1
     vehicle: str | None = None
+    vehicle_name: str | None = Field(default=None, max_length=MAX_TEXT)
     cycle: str | None = None
     synthetic: bool = False
     description: str = Field(default="", max_length=MAX_TEXT)
@@ -323,7 +327,7 @@ class Template(_Strict):
         """YAML text of the template (defaults left out, one flow mapping per channel)."""
         data = self.model_dump(mode="json", exclude_defaults=True)
         out: dict[str, Any] = {"template_version": 1}
-        for key in ("vehicle", "cycle", "synthetic", "description", "fuel", "phase_channel",
+        for key in ("vehicle", "vehicle_name", "cycle", "synthetic", "description", "fuel", "phase_channel",
                     "constants", "accuracy", "files", "selection"):
             if key in data:
                 out[key] = data[key]
