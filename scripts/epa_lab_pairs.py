@@ -11,7 +11,7 @@ one figure for all of its rows. For each group with more than one row the script
 row (originator, configuration, whole-test and bag figures), the ratio of each row to the
 group's manufacturer-run mean, and whether one figure can lie within ``tol`` of every row
 (possible only when the largest measured figure over the smallest is at most
-(1 + tol) / (1 - tol)). It then lists the test vehicles that the list represents under
+(1 + tol) / (1 - tol)); the error is predicted / measured - 1, as in ``vehval epa validate``. It then lists the test vehicles that the list represents under
 several models (one physical car, several trims).
 """
 
@@ -40,8 +40,9 @@ def _key(t) -> tuple:
 
 
 def one_model_window(figures: list[float], tol: float) -> tuple[float, float] | None:
-    """Range of one predicted figure within ``tol`` of every measured one, or None."""
-    lo, hi = max(figures) / (1 + tol), min(figures) / (1 - tol)
+    """Range of one predicted figure P with |P / m - 1| <= ``tol`` for every measured m,
+    or None (the error of ``vehval epa validate`` is predicted / measured - 1)."""
+    lo, hi = max(figures) * (1 - tol), min(figures) * (1 + tol)
     return (lo, hi) if lo <= hi else None
 
 
