@@ -142,7 +142,7 @@ def test_camry_from_specs_all_splits(tmp_path):
     """2018 Camry (speed and fuel only, 1 Hz) from the 2019 list's CAMRY XLE/XSE row, fuel
     model calibrated on every two (and every three) of the four tests: docs/validation.md
     gives the tables. Acceptance of issue 27: every 2 + 2 split predicts both held-out tests
-    within 5 % (measured: largest 4.5 %, US06 from FTP + UDDS); leave-one-out within 3.9 %."""
+    within 5 % (measured: largest 3.9 %, US06 from FTP + HWFET); leave-one-out within 3.6 %."""
     from vehval.epa.specs import specs_from_tests
     from vehval.epa.specs_fit import all_splits, dyno_run
     from vehval.workflow import TestRun

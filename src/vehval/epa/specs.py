@@ -56,14 +56,14 @@ ENRICHMENT = em.HIGH_LOAD_FUEL  # extra fuel at full load [-] (knock retard, enr
 STALL_SPEED_RPM = 2500.0  # torque-converter stall speed at peak torque [rpm]
 WHEEL_RADIUS_M = 0.33  # rolling radius [m]: only engine speed / vehicle speed matters
 ACCESSORY_POWER_W = 300.0  # alternator, pumps [W]
-FUEL_CUT_IDLE_RATIO = 1.6  # fuel cut on overrun above this x idle speed [-] (1120 rpm)
+FUEL_CUT_IDLE_RATIO = 1.6  # fuel cut on overrun above this x idle speed [-]
 WARMUP_TIME_CONSTANT_S = 200.0  # decay of a cold engine's extra fuel [s]
 #: ratio spread (first / top) of production automatics by gear count
 RATIO_SPREAD = {3: 2.8, 4: 4.0, 5: 4.9, 6: 6.0, 7: 7.0, 8: 7.6, 9: 9.2, 10: 10.0}
 UPSHIFT_RPM, DOWNSHIFT_RPM = 1300.0, 1000.0  # at zero load, engine speed in the higher gear
 #: at full load: upshift at this share of the rated speed, downshift below this share
 UPSHIFT_FULL, DOWNSHIFT_FULL = 0.9, 0.6
-LOCKUP_RPM = 1200.0  # converter locks once the locked engine speed passes it [rpm]
+LOCKUP_RPM = DOWNSHIFT_RPM  # locked above this engine speed [rpm]: on overrun to the downshift
 LOCKUP_FROM_GEAR = 3  # lock-up from this gear: launches and 2nd gear through the converter
 _EST = "engineering estimate (generic, vehval.epa.specs)"
 _SPEC_KEYS = ("mass_kg", "target_a_n", "target_b_n_per_mps", "target_c_n_per_mps2",
