@@ -245,8 +245,8 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
         # idle control: the map at idle burns the measured idle fuel (to the fuel-cut speed)
         fuel = np.maximum(fuel + em.idle_control_shift(
             speeds, IDLE_SPEED_RPM, cut_rpm, idle_fuel, float(idle_fuel_g_per_s))[:, None], 0)
-        willans += (f"; below the fuel-cut speed {cut_rpm:g} rpm shifted to the measured "
-                    f"idle fuel at idle speed (idle control)")
+        willans += (f"; idle control: shifted to burn the measured idle fuel at idle speed, "
+                    f"the shift fading to nothing at the fuel-cut speed {cut_rpm:g} rpm")
         idle_fuel, idle_src = float(idle_fuel_g_per_s), idle_source or "measured"
     ratios, top_overall = gear_ratios(s)
     overall = np.array(ratios) * s.axle_ratio
