@@ -8,20 +8,21 @@ the rated power. :func:`specs_from_tests` reads them, :func:`vehicle_from_specs`
 the :class:`~vehval.vehicle.conventional.ConventionalVehicle` the simulator runs, deriving
 what the list does not state with generic, documented scaling (constants below):
 
-* engine fuel: a Willans line over the whole map, fuel power = (brake power + friction
-  power) / indicated efficiency, with the friction mean effective pressure of a
-  spark-ignition engine (Heywood 1988, eq. 13.13: FMEP [bar] = 0.97 + 0.15 N/1000 +
-  0.05 (N/1000)^2, N in rpm) times the displacement. Two factors stay free and are the
-  calibrated parameters (:mod:`vehval.epa.specs_fit`): the indicated efficiency
-  (``indicated_efficiency``) and a friction scale (``friction_scale``, 1 = Heywood's
-  curve; it absorbs the throttled pumping work); near full load the fuel rises by
-  ``ENRICHMENT`` (power enrichment); the warm idle fuel rate is measured in the
-  calibration tests when they are given;
+* engine fuel (:mod:`vehval.epa.engine_model`): a Willans line in mean effective
+  pressures, fuel power = (brake power + friction power) / indicated efficiency, with the
+  friction mean effective pressure of a spark-ignition engine (Heywood 1988, eq. 13.13:
+  FMEP [bar] = 0.97 + 0.15 N/1000 + 0.05 (N/1000)^2, N in rpm) times the displacement.
+  Two factors stay free and are the calibrated parameters (:mod:`vehval.epa.specs_fit`):
+  the indicated efficiency (``indicated_efficiency``) and a friction scale
+  (``friction_scale``, 1 = Heywood's curve; it absorbs the throttled pumping work); from
+  half the full-load torque the fuel rises to ``ENRICHMENT`` more at full load (knock
+  retard, power enrichment); the warm idle fuel rate is measured in the calibration tests
+  when they are given, and the map under idle control (up to the fuel-cut speed) burns it;
 * full load: the BMEP of a naturally aspirated gasoline engine up to the power limit of
   the rated power, rated at a generic speed;
 * gearbox: top-gear overall ratio from N/V (engine speed per vehicle speed, exact), the
   other gears geometric over a ratio spread typical of the gear count; shift lines from
-  engine speeds; a lock-up converter sized by its stall speed;
+  engine speeds; a converter sized by its stall speed, locked from third gear;
 * cold start: the extra fuel of the FTP's first bag over its third in the list's own
   FTP rows of the configuration (the same car, same road load), placed as the vehicle's
   warm-up fuel with a generic time constant.
@@ -39,29 +40,32 @@ import numpy as np
 
 from vehval.constants import MPH_M_PER_S as MPH
 from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.epa import engine_model as em
 from vehval.epa.procedures import procedure_key
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
 from vehval.vehicle.conventional import ConventionalVehicle
 
 #: generic values for what a Test Car List row does not state (engineering estimates)
-FMEP_BAR = (0.97, 0.15, 0.05)  # Heywood eq. 13.13: a + b (N/1000) + c (N/1000)^2 [bar]
+FMEP_BAR = em.FMEP_BAR  # Heywood eq. 13.13: a + b (N/1000) + c (N/1000)^2 [bar]
 INDICATED_EFFICIENCY = 0.38  # start value: gross indicated efficiency of a modern SI engine
 BMEP_MAX_PA = 12.0e5  # full-load BMEP of a naturally aspirated gasoline engine [Pa]
 RATED_SPEED_RPM = 6000.0  # speed of the rated power of a gasoline car engine [rpm]
 IDLE_SPEED_RPM = 700.0  # warm idle [rpm]
-ENRICHMENT, ENRICH_FROM = 0.1, 0.75  # extra fuel at full load [-], from this share of it
+ENRICHMENT = em.HIGH_LOAD_FUEL  # extra fuel at full load [-] (knock retard, enrichment)
 STALL_SPEED_RPM = 2500.0  # torque-converter stall speed at peak torque [rpm]
 WHEEL_RADIUS_M = 0.33  # rolling radius [m]: only engine speed / vehicle speed matters
 ACCESSORY_POWER_W = 300.0  # alternator, pumps [W]
-FUEL_CUT_IDLE_RATIO = 1.3  # fuel cut on overrun above this x idle speed [-]
+FUEL_CUT_IDLE_RATIO = 1.6  # fuel cut on overrun above this x idle speed [-]
 WARMUP_TIME_CONSTANT_S = 200.0  # decay of a cold engine's extra fuel [s]
 #: ratio spread (first / top) of production automatics by gear count
 RATIO_SPREAD = {3: 2.8, 4: 4.0, 5: 4.9, 6: 6.0, 7: 7.0, 8: 7.6, 9: 9.2, 10: 10.0}
 UPSHIFT_RPM, DOWNSHIFT_RPM = 1300.0, 1000.0  # at zero load, engine speed in the higher gear
 #: at full load: upshift at this share of the rated speed, downshift below this share
 UPSHIFT_FULL, DOWNSHIFT_FULL = 0.9, 0.6
-LOCKUP_RPM = 1200.0  # converter locks from 2nd gear once the locked engine speed passes it
+LOCKUP_RPM = DOWNSHIFT_RPM  # locked above this engine speed [rpm]: on overrun to the downshift
+LOCKUP_FROM_GEAR = 3  # lock-up from this gear: launches and 2nd gear through the converter
+_EST = "engineering estimate (generic, vehval.epa.specs)"
 _SPEC_KEYS = ("mass_kg", "target_a_n", "target_b_n_per_mps", "target_c_n_per_mps2",
               "axle_ratio", "n_v_ratio", "displacement_l", "rated_power_w")
 
@@ -172,9 +176,7 @@ def friction_torque_nm(speed_rpm: np.ndarray, displacement_l: float,
                        scale: float = 1.0) -> np.ndarray:
     """Friction torque [N·m] of a four-stroke engine: FMEP (Heywood eq. 13.13, times
     ``scale``) x displacement / (4 pi)."""
-    n = np.asarray(speed_rpm, float) / 1000.0
-    fmep = scale * (FMEP_BAR[0] + FMEP_BAR[1] * n + FMEP_BAR[2] * n ** 2) * 1e5  # [Pa]
-    return fmep * displacement_l * 1e-3 / (4 * math.pi)
+    return em.torque_nm(em.fmep_pa(speed_rpm, scale), displacement_l)
 
 
 def gear_ratios(specs: Specs) -> tuple[list[float], float]:
@@ -184,15 +186,6 @@ def gear_ratios(specs: Specs) -> tuple[list[float], float]:
     n = specs.gears
     spread = RATIO_SPREAD[n]
     return [top * spread ** ((n - 1 - i) / (n - 1)) for i in range(n)], top_overall
-
-
-def _fuel_rate_g_per_s(speed_rpm, torque_nm, specs: Specs, eta: float, k_f: float):
-    """Willans map [g/s]: (brake + friction power) / (indicated efficiency x LHV)."""
-    lhv = _lhv()
-    w = np.asarray(speed_rpm, float)[:, None] * RPM
-    tf = friction_torque_nm(np.asarray(speed_rpm, float), specs.displacement_l, k_f)[:, None]
-    p_ind = (np.asarray(torque_nm, float)[None, :] + tf) * w
-    return np.maximum(p_ind, 0.0) / (eta * lhv) * 1e3
 
 
 def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFFICIENCY,
@@ -219,7 +212,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
         fuel map at idle with the accessory load.
     enrichment : float
         Extra fuel at full load [-] (power enrichment, knock-limited spark), rising
-        linearly from ``ENRICH_FROM`` x the full-load torque.
+        linearly from ``engine_model.HIGH_LOAD_FROM`` x the full-load torque.
     """
     if not (0.1 <= indicated_efficiency <= 0.6 and 0.2 <= friction_scale <= 4.0
             and 0.0 <= enrichment <= 1.0):
@@ -232,19 +225,28 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
     w_rated = RATED_SPEED_RPM * RPM
     t_peak = max(BMEP_MAX_PA * vd * 1e-3 / (4 * math.pi), s.rated_power_w / w_rated)
     max_rpm = 1.1 * RATED_SPEED_RPM
-    speeds = np.linspace(IDLE_SPEED_RPM * 0.8, max_rpm, 16)
+    cut_rpm = FUEL_CUT_IDLE_RATIO * IDLE_SPEED_RPM
+    # grid with the idle and fuel-cut speeds as breakpoints (idle control between them)
+    speeds = np.unique(np.r_[np.linspace(IDLE_SPEED_RPM * 0.8, max_rpm, 16),
+                             IDLE_SPEED_RPM, cut_rpm])
     shape = np.interp(speeds, [0.0, 0.6 * RATED_SPEED_RPM, max_rpm], [0.75, 1.0, 1.0])
     tmax = np.minimum(t_peak * shape, s.rated_power_w / (speeds * RPM))
     torques = np.linspace(0.0, 1.05 * t_peak, 14)
-    fuel = _fuel_rate_g_per_s(speeds, torques, s, eta, kf)
-    # power enrichment near full load: + ENRICHMENT from ENRICH_FROM x full load up
-    load = torques[None, :] / tmax[:, None]
-    fuel = fuel * (1.0 + enrichment * np.clip((load - ENRICH_FROM) / (1 - ENRICH_FROM), 0, 1))
+    lhv = _lhv()
+    high = (enrichment, em.HIGH_LOAD_FROM)
+    fuel = em.fuel_rate_g_per_s(speeds, torques, tmax, vd, eta, kf, lhv, high)
     tf = friction_torque_nm(np.array([IDLE_SPEED_RPM, 2000.0]), vd, kf)
-    idle_fuel = float((ACCESSORY_POWER_W + tf[0] * IDLE_SPEED_RPM * RPM) / (
-        eta * _lhv()) * 1e3)
-    idle_src = f"the fuel map at idle with the accessory load ({willans_text(eta, kf, s)})"
+    t_acc = ACCESSORY_POWER_W / (IDLE_SPEED_RPM * RPM)
+    i_idle = int(np.flatnonzero(np.isclose(speeds, IDLE_SPEED_RPM))[0])
+    idle_fuel = float(np.interp(t_acc, torques, fuel[i_idle]))
+    willans = willans_text(eta, kf, s, enrichment)
+    idle_src = f"the fuel map at idle with the accessory load ({willans})"
     if idle_fuel_g_per_s is not None:
+        # idle control: the map at idle burns the measured idle fuel (to the fuel-cut speed)
+        fuel = np.maximum(fuel + em.idle_control_shift(
+            speeds, IDLE_SPEED_RPM, cut_rpm, idle_fuel, float(idle_fuel_g_per_s))[:, None], 0)
+        willans += (f"; idle control: shifted to burn the measured idle fuel at idle speed, "
+                    f"the shift fading to nothing at the fuel-cut speed {cut_rpm:g} rpm")
         idle_fuel, idle_src = float(idle_fuel_g_per_s), idle_source or "measured"
     ratios, top_overall = gear_ratios(s)
     overall = np.array(ratios) * s.axle_ratio
@@ -260,7 +262,8 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
     dn0 = [v_at(DOWNSHIFT_RPM, overall[i + 1]) for i in range(n - 1)]
     dnf = [min(v_at(DOWNSHIFT_FULL * RATED_SPEED_RPM, overall[i + 1]), 0.8 * upf[i])
            for i in range(n - 1)]
-    lock = [100.0] + [v_at(LOCKUP_RPM, overall[i]) for i in range(1, n)]
+    lock = [100.0 if i + 1 < LOCKUP_FROM_GEAR else v_at(LOCKUP_RPM, overall[i])
+            for i in range(n)]
     warm = 0.0
     warm_src = "no FTP bags of the configuration in the list: no warm-up model"
     if cold_start and math.isfinite(s.cold_bag_ratio):
@@ -270,8 +273,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                     f"{100 * (s.cold_bag_ratio - 1):.1f} % more than the hot one), placed as "
                     f"x (1 + f exp(-t / {WARMUP_TIME_CONSTANT_S:g} s)) over bag 1 (505 s): "
                     f"f = {warm:.4f}")
-    est = "engineering estimate (generic, vehval.epa.specs)"
-    willans = willans_text(eta, kf, s)
+    est = _EST
     data = {
         "architecture": "conventional", "name": s.name,
         "description": (f"{s.make} {s.model} ({s.year} EPA Test Car List, test vehicle "
@@ -312,7 +314,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                        "warmup_time_constant_s": est}},
         "engine_control": {
             "idle_fuel_rate_g_per_s": idle_fuel,
-            "fuel_cut_min_speed_rpm": FUEL_CUT_IDLE_RATIO * IDLE_SPEED_RPM,
+            "fuel_cut_min_speed_rpm": cut_rpm,
             "overrun_fuel_rate_g_per_s": 0.0, "accessory_power_w": ACCESSORY_POWER_W,
             "sources": {"idle_fuel_rate_g_per_s": idle_src,
                         "fuel_cut_min_speed_rpm": f"{FUEL_CUT_IDLE_RATIO:g} x idle: {est}",
@@ -342,8 +344,9 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
             "lockup_speed_mps": lock,
             "sources": {"capacity_nm_s2_per_rad2": f"peak torque at a stall speed of "
                                                    f"{STALL_SPEED_RPM:g} rpm: {est}",
-                        "lockup_speed_mps": f"locked from 2nd gear above {LOCKUP_RPM:g} rpm "
-                                            f"(1st: never): {est}"}},
+                        "lockup_speed_mps": f"locked from gear {LOCKUP_FROM_GEAR} above "
+                                            f"{LOCKUP_RPM:g} rpm (lower gears: never): "
+                                            f"{est}"}},
         "driveline": {
             "final_drive_ratio": s.axle_ratio, "final_drive_efficiency": 0.97,
             "wheel_radius_m": r, "wheel_inertia_kg_m2": 0.0,
@@ -363,11 +366,13 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
     return ConventionalVehicle.model_validate(data)
 
 
-def willans_text(eta: float, kf: float, s: Specs) -> str:
+def willans_text(eta: float, kf: float, s: Specs, enrichment: float = ENRICHMENT) -> str:
     """Source text of the Willans fuel map."""
     return (f"Willans line: (brake + friction power) / (indicated efficiency {eta:.4g} x "
             f"LHV); friction MEP {kf:.4g} x Heywood eq. 13.13 (0.97 + 0.15 N/1000 + 0.05 "
-            f"(N/1000)^2 bar) x displacement {s.displacement_l:g} L ({s.where})")
+            f"(N/1000)^2 bar) x displacement {s.displacement_l:g} L ({s.where}); fuel x "
+            f"(1 + {enrichment:g} s), s from 0 at {em.HIGH_LOAD_FROM:g} x full-load torque "
+            f"to 1 at full load (knock-limited spark, power enrichment: {_EST})")
 
 
 def _lhv() -> float:

@@ -5,10 +5,12 @@ the indicated efficiency (slope of the Willans line) and a scale on the generic 
 MEP. :func:`calibrate_specs` fits them on the measured fuel of some tests, with the warm
 idle fuel rate measured in the same tests (:func:`measured_idle`):
 
-* the fuel of the model is exactly proportional to 1 / indicated efficiency (map, idle
-  and warm-up fuel all are), so for each friction scale of a grid (0.5-2.0, step 0.025)
-  one simulation per test gives the best efficiency in closed form (least squares of the
-  relative fuel errors);
+* the fuel of the model is exactly affine in 1 / indicated efficiency (the map and the
+  warm-up fuel scale with it; the measured idle and the idle control's shift, measured
+  idle minus the map at idle, are affine in it), so for each friction scale of a grid
+  (0.5-2.0, step 0.025) two simulations per test give the best efficiency in closed form
+  (least squares of the relative fuel errors; exact unless the shift would take the map
+  below zero somewhere, where it is clipped, and the errors reported are simulated anyway);
 * the friction scale minimises the mean squared relative error plus a prior
   ``(SIGMA_FUEL / SIGMA_FRICTION)^2 (scale - 1)^2``: fuel measured to about 1 %
   (``SIGMA_FUEL``), the generic friction curve known to about 30 % (``SIGMA_FRICTION``).
