@@ -43,7 +43,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from vehval.constants import MPH_M_PER_S
 
@@ -149,6 +148,8 @@ def _ratio_pct(a: float | None, b: float | None) -> float | None:
 
 
 def _violations(t: np.ndarray, vd: np.ndarray, vt: np.ndarray) -> tuple[int, float]:
+    from scipy.ndimage import maximum_filter1d, minimum_filter1d
+
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
     half = max(1, round(WINDOW_TIME_S / dt))
     size = 2 * half + 1
