@@ -31,7 +31,7 @@ from vehval.errors import ConfigError, SignalError, UnitError
 from vehval.io.atomic import write_text_atomic
 from vehval.nomenclature import registry
 from vehval.safe_yaml import read_yaml
-from vehval.units import conversion, parse_unit, ureg
+from vehval.units import conversion, parse_unit
 
 __all__ = [
     "AccuracySpec",
@@ -450,7 +450,7 @@ def semantic_errors(t: Template) -> list[str]:
     reg = registry()
     errors: list[str] = []
     seen: dict[str, str] = {}
-    time_dim = ureg.Unit("second").dimensionality
+    time_dim = parse_unit("s").dimensionality
     for fi, f in enumerate(t.files):
         try:
             if parse_unit(f.time.unit).dimensionality != time_dim:
