@@ -52,13 +52,14 @@ COMMANDS = [["simulate"], ["validate"], ["calibrate"], ["qa"], ["report"], ["bat
             ["cycles", "show"], ["vehicle", "show"], ["catalog", "query"], ["template", "init"]]
 
 
-def _modules_after(*argvs: list[str]) -> tuple[set[str], str]:
+def _modules_after(*argvs: list[str], env: dict[str, str] | None = None,
+                   ) -> tuple[set[str], str]:
     """``sys.modules`` of one interpreter once ``vehval ARGV`` ran for every ARGV."""
     code = ("import sys\nfrom vehval.cli import main\nrc = 0\n"
             f"for argv in {list(argvs)!r}:\n    rc = rc or main(argv)\n"
             "print('MODULES', ' '.join(sorted(sys.modules)))\nsys.exit(rc)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=_env(), timeout=120)
+                          env={**_env(), **(env or {})}, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     line = next(x for x in proc.stdout.splitlines() if x.startswith("MODULES "))
     return set(line.split()[1:]), proc.stdout
@@ -132,29 +133,32 @@ def _udds_d3(tmp_path: Path) -> tuple[Path, Path]:
     return raw, tpl
 
 
-def _one_run(*argv: str) -> set[str]:
-    names, out = _modules_after(list(argv))
-    return names
-
-
 def test_data_commands_load_no_library_they_do_not_use(tmp_path) -> None:
-    """`info`, `import`, `qa` and `results` of a D3 file: numpy, pyarrow, pint and yaml
-    only; `info` of the Test Parquet and `report --no-excel` not even the unit registry."""
+    """`info`, `import`, `qa` and `results` of a D3 file: numpy, pyarrow and yaml; pint only
+    for units not seen before (the first run); `info` of the Test Parquet and `report
+    --no-excel` never need the unit registry."""
     raw, tpl = _udds_d3(tmp_path)
     out = tmp_path / "out"
+    env = {"VEHVAL_UNITS_CACHE": str(tmp_path / "units")}  # no units known yet
     runs = {"info": ["info", str(raw)],
             "import": ["import", str(raw), "-t", str(tpl), "-o", str(out / "t.parquet")],
             "qa": ["qa", str(raw), "-t", str(tpl), "-o", str(out / "qa")],
             "results": ["results", str(raw), "-t", str(tpl), "-o", str(out / "res")]}
-    for name, argv in runs.items():
-        names = _one_run(*argv)
-        assert {"pyarrow", "pint"} <= names, name      # the check sees what was imported
-        assert _loaded(names, NOT_FOR_DATA) == [], name
+    for first in (True, False):
+        for name, argv in runs.items():
+            names, _ = _modules_after(argv, env=env)
+            assert "pyarrow" in names, name            # the check sees what was imported
+            assert _loaded(names, NOT_FOR_DATA) == [], name
+            if first and name == "info":
+                assert "pint" in names                 # the units are new: pint answers
+            elif not first:
+                assert _loaded(names, ("pint", "dask")) == [], name  # kept from the first
     assert (out / "qa" / "validated.parquet").is_file()
-    names = _one_run("info", str(out / "t.parquet"))
+    names, _ = _modules_after(["info", str(out / "t.parquet")], env=env)
     assert "pyarrow" in names
     assert _loaded(names, (*NOT_FOR_DATA, "pint", "dask")) == []
-    names = _one_run("report", str(out / "qa"), "-o", str(out / "r.html"), "--no-excel")
+    names, _ = _modules_after(["report", str(out / "qa"), "-o", str(out / "r.html"),
+                               "--no-excel"], env=env)
     assert (out / "r.html").is_file() and {"pyarrow", "plotly", "jinja2"} <= names
     plots = ("plotly", "narwhals")                     # the report draws its figures
     assert _loaded(names, (*(n for n in NOT_FOR_DATA if n not in plots), "pint", "dask")) == []

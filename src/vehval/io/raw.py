@@ -10,7 +10,7 @@ import numpy as np
 
 from vehval.errors import InputFileError
 from vehval.nomenclature import normalise_raw, registry
-from vehval.units import parse_unit, split_header
+from vehval.units import dimension, split_header
 
 #: Normalised raw names recognised as a time column (besides the registry's ``time`` aliases).
 TIME_NAMES = frozenset({"time", "t", "timestamp", "elapsed time", "time s", "time sec", "zeit",
@@ -25,7 +25,7 @@ def is_time_header(name: str, unit: str | None) -> bool:
     if unit is None:
         return True
     try:
-        return parse_unit(unit).dimensionality == parse_unit("s").dimensionality
+        return dimension(unit) == dimension("s")
     except Exception:  # noqa: BLE001 - an unparsable unit simply is not a time unit
         return False
 
