@@ -139,7 +139,7 @@ def test_data_commands_load_no_library_they_do_not_use(tmp_path) -> None:
     --no-excel` never need the unit registry."""
     raw, tpl = _udds_d3(tmp_path)
     out = tmp_path / "out"
-    env = {"VEHVAL_UNITS_CACHE": str(tmp_path / "units")}  # no units known yet
+    env = {"VEHVAL_CACHE_DIR": str(tmp_path / "cache")}  # no units known yet
     runs = {"info": ["info", str(raw)],
             "import": ["import", str(raw), "-t", str(tpl), "-o", str(out / "t.parquet")],
             "qa": ["qa", str(raw), "-t", str(tpl), "-o", str(out / "qa")],

@@ -22,7 +22,7 @@ PAIRS = [("mph", "m/s"), ("rpm", "rad/s"), ("degF", "degC"), ("°F", "degC"), ("
 
 @pytest.fixture
 def facts_dir(tmp_path, monkeypatch):
-    monkeypatch.setenv("VEHVAL_UNITS_CACHE", str(tmp_path))
+    monkeypatch.setenv("VEHVAL_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(units, "_facts", None)
     yield tmp_path
     units._facts = None  # the next test reads its own file
@@ -46,7 +46,7 @@ def test_kept_answers_equal_pint_and_survive_a_new_process(facts_dir):
             assert units.conversion(a, b) == want[(a, b)]
             assert list(units.dimension(a)) == [tuple(x) for x in want[a][0]]
             assert units.is_dimensionless(a) is want[a][1]
-    files = list(facts_dir.glob("*.json"))
+    files = list(facts_dir.glob("units/*.json"))
     assert len(files) == 1 and files[0] == units.facts_path()
     assert units.dimension("mph") == units.dimension("km/h") != units.dimension("rpm")
     # a new interpreter answers from the file without importing pint
@@ -54,7 +54,7 @@ def test_kept_answers_equal_pint_and_survive_a_new_process(facts_dir):
             f"print([units.conversion(a, b) for a, b in {PAIRS!r}], units.dimension('mph'))\n"
             "print('pint' in sys.modules)")
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(SRC), *sys.path]),
-               VEHVAL_UNITS_CACHE=str(facts_dir))
+               VEHVAL_CACHE_DIR=str(facts_dir))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
                          timeout=120, check=True).stdout.splitlines()
     assert out[-1] == "False"
@@ -82,6 +82,7 @@ def test_identity_writes_nothing(facts_dir):
                                      '"dimension": {}}', "[]", '{"conversion": 3}'])
 def test_a_damaged_file_is_ignored_and_replaced(facts_dir, content):
     path = units.facts_path()
+    path.parent.mkdir(parents=True)
     path.write_text(content)
     assert units.conversion("mph", "m/s") == units._conversion("mph", "m/s", None)
     kept = json.loads(path.read_text())
@@ -91,7 +92,7 @@ def test_a_damaged_file_is_ignored_and_replaced(facts_dir, content):
 def test_an_unwritable_place_only_costs_the_speed(tmp_path, monkeypatch):
     blocker = tmp_path / "file"
     blocker.write_text("")
-    monkeypatch.setenv("VEHVAL_UNITS_CACHE", str(blocker / "below"))  # cannot be created
+    monkeypatch.setenv("VEHVAL_CACHE_DIR", str(blocker / "below"))  # cannot be created
     monkeypatch.setattr(units, "_facts", None)
     try:
         assert units.conversion("rpm", "rad/s") == units._conversion("rpm", "rad/s", None)

@@ -5,7 +5,7 @@ Units are converted once, at import and at export; everything inside is SI float
 What pint says about a unit (its dimension) and a conversion (scale and offset) is kept
 on disk between runs, so that a command whose units were all seen before does not import
 pint (0.3 s) nor build its registry (0.15 s): one JSON file per pint version and version
-of this module, in ``$VEHVAL_UNITS_CACHE``, else ``~/.cache/vehval/units``. Only answers
+of this module, in ``$VEHVAL_CACHE_DIR/units``, else ``~/.cache/vehval/units``. Only answers
 are kept (an unknown unit asks pint again, for its message); the file is replaced
 atomically and a damaged or unwritable one is ignored.
 """
@@ -59,8 +59,8 @@ def _facts_name() -> str:
 
 def facts_path() -> Path:
     """The file of facts of this pint version and this module's source (module docstring)."""
-    env = os.environ.get("VEHVAL_UNITS_CACHE")
-    return (Path(env) if env else Path.home() / ".cache" / "vehval" / "units") / _facts_name()
+    env = os.environ.get("VEHVAL_CACHE_DIR")
+    return (Path(env) if env else Path.home() / ".cache" / "vehval") / "units" / _facts_name()
 
 
 def _load_facts() -> dict[str, dict[str, Any]]:
