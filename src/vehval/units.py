@@ -19,6 +19,7 @@ import os
 import re
 import sys
 import tempfile
+import threading
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -46,6 +47,7 @@ def registry() -> pint.UnitRegistry:
 # ----------------------------------------------------------------------- facts kept on disk
 _FACTS_FORMAT = 1
 _facts: dict[str, dict[str, Any]] | None = None
+_facts_lock = threading.Lock()  # one writer at a time within a process (serve, batch threads)
 
 
 @lru_cache(maxsize=1)
@@ -83,21 +85,22 @@ def _load_facts() -> dict[str, dict[str, Any]]:
 
 def _keep_fact(kind: str, key: str, value: Any) -> None:
     """Add one answer and replace the file atomically (any failure: kept in memory only)."""
-    facts = _load_facts()
-    facts[kind][key] = value
-    try:
-        path = facts_path()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".units-", suffix=".tmp", dir=path.parent)
+    with _facts_lock:
+        facts = _load_facts()
+        facts[kind][key] = value
         try:
-            with os.fdopen(fd, "w", encoding="utf-8") as f:
-                json.dump(facts, f)
-            os.replace(tmp, path)
-        except BaseException:
-            os.unlink(tmp)
-            raise
-    except OSError:
-        pass
+            path = facts_path()
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=".units-", suffix=".tmp", dir=path.parent)
+            try:
+                with os.fdopen(fd, "w", encoding="utf-8") as f:
+                    json.dump(facts, f)
+                os.replace(tmp, path)
+            except BaseException:
+                os.unlink(tmp)
+                raise
+        except (OSError, TypeError, ValueError):
+            pass  # not written: the answer serves this process only
 
 
 def dimension(text: str | None) -> tuple[tuple[str, float], ...]:
