@@ -282,7 +282,7 @@ def conversion(raw_unit: str | None, si_unit: str, *, fuel_density_kg_per_m3: fl
     """
     if _identity(raw_unit, si_unit):
         return 1.0, 0.0
-    key = json.dumps([raw_unit, si_unit, fuel_density_kg_per_m3])
+    key = json.dumps([raw_unit, si_unit, fuel_density_kg_per_m3], default=repr)
     known = _load_facts()["conversion"].get(key)
     if known is not None:
         return known[0], known[1]
