@@ -52,13 +52,14 @@ COMMANDS = [["simulate"], ["validate"], ["calibrate"], ["qa"], ["report"], ["bat
             ["cycles", "show"], ["vehicle", "show"], ["catalog", "query"], ["template", "init"]]
 
 
-def _modules_after(*argvs: list[str]) -> tuple[set[str], str]:
+def _modules_after(*argvs: list[str], env: dict[str, str] | None = None,
+                   ) -> tuple[set[str], str]:
     """``sys.modules`` of one interpreter once ``vehval ARGV`` ran for every ARGV."""
     code = ("import sys\nfrom vehval.cli import main\nrc = 0\n"
             f"for argv in {list(argvs)!r}:\n    rc = rc or main(argv)\n"
             "print('MODULES', ' '.join(sorted(sys.modules)))\nsys.exit(rc)")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=_env(), timeout=120)
+                          env={**_env(), **(env or {})}, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     line = next(x for x in proc.stdout.splitlines() if x.startswith("MODULES "))
     return set(line.split()[1:]), proc.stdout
@@ -86,3 +87,78 @@ def test_cycles_list_needs_numpy_only() -> None:
     assert '"name": "udds"' in proc.stdout
     assert "numpy" in names
     assert _heavy(names, allowed=("numpy", "pydantic")) == []
+
+
+# --------------------------------------------------------------------------- commands that run
+#: Never needed by a single-test command that neither simulates nor writes Excel: pandas is
+#: pyarrow's optional companion (vehval.io.arrow converts without it), scipy's filters and
+#: optimisers serve other stages, numba loads with the first simulation or rule replay.
+NOT_FOR_DATA = ("pandas", "numba", "llvmlite", "plotly", "narwhals", "xlsxwriter", "duckdb",
+                "distributed", "starlette", "uvicorn", "asammdf", "scipy.ndimage",
+                "scipy.optimize", "scipy.signal", "scipy.linalg", "scipy.special",
+                "scipy.interpolate", "scipy.stats")
+TEMPLATE = """\
+template_version: 1
+description: start-up test
+constants: {test_mass_kg: 1500}
+files:
+  - source: dyno
+    format: auto
+    time: {column: Time, unit: s}
+    channels:
+      Dyno_Speed: {name: veh_spd_test, unit: mph}
+      Engine_Speed: {name: eng_spd_out_test, unit: rpm}
+"""
+
+
+def _loaded(names: set[str], libraries: tuple[str, ...]) -> list[str]:
+    return sorted(n for n in names for lib in libraries if n == lib or n.startswith(lib + "."))
+
+
+def _udds_d3(tmp_path: Path) -> tuple[Path, Path]:
+    """A 10 Hz D3 file driving the UDDS (speed and a plausible engine speed) and its template."""
+    import numpy as np
+
+    from vehval.cycles import load_cycle
+
+    cyc = load_cycle("udds")
+    t = np.arange(-1.0, cyc.time_s[-1] + 5.0, 0.1)
+    mph = np.interp(t, cyc.time_s, cyc.speed_mps, left=0.0, right=0.0) / 0.44704
+    rows = ["Time[sec]\tDyno_Speed[mph]\tEngine_Speed[rpm]"]
+    rows += [f"{a:.3f}\t{v:.3f}\t{800.0 + 30.0 * v:.1f}" for a, v in zip(t, mph)]
+    raw = tmp_path / "udds_d3.txt"
+    raw.write_bytes(("\r\n".join(rows) + "\r\n").encode())
+    tpl = tmp_path / "T.yaml"
+    tpl.write_text(TEMPLATE, encoding="utf-8")
+    return raw, tpl
+
+
+def test_data_commands_load_no_library_they_do_not_use(tmp_path) -> None:
+    """`info`, `import`, `qa` and `results` of a D3 file: numpy, pyarrow and yaml; pint only
+    for units not seen before (the first run); `info` of the Test Parquet and `report
+    --no-excel` never need the unit registry."""
+    raw, tpl = _udds_d3(tmp_path)
+    out = tmp_path / "out"
+    env = {"VEHVAL_CACHE_DIR": str(tmp_path / "cache")}  # no units known yet
+    runs = {"info": ["info", str(raw)],
+            "import": ["import", str(raw), "-t", str(tpl), "-o", str(out / "t.parquet")],
+            "qa": ["qa", str(raw), "-t", str(tpl), "-o", str(out / "qa")],
+            "results": ["results", str(raw), "-t", str(tpl), "-o", str(out / "res")]}
+    for first in (True, False):
+        for name, argv in runs.items():
+            names, _ = _modules_after(argv, env=env)
+            assert "pyarrow" in names, name            # the check sees what was imported
+            assert _loaded(names, NOT_FOR_DATA) == [], name
+            if first and name == "info":
+                assert "pint" in names                 # the units are new: pint answers
+            elif not first:
+                assert _loaded(names, ("pint", "dask")) == [], name  # kept from the first
+    assert (out / "qa" / "validated.parquet").is_file()
+    names, _ = _modules_after(["info", str(out / "t.parquet")], env=env)
+    assert "pyarrow" in names
+    assert _loaded(names, (*NOT_FOR_DATA, "pint", "dask")) == []
+    names, _ = _modules_after(["report", str(out / "qa"), "-o", str(out / "r.html"),
+                               "--no-excel"], env=env)
+    assert (out / "r.html").is_file() and {"pyarrow", "plotly", "jinja2"} <= names
+    plots = ("plotly", "narwhals")                     # the report draws its figures
+    assert _loaded(names, (*(n for n in NOT_FOR_DATA if n not in plots), "pint", "dask")) == []

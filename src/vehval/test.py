@@ -8,13 +8,15 @@ for states and counters). The methods used are returned, never applied silently.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Collection, Iterable, Iterator, cast
+from typing import TYPE_CHECKING, Collection, Iterable, Iterator, cast
 
 import numpy as np
-import pandas as pd
 
 from vehval.errors import SignalError
 from vehval.nomenclature import ResampleMethod, preference_rank, registry
+
+if TYPE_CHECKING:  # pandas is imported by the one method that builds a data frame
+    import pandas as pd
 
 
 @dataclass
@@ -296,6 +298,8 @@ class Test:
             m = methods.get(name, sig.resample)
             cols[name] = sig.at(g, m)
             used[name] = m
+        import pandas as pd
+
         frame = pd.DataFrame(cols, index=pd.Index(g, name="time"))
         frame.attrs["resample"] = dict(used)
         frame.attrs["units"] = {n: self[n].unit for n in used}

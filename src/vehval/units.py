@@ -1,13 +1,27 @@
 """The package's single pint registry and SI conversion helpers.
 
 Units are converted once, at import and at export; everything inside is SI floats.
+
+What pint says about a unit (its dimension) and a conversion (scale and offset) is kept
+on disk between runs, so that a command whose units were all seen before does not import
+pint (0.3 s) nor build its registry (0.15 s): one JSON file per pint version and version
+of this module, in ``$VEHVAL_CACHE_DIR/units``, else ``~/.cache/vehval/units``. Only answers
+are kept (an unknown unit asks pint again, for its message); the file is replaced
+atomically and a damaged or unwritable one is ignored.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import os
 import re
+import sys
+import tempfile
+import threading
 from functools import lru_cache
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -28,6 +42,87 @@ def registry() -> pint.UnitRegistry:
     reg.define("cc_per_second = cubic_centimeter / second = ccps")
     reg.define("percent_fraction = 0.01 = pct")
     return reg
+
+
+# ----------------------------------------------------------------------- facts kept on disk
+_FACTS_FORMAT = 1
+_facts: dict[str, dict[str, Any]] | None = None
+_facts_lock = threading.Lock()  # one writer at a time within a process (serve, batch threads)
+
+
+@lru_cache(maxsize=1)
+def _facts_name() -> str:
+    from importlib.metadata import version
+
+    h = hashlib.sha256(f"{_FACTS_FORMAT}|{version('pint')}|{sys.version}|".encode())
+    h.update(Path(__file__).read_bytes())
+    return f"{h.hexdigest()[:16]}.json"
+
+
+def facts_path() -> Path:
+    """The file of facts of this pint version and this module's source (module docstring)."""
+    env = os.environ.get("VEHVAL_CACHE_DIR")
+    return (Path(env) if env else Path.home() / ".cache" / "vehval") / "units" / _facts_name()
+
+
+def _load_facts() -> dict[str, dict[str, Any]]:
+    global _facts
+    if _facts is None:
+        _facts = {"conversion": {}, "dimension": {}}
+        try:
+            data = json.loads(facts_path().read_text(encoding="utf-8"))
+            conv, dims = data["conversion"], data["dimension"]
+            if all(isinstance(v, list) and len(v) == 2 and all(
+                    isinstance(x, float) and math.isfinite(x) for x in v) for v in conv.values()) \
+                    and all(isinstance(v, list) and all(
+                        isinstance(d, list) and len(d) == 2 and isinstance(d[0], str)
+                        and isinstance(d[1], (int, float)) for d in v) for v in dims.values()):
+                _facts = {"conversion": conv, "dimension": dims}
+        except (OSError, ValueError, TypeError, KeyError, AttributeError):
+            pass  # no file yet, or not ours: start afresh
+    return _facts
+
+
+def _keep_fact(kind: str, key: str, value: Any) -> None:
+    """Add one answer and replace the file atomically (any failure: kept in memory only)."""
+    with _facts_lock:
+        facts = _load_facts()
+        facts[kind][key] = value
+        try:
+            path = facts_path()
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix=".units-", suffix=".tmp", dir=path.parent)
+            try:
+                with os.fdopen(fd, "w", encoding="utf-8") as f:
+                    json.dump(facts, f)
+                os.replace(tmp, path)
+            except BaseException:
+                os.unlink(tmp)
+                raise
+        except (OSError, TypeError, ValueError):
+            pass  # not written: the answer serves this process only
+
+
+def dimension(text: str | None) -> tuple[tuple[str, float], ...]:
+    """The dimension of a unit as sorted ``(base dimension, exponent)`` pairs: ``()`` for a
+    dimensionless unit; two units measure the same quantity when their dimensions are equal.
+
+    Raises
+    ------
+    UnitError
+        When the unit is unknown (see :func:`parse_unit`).
+    """
+    key = _expression(text)
+    got = _load_facts()["dimension"].get(key)
+    if got is None:
+        got = sorted([str(k), v] for k, v in dict(parse_unit(text).dimensionality).items())
+        _keep_fact("dimension", key, got)
+    return tuple((str(k), v) for k, v in got)
+
+
+def is_dimensionless(text: str | None) -> bool:
+    """True when the unit has no dimension (as ``parse_unit(text).dimensionless``)."""
+    return dimension(text) == ()
 
 
 def _pint_error() -> type[Exception]:
@@ -185,6 +280,12 @@ def conversion(raw_unit: str | None, si_unit: str, *, fuel_density_kg_per_m3: fl
     fuel_density_kg_per_m3 : float, optional
         Density [kg/m^3] used for volume -> mass conversions.
     """
+    if _identity(raw_unit, si_unit):
+        return 1.0, 0.0
+    key = json.dumps([raw_unit, si_unit, fuel_density_kg_per_m3], default=repr)
+    known = _load_facts()["conversion"].get(key)
+    if known is not None:
+        return known[0], known[1]
     try:
         scale, offset = _conversion(raw_unit, si_unit, fuel_density_kg_per_m3)
     except (OverflowError, ZeroDivisionError, _pint_error()) as exc:
@@ -197,13 +298,19 @@ def conversion(raw_unit: str | None, si_unit: str, *, fuel_density_kg_per_m3: fl
         raise UnitError(f"cannot convert '{raw_unit}' to '{si_unit}': the factor {scale:g} "
                         f"(offset {offset:g}) is not a usable finite number: give a plain unit "
                         "such as 'mph', 'rpm', 'degF' or 'g/s'")
+    _keep_fact("conversion", key, [float(scale), float(offset)])
     return scale, offset
+
+
+def _identity(raw_unit: str | None, si_unit: str) -> bool:
+    """Two spellings of the same known unit: the identity, without the registry."""
+    expr = _expression(raw_unit)
+    return expr in _KNOWN and expr == _expression(si_unit)
 
 
 def _conversion(raw_unit: str | None, si_unit: str, fuel_density_kg_per_m3: float | None,
                 ) -> tuple[float, float]:
-    expr = _expression(raw_unit)
-    if expr in _KNOWN and expr == _expression(si_unit):
+    if _identity(raw_unit, si_unit):
         return 1.0, 0.0
     src = parse_unit(raw_unit)
     dst = parse_unit(si_unit)

@@ -12,7 +12,6 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
 
 
 def fit_soc_regulation(soc: np.ndarray, ess_pwr: np.ndarray, eng_on: np.ndarray,
@@ -52,6 +51,8 @@ def fit_soc_regulation(soc: np.ndarray, ess_pwr: np.ndarray, eng_on: np.ndarray,
                 "propulsion: the slope is not identifiable", **win}
     xm = float(np.mean(x))
     scale = max(float(np.std(y)), 100.0)
+    from scipy.optimize import least_squares
+
     res = least_squares(lambda c: (c[0] * (x - xm) + c[1] - y) / scale, x0=[0.0, float(np.median(y))],
                         loss="soft_l1")
     slope, c0 = float(res.x[0]), float(res.x[1])

@@ -12,10 +12,8 @@ import csv
 import re
 from pathlib import Path
 
-import pyarrow as pa
-import pyarrow.csv as pacsv
-
 from vehval.errors import InputFileError
+from vehval.io.arrow import float_values
 from vehval.io.budget import MAX_TEXT_BYTES, check_file_size
 from vehval.io.raw import RawTable, find_time_column, is_printable, is_time_header, split_headers
 from vehval.units import split_header
@@ -23,8 +21,6 @@ from vehval.units import split_header
 _DELIMS = ("\t", ";", ",")
 _DECIMAL_COMMA = re.compile(rb"(?:^|[;\t ])-?\d+,\d+(?:[;\t\r\n]|$)")
 _NUMBER = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
-#: pyarrow's default null spellings (kept default: a custom list slows parsing by half).
-_NULLS = set(pacsv.ConvertOptions().null_values)
 
 
 #: Most columns a data file may have (dyno and CAN logs have hundreds): refused before any
@@ -281,6 +277,9 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     if decimal is None:
         decimal = "," if delim != "," and _DECIMAL_COMMA.search(body[:4000]) else "."
     col_ids = [f"c{i}" for i in range(ncol)]
+    import pyarrow as pa  # imported here: the byte checks above do not need it
+    import pyarrow.csv as pacsv
+
     try:
         table = pacsv.read_csv(
             pa.BufferReader(body),
@@ -290,7 +289,7 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
                 column_types={c: pa.float64() for c in col_ids}, decimal_point=decimal))
     except pa.ArrowInvalid as exc:
         raise _locate_error(exc, body, delim, decimal, names, first_line, path) from None
-    data = {n: table.column(i).to_numpy() for i, n in enumerate(names)}
+    data = {n: float_values(table.column(i)) for i, n in enumerate(names)}
     time_name = find_time_column(names, units)
     return RawTable(path=path, fmt=fmt, headers=headers, names=names, units=units, data=data,
                     time_name=time_name, notes=notes,
@@ -301,6 +300,10 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
 def _locate_error(exc: Exception, body: bytes, delim: str, decimal: str, names: list[str],
                   first_line: int, path: Path) -> InputFileError:
     """Turn a pyarrow parse error into a message naming the line (and channel)."""
+    import pyarrow.csv as pacsv
+
+    # pyarrow's default null spellings (kept default: a custom list slows parsing by half)
+    nulls = set(pacsv.ConvertOptions().null_values)
     msg = str(exc)
     text = body.decode("utf-8", errors="replace").split("\n")
     m = re.search(r"column #(\d+)", msg)
@@ -316,7 +319,7 @@ def _locate_error(exc: Exception, body: bytes, delim: str, decimal: str, names: 
                                   f"has {len(names)}: fix or remove the line")
         if col is not None:
             cell = cells[col].strip().strip('"')
-            if cell in _NULLS:
+            if cell in nulls:
                 continue
             try:
                 float(cell.replace(",", ".") if decimal == "," else cell)

@@ -24,7 +24,7 @@ from vehval.io.readers import read_raw
 from vehval.io.template import FileSpec, Template, as_template
 from vehval.nomenclature import registry
 from vehval.test import Signal, Test, TestMeta
-from vehval.units import conversion, parse_unit
+from vehval.units import conversion, is_dimensionless
 
 __all__ = ["import_test", "check_time", "set_cycle", "speed_signals"]
 
@@ -214,7 +214,7 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
         assert ch.name is not None  # a kept channel is named (checked by ChannelSpec)
         sspec = reg.spec_of(ch.name)
         unit = ch.unit if ch.unit is not None else raw.unit_of(col)
-        if unit is None and not parse_unit(sspec.unit).dimensionless:
+        if unit is None and not is_dimensionless(sspec.unit):
             raise ConfigError(
                 f"{path.name}: channel '{key}' -> {ch.name}: no unit in the file header or the "
                 f"template: set files[{idx}].channels.{key}.unit (SI unit is {sspec.unit})")

@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pyarrow as pa
-import pyarrow.parquet as pq
 
 from vehval.errors import ConfigError, InputFileError
+from vehval.io.arrow import float_array, float_values
 from vehval.io.atomic import atomic_path
 from vehval.io.budget import check_decoded
 from vehval.io.delimited import MAX_COLUMNS, check_exists
@@ -25,6 +24,10 @@ from vehval.io.raw import RawTable, find_time_column
 from vehval.safe_yaml import load_json
 from vehval.test import Signal, Test, TestMeta
 from vehval.units import split_header
+
+if TYPE_CHECKING:  # pyarrow is imported where a Parquet file is read or written
+    import pyarrow as pa
+    import pyarrow.parquet as pq
 
 FORMAT = "vehval-test"
 FORMAT_VERSION = 1
@@ -34,11 +37,7 @@ _TIME_PREFIX = "time__"
 
 def _padded(values: np.ndarray, n: int) -> pa.Array:
     """float64 array of length ``n``: ``values`` then nulls (NaN samples stay NaN)."""
-    full = np.full(n, np.nan)
-    full[:values.size] = values
-    mask = np.zeros(n, dtype=bool)
-    mask[values.size:] = True
-    return pa.array(full, type=pa.float64(), mask=mask if values.size < n else None)
+    return float_array(values, n)
 
 
 def _field_meta(**kw) -> dict[bytes, bytes]:
@@ -47,6 +46,8 @@ def _field_meta(**kw) -> dict[bytes, bytes]:
 
 def table_of_test(test: Test) -> pa.Table:
     """The Test as a wide Arrow table with per-field and file metadata (see module doc)."""
+    import pyarrow as pa
+
     groups = test.time_bases()
     n_max = max((test[names[0]].time.size for names in groups.values()), default=0)
     fields, arrays, info = [], [], {}
@@ -84,6 +85,8 @@ def write_test(test: Test, path: str | Path) -> Path:
     Path
         The file written.
     """
+    import pyarrow.parquet as pq
+
     path = Path(path)
     table = table_of_test(test)
     with atomic_path(path) as tmp:
@@ -140,6 +143,9 @@ def _declared_bytes(md: pq.FileMetaData, schema: pa.Schema) -> float:
 
 
 def _open(path: str | Path) -> tuple[Path, pa.Table]:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
     path = Path(path)
     check_exists(path)
     try:
@@ -176,6 +182,8 @@ def read_test(path: str | Path) -> Test:
     InputFileError
         When the file is missing, unreadable or not a vehval Test file.
     """
+    import pyarrow as pa
+
     path, table = _open(path)
     info = _vehval_meta(table.schema, path)
     if info is None:
@@ -226,11 +234,11 @@ def _test_from(table: pa.Table, info: dict) -> Test:
     test = Test(meta=meta)
     for label, g in info["groups"].items():
         n = int(g["n"])
-        t = table.column(f"{_TIME_PREFIX}{label}").to_numpy()[:n]
+        t = float_values(table.column(f"{_TIME_PREFIX}{label}"))[:n]
         for name in g["signals"]:
             fmeta = {k.decode(): v.decode() for k, v in (table.schema.field(name).metadata or {}).items()}
             test.add(Signal(
-                name=name, time=t.copy(), values=table.column(name).to_numpy()[:n].copy(),
+                name=name, time=t.copy(), values=float_values(table.column(name))[:n].copy(),
                 unit=fmeta.get("unit", ""), source=fmeta.get("source", ""),
                 raw_name=fmeta.get("raw_name") or None, raw_unit=fmeta.get("raw_unit") or None,
                 file=fmeta.get("file") or None, resample=fmeta.get("resample") or "linear",
@@ -246,6 +254,8 @@ def read_parquet_raw(path: str | Path, **_opts) -> RawTable:
     give the unit) and its time column, if any. Timestamp columns become seconds since the
     first sample; other non-numeric columns are skipped with a note.
     """
+    import pyarrow as pa
+
     path, table = _open(path)
     info = _vehval_meta(table.schema, path)
     notes: list[str] = []
@@ -253,12 +263,12 @@ def read_parquet_raw(path: str | Path, **_opts) -> RawTable:
         names, units, data, times = [], [], {}, {}
         for label, g in info["groups"].items():
             n = int(g["n"])
-            t = table.column(f"{_TIME_PREFIX}{label}").to_numpy()[:n]
+            t = float_values(table.column(f"{_TIME_PREFIX}{label}"))[:n]
             for name in g["signals"]:
                 f = table.schema.field(name)
                 names.append(name)
                 units.append(((f.metadata or {}).get(b"unit") or b"").decode() or None)
-                data[name] = table.column(name).to_numpy()[:n].astype(float)
+                data[name] = float_values(table.column(name))[:n].astype(float)
                 times[name] = t
         headers = [f"{n}[{u}]" if u else n for n, u in zip(names, units)]
         return RawTable(path=path, fmt="parquet", headers=headers, names=names, units=units,
@@ -274,7 +284,7 @@ def read_parquet_raw(path: str | Path, **_opts) -> RawTable:
             unit = "s"
             notes.append(f"column '{f.name}': timestamps converted to seconds since the first row")
         elif pa.types.is_integer(f.type) or pa.types.is_floating(f.type) or pa.types.is_boolean(f.type):
-            values = col.cast(pa.float64()).to_numpy()
+            values = float_values(col.cast(pa.float64()))
         else:
             notes.append(f"column '{f.name}' ({f.type}) is not numeric: skipped")
             continue

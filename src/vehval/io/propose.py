@@ -18,7 +18,7 @@ from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
 from vehval.io.template import ChannelSpec, FileFormat, FileSpec, Template, TimeSpec, as_template
 from vehval.nomenclature import registry
-from vehval.units import conversion, parse_unit
+from vehval.units import conversion, dimension, parse_unit
 
 __all__ = ["propose_template", "check_template", "CheckReport", "match_channel", "source_tag",
            "entry_for_file", "find_channel", "unit_known", "unit_from_name"]
@@ -147,7 +147,7 @@ def unit_known(unit: str | None) -> bool:
     if unit is None:
         return True
     try:
-        parse_unit(unit)
+        dimension(unit)
         return True
     except UnitError:
         return False

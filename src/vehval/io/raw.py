@@ -10,13 +10,11 @@ import numpy as np
 
 from vehval.errors import InputFileError
 from vehval.nomenclature import normalise_raw, registry
-from vehval.units import parse_unit, split_header, ureg
+from vehval.units import dimension, split_header
 
 #: Normalised raw names recognised as a time column (besides the registry's ``time`` aliases).
 TIME_NAMES = frozenset({"time", "t", "timestamp", "elapsed time", "time s", "time sec", "zeit",
                         "time stamp", "relative time", "elapsed"})
-
-_TIME_DIM = ureg.Unit("second").dimensionality
 
 
 def is_time_header(name: str, unit: str | None) -> bool:
@@ -27,7 +25,7 @@ def is_time_header(name: str, unit: str | None) -> bool:
     if unit is None:
         return True
     try:
-        return parse_unit(unit).dimensionality == _TIME_DIM
+        return dimension(unit) == dimension("s")
     except Exception:  # noqa: BLE001 - an unparsable unit simply is not a time unit
         return False
 

@@ -31,7 +31,7 @@ from vehval.errors import ConfigError, SignalError, UnitError
 from vehval.io.atomic import write_text_atomic
 from vehval.nomenclature import registry
 from vehval.safe_yaml import read_yaml
-from vehval.units import conversion, parse_unit, ureg
+from vehval.units import conversion, dimension
 
 __all__ = [
     "AccuracySpec",
@@ -454,10 +454,10 @@ def semantic_errors(t: Template) -> list[str]:
     reg = registry()
     errors: list[str] = []
     seen: dict[str, str] = {}
-    time_dim = ureg.Unit("second").dimensionality
+    time_dim = dimension("s")
     for fi, f in enumerate(t.files):
         try:
-            if parse_unit(f.time.unit).dimensionality != time_dim:
+            if dimension(f.time.unit) != time_dim:
                 errors.append(f"files[{fi}].time.unit: '{f.time.unit}' is not a time unit")
         except UnitError as exc:
             errors.append(f"files[{fi}].time.unit: {exc}")

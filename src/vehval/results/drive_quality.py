@@ -43,7 +43,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.ndimage import maximum_filter1d, minimum_filter1d
 
 from vehval.constants import MPH_M_PER_S
 
@@ -148,12 +147,20 @@ def _ratio_pct(a: float | None, b: float | None) -> float | None:
     return (a / b - 1.0) * 100.0
 
 
+def _window_extremes(v: np.ndarray, half: int) -> tuple[np.ndarray, np.ndarray]:
+    """Highest and lowest of ``v`` over ``[i - half, i + half]`` at every ``i``, the end
+    samples repeated beyond the ends (scipy.ndimage's ``maximum_filter1d`` and
+    ``minimum_filter1d`` with ``mode="nearest"``, without importing scipy: 0.3 s)."""
+    windows = np.lib.stride_tricks.sliding_window_view(np.pad(v, half, mode="edge"), 2 * half + 1)
+    return windows.max(axis=1), windows.min(axis=1)
+
+
 def _violations(t: np.ndarray, vd: np.ndarray, vt: np.ndarray) -> tuple[int, float]:
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
     half = max(1, round(WINDOW_TIME_S / dt))
-    size = 2 * half + 1
-    hi = maximum_filter1d(vt, size, mode="nearest") + WINDOW_SPEED_MPS
-    lo = minimum_filter1d(vt, size, mode="nearest") - WINDOW_SPEED_MPS
+    vmax, vmin = _window_extremes(vt, half)
+    hi = vmax + WINDOW_SPEED_MPS
+    lo = vmin - WINDOW_SPEED_MPS
     bad = (vd > hi) | (vd < lo)
     if not bad.any():
         return 0, 0.0

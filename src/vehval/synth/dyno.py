@@ -23,7 +23,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 
 from vehval.errors import VehvalError
 from vehval.io.atomic import atomic_dir, atomic_path, write_text_atomic
@@ -240,6 +239,8 @@ def make_virtual_test(vehicle: str | Path = "prius_2004", cycle: Any = "udds", s
         template = template_for(table, datas, consts, veh, vehicle, cyc.name, seed,
                                 _faults_label(faults), FILE_SUFFIX)
         template.save(stage / "template.yaml")
+        import pandas as pd
+
         frame = pd.DataFrame({"time": grid, **{b: clean[b] for b in sorted(clean)}})
         with atomic_path(stage / "clean.parquet") as tmp:
             frame.to_parquet(tmp, index=False)

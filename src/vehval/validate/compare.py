@@ -17,10 +17,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from vehval.errors import SignalError
 from vehval.fuels import resolve_fuel
@@ -36,6 +35,9 @@ from vehval.validate.quantities import (
     totals,
     uniform_grid,
 )
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: Effort and flow signals compared pointwise: base name -> (label, display unit, scale SI->display).
 COMPONENT_SIGNALS: dict[str, tuple[str, str, float]] = {
@@ -385,6 +387,8 @@ def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float =
         st_s, sp_s = M.on_off_events(grid, on_s)
         starts = M.match_events(st_t, st_s, window_s)
         stops = M.match_events(sp_t, sp_s, window_s)
+    import pandas as pd
+
     overlays = pd.DataFrame(cols)
     return Comparison(test_id=test.meta.test_id, cycle=test.meta.cycle, totals_test=tot_t,
                       totals_sim=tot_s, signals=sig_metrics, on_method=method,
