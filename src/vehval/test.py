@@ -324,3 +324,24 @@ class Test:
                 arrays[key] = sig.time
             groups.setdefault(key, []).append(sig.name)
         return groups
+
+
+#: Name prefixes of the components only a hybrid has (battery, MG1, MG2, planetary gear,
+#: boost converter).
+HYBRID_PREFIXES = ("ess_", "mot_", "gen_", "pg_", "boost_")
+
+
+def hybrid_signals(test: Test, *, measured_only: bool = True) -> list[str]:
+    """Names of the hybrid-component signals of ``test`` (measured ``*_test`` ones only
+    by default), sorted."""
+    return sorted(s.name for s in test if s.name.startswith(HYBRID_PREFIXES)
+                  and (not measured_only or s.name.endswith("_test")))
+
+
+def is_hybrid(test: Test, vehicle: object = None, *, measured_only: bool = True) -> bool:
+    """True for a hybrid: the vehicle file's ``architecture`` when one is given, else a
+    hybrid-component signal in the test (the one rule every stage asks)."""
+    arch = getattr(vehicle, "architecture", None)
+    if arch is not None:
+        return str(arch) != "conventional"
+    return bool(hybrid_signals(test, measured_only=measured_only))

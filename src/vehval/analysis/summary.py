@@ -35,7 +35,7 @@ from vehval.analysis.replay import base_params, rule_vector, score_rule
 from vehval.analysis.soc import fit_soc_regulation
 from vehval.analysis.thresholds import ESTIMATED, fit_rule, lag_grids
 from vehval.jsonsafe import clean
-from vehval.test import Test
+from vehval.test import Test, is_hybrid
 
 CONTROL_VERSION = 1
 
@@ -216,7 +216,9 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  
     n_switch = int(np.sum(es.on[1:] != es.on[:-1]))
     demand_info: dict = {}
     replay_inputs: dict = {}
-    if es.valid.any() and inp.has("p_whl") and n_switch >= 2:
+    # the engine on/off rule is a hybrid's: a conventional car's engine runs while it drives
+    hybrid = _is_hybrid_drive(test, vehicle, es, inp)
+    if hybrid and es.valid.any() and inp.has("p_whl") and n_switch >= 2:
         lead = None
         if inp.sources.get("tractive force"):
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -253,6 +255,13 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  
             "lags": lag_grids(inp.dt, lag_center_s=lag_center),
             "pdis_av": f64(np.full(inp.n, np.inf) if pdis_av is None
                            else np.where(np.isfinite(pdis_av), pdis_av, np.inf))}
+    elif not hybrid:
+        findings.append(Finding("info", "engine state",
+                                "engine on/off rule not estimated: a conventional vehicle (its "
+                                "vehicle file says so, or no battery, motor or generator signal "
+                                "and the engine runs whenever the car moves)"))
+        events = event_table(inp.t, es.on, es.valid, inp.v, inp.p_whl, soc, ess_pwr,
+                             base, aux, 0.0)
     else:
         findings.append(Finding("warning", "engine state",
                                 "engine on/off rule not estimated: needs engine speed or fuel rate, "
@@ -279,6 +288,20 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  
                            "sources": inp.sources, "soc": {"method": se.method, **se.info},
                            "demand": demand_info},
         replay_inputs=replay_inputs)
+
+
+#: Engine-off time while moving [s] (above ``ELECTRIC_DRIVE_MIN_MPS``) that shows a hybrid
+#: when neither a vehicle file nor a battery, motor or generator signal says so.
+ELECTRIC_DRIVE_MIN_S, ELECTRIC_DRIVE_MIN_MPS = 5.0, 2.0
+
+
+def _is_hybrid_drive(test: Test, vehicle: Any, es: Any, inp: Any) -> bool:
+    """A hybrid: the vehicle file says so, or a hybrid-component signal, or the engine stays
+    off for a while as the car moves (no conventional car drives with its engine stopped)."""
+    if getattr(vehicle, "architecture", None) is not None or is_hybrid(test):
+        return is_hybrid(test, vehicle)
+    moving_off = es.valid & ~es.on & (np.nan_to_num(inp.v) > ELECTRIC_DRIVE_MIN_MPS)
+    return float(np.sum(moving_off)) * float(inp.dt) >= ELECTRIC_DRIVE_MIN_S
 
 
 def _on_by_soc(soc: np.ndarray, on: np.ndarray, valid: np.ndarray) -> list[dict]:

@@ -17,7 +17,7 @@ import numpy as np
 
 from vehval.errors import SignalError
 from vehval.fuels import resolve_fuel
-from vehval.test import Test
+from vehval.test import Test, hybrid_signals
 
 if TYPE_CHECKING:
     from vehval.fuels import ResolvedFuel
@@ -29,7 +29,6 @@ REQUIRED = {
     "eng_spd_out": "engine speed",
     "fuel_rate": "fuel mass rate",
 }
-HYBRID_BASES = ("mot_", "gen_", "ess_", "pg_", "boost_")
 
 
 class IdentificationError(SignalError):
@@ -90,7 +89,7 @@ def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
         The test is a hybrid, or lacks one of the signals in :data:`REQUIRED`.
     """
     where = test.meta.files[0] if test.meta.files else test.meta.test_id
-    hybrid = sorted({s.name for s in test if s.name.startswith(HYBRID_BASES)})
+    hybrid = hybrid_signals(test, measured_only=False)
     if hybrid:
         raise IdentificationError(
             f"{where}: this is a hybrid test (it has {', '.join(hybrid[:3])}): conventional "

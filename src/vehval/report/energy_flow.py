@@ -27,11 +27,9 @@ import plotly.graph_objects as go
 
 from vehval.report.plots import PlotSkipped, energy_flows, pick
 from vehval.test import Test
+from vehval.test import is_hybrid as test_is_hybrid
 
-__all__ = ["HYBRID_BASES", "conventional_audit", "conventional_sankey", "is_hybrid"]
-
-#: Component prefixes only a hybrid has (battery, MG1, MG2, planetary gear, boost converter).
-HYBRID_BASES = ("ess_", "mot_", "gen_", "pg_", "boost_")
+__all__ = ["conventional_audit", "conventional_sankey", "is_hybrid"]
 #: Sinks of the conventional audit: key -> label, in reading order.
 SINKS = {
     "engine_loss_j": "Engine losses",
@@ -44,11 +42,9 @@ SINKS = {
 
 
 def is_hybrid(test: Test, vehicle: Any = None) -> bool:
-    """True for a hybrid: the vehicle file's architecture, else a hybrid component signal."""
-    arch = getattr(vehicle, "architecture", None)
-    if arch is not None:
-        return str(arch) != "conventional"
-    return any(s.name.startswith(HYBRID_BASES) for s in test)
+    """True for a hybrid: the vehicle file's architecture, else a hybrid component signal
+    (measured or calculated; :func:`vehval.test.is_hybrid`)."""
+    return test_is_hybrid(test, vehicle, measured_only=False)
 
 
 def _mass_kg(test: Test) -> float | None:

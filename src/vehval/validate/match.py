@@ -19,11 +19,8 @@ from typing import Any
 
 from vehval.conditions import TestConditions, vehicle_value
 from vehval.fuels import resolve_fuel, vehicle_fuel
-from vehval.test import Test
+from vehval.test import Test, hybrid_signals
 
-#: Measured signal bases only a hybrid has.
-HYBRID_BASES = ("ess_curr", "ess_volt", "ess_soc", "ess_pwr", "mot_spd_out", "mot_trq_out",
-                "gen_spd_out", "gen_trq_out")
 FUEL_DENSITY_TOL = 0.07
 MASS_TOL = 0.25
 
@@ -50,7 +47,7 @@ class VehicleMatch:
 
 def has_hybrid_signals(test: Test) -> bool:
     """True when the test measured a battery, motor or generator quantity."""
-    return any(test.by_base(b, "test") for b in HYBRID_BASES)
+    return bool(hybrid_signals(test))
 
 
 def _fuel_kind(rho: float) -> str:
