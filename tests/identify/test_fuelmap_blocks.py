@@ -53,3 +53,48 @@ def test_blocks_hold_each_tests_fuel_under_a_wandering_delay():
         errs[block_s] = max(abs(e) for e in fm.total_error_rel.values())
     assert errs[10.0] < 0.01
     assert errs[10.0] < errs[None]
+
+
+def _bound(lhv):
+    from vehval.identify.fuelmap import ETA_MAX
+    return 1.0 / (ETA_MAX * lhv)
+
+
+def test_bounds_hold_over_the_speed_range_and_leave_a_physical_fit_alone():
+    from vehval.identify.fuelmap import W_SCALE
+
+    pairs = [_trace(5, 1.6), _trace(6, 1.6)]
+    trs, pws = [a for a, _ in pairs], [b for _, b in pairs]
+    free = fit_fuel_map(trs, pws, IDLE, meter=(1.6, 1.0), cut_rad_s=1.5 * IDLE)
+    # TRUE burns at least 5e-8 kg/J of added power (46.7 % marginal efficiency at 42.8 MJ/kg):
+    # a bound at 50 % leaves the fit as it is
+    same = fit_fuel_map(trs, pws, IDLE, meter=(1.6, 1.0), cut_rad_s=1.5 * IDLE,
+                        max_speed_rad_s=450.0, lhv_j_per_kg=42.8e6)
+    for k in ("c0", "c1", "c2", "d0", "d1"):
+        assert same.willans[k] == pytest.approx(free.willans[k], rel=1e-6, abs=1e-15)
+    # with a fuel of 20 MJ/kg the same data would be 53-100 % efficient at the margin: the
+    # bound binds, and holds everywhere from half the idle speed to the maximum speed
+    lhv = 20e6
+    fm = fit_fuel_map(trs, pws, IDLE, meter=(1.6, 1.0), cut_rad_s=1.5 * IDLE,
+                      max_speed_rad_s=450.0, lhv_j_per_kg=lhv)
+    c = fm.willans
+    w = np.linspace(0.5 * IDLE, 450.0, 50)
+    assert np.all(c["d0"] + c["d1"] * w >= _bound(lhv) * (1 - 1e-6))
+    assert np.all(c["c1"] + 2 * c["c2"] * w >= -1e-12 / W_SCALE)
+    assert fm.r2 < free.r2   # the data wanted less
+
+
+def test_zero_power_fuel_does_not_fall_with_speed():
+    # data whose friction fuel dips with speed in the measured range: the fitted intercept
+    # stays monotone (flat where the data pull it down)
+    dips = []
+    for seed in (7, 8):
+        tr, p = _trace(seed, 1.6)
+        tr.fuel = tr.fuel - _meter((4e-8 * (tr.w_eng - 200.0) ** 2 * (tr.v > 0.05))[:, None],
+                                   tr.dt, 1.6, 1.0)[:, 0]
+        dips.append((tr, p))
+    fm = fit_fuel_map([a for a, _ in dips], [b for _, b in dips], IDLE, meter=(1.6, 1.0),
+                      cut_rad_s=1.5 * IDLE, max_speed_rad_s=450.0, lhv_j_per_kg=42.8e6)
+    c = fm.willans
+    w = np.linspace(0.5 * IDLE, 450.0, 50)
+    assert np.all(np.diff(c["c0"] + c["c1"] * w + c["c2"] * w * w) >= -1e-12)

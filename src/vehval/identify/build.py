@@ -156,7 +156,10 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
 
     drag, fm = fit_drag(traces, lambda d: [power(t, g, d) for t, g in zip(traces, gears)],
                         idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
-                        a.driven_axle_loss_share, drag_evidence)
+                        a.driven_axle_loss_share, drag_evidence,
+                        {"max_speed_rad_s": a.max_speed_rpm * RPM,
+                         "lhv_j_per_kg": a.fuel_lhv_j_per_kg
+                         or (None if fuel is None else fuel.lhv_j_per_kg)})
     pw = fm.points["p"]
     a.floor_full_load(float(np.percentile(pw / np.maximum(fm.points["w"], 1.0), 99.5)))
     spd, trq, table, tmax = _fuel_table(fm, a)
