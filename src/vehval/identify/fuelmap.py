@@ -232,7 +232,7 @@ def _solve_blocks(xs, ys, masks, n: int, speeds: tuple[float, float] | None = No
     against one fitted on smooth ones. Over blocks several times the meter's delay the
     timing error is an edge effect; the fitted quantity is the fuel mass, what a
     prediction is judged on. On the Cruze's ten-pair cross-validation (5 s blocks) it
-    lowers the mean |error| but not the coverage of the intervals, so it is not the
+    lowers the mean |error|, but the intervals' coverage falls below 90 %, so it is not the
     default (docs/identification.md, "What limits accuracy").
     """
     xb, yb = [], []
