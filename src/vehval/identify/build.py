@@ -18,7 +18,7 @@ import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.fuels import known_fuels, resolve_fuel, table_fuel
-from vehval.identify.fuelmap import FuelMapFit, engine_power
+from vehval.identify.fuelmap import ETA_MAX, FuelMapFit, engine_power
 from vehval.identify.gears import (
     GearFit,
     assign_gears,
@@ -156,7 +156,10 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
 
     drag, fm = fit_drag(traces, lambda d: [power(t, g, d) for t, g in zip(traces, gears)],
                         idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
-                        a.driven_axle_loss_share, drag_evidence)
+                        a.driven_axle_loss_share, drag_evidence,
+                        {"max_speed_rad_s": a.max_speed_rpm * RPM,
+                         "lhv_j_per_kg": a.fuel_lhv_j_per_kg
+                         or (None if fuel is None else fuel.lhv_j_per_kg)})
     pw = fm.points["p"]
     a.floor_full_load(float(np.percentile(pw / np.maximum(fm.points["w"], 1.0), 99.5)))
     spd, trq, table, tmax = _fuel_table(fm, a)
@@ -200,7 +203,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "sources": {
                 "speed_rpm": "grid chosen to cover idle to the maximum speed",
                 "torque_nm": "grid chosen to cover the full-load curve",
-                "fuel_rate_g_per_s": f"identified Willans surface (fuel = c0 + c1 w + c2 w² + (d0 + d1 w) P + e P²) from {tests}: {fq}; measured engine power {fm.power_range_w[0] / 1e3:.1f}-{fm.power_range_w[1] / 1e3:.1f} kW, beyond it extrapolated",
+                "fuel_rate_g_per_s": f"identified Willans surface (fuel = c0 + c1 w + c2 w² + (d0 + d1 w) P + e P², bounded up to the maximum speed: zero-power fuel not falling with speed, fuel per power at least 1 / ({ETA_MAX:g} LHV)) from {tests}: {fq}; measured engine power {fm.power_range_w[0] / 1e3:.1f}-{fm.power_range_w[1] / 1e3:.1f} kW, beyond it extrapolated",
                 "max_torque_nm": a.source("full_load"),
                 "max_power_w": a.source("rated_power_kw"),
                 "max_speed_rpm": a.source("max_speed_rpm"),

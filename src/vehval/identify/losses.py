@@ -67,26 +67,30 @@ def dyno_losses(traces: list[Trace], set_a: float, set_b: float) -> tuple[float,
 
 
 def fit_drag(traces: list[Trace], power_fn, idle_rad_s: float, set_a: float,
-             set_b: float, share: float, evidence: bool = True) -> tuple[DragFit, FuelMapFit]:
+             set_b: float, share: float, evidence: bool = True,
+             limits: dict | None = None) -> tuple[DragFit, FuelMapFit]:
     """Driveline drag as ``share`` of the dyno losses, the fuel model fitted with it, and
     the fuel model's 5 s R² over shares 0-1 as evidence (see the module docstring).
 
     ``evidence=False`` skips the R² curve (cross-validation runs many identifications).
     ``power_fn(drag)`` returns the rebuilt engine powers [W] of ``traces`` for a drag
-    (A_d, B_d).
+    (A_d, B_d). ``limits`` (``max_speed_rad_s``, ``lhv_j_per_kg``) go to
+    :func:`.fuelmap.fit_fuel_map`.
     """
+    lim = limits or {}
     loss = dyno_losses(traces, set_a, set_b)
     if loss is None or loss[0] + 30.0 * loss[1] <= 0.0:
         note = ("no target road load in the template: no drag" if loss is None else
                 "target below the set coefficients: no drag")
-        fm = fit_fuel_map(traces, power_fn((0.0, 0.0)), idle_rad_s)
+        fm = fit_fuel_map(traces, power_fn((0.0, 0.0)), idle_rad_s, **lim)
         da, db = (0.0, 0.0) if loss is None else loss
         return DragFit(0.0, 0.0, 0.0, da, db, {0.0: fm.r2_5s}, note), fm
     da, db = max(loss[0], 0.0), max(loss[1], 0.0)
-    fm = fit_fuel_map(traces, power_fn((share * da, share * db)), idle_rad_s)
+    fm = fit_fuel_map(traces, power_fn((share * da, share * db)), idle_rad_s, **lim)
     meter, cut = (fm.delay_s, fm.tau_s), fm.fuel_cut_speed_rad_s
     curve = {s: fm.r2_5s if s == share else
-             fit_fuel_map(traces, power_fn((s * da, s * db)), idle_rad_s, meter, cut).r2_5s
+             fit_fuel_map(traces, power_fn((s * da, s * db)), idle_rad_s, meter, cut,
+                          **lim).r2_5s
              for s in (DRAG_SHARES if evidence else (share,))}
     lo, hi = min(curve.values()), max(curve.values())
     note = (f"assumed share {share:.2f} of the dyno losses (target - set: {da:.1f} N + "
