@@ -113,3 +113,44 @@ def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
     # its calculated battery power over the voltage
     # QA drops the sign-flipped current; the analysis takes it back and fixes its sign
     assert "coulomb counting of ess_curr_test" in d["inputs"]["soc"]["method"]
+
+
+def _hybrid_like_csv(tmp_path):
+    t = np.arange(0, 400, 0.1)
+    v = 12 + 8 * np.sin(t / 20)
+    a = np.gradient(v, t)
+    frc = 1300 * a + 90 + 0.36 * v * v
+    rpm = np.where(frc * v > 8000, 1500.0, 0.0)
+    lines = ["Time,Speed,Force,Engine"] + [f"{a_:.1f},{b:.3f},{c:.1f},{d:.0f}"
+                                           for a_, b, c, d in zip(t, v, frc, rpm)]
+    (tmp_path / "run.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "t.yaml").write_text(
+        "template_version: 1\nfiles:\n  - source: dyno\n    format: csv\n    time: {column: Time, unit: s}\n"
+        "    channels:\n      Speed: {name: veh_spd_test, unit: m/s}\n      Force: {name: veh_frc_in_test, unit: N}\n"
+        "      Engine: {name: eng_spd_out_test, unit: rpm}\n")
+
+
+def test_the_rule_fit_announces_its_kernel_and_a_conventional_car_has_no_rule(tmp_path,
+                                                                              monkeypatch):
+    """The engine-rule replay kernel says it compiles (first run) before the rule fit; a car
+    whose engine runs whenever it moves gets no hybrid rule fit at all."""
+    from vehval import numba_cache
+    from vehval.cli import main
+
+    asked = []
+    monkeypatch.setattr(numba_cache, "compile_notice",
+                        lambda module, function, what, **kw: asked.append((module, function)))
+    _hybrid_like_csv(tmp_path)
+    assert main(["analyze", str(tmp_path / "run.csv"), "-t", str(tmp_path / "t.yaml"), "-o",
+                 str(tmp_path / "out"), "--no-qa"]) == 0
+    assert ("supervisor", "replay_rule") in asked
+    # the same drive with the engine always running: a conventional car
+    text = (tmp_path / "run.csv").read_text().splitlines()
+    rows = [text[0]] + [",".join(r.split(",")[:3] + ["1500"]) for r in text[1:]]
+    (tmp_path / "run.csv").write_text("\n".join(rows) + "\n")
+    asked.clear()
+    assert main(["analyze", str(tmp_path / "run.csv"), "-t", str(tmp_path / "t.yaml"), "-o",
+                 str(tmp_path / "conv"), "--no-qa"]) == 0
+    d = json.loads((tmp_path / "conv" / "control.json").read_text())
+    assert asked == [] and d["rule_agreement"] is None and d["controller"] == {}
+    assert any("conventional vehicle" in f["message"] for f in d["findings"])

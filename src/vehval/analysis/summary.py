@@ -228,6 +228,9 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  
                           eng_spd=inp.eng_spd, pdis_lim=pd_lim, lead_steps=lead or 0)
         demand_info = dem.info
         lag_center = (dem.info.get("median_spin_up_s"), dem.info.get("median_spin_down_s"))
+        from vehval.numba_cache import compile_notice
+
+        compile_notice("supervisor", "replay_rule", "engine-rule replay kernel")
         fit = fit_rule(es.on, es.valid, dem.p, inp.v, soc, inp.dt, base, aux_w=aux,
                        pdis_av=pdis_av, lag_center_s=lag_center)
         controller.update(fit.estimated)
