@@ -1,7 +1,7 @@
 """The real EPA Test Car Lists (2016, 2017, 2019): every file reads; values match the raw text.
 
-Skips cleanly when the shared data directory is absent (env VEHVAL_SHARED_DATA or
-``<repo>/../shared/data/real``).
+Skips cleanly when the shared data directory is absent (env VEHVAL_SHARED_DATA, the shared
+``data`` directory, or ``<repo>/../shared/data``; its ``real/`` folder holds the files).
 """
 
 from __future__ import annotations
@@ -17,7 +17,10 @@ from vehval.epa import apply_selector, plan_for, read_lists, read_test_car_list
 pytestmark = pytest.mark.realdata
 
 REPO = Path(__file__).resolve().parents[2]
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data" / "real")
+_SHARED = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data")
+#: VEHVAL_SHARED_DATA names the shared `data` directory (as in every test); its `real/`
+#: folder given directly is accepted too.
+REAL = _SHARED / "real" if (_SHARED / "real").is_dir() else _SHARED
 EPA = REAL / "epa_test_car_list"
 
 if not EPA.is_dir():

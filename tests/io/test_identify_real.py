@@ -21,7 +21,10 @@ from vehval.io.readers import read_raw
 pytestmark = pytest.mark.realdata
 
 REPO = Path(__file__).resolve().parents[2]
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data" / "real")
+_SHARED = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data")
+#: VEHVAL_SHARED_DATA names the shared `data` directory (as in every test); its `real/`
+#: folder given directly is accepted too.
+REAL = _SHARED / "real" if (_SHARED / "real").is_dir() else _SHARED
 CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 CAMRY = REAL / "d3_2018_toyota_camry_1hz_subset"
 

@@ -1,8 +1,8 @@
 """Real public data: every file of the three datasets imports; SI values match hand conversion
 of values read straight from the raw text (independent of the reader).
 
-Skips cleanly when the shared data directory is absent (env VEHVAL_SHARED_DATA or
-``<repo>/../shared/data/real``).
+Skips cleanly when the shared data directory is absent (env VEHVAL_SHARED_DATA, the shared
+``data`` directory, or ``<repo>/../shared/data``; its ``real/`` folder holds the files).
 """
 
 from __future__ import annotations
@@ -21,7 +21,10 @@ from vehval.io.template import load_template
 pytestmark = pytest.mark.realdata
 
 REPO = Path(__file__).resolve().parents[2]
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data" / "real")
+_SHARED = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data")
+#: VEHVAL_SHARED_DATA names the shared `data` directory (as in every test); its `real/`
+#: folder given directly is accepted too.
+REAL = _SHARED / "real" if (_SHARED / "real").is_dir() else _SHARED
 CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 CAMRY = REAL / "d3_2018_toyota_camry_1hz_subset"
 PRIUS = REAL / "obd_2014_toyota_prius_c"
