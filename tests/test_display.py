@@ -67,3 +67,16 @@ def test_keyed_result_values():
     assert display.format_keyed("fuel_economy_mpg", 54.8) == "54.8"
     assert display.number(float("nan")) == "n/a"
     assert display.number(-1e-6) == "-1e-06" and display.number(12345.6) == "12\u2009346"
+
+
+def test_keyed_compound_units_are_not_read_as_their_denominator():
+    # the LHV was shown as '9.436e+07 lb' and road-load B as '27.59 mph' (the key's last token)
+    assert display.format_keyed("fuel_lhv_j_per_kg", 42.8e6) == "42.8 MJ/kg"
+    assert display.format_keyed("road_load_b_n_per_mps", 12.334, system_name="us") == "1.24 lbf/mph"
+    assert display.format_keyed("road_load_b_n_per_mps", 12.334,
+                                system_name="metric") == "12.33 N/(m/s)"
+    assert display.format_keyed("road_load_c_n_per_mps2", 0.4,
+                                system_name="us") == "0.01797 lbf/mph²"
+    assert display.format_keyed("fuel_density_kg_per_m3", 851.0) == "851 kg/m³"
+    assert display.format_keyed("idle_fuel_g_per_kg", 2.5) == "2.5"       # unknown: number only
+    assert display.format_keyed("fuel_rate_kg_per_s", 1e-3) == "1 g/s"    # compound SI suffix

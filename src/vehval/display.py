@@ -244,14 +244,42 @@ KEY_SUFFIX_UNITS: dict[str, str] = {
 }
 
 
+#: Suffixes of compound keys (``fuel_lhv_j_per_kg``, ``road_load_b_n_per_mps``...) -> system
+#: -> display unit. The last token of a ``_per_`` key (``_kg`` of ``_j_per_kg``) is a
+#: denominator, not the value's unit: such a key with no entry here shows its number only.
+KEY_SUFFIX_COMPOUND: dict[str, dict[str, DisplayUnit]] = {
+    "_j_per_kg": _same("MJ/kg", 1.0e-6),
+    "_kg_per_m3": _same("kg/m³"),
+    "_n_per_mps": {"us": DisplayUnit("lbf/mph", MPH_M_PER_S / LBF_N),
+                   "metric": DisplayUnit("N/(m/s)")},
+    "_n_per_mps2": {"us": DisplayUnit("lbf/mph²", MPH_M_PER_S ** 2 / LBF_N),
+                    "metric": DisplayUnit("N/(m/s)²")},
+}
+
+
 def format_keyed(key: str, value_si: float, *, system_name: str | None = None,
                  digits: int = 4) -> str:
-    """A value whose key names its SI unit by suffix (``distance_m``, ``fuel_energy_j``...).
+    """A value whose key names its SI unit by suffix (``distance_m``, ``fuel_energy_j``,
+    ``fuel_lhv_j_per_kg``...).
 
     Keys already in a display unit (``fuel_economy_mpg``, ``co2_g_per_km``,
-    ``fuel_consumption_l_per_100km``) and unknown suffixes keep their value unchanged.
+    ``fuel_consumption_l_per_100km``), unknown suffixes and ``_per_`` keys of no known
+    compound unit keep their value unchanged.
+
+    Examples
+    --------
+    >>> format_keyed("fuel_lhv_j_per_kg", 42.8e6)
+    '42.8 MJ/kg'
+    >>> format_keyed("road_load_b_n_per_mps", 12.334, system_name="us")
+    '1.24 lbf/mph'
     """
+    for suffix, row in sorted(KEY_SUFFIX_COMPOUND.items(), key=lambda kv: -len(kv[0])):
+        if key.endswith(suffix) and value_si is not None and math.isfinite(float(value_si)):
+            unit = row[system(system_name)]
+            return f"{number(float(unit.convert(float(value_si))), digits)} {unit.label}"
     for suffix in sorted(KEY_SUFFIX_UNITS, key=len, reverse=True):
+        if key.endswith(suffix) and key[: -len(suffix)].endswith("_per"):
+            break                        # a denominator (``_j_per_kg``): not the value's unit
         if key.endswith(suffix):
             return format_value(value_si, KEY_SUFFIX_UNITS[suffix], system_name=system_name,
                                 digits=digits)

@@ -114,13 +114,23 @@ def summary_section(test: Test, qa: dict, template: Any, title: str) -> Section:
         sec.tables += to_tables(qa["summary"], "QA summary", key="qa-summary")
     if m.constants:
         sec.tables.append(Table("Template constants", ["constant", "value"],
-                                [[k, v] for k, v in m.constants.items()], key="constants"))
+                                [[k, _constant(k, v)] for k, v in m.constants.items()],
+                                key="constants", note="SI in the template; shown in display units"))
     if m.notes:
         sec.notes += [str(n) for n in m.notes]
     sec.notes += [f"QA: {n}" for n in qa.get("notes") or []]
     if not qa:
         sec.notes.append("No QA result was given: the QA sections are empty.")
     return sec
+
+
+def _constant(key: str, value: Any) -> Any:
+    """A template constant in its display unit (the key names the SI unit)."""
+    from vehval.display import format_keyed
+
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return value
+    return format_keyed(key, float(value))
 
 
 # ----------------------------------------------------------------------------- import
