@@ -92,3 +92,29 @@ def test_cli_qa_writes_outputs(tmp_path, capsys):
     bad.write_text("template_version: 1\nfiles: []\n")
     assert main(["qa", str(f), "-t", str(bad), "-o", str(tmp_path / "o2")]) == 2
     assert not (tmp_path / "o2").exists()
+
+
+def test_cli_qa_counts_read_as_english(tmp_path, capsys):
+    """The count line says '1 finding (1 error, 0 warnings, ...)', never '1 findings'."""
+    import re
+
+    from vehval.cli import main
+    test = make_test(seed=42, obd=())
+    f = tmp_path / "t1_d3.txt"
+    _write_d3(f, test, {"Dyno_Speed": ("veh_spd_test", "m/s", 1.0),
+                        "Bty_Curr": ("veh_spd_test", "A", 0.0)})
+    tpl = tmp_path / "t.yaml"
+    tpl.write_text(
+        "template_version: 1\nfiles:\n"
+        "  - match: '*_d3.txt'\n    source: dyno\n    format: d3\n    time: {column: Time, unit: s}\n"
+        "    channels:\n      Dyno_Speed: {name: veh_spd_test, unit: m/s}\n"
+        "      Bty_Curr: {name: ess_curr_test, unit: A}\n")
+    assert main(["qa", str(f), "-t", str(tpl), "-o", str(tmp_path / "out")]) in (0, 4)
+    out = capsys.readouterr().out
+    doc = json.loads((tmp_path / "out" / "findings.json").read_text())
+    n = doc["summary"]["total"]
+    line = next(ln for ln in out.splitlines() if re.search(r": \d+ finding", ln))
+    assert re.search(rf": {n} finding{'' if n == 1 else 's'} \(", line), line
+    for word in ("error", "warning"):
+        k = int(re.search(rf"(\d+) {word}", line).group(1))
+        assert f"{k} {word}{'' if k == 1 else 's'}" in line, line

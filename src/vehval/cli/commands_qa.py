@@ -11,6 +11,11 @@ from vehval.cli.app import app
 from vehval.cli.options import bounded
 
 
+def _count(n: int, noun: str) -> str:
+    """``"1 finding"``, ``"0 errors"``, ``"3 warnings"``."""
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def _summary(d: dict, outdir: Path) -> dict:
     return {"test": d["test"], "outdir": str(outdir), "summary": d["summary"],
             "alignment": [{k: a[k] for k in ("source", "reference", "offset_s", "confidence",
@@ -75,10 +80,12 @@ def qa_cmd(
     sev = dict(s["by_severity"])
     for f in results.findings:
         sev[f.severity.value] = sev.get(f.severity.value, 0) + 1
-    extra = f", {len(results.findings)} of them from the results stage" if results.findings else ""
-    typer.echo(f"{result.test_id}: {s['total'] + len(results.findings)} findings "
-               f"({sev.get('error', 0)} error, {sev.get('warning', 0)} warning, "
-               f"{sev.get('info', 0)} info{extra}); "
+    n_res = len(results.findings)
+    extra = (f", {n_res} of them from the results stage" if n_res > 1 else
+             ", 1 from the results stage" if n_res else "")
+    typer.echo(f"{result.test_id}: {_count(s['total'] + n_res, 'finding')} "
+               f"({_count(sev.get('error', 0), 'error')}, "
+               f"{_count(sev.get('warning', 0), 'warning')}, {sev.get('info', 0)} info{extra}); "
                f"kept {s['kept']}, dropped {s['dropped']}, computed {s['computed']}")
     for a in summ["alignment"]:
         off = "n/a" if a["offset_s"] is None else f"{a['offset_s']:+.3f} s"
