@@ -196,3 +196,18 @@ def test_file_with_none_of_the_template_channels_is_an_error(tmp_path):
                    "    channels:\n      Dyno_Speed: {name: veh_spd_test, unit: mph}\n")
     with pytest.raises(InputFileError, match="none of the 1 channels.*wrong template"):
         import_test([f], tpl)
+
+
+def test_template_unit_note_only_when_the_units_differ(tmp_path):
+    """'degC' in the template for a header '[C]' (and 'percent' for '[%]') is the same unit:
+    no 'used instead of header unit' note; 'degF' for '[C]' is one."""
+    f = tmp_path / "r.txt"
+    f.write_text("Time[s]\tTest_Cell_Temp[C]\tTest_Cell_RH[%]\n0\t23\t40\n1\t23\t41\n")
+    text = ("files:\n  - source: dyno\n    channels:\n"
+            "      Test_Cell_Temp: {name: amb_temp_test, unit: degC}\n"
+            "      Test_Cell_RH: {name: amb_rh_test, unit: percent}\n")
+    test = import_test([f], _tmpl(tmp_path, text))
+    assert not [n for n in test.meta.notes if "used instead of header unit" in n]
+    assert test["amb_temp_test"].notes == [] and test["amb_rh_test"].notes == []
+    test = import_test([f], _tmpl(tmp_path, text.replace("unit: degC", "unit: degF"), "f.yaml"))
+    assert test["amb_temp_test"].notes == ["template unit 'degF' used instead of header unit 'C'"]

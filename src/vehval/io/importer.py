@@ -18,7 +18,7 @@ import numpy as np
 from vehval.errors import ConfigError, InputFileError, UnitError
 from vehval.fuels import resolve_fuel
 from vehval.io.paths import check_input_file
-from vehval.io.propose import entry_for_file, find_channel
+from vehval.io.propose import _same_unit, entry_for_file, find_channel
 from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
 from vehval.io.template import FileSpec, Template, as_template
@@ -251,9 +251,9 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
             sig_notes.extend(n.removeprefix("warning: ") for n in tn if TIME_REPAIRED in n)
             if ord_c is not None:
                 si = si[ord_c]
-        if ch.unit is not None and raw.unit_of(col) is not None and ch.unit != raw.unit_of(col):
-            sig_notes.append(f"template unit '{ch.unit}' used instead of header unit "
-                             f"'{raw.unit_of(col)}'")
+        hdr = raw.unit_of(col)            # 'degC' for a header 'C' is the same unit: no note
+        if ch.unit is not None and hdr is not None and not _same_unit(ch.unit, hdr):
+            sig_notes.append(f"template unit '{ch.unit}' used instead of header unit '{hdr}'")
         test.add(Signal(name=ch.name, time=time, values=si, unit=sspec.unit, source=spec.source,
                         raw_name=col, raw_unit=unit, file=str(path), resample=sspec.resample,
                         notes=sig_notes))
