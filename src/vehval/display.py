@@ -257,6 +257,52 @@ KEY_SUFFIX_COMPOUND: dict[str, dict[str, DisplayUnit]] = {
 }
 
 
+#: Result keys that are fractions (shown in %) and keys already in a display unit.
+KEY_FRACTIONS: frozenset[str] = frozenset({"soc_change"})
+_KEY_DISPLAY_SUFFIXES = {"_mpg": "mpg", "_l_per_100km": "L/100 km", "_g_per_km": "g/km"}
+
+
+def keyed_unit(key: str, *, system_name: str | None = None,
+               magnitude: float | None = None) -> DisplayUnit | None:
+    """Display unit of a value whose key names its unit by suffix (``distance_m``,
+    ``fuel_lhv_j_per_kg``, ``headline_mpg``, ``soc_change`` in %), ``None`` when the key
+    names none.
+
+    Parameters
+    ----------
+    magnitude : float, optional
+        Typical absolute value [SI]: picks kJ or MJ.
+    """
+    if key in KEY_FRACTIONS:
+        return _PERCENT
+    for suffix, label in _KEY_DISPLAY_SUFFIXES.items():
+        if key.endswith(suffix):
+            return DisplayUnit(label)
+    for suffix, row in sorted(KEY_SUFFIX_COMPOUND.items(), key=lambda kv: -len(kv[0])):
+        if key.endswith(suffix):
+            return row[system(system_name)]
+    for suffix in sorted(KEY_SUFFIX_UNITS, key=len, reverse=True):
+        if key.endswith(suffix) and key[: -len(suffix)].endswith("_per"):
+            return None                  # a denominator (``_j_per_kg``): not the value's unit
+        if key.endswith(suffix):
+            return unit_for(KEY_SUFFIX_UNITS[suffix], system_name=system_name,
+                            magnitude=magnitude)
+    return None
+
+
+def keyed_metric(key: str, *, system_name: str | None = None,
+                 magnitude: float | None = None) -> tuple[str, DisplayUnit | None]:
+    """A result key as a table row names it: ``fuel_mass_kg`` -> ``("fuel_mass", lb)``
+    (the SI suffix dropped when the value is shown converted), ``headline_mpg`` ->
+    ``("headline_mpg", mpg)``; the unit is ``None`` when the key names none."""
+    unit = keyed_unit(key, system_name=system_name, magnitude=magnitude)
+    if unit is not None:
+        for suffix in sorted(KEY_SUFFIX_UNITS, key=len, reverse=True):
+            if key.endswith(suffix) and not key[: -len(suffix)].endswith("_per"):
+                return key[: -len(suffix)], unit
+    return key, unit
+
+
 def format_keyed(key: str, value_si: float, *, system_name: str | None = None,
                  digits: int = 4) -> str:
     """A value whose key names its SI unit by suffix (``distance_m``, ``fuel_energy_j``,
@@ -273,17 +319,12 @@ def format_keyed(key: str, value_si: float, *, system_name: str | None = None,
     >>> format_keyed("road_load_b_n_per_mps", 12.334, system_name="us")
     '1.24 lbf/mph'
     """
-    for suffix, row in sorted(KEY_SUFFIX_COMPOUND.items(), key=lambda kv: -len(kv[0])):
-        if key.endswith(suffix) and value_si is not None and math.isfinite(float(value_si)):
-            unit = row[system(system_name)]
-            return f"{number(float(unit.convert(float(value_si))), digits)} {unit.label}"
-    for suffix in sorted(KEY_SUFFIX_UNITS, key=len, reverse=True):
-        if key.endswith(suffix) and key[: -len(suffix)].endswith("_per"):
-            break                        # a denominator (``_j_per_kg``): not the value's unit
-        if key.endswith(suffix):
-            return format_value(value_si, KEY_SUFFIX_UNITS[suffix], system_name=system_name,
-                                digits=digits)
-    return number(float(value_si), digits) if value_si is not None else "n/a"
+    if value_si is None or not math.isfinite(float(value_si)):
+        return "n/a"
+    unit = keyed_unit(key, system_name=system_name, magnitude=float(value_si))
+    if unit is None or unit.label in _KEY_DISPLAY_SUFFIXES.values() or unit is _PERCENT:
+        return number(float(value_si), digits)
+    return f"{number(float(unit.convert(float(value_si))), digits)} {unit.label}".rstrip()
 
 
 def fuel_figures(mpg: float | None, l_per_100km: float | None, *,

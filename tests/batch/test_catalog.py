@@ -105,3 +105,42 @@ def test_a_phase_and_a_composite_may_share_a_name(tmp_path):
     with open_catalog(tmp_path / "c.duckdb", read_only=True) as cat:
         _, rows = cat.query("SELECT kind, scope FROM phase_results ORDER BY kind")
     assert rows == [("composite", "hwfet"), ("phase", "hwfet"), ("test_total", "test_total")]
+
+
+def test_summary_and_batch_index_speak_display_units(tmp_path, capsys, monkeypatch):
+    """The catalog is SI; `catalog summary` and the batch index show MJ, lb or kg, % (the
+    fuel energy was printed 5.3859e+07, the SOC change as a fraction)."""
+    from vehval.cli import main
+    from vehval.report.batch_index import render_index_page
+
+    db = tmp_path / "c.duckdb"
+    with open_catalog(db) as cat:
+        cat.start_run("r1", {})
+        for tid, mj in (("a", 53.0), ("b", 55.0)):
+            r = _res(tid, "r1", 50.0, -0.02)
+            r["metrics"].update(fuel_energy_j=mj * 1e6, fuel_mass_kg=1.25, distance_m=11_990.0)
+            cat.add_result("r1", r)
+        cat.finish_run("r1")
+        var = cat.summary()
+    monkeypatch.setenv("COLUMNS", "200")
+    assert main(["catalog", "summary", "--db", str(db)]) == 0
+    out = capsys.readouterr().out
+    assert "e+07" not in out
+    energy = next(ln for ln in out.splitlines() if "fuel_energy" in ln).split()
+    assert energy[energy.index("MJ") + 2:energy.index("MJ") + 4] == ["54", "1.414"]
+    mass = next(ln for ln in out.splitlines() if "fuel_mass" in ln).split()
+    assert "lb" in mass and "2.7558" in mass                 # 1.25 kg
+    soc = next(ln for ln in out.splitlines() if "soc_change" in ln).split()
+    assert "%" in soc and "-2" in soc
+    tests = [{"test_id": "a", "status": "ok", "error": None, "vehicle": "v", "cycle": "udds",
+              "outputs": [], "n_findings_by_severity": None, "headline_mpg": 50.0,
+              "distance_m": 11_990.0, "fuel_mass_kg": 1.25, "fuel_economy_mpg": 50.0,
+              "soc_change": None, "ess_energy_j": None, "eng_energy_j": None}]
+    run = {"run_id": "r1", "started": "now", "vehval_version": "0", "n_ok": 1, "n_failed": 0,
+           "n_skipped": 0}
+    for system, dist, mass, shown in (("us", "distance [mi]", "fuel [lb]", ">7.45<"),
+                                      ("metric", "distance [km]", "fuel [kg]", ">11.99<")):
+        monkeypatch.setenv("VEHVAL_UNITS", system)
+        html = render_index_page(run, tests, var, [], [])
+        assert dist in html and mass in html and shown in html
+        assert "e+07" not in html and ">MJ<" in html and ">54<" in html

@@ -152,10 +152,20 @@ def catalog_summary(
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
         return
-    cols = ["vehicle", "cycle", "start", "cell", "a/c", "metric", "n", "mean", "std", "cv [%]",
-            "min", "max"]
-    _print_table(cols, [[r["vehicle"], r["cycle"], r["start"], r["temperature_band"], r["ac"],
-                         r["metric"], str(r["n"]), _cell(r["mean"], 5),
-                         _cell(r["std"], 4), "" if r["cv"] is None else f"{100 * r['cv']:.2f}",
-                         _cell(r["min"], 5), _cell(r["max"], 5)] for r in rows],
-                 group_by=("vehicle", "cycle", "start", "cell", "a/c"))
+    from vehval.display import keyed_metric
+
+    cols = ["vehicle", "cycle", "start", "cell", "a/c", "metric", "unit", "n", "mean", "std",
+            "cv [%]", "min", "max"]
+    table = []
+    for r in rows:
+        # the catalog is SI (fuel_energy_j 5.4e+07): shown in display units (53.9 MJ)
+        name, unit = keyed_metric(r["metric"], magnitude=r["mean"])
+        f, off = (unit.factor, unit.offset) if unit is not None else (1.0, 0.0)
+        table.append([r["vehicle"], r["cycle"], r["start"], r["temperature_band"], r["ac"],
+                      name, unit.label if unit is not None else "", str(r["n"]),
+                      _cell(None if r["mean"] is None else r["mean"] * f + off, 5),
+                      _cell(None if r["std"] is None else r["std"] * f, 4),
+                      "" if r["cv"] is None else f"{100 * r['cv']:.2f}",
+                      _cell(None if r["min"] is None else r["min"] * f + off, 5),
+                      _cell(None if r["max"] is None else r["max"] * f + off, 5)])
+    _print_table(cols, table, group_by=("vehicle", "cycle", "start", "cell", "a/c"))

@@ -15,7 +15,8 @@ from urllib.parse import quote
 from vehval.report.document import Block, cell, figure, h1, h2, para, render_document, table
 from vehval.report.figures import FigSpec
 
-#: Result columns of the tests table: (catalog column, header, scale, format).
+#: Result columns of the tests table: (catalog column, header, scale, format); distance and
+#: fuel mass are shown in the display system's unit (:func:`_columns`).
 COLUMNS = [("headline_mpg", "headline [mpg]", 1.0, "{:.2f}"),
            ("distance_m", "distance [km]", 1e-3, "{:.2f}"),
            ("fuel_mass_kg", "fuel [kg]", 1.0, "{:.3f}"),
@@ -23,6 +24,19 @@ COLUMNS = [("headline_mpg", "headline [mpg]", 1.0, "{:.2f}"),
            ("soc_change", "ΔSOC [%]", 100.0, "{:+.2f}"),
            ("ess_energy_j", "battery energy [kWh]", 1 / 3.6e6, "{:+.3f}"),
            ("eng_energy_j", "engine energy [kWh]", 1 / 3.6e6, "{:.3f}")]
+
+
+def _columns() -> list[tuple[str, str, float, str]]:
+    """:data:`COLUMNS` with distance and fuel mass in the display system (mi and lb for us)."""
+    from vehval.display import unit_for
+
+    out = []
+    for col, head, scale, pattern in COLUMNS:
+        if col in ("distance_m", "fuel_mass_kg"):
+            unit = unit_for("m" if col == "distance_m" else "kg")
+            head, scale = f"{head.split(' [')[0]} [{unit.label}]", unit.factor
+        out.append((col, head, scale, pattern))
+    return out
 
 
 #: Statuses with a style of their own.
@@ -52,26 +66,36 @@ def _tests_table(tests: Sequence[dict]) -> Block:
         status = str(r["status"])
         held = r.get("withheld_reason")
         vals = [cell("withheld", "err") if c == "headline_mpg" and held else _num(r.get(c), s, p)
-                for c, _, s, p in COLUMNS]
+                for c, _, s, p in _columns()]
         rows.append([cell(tid, href=link), cell(status, status if status in _STATUS else ""),
                      r["vehicle"] or "", r["cycle"] or "", r.get("headline_name") or "",
                      ", ".join(f"{v} {k}" for k, v in sorted(sev.items()))]
                     + vals + [cell(r["error"] or held or "", "err")])
     return table(["test", "status", "vehicle", "cycle", "headline", "findings"]
-                 + [c[1] for c in COLUMNS] + ["error / withheld because"], rows)
+                 + [c[1] for c in _columns()] + ["error / withheld because"], rows)
 
 
 def _variability(var: Sequence[dict]) -> list[Block]:
     out = [h2("Test-to-test variability (latest result of every test)")]
     if not var:
         return out + [para("No successful test yet.")]
-    rows = [[v["vehicle"], v["cycle"], v.get("start", ""), v.get("temperature_band", ""),
-             v.get("ac", ""), v["metric"], _num(v["n"], pattern="{:.0f}"),
-             _num(v["mean"]), _num(v["std"]),
-             cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
-             _num(v["min"]), _num(v["max"])] for v in var]
-    return out + [table(["vehicle", "cycle", "start", "cell temperature", "A/C", "metric", "n",
-                         "mean", "std", "CV [%]", "min", "max"], rows)]
+    from vehval.display import keyed_metric
+
+    rows = []
+    for v in var:
+        # the catalog is SI (fuel_energy_j 5.4e+07): shown in display units (53.9 MJ)
+        name, unit = keyed_metric(v["metric"], magnitude=v["mean"])
+        f, off = (unit.factor, unit.offset) if unit is not None else (1.0, 0.0)
+
+        def shown(x: Any, factor: float = f, offset: float = off) -> dict:
+            return _num(None if x is None else float(x) * factor + offset)
+        rows.append([v["vehicle"], v["cycle"], v.get("start", ""), v.get("temperature_band", ""),
+                     v.get("ac", ""), name, unit.label if unit is not None else "",
+                     _num(v["n"], pattern="{:.0f}"), shown(v["mean"]), shown(v["std"], f, 0.0),
+                     cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
+                     shown(v["min"]), shown(v["max"])])
+    return out + [table(["vehicle", "cycle", "start", "cell temperature", "A/C", "metric", "unit",
+                         "n", "mean", "std", "CV [%]", "min", "max"], rows)]
 
 
 def _results(var: Sequence[dict]) -> list[Block]:
