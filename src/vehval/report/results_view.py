@@ -42,6 +42,21 @@ def _num_or_held(block: dict, key: str, value: Any) -> Any:
     return "withheld" if value is None and _held(block, key) else value
 
 
+def _offset(signal: str, value_si: Any) -> Any:
+    """A channel's accuracy offset in its display unit (``2e-06`` kg/s -> ``0.002 g/s``)."""
+    from vehval.display import format_delta
+    from vehval.errors import SignalError
+    from vehval.nomenclature import registry
+
+    if not isinstance(value_si, (int, float)) or isinstance(value_si, bool):
+        return value_si
+    try:
+        unit = registry().spec_of(signal).unit
+    except (SignalError, KeyError):
+        return value_si                  # not a standard name: the SI number as stored
+    return format_delta(float(value_si), unit, signal=signal)
+
+
 def _row(name: str, block: dict) -> list:
     v = block.get("values") or {}
     dq = block.get("drive_quality") or {}
@@ -134,9 +149,10 @@ def results_section(doc: dict) -> Section:
                                 key="results-budget"))
     acc = unc.get("accuracy") or {}
     if acc:
-        sec.tables.append(Table("Channel accuracies", ["signal", "reading [%]", "offset [SI]", "basis"],
-                                [[k, a.get("reading_pct"), a.get("offset_si"), a.get("basis")]
-                                 for k, a in acc.items()], key="results-accuracy"))
+        sec.tables.append(Table("Channel accuracies", ["signal", "reading [%]", "offset", "basis"],
+                                [[k, a.get("reading_pct"), _offset(k, a.get("offset_si")),
+                                  a.get("basis")] for k, a in acc.items()],
+                                key="results-accuracy"))
     names = [p["name"] for p in doc.get("phases") or []]
     fe = [(p.get("values") or {}).get("fuel_economy_mpg") for p in doc.get("phases") or []]
     if any(v is not None for v in fe):
