@@ -30,3 +30,42 @@ def test_channel_accuracy_offsets_in_display_units():
     offsets = {r[0]: r[2] for r in table.rows}
     assert offsets["fuel_rate_test"] == "0.002 g/s"
     assert offsets["veh_spd_test"] in ("0.02237 mph", "0.036 km/h")
+
+
+def _doc():
+    block = {"name": "bag1", "values": {"distance_m": 5_780.0, "duration_s": 505.0,
+                                        "mean_speed_mps": 11.45, "max_speed_mps": 25.47,
+                                        "fuel_mass_kg": 0.399, "fuel_economy_mpg": 28.98,
+                                        "fuel_consumption_l_per_100km": 8.12},
+             "uncertainty": {"fuel_economy_mpg": {"U": 0.35},
+                             "fuel_consumption_l_per_100km": {"U": 0.10}},
+             "drive_quality": {"iwr_pct": 3.4, "rmsse_mps": 0.1462, "rmsse_mph": 0.327}}
+    comp = {"name": "ftp75_from_udds", "values": block["values"], "rule": "r",
+            "uncertainty": block["uncertainty"], "substitute": "bag 3 taken as bag 2",
+            "caveats": ["substitute: bag 3 taken as bag 2"]}
+    return {"phases": [block], "test_total": block, "composites": [comp],
+            "headline": {"name": "ftp75_from_udds", "kind": "composite",
+                         "fuel_economy_mpg": 28.98, "fuel_economy_u_mpg": 0.35,
+                         "fuel_consumption_l_per_100km": 8.12}}
+
+
+def test_results_section_follows_the_unit_system(monkeypatch):
+    """`vehval --units metric report` gave mi, mph and mpg first in the results section."""
+    from vehval.report.results_view import results_section
+    from vehval.report.sections import headline_banner
+
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    sec = results_section(_doc())
+    phases = next(t for t in sec.tables if t.title == "Results per phase")
+    assert phases.columns[1] == "distance [km]" and phases.columns[3] == "mean speed [km/h]"
+    assert phases.columns[6:8] == ["consumption [L/100 km]", "fuel economy [mpg]"]
+    assert phases.rows[0][1] == 5.78 and phases.rows[0][3] == 41.22
+    assert phases.rows[0][6] == "8.12 ± 0.10" and phases.rows[0][-2] == 0.526   # RMSSE km/h
+    assert headline_banner(_doc())["title"].split(": ", 1)[1].startswith("8.12 L/100 km")
+    comp = next(t for t in sec.tables if t.title == "Regulatory composites")
+    assert comp.rows[0][-1] == "none"            # the substitute is not repeated as a caveat
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
+    phases = next(t for t in results_section(_doc()).tables if t.title == "Results per phase")
+    assert phases.columns[1] == "distance [mi]" and phases.columns[6] == "fuel economy [mpg]"
+    assert phases.rows[0][1] == 3.592 and phases.rows[0][-2] == 0.327
+    assert headline_banner(_doc())["title"].split(": ", 1)[1].startswith("28.98 ± 0.35 mpg")

@@ -9,12 +9,17 @@ from __future__ import annotations
 
 from typing import Any
 
-from vehval.constants import KWH_J, MILE_M, MPH_M_PER_S
+from vehval.constants import KMH_M_PER_S, KWH_J, MILE_M, MPH_M_PER_S
 from vehval.report.figures import FigSpec
 from vehval.report.sections import Section
 from vehval.report.tables import Table
 
 __all__ = ["results_section"]
+
+#: Column header and unit label of the two fuel figures.
+_HEAD = {"fuel_economy_mpg": "fuel economy [mpg]",
+         "fuel_consumption_l_per_100km": "consumption [L/100 km]"}
+_LABEL = {"fuel_economy_mpg": "mpg", "fuel_consumption_l_per_100km": "L/100 km"}
 
 
 def _r(x: Any, nd: int) -> Any:
@@ -57,20 +62,37 @@ def _offset(signal: str, value_si: Any) -> Any:
     return format_delta(float(value_si), unit, signal=signal)
 
 
+def _metric() -> bool:
+    """True when the display system is metric (km, km/h, L/100 km first)."""
+    from vehval.display import system
+
+    return system() == "metric"
+
+
+def _fuel_keys() -> list[str]:
+    """The two fuel figures in the display system's reading order."""
+    keys = ["fuel_economy_mpg", "fuel_consumption_l_per_100km"]
+    return keys[::-1] if _metric() else keys
+
+
 def _row(name: str, block: dict) -> list:
     v = block.get("values") or {}
     dq = block.get("drive_quality") or {}
     d = v.get("distance_m")
-    return [name, _num_or_held(block, "distance_m", _r(d / MILE_M if d is not None else None, 3)),
+    dist_m, spd_mps = (1e3, KMH_M_PER_S) if _metric() else (MILE_M, MPH_M_PER_S)
+    rmsse = dq.get("rmsse_mps") if _metric() else dq.get("rmsse_mph")
+    if _metric() and rmsse is not None:
+        rmsse = rmsse / KMH_M_PER_S
+    return [name, _num_or_held(block, "distance_m", _r(d / dist_m if d is not None else None, 3)),
             _r(v.get("duration_s"), 1),
-            _r((v.get("mean_speed_mps") or 0) / MPH_M_PER_S, 2) if v.get("mean_speed_mps") else None,
-            _r((v.get("max_speed_mps") or 0) / MPH_M_PER_S, 2) if v.get("max_speed_mps") else None,
+            _r((v.get("mean_speed_mps") or 0) / spd_mps, 2) if v.get("mean_speed_mps") else None,
+            _r((v.get("max_speed_mps") or 0) / spd_mps, 2) if v.get("max_speed_mps") else None,
             _r(v["fuel_mass_kg"] * 1e3, 1) if v.get("fuel_mass_kg") is not None else
             _num_or_held(block, "fuel_mass_kg", None),
-            _pm(block, "fuel_economy_mpg"), _pm(block, "fuel_consumption_l_per_100km"),
+            *(_pm(block, k) for k in _fuel_keys()),
             _pm(block, "co2_g_per_km", nd=1),
             _r(v["ess_energy_net_j"] / KWH_J, 4) if v.get("ess_energy_net_j") is not None else None,
-            _r(dq.get("iwr_pct"), 2), _r(dq.get("rmsse_mph"), 3), dq.get("violations")]
+            _r(dq.get("iwr_pct"), 2), _r(rmsse, 3), dq.get("violations")]
 
 
 def _dq_row(name: str, dq: dict | None) -> list:
@@ -97,8 +119,7 @@ def results_section(doc: dict) -> Section:
     sec.facts = [
         ("Cycle", str((doc.get("test") or {}).get("cycle") or "not identified")),
         ("Headline", f"{'whole test' if head is None else head['name']}: "
-                     f"{_pm(hblock, 'fuel_economy_mpg')} mpg, "
-                     f"{_pm(hblock, 'fuel_consumption_l_per_100km')} L/100 km"
+                     + ", ".join(f"{_pm(hblock, k)} {_LABEL[k]}" for k in _fuel_keys())
                      + (f" (caveat: {'; '.join(head['caveats'])})"
                         if head and head.get("caveats") else "")),
         ("Fuel", f"{fuel.get('name')} ({fuel.get('density_kg_per_m3')} kg/m³, "
@@ -110,21 +131,23 @@ def results_section(doc: dict) -> Section:
                         + (f", {unc['draws']} draws" if unc.get("draws") else "")),
         ("SOC correction (SAE J1711)", str((doc.get("soc_correction") or {}).get("message", "—"))),
     ]
-    cols = ["phase", "distance [mi]", "duration [s]", "mean speed [mph]", "max speed [mph]",
-            "fuel [g]", "fuel economy [mpg]", "consumption [L/100 km]", "CO2 [g/km]",
-            "battery net [kWh]", "IWR [%]", "RMSSE [mph]", "violations"]
+    dist, spd = ("km", "km/h") if _metric() else ("mi", "mph")
+    fuel_cols = [_HEAD[k] for k in _fuel_keys()]
+    cols = ["phase", f"distance [{dist}]", "duration [s]", f"mean speed [{spd}]",
+            f"max speed [{spd}]", "fuel [g]", *fuel_cols, "CO2 [g/km]",
+            "battery net [kWh]", "IWR [%]", f"RMSSE [{spd}]", "violations"]
     rows = [_row(p["name"], p) for p in doc.get("phases") or []]
     rows.append(_row("whole test", doc.get("test_total") or {}))
     sec.tables.append(Table("Results per phase", cols, rows, key="results-phases",
                             note="value ± expanded uncertainty U (k = 2)"))
-    crow = [[c["name"], _pm(c, "fuel_economy_mpg"), _pm(c, "fuel_consumption_l_per_100km"),
+    crow = [[c["name"], *(_pm(c, k) for k in _fuel_keys()),
              _pm(c, "co2_g_per_km", nd=1), c.get("rule"), c.get("substitute") or "",
-             "; ".join(c.get("caveats") or []) or "none"]
+             "; ".join(x for x in c.get("caveats") or []       # the substitute has its column
+                       if x != f"substitute: {c.get('substitute')}") or "none"]
             for c in doc.get("composites") or []]
     if crow:
-        sec.tables.append(Table("Regulatory composites", ["composite", "fuel economy [mpg]",
-                                "consumption [L/100 km]", "CO2 [g/km]", "rule", "substitute",
-                                "caveats"],
+        sec.tables.append(Table("Regulatory composites", ["composite", *fuel_cols,
+                                "CO2 [g/km]", "rule", "substitute", "caveats"],
                                 crow, key="results-composites",
                                 note="a caveat names a departure from the procedure's conditions "
                                      "(clause cited): the figure is not the regulatory one"))
@@ -154,15 +177,17 @@ def results_section(doc: dict) -> Section:
                                   a.get("basis")] for k, a in acc.items()],
                                 key="results-accuracy"))
     names = [p["name"] for p in doc.get("phases") or []]
-    fe = [(p.get("values") or {}).get("fuel_economy_mpg") for p in doc.get("phases") or []]
+    lead = _fuel_keys()[0]
+    what = "Fuel consumption" if lead.startswith("fuel_consumption") else "Fuel economy"
+    fe = [(p.get("values") or {}).get(lead) for p in doc.get("phases") or []]
     if any(v is not None for v in fe):
-        err = [((p.get("uncertainty") or {}).get("fuel_economy_mpg") or {}).get("U")
+        err = [((p.get("uncertainty") or {}).get(lead) or {}).get("U")
                for p in doc.get("phases") or []]
-        fig = {"data": [{"type": "bar", "x": names, "y": fe, "name": "fuel economy",
+        fig = {"data": [{"type": "bar", "x": names, "y": fe, "name": what.lower(),
                          "error_y": {"type": "data", "array": err, "visible": True}}],
-               "layout": {"title": {"text": "Fuel economy per phase (± U, k = 2)"},
-                          "yaxis": {"title": {"text": "mpg"}}, "height": 360}}
-        sec.figures.append(FigSpec("Fuel economy per phase", fig))
+               "layout": {"title": {"text": f"{what} per phase (± U, k = 2)"},
+                          "yaxis": {"title": {"text": _LABEL[lead]}}, "height": 360}}
+        sec.figures.append(FigSpec(f"{what} per phase", fig))
     held = [[p.get("name") or "whole test", ", ".join(w.get("quantities") or []),
              ", ".join(w.get("signals") or []), w.get("reason"), w.get("fix"),
              "yes" if w.get("forced") else "no"]

@@ -435,6 +435,10 @@ def headline_banner(results: dict | None) -> dict | None:
     lp = h.get("fuel_consumption_l_per_100km")
     figure = ("fuel economy n/a" if mpg is None else
               f"{mpg:.2f} ± {u or 0:.2f} mpg" + (f" ({lp:.2f} L/100 km)" if lp is not None else ""))
+    from vehval.display import system
+
+    if mpg is not None and lp is not None and system() == "metric":   # L/100 km first
+        figure = f"{lp:.2f} L/100 km ({mpg:.2f} ± {u or 0:.2f} mpg)"
     rule = str(h.get("rule") or "")
     n = int(results.get("withheld_count") or 0)
     if held and not h.get("forced"):
