@@ -120,3 +120,21 @@ def test_cli_list_and_tests(prius_list, capsys):
     assert main(["epa", "list", str(prius_list), "--model", "PRIUSS"]) == 2
     assert "did you mean" in capsys.readouterr().err
     assert main(["epa", "list", str(prius_list.parent / "nope.csv")]) == 2
+
+
+def test_cli_tests_and_list_speak_the_unit_system(prius_list, capsys, monkeypatch):
+    """`epa tests` printed ETW in kg and the road load in N, N/(m/s) under the default us
+    system: a reader checking the row against the list (lb, lbf, lbf/mph) had to convert."""
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert "ETW lb" in out[0] and "A lbf" in out[0] and "B lbf/mph" in out[0]
+    t4 = next(ln for ln in out if ln.startswith("T4")).split()
+    assert "24.2" in t4 and "0.3350" in t4 and "0.01410" in t4   # the list's own figures
+    assert main(["epa", "list", str(prius_list), "--model", "PRIUS c"]) == 0
+    out = capsys.readouterr().out
+    assert "ETW [lb]" in out and "2750" in out and "1 vehicle, 1 test" in out
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
+    head = capsys.readouterr().out.splitlines()[0]
+    assert "ETW kg" in head and "A N" in head and "B N/(m/s)" in head

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -174,3 +175,10 @@ def test_cli_builds_calibrates_and_marks_in_sample(tmp_path, specs, capsys):
     # no template: refused with the option to give
     assert main([a for a in args if a not in ("-t", str(tmpl))][:-1]) == 2
     assert "give the import template" in capsys.readouterr().err
+    # the text output: the weight in the system's unit, the efficiency in % (was 0.4284)
+    text = args[:args.index("--predict")] + ["-t", str(tmpl), "--dt", "1", "-o",
+                                             str(tmp_path / "s2.yaml")]
+    assert main(["--units", "us", *text]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r": \d{4} lb, ", out), out
+    assert re.search(r"indicated efficiency (4[0-6]\.\d) %", out), out

@@ -55,15 +55,20 @@ def list_cmd(
     if as_json:
         typer.echo(jsonsafe.dumps(rows), nl=False)
         return
-    typer.echo(f"{'year':>4}  {'make':12s} {'model':32s} {'tests':>5}  {'ETW [kg]':>16}  "
-               "test vehicles")
+    from vehval.display import unit_for
+
+    kg = unit_for("kg")                  # lb (us, as the list writes it) or kg (metric)
+    typer.echo(f"{'year':>4}  {'make':12s} {'model':32s} {'tests':>5}  "
+               f"{f'ETW [{kg.label}]':>16}  test vehicles")
     for r in rows:
-        mass = "/".join(f"{m:.0f}" for m in r.mass_kg[:3]) + ("..." if len(r.mass_kg) > 3
-                                                              else "")
+        mass = "/".join(f"{kg.convert(m):.0f}" for m in r.mass_kg[:3]) + (
+            "..." if len(r.mass_kg) > 3 else "")
         ids = ", ".join(r.vehicle_ids[:4]) + (" ..." if len(r.vehicle_ids) > 4 else "")
         typer.echo(f"{r.year:>4}  {r.make[:12]:12s} {r.model[:32]:32s} {r.n_tests:>5}  "
                    f"{mass:>16}  {ids}")
-    typer.echo(f"{len(rows)} vehicles, {sum(r.n_tests for r in rows)} tests")
+    n_tests = sum(r.n_tests for r in rows)
+    typer.echo(f"{len(rows)} vehicle{'' if len(rows) == 1 else 's'}, "
+               f"{n_tests} test{'' if n_tests == 1 else 's'}")
 
 
 @epa_app.command("tests")
@@ -75,7 +80,8 @@ def tests_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print JSON (SI units, keys as the "
                                  "EpaTest fields)."),
 ) -> None:
-    """Tests of a vehicle: weight, N/V, axle ratio, road load (SI), cycle, originator, results."""
+    """Tests of a vehicle: weight, N/V, axle ratio, road load (display units; SI in --json),
+    cycle, originator, results."""
     from vehval import jsonsafe
     from vehval.epa import procedure_key
     from vehval.epa.consistency import check_listed_figures
@@ -87,17 +93,25 @@ def tests_cmd(
                                     "list_check": c.to_dict()}
                                    for t, c in zip(tests, checks)]), nl=False)
         return
+    from vehval.display import KEY_SUFFIX_COMPOUND, system, unit_for
+
+    # lb, lbf, lbf/mph, lbf/mph² (us: the list's own units) or kg, N, N/(m/s), N/(m/s)²
+    kg, n = unit_for("kg"), unit_for("N")
+    b, c = (KEY_SUFFIX_COMPOUND[k][system()] for k in ("_n_per_mps", "_n_per_mps2"))
+
+    def conv(v: float | None, unit) -> float | None:
+        return None if v is None else float(unit.convert(v))
     typer.echo(f"{'test':14s} {'vehicle':9s} {'cfg':>3} {'orig':4s} {'proc':7s} "
-               f"{'ETW kg':>7} {'N/V':>5} {'axle':>5} {'A N':>6} {'B N/(m/s)':>9} "
-               f"{'C N/(m/s)2':>10} {'FE mpg':>6}  bags 1-4 [mpg]")
+               f"{'ETW ' + kg.label:>7} {'N/V':>5} {'axle':>5} {'A ' + n.label:>6} "
+               f"{'B ' + b.label:>9} {'C ' + c.label:>10} {'FE mpg':>6}  bags 1-4 [mpg]")
     for t, chk in zip(tests, checks):
-        bags = " ".join(f"{_fmt(b):>6}" for b in t.bags) + ("" if chk.ok else "  !")
+        bags = " ".join(f"{_fmt(b_):>6}" for b_ in t.bags) + ("" if chk.ok else "  !")
         typer.echo(f"{t.label[:14]:14s} {t.vehicle_id[:9]:9s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
-                   f"{_fmt(t.mass_kg, '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
-                   f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(t.target_a_n):>6} "
-                   f"{_fmt(t.target_b_n_per_mps, '.3f'):>9} "
-                   f"{_fmt(t.target_c_n_per_mps2, '.4f'):>10} {_fmt(t.fe):>6}  {bags}")
+                   f"{_fmt(conv(t.mass_kg, kg), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
+                   f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(conv(t.target_a_n, n)):>6} "
+                   f"{_fmt(conv(t.target_b_n_per_mps, b), '.4f'):>9} "
+                   f"{_fmt(conv(t.target_c_n_per_mps2, c), '.5f'):>10} {_fmt(t.fe):>6}  {bags}")
     typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients in --json)")
     for t, chk in zip(tests, checks):
         if not chk.ok:
@@ -345,14 +359,17 @@ def vehicle_cmd(
     if as_json:
         typer.echo(jsonsafe.dumps(doc), nl=False)
         return
+    from vehval.display import format_value
+
     typer.echo(f"{specs.make} {specs.model} {specs.year} ({specs.vehicle_id}): "
-               f"{specs.mass_kg:.0f} kg, {specs.displacement_l:g} L, "
+               f"{format_value(specs.mass_kg, 'kg')}, {specs.displacement_l:g} L, "
                f"{specs.rated_power_w / 1e3:.0f} kW, {specs.gears}-speed, axle "
                f"{specs.axle_ratio:g}, N/V {specs.n_v_ratio:g}")
     if fit is not None:
         idle = "-" if fit.idle_fuel_g_per_s is None else f"{fit.idle_fuel_g_per_s:.3f}"
         typer.echo(f"fitted on {', '.join(fit.tests)}: indicated efficiency "
-                   f"{fit.indicated_efficiency:.4f}, friction scale {fit.friction_scale:.3f}, "
+                   f"{100 * fit.indicated_efficiency:.1f} %, friction scale "
+                   f"{fit.friction_scale:.3f}, "
                    f"idle {idle} g/s")
     for row in tests_doc:
         err = "-" if row["error"] is None else f"{100 * row['error']:+.1f} %"
