@@ -179,3 +179,15 @@ def test_template_init_never_maps_distinct_columns_to_one_quantity(tmp_path):
     assert kept["eng2ap1"].endswith("_ap1_test") and kept["eng2ap2"].endswith("_ap2_test")
     assert ch["eng2dtcd"].delete and "already mapped from 'eng2dtcw'" in ch["eng2dtcd"].reason
     assert ch["B2+"].delete and ch["eng2bp"].delete
+
+
+def test_check_template_names_the_channel_a_typo_meant(tmp_path, d3_template):
+    """A misspelled channel key ('Engine_Sped') was two unrelated warnings; the first now
+    names the file's channel it probably meant."""
+    f = write_d3(tmp_path / "x.txt", header=["Time[s]", "Dyno_Speed[mph]", "Engine_Speed[rpm]",
+                                             "Cell_Temp[F]", "Phase_#"])
+    t = load_template(d3_template)
+    t.files[0].channels["Engine_Sped"] = t.files[0].channels.pop("Engine_Speed")
+    rep = check_template(t, [f])
+    assert ("template channel 'Engine_Sped' is not in the file (did you mean 'Engine_Speed'?"
+            in rep.format())

@@ -18,7 +18,7 @@ import numpy as np
 from vehval.errors import ConfigError, InputFileError, UnitError
 from vehval.fuels import resolve_fuel
 from vehval.io.paths import check_input_file
-from vehval.io.propose import _same_unit, entry_for_file, find_channel
+from vehval.io.propose import _did_you_mean, _same_unit, entry_for_file, find_channel
 from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
 from vehval.io.template import FileSpec, Template, as_template
@@ -273,20 +273,6 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
         notes.append(f"warning: {path.name}: channel(s) in the file but not in the template "
                      "(not imported): " + ", ".join(extra))
     meta.notes.extend(notes)
-
-
-def _did_you_mean(key: str, unmapped: list[str]) -> str:
-    """``key`` with the closest raw channel the template leaves unmapped, if any:
-    "Fuel_Flow_Modl (did you mean 'Fuel_Flow_Modal'? fix the key in the template)"."""
-    import difflib
-
-    close = difflib.get_close_matches(key, unmapped, n=1, cutoff=0.75)
-    if not close:
-        low = {n.lower(): n for n in unmapped}
-        close = [low[c] for c in difflib.get_close_matches(key.lower(), list(low), n=1,
-                                                           cutoff=0.75)]
-    return (f"{key} (did you mean '{close[0]}'? fix the channel name in the template)"
-            if close else key)
 
 
 def speed_signals(test: Test) -> list[Signal]:

@@ -425,10 +425,11 @@ def check_template(template: Template | str | Path, files: Sequence[str | Path])
         if spec.time.rate_hz is None and not raw.times and (tcol is None or find_channel(raw, tcol) is None):
             rep.errors.append(f"{path.name}: no time column found and files[{idx}].time.rate_hz is not set")
         mapped = set()
+        missing: list[str] = []
         for key, ch in spec.channels.items():
             col = find_channel(raw, key)
             if col is None:
-                rep.warnings.append(f"{path.name}: template channel '{key}' is not in the file")
+                missing.append(key)
                 continue
             mapped.add(col)
             if ch.delete:
@@ -450,10 +451,27 @@ def check_template(template: Template | str | Path, files: Sequence[str | Path])
                 rep.warnings.append(f"{path.name}: channel '{key}': template unit '{ch.unit}' differs "
                                     f"from the header unit '{hdr}' (the template wins)")
         extra = [n for n in raw.names if n not in mapped and n != raw.time_name and n != tcol]
+        for key in missing:                 # a typo names the channel it probably meant
+            hint = _did_you_mean(key, extra)[len(key):]
+            rep.warnings.append(f"{path.name}: template channel '{key}' is not in the file{hint}")
         if extra:
             rep.warnings.append(f"{path.name}: channels not in the template (ignored at import): "
                                 + ", ".join(extra))
     return rep
+
+
+def _did_you_mean(key: str, unmapped: list[str]) -> str:
+    """``key`` with the closest raw channel the template leaves unmapped, if any:
+    "Fuel_Flow_Modl (did you mean 'Fuel_Flow_Modal'? fix the key in the template)"."""
+    import difflib
+
+    close = difflib.get_close_matches(key, unmapped, n=1, cutoff=0.75)
+    if not close:
+        low = {n.lower(): n for n in unmapped}
+        close = [low[c] for c in difflib.get_close_matches(key.lower(), list(low), n=1,
+                                                           cutoff=0.75)]
+    return (f"{key} (did you mean '{close[0]}'? fix the channel name in the template)"
+            if close else key)
 
 
 def _same_unit(a: str, b: str) -> bool:
