@@ -315,7 +315,7 @@ def vehicle_cmd(
     from vehval import jsonsafe
     from vehval.calibration.provenance import write_vehicle_yaml
     from vehval.epa import read_lists, select_tests
-    from vehval.epa.specs import specs_from_tests, vehicle_from_specs
+    from vehval.epa.specs import model_fuel_lhv, specs_from_tests, vehicle_from_specs
     from vehval.epa.specs_fit import (
         all_splits,
         calibrate_specs,
@@ -339,7 +339,8 @@ def vehicle_cmd(
         from vehval.workflow import TestRun
 
         test = TestRun.load([f], template, use_qa=False).test
-        runs[f] = dyno_run(test, test.meta.test_id or f.stem)
+        runs[f] = dyno_run(test, test.meta.test_id or f.stem,
+                           model_lhv_j_per_kg=model_fuel_lhv())
     cal = [runs[f] for f in calibrate]
     held = [runs[f] for f in predict]
     fit = calibrate_specs(specs, cal, dt) if cal else None
@@ -349,7 +350,7 @@ def vehicle_cmd(
     write_vehicle_yaml(veh, output, "vehval epa vehicle")
     tests_doc: list[dict[str, Any]] = [{"test": r.test_id, "in_sample": f in calibrate,
                   "fuel_measured_kg": r.fuel_kg, "distance_m": r.distance_m,
-                  "cold_start": r.cold, "note": cold_note(r),
+                  "cold_start": r.cold, "note": cold_note(r), "fuel_note": r.fuel_note,
                   "error": (fit.errors.get(r.test_id) if f in calibrate and fit
                             else pred.get(r.test_id))} for f, r in runs.items()]
     doc = {"vehicle": veh.name, "specs": specs.to_dict(),
@@ -375,6 +376,8 @@ def vehicle_cmd(
         err = "-" if row["error"] is None else f"{100 * row['error']:+.1f} %"
         typer.echo(f"{row['test'][:24]:24s} {'in-sample' if row['in_sample'] else 'held-out':9s}"
                    f" fuel error {err:>8}  ({row['note']})")
+    for note in dict.fromkeys(r["fuel_note"] for r in tests_doc if r["fuel_note"]):
+        typer.echo(f"test fuel: {note}")
     if held:
         worst = max(abs(e) for e in pred.values())
         typer.echo(f"held-out: {len(pred)} tests, largest |fuel error| {100 * worst:.1f} %")

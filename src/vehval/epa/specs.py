@@ -375,6 +375,12 @@ def willans_text(eta: float, kf: float, s: Specs, enrichment: float = ENRICHMENT
             f"to 1 at full load (knock-limited spark, power enrichment: {_EST})")
 
 
+def model_fuel_lhv() -> float:
+    """Lower heating value of the fuel of a vehicle built from the list (certification
+    gasoline, ``gasoline_e0``) [J/kg]."""
+    return _lhv()
+
+
 def _lhv() -> float:
     from vehval.fuels import table_fuel
 

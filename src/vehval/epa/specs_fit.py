@@ -73,11 +73,33 @@ class DynoRun:
     cold: bool
     soak_s: float = 0.0
     idle_fuel_kg_s: float = float("nan")  # median warm fuel rate at standstill [kg/s]
+    fuel_note: str = ""                   # how the test fuel was counted in the model's fuel
 
 
-def dyno_run(test: Any, test_id: str | None = None, dt: float = 1.0) -> DynoRun:
-    """Reduce an imported test (``veh_spd_test`` and ``fuel_rate_test``) to a DynoRun."""
+def dyno_run(test: Any, test_id: str | None = None, dt: float = 1.0,
+             model_lhv_j_per_kg: float | None = None) -> DynoRun:
+    """Reduce an imported test (``veh_spd_test`` and ``fuel_rate_test``) to a DynoRun.
+
+    Parameters
+    ----------
+    model_lhv_j_per_kg : float, optional
+        Lower heating value of the model's fuel [J/kg]. When the test's declared fuel has
+        another one (an E10 dyno test, a model of certification E0), the measured fuel mass
+        is counted as the mass of the model's fuel holding the same energy (mass x
+        LHV_test / LHV_model): the fitted efficiency is then the engine's, not a fuel
+        difference.
+    """
     tid = test_id or test.meta.test_id or "test"
+    scale, note = 1.0, ""
+    if model_lhv_j_per_kg:
+        from vehval.fuels import resolve_fuel
+
+        fuel = resolve_fuel(test=test)
+        lhv = fuel.lhv_j_per_kg if fuel is not None else None
+        if fuel is not None and lhv and abs(lhv / model_lhv_j_per_kg - 1.0) > 1e-6:
+            scale = float(lhv) / float(model_lhv_j_per_kg)
+            note = (f"fuel {fuel.name} ({lhv / 1e6:.1f} MJ/kg) counted as its energy in the "
+                    f"model's fuel ({model_lhv_j_per_kg / 1e6:.1f} MJ/kg): mass x {scale:.3f}")
     try:
         spd, fuel = test["veh_spd_test"], test["fuel_rate_test"]
     except KeyError as exc:
@@ -86,7 +108,7 @@ def dyno_run(test: Any, test_id: str | None = None, dt: float = 1.0) -> DynoRun:
     t0, t1 = float(spd.time[0]), float(spd.time[-1])
     t = np.arange(t0, t1 + 1e-9, dt)
     v = np.clip(np.interp(t, spd.time, spd.values), 0.0, None)
-    f = np.clip(np.interp(t, fuel.time, fuel.values), 0.0, None)
+    f = np.clip(np.interp(t, fuel.time, fuel.values), 0.0, None) * scale
     moving = v >= STOP_MPS
     # standstill stretches of SOAK_S or more split the test into runs
     keep = np.ones(t.size, dtype=bool)
@@ -114,7 +136,8 @@ def dyno_run(test: Any, test_id: str | None = None, dt: float = 1.0) -> DynoRun:
     return DynoRun(test_id=tid, runs=runs, fuel_kg=float(np.sum(f[keep]) * dt),
                    distance_m=float(np.sum(v[keep]) * dt), cold=cold,
                    soak_s=float(np.sum(~keep) * dt),
-                   idle_fuel_kg_s=float(np.median(f[idle])) if idle.sum() >= 10 else math.nan)
+                   idle_fuel_kg_s=float(np.median(f[idle])) if idle.sum() >= 10 else math.nan,
+                   fuel_note=note)
 
 
 def simulated_fuel_kg(vehicle: Any, run: DynoRun, dt: float = 0.5) -> float:
