@@ -133,3 +133,23 @@ def test_audit_cross_check_says_why_it_exceeds_the_measured_road_load():
              "road_load_coefficients_j": 3.23e6}
     label = audit_rows(audit)[-1][0]
     assert label.startswith("road load from the target") and "tyre and driveline losses" in label
+
+
+def test_tables_2_and_3_in_display_units(monkeypatch):
+    """Table 3 on the Cruze read mean_abs_diff 162.5, test_range 8346, offset -138.5 in N and
+    rel_diff 0.01947 (a fraction) whatever the unit system."""
+    from vehval.report.sections import _pair_rows
+
+    row = {"base": "veh_frc_in", "measured": "veh_frc_in_test", "n": 13870,
+           "mean_abs_diff": 162.458, "test_range": 8345.77, "rel_diff": 0.019466, "r2": 0.97955,
+           "slope": 0.98885, "offset": -138.543, "unit": "N"}
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
+    (us,) = _pair_rows([row])
+    assert us["unit"] == "lbf" and us["mean_abs_diff"] == pytest.approx(36.522, abs=1e-3)
+    assert us["offset"] == pytest.approx(-31.146, abs=1e-3) and us["r2"] == row["r2"]
+    assert us["rel_diff [%]"] == pytest.approx(1.9466) and "rel_diff" not in us
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    (si,) = _pair_rows([row])
+    assert si["unit"] == "N" and si["mean_abs_diff"] == row["mean_abs_diff"]
+    spd = _pair_rows([{"ref": "eng_spd_out_test", "mean_abs_diff": 10.472, "unit": "rad/s"}])
+    assert spd[0]["unit"] == "rpm" and spd[0]["mean_abs_diff"] == pytest.approx(100.0, rel=1e-4)

@@ -325,12 +325,47 @@ def _pair_data(test: Test, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
     return sa.at(grid), sb.at(grid)
 
 
+#: Columns of Tables 2 and 3 in the row's unit (differences: converted by the factor only).
+_PAIR_UNIT_KEYS = ("mean_abs_diff", "max_abs_diff", "test_range", "offset")
+#: Columns of Tables 2 and 3 that are fractions (shown in %).
+_PAIR_FRACTION_KEYS = ("rel_diff", "mean_rel_diff")
+
+
+def _pair_rows(rows: list[dict]) -> list[dict]:
+    """Rows of Tables 2 and 3 in display units: differences in lbf or rpm instead of N or
+    rad/s, relative differences in % (``rel_diff`` 0.0195 -> ``rel_diff [%]`` 1.95)."""
+    from vehval.display import unit_for
+
+    out = []
+    for r in rows:
+        si = r.get("unit")
+        unit = None
+        if isinstance(si, str):
+            sig = next((r[k] for k in ("measured", "ref", "reference", "other")
+                        if isinstance(r.get(k), str)), None)
+            mag = next((abs(float(r[k])) for k in ("test_range", "mean_abs_diff")
+                        if isinstance(r.get(k), (int, float))), None)
+            unit = unit_for(si, signal=sig, magnitude=mag)
+        row: dict = {}
+        for k, v in r.items():
+            if k in _PAIR_FRACTION_KEYS:
+                row[f"{k} [%]"] = None if v is None else 100.0 * float(v)
+            elif unit is not None and k in _PAIR_UNIT_KEYS and isinstance(v, (int, float)):
+                row[k] = float(v) * unit.factor
+            elif unit is not None and k == "unit":
+                row[k] = unit.label
+            else:
+                row[k] = v
+        out.append(row)
+    return out
+
+
 def table2_section(test: Test, qa: dict) -> Section:
     rows = qv.as_rows(qa.get("table2"))
     sec = Section("qa2", "QA level 2 (Table 2): one quantity from several sources",
                   intro="Each quantity measured by more than one system: coefficient of determination, "
                         "differences and linear fit; the scatter shows the 1:1 line and the fit.")
-    sec.tables.append(rows_table("Table 2", rows, key="table2"))
+    sec.tables.append(rows_table("Table 2", _pair_rows(rows), key="table2"))
     if not rows:
         sec.notes.append("No quantity is measured by two sources." if "table2" in qa else "No QA result.")
     for r in rows[:MAX_PAIR_PLOTS]:
@@ -351,7 +386,7 @@ def table3_section(test: Test, qa: dict) -> Section:
     sec = Section("qa3", "QA level 3 (Table 3): measured vs calculated",
                   intro="Measured signals against the same quantity calculated from the powertrain "
                         "equations out of other measured signals.")
-    sec.tables.append(rows_table("Table 3", rows, key="table3"))
+    sec.tables.append(rows_table("Table 3", _pair_rows(rows), key="table3"))
     if not rows:
         sec.notes.append("No measured signal has a calculated counterpart." if "table3" in qa else "No QA result.")
     for r in rows[:MAX_PAIR_PLOTS]:
