@@ -153,3 +153,17 @@ def test_tables_2_and_3_in_display_units(monkeypatch):
     assert si["unit"] == "N" and si["mean_abs_diff"] == row["mean_abs_diff"]
     spd = _pair_rows([{"ref": "eng_spd_out_test", "mean_abs_diff": 10.472, "unit": "rad/s"}])
     assert spd[0]["unit"] == "rpm" and spd[0]["mean_abs_diff"] == pytest.approx(100.0, rel=1e-4)
+
+
+def test_finding_numbers_in_display_units():
+    """The QA1 table read 'value = -1e-06; limit_min = 0; fraction = 1.442e-04' (kg/s and a
+    fraction) for a fuel rate the message itself gave as -0.001 g/s."""
+    from vehval.report.sections import _finding_row
+
+    row = {"signal": "fuel_rate_test", "kind": "negative",
+           "numbers": {"value": -1e-06, "limit_min": 0.0, "fraction": 0.00014419,
+                       "noise_sigma": 0.0, "runs": 1, "duration_s": 2.5}}
+    text = _finding_row(row)["numbers"]
+    assert text == ("value = -0.001 g/s; limit_min = 0 g/s; fraction = 0.01442 %; "
+                    "noise_sigma = 0 g/s; runs = 1; duration_s = 2.5 s")
+    assert _finding_row({"signal": "x", "numbers": None}) == {"signal": "x", "numbers": None}

@@ -269,6 +269,38 @@ def alignment_section(test: Test, qa: dict) -> Section:
 
 
 # ----------------------------------------------------------------------------- QA1
+#: Finding numbers that are values of the signal, and differences of it (display units).
+_VALUE_KEYS = ("value", "limit_min", "limit_max")
+_DELTA_KEYS = ("deviation", "threshold", "noise_sigma")
+
+
+def _finding_row(row: dict) -> dict:
+    """A finding with its numbers as a person reads them: ``value = -0.001 g/s;
+    fraction = 0.0144 %`` instead of ``value = -1e-06; fraction = 1.442e-04`` (SI)."""
+    from vehval.display import format_delta, format_value, number
+
+    nums, sig = row.get("numbers"), row.get("signal")
+    if not isinstance(nums, dict) or not isinstance(sig, str):
+        return row
+    spec = _parse(sig)
+    si = registry()[spec.base].unit if spec is not None else None
+    parts = []
+    for k, v in nums.items():
+        if not isinstance(v, (int, float)) or isinstance(v, bool):
+            parts.append(f"{k} = {'n/a' if v is None else v}")
+        elif si is not None and k in _VALUE_KEYS:
+            parts.append(f"{k} = {format_value(float(v), si, signal=sig)}")
+        elif si is not None and k in _DELTA_KEYS:
+            parts.append(f"{k} = {format_delta(float(v), si, signal=sig)}")
+        elif k.endswith("fraction"):
+            parts.append(f"{k} = {number(100.0 * float(v))} %")
+        elif k.endswith("_s"):
+            parts.append(f"{k} = {number(float(v))} s")
+        else:
+            parts.append(f"{k} = {number(float(v))}")
+    return {**row, "numbers": "; ".join(parts)}
+
+
 def findings_section(test: Test, qa: dict, limits: dict | None = None) -> Section:
     rows = qv.as_rows(qa.get("findings"))
     sec = Section("qa1", "QA findings",
@@ -276,7 +308,7 @@ def findings_section(test: Test, qa: dict, limits: dict | None = None) -> Sectio
                         "rate, sign; levels 2 and 3: disagreement between sources or with the "
                         "calculation). Plots show each signal flagged at level 0/1 with its "
                         "plausible range (green band) and the flagged spans (red).")
-    table = rows_table("QA1 findings", rows, key="findings")
+    table = rows_table("QA1 findings", [_finding_row(r) for r in rows], key="findings")
     table.highlight = {i: f"sev-{qv.severity(r)}" for i, r in enumerate(rows)}
     sec.tables.append(table)
     if qa.get("checks"):
