@@ -80,3 +80,9 @@ def test_keyed_compound_units_are_not_read_as_their_denominator():
     assert display.format_keyed("fuel_density_kg_per_m3", 851.0) == "851 kg/m³"
     assert display.format_keyed("idle_fuel_g_per_kg", 2.5) == "2.5"       # unknown: number only
     assert display.format_keyed("fuel_rate_kg_per_s", 1e-3) == "1 g/s"    # compound SI suffix
+
+
+def test_keyed_small_length_is_a_dimension_not_a_distance():
+    # a template's wheel_radius_m 0.305 was shown as '0.0001895 mi'
+    assert display.format_keyed("wheel_radius_m", 0.305, system_name="us") == "0.305 m"
+    assert display.format_keyed("distance_m", 11_990.0, system_name="us") == "7.45 mi"

@@ -257,6 +257,8 @@ KEY_SUFFIX_COMPOUND: dict[str, dict[str, DisplayUnit]] = {
 }
 
 
+#: A ``_m`` key below this magnitude is a dimension (wheel radius), shown in m [m].
+_LENGTH_M_BELOW = 10.0
 #: Result keys that are fractions (shown in %) and keys already in a display unit.
 KEY_FRACTIONS: frozenset[str] = frozenset({"soc_change"})
 _KEY_DISPLAY_SUFFIXES = {"_mpg": "mpg", "_l_per_100km": "L/100 km", "_g_per_km": "g/km"}
@@ -285,6 +287,8 @@ def keyed_unit(key: str, *, system_name: str | None = None,
         if key.endswith(suffix) and key[: -len(suffix)].endswith("_per"):
             return None                  # a denominator (``_j_per_kg``): not the value's unit
         if key.endswith(suffix):
+            if suffix == "_m" and magnitude is not None and abs(magnitude) < _LENGTH_M_BELOW:
+                return DisplayUnit("m")      # a wheel radius, not a distance: 0.305 m
             return unit_for(KEY_SUFFIX_UNITS[suffix], system_name=system_name,
                             magnitude=magnitude)
     return None

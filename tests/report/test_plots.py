@@ -167,3 +167,18 @@ def test_finding_numbers_in_display_units():
     assert text == ("value = -0.001 g/s; limit_min = 0 g/s; fraction = 0.01442 %; "
                     "noise_sigma = 0 g/s; runs = 1; duration_s = 2.5 s")
     assert _finding_row({"signal": "x", "numbers": None}) == {"signal": "x", "numbers": None}
+
+
+def test_calculation_parameters_in_display_units(monkeypatch):
+    """'Calculations: parameters' read fuel_lhv_j_per_kg 4.280e+07."""
+    from vehval.report.sections import calculations_section
+
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
+    sec = calculations_section({"calculations": {"set": "conventional", "parameters": {
+        "fuel_lhv_j_per_kg": {"value": 42.8e6, "from": "template constant"},
+        "wheel_radius_m": {"value": 0.305, "from": "template constant"},
+        "test_mass_kg": {"value": 1727.3, "from": "template constant"}}}})
+    t = next(t for t in sec.tables if t.title == "Calculations: parameters")
+    values = {r[0]: r[1] for r in t.rows}
+    assert values == {"fuel_lhv_j_per_kg": "42.8 MJ/kg", "wheel_radius_m": "0.305 m",
+                      "test_mass_kg": "3808 lb"}

@@ -439,6 +439,11 @@ def table3_section(test: Test, qa: dict) -> Section:
 def calculations_section(qa: dict) -> Section:
     sec = Section("calc", "Calculations", intro="Signals calculated from the powertrain equations.")
     calc = qa.get("calculations")
+    if isinstance(calc, dict) and isinstance(calc.get("parameters"), dict):
+        # parameter values in display units (fuel_lhv_j_per_kg 42.8 MJ/kg, not 4.280e+07)
+        calc = {**calc, "parameters": {
+            k: ({**p, "value": _constant(k, p["value"])} if isinstance(p, dict) and "value" in p
+                else p) for k, p in calc["parameters"].items()}}
     sec.tables += to_tables(calc, "Calculations", key="calculations") if calc is not None else []
     if calc is None:
         sec.notes.append("No calculation log.")
