@@ -104,15 +104,19 @@ def tests_cmd(
             typer.echo(f"! {t.label} ({t.source}): {chk.note}")
 
 
-def _selected(paths: list[Path], selector: str, dt: float):
-    """Tests of the list files matching ``selector`` (refused if none; ``dt`` checked)."""
+def _selected(paths: list[Path], selector: str, dt: float, every: list | None = None):
+    """Tests of the list files matching ``selector`` (refused if none; ``dt`` checked);
+    ``every``, when given, receives every test read."""
     from vehval.epa import apply_selector, read_lists
     from vehval.epa.select import parse_selector
     from vehval.errors import InputFileError
     from vehval.sim.simulate import _check_dt
 
     _check_dt(dt)
-    selected = apply_selector(read_lists(paths), selector)
+    tests = read_lists(paths)
+    if every is not None:
+        every.extend(tests)
+    selected = apply_selector(tests, selector)
     if not selected:
         raise InputFileError(f"the selector '{selector}' matches no test")
     return _note_partial_model(selected, parse_selector(selector).get("model"))
@@ -139,7 +143,8 @@ def validate_cmd(
     from vehval.epa.validation import validate_tests
     from vehval.report.epa import share_text
     with bar("epa validate: simulating tests", as_json=as_json):
-        val = validate_tests(vehicle, _selected(paths, tests, dt), dt=dt)
+        every: list = []
+        val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every)
     if not val.predictions:
         from collections import Counter
 
@@ -165,8 +170,7 @@ def validate_cmd(
         batt = share_text(c.battery_share)
         typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
                    f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f} "
-                   f"{batt:>6} {'in-sample' if c.in_sample else 'held-out':9s} "
-                   f"{_judged_text(c)}")
+                   f"{batt:>6} {_sample_text(c):9s} {_judged_text(c)}")
     st = val.stats()
     for p in val.predictions:
         if p.list_check is not None and not p.list_check.ok:
@@ -177,6 +181,7 @@ def validate_cmd(
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
     typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped, "
                f"{st['n_tests_in_sample']} of them calibration tests of the vehicle file")
+    _echo_repeats(val)
     typer.echo("held-out: " + _stats_text(st))
     if st["n_judged_in_sample"]:
         typer.echo("in-sample (the vehicle file was calibrated on these tests; not a "
@@ -185,6 +190,25 @@ def validate_cmd(
                "(J1711 balances the whole test, not each bag)")
     if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _sample_text(c) -> str:
+    return "in-sample" if c.in_sample else ("unknown" if c.sample_unknown else "held-out")
+
+
+def _echo_repeats(val) -> None:
+    """Tests without a number: which repeat a calibration test, which cannot be told."""
+    if val.repeats:
+        pairs = ", ".join(f"{k} = {v}" for k, v in list(val.repeats.items())[:3])
+        typer.echo(f"{len(val.repeats)} test(s) without a test number repeat a calibration "
+                   f"test of the vehicle file (same vehicle, procedure, weight, road load and "
+                   f"figures; {pairs}{' ...' if len(val.repeats) > 3 else ''}): in-sample")
+    if val.sample_unknown:
+        n_fig = val.stats()["n_judged_sample_unknown"]
+        typer.echo(f"sample unknown: {len(val.sample_unknown)} test(s) without a test number "
+                   f"({n_fig} judged figures) may be calibration tests of the vehicle file, "
+                   "which are not all in the lists given: not counted as held-out; give the "
+                   "list that numbers them too (e.g. the previous model year's) to tell")
 
 
 def _stats_text(st: dict) -> str:

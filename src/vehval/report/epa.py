@@ -96,7 +96,8 @@ def render_html(val: EpaValidation) -> str:
         classes.append("" if not c.judged else ("ok" if ok else "bad"))
         rows.append([c.test, c.originator, c.procedure, c.item, f"{c.predicted_mpg:.1f}",
                      f"{c.measured_mpg:.1f}", f"{100 * c.error:+.1f}", share_text(c.battery_share),
-                     "in-sample" if c.in_sample else "held-out",
+                     "in-sample" if c.in_sample else ("unknown" if c.sample_unknown
+                                                      else "held-out"),
                      "yes" if c.judged else "no", c.note])
     r_kind = corr["per_kind"]
     kinds = [[k, v["n"], v["n_within_tolerance"], f"{100 * v['mean_error']:+.1f}",
