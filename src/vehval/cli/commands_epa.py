@@ -55,11 +55,14 @@ def list_cmd(
     if as_json:
         typer.echo(jsonsafe.dumps(rows), nl=False)
         return
-    typer.echo(f"{'year':>4}  {'make':12s} {'model':32s} {'tests':>5}  {'ETW [kg]':>16}  "
-               "test vehicles")
+    from vehval.display import unit_for
+
+    mu = unit_for("kg")
+    typer.echo(f"{'year':>4}  {'make':12s} {'model':32s} {'tests':>5}  "
+               f"{f'ETW [{mu.label}]':>16}  test vehicles")
     for r in rows:
-        mass = "/".join(f"{m:.0f}" for m in r.mass_kg[:3]) + ("..." if len(r.mass_kg) > 3
-                                                              else "")
+        mass = "/".join(f"{mu.convert(m):.0f}" for m in r.mass_kg[:3]) + (
+            "..." if len(r.mass_kg) > 3 else "")
         ids = ", ".join(r.vehicle_ids[:4]) + (" ..." if len(r.vehicle_ids) > 4 else "")
         typer.echo(f"{r.year:>4}  {r.make[:12]:12s} {r.model[:32]:32s} {r.n_tests:>5}  "
                    f"{mass:>16}  {ids}")
@@ -87,18 +90,27 @@ def tests_cmd(
                                     "list_check": c.to_dict()}
                                    for t, c in zip(tests, checks)]), nl=False)
         return
+    from vehval.display import unit_for
+
+    # the display units (us: lb, lbf, lbf/mph, lbf/mph², as the list itself; metric: kg, N,
+    # N/(km/h), N/(km/h)²); --json stays SI
+    mu, fu, vu = unit_for("kg"), unit_for("N"), unit_for("m/s")
+    per = vu.label if "/" not in vu.label else f"({vu.label})"
+    b_k, c_k = fu.factor / vu.factor, fu.factor / vu.factor ** 2
     typer.echo(f"{'test':14s} {'vehicle':9s} {'cfg':>3} {'orig':4s} {'proc':7s} "
-               f"{'ETW kg':>7} {'N/V':>5} {'axle':>5} {'A N':>6} {'B N/(m/s)':>9} "
-               f"{'C N/(m/s)2':>10} {'FE mpg':>6}  bags 1-4 [mpg]")
+               f"{f'ETW {mu.label}':>7} {'N/V':>5} {'axle':>5} {f'A {fu.label}':>7} "
+               f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE mpg':>6}  "
+               "bags 1-4 [mpg]")
     for t, chk in zip(tests, checks):
         bags = " ".join(f"{_fmt(b):>6}" for b in t.bags) + ("" if chk.ok else "  !")
         typer.echo(f"{t.label[:14]:14s} {t.vehicle_id[:9]:9s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
-                   f"{_fmt(t.mass_kg, '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
-                   f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(t.target_a_n):>6} "
-                   f"{_fmt(t.target_b_n_per_mps, '.3f'):>9} "
-                   f"{_fmt(t.target_c_n_per_mps2, '.4f'):>10} {_fmt(t.fe):>6}  {bags}")
-    typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients in --json)")
+                   f"{_fmt(float(mu.convert(t.mass_kg)), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
+                   f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(float(fu.convert(t.target_a_n)), '.2f'):>7} "
+                   f"{_fmt(b_k * t.target_b_n_per_mps, '.4f'):>11} "
+                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {_fmt(t.fe):>6}  {bags}")
+    typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients and SI "
+               "units in --json; N/V in rpm/mph as listed)")
     for t, chk in zip(tests, checks):
         if not chk.ok:
             typer.echo(f"! {t.label} ({t.source}): {chk.note}")
