@@ -320,6 +320,11 @@ def test_unnumbered_repeat_of_a_calibration_test(prius_list, tmp_path, capsys):
     text = capsys.readouterr().out
     assert "sample unknown: 2 test(s) without a test number" in text
     assert "held-out: 0/0 judged figures" in text
+    assert main(["epa", "validate", str(later), "--vehicle", str(path), "--tests",
+                 "procedure=3", "--dt", "1", "-o", str(tmp_path / "rep")]) == 0
+    capsys.readouterr()
+    html = (tmp_path / "rep" / "report.html").read_text(encoding="utf-8")
+    assert "held-out: no judged figure." in html and "Sample unknown: 2 test(s)" in html
     for lists in ([later, prius_list], [prius_list, later]):
         assert main(["epa", "validate", *map(str, lists), "--vehicle", str(path), "--tests",
                      "vehicle=16-ZV1H,procedure=3,config=1", "--dt", "1"]) == 0

@@ -80,6 +80,8 @@ def share_text(x: float | None) -> str:
 
 def _figures_text(st: dict) -> str:
     """``n of N judged figures within 5 % (...); mean error ...`` of one stats dict."""
+    if not st["n_judged"]:
+        return "no judged figure."
     return (f"{st['n_within_tolerance']} of {st['n_judged']} judged figures within "
             f"{100 * st['tolerance']:.0f} % ({st['n_within_3pct']} within 3 %); mean error "
             f"{100 * (st['mean_error'] or 0):+.1f} %, mean |error| "
@@ -121,6 +123,12 @@ def render_html(val: EpaValidation) -> str:
                      f"{ins['n_tests_in_sample']} of these tests "
                      f"({', '.join(sorted(val.calibrated))}); their figures are not a "
                      f"prediction: {_figures_text(ins)}")
+    if val.sample_unknown:
+        in_sample += (f" Sample unknown: {len(val.sample_unknown)} test(s) without a test number "
+                      f"({st['n_judged_sample_unknown']} judged figures) may be calibration "
+                      "tests of the vehicle file, which are not all in the lists read; they are "
+                      "counted neither as held-out nor as in-sample (read the list that numbers "
+                      "them too).")
     return render_page("epa.html.j2", title=f"vehval EPA validation: {val.vehicle}", css="epa.css",
                        vehicle=val.vehicle, summary=summary, in_sample=in_sample,
                        mismatch=mismatch,
