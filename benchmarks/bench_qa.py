@@ -73,6 +73,8 @@ def run() -> list[dict]:
 
         t_qa = best_of(qa, n=3)
         r = result["r"]
+        t_qa_bare = _without_crosschecks(qa)
+        t_cc = _crosschecks_alone(r, tpl)
         off = r.alignment[0].offset_s if r.alignment else float("nan")
         t_res, t_gate, n_err = _results_and_gate(r, tpl)
     note = (f"{n_sig} signals x {n_samp} samples; {len(r.findings)} findings, "
@@ -87,7 +89,31 @@ def run() -> list[dict]:
             note=(f"`vehval qa` work (run_qa + results) with the QA gate of the results "
                   f"(apply_gate, {len(r.findings)} findings, {n_err} errors) against without; "
                   f"target: under 10 % more; gate alone {1e3 * t_gate:.2f} ms")),
+        row("qa_crosschecks_and_gate_on_vs_off", t_qa + t_res + t_gate, "s",
+            baseline=t_qa_bare + t_res, target=1.10,
+            note=("`vehval qa` work (run_qa + results) with the physical cross-checks "
+                  "(qa.crosscheck, qa.obd_checks) and the QA gate, against both left out; "
+                  f"target: under 10 % more; the cross-checks alone {1e3 * t_cc:.1f} ms")),
     ]
+
+
+def _crosschecks_alone(r, tpl) -> float:
+    """Best time [s] of the physical cross-checks on the validated test."""
+    from vehval.qa.plausibility import run_plausibility
+
+    return best_of(lambda: run_plausibility(r.validated, None, tpl), n=3)
+
+
+def _without_crosschecks(qa) -> float:
+    """Best time [s] of ``qa`` with the physical cross-checks replaced by nothing."""
+    from vehval.qa import plausibility
+
+    keep = plausibility.run_crosschecks
+    plausibility.run_crosschecks = lambda *a, **k: []
+    try:
+        return best_of(qa, n=3)
+    finally:
+        plausibility.run_crosschecks = keep
 
 
 def _results_and_gate(r, tpl) -> tuple[float, float, int]:

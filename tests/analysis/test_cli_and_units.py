@@ -154,3 +154,27 @@ def test_the_rule_fit_announces_its_kernel_and_a_conventional_car_has_no_rule(tm
     d = json.loads((tmp_path / "conv" / "control.json").read_text())
     assert asked == [] and d["rule_agreement"] is None and d["controller"] == {}
     assert any("conventional vehicle" in f["message"] for f in d["findings"])
+
+
+def test_cli_analyze_says_why_nothing_is_estimated(tmp_path, capsys):
+    """A hybrid whose engine runs through the whole log (a cold drive): no on/off rule can be
+    fitted, and the screen says so instead of only '0 controller parameter(s)'."""
+    from vehval.cli import main
+
+    t = np.arange(0, 300, 1.0)
+    v = 12 + 8 * np.sin(t / 20)
+    frc = 1300 * np.gradient(v, t) + 90 + 0.36 * v * v
+    lines = ["Time,Speed,Force,Engine,Current"] + [
+        f"{a_:.1f},{b:.3f},{c:.1f},1200,{-5 + 3 * np.sin(a_ / 7):.2f}" for a_, b, c in zip(t, v, frc)]
+    (tmp_path / "run.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "t.yaml").write_text(
+        "template_version: 1\nfiles:\n  - source: obd\n    format: csv\n    time: {column: Time, unit: s}\n"
+        "    channels:\n      Speed: {name: veh_spd_test, unit: m/s}\n      Force: {name: veh_frc_in_test, unit: N}\n"
+        "      Engine: {name: eng_spd_out_test, unit: rpm}\n      Current: {name: ess_curr_test, unit: A}\n")
+    rc = main(["analyze", str(tmp_path / "run.csv"), "-t", str(tmp_path / "t.yaml"), "-o",
+               str(tmp_path / "out"), "--no-qa"])
+    assert rc == 0
+    out = capsys.readouterr().out
+    assert "0 controller parameter(s) estimated" in out
+    assert "engine on/off rule not estimated" in out and "(found 0 switch(es))" in out
+    assert "the engine state never changes: on over the whole test" in out

@@ -122,19 +122,35 @@ def test_cli_list_and_tests(prius_list, capsys):
     assert main(["epa", "list", str(prius_list.parent / "nope.csv")]) == 2
 
 
-def test_cli_tests_and_list_speak_the_unit_system(prius_list, capsys, monkeypatch):
-    """`epa tests` printed ETW in kg and the road load in N, N/(m/s) under the default us
-    system: a reader checking the row against the list (lb, lbf, lbf/mph) had to convert."""
-    monkeypatch.setenv("VEHVAL_UNITS", "us")
+def test_cli_tests_and_list_in_display_units(prius_list, capsys, monkeypatch):
+    """The screen reads the list's own units in the us system (ETW lb, A lbf, B lbf/mph,
+    C lbf/mph², as the row T4 gives them: 3375, 24.153, 0.33502, 0.014096) and kg, N,
+    N/(km/h), N/(km/h)² in metric; --json stays SI."""
+    from vehval.display import ENV_VAR
+
+    monkeypatch.setenv(ENV_VAR, "us")
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
     out = capsys.readouterr().out.splitlines()
     assert "ETW lb" in out[0] and "A lbf" in out[0] and "B lbf/mph" in out[0]
-    t4 = next(ln for ln in out if ln.startswith("T4")).split()
-    assert "24.2" in t4 and "0.3350" in t4 and "0.01410" in t4   # the list's own figures
-    assert main(["epa", "list", str(prius_list), "--model", "PRIUS c"]) == 0
-    out = capsys.readouterr().out
-    assert "ETW [lb]" in out and "2750" in out and "1 vehicle, 1 test" in out
-    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    assert "C lbf/mph²" in out[0]
+    t4 = next(ln for ln in out if ln.startswith("T4 ")).split()
+    assert t4[5:11] == ["3375", "20.0", "2.83", "24.15", "0.3350", "0.01410"]
+    assert main(["epa", "list", str(prius_list), "--model", "PRIUS"]) == 0
+    assert "ETW [lb]" in capsys.readouterr().out
+    monkeypatch.setenv(ENV_VAR, "metric")
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
-    head = capsys.readouterr().out.splitlines()[0]
-    assert "ETW kg" in head and "A N" in head and "B N/(m/s)" in head
+    out = capsys.readouterr().out.splitlines()
+    assert "ETW kg" in out[0] and "B N/(km/h)" in out[0]
+    t4 = next(ln for ln in out if ln.startswith("T4 ")).split()
+    kg, a_n = 3375 * LB_KG, 24.153 * LBF_N
+    b = 0.33502 * LBF_N / MPH_M_PER_S / 3.6
+    assert t4[5] == f"{kg:.0f}" and t4[8] == f"{a_n:.2f}" and t4[9] == f"{b:.4f}"
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert any(d["mass_kg"] == pytest.approx(kg) for d in data)
+
+
+def test_cli_list_counts_read_as_english(prius_list, capsys):
+    """'1 vehicles, 1 tests' -> '1 vehicle, 1 test'."""
+    assert main(["epa", "list", str(prius_list), "--model", "PRIUS c"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == "1 vehicle, 1 test"

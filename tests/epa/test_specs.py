@@ -57,7 +57,17 @@ def test_specs_from_list_rows(specs):
 def test_specs_refuse_mixed_configurations_and_cvt(tmp_path):
     rows = _camry_rows() + _camry_rows(vid="18-GV2A", weight=3875)
     path = write_list(tmp_path / "mixed.csv", rows, header=HEADER)
-    with pytest.raises(ConfigError, match="more than one configuration"):
+    with pytest.raises(ConfigError, match="more than one configuration") as err:
+        specs_from_tests(read_test_car_list(path))
+    # the message names the test vehicles to choose from and this command's option
+    assert "18-AV3A: 1644.27; 18-GV2A: 1757.67" in str(err.value)
+    assert "--vehicle-id" in str(err.value) and "CAMRY" not in str(err.value)
+    # a CVT (a hybrid's) is refused as such before any narrowing is asked for
+    cvt_mixed = rows
+    for r in cvt_mixed:
+        r.update({"Tested Transmission Type Code": "CVT", "# of Gears": "1"})
+    path = write_list(tmp_path / "cvt_mixed.csv", cvt_mixed, header=HEADER)
+    with pytest.raises(ConfigError, match="automatic with a torque converter"):
         specs_from_tests(read_test_car_list(path))
     cvt = _camry_rows()
     for r in cvt:

@@ -281,3 +281,52 @@ def test_in_sample_marked_in_cli_and_report(prius_list, prius_2016, tmp_path, ca
     assert "In-sample, apart" in html and "square: in-sample" in html
     data = json.loads((out / "epa_validation.json").read_text(encoding="utf-8"))
     assert data["stats"]["n_judged"] == 0 and data["stats_in_sample"]["n_judged"] == 1
+
+
+def test_unnumbered_repeat_of_a_calibration_test(prius_list, tmp_path, capsys):
+    """A later list without test numbers (the 2017 columns) repeats the calibration test T4:
+    alone it cannot be told held-out (unknown, not counted); with the list that numbers it,
+    in either order, it is the calibration test (in-sample)."""
+    import yaml
+
+    from vehval.calibration.provenance import _plain
+
+    t4 = row(number="", orig="", year=2017, cfg="1", code=3, desc="HWFE", fe=66.0,
+             target=(24.153, 0.33502, 0.014096))
+    t9 = row(number="", orig="", year=2017, vid="16-ZV9H", code=3, desc="HWFE", fe=70.0)
+    later = write_list(tmp_path / "17tstcar.csv", [t4, t9])
+    # a vehicle file calibrated on T4 only (prius_2016's own calibration tests are not here)
+    veh = _calibrated_on(load_vehicle("prius_2004"), ["T4"])
+    val = validate_tests(veh, read_test_car_list(later), dt=1.0)
+    assert [c.sample_unknown for c in val.comparisons] == [True, True]
+    assert not any(c.in_sample for c in val.comparisons)
+    st = val.stats()
+    assert st["n_judged"] == 0 and st["n_judged_held_out"] == 0
+    assert st["n_judged_sample_unknown"] == 2
+    assert val.to_dict()["sample_unknown_tests"] == [c.test for c in val.comparisons]
+    # with the numbered list as reference: the repeat is T4, the other is held out
+    every = read_test_car_list(prius_list) + read_test_car_list(later)
+    val = validate_tests(veh, read_test_car_list(later), dt=1.0, reference=every)
+    assert [(c.in_sample, c.sample_unknown) for c in val.comparisons] == [(True, False),
+                                                                          (False, False)]
+    assert list(val.repeats.values()) == ["T4"]
+    # the CLI: the later list alone says why nothing is held out; both lists, in either
+    # order, keep the numbered row
+    path = tmp_path / "cal.yaml"
+    path.write_text(yaml.safe_dump(_plain(veh.model_dump(exclude_none=True)), sort_keys=False),
+                    encoding="utf-8")
+    assert main(["epa", "validate", str(later), "--vehicle", str(path), "--tests",
+                 "procedure=3", "--dt", "1"]) == 0
+    text = capsys.readouterr().out
+    assert "sample unknown: 2 test(s) without a test number" in text
+    assert "held-out: 0/0 judged figures" in text
+    assert main(["epa", "validate", str(later), "--vehicle", str(path), "--tests",
+                 "procedure=3", "--dt", "1", "-o", str(tmp_path / "rep")]) == 0
+    capsys.readouterr()
+    html = (tmp_path / "rep" / "report.html").read_text(encoding="utf-8")
+    assert "held-out: no judged figure." in html and "Sample unknown: 2 test(s)" in html
+    for lists in ([later, prius_list], [prius_list, later]):
+        assert main(["epa", "validate", *map(str, lists), "--vehicle", str(path), "--tests",
+                     "vehicle=16-ZV1H,procedure=3,config=1", "--dt", "1"]) == 0
+        text = capsys.readouterr().out
+        assert "T4 " in text and "in-sample" in text and "unknown" not in text

@@ -101,6 +101,17 @@ def test_match_channel_alias_and_fuzzy():
     assert match_channel("Wobble frobnicator", "V") is None
 
 
+def test_match_channel_unit_in_the_name():
+    # an ADVISOR-era test file: no unit row, the unit is the last word of the name
+    assert match_channel("speed_mph", None) == "veh_spd"
+    assert match_channel("batt_volts", None) == "ess_volt"
+    assert match_channel("batt_amps", None) == "ess_curr"
+    assert match_channel("eng_rpm", None) == "eng_spd_out"
+    # the unit word decides the dimension: a speed in rpm is not the vehicle speed
+    assert match_channel("speed_kph", None) == "veh_spd"
+    assert match_channel("wobble_mph", None) is None
+
+
 def test_propose_unique_names_sources_and_unmatched(tmp_path):
     dyno = write_d3(tmp_path / "a_d3.txt",
                     header=["Time[s]", "Dyno_Speed[mph]", "Engine Speed[rpm]", "Frob[V]", "Phase_#"])

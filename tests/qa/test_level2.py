@@ -6,7 +6,7 @@ import pytest
 from vehval.nomenclature import preference_rank
 from vehval.qa.findings import Kind, Severity
 from vehval.qa.level2 import compare_pair, run_level2
-from vehval.test import Signal
+from vehval.test import Signal, Test
 
 from .conftest import make_test
 
@@ -79,3 +79,33 @@ def test_clean_sources_agree():
     assert found == []
     assert {r.base for r in rows} == {"eng_spd_out", "veh_spd"}
     assert all(r.r2 > 0.99 and abs(r.residual_lag_s) < 0.1 for r in rows)
+
+
+def test_unit_factor_only_for_its_quantity():
+    # the two accelerator-pedal sensors of a car differ by design (sensor B reads about
+    # 1.6 x sensor A): a gain finding, not "mph vs km/h" on a position [1]
+    t = np.arange(200.0)
+    a = 0.3 * (1 + np.sin(t / 7.0))
+    ref = Signal.standard("drv_pos_accel_test", t, a)
+    other = Signal.standard("drv_pos_accel_b_test", t, 1.61 * a)
+    test = Test([ref, other])
+    _, found = run_level2(test)
+    kinds = {f.kind for f in found}
+    assert Kind.UNIT not in kinds and Kind.GAIN in kinds, [f.message for f in found]
+    # the same ratio on a speed [m/s] is the mph vs km/h mix-up
+    test = Test([Signal.standard("veh_spd_test", t, 10 * a),
+                           Signal.standard("veh_spd_obd_test", t, 10 * 1.609344 * a)])
+    _, found = run_level2(test)
+    assert [f.kind for f in found if f.severity == Severity.ERROR] == [Kind.UNIT]
+    assert "mph vs km/h" in found[0].message
+
+
+def test_diagnostic_counters_are_not_one_quantity():
+    # warm-ups, distance and time since codes cleared share the base diag_count but are
+    # three counters: comparing them as sources of one quantity gives nonsense gains
+    t = np.arange(100.0)
+    test = Test([Signal.standard("diag_count_warmups_test", t, np.full(100, 24.0)),
+                        Signal.standard("diag_count_dist_test", t, 220 + t / 60),
+                        Signal.standard("diag_count_time_test", t, 48_000 + t / 60 * 216)])
+    rows, found = run_level2(test)
+    assert rows == [] and found == []

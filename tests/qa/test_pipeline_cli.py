@@ -118,3 +118,24 @@ def test_cli_qa_counts_read_as_english(tmp_path, capsys):
     for word in ("error", "warning"):
         k = int(re.search(rf"(\d+) {word}", line).group(1))
         assert f"{k} {word}{'' if k == 1 else 's'}" in line, line
+
+
+def test_cli_qa_says_when_a_repeated_finding_occurs(tmp_path, capsys):
+    """Two dropouts of an OBD logger (every PID reads 0 for one sample) give the same range
+    sentence twice: the screen adds each one's time, so the two lines can be told apart."""
+    from vehval.cli import main
+
+    n = 300
+    pres = np.full(n, 101.3)
+    pres[[100, 200]] = 0.0
+    rows = ["Time,Baro"] + [f"{i:.1f},{p:.1f}" for i, p in enumerate(pres)]
+    (tmp_path / "log.csv").write_text("\n".join(rows) + "\n")
+    (tmp_path / "t.yaml").write_text(
+        "template_version: 1\nfiles:\n  - source: obd\n    format: csv\n"
+        "    time: {column: Time, unit: s}\n    channels:\n"
+        "      Baro: {name: amb_pres_test, unit: kPa}\n")
+    main(["qa", str(tmp_path / "log.csv"), "-t", str(tmp_path / "t.yaml"), "-o",
+          str(tmp_path / "out")])
+    lines = [ln for ln in capsys.readouterr().out.splitlines() if " range " in ln]
+    assert len(lines) == 2, lines
+    assert lines[0].endswith("(at 100.0 s)") and lines[1].endswith("(at 200.0 s)")

@@ -241,3 +241,20 @@ def test_shared_plotly_asset(tmp_path):
         with pytest.raises(ConfigError, match="relative path"):
             write_report(tmp_path / "bad.html", test=make_test(), plotly_js=bad)
     assert not (tmp_path / "bad.html").exists()
+
+
+def test_long_numeric_lists_are_sent_as_typed_arrays_short_and_text_lists_as_json():
+    from vehval.report.figures import TYPED_MIN_LEN, figure_json
+
+    n = 2 * TYPED_MIN_LEN
+    y = [float(i) for i in range(n)]
+    y[5] = None                                        # a gap stays a gap (NaN)
+    fig = {"data": [{"type": "scatter", "x": list(range(n)), "y": y},
+                    {"type": "bar", "x": ["a", "b"] * TYPED_MIN_LEN, "y": [1, 2] * TYPED_MIN_LEN},
+                    {"type": "scatter", "x": [0, 1, 2], "y": [3, 4, 5]}]}
+    d = json.loads(figure_json(fig))["data"]
+    yy = np.frombuffer(base64.b64decode(d[0]["y"]["bdata"]), dtype=np.float32)
+    assert d[0]["x"]["dtype"] in ("f4", "f8") and yy.size == n and np.isnan(yy[5])
+    assert yy[6] == 6.0
+    assert d[1]["x"][:2] == ["a", "b"] and isinstance(d[1]["y"], dict)   # categories stay text
+    assert d[2]["x"] == [0, 1, 2]                                        # short: plain JSON

@@ -180,3 +180,20 @@ def test_cli_simulate_json_and_output(tmp_path, capsys):
     assert any(p.name.startswith("signals.") for p in (tmp_path / "out").iterdir())
     rc = main(["simulate", "--cycle", "nope", "--dt", "1"])
     assert rc == 2 and "known cycles" in capsys.readouterr().err
+
+
+def test_cli_simulate_metric_reads_litres_per_100km(capsys, monkeypatch):
+    # --units metric leads with L/100 km on every fuel line, the SOC-corrected one too
+    from vehval.cli import main
+    from vehval.display import ENV_VAR
+
+    monkeypatch.setenv(ENV_VAR, "us")  # --units sets it for the run: restored after the test
+
+    rc = main(["--units", "metric", "simulate", "--vehicle", "prius_2004", "--cycle",
+               "japan1015", "--dt", "1"])
+    assert rc == 0
+    lines = {ln.split("  ")[1].strip(): ln for ln in capsys.readouterr().out.splitlines()
+             if ln.startswith("  ") and "  " in ln.strip()}
+    for key in ("fuel economy", "SOC-corrected"):
+        figure = lines[key].split(key)[1].strip()
+        assert figure.split(" (")[0].endswith("L/100 km") and figure.endswith("mpg)"), lines[key]

@@ -80,3 +80,21 @@ def test_analysis_of_a_conventional_car_prints_no_hybrid_rule(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "conventional vehicle" in out and "rule agreement" not in out and "bound" not in out
     assert (tmp_path / "a" / "control.json").is_file()
+
+
+def test_cli_validate_says_why_a_test_fails(tmp_path, capsys):
+    """A FAIL on screen carries its reason: a log without a fuel channel (the Prius c OBD logs)
+    printed 'fuel n/a, ...: FAIL' and nothing else."""
+    from vehval.cli import main
+    from vehval.synth import make_virtual_test
+
+    vt = make_virtual_test(cycle="japan1015", seed=2, faults="none", outdir=tmp_path / "vt")
+    tpl = vt.template_path.read_text(encoding="utf-8")
+    no_fuel = tpl.replace("{name: fuel_rate_test, unit: ccps}",
+                          "{delete: true, reason: not logged}")
+    assert no_fuel != tpl
+    vt.template_path.write_text(no_fuel, encoding="utf-8")
+    assert main(["validate", *map(str, vt.files), "-t", str(vt.template_path), "--vehicle",
+                 "prius_2004", "-o", str(tmp_path / "v"), "--dt", "1"]) == 0
+    line = next(ln for ln in capsys.readouterr().out.splitlines() if "FAIL" in ln)
+    assert "fuel n/a" in line and line.endswith("FAIL: fuel_pct: cannot be computed (missing signal)")

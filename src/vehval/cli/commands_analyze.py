@@ -51,6 +51,16 @@ def analyze_cmd(
         return
     typer.echo(f"wrote {outdir / 'control.json'}: {len(c)} controller parameter(s) estimated, "
                f"rule agreement {f'{agree:.1%} of steps' if agree is not None else 'n/a'}")
+    if not c:  # say why nothing was estimated (the reasons are in control.json too)
+        for f in result.findings:
+            if f.get("kind") == "warning" and f.get("signal") in ("engine state", "wheel power"):
+                typer.echo(f"  {f['message']}")
+        on = (result.engine or {}).get("on_share")
+        if on is not None and (result.engine or {}).get("starts") == 0:
+            typer.echo(f"  the engine state never changes: {'on' if on > 0.5 else 'off'} over "
+                       "the whole test")
+        if result.soc_regulation.get("why"):
+            typer.echo(f"  SOC regulation not fitted: {result.soc_regulation['why']}")
     for k, v in c.items():
         u = result.uncertainty.get(k, {})
         rng = f"  [{u['low']:g}, {u['high']:g}]" if u.get("low") is not None and u.get("high") is not None else ""

@@ -57,11 +57,11 @@ def list_cmd(
         return
     from vehval.display import unit_for
 
-    kg = unit_for("kg")                  # lb (us, as the list writes it) or kg (metric)
+    mu = unit_for("kg")
     typer.echo(f"{'year':>4}  {'make':12s} {'model':32s} {'tests':>5}  "
-               f"{f'ETW [{kg.label}]':>16}  test vehicles")
+               f"{f'ETW [{mu.label}]':>16}  test vehicles")
     for r in rows:
-        mass = "/".join(f"{kg.convert(m):.0f}" for m in r.mass_kg[:3]) + (
+        mass = "/".join(f"{mu.convert(m):.0f}" for m in r.mass_kg[:3]) + (
             "..." if len(r.mass_kg) > 3 else "")
         ids = ", ".join(r.vehicle_ids[:4]) + (" ..." if len(r.vehicle_ids) > 4 else "")
         typer.echo(f"{r.year:>4}  {r.make[:12]:12s} {r.model[:32]:32s} {r.n_tests:>5}  "
@@ -93,40 +93,45 @@ def tests_cmd(
                                     "list_check": c.to_dict()}
                                    for t, c in zip(tests, checks)]), nl=False)
         return
-    from vehval.display import KEY_SUFFIX_COMPOUND, system, unit_for
+    from vehval.display import unit_for
 
-    # lb, lbf, lbf/mph, lbf/mph² (us: the list's own units) or kg, N, N/(m/s), N/(m/s)²
-    kg, n = unit_for("kg"), unit_for("N")
-    b, c = (KEY_SUFFIX_COMPOUND[k][system()] for k in ("_n_per_mps", "_n_per_mps2"))
-
-    def conv(v: float | None, unit) -> float | None:
-        return None if v is None else float(unit.convert(v))
+    # the display units (us: lb, lbf, lbf/mph, lbf/mph², as the list itself; metric: kg, N,
+    # N/(km/h), N/(km/h)²); --json stays SI
+    mu, fu, vu = unit_for("kg"), unit_for("N"), unit_for("m/s")
+    per = vu.label if "/" not in vu.label else f"({vu.label})"
+    b_k, c_k = fu.factor / vu.factor, fu.factor / vu.factor ** 2
     typer.echo(f"{'test':14s} {'vehicle':9s} {'cfg':>3} {'orig':4s} {'proc':7s} "
-               f"{'ETW ' + kg.label:>7} {'N/V':>5} {'axle':>5} {'A ' + n.label:>6} "
-               f"{'B ' + b.label:>9} {'C ' + c.label:>10} {'FE mpg':>6}  bags 1-4 [mpg]")
+               f"{f'ETW {mu.label}':>7} {'N/V':>5} {'axle':>5} {f'A {fu.label}':>7} "
+               f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE mpg':>6}  "
+               "bags 1-4 [mpg]")
     for t, chk in zip(tests, checks):
         bags = " ".join(f"{_fmt(b_):>6}" for b_ in t.bags) + ("" if chk.ok else "  !")
         typer.echo(f"{t.label[:14]:14s} {t.vehicle_id[:9]:9s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
-                   f"{_fmt(conv(t.mass_kg, kg), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
-                   f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(conv(t.target_a_n, n)):>6} "
-                   f"{_fmt(conv(t.target_b_n_per_mps, b), '.4f'):>9} "
-                   f"{_fmt(conv(t.target_c_n_per_mps2, c), '.5f'):>10} {_fmt(t.fe):>6}  {bags}")
-    typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients in --json)")
+                   f"{_fmt(float(mu.convert(t.mass_kg)), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
+                   f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(float(fu.convert(t.target_a_n)), '.2f'):>7} "
+                   f"{_fmt(b_k * t.target_b_n_per_mps, '.4f'):>11} "
+                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {_fmt(t.fe):>6}  {bags}")
+    typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients and SI "
+               "units in --json; N/V in rpm/mph as listed)")
     for t, chk in zip(tests, checks):
         if not chk.ok:
             typer.echo(f"! {t.label} ({t.source}): {chk.note}")
 
 
-def _selected(paths: list[Path], selector: str, dt: float):
-    """Tests of the list files matching ``selector`` (refused if none; ``dt`` checked)."""
+def _selected(paths: list[Path], selector: str, dt: float, every: list | None = None):
+    """Tests of the list files matching ``selector`` (refused if none; ``dt`` checked);
+    ``every``, when given, receives every test read."""
     from vehval.epa import apply_selector, read_lists
     from vehval.epa.select import parse_selector
     from vehval.errors import InputFileError
     from vehval.sim.simulate import _check_dt
 
     _check_dt(dt)
-    selected = apply_selector(read_lists(paths), selector)
+    tests = read_lists(paths)
+    if every is not None:
+        every.extend(tests)
+    selected = apply_selector(tests, selector)
     if not selected:
         raise InputFileError(f"the selector '{selector}' matches no test")
     return _note_partial_model(selected, parse_selector(selector).get("model"))
@@ -153,7 +158,8 @@ def validate_cmd(
     from vehval.epa.validation import validate_tests
     from vehval.report.epa import share_text
     with bar("epa validate: simulating tests", as_json=as_json):
-        val = validate_tests(vehicle, _selected(paths, tests, dt), dt=dt)
+        every: list = []
+        val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every)
     if not val.predictions:
         from collections import Counter
 
@@ -179,8 +185,7 @@ def validate_cmd(
         batt = share_text(c.battery_share)
         typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
                    f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f} "
-                   f"{batt:>6} {'in-sample' if c.in_sample else 'held-out':9s} "
-                   f"{_judged_text(c)}")
+                   f"{batt:>6} {_sample_text(c):9s} {_judged_text(c)}")
     st = val.stats()
     for p in val.predictions:
         if p.list_check is not None and not p.list_check.ok:
@@ -191,6 +196,7 @@ def validate_cmd(
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
     typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped, "
                f"{st['n_tests_in_sample']} of them calibration tests of the vehicle file")
+    _echo_repeats(val)
     typer.echo("held-out: " + _stats_text(st))
     if st["n_judged_in_sample"]:
         typer.echo("in-sample (the vehicle file was calibrated on these tests; not a "
@@ -199,6 +205,25 @@ def validate_cmd(
                "(J1711 balances the whole test, not each bag)")
     if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _sample_text(c) -> str:
+    return "in-sample" if c.in_sample else ("unknown" if c.sample_unknown else "held-out")
+
+
+def _echo_repeats(val) -> None:
+    """Tests without a number: which repeat a calibration test, which cannot be told."""
+    if val.repeats:
+        pairs = ", ".join(f"{k} = {v}" for k, v in list(val.repeats.items())[:3])
+        typer.echo(f"{len(val.repeats)} test(s) without a test number repeat a calibration "
+                   f"test of the vehicle file (same vehicle, procedure, weight, road load and "
+                   f"figures; {pairs}{' ...' if len(val.repeats) > 3 else ''}): in-sample")
+    if val.sample_unknown:
+        n_fig = val.stats()["n_judged_sample_unknown"]
+        typer.echo(f"sample unknown: {len(val.sample_unknown)} test(s) without a test number "
+                   f"({n_fig} judged figures) may be calibration tests of the vehicle file, "
+                   "which are not all in the lists given: not counted as held-out; give the "
+                   "list that numbers them too (e.g. the previous model year's) to tell")
 
 
 def _stats_text(st: dict) -> str:

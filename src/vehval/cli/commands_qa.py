@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections import Counter
 from pathlib import Path
 
 import typer
@@ -14,6 +15,16 @@ from vehval.cli.options import bounded
 def _count(n: int, noun: str) -> str:
     """``"1 finding"``, ``"0 errors"``, ``"3 warnings"``."""
     return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
+def _when(f: dict) -> str:
+    """`` (at 186.0 s)`` or `` (404.0-998.0 s)``: the time window of a finding, or ''."""
+    t0, t1 = f.get("start_s"), f.get("end_s")
+    if t0 is None:
+        return ""
+    if t1 is None or t1 == t0:
+        return f" (at {t0:.1f} s)"
+    return f" ({t0:.1f}-{t1:.1f} s)"
 
 
 def _summary(d: dict, outdir: Path) -> dict:
@@ -91,9 +102,12 @@ def qa_cmd(
         off = "n/a" if a["offset_s"] is None else f"{a['offset_s']:+.3f} s"
         typer.echo(f"  align {a['source']} -> {a['reference']}: {off} "
                    f"(confidence {a['confidence']:.2f}{'' if a['applied'] else ', not applied'})")
-    for f in doc["findings"]:
-        if f["severity"] != "info":
-            typer.echo(f"  {f['severity']:7s} {f['kind']:14s} {f['message']}")
+    shown = [f for f in doc["findings"] if f["severity"] != "info"]
+    same = Counter((f["kind"], f["message"]) for f in shown)
+    for f in shown:
+        # the same sentence twice (two stretches out of range...): say when each one is
+        where = _when(f) if same[(f["kind"], f["message"])] > 1 else ""
+        typer.echo(f"  {f['severity']:7s} {f['kind']:14s} {f['message']}{where}")
     for note in doc.get("notes") or []:  # repairs made at import (a stray timestamp dropped...)
         if str(note).startswith("warning"):
             typer.echo(f"  {note}", err=True)

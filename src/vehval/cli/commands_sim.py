@@ -116,7 +116,8 @@ def simulate_cmd(
         if written and outdir is not None:
             typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
         return
-    typer.echo(f"  SOC-corrected       {s['fuel_economy_soc_corrected_mpg']:.1f} mpg")
+    typer.echo("  SOC-corrected       " + fuel_text(s["fuel_economy_soc_corrected_mpg"],
+                                                   s.get("fuel_consumption_soc_corrected_l_per_100km")))
     typer.echo(f"  SOC                 {100 * s['soc_initial']:.1f} % -> "
                f"{100 * s['soc_final']:.1f} %")
     typer.echo(f"  engine on           {100 * s['engine_on_fraction']:.1f} % "

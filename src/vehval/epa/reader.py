@@ -337,9 +337,9 @@ def read_lists(paths: Sequence[str | Path]) -> list[EpaTest]:
 
     A test that appears in several years' lists (same test number, or the same vehicle,
     procedure and results when the list has no test numbers) is kept once, from the
-    earliest list read.
+    earliest list read that gives its test number.
     """
-    seen: set[tuple] = set()
+    seen: dict[tuple, int] = {}
     out: list[EpaTest] = []
     for f in find_list_files(paths):
         for t in read_test_car_list(f):
@@ -347,7 +347,9 @@ def read_lists(paths: Sequence[str | Path]) -> list[EpaTest]:
                     tuple(round(b, 3) if not math.isnan(b) else None for b in t.bags),
                     round(t.target_a_n, 3)))
             if key in seen:
+                if t.test_number and not out[seen[key]].test_number:
+                    out[seen[key]] = t      # the numbered row says which test it is
                 continue
-            seen.add(key)
+            seen[key] = len(out)
             out.append(t)
     return out

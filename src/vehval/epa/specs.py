@@ -126,6 +126,13 @@ class Specs:
                 f"{self.vehicle_id} ({', '.join(self.rows)})")
 
 
+def _refuse_transmission(t0: EpaTest) -> None:
+    raise ConfigError(f"{t0.label}: transmission '{t0.transmission or '?'}' with "
+                      f"{t0.gears} gears: the conventional model is an automatic with "
+                      f"a torque converter and {min(RATIO_SPREAD)}-{max(RATIO_SPREAD)} "
+                      "gears (CVT, manual and hybrid are not modelled from specs)")
+
+
 def specs_from_tests(tests: list[EpaTest]) -> Specs:
     """The specification of the one configuration the selected list rows describe.
 
@@ -136,6 +143,8 @@ def specs_from_tests(tests: list[EpaTest]) -> Specs:
     if not tests:
         raise ConfigError("no EPA list row selected: name the make, model and year")
     t0 = tests[0]
+    if all(t.transmission not in ("A", "SA") or t.gears not in RATIO_SPREAD for t in tests):
+        _refuse_transmission(t0)  # before any other check: no narrowing makes it modelled
     for key in _SPEC_KEYS:
         vals = [getattr(t, key) for t in tests]
         if any(not math.isfinite(v) or v <= 0 for v in vals) and key not in (
@@ -144,20 +153,20 @@ def specs_from_tests(tests: list[EpaTest]) -> Specs:
                               "need weight, road load, axle ratio, N/V, displacement and "
                               "rated power")
         if max(vals) - min(vals) > 1e-6 * max(abs(v) for v in vals) + 1e-9:
-            shown = ", ".join(sorted({f"{v:.6g}" for v in vals}))
-            raise ConfigError(f"the selected rows describe more than one configuration "
-                              f"({key}: {shown}): narrow the selection (e.g. the model name "
-                              "'CAMRY XLE/XSE' or vehicle=ID)")
+            by_id: dict[str, set[str]] = {}
+            for t in tests:
+                by_id.setdefault(t.vehicle_id or "?", set()).add(f"{getattr(t, key):.6g}")
+            shown = "; ".join(f"{vid}: {', '.join(sorted(v))}" for vid, v in sorted(by_id.items()))
+            raise ConfigError(f"the selected {t0.make} {t0.model} rows describe more than one "
+                              f"configuration ({key} by test vehicle: {shown}): choose one "
+                              "test vehicle (--vehicle-id ID)")
     gears = {t.gears for t in tests}
     trans = {t.transmission for t in tests}
     if len(gears) != 1 or len(trans) != 1:
         raise ConfigError("the selected rows differ in transmission or gear count: narrow "
                           "the selection")
     if t0.transmission not in ("A", "SA") or t0.gears not in RATIO_SPREAD:
-        raise ConfigError(f"{t0.label}: transmission '{t0.transmission or '?'}' with "
-                          f"{t0.gears} gears: the conventional model is an automatic with "
-                          f"a torque converter and {min(RATIO_SPREAD)}-{max(RATIO_SPREAD)} "
-                          "gears (CVT, manual and hybrid are not modelled from specs)")
+        _refuse_transmission(t0)
     ratios = []
     for t in tests:
         if procedure_key(t) == "ftp75" and all(math.isfinite(b) for b in t.bags[:3]):

@@ -17,7 +17,11 @@ In-sample honesty: a figure of a test the vehicle file was calibrated on (read f
 provenance of its calibrated values, :func:`vehval.calibration.provenance.calibration_tests`)
 is marked ``in_sample``; the headline statistics (:meth:`EpaValidation.stats`) count only
 held-out judged figures, the in-sample ones are summarised apart
-(``stats(in_sample=True)``).
+(``stats(in_sample=True)``). A list without test numbers (the reduced 2017 columns) repeats
+earlier lists' tests: such a row that repeats a calibration test (same vehicle, procedure,
+weight, road load and figures, :func:`repeated_calibration_tests`) is in-sample; one that
+cannot be told apart (a calibration test not among the lists read) is ``sample_unknown``
+and counted neither as held-out nor as in-sample.
 """
 
 from __future__ import annotations
@@ -88,6 +92,7 @@ class Comparison:
     battery_share: float | None = None  # model: battery chemical / fuel energy [-]
     list_doubtful: bool = False  # the list's own figures of this test disagree (not judged)
     in_sample: bool = False  # the vehicle file was calibrated on this test
+    sample_unknown: bool = False  # no test number, may be a calibration test (not counted)
 
     @property
     def error(self) -> float:
@@ -105,7 +110,8 @@ class Comparison:
                 "cold_start": self.cold_start,
                 "battery_share": (None if self.battery_share is None
                                   else round(self.battery_share, 5)),
-                "list_doubtful": self.list_doubtful, "in_sample": self.in_sample}
+                "list_doubtful": self.list_doubtful, "in_sample": self.in_sample,
+                "sample_unknown": self.sample_unknown}
 
 
 @dataclass
@@ -140,6 +146,10 @@ class EpaValidation:
     skipped: list[dict[str, str]] = field(default_factory=list)
     #: test id -> parameters the vehicle file was calibrated on it (its figures in-sample)
     calibrated: dict[str, list[str]] = field(default_factory=dict)
+    #: label of a test without a number -> the calibration test whose list row it repeats
+    repeats: dict[str, str] = field(default_factory=dict)
+    #: labels of tests without a number that may be calibration tests (not counted)
+    sample_unknown: list[str] = field(default_factory=list)
 
     def stats(self, in_sample: bool = False) -> dict[str, Any]:
         """Counts, errors of the judged figures and the correlation of spreads.
@@ -150,7 +160,7 @@ class EpaValidation:
             False (the headline): the held-out judged figures only; True: the judged
             figures of the tests the vehicle file was calibrated on.
         """
-        figures = [c for c in self.comparisons if c.in_sample == in_sample]
+        figures = [c for c in self.comparisons if c.in_sample == in_sample and not c.sample_unknown]
         judged = [c for c in figures if c.judged]
         err = np.array([c.error for c in judged])
         out: dict[str, Any] = {
@@ -162,7 +172,9 @@ class EpaValidation:
             "figures": "in-sample" if in_sample else "held-out",
             "n_tests_in_sample": sum(p.test.label in self.calibrated for p in self.predictions),
             "n_judged": len(judged),
-            "n_judged_held_out": sum(c.judged and not c.in_sample for c in self.comparisons),
+            "n_judged_held_out": sum(c.judged and not c.in_sample and not c.sample_unknown
+                                     for c in self.comparisons),
+            "n_judged_sample_unknown": sum(c.judged and c.sample_unknown for c in self.comparisons),
             "n_judged_in_sample": sum(c.judged and c.in_sample for c in self.comparisons),
             "n_within_tolerance": int(np.sum(np.abs(err) <= TOLERANCE)) if err.size else 0,
             "n_within_3pct": int(np.sum(np.abs(err) <= 0.03)) if err.size else 0,
@@ -179,6 +191,8 @@ class EpaValidation:
         return {"vehicle": self.vehicle, "stats": self.stats(),
                 "stats_in_sample": self.stats(in_sample=True),
                 "calibration_tests": self.calibrated,
+                "repeated_calibration_tests": self.repeats,
+                "sample_unknown_tests": self.sample_unknown,
                 "comparisons": [c.to_dict() for c in self.comparisons],
                 "tests": [{"test": p.test.label, "vehicle_id": p.test.vehicle_id,
                            "originator": p.test.originator, "procedure": p.procedure,
@@ -195,6 +209,7 @@ class EpaValidation:
                                              else p.vehicle_check.to_dict()),
                            "in_sample": p.test.label in self.calibrated,
                            "calibrated_parameters": self.calibrated.get(p.test.label, []),
+                           "sample_unknown": p.test.label in self.sample_unknown,
                            "source": p.test.source} for p in self.predictions],
                 "skipped": self.skipped}
 
@@ -399,8 +414,56 @@ def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Co
     return rows
 
 
+def _row_key(t: EpaTest) -> tuple:
+    """What identifies a list row without its test number: vehicle, procedure, weight, road
+    load and the listed figures (a later list repeating a test repeats all of them)."""
+    def r(x: float, n: int) -> float | None:
+        return None if math.isnan(x) else round(x, n)
+    return (t.vehicle_id, t.procedure_code, r(t.fe, 2), tuple(r(b, 3) for b in t.bags),
+            r(t.mass_kg, 1), r(t.target_a_n, 2), r(t.target_b_n_per_mps, 4),
+            r(t.target_c_n_per_mps2, 5))
+
+
+def repeated_calibration_tests(tests: list[EpaTest], calibrated: dict[str, list[str]],
+                               reference: list[EpaTest]) -> tuple[dict[str, str], list[str]]:
+    """Tests without a number that repeat a calibration test, and those that cannot be told.
+
+    Parameters
+    ----------
+    tests : list of EpaTest
+        The selected tests.
+    calibrated : dict
+        Test id -> calibrated parameters (:func:`calibration_tests` of the vehicle).
+    reference : list of EpaTest
+        Every test read from the lists (where the calibration tests are looked up).
+
+    Returns
+    -------
+    repeats : dict
+        Label of a test without a number -> id of the calibration test it repeats.
+    unknown : list of str
+        Labels of tests without a number that repeat no calibration test found in
+        ``reference`` while some calibration test is not there: they may be one.
+    """
+    if not calibrated:
+        return {}, []
+    found = {t.test_number: t for t in reference if t.test_number in calibrated}
+    keys = {_row_key(t): n for n, t in found.items()}
+    repeats: dict[str, str] = {}
+    unknown: list[str] = []
+    for t in tests:
+        if t.test_number:
+            continue
+        same = keys.get(_row_key(t))
+        if same is not None:
+            repeats[t.label] = same
+        elif len(found) < len(calibrated):
+            unknown.append(t.label)
+    return repeats, unknown
+
+
 def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
-                   dt: float = 0.2) -> EpaValidation:
+                   dt: float = 0.2, reference: list[EpaTest] | None = None) -> EpaValidation:
     """Simulate every test that the model can run; name, skip and count the others.
 
     Parameters
@@ -411,10 +474,18 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         Selected tests (:func:`vehval.epa.select.apply_selector`).
     dt : float
         Simulation step [s].
+    reference : list of EpaTest, optional
+        Every test of the lists read (default ``tests``): where the calibration tests of the
+        vehicle file are looked up for the tests without a number
+        (:func:`repeated_calibration_tests`).
     """
     veh = load_vehicle(vehicle)
     cold_model = has_cold_start_model(veh)
     res = EpaValidation(vehicle=veh.name, calibrated=calibration_tests(veh))
+    res.repeats, res.sample_unknown = repeated_calibration_tests(
+        tests, res.calibrated, tests if reference is None else reference)
+    for label, same in res.repeats.items():
+        res.calibrated[label] = res.calibrated[same]
     progress.add(len(tests))
     for t in tests:
         proc, why = plan_for(t)
@@ -435,5 +506,10 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
                 c.note = f"list figures doubtful: {pred.list_check.note}"
         for c in rows:
             c.in_sample = t.label in res.calibrated
+            c.sample_unknown = t.label in res.sample_unknown
         res.comparisons.extend(rows)
+    simulated = {p.test.label for p in res.predictions}
+    res.sample_unknown = [k for k in res.sample_unknown if k in simulated]
+    for k in [k for k in res.repeats if k not in simulated]:
+        del res.repeats[k], res.calibrated[k]
     return res

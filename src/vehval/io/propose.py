@@ -36,6 +36,7 @@ _CANON = {
     "amb": "ambient", "rh": "humidity", "te": "effort", "fuelflow": "fuel flow",
     "flow": "flow", "soc": "soc", "lim": "limit", "chg": "charge", "dis": "discharge",
     "rpm": "speed", "tgt": "target", "trgt": "target", "cmd": "target", "setpoint": "target",
+    "volts": "voltage", "amps": "current", "amp": "current",
 }
 _PORTS = {"in", "out"}
 _OBD_HINT = re.compile(r"^(eng2|obd|pid|mode01)|^(rpm|vss|maf|map|iat|ect|stft|ltft)$", re.I)
@@ -45,7 +46,9 @@ _OBD_TOKENS = {"obd", "obd2", "obdii", "pid", "elm", "elm327", "vss", "maf", "ia
 #: Units written in channel names: token -> unit (``ENGINE_RPM`` -> rpm).
 _NAME_UNITS = {"rpm": "rpm", "kph": "km/h", "kmh": "km/h", "mph": "mph", "pct": "%",
                "percent": "%", "degc": "degC", "degf": "degF", "kpa": "kPa", "nm": "N*m",
-               "kw": "kW", "gps": "g/s"}
+               "kw": "kW", "gps": "g/s", "volts": "V", "amps": "A"}
+#: Name units that say nothing about the quantity (``rpm`` does: a shaft speed).
+_UNIT_ONLY_TOKENS = frozenset(_NAME_UNITS) - {"rpm", "volts", "amps"}
 
 
 def _tokens(text: str) -> list[str]:
@@ -126,7 +129,21 @@ def match_channel(raw_name: str, raw_unit: str | None, *, cutoff: float = 0.7) -
             best, best_score = b, s
     if best is not None and best_score >= cutoff:  # a best when the score is above 0
         return _targeted(best, toks, raw_unit)
+    if raw_unit is None:
+        # a unit written in the name (``speed_mph``): match the rest, in that unit's dimension
+        rest, name_unit = _strip_name_unit(raw_name)
+        if rest and name_unit is not None:
+            return match_channel(rest, name_unit, cutoff=cutoff)
     return None
+
+
+def _strip_name_unit(raw_name: str) -> tuple[str, str | None]:
+    """``speed_mph`` -> (``speed``, ``mph``): the name without its unit token, and the unit."""
+    toks = [t for t in re.split(r"[^a-z0-9]+", re.sub(r"([a-z])([A-Z])", r"\1 \2", raw_name).lower()) if t]
+    units = [t for t in toks if t in _UNIT_ONLY_TOKENS]
+    if len(units) != 1:
+        return raw_name, None
+    return " ".join(t for t in toks if t != units[0]), _NAME_UNITS[units[0]]
 
 
 def _targeted(base: str, toks: list[str], raw_unit: str | None) -> str:

@@ -32,8 +32,20 @@ UNIT_FACTORS: dict[str, float] = {
     "lbf·ft vs N·m": 1.3558179,
 }
 
+#: The SI units each unit factor can occur in (None: any unit); a pedal position [1] at
+#: 1.6 x another is not an mph vs km/h mix-up.
+UNIT_FACTOR_UNITS: dict[str, frozenset[str] | None] = {
+    "rpm vs rad/s": frozenset({"rad/s"}), "mph vs m/s": frozenset({"m/s", "m/s**2"}),
+    "km/h vs m/s": frozenset({"m/s", "m/s**2"}), "kilo (x1000)": None,
+    "g vs kg": frozenset({"kg", "kg/s"}), "lb vs kg": frozenset({"kg", "kg/s"}),
+    "lbf vs N": frozenset({"N"}), "percent vs fraction": frozenset({"dimensionless", ""}),
+    "mph vs km/h": frozenset({"m/s", "m/s**2"}), "degree vs rad": frozenset({"rad", "rad/s"}),
+    "lbf·ft vs N·m": frozenset({"N*m", "N·m"}),
+}
+
 #: Bases measured per instance (module, cell...): different qualifiers are not duplicates.
-PER_INSTANCE = frozenset({"ess_volt_module", "ess_res_module"})
+#: ``diag_count``: warm-ups, distance and time since codes cleared are three counters.
+PER_INSTANCE = frozenset({"ess_volt_module", "ess_res_module", "diag_count"})
 
 
 def is_instance_qualifier(q: str | None) -> bool:
@@ -159,6 +171,9 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
         return out
     if abs(r) >= 0.8 and slope > 0:
         for label, fac in UNIT_FACTORS.items():
+            units = UNIT_FACTOR_UNITS.get(label)
+            if units is not None and row.unit not in units:
+                continue
             for f in (fac, 1 / fac):
                 if abs(slope / f - 1) < opts.unit_tol and abs(f - 1) > 0.1:
                     out.append(Finding(blamed, Kind.UNIT, s0, s1, Severity.ERROR,

@@ -80,6 +80,8 @@ def share_text(x: float | None) -> str:
 
 def _figures_text(st: dict) -> str:
     """``n of N judged figures within 5 % (...); mean error ...`` of one stats dict."""
+    if not st["n_judged"]:
+        return "no judged figure."
     return (f"{st['n_within_tolerance']} of {st['n_judged']} judged figures within "
             f"{100 * st['tolerance']:.0f} % ({st['n_within_3pct']} within 3 %); mean error "
             f"{100 * (st['mean_error'] or 0):+.1f} %, mean |error| "
@@ -96,7 +98,8 @@ def render_html(val: EpaValidation) -> str:
         classes.append("" if not c.judged else ("ok" if ok else "bad"))
         rows.append([c.test, c.originator, c.procedure, c.item, f"{c.predicted_mpg:.1f}",
                      f"{c.measured_mpg:.1f}", f"{100 * c.error:+.1f}", share_text(c.battery_share),
-                     "in-sample" if c.in_sample else "held-out",
+                     "in-sample" if c.in_sample else ("unknown" if c.sample_unknown
+                                                      else "held-out"),
                      "yes" if c.judged else "no", c.note])
     r_kind = corr["per_kind"]
     kinds = [[k, v["n"], v["n_within_tolerance"], f"{100 * v['mean_error']:+.1f}",
@@ -120,6 +123,12 @@ def render_html(val: EpaValidation) -> str:
                      f"{ins['n_tests_in_sample']} of these tests "
                      f"({', '.join(sorted(val.calibrated))}); their figures are not a "
                      f"prediction: {_figures_text(ins)}")
+    if val.sample_unknown:
+        in_sample += (f" Sample unknown: {len(val.sample_unknown)} test(s) without a test number "
+                      f"({st['n_judged_sample_unknown']} judged figures) may be calibration "
+                      "tests of the vehicle file, which are not all in the lists read; they are "
+                      "counted neither as held-out nor as in-sample (read the list that numbers "
+                      "them too).")
     return render_page("epa.html.j2", title=f"vehval EPA validation: {val.vehicle}", css="epa.css",
                        vehicle=val.vehicle, summary=summary, in_sample=in_sample,
                        mismatch=mismatch,

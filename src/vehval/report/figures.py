@@ -127,6 +127,26 @@ def _thin(trace: dict) -> dict:
     return out
 
 
+#: A numeric list this long or longer in a trace's ``x``/``y``/``z`` is sent as a typed array.
+TYPED_MIN_LEN = 64
+
+
+def _typed_lists(trace: dict) -> dict:
+    """``trace`` with its long all-numeric ``x``/``y``/``z`` lists as numpy arrays (encoded
+    as typed arrays; a None becomes NaN, which plotly.js draws as a gap as it does None)."""
+    out = None
+    for k in ("x", "y", "z"):
+        v = trace.get(k)
+        if not isinstance(v, (list, tuple)) or len(v) < TYPED_MIN_LEN:
+            continue
+        if not all(e is None or (isinstance(e, (int, float, np.number)) and not isinstance(e, bool))
+                   for e in v):
+            continue
+        out = dict(trace) if out is None else out
+        out[k] = np.array([np.nan if e is None else e for e in v], dtype=float)
+    return trace if out is None else out
+
+
 def figure_json(fig: Any) -> str:
     """Compact JSON of a figure (dict or plotly Figure), safe to embed in a ``<script>``.
 
@@ -142,7 +162,8 @@ def figure_json(fig: Any) -> str:
     layout.pop("template", None)
     fig["layout"] = layout
     fig = safe_figure(fig)
-    fig["data"] = [_thin(t) if t.get("type", "scatter") == "scatter" else t for t in fig["data"]]
+    fig["data"] = [_typed_lists(_thin(t) if t.get("type", "scatter") == "scatter" else t)
+                   for t in fig["data"]]
     text = json.dumps(_clean(fig), default=_default, separators=(",", ":"), allow_nan=False)
     return text.replace("</", "<\\/").replace("<!--", "<\\!--")
 
