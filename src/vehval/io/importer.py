@@ -18,7 +18,7 @@ import numpy as np
 from vehval.errors import ConfigError, InputFileError, UnitError
 from vehval.fuels import resolve_fuel
 from vehval.io.paths import check_input_file
-from vehval.io.propose import _did_you_mean, _same_unit, entry_for_file, find_channel
+from vehval.io.propose import _did_you_mean, entry_for_file, find_channel
 from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
 from vehval.io.template import FileSpec, Template, as_template
@@ -32,6 +32,16 @@ __all__ = ["import_test", "check_time", "set_cycle", "speed_signals"]
 @lru_cache(maxsize=1024)
 def _conv(raw_unit: str | None, si_unit: str, density: float | None) -> tuple[float, float]:
     return conversion(raw_unit, si_unit, fuel_density_kg_per_m3=density)
+
+
+def _same_conv(unit: str, conv: tuple[float, float], si_unit: str,
+               density: float | None) -> bool:
+    """True when ``unit`` converts to ``si_unit`` as ``conv`` does (the same unit spelled
+    otherwise); the conversions are cached facts, so no unit library is loaded for it."""
+    try:
+        return _conv(unit, si_unit, density) == conv
+    except UnitError:
+        return False
 
 
 #: A first/last timestamp further than this many median periods (and STRAY_MIN_GAP_S) from
@@ -252,7 +262,8 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
             if ord_c is not None:
                 si = si[ord_c]
         hdr = raw.unit_of(col)            # 'degC' for a header 'C' is the same unit: no note
-        if ch.unit is not None and hdr is not None and not _same_unit(ch.unit, hdr):
+        if ch.unit is not None and hdr is not None and not _same_conv(hdr, (scale, offset),
+                                                                        sspec.unit, density):
             sig_notes.append(f"template unit '{ch.unit}' used instead of header unit '{hdr}'")
         test.add(Signal(name=ch.name, time=time, values=si, unit=sspec.unit, source=spec.source,
                         raw_name=col, raw_unit=unit, file=str(path), resample=sspec.resample,
