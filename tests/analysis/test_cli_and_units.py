@@ -66,17 +66,7 @@ def test_modes_priority():
 def test_cli_analyze_writes_control_json(tmp_path):
     from vehval.cli import main
 
-    t = np.arange(0, 400, 0.1)
-    v = 12 + 8 * np.sin(t / 20)
-    a = np.gradient(v, t)
-    frc = 1300 * a + 90 + 0.36 * v * v
-    rpm = np.where(frc * v > 8000, 1500.0, 0.0)
-    lines = ["Time,Speed,Force,Engine"] + [f"{a_:.1f},{b:.3f},{c:.1f},{d:.0f}" for a_, b, c, d in zip(t, v, frc, rpm)]
-    (tmp_path / "run.csv").write_text("\n".join(lines) + "\n")
-    (tmp_path / "t.yaml").write_text(
-        "template_version: 1\nfiles:\n  - source: dyno\n    format: csv\n    time: {column: Time, unit: s}\n"
-        "    channels:\n      Speed: {name: veh_spd_test, unit: m/s}\n      Force: {name: veh_frc_in_test, unit: N}\n"
-        "      Engine: {name: eng_spd_out_test, unit: rpm}\n")
+    _hybrid_like_csv(tmp_path)
     rc = main(["analyze", str(tmp_path / "run.csv"), "-t", str(tmp_path / "t.yaml"), "-o",
                str(tmp_path / "out"), "--no-qa"])
     assert rc == 0
@@ -116,6 +106,7 @@ def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
 
 
 def _hybrid_like_csv(tmp_path):
+    """A drive whose engine (1500 rpm) runs only above 8 kW of wheel power, and its template."""
     t = np.arange(0, 400, 0.1)
     v = 12 + 8 * np.sin(t / 20)
     a = np.gradient(v, t)
