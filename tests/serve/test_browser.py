@@ -9,6 +9,7 @@ python playwright package (never Playwright's browser download); skipped cleanly
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import time
 from pathlib import Path
@@ -100,6 +101,12 @@ def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
         assert "token" not in page.url  # the token went into a cookie
         page.click("text=virtual")
         _wait_run(page, 0)  # the page runs QA on open (template saved, no result yet)
+        summary = page.text_content("#summary") or ""
+        m = re.match(r"(\d+) (finding|findings) \((\d+) (error|errors), (\d+) (warning|warnings),",
+                     summary)
+        assert m, summary
+        for k in (1, 3, 5):                       # counts read as English: 1 finding, 2 errors
+            assert (m.group(k) == "1") == (not m.group(k + 1).endswith("s")), summary
         # declare the fuel: QA reruns and the fuel row shows the unit hint
         page.select_option("#fuel", "gasoline_e0")
         n = _runs(page)

@@ -168,7 +168,8 @@
 
     function renderTriage(m) {
       const s = m.summary;
-      document.getElementById("summary").textContent = s ? `${s.total} findings (${s.by_severity.error} error, ${s.by_severity.warning} warning, ${s.by_severity.info} info); kept ${s.kept}, dropped ${s.dropped}, computed ${s.computed}` : "QA has not run.";
+      const n = (k, word) => `${k} ${word}${k === 1 ? "" : "s"}`;
+      document.getElementById("summary").textContent = s ? `${n(s.total, "finding")} (${n(s.by_severity.error, "error")}, ${n(s.by_severity.warning, "warning")}, ${s.by_severity.info} info); kept ${s.kept}, dropped ${s.dropped}, computed ${s.computed}` : "QA has not run.";
       const tb = document.querySelector("#findings tbody");
       tb.textContent = "";
       for (const f of m.findings || []) {
