@@ -59,6 +59,10 @@ def _facts_name() -> str:
     return f"{h.hexdigest()[:16]}.json"
 
 
+#: Answers kept on disk at most: beyond, new ones serve their process only.
+MAX_FACTS = 4096
+
+
 def facts_path() -> Path:
     """The file of facts of this pint version and this module's source (module docstring)."""
     env = os.environ.get("VEHVAL_CACHE_DIR")
@@ -88,6 +92,8 @@ def _keep_fact(kind: str, key: str, value: Any) -> None:
     with _facts_lock:
         facts = _load_facts()
         facts[kind][key] = value
+        if sum(len(v) for v in facts.values()) > MAX_FACTS:
+            return  # a file that only grows (odd units, many densities): keep it in memory
         try:
             path = facts_path()
             path.parent.mkdir(parents=True, exist_ok=True)
