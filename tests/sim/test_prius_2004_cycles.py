@@ -69,3 +69,22 @@ def test_one_model_window():
     # 47.6 / 42.6 = 1.117 > 1.05 / 0.95: no figure is within 5 % of both
     assert mod.one_model_window([42.6, 47.6], 0.05) is None
     assert mod.one_model_window([50.0], 0.05) == pytest.approx((47.5, 52.5))
+
+
+def test_lab_summary_ratios_by_class_and_procedure():
+    """EPA-run figure over the manufacturer's mean of the same setting, per class and procedure."""
+    from types import SimpleNamespace as Row
+
+    mod = _script("epa_lab_pairs")
+    groups = {
+        ("car A", "ftp75"): [Row(model="CIVIC", originator="MFR", fe=40.0),
+                             Row(model="CIVIC", originator="MFR", fe=42.0),
+                             Row(model="CIVIC", originator="EPA", fe=39.0)],
+        ("car B", "ftp75"): [Row(model="PRIUS c", originator="MFR", fe=75.0),
+                             Row(model="PRIUS c", originator="EPA", fe=69.0)],
+        ("car C", "us06"): [Row(model="CAMRY HYBRID", originator="EPA", fe=40.0)],  # no MFR row
+    }
+    lines = mod.lab_summary(groups)
+    assert lines[2] == "| hybrid | ftp75 | 1 | -8.0 % | -8.0 % | -8.0 % |"
+    assert lines[3] == "| other | ftp75 | 1 | -4.9 % | -4.9 % | -4.9 % |"  # 39 / 41 - 1
+    assert len(lines) == 4
