@@ -7,6 +7,7 @@ in a subprocess), not on time, which depends on the machine.
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -162,3 +163,60 @@ def test_data_commands_load_no_library_they_do_not_use(tmp_path) -> None:
     assert (out / "r.html").is_file() and {"pyarrow", "plotly", "jinja2"} <= names
     plots = ("plotly", "narwhals")                     # the report draws its figures
     assert _loaded(names, (*(n for n in NOT_FOR_DATA if n not in plots), "pint", "dask")) == []
+
+
+#: The compiled-code stack: loaded by a simulation or a hybrid's engine-rule fit only.
+COMPILER = ("numba", "llvmlite", "vehval.sim.supervisor", "vehval.sim.kernel",
+            "vehval.sim.stack", "vehval.analysis.replay_kernel")
+HYBRID_TEMPLATE = """\
+template_version: 1
+constants: {test_mass_kg: 1300}
+files:
+  - source: dyno
+    format: csv
+    time: {column: Time, unit: s}
+    channels:
+      Speed: {name: veh_spd_test, unit: m/s}
+      Force: {name: veh_frc_in_test, unit: N}
+      Engine: {name: eng_spd_out_test, unit: rpm}
+"""
+
+
+def _drive_csv(tmp_path: Path, name: str, *, engine_stops: bool) -> Path:
+    """400 s of a speed wave with its tractive force; the engine at 1500 rpm above 8 kW of
+    wheel power (stopping below: a hybrid's drive) or all the time (a conventional car's)."""
+    import numpy as np
+
+    t = np.arange(0.0, 400.0, 0.1)
+    v = 12.0 + 8.0 * np.sin(t / 20.0)
+    frc = 1300.0 * np.gradient(v, t) + 90.0 + 0.36 * v * v
+    rpm = np.where(frc * v > 8000.0, 1500.0, 0.0) if engine_stops else np.full(t.size, 1500.0)
+    rows = ["Time,Speed,Force,Engine"] + [f"{a:.1f},{b:.3f},{c:.1f},{d:.0f}"
+                                          for a, b, c, d in zip(t, v, frc, rpm)]
+    path = tmp_path / name
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    return path
+
+
+def test_analyze_loads_numba_only_for_a_hybrids_rule(tmp_path) -> None:
+    """`analyze` of a conventional car (the engine runs whenever it moves; the D3 file and
+    the CSV) estimates no engine on/off rule and loads no compiled code; a hybrid's drive
+    fits the rule with the compiled replay (numba imported then)."""
+    raw, tpl = _udds_d3(tmp_path)
+    names, out = _modules_after(["analyze", str(raw), "-t", str(tpl), "-o",
+                                 str(tmp_path / "d3")])
+    assert "a conventional vehicle" in out and (tmp_path / "d3" / "control.json").is_file()
+    assert "vehval.analysis.summary" in names            # the check sees the analysis ...
+    assert _loaded(names, COMPILER) == []                # ... without the compiled stack
+    (tmp_path / "t.yaml").write_text(HYBRID_TEMPLATE, encoding="utf-8")
+    for name, stops in (("conv", False), ("hybrid", True)):
+        csv = _drive_csv(tmp_path, f"{name}.csv", engine_stops=stops)
+        names, out = _modules_after(["analyze", str(csv), "-t", str(tmp_path / "t.yaml"),
+                                     "-o", str(tmp_path / name), "--no-qa"])
+        control = json.loads((tmp_path / name / "control.json").read_text(encoding="utf-8"))
+        if stops:
+            assert control["rule_agreement"] is not None and control["controller"], out
+            assert {"numba", "vehval.sim.supervisor", "vehval.analysis.replay_kernel"} <= names
+        else:
+            assert control["rule_agreement"] is None and control["controller"] == {}
+            assert _loaded(names, COMPILER) == [], name

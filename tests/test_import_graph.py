@@ -133,7 +133,8 @@ def test_the_checks_can_fail(tmp_path):
 
 
 #: the simulator's insides: only vehval.sim itself may import them (everything else goes
-#: through the front door, vehval.sim.simulate, or the rule's API, vehval.sim.supervisor)
+#: through the front door, vehval.sim.simulate, or the rule's API, vehval.sim.rule and
+#: vehval.sim.supervisor)
 SIM_INTERNALS = {"vehval.sim.kernel", "vehval.sim.packing", "vehval.sim.layout",
                  "vehval.sim.phases", "vehval.sim.plant", "vehval.sim.indices",
                  "vehval.sim.stack", "vehval.sim.conventional_kernel",

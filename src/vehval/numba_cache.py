@@ -8,7 +8,10 @@ changed source gets a fresh directory and the three most recent are kept.
 
 Base directory: ``$VEHVAL_NUMBA_CACHE``, else ``$NUMBA_CACHE_DIR``, else
 ``~/.cache/vehval/numba``. :func:`configure` must run before the first ``@njit(cache=True)``
-decorator of the package executes (``vehval.sim`` and ``vehval.analysis`` call it first).
+decorator of the package executes: every compiled kernel of the package is decorated with
+this module's :func:`njit`, which configures first. So numba is imported only by the modules
+that hold kernels, when they are imported (a command that neither simulates nor replays the
+engine rule never loads it).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ import os
 import shutil
 import sys
 from pathlib import Path
+from typing import Any
 
 PACKAGE = Path(__file__).resolve().parent
 KEEP = 3
@@ -77,6 +81,19 @@ def configure() -> str:
     config.CACHE_DIR = str(target)  # type: ignore[attr-defined]  # numba reads it at run time
     _configured = str(target)
     return _configured
+
+
+def njit(*args: Any, **kwargs: Any) -> Any:
+    """numba's ``njit`` (same arguments) once the cache directory is configured.
+
+    The package's kernels are decorated with it (``from vehval.numba_cache import njit``),
+    so a kernel's module may be imported first, alone, and still be cached in this source
+    version's directory.
+    """
+    configure()
+    import numba
+
+    return numba.njit(*args, **kwargs)
 
 
 _announced: set[str] = set()

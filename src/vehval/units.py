@@ -7,7 +7,9 @@ on disk between runs, so that a command whose units were all seen before does no
 pint (0.3 s) nor build its registry (0.15 s): one JSON file per pint version and version
 of this module, in ``$VEHVAL_CACHE_DIR/units``, else ``~/.cache/vehval/units``. Only answers
 are kept (an unknown unit asks pint again, for its message); the file is replaced
-atomically and a damaged or unwritable one is ignored.
+atomically and a damaged or unwritable one is ignored. When a version's file is created, the
+files of the other versions in that directory are removed, with the temporary files of
+writers that died (only names this module writes; a failure to remove is ignored).
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ import re
 import sys
 import tempfile
 import threading
+import time
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -69,6 +72,44 @@ def facts_path() -> Path:
     return (Path(env) if env else Path.home() / ".cache" / "vehval") / "units" / _facts_name()
 
 
+#: Names this module writes in its directory: a version's file, and a file being written.
+_FACTS_FILE = re.compile(r"[0-9a-f]{16}\.json")
+_TMP_PREFIX, _TMP_SUFFIX = ".units-", ".tmp"
+#: Age [s] beyond which a temporary file is a dead writer's (a write takes milliseconds).
+STALE_TMP_S = 3600.0
+
+
+def _remove_other_versions(path: Path | None = None) -> list[str]:
+    """Remove the fact files of other versions next to ``path`` (default :func:`facts_path`)
+    and temporary files older than :data:`STALE_TMP_S`; returns the names removed.
+
+    Only regular files named as this module names them are touched. A file another process
+    removed first, or one that cannot be removed, is skipped: never an error.
+    """
+    path = facts_path() if path is None else path
+    removed: list[str] = []
+    try:
+        entries = list(os.scandir(path.parent))
+    except OSError:
+        return removed
+    now = time.time()
+    for entry in entries:
+        name = entry.name
+        try:
+            if name == path.name or not entry.is_file(follow_symlinks=False):
+                continue
+            if name.startswith(_TMP_PREFIX) and name.endswith(_TMP_SUFFIX):
+                if now - entry.stat(follow_symlinks=False).st_mtime < STALE_TMP_S:
+                    continue  # another process is writing it
+            elif not _FACTS_FILE.fullmatch(name):
+                continue  # not the cache's
+            os.unlink(entry.path)
+            removed.append(name)
+        except OSError:
+            pass  # removed by another process meanwhile, or not ours to remove
+    return removed
+
+
 def _load_facts() -> dict[str, dict[str, Any]]:
     global _facts
     if _facts is None:
@@ -97,7 +138,8 @@ def _keep_fact(kind: str, key: str, value: Any) -> None:
         try:
             path = facts_path()
             path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(prefix=".units-", suffix=".tmp", dir=path.parent)
+            created = not path.exists()
+            fd, tmp = tempfile.mkstemp(prefix=_TMP_PREFIX, suffix=_TMP_SUFFIX, dir=path.parent)
             try:
                 with os.fdopen(fd, "w", encoding="utf-8") as f:
                     json.dump(facts, f)
@@ -106,7 +148,9 @@ def _keep_fact(kind: str, key: str, value: Any) -> None:
                 os.unlink(tmp)
                 raise
         except (OSError, TypeError, ValueError):
-            pass  # not written: the answer serves this process only
+            return  # not written: the answer serves this process only
+        if created:  # a new version's file: the earlier versions' are of no more use
+            _remove_other_versions(path)
 
 
 def dimension(text: str | None) -> tuple[tuple[str, float], ...]:

@@ -2,9 +2,15 @@
 
 from __future__ import annotations
 
+import ast
 import os
+import subprocess
+import sys
+from pathlib import Path
 
 from vehval import numba_cache
+
+SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 def test_fingerprint_changes_when_any_module_changes(tmp_path):
@@ -27,7 +33,7 @@ def test_fingerprint_changes_when_any_module_changes(tmp_path):
 def test_configured_before_the_kernels_and_pruned(tmp_path, monkeypatch):
     import numba.core.config as config
 
-    import vehval.sim.kernel  # noqa: F401 - the package configured the cache on import
+    import vehval.sim.kernel  # noqa: F401 - its decorators configured the cache on import
 
     assert numba_cache._configured is not None
     if config.CACHE_DIR:  # not when the base directory could not be created
@@ -43,3 +49,35 @@ def test_configured_before_the_kernels_and_pruned(tmp_path, monkeypatch):
     assert f"{0:016x}" in left and len(left) == numba_cache.KEEP + 1
     monkeypatch.setenv("VEHVAL_NUMBA_CACHE", str(root))
     assert numba_cache.base_dir() == root
+
+
+def test_every_kernel_is_decorated_through_the_cache():
+    """No module but vehval.numba_cache takes ``njit`` (or ``jit``) from numba itself: a
+    kernel decorated with numba's own would be cached where the cache is not configured."""
+    bad = []
+    for path in sorted((SRC / "vehval").rglob("*.py")):
+        if path.name == "numba_cache.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("numba"):
+                bad += [f"{path.name}:{node.lineno}" for a in node.names if a.name in ("njit", "jit")]
+            elif (isinstance(node, ast.Attribute) and node.attr in ("njit", "jit")
+                  and isinstance(node.value, ast.Name) and node.value.id == "numba"):
+                bad.append(f"{path.name}:{node.lineno}")
+    assert not bad, bad
+
+
+def test_a_kernel_module_imported_alone_is_cached_in_the_version_directory(tmp_path):
+    """The analysis's replay kernel, imported first in a fresh interpreter (no vehval.sim
+    before it), keeps its compiled code in this source version's directory."""
+    code = ("import sys\nimport vehval.analysis.replay_kernel as k\n"
+            "from vehval import numba_cache\n"
+            "assert 'vehval.sim.kernel' not in sys.modules\n"
+            "print(numba_cache.fingerprint())\nprint(k.lagged_agreement._cache.cache_path)")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(SRC), *sys.path]),
+               VEHVAL_NUMBA_CACHE=str(tmp_path))
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    fp, cache_path = proc.stdout.split()
+    assert Path(cache_path).is_relative_to(tmp_path / fp)

@@ -16,6 +16,10 @@ demand rebuilt from measured signals (:mod:`vehval.analysis.demand`), the measur
 the estimated SOC, so a rule estimated from a test can be compared with the observed engine
 state step by step. The observed state trails the command by the engine's spin-up and
 spin-down: :func:`replay` delays starts and stops separately.
+
+The compiled kernels (the rule's, and the lagged agreement of
+:mod:`vehval.analysis.replay_kernel`) are imported by the functions that run them: the
+parameters alone (:func:`base_params`, :func:`rule_vector`) load no numba.
 """
 
 from __future__ import annotations
@@ -23,10 +27,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numba import njit
 
-from vehval.sim.supervisor import RULE_INDEX, RULE_KEYS, replay_rule, rule_params
-from vehval.sim.supervisor import rule_vector as _rule_vector
+from vehval.sim.rule import RULE_INDEX, RULE_KEYS, rule_params
+from vehval.sim.rule import rule_vector as _rule_vector
 
 __all__ = ["IDX", "RULE_KEYS", "agreement", "base_params", "replay", "rule_vector",
            "score_rule", "shift_state", "soc_power_demand_array"]
@@ -53,30 +56,6 @@ def base_params(vehicle: Any = None) -> dict[str, float]:
     return rule_params(vehicle)
 
 
-@njit(cache=True)
-def _lagged_agreement(x, obs, valid, lag_on, lag_off):
-    """Share of valid steps where ``x`` delayed by (lag_on at starts, lag_off at stops)
-    equals ``obs`` (the compiled equivalent of :func:`shift_state` + :func:`agreement`)."""
-    n = x.shape[0]
-    hit = 0
-    cnt = 0
-    for i in range(n):
-        if not valid[i]:
-            continue
-        ja = min(max(i - lag_on, 0), n - 1)
-        jb = min(max(i - lag_off, 0), n - 1)
-        if lag_on <= lag_off:
-            y = x[ja] or x[jb]
-        else:
-            y = x[ja] and x[jb]
-        cnt += 1
-        if y == obs[i]:
-            hit += 1
-    if cnt == 0:
-        return np.nan
-    return hit / cnt
-
-
 def score_rule(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, pdis_av: np.ndarray,
                aux_w: float, dt: float, prm: np.ndarray, state0: bool, obs: np.ndarray,
                valid: np.ndarray, lag_on: int, lag_off: int) -> float:
@@ -85,8 +64,11 @@ def score_rule(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, pdis_av: np.nda
     All arrays must already be float64 (``obs``, ``valid`` bool) with ``pdis_av`` finite
     (``inf`` for no limit); see :func:`replay` for the meaning of the arguments.
     """
+    from vehval.analysis.replay_kernel import lagged_agreement
+    from vehval.sim.supervisor import replay_rule
+
     out = replay_rule(p_wh, v, soc, pdis_av, aux_w, dt, prm, state0)
-    return _lagged_agreement(out, obs, valid, int(lag_on), int(lag_off))
+    return lagged_agreement(out, obs, valid, int(lag_on), int(lag_off))
 
 
 def replay(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, dt: float,
@@ -123,6 +105,8 @@ def replay(p_wh: np.ndarray, v: np.ndarray, soc: np.ndarray, dt: float,
     -------
     ndarray of bool
     """
+    from vehval.sim.supervisor import replay_rule
+
     prm = rule_vector(params) if isinstance(params, dict) else np.asarray(params, float)
     n = len(p_wh)
     pd = np.full(n, np.inf) if pdis_av_w is None else np.where(np.isfinite(pdis_av_w), pdis_av_w, np.inf)

@@ -38,12 +38,12 @@ def analyze_cmd(
     if as_json:
         typer.echo(text, nl=False)
         return
-    from vehval.validate.match import has_hybrid_signals
+    from vehval.test import hybrid_signals
 
     c = result.controller
     agree = result.rule_agreement
     conventional = (getattr(run.vehicle, "architecture", None) == "conventional"
-                    or not has_hybrid_signals(run.test))
+                    or not hybrid_signals(run.test))
     if conventional:
         # the engine on/off rule, SOC regulation and modes are the hybrid's control strategy
         typer.echo(f"wrote {outdir / 'control.json'}: a conventional vehicle (no battery, motor "

@@ -1,5 +1,5 @@
-"""Forward-looking vehicle simulation: cycles, components, controller, driver."""
+"""Forward-looking vehicle simulation: cycles, components, controller, driver.
 
-from vehval.numba_cache import configure as _configure_numba_cache
-
-_configure_numba_cache()  # before any compiled kernel of the package is decorated
+The compiled kernels are decorated with :func:`vehval.numba_cache.njit` (the cache directory
+of this source version); numba loads with the first module that holds one.
+"""

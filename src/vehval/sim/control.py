@@ -13,7 +13,7 @@ directly with crafted inputs.
 
 from __future__ import annotations
 
-from numba import njit
+from vehval.numba_cache import njit
 
 ENG_OFF = 0
 ENG_OFF_MINTIME = 1

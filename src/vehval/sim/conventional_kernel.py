@@ -26,8 +26,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from vehval.numba_cache import njit
 from vehval.sim.components.body import road_load
 from vehval.sim.components.engine import fuel_rate, max_torque, warmup_factor
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants

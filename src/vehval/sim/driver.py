@@ -9,9 +9,9 @@ conditional-integration anti-windup.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from vehval.constants import MPH_M_PER_S as MPH
+from vehval.numba_cache import njit
 
 
 @njit(cache=True)

@@ -26,8 +26,9 @@ one vector laid out by :data:`vehval.sim.layout.PARAMS`, the maps as one tuple i
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
+from vehval.numba_cache import njit
 from vehval.sim.components.body import road_load
 from vehval.sim.components.boost import output_voltage
 from vehval.sim.control import engine_commanded_on

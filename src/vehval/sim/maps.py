@@ -7,7 +7,7 @@ and clamps at the table edges, so the compiled time loop never extrapolates.
 
 from __future__ import annotations
 
-from numba import njit
+from vehval.numba_cache import njit
 
 
 @njit(cache=True)

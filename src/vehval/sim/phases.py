@@ -18,8 +18,8 @@ a fraction).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from vehval.numba_cache import njit
 from vehval.sim.components.battery import current_from_power
 from vehval.sim.components.body import road_load
 from vehval.sim.components.boost import battery_side_power

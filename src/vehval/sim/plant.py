@@ -12,8 +12,7 @@ controller phases: ``phase(prm, maps, x, ...)`` with the state vector ``x``
 
 from __future__ import annotations
 
-from numba import njit
-
+from vehval.numba_cache import njit
 from vehval.sim.components.battery import current_from_power
 from vehval.sim.components.boost import battery_side_power, output_voltage
 from vehval.sim.components.electric_machine import electrical_power, torque_limit

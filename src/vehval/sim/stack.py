@@ -8,9 +8,11 @@ costs no more than the same number of local variables.
 
 from __future__ import annotations
 
-from numba import carray, njit, types
+from numba import carray, types
 from numba.core import cgutils
 from numba.extending import intrinsic
+
+from vehval.numba_cache import njit
 
 
 @intrinsic

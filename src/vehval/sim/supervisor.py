@@ -14,16 +14,15 @@ runs it over signals rebuilt from a test (:mod:`vehval.analysis.replay`).
 
 Parameters come in the loop's own vector (:data:`vehval.sim.layout.PARAMS`, of which the
 rule reads :data:`RULE_KEYS`), the state in its state vector (:data:`vehval.sim.layout.STATE`).
+The parameters' keys, positions and values are in :mod:`vehval.sim.rule` (no compiled code:
+importing this module loads numba, that one does not); they are re-exported here.
 """
 
 from __future__ import annotations
 
-from functools import lru_cache
-from typing import Any
-
 import numpy as np
-from numba import njit
 
+from vehval.numba_cache import njit
 from vehval.sim.control import (
     ENG_OFF,
     ENG_ON,
@@ -34,26 +33,15 @@ from vehval.sim.control import (
     state_step,
 )
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
-from vehval.sim.layout import PARAMS, STATE
-from vehval.sim.packing import FROM_FILE
-from vehval.sim.stack import stack_vector
-
-#: controller keys of the vehicle file the rule reads
-RULE_KEYS = (
-    "engine_on_power_w", "engine_off_power_w", "engine_on_speed_mps", "engine_off_speed_mps",
-    "min_on_time_s", "min_off_time_s", "engine_on_power_hold_s", "engine_on_speed_hold_s",
-    "engine_off_hold_s", "battery_condition_hold_s", "soc_engine_on", "soc_engine_on_hold_s",
-    "soc_force_on", "soc_target", "soc_gain_w", "soc_charge_power_max_w",
-    "soc_discharge_power_max_w", "electric_drive_efficiency",
+from vehval.sim.layout import STATE
+from vehval.sim.rule import (
+    REFERENCE_VEHICLE,
+    RULE_INDEX,
+    RULE_KEYS,
+    rule_params,
+    rule_vector,
 )
-_LAYOUT_OF = {key: name for name, (blk, key, _f) in FROM_FILE.items() if blk == "controller"}
-#: controller key -> position in the parameter vector
-RULE_INDEX = {k: PARAMS.index(_LAYOUT_OF[k]) for k in RULE_KEYS}
-#: the vehicle whose rule stands in when no vehicle is given (its SOC terms disabled: the
-#: battery window of an unknown car is unknown)
-REFERENCE_VEHICLE = "prius_2004"
-_SOC_TERMS = ("soc_engine_on", "soc_force_on", "soc_gain_w", "soc_charge_power_max_w",
-              "soc_discharge_power_max_w")
+from vehval.sim.stack import stack_vector
 
 
 @njit(cache=True, inline="always")
@@ -135,34 +123,6 @@ def replay_rule(p_wh, v, soc, pdis_av, aux, dt, prm, state0):
         x[X_PDIS_AV] = pdis_av[i]
         engine_rule(q, x)
     return out
-
-
-@lru_cache(maxsize=1)
-def _reference_rule() -> tuple[tuple[str, float], ...]:
-    from vehval.vehicle import load_vehicle
-
-    c = load_vehicle(REFERENCE_VEHICLE).controller
-    return tuple((k, 0.0 if k in _SOC_TERMS else float(getattr(c, k))) for k in RULE_KEYS)
-
-
-def rule_params(vehicle: Any = None) -> dict[str, float]:
-    """Rule parameters (:data:`RULE_KEYS`) of a vehicle's controller block; without a
-    vehicle, those of :data:`REFERENCE_VEHICLE` with its SOC terms disabled (0)."""
-    out = dict(_reference_rule())
-    if vehicle is not None:
-        c = vehicle.controller
-        out.update({k: float(getattr(c, k)) for k in RULE_KEYS if hasattr(c, k)})
-    return out
-
-
-def rule_vector(params: dict[str, float]) -> np.ndarray:
-    """Parameter vector (:data:`vehval.sim.layout.PARAMS` order, entries outside the rule 0)
-    with ``params`` (controller keys; missing ones from :func:`rule_params`)."""
-    base = rule_params()
-    prm = np.zeros(len(PARAMS))
-    for k, i in RULE_INDEX.items():
-        prm[i] = float(params.get(k, base[k]))
-    return prm
 
 
 __all__ = ["REFERENCE_VEHICLE", "RULE_INDEX", "RULE_KEYS", "STATE", "engine_rule",

@@ -6,8 +6,7 @@ DC bus = ``T·ω + loss(ω, T)`` with the loss map >= 0 in every quadrant.
 
 from __future__ import annotations
 
-from numba import njit
-
+from vehval.numba_cache import njit
 from vehval.sim.maps import interp2
 
 

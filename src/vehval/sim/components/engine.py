@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from vehval.numba_cache import njit
 from vehval.sim.maps import interp1, interp2
 
 
