@@ -164,6 +164,12 @@ def test_soc_correction_statuses():
     assert sc["fuel_energy_corrected_j"] == pytest.approx(107.5e6)
     assert sc["fuel_economy_mpg_corrected"] == pytest.approx(50.0 / 1.075)
     assert soc_correction(vals, ["test"], battery=False)["status"] == "not_applicable"
+    # a battery without any fuel energy (an ADVISOR or OBD log with no fuel channel): the
+    # ratio cannot be formed, so no "within tolerance" verdict on a missing denominator
+    none = soc_correction({"test": {"ess_energy_net_j": -27.2e3, "fuel_energy_j": None}},
+                          ["test"], battery=True)
+    assert none["status"] == "undetermined"
+    assert none["message"].startswith("battery net energy change -27.2 kJ but no fuel energy")
 
 
 def test_soc_regression_recovers_the_intercept():
