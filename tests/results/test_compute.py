@@ -236,3 +236,17 @@ def test_results_use_the_cycle_match_kept_at_import(monkeypatch):
     test.shift_source("dyno", -2.5)            # alignment after import moves the match too
     res = compute_results(test, fuel="diesel")
     assert res.phases[0].segments[0] == pytest.approx((27.5, 532.5), abs=0.2)
+
+
+def test_drive_quality_finding_reads_in_display_units_and_explains_iwr(monkeypatch):
+    # a driver 5 % fast: IWR about +10 %, outside -2..+4 % at 10 Hz and at 1 Hz alike
+    t, s = true_signals()
+    s["veh_spd"] = 1.05 * s["veh_spd"]
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    res = compute_results(make_test(t, s), fuel="diesel")
+    dq = [f for f in res.findings if f.kind == Kind.DRIVE_QUALITY]
+    assert dq and all(f.severity == Severity.WARNING for f in dq)
+    msg = dq[0].message
+    assert " km/h (allowed 1.29 km/h)" in msg and "mph" not in msg, msg
+    assert "also outside the band: the driver's speed changes" in msg, msg
+    assert dq[0].numbers["iwr_1hz_pct"] > 4.0
