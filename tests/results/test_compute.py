@@ -250,3 +250,14 @@ def test_drive_quality_finding_reads_in_display_units_and_explains_iwr(monkeypat
     assert " km/h (allowed 1.29 km/h)" in msg and "mph" not in msg, msg
     assert "also outside the band: the driver's speed changes" in msg, msg
     assert dq[0].numbers["iwr_1hz_pct"] > 4.0
+
+
+def test_an_obd_speed_gets_the_obd_class_default_not_the_roll_speed():
+    # the Prius c OBD log's speed was assumed 0.1 % / 0.01 m/s "chassis-dyno roll speed"
+    from vehval.results.uncertainty import channel_accuracy
+
+    obd = channel_accuracy("veh_spd_obd_test", None)
+    assert obd.gain_limit == pytest.approx(0.02) and obd.offset_limit == pytest.approx(0.5 / 3.6)
+    assert obd.assumed and "J1979" in obd.basis
+    roll = channel_accuracy("veh_spd_test", None)
+    assert roll.gain_limit == pytest.approx(0.001) and "roll speed" in roll.basis
