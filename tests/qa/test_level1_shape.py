@@ -145,3 +145,21 @@ def test_throttle_at_rest_while_a_hybrids_engine_is_stopped_is_not_stuck():
     hits = _warn(found, "eng_pos_throttle_test", Kind.STUCK)
     assert [(f.start_s, f.end_s) for f in hits] == [(300.0, 311.0)]
     assert hits[0].related == ["drv_pos_accel_test"]
+
+
+def test_whole_kpa_toggles_of_a_barometric_pid_are_not_spikes():
+    # SAE J1979 PID 0x33 gives whole kPa: 99 -> 100 -> 99 over one sample is one count, but
+    # six steps are too few for the step-based resolution; the raw numbers tell the count
+    t = np.arange(300.0)
+    kpa = np.full(t.size, 99.0)
+    kpa[[120, 150, 200]] = 100.0
+
+    def baro(values):
+        return Test([Signal.standard("amb_pres_test", t, values * 1e3, source="obd",
+                                     raw_unit="kPa")])
+
+    assert _warn(run_level1(baro(kpa)), "amb_pres_test", Kind.SPIKE) == []
+    # a 5 kPa excursion (five counts) on the same trace is still a spike
+    kpa[250] = 104.0
+    hits = _warn(run_level1(baro(kpa)), "amb_pres_test", Kind.SPIKE)
+    assert [h.start_s for h in hits] == [250.0]

@@ -483,6 +483,33 @@ def resolution(values: np.ndarray) -> float:
     return q if float(on_grid.mean()) >= 0.8 else 0.0
 
 
+def raw_quantum(sig: Signal, values: np.ndarray) -> float:
+    """The last decimal place the file's raw numbers show, in the signal's unit [its unit].
+
+    A signal with too few steps for :func:`resolution` (a barometric pressure toggling 99 /
+    100 kPa) still tells its count by its raw numbers: all whole kPa (as SAE J1979 encodes
+    PID 0x33) cannot resolve less than 1 kPa. The raw numbers are rebuilt from the unit
+    conversion; 0 when they do not sit on a grid of 1, 0.1, 0.01 or 0.001 raw units.
+    """
+    from vehval.units import conversion
+
+    try:
+        scale, off = conversion(sig.raw_unit or "", sig.unit)
+    except Exception:  # noqa: BLE001 - a unit that does not convert back is not judged
+        return 0.0
+    if not scale:
+        return 0.0
+    raw = (np.asarray(values, float) - off) / scale
+    raw = raw[np.isfinite(raw)]
+    if raw.size < 10:
+        return 0.0
+    for step in (1.0, 0.1, 0.01, 0.001):
+        k = raw / step
+        if np.all(np.abs(k - np.round(k)) <= 1e-6 * np.maximum(1.0, np.abs(k))):
+            return step * abs(scale)
+    return 0.0
+
+
 def _local_scatter(resid: np.ndarray, window: int) -> np.ndarray:
     """Robust scatter (1.4826 x median |residual|) of each sample's neighbourhood."""
     a = np.abs(resid)
@@ -516,7 +543,7 @@ def spike_findings(sig: Signal, v: np.ndarray, t: np.ndarray,
     rrange = _robust_range(v)
     if sig.resample != "linear" or not rrange > 0:
         return out
-    q = resolution(v)
+    q = resolution(v) or raw_quantum(sig, v)
     thr = max(opts.spike_k * sigma, opts.spike_range_fraction * rrange, opts.spike_quanta * q)
     with np.errstate(invalid="ignore"):
         local = opts.spike_local_k * _local_scatter(resid, opts.spike_local_window)
