@@ -113,3 +113,53 @@ def test_one_hz_fuel_rate_excursion_inside_its_range_is_not_a_sensor_spike():
     bad[333] = 9e-3                                         # far beyond anything it does
     found = run_level1(_test(("fuel_rate_test", t, bad)))
     assert [f.start_s for f in _warn(found, "fuel_rate_test", Kind.SPIKE)] == [333.0]
+
+
+def _hybrid_throttle(stuck_while_running=False, n=600, seed=5):
+    """1 Hz hybrid log: the pedal varies all along; the engine stops for 12 s every minute
+    (first sample of each stop still spinning down at 200 rpm, as the Prius c OBD logs
+    show); the throttle follows the pedal while the engine runs and rests at its parking
+    position 16.08 % while it is stopped."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n, dtype=float)
+    pedal = np.round((20.0 + 10.0 * np.sin(t / 7.0) + rng.standard_normal(n)) / 0.392) * 0.392
+    eng = np.full(n, 1500.0 * np.pi / 30.0) + rng.standard_normal(n)
+    throttle = np.round((pedal * 0.9 + 2.0) / 0.392) * 0.392
+    for k in range(30, n - 20, 60):
+        eng[k:k + 12] = 0.0
+        eng[k] = 200.0 * np.pi / 30.0
+        throttle[k:k + 12] = 16.08
+    if stuck_while_running:
+        throttle[300:312] = throttle[300]       # engine runs over 300..311
+    return _test(("eng_pos_throttle_test", t, throttle), ("drv_pos_accel_test", t, pedal),
+                 ("eng_spd_out_test", t, eng))
+
+
+def test_throttle_at_rest_while_a_hybrids_engine_is_stopped_is_not_stuck():
+    # the pedal drives the motor while the engine is stopped: a throttle holding its rest
+    # position then is not a stuck sensor, even with a spin-down sample in the hold
+    found = run_level1(_hybrid_throttle())
+    assert _warn(found, "eng_pos_throttle_test", Kind.STUCK) == []
+    # the same hold while the engine runs is still found
+    found = run_level1(_hybrid_throttle(stuck_while_running=True))
+    hits = _warn(found, "eng_pos_throttle_test", Kind.STUCK)
+    assert [(f.start_s, f.end_s) for f in hits] == [(300.0, 311.0)]
+    assert hits[0].related == ["drv_pos_accel_test"]
+
+
+def test_whole_kpa_toggles_of_a_barometric_pid_are_not_spikes():
+    # SAE J1979 PID 0x33 gives whole kPa: 99 -> 100 -> 99 over one sample is one count, but
+    # six steps are too few for the step-based resolution; the raw numbers tell the count
+    t = np.arange(300.0)
+    kpa = np.full(t.size, 99.0)
+    kpa[[120, 150, 200]] = 100.0
+
+    def baro(values):
+        return Test([Signal.standard("amb_pres_test", t, values * 1e3, source="obd",
+                                     raw_unit="kPa")])
+
+    assert _warn(run_level1(baro(kpa)), "amb_pres_test", Kind.SPIKE) == []
+    # a 5 kPa excursion (five counts) on the same trace is still a spike
+    kpa[250] = 104.0
+    hits = _warn(run_level1(baro(kpa)), "amb_pres_test", Kind.SPIKE)
+    assert [h.start_s for h in hits] == [250.0]

@@ -109,3 +109,16 @@ def test_diagnostic_counters_are_not_one_quantity():
                         Signal.standard("diag_count_time_test", t, 48_000 + t / 60 * 216)])
     rows, found = run_level2(test)
     assert rows == [] and found == []
+
+
+def test_two_tracks_apart_by_an_offset_are_an_offset_not_a_gain():
+    # the Prius c's second pedal track reads the first + 15.7 % (fit slope 1.02): the ratio
+    # of means (1.67 at a pedal mostly at rest) called it "gain differs by +67 %"
+    t = np.arange(400.0)
+    a = 0.16 + 0.1 * np.clip(np.sin(t / 9.0), 0.0, None)
+    test = Test([Signal.standard("drv_pos_accel_test", t, a),
+                 Signal.standard("drv_pos_accel_b_test", t, 1.02 * a + 0.157)])
+    _, found = run_level2(test)
+    assert [f.kind for f in found if f.severity != Severity.INFO] == [Kind.OFFSET], \
+        [f.message for f in found]
+    assert "offset from drv_pos_accel_test by +16.08 % on average" in found[0].message

@@ -118,6 +118,24 @@ def test_prius_c_logs_raise_no_quantisation_spike_and_no_stuck_error():
         _no_quantisation_spike_or_stuck_error(run_qa(test, None, tpl), test)
 
 
+@pytest.mark.skipif(not PRIUS_C.is_dir(), reason="real data not available")
+def test_prius_c_no_answer_values_are_counted_gaps_not_range_errors():
+    # 118.5 % / 0 % in SOC_ig_on and 0 kPa in the mode-01 pressures are the loggers' "no
+    # answer" frames: declared as invalid_values they become NaN with the count in the notes
+    from vehval.io.importer import import_test
+    from vehval.io.template import load_template
+    tpl = load_template(HERE.parent / "io" / "templates" / "prius_c_obd.yaml")
+    test = import_test([PRIUS_C / "output7.csv"], tpl, repair_time=True)
+    notes = test["ess_soc_ig_on_test"].notes
+    assert any(n.startswith("3 sample(s) equal to invalid value(s) [118.5, 0.0]") for n in notes)
+    assert int(np.isnan(test["amb_pres_test"].values).sum()) == 2
+    assert "aux_volt_obd_test" not in test.names      # eng2bp is a minute counter, deleted
+    for path in sorted(PRIUS_C.glob("output*.csv")):
+        res = run_qa(import_test([path], tpl, repair_time=True), None, tpl)
+        assert [f.message for f in res.findings if f.kind == Kind.RANGE
+                and f.severity != Severity.INFO] == [], path.name
+
+
 @pytest.mark.skipif(not CAMRY.is_dir(), reason="real data not available")
 def test_camry_fuel_spikes_are_only_the_isolated_outliers():
     # docs/qa.md lists the 5 remaining warnings with their evidence

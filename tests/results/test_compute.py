@@ -164,6 +164,12 @@ def test_soc_correction_statuses():
     assert sc["fuel_energy_corrected_j"] == pytest.approx(107.5e6)
     assert sc["fuel_economy_mpg_corrected"] == pytest.approx(50.0 / 1.075)
     assert soc_correction(vals, ["test"], battery=False)["status"] == "not_applicable"
+    # a battery without any fuel energy (an ADVISOR or OBD log with no fuel channel): the
+    # ratio cannot be formed, so no "within tolerance" verdict on a missing denominator
+    none = soc_correction({"test": {"ess_energy_net_j": -27.2e3, "fuel_energy_j": None}},
+                          ["test"], battery=True)
+    assert none["status"] == "undetermined"
+    assert none["message"].startswith("battery net energy change -27.2 kJ but no fuel energy")
 
 
 def test_soc_regression_recovers_the_intercept():
@@ -230,3 +236,28 @@ def test_results_use_the_cycle_match_kept_at_import(monkeypatch):
     test.shift_source("dyno", -2.5)            # alignment after import moves the match too
     res = compute_results(test, fuel="diesel")
     assert res.phases[0].segments[0] == pytest.approx((27.5, 532.5), abs=0.2)
+
+
+def test_drive_quality_finding_reads_in_display_units_and_explains_iwr(monkeypatch):
+    # a driver 5 % fast: IWR about +10 %, outside -2..+4 % at 10 Hz and at 1 Hz alike
+    t, s = true_signals()
+    s["veh_spd"] = 1.05 * s["veh_spd"]
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    res = compute_results(make_test(t, s), fuel="diesel")
+    dq = [f for f in res.findings if f.kind == Kind.DRIVE_QUALITY]
+    assert dq and all(f.severity == Severity.WARNING for f in dq)
+    msg = dq[0].message
+    assert " km/h (allowed 1.29 km/h)" in msg and "mph" not in msg, msg
+    assert "also outside the band: the driver's speed changes" in msg, msg
+    assert dq[0].numbers["iwr_1hz_pct"] > 4.0
+
+
+def test_an_obd_speed_gets_the_obd_class_default_not_the_roll_speed():
+    # the Prius c OBD log's speed was assumed 0.1 % / 0.01 m/s "chassis-dyno roll speed"
+    from vehval.results.uncertainty import channel_accuracy
+
+    obd = channel_accuracy("veh_spd_obd_test", None)
+    assert obd.gain_limit == pytest.approx(0.02) and obd.offset_limit == pytest.approx(0.5 / 3.6)
+    assert obd.assumed and "J1979" in obd.basis
+    roll = channel_accuracy("veh_spd_test", None)
+    assert roll.gain_limit == pytest.approx(0.001) and "roll speed" in roll.basis

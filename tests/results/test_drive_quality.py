@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from vehval.constants import MPH_M_PER_S
-from vehval.results.drive_quality import drive_quality
+from vehval.results.drive_quality import drive_quality, iwr_reading
 
 
 def _trace():
@@ -85,3 +85,21 @@ def test_cruise_corrections_raise_iwr_by_the_hand_computed_work():
     assert dq.within_tolerance is False                        # 19.9 % > 4 %
     # at 1 Hz the samples 21..39 s all fall on +e: one rise of e at 21 s (mean 20 + e/2)
     assert dq.iwr_1hz_pct == pytest.approx(100 * e * (20.0 + e / 2) / 200.0, rel=1e-9)
+
+
+def test_iwr_reading_says_whether_the_excess_survives_at_one_hz():
+    # sub-second corrections while cruising (the case above): outside at 10 Hz, inside at
+    # 1 Hz, so the reading names speed content above 1 Hz
+    t, vt = _trace()
+    vd = vt.copy()
+    idx = np.flatnonzero((t > 20.05) & (t < 39.95))
+    vd[idx] += 0.01 * np.where(np.arange(idx.size) % 2 == 0, -1.0, 1.0)
+    dq = drive_quality(t, vd, vt, mass_kg=1000.0)
+    assert iwr_reading(dq).startswith("IWR at 1 Hz +0.10 %, inside the band: the excess is "
+                                      "speed content above 1 Hz")
+    assert "reference cruises add 19.9 %" in iwr_reading(dq)
+    # a driver 2 % fast everywhere: the same excess at 1 Hz (4.04 %), the driver's own
+    dq = drive_quality(t, 1.02 * vt, vt, mass_kg=1000.0)
+    assert iwr_reading(dq).startswith("IWR at 1 Hz +4.04 %, also outside the band")
+    # inside the band: nothing to explain
+    assert iwr_reading(drive_quality(t, 1.01 * vt, vt, mass_kg=1000.0)) == ""

@@ -69,3 +69,13 @@ def test_results_section_follows_the_unit_system(monkeypatch):
     assert phases.columns[1] == "distance [mi]" and phases.columns[6] == "fuel economy [mpg]"
     assert phases.rows[0][1] == 3.592 and phases.rows[0][-2] == 0.327
     assert headline_banner(_doc())["title"].split(": ", 1)[1].startswith("28.98 ± 0.35 mpg")
+
+
+def test_conditions_without_a_cell_temperature_read_not_measured():
+    """A log without an ambient channel showed 'cell None °C' in the report."""
+    from vehval.report.results_view import results_section
+
+    facts = dict(results_section({"conditions": {"cell_temp_c": None, "start": None}}).facts)
+    assert facts["Conditions"] == "cell temperature not measured, unknown start"
+    facts = dict(results_section({"conditions": {"cell_temp_c": 23.456, "start": "hot"}}).facts)
+    assert facts["Conditions"] == "cell 23.5 °C, hot start"

@@ -212,17 +212,39 @@ def _typical_change(v: np.ndarray, lag: int, i0: int, j1: int) -> float | None:
     return float(np.median(d[ok]))
 
 
-def _engine_stopped(test: Test, t0: float, t1: float) -> bool:
-    """Is a measured engine speed below 10 rad/s (about 100 rpm) over [t0, t1]?"""
+#: Engine speed below which the engine counts as stopped [rad/s] (about 100 rpm).
+ENGINE_STOPPED_RAD_S = 10.0
+
+
+def _engine_running_span(test: Test, t0: float, t1: float, min_s: float,
+                         min_samples: int) -> tuple[float, float] | None:
+    """The part of [t0, t1] [s] over which an engine quantity is judged against its partners.
+
+    ``(t0, t1)`` when no engine speed is measured or the engine runs at every sample of the
+    span; else the longest stretch of consecutive samples at which a measured engine speed
+    is at least ``ENGINE_STOPPED_RAD_S``, or None when no such stretch lasts ``min_s`` and
+    ``min_samples`` (a hybrid's engine stopped, or only spinning down or cranking at the
+    span's ends: its throttle holds whatever the pedal does).
+    """
+    best: tuple[float, float] | None = None
     for other in test:
         q = parse_name(other.name)
         if q is None or q.origin != "test" or q.base != "eng_spd_out":
             continue
-        seg = other.values[(other.time >= t0) & (other.time <= t1)]
-        seg = seg[np.isfinite(seg)]
-        if seg.size >= 2:
-            return bool(np.max(np.abs(seg)) < 10.0)
-    return False
+        sel = (other.time >= t0) & (other.time <= t1) & np.isfinite(other.values)
+        ts, seg = other.time[sel], other.values[sel]
+        if seg.size < 2:
+            continue
+        run = np.abs(seg) >= ENGINE_STOPPED_RAD_S
+        if run.all():
+            return t0, t1
+        for i0, i1 in runs(run):
+            if i1 - i0 + 1 >= min_samples and ts[i1] - ts[i0] >= min_s and (
+                    best is None or ts[i1] - ts[i0] > best[1] - best[0]):
+                best = (float(ts[i0]), float(ts[i1]))
+        if best is None:
+            return None
+    return best if best is not None else (t0, t1)
 
 
 def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, PLR0912, PLR0915 - the stuck-signal exceptions (idle, saturation, held, slow) in turn
@@ -283,13 +305,20 @@ def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, 
         if typical is not None and typical < opts.stuck_quanta * res:
             continue             # a slow signal at its resolution: holding is its normal way
         mover = None
+        span_run: tuple[float, float] | None = (t0, t1)
+        if is_engine:            # an engine quantity holds while the engine is stopped
+            span_run = _engine_running_span(test, t0, t1, opts.stuck_min_s,
+                                            opts.stuck_min_samples)
         for psig, dup in partners:
             if value == 0 and not dup:
                 continue
-            if not dup and is_engine and _engine_stopped(test, t0, t1):
-                continue         # an engine quantity holds while the engine is stopped
+            a, b = t0, t1
+            if not dup:
+                if span_run is None:
+                    continue
+                a, b = span_run
             min_abs = 3 * max(quantum, p_res.get(psig.name, 0.0)) if dup else 0.0
-            ok, frac = _moves(psig, t0, t1, opts.partner_move_fraction if dup
+            ok, frac = _moves(psig, a, b, opts.partner_move_fraction if dup
                               else opts.correlated_move_fraction, min_abs, range_cache)
             if ok and value == 0:
                 pv = psig.values[(psig.time >= t0) & (psig.time <= t1)]
@@ -309,7 +338,7 @@ def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, 
                     "partner_range_fraction": frac}
             found.append(Finding(sig.name, Kind.STUCK, t0, t1, sev, msg, nums,
                                  related=[psig.name]))
-        elif noisy and abs(value) > 1e-3 * span:
+        elif noisy and abs(value) > 1e-3 * span and span_run is not None:
             # (a hold within 0.1 % of the range from zero, such as a 0.001 mph roll creep at
             # standstill, is a standstill when no partner says otherwise)
             msg = (f"{sig.name} repeats exactly {shown(float(v[i0]))} for {t1 - t0:.1f} s "
@@ -454,6 +483,33 @@ def resolution(values: np.ndarray) -> float:
     return q if float(on_grid.mean()) >= 0.8 else 0.0
 
 
+def raw_quantum(sig: Signal, values: np.ndarray) -> float:
+    """The last decimal place the file's raw numbers show, in the signal's unit [its unit].
+
+    A signal with too few steps for :func:`resolution` (a barometric pressure toggling 99 /
+    100 kPa) still tells its count by its raw numbers: all whole kPa (as SAE J1979 encodes
+    PID 0x33) cannot resolve less than 1 kPa. The raw numbers are rebuilt from the unit
+    conversion; 0 when they do not sit on a grid of 1, 0.1, 0.01 or 0.001 raw units.
+    """
+    from vehval.units import conversion
+
+    try:
+        scale, off = conversion(sig.raw_unit or "", sig.unit)
+    except Exception:  # noqa: BLE001 - a unit that does not convert back is not judged
+        return 0.0
+    if not scale:
+        return 0.0
+    raw = (np.asarray(values, float) - off) / scale
+    raw = raw[np.isfinite(raw)]
+    if raw.size < 10:
+        return 0.0
+    for step in (1.0, 0.1, 0.01, 0.001):
+        k = raw / step
+        if np.all(np.abs(k - np.round(k)) <= 1e-6 * np.maximum(1.0, np.abs(k))):
+            return step * abs(scale)
+    return 0.0
+
+
 def _local_scatter(resid: np.ndarray, window: int) -> np.ndarray:
     """Robust scatter (1.4826 x median |residual|) of each sample's neighbourhood."""
     a = np.abs(resid)
@@ -487,7 +543,7 @@ def spike_findings(sig: Signal, v: np.ndarray, t: np.ndarray,
     rrange = _robust_range(v)
     if sig.resample != "linear" or not rrange > 0:
         return out
-    q = resolution(v)
+    q = resolution(v) or raw_quantum(sig, v)
     thr = max(opts.spike_k * sigma, opts.spike_range_fraction * rrange, opts.spike_quanta * q)
     with np.errstate(invalid="ignore"):
         local = opts.spike_local_k * _local_scatter(resid, opts.spike_local_window)

@@ -180,7 +180,10 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
                                        f"{row.other} is {slope:.4g} x {row.ref}: looks like a unit "
                                        f"error ({label})", {**nums, "factor": f}, related=rel))
                     return out
-        if abs(slope - 1) > opts.gain_tol:
+        # a ratio of means away from 1 with a well-determined fitted slope of 1 is an offset
+        # (two pedal tracks 15 % apart by design), not a gain
+        offset_only = row.r2 >= 0.9 and abs(row.slope - 1) <= opts.gain_tol
+        if abs(slope - 1) > opts.gain_tol and not offset_only:
             sev = Severity.ERROR if abs(slope - 1) > opts.gain_error else Severity.WARNING
             out.append(Finding(blamed, Kind.GAIN, s0, s1, sev,
                                f"{row.other} reads {slope:.3f} x {row.ref} (fit slope {row.slope:.3f}, "

@@ -126,7 +126,9 @@ def results_section(doc: dict) -> Section:
                  f"{(fuel.get('lhv_j_per_kg') or 0) / 1e6:.2f} MJ/kg)" if fuel else
          "not declared: no volume-based result"),
         ("Phases from", str(doc.get("phase_source"))),
-        ("Conditions", f"cell {cond.get('cell_temp_c')} °C, {cond.get('start') or 'unknown'} start"),
+        ("Conditions", ("cell temperature not measured" if cond.get("cell_temp_c") is None
+                        else f"cell {cond['cell_temp_c']:.1f} °C")
+                       + f", {cond.get('start') or 'unknown'} start"),
         ("Uncertainty", f"{str(unc.get('method', '')).replace('_', ' ')}, k = 2"
                         + (f", {unc['draws']} draws" if unc.get("draws") else "")),
         ("SOC correction (SAE J1711)", str((doc.get("soc_correction") or {}).get("message", "—"))),

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from vehval.constants import MPH_M_PER_S
+from vehval.display import format_delta
 from vehval.fuels import (
     Fuel,
     ResolvedFuel,
@@ -29,7 +29,7 @@ from vehval.fuels import (
 )
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.results.composites import Composite, composites_for
-from vehval.results.drive_quality import drive_quality
+from vehval.results.drive_quality import RMSSE_TOLERANCE_MPS, drive_quality, iwr_reading
 from vehval.results.gate import headline
 from vehval.results.phases import (
     Phase,
@@ -497,8 +497,11 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                 findings.append(_finding(
                     f"drive quality of {sc} outside the SAE J2951 tolerances applied by "
                     f"40 CFR 1066.425(j): IWR {res.iwr_pct:+.2f} % (allowed -2.0..+4.0), "
-                    f"RMSSE {(res.rmsse_mps or 0.0) / MPH_M_PER_S:.2f} mph (allowed 0.8)", speed.name,
+                    f"RMSSE {format_delta(res.rmsse_mps or 0.0, 'm/s', digits=2)} (allowed "
+                    f"{format_delta(RMSSE_TOLERANCE_MPS, 'm/s', digits=3)})"
+                    + (f"; {why}" if (why := iwr_reading(res)) else ""), speed.name,
                     kind=Kind.DRIVE_QUALITY, iwr_pct=res.iwr_pct, rmsse_mps=res.rmsse_mps,
+                    iwr_1hz_pct=res.iwr_1hz_pct,
                     phase=sc))
         if road is None:
             notes.append("drive quality: ER and EER need test_mass_kg and road_load_a/b/c "

@@ -55,6 +55,7 @@ __all__ = [
     "WINDOW_TIME_S",
     "DriveQuality",
     "drive_quality",
+    "iwr_reading",
     "on_grid",
 ]
 
@@ -96,6 +97,28 @@ class DriveQuality:
              for k, v in self.__dict__.items()}
         d["rmsse_mph"] = None if self.rmsse_mps is None else round(self.rmsse_mps / MPH_M_PER_S, 4)
         return d
+
+
+def iwr_reading(dq: DriveQuality) -> str:
+    """What an IWR outside the tolerance band is made of, in one clause ("" when IWR is
+    inside or undefined): IWR of the same traces at 1 Hz, and the driven inertial work where
+    the reference cruises in percent of the reference's (module docstring).
+
+    Inside the band at 1 Hz, the excess is speed content above 1 Hz (speed-sensor noise or
+    sub-second corrections); still outside, the driver added inertial work at 1 Hz too.
+    """
+    lo, hi = IWR_TOLERANCE_PCT
+    if dq.iwr_pct is None or lo <= dq.iwr_pct <= hi or dq.iwr_1hz_pct is None:
+        return ""
+    slow = dq.iwr_1hz_pct
+    text = (f"IWR at 1 Hz {slow:+.2f} %, "
+            + ("inside the band: the excess is speed content above 1 Hz (speed-sensor noise "
+               "or sub-second corrections)" if lo <= slow <= hi else
+               "also outside the band: the driver's speed changes, not only speed noise"))
+    if dq.iwt_target_cruise_pct is not None:
+        text += (f"; corrections where the reference cruises add {dq.iwt_target_cruise_pct:.1f} % "
+                 "of the reference's inertial work")
+    return text
 
 
 def on_grid(t: np.ndarray, v: np.ndarray, rate_hz: float = RATE_HZ) -> tuple[np.ndarray, np.ndarray]:

@@ -42,8 +42,8 @@ def soc_correction(values: dict[str, dict[str, float | None]], scopes: list[str]
     Returns
     -------
     dict
-        ``status`` (``not_applicable``, ``within_tolerance``, ``corrected``,
-        ``beyond_tolerance_uncorrected``), ``message``, ``tolerance``, ``method`` and
+        ``status`` (``not_applicable``, ``undetermined`` (no fuel energy in any scope),
+        ``within_tolerance``, ``corrected``, ``beyond_tolerance_uncorrected``), ``message``, ``tolerance``, ``method`` and
         ``scopes`` (per scope: ``nec_j``, ``nec_ratio``, ``status``, corrected figures).
     """
     if not battery:
@@ -75,6 +75,14 @@ def soc_correction(values: dict[str, dict[str, float | None]], scopes: list[str]
             worst = "beyond_tolerance_uncorrected"
         per[sc] = entry
     t = per.get("test", {})
+    if all(e["status"] == "undetermined" for e in per.values()):
+        nec = t.get("nec_j")
+        return {"status": "undetermined", "tolerance": NEC_TOLERANCE, "method": None,
+                "message": ("battery net energy change "
+                            + (f"{nec / 1e3:+.1f} kJ" if nec is not None else "unknown")
+                            + " but no fuel energy (fuel not measured or not declared): the SAE "
+                            "J1711 ratio cannot be formed, no SOC correction"),
+                "scopes": per}
     if worst == "within_tolerance":
         msg = (f"battery net energy change {100 * (t.get('nec_ratio') or 0):+.2f} % of the fuel "
                f"energy, within the SAE J1711 tolerance of {100 * NEC_TOLERANCE:g} %: results "

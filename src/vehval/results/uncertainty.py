@@ -38,6 +38,7 @@ from vehval.units import conversion
 __all__ = [
     "COVERAGE_K",
     "DEFAULT_ACCURACY",
+    "SOURCE_ACCURACY",
     "ChannelAccuracy",
     "Parameter",
     "channel_accuracy",
@@ -56,6 +57,14 @@ DEFAULT_ACCURACY: dict[str, tuple[float, float, str]] = {
     "ess_curr": (0.5, 0.05, "battery current (power analyser or clamp): 0.5 % of reading, 0.05 A"),
     "ess_volt": (0.2, 0.0, "battery voltage: 0.2 % of reading"),
     "ess_pwr": (0.5, 20.0, "battery power (power analyser): 0.5 % of reading, 20 W"),
+}
+#: Defaults of a class measured by a given source (base name, source), before the base's:
+#: an OBD speed is no roll speed.
+SOURCE_ACCURACY: dict[tuple[str, str], tuple[float, float, str]] = {
+    ("veh_spd", "obd"): (2.0, 0.5 / 3.6,
+                         "OBD vehicle speed (SAE J1979 PID 0x0D): whole km/h (0.5 km/h), from "
+                         "the wheel speed with the nominal tyre radius (tread wear and pressure: "
+                         "about 2 % of reading)"),
 }
 #: Class used for base names not listed above: 1 % of reading.
 FALLBACK_ACCURACY = (1.0, 0.0, "no class default: 1 % of reading")
@@ -105,9 +114,11 @@ class ChannelAccuracy:
 
 def channel_accuracy(signal: str, spec: Any | None) -> ChannelAccuracy:
     """The accuracy of ``signal``: the template's ``AccuracySpec`` or its class default."""
-    base = registry().parse(signal).base
+    name = registry().parse(signal)
+    base = name.base
     if spec is None:
-        pct, off, why = DEFAULT_ACCURACY.get(base, FALLBACK_ACCURACY)
+        pct, off, why = SOURCE_ACCURACY.get((base, name.source or ""),
+                                            DEFAULT_ACCURACY.get(base, FALLBACK_ACCURACY))
         return ChannelAccuracy(signal, pct / 100.0, off, True, f"assumed class default: {why}")
     unit = spec.unit
     si = registry().spec_of(signal).unit
