@@ -167,13 +167,44 @@ def _check_mass(idf, declared: dict) -> None:
             "specification of another car?")
 
 
+def _keyed(key: str, value_si: float, ci95_si: float | None = None) -> str:
+    """``value [± ci] unit`` of a vehicle key (``mass_kg``, ``road_load_b_n_per_mps``...) in
+    the display units (us: lb, lbf, lbf/mph, lbf/mph²; metric: kg, N, N/(m/s), N/(m/s)²)."""
+    from vehval.display import format_keyed, keyed_unit, number
+
+    text = format_keyed(key, value_si)
+    unit = keyed_unit(key, magnitude=abs(value_si))
+    if ci95_si is None or unit is None or not text.endswith(unit.label):
+        return text
+    shown = text[: -len(unit.label)].rstrip()
+    ci = abs(ci95_si) * unit.factor
+    # the interval to the value's last decimal (2 significant digits for a whole value)
+    decimals = len(shown.partition(".")[2])
+    half = (f"{ci:.{decimals}f}" if "e" not in shown and "\u2009" not in shown
+            and decimals > 0 else number(ci, 2))
+    return f"{shown} ± {half} {unit.label}"
+
+
+def _drag_text(a_n: float, b_n_per_mps: float) -> str:
+    """``a + b·v`` of a drag in the display units (``18.86 lbf + 0.1517 lbf/mph``)."""
+    return f"{_keyed('drag_force_n', a_n)} + {_keyed('drag_force_n_per_mps', b_n_per_mps)}"
+
+
+def _drag_note(drag) -> str:
+    """The drag's note with its dyno losses (written in SI in the vehicle file) in the
+    display units."""
+    si = f"{drag.dyno_loss_a_n:.1f} N + {drag.dyno_loss_b_n_per_mps:.3f} N/(m/s)"
+    return drag.note.replace(si, _drag_text(drag.dyno_loss_a_n, drag.dyno_loss_b_n_per_mps))
+
+
 def _print_identification(idf, output: Path, report: Path | None) -> None:
     rl = idf.road_load
+    v, ci = rl.values, rl.ci95
     typer.echo(f"wrote {output}")
-    typer.echo(f"road load: A {rl.values['road_load_a_n']:.1f} N, B "
-               f"{rl.values['road_load_b_n_per_mps']:.2f} N/(m/s), C "
-               f"{rl.values['road_load_c_n_per_mps2']:.4f} N/(m/s)^2, mass "
-               f"{rl.values['mass_kg']:.0f} kg (R^2 {rl.r2:.4f})")
+    terms = [f"{name} {_keyed(k, v[k], ci.get(k))}" for name, k in (
+        ("A", "road_load_a_n"), ("B", "road_load_b_n_per_mps"), ("C", "road_load_c_n_per_mps2"),
+        ("mass", "mass_kg"))]
+    typer.echo(f"road load (95 % intervals): {', '.join(terms)} (R^2 {rl.r2:.4f})")
     g = idf.gears
     typer.echo("gear ratios (engine/wheel): " + ", ".join(f"{r:.3f}" for r in g.ratios)
                + ("" if g.declared is None else f" ({len(g.ratios)} of the {g.declared} "
@@ -185,15 +216,15 @@ def _print_identification(idf, output: Path, report: Path | None) -> None:
                f"{fm.idle_fuel_kg_s * 1e3:.3f} g/s, fuel cut above "
                f"{fm.fuel_cut_speed_rad_s * 30 / 3.141592653589793:.0f} rpm")
     if idf.drag is not None:
-        typer.echo(f"driveline drag: {idf.drag.force_n:.1f} N + {idf.drag.force_n_per_mps:.3f} "
-                   f"N/(m/s) ({idf.drag.note})")
+        typer.echo(f"driveline drag: {_drag_text(idf.drag.force_n, idf.drag.force_n_per_mps)} "
+                   f"({_drag_note(idf.drag)})")
     if idf.warmup is not None:
         w = idf.warmup
         typer.echo(f"warm-up fuel: +{100 * w.fraction:.1f} % at the start, time constant "
                    f"{w.time_constant_s:.0f} s (from {w.cold_test} against {w.hot_test}, "
                    f"R^2 {w.r2:.3f}{'; ' + w.note if w.note else ''})")
     if idf.ac is not None:
-        typer.echo(f"A/C load: {idf.ac['ac_power_w']:.0f} W (from {idf.ac['test']}, phases "
+        typer.echo(f"A/C load: {idf.ac['ac_power_w'] / 1e3:.2f} kW (from {idf.ac['test']}, phases "
                    f"{', '.join(map(str, idf.ac['phases']))})")
     a = idf.assumptions
     if a is not None:

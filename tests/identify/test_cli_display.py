@@ -1,0 +1,92 @@
+"""What `vehval identify` and `vehval predict` print: the identified road load and mass in the
+display units (`--units`; the JSON stays SI), and every figure fitted on the test it
+predicts marked in sample (virtual tests of the packaged Cruze: a UDDS and a HWFET to
+identify from, a UDDS run with the A/C on)."""
+
+import json
+import re
+
+import pytest
+
+from vehval.cli import main
+from vehval.constants import LB_KG, LBF_N, MPH_M_PER_S
+from vehval.cycles import load_cycle
+from vehval.identify.predict import with_ac
+from vehval.synth.conventional import make_conventional_test
+from vehval.vehicle import load_vehicle
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture(scope="module")
+def identified(tmp_path_factory):
+    """Virtual tests, and the vehicle identified from two of them with the A/C load from the
+    third (its ``--json`` summary, SI)."""
+    truth = load_vehicle("cruze_diesel_2014")
+    files, tpl = {}, None
+    for key, cyc, seed, veh in (("udds", "udds", 11, truth), ("hwfet", "hwfet", 11, truth),
+                                ("ac", "udds", 12, with_ac(truth, True))):
+        info = make_conventional_test(veh, load_cycle(cyc), seed=seed,
+                                      outdir=tmp_path_factory.mktemp(key))
+        files[key] = str(info["files"][0])
+        tpl = str(info["template"])
+    out = tmp_path_factory.mktemp("veh") / "car.yaml"
+    argv = ["identify", files["udds"], files["hwfet"], "-t", tpl, "--ac-test", files["ac"],
+            "-o", str(out)]
+    return files, tpl, out, argv
+
+
+def _run(capsys, argv):
+    rc = main(argv)
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    return cap.out
+
+
+def _road_load_line(text: str) -> str:
+    return next(line for line in text.splitlines() if line.startswith("road load"))
+
+
+def test_identify_prints_road_load_and_mass_in_the_display_units(identified, capsys,
+                                                                  monkeypatch):
+    files, tpl, out, argv = identified
+    monkeypatch.delenv("VEHVAL_UNITS", raising=False)      # `--units` stays in force after it
+    si = json.loads(_run(capsys, [*argv, "--json"]))["road_load"]["values"]
+    text = _run(capsys, argv)                                        # us: the default
+    us = _road_load_line(text)
+    drag = next(line for line in text.splitlines() if line.startswith("driveline drag"))
+    assert "lbf/mph" in drag and "N/(m/s)" not in drag
+    metric = _road_load_line(_run(capsys, ["--units", "metric", *argv]))
+    num = r"(-?[\d.]+) ± [\d.]+"
+    got = re.search(rf"A {num} lbf, B {num} lbf/mph, C {num} lbf/mph², mass {num} lb", us)
+    assert got is not None, us
+    a, b, c, m = (float(x) for x in got.groups())
+    # the printed values are the SI ones converted (4 significant digits: rel 1e-3)
+    assert a == pytest.approx(si["road_load_a_n"] / LBF_N, rel=1e-3, abs=0.01)
+    assert b == pytest.approx(si["road_load_b_n_per_mps"] * MPH_M_PER_S / LBF_N, rel=1e-3)
+    assert c == pytest.approx(si["road_load_c_n_per_mps2"] * MPH_M_PER_S ** 2 / LBF_N,
+                              rel=1e-3)
+    assert m == pytest.approx(si["mass_kg"] / LB_KG, rel=1e-3)
+    assert " N" not in us and " kg" not in us
+    got = re.search(rf"A {num} N, B {num} N/\(m/s\), C {num} N/\(m/s\)², mass {num} kg", metric)
+    assert got is not None, metric
+    assert float(got.group(4)) == pytest.approx(si["mass_kg"], rel=1e-3)
+
+
+def test_predict_marks_the_fitted_tests_and_phases_in_sample(identified, capsys):
+    files, tpl, out, argv = identified
+    _run(capsys, argv)
+    rows = {r["test"]: r for r in json.loads(_run(capsys, [
+        "predict", str(out), files["udds"], files["ac"], "-t", tpl, "--json"]))}
+    by_file = {k: next(r for t, r in rows.items() if t in files[k]) for k in ("udds", "ac")}
+    # an identification test: the test and all its phases
+    assert by_file["udds"]["in_sample"] and all(p["in_sample"] for p in by_file["udds"]["phases"])
+    # the A/C test: its load was fitted on the phases after the first, which are in sample
+    ac = by_file["ac"]
+    assert ac["in_sample"]
+    assert [p["in_sample"] for p in ac["phases"]] == [False, True]
+    text = _run(capsys, ["predict", str(out), files["ac"], "-t", tpl])
+    lines = text.splitlines()
+    assert "[in sample]" in lines[1]
+    phase_lines = [line for line in lines if line.startswith("  ") and "fuel economy" not in line]
+    assert "[in sample]" not in phase_lines[0] and "[in sample]" in phase_lines[1]
