@@ -90,3 +90,30 @@ def test_predict_marks_the_fitted_tests_and_phases_in_sample(identified, capsys)
     assert "[in sample]" in lines[1]
     phase_lines = [line for line in lines if line.startswith("  ") and "fuel economy" not in line]
     assert "[in sample]" not in phase_lines[0] and "[in sample]" in phase_lines[1]
+
+
+def test_a_wheel_radius_off_the_declared_tyre_is_refused(identified, tmp_path, capsys):
+    """The radius would win silently over the tyre and scale every gear ratio: a radius given
+    in the wrong unit or of another tyre is refused in one line, nothing written."""
+    files, tpl, _, _ = identified
+    spec = tmp_path / "spec.yaml"
+    out = tmp_path / "v.yaml"
+    spec.write_text("tyre: 225/50 R17\nwheel_radius_m: 0.25\n")
+    rc = main(["identify", files["udds"], "-t", tpl, "--spec", str(spec), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "-22 % from the rolling radius" in err[0], err
+    assert not out.exists()
+    # a measured rolling radius a few % from the tyre's estimate (0.319 m) is accepted
+    spec.write_text("tyre: 225/50 R17\nwheel_radius_m: 0.31\n")
+    assert main(["identify", files["udds"], files["hwfet"], "-t", tpl, "--spec", str(spec),
+                 "-o", str(out)]) == 0
+
+
+def test_fewer_declared_gears_than_the_launches_suggest_say_so(identified, tmp_path, capsys):
+    """The virtual Cruze's first gear never locks: its launches make the sixth gear. With five
+    gears declared they are taken as converter slip, and identify says so."""
+    files, tpl, _, _ = identified
+    text = _run(capsys, ["identify", files["udds"], files["hwfet"], "-t", tpl, "--gears", "5",
+                         "-o", str(tmp_path / "v.yaml")])
+    assert "(5 of the 5 declared gears)" in text
+    assert "taken as converter slip in first gear" in text, text

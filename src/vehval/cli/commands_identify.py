@@ -114,6 +114,7 @@ def identify_cmd(
         "rated_power_kw": rated_power_kw, "rated_speed_rpm": rated_speed_rpm,
         "peak_torque_nm": peak_torque_nm, "displacement_l": displacement_l,
         "fuel": engine_fuel, "tyre": tyre, "gears": gears})
+    _check_radius(declared)
     if pairs and not cross_validate:
         raise ConfigError("--pairs: give it with --cross-validate")
     if cross_validate:
@@ -153,6 +154,24 @@ def identify_cmd(
         typer.echo(json.dumps(idf.summary(), indent=2))
         return
     _print_identification(idf, output, report)
+
+
+RADIUS_TOL = 0.10   # [-] a rolling radius is within a few % of 0.97 x the unloaded radius
+
+
+def _check_radius(declared: dict) -> None:
+    """A declared wheel radius far from the declared tyre's: a unit slip or another tyre (the
+    radius would win silently and scale every gear ratio)."""
+    if "tyre" not in declared or "wheel_radius_m" not in declared:
+        return
+    from vehval.identify.spec import tyre_radius_m
+    tyre, r = declared["tyre"][0], float(declared["wheel_radius_m"][0])
+    r_tyre = tyre_radius_m(tyre)
+    if abs(r / r_tyre - 1) > RADIUS_TOL:
+        raise ConfigError(
+            f"identify: the declared wheel radius {r:.3f} m ({declared['wheel_radius_m'][2]}) "
+            f"is {100 * (r / r_tyre - 1):+.0f} % from the rolling radius of the declared "
+            f"{tyre} tyre ({r_tyre:.3f} m): give one of them, or the right one")
 
 
 def _check_mass(idf, declared: dict) -> None:
