@@ -117,3 +117,31 @@ def test_fewer_declared_gears_than_the_launches_suggest_say_so(identified, tmp_p
                          "-o", str(tmp_path / "v.yaml")])
     assert "(5 of the 5 declared gears)" in text
     assert "taken as converter slip in first gear" in text, text
+
+
+def test_a_fuel_flow_in_the_wrong_unit_is_refused_or_flagged(identified, tmp_path, capsys):
+    """g/s mapped as kg/h (3.6 x too little fuel): no map burning at most 50 % marginal
+    efficiency fits (R² of 5 s means below 0), refused, nothing written. A heating value
+    typed 10 x too high: the map fits but peaks at a few % brake efficiency, said."""
+    files, tpl, _, _ = identified
+    text = open(tpl).read()
+    assert "fuel_rate_test, unit: g/s" in text and "fuel_lhv_j_per_kg: 42800000.0" in text
+    bad = tmp_path / "kgh.yaml"
+    bad.write_text(text.replace("fuel_rate_test, unit: g/s", "fuel_rate_test, unit: kg/h"))
+    out = tmp_path / "v.yaml"
+    rc = main(["identify", files["udds"], files["hwfet"], "-t", str(bad), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "does not fit the measured fuel" in err[0], err
+    assert "fuel flow's unit" in err[0] and not out.exists()
+    lhv = tmp_path / "lhv.yaml"
+    lhv.write_text(text.replace("fuel_lhv_j_per_kg: 42800000.0", "fuel_lhv_j_per_kg: 428000000.0"))
+    rc = main(["identify", files["udds"], files["hwfet"], "-t", str(lhv), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "constants.fuel_lhv_j_per_kg" in err[0], err
+    lhv.write_text(text.replace("fuel_lhv_j_per_kg: 42800000.0", "fuel_lhv_j_per_kg: 128400000.0"))
+    rc = main(["identify", files["udds"], files["hwfet"], "-t", str(lhv), "-o", str(out)])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    warn = [line for line in cap.err.splitlines() if line.startswith("vehval: warning:")]
+    assert len(warn) == 1 and "outside the 20-45 % of road engines" in warn[0], cap.err
+    assert "peak brake efficiency" in cap.out

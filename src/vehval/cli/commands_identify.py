@@ -138,6 +138,7 @@ def identify_cmd(
         idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
                                     cold_trace=cold_trace, declared=declared)
     _check_mass(idf, declared)
+    _check_fuel_map(idf, files)
     from vehval.io.atomic import atomic_files
     preds = None
     if report is not None:
@@ -150,6 +151,8 @@ def identify_cmd(
         if report is not None:
             from vehval.identify.report import write_identification_report
             write_identification_report(idf, preds, staged[1])
+    for line in _fuel_map_warnings(idf):
+        typer.echo(f"vehval: warning: {line}", err=True)
     if as_json:
         typer.echo(json.dumps(idf.summary(), indent=2))
         return
@@ -216,6 +219,58 @@ def _drag_note(drag) -> str:
     return drag.note.replace(si, _drag_text(drag.dyno_loss_a_n, drag.dyno_loss_b_n_per_mps))
 
 
+#: [-] peak brake efficiency of road engines: above the best diesels' (~0.42), below the
+#: worst engines' in service (~0.25)
+ETA_PLAUSIBLE = (0.20, 0.45)
+_UNIT_HINT = ("check the fuel flow's unit and the test fuel's heating value (template "
+              "constants) and the fuel channel's mapping")
+
+
+def _check_fuel_map(idf, files) -> None:
+    """A fuel map that explains the fuel worse than its mean, or burns less fuel than the
+    work it gives (brake efficiency above 100 %): a unit or mapping mistake, refused."""
+    fm = idf.fuel_map
+    eta = peak_efficiency(idf.vehicle.engine)[0]
+    tests = ", ".join(str(f) for f in files)
+    if not fm.r2_5s >= 0.0:
+        raise ConfigError(
+            f"identify: the fuel map does not fit the measured fuel of {tests} (R² of 5 s "
+            f"means {fm.r2_5s:.2f}: worse than a constant rate); {_UNIT_HINT}")
+    if eta > 1.0:
+        raise ConfigError(
+            f"identify: the fuel map of {tests} gives {100 * eta:.0f} % brake efficiency "
+            f"(more work than the fuel's energy); {_UNIT_HINT}")
+
+
+def _fuel_map_warnings(idf) -> list[str]:
+    """A peak brake efficiency outside the range of road engines, in one line."""
+    eta, rpm, nm = peak_efficiency(idf.vehicle.engine)
+    lo, hi = ETA_PLAUSIBLE
+    if lo <= eta <= hi:
+        return []
+    return [f"the identified fuel map peaks at {100 * eta:.1f} % brake efficiency ({rpm:.0f} "
+            f"rpm, {nm:.0f} N·m), outside the {100 * lo:.0f}-{100 * hi:.0f} % of road "
+            f"engines: {_UNIT_HINT}"]
+
+
+def peak_efficiency(engine) -> tuple[float, float, float]:
+    """Highest brake efficiency [-] of an engine's fuel map where the model runs it fired
+    (from the idle speed up, torque above zero and within the full load), with its speed
+    [rpm] and torque [N·m]."""
+    import numpy as np
+
+    spd = np.asarray(engine.speed_rpm, dtype=float)
+    trq = np.asarray(engine.torque_nm, dtype=float)
+    fuel = np.asarray(engine.fuel_rate_g_per_s, dtype=float) * 1e-3
+    tmax = np.asarray(engine.max_torque_nm, dtype=float)   # full load at each map speed
+    power = spd[:, None] * np.pi / 30.0 * trq[None, :]
+    ok = ((spd[:, None] >= engine.idle_speed_rpm) & (trq[None, :] > 0)
+          & (trq[None, :] <= tmax[:, None]) & (fuel > 0))
+    eta = np.where(ok, power / np.where(ok, fuel, 1.0) / engine.fuel_lhv_j_per_kg, -np.inf)
+    i, j = np.unravel_index(int(np.argmax(eta)), eta.shape)
+    return float(eta[i, j]), float(spd[i]), float(trq[j])
+
+
 def _print_identification(idf, output: Path, report: Path | None) -> None:
     rl = idf.road_load
     v, ci = rl.values, rl.ci95
@@ -234,6 +289,9 @@ def _print_identification(idf, output: Path, report: Path | None) -> None:
     typer.echo(f"fuel map: R^2 {fm.r2:.3f} (5 s means {fm.r2_5s:.3f}), idle "
                f"{fm.idle_fuel_kg_s * 1e3:.3f} g/s, fuel cut above "
                f"{fm.fuel_cut_speed_rad_s * 30 / 3.141592653589793:.0f} rpm")
+    eta, rpm, nm = peak_efficiency(idf.vehicle.engine)
+    typer.echo(f"fuel map: peak brake efficiency {100 * eta:.1f} % at {rpm:.0f} rpm, {nm:.0f} N·m "
+               "(between idle and full load)")
     if idf.drag is not None:
         typer.echo(f"driveline drag: {_drag_text(idf.drag.force_n, idf.drag.force_n_per_mps)} "
                    f"({_drag_note(idf.drag)})")
