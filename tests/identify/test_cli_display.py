@@ -145,3 +145,16 @@ def test_a_fuel_flow_in_the_wrong_unit_is_refused_or_flagged(identified, tmp_pat
     warn = [line for line in cap.err.splitlines() if line.startswith("vehval: warning:")]
     assert len(warn) == 1 and "outside the 20-45 % of road engines" in warn[0], cap.err
     assert "peak brake efficiency" in cap.out
+
+
+def test_identification_report_in_display_units_and_in_sample_marked(identified, tmp_path,
+                                                                     capsys, monkeypatch):
+    """The report predicts the identification tests themselves: in sample, and said so; its
+    road-load table is in the display units like the screen."""
+    files, tpl, _, argv = identified
+    monkeypatch.delenv("VEHVAL_UNITS", raising=False)
+    page = tmp_path / "ident.html"
+    _run(capsys, [*argv[:-1], str(tmp_path / "v.yaml"), "--report", str(page)])
+    html = page.read_text(encoding="utf-8")
+    assert "lbf/mph" in html and "N/(m/s)" not in html.split("Driveline drag")[0]
+    assert html.count("(in sample)") == 2      # the UDDS and the HWFET

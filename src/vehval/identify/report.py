@@ -92,7 +92,8 @@ def identification_data(idf, preds: list[dict]) -> dict:
                                           "provenance": w.provenance(), "note": w.note,
                                           "phases": list(w.phases)},
         "predictions": [{k: p.get(k) for k in ("test", "cycle", "amb_temp_c", "fuel_measured_g",
-                                               "fuel_predicted_g", "error_rel", "ac_on")}
+                                               "fuel_predicted_g", "error_rel", "ac_on",
+                                               "in_sample")}
                         for p in preds],
     }
 

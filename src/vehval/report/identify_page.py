@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 from typing import Any, Sequence
 
+from vehval.display import format_keyed
 from vehval.io.atomic import write_text_atomic
 from vehval.report.document import Block, bullets, figure, h1, h2, para, render_document, table
 from vehval.report.figures import FigSpec
@@ -51,9 +52,10 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
     out = [h1(f"Identification of {d['vehicle']}"), para("Tests: " + ", ".join(d["tests"])),
            h2("Road load"),
            table(["coefficient", "identified", "95 % CI", "template"],
-                 [[k, f"{v:.4g}", f"±{rl['ci95'][k]:.3g}", rl["template"].get(k, "")]
+                 [[k, format_keyed(k, v), "±" + format_keyed(k, rl["ci95"][k], digits=3),
+                   "" if rl["template"].get(k) is None else format_keyed(k, rl["template"][k])]
                   for k, v in rl["values"].items()]),
-           para(f"R² {rl['r2']:.4f}, RMSE {rl['rmse_n']:.1f} N, force lag {rl['lag_s']:+.2f} s"),
+           para(f"R² {rl['r2']:.4f}, RMSE {format_keyed('rmse_n', rl['rmse_n'])}, force lag {rl['lag_s']:+.2f} s"),
            h2("Gears"),
            table(["gear", "ratio (engine/wheel)", "median of locked samples", "samples"],
                  [[c["gear"], f"{c['identified']:.4f}",
@@ -67,7 +69,8 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
     if d.get("drag") is not None:
         dr = d["drag"]
         out += [h2("Driveline drag"),
-                para(f"{dr['force_n']:.1f} N + {dr['force_n_per_mps']:.3f} N/(m/s): {dr['note']}")]
+                para(f"{format_keyed('force_n', dr['force_n'])} + "
+                     f"{format_keyed('force_n_per_mps', dr['force_n_per_mps'])}: {dr['note']}")]
     if d.get("ac") is not None:
         ac = d["ac"]
         out += [h2("A/C load"),
@@ -83,8 +86,10 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
                 bullets([f"phase {p['phase']}: cold {p['cold_g']:.1f} g, hot {p['hot_g']:.1f} g, "
                          f"fitted excess {p['fitted_excess_g']:.1f} g" for p in w["phases"]])]
     out += [h2("Predictions"),
+            para("Tests marked in sample are ones the model was fitted on: their errors "
+                 "are not a check of the model."),
             table(["test", "cycle", "cell °C", "measured g", "predicted g", "error %", "A/C"],
-                  [[p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", f"{p['fuel_measured_g']:.1f}",
+                  [[p["test"] + (" (in sample)" if p.get("in_sample") else ""), p["cycle"], f"{p['amb_temp_c']:.1f}", f"{p['fuel_measured_g']:.1f}",
                     f"{p['fuel_predicted_g']:.1f}", f"{100 * p['error_rel']:+.2f}",
                     "on" if p.get("ac_on") else "off"] for p in d["predictions"]])]
     return out + _figures(figs)  # every figure after the text, as plotly.js draws them
