@@ -158,3 +158,14 @@ def test_identification_report_in_display_units_and_in_sample_marked(identified,
     html = page.read_text(encoding="utf-8")
     assert "lbf/mph" in html and "N/(m/s)" not in html.split("Driveline drag")[0]
     assert html.count("(in sample)") == 2      # the UDDS and the HWFET
+
+
+def test_a_raised_generic_full_load_names_the_torque_it_was_raised_to(identified, capsys):
+    """Without a specification the generic peak torque (from the estimated displacement) is
+    below what the tests showed and is raised; the full-load line names the torque it took
+    (it named only the one before, which the peak-torque line contradicted)."""
+    files, tpl, out, argv = identified
+    prov = json.loads(_run(capsys, [*argv, "--json"]))["assumptions"]
+    peak = prov["peak_torque_nm"]["value"]
+    assert "raised to" in prov["peak_torque_nm"]["source"]
+    assert f"raised to {peak:.0f} N·m, 1.1 x the highest" in prov["full_load"]["source"]
