@@ -169,3 +169,28 @@ def test_a_raised_generic_full_load_names_the_torque_it_was_raised_to(identified
     peak = prov["peak_torque_nm"]["value"]
     assert "raised to" in prov["peak_torque_nm"]["source"]
     assert f"raised to {peak:.0f} N·m, 1.1 x the highest" in prov["full_load"]["source"]
+
+
+def test_predict_draws_a_bar_over_its_tests(identified, capsys, monkeypatch):
+    """predict of several tests runs seconds per test: on a terminal a bar follows them."""
+    import vehval.cli.progress as cli_progress
+
+    seen = []
+
+    class Record:
+        def __init__(self, prog, task):
+            pass
+
+        def add(self, steps):
+            seen.append(("add", steps))
+
+        def advance(self, steps=1):
+            seen.append(("advance", steps))
+
+    monkeypatch.setattr(cli_progress, "enabled", lambda as_json=False: not as_json)
+    monkeypatch.setattr(cli_progress, "_RichListener", Record)
+    files, tpl, out, argv = identified
+    _run(capsys, argv)
+    seen.clear()
+    _run(capsys, ["predict", str(out), files["udds"], files["hwfet"], "-t", tpl])
+    assert seen == [("add", 2), ("advance", 1), ("advance", 1)]

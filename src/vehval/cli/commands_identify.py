@@ -323,7 +323,11 @@ def _cross_validate(files, template, declared, pairs, output, as_json, spec) -> 
     if output is not None:
         from vehval.io.paths import check_outputs
         check_outputs(outfile=output, inputs=[*files, template] + ([spec] if spec else []))
-    result = cross_validate(load_traces(files, template), pairs=pairs, declared=declared)
+    traces = load_traces(files, template)
+    from vehval.cli.progress import bar
+    with bar(f"identify: cross-validation ({'pairs' if pairs else 'leave-one-out'})",
+             as_json=as_json):
+        result = cross_validate(traces, pairs=pairs, declared=declared)
     if output is not None:
         from vehval.io.atomic import write_text_atomic
         write_text_atomic(output, json.dumps(result, indent=1) + "\n")
@@ -359,7 +363,14 @@ def predict_cmd(
     traces = load_traces(files, template)
     for t in traces:
         check_same_car(veh, t)
-    preds = [predict_trace(veh, t, ac=ac) for t in traces]
+    from vehval import progress
+    from vehval.cli.progress import bar
+    with bar("predict: driving each test's speed", as_json=as_json):
+        progress.add(len(traces))
+        preds = []
+        for t in traces:
+            preds.append(predict_trace(veh, t, ac=ac))
+            progress.advance()
     for line in poor_coverage(preds):
         typer.echo(f"vehval: warning: {line}", err=True)
     if report is not None:
