@@ -194,3 +194,32 @@ def test_predict_draws_a_bar_over_its_tests(identified, capsys, monkeypatch):
     seen.clear()
     _run(capsys, ["predict", str(out), files["udds"], files["hwfet"], "-t", tpl])
     assert seen == [("add", 2), ("advance", 1), ("advance", 1)]
+
+
+def _with_coolant(src, dst, tpl_src, tpl_dst, start_c):
+    """A copy of a virtual D3 file with an engine coolant channel warming from ``start_c``
+    [°C] (and its template)."""
+    lines = open(src, encoding="utf-8").read().splitlines()
+    out = [lines[0] + "\tEngine_Coolant_Temp[C]"]
+    for i, line in enumerate(lines[1:]):
+        out.append(f"{line}\t{min(start_c + 0.1 * i * 0.1, 90.0):.1f}")
+    open(dst, "w", encoding="utf-8").write("\n".join(out) + "\n")
+    text = open(tpl_src, encoding="utf-8").read().replace(
+        "      Phase_#:", "      Engine_Coolant_Temp: {name: eng_temp_coolant_test, unit: degC}\n"
+        "      Phase_#:")
+    open(tpl_dst, "w", encoding="utf-8").write(text)
+
+
+def test_identification_tests_that_start_cold_are_warned(identified, tmp_path, capsys):
+    """A cold start among the identification tests puts its warm-up fuel in the warm map:
+    said in one warning line naming it (a hot start is not named)."""
+    files, tpl, _, _ = identified
+    cold, hot, t2 = tmp_path / "cold_d3.txt", tmp_path / "hot_d3.txt", tmp_path / "t.yaml"
+    _with_coolant(files["udds"], cold, tpl, t2, 20.0)
+    _with_coolant(files["hwfet"], hot, tpl, t2, 85.0)
+    rc = main(["identify", str(cold), str(hot), "-t", str(t2), "-o", str(tmp_path / "v.yaml")])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    warn = [line for line in err.splitlines() if line.startswith("vehval: warning:")]
+    assert len(warn) == 1 and "cold_d3 (coolant 20 °C at the start" in warn[0], err
+    assert "hot_d3" not in warn[0] and "--cold-test" in warn[0]

@@ -151,7 +151,7 @@ def identify_cmd(
         if report is not None:
             from vehval.identify.report import write_identification_report
             write_identification_report(idf, preds, staged[1])
-    for line in _fuel_map_warnings(idf):
+    for line in _fuel_map_warnings(idf) + _cold_warnings(traces):
         typer.echo(f"vehval: warning: {line}", err=True)
     if as_json:
         typer.echo(json.dumps(idf.summary(), indent=2))
@@ -242,6 +242,18 @@ def _check_fuel_map(idf, files) -> None:
             f"(more work than the fuel's energy); {_UNIT_HINT}")
 
 
+def _cold_warnings(traces) -> list[str]:
+    """Identification tests that start cold: their warm-up fuel goes into the warm fuel map."""
+    from vehval.identify.warmup import cold_start_state
+    cold = [(t.test_id, why) for t in traces for c, why in [cold_start_state(t)] if c]
+    if not cold:
+        return []
+    return [f"{', '.join(f'{tid} ({why})' for tid, why in cold)} "
+            f"start{'s' if len(cold) == 1 else ''} cold: the warm fuel map takes in "
+            f"{'its' if len(cold) == 1 else 'their'} warm-up fuel; identify from hot-start "
+            "tests and give a cold start as --cold-test"]
+
+
 def _fuel_map_warnings(idf) -> list[str]:
     """A peak brake efficiency outside the range of road engines, in one line."""
     eta, rpm, nm = peak_efficiency(idf.vehicle.engine)
@@ -275,9 +287,14 @@ def _print_identification(idf, output: Path, report: Path | None) -> None:
     rl = idf.road_load
     v, ci = rl.values, rl.ci95
     typer.echo(f"wrote {output}")
-    terms = [f"{name} {_keyed(k, v[k], ci.get(k))}" for name, k in (
-        ("A", "road_load_a_n"), ("B", "road_load_b_n_per_mps"), ("C", "road_load_c_n_per_mps2"),
-        ("mass", "mass_kg"))]
+    body = idf.vehicle.body
+    terms = []
+    for name, k in (("A", "road_load_a_n"), ("B", "road_load_b_n_per_mps"),
+                    ("C", "road_load_c_n_per_mps2"), ("mass", "mass_kg")):
+        kept = float(getattr(body, k))
+        terms.append(f"{name} {_keyed(k, v[k], ci.get(k))}" + (
+            "" if abs(kept - v[k]) <= 1e-9 * max(abs(v[k]), 1.0) else
+            f" (the vehicle file holds {_keyed(k, kept)}: a physical bound)"))
     typer.echo(f"road load (95 % intervals): {', '.join(terms)} (R^2 {rl.r2:.4f})")
     g = idf.gears
     typer.echo("gear ratios (engine/wheel): " + ", ".join(f"{r:.3f}" for r in g.ratios)
