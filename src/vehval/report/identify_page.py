@@ -52,10 +52,9 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
     out = [h1(f"Identification of {d['vehicle']}"), para("Tests: " + ", ".join(d["tests"])),
            h2("Road load"),
            table(["coefficient", "identified", "95 % CI", "template"],
-                 [[k, format_keyed(k, v), "±" + format_keyed(k, rl["ci95"][k], digits=3),
-                   "" if rl["template"].get(k) is None else format_keyed(k, rl["template"][k])]
-                  for k, v in rl["values"].items()]),
-           para(f"R² {rl['r2']:.4f}, RMSE {format_keyed('rmse_n', rl['rmse_n'])}, force lag {rl['lag_s']:+.2f} s"),
+                 [[k, _keyed(k, v), "±" + _keyed(k, rl["ci95"][k], 3),
+                   _keyed(k, rl["template"].get(k, ""))] for k, v in rl["values"].items()]),
+           para(f"R² {rl['r2']:.4f}, RMSE {_keyed('rmse_n', rl['rmse_n'])}, force lag {rl['lag_s']:+.2f} s"),
            h2("Gears"),
            table(["gear", "ratio (engine/wheel)", "median of locked samples", "samples"],
                  [[c["gear"], f"{c['identified']:.4f}",
@@ -69,8 +68,8 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
     if d.get("drag") is not None:
         dr = d["drag"]
         out += [h2("Driveline drag"),
-                para(f"{format_keyed('force_n', dr['force_n'])} + "
-                     f"{format_keyed('force_n_per_mps', dr['force_n_per_mps'])}: {dr['note']}")]
+                para(f"{_keyed('force_n', dr['force_n'])} + "
+                     f"{_keyed('force_n_per_mps', dr['force_n_per_mps'])}: {dr['note']}")]
     if d.get("ac") is not None:
         ac = d["ac"]
         out += [h2("A/C load"),
@@ -93,6 +92,13 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
                     f"{p['fuel_predicted_g']:.1f}", f"{100 * p['error_rel']:+.2f}",
                     "on" if p.get("ac_on") else "off"] for p in d["predictions"]])]
     return out + _figures(figs)  # every figure after the text, as plotly.js draws them
+
+
+def _keyed(key: str, value: Any, digits: int = 4) -> str:
+    """A number of a unit-suffixed key in the display units; anything else as given."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return format_keyed(key, value, digits=digits)
+    return str(value)
 
 
 def write_identification_page(path: str | Path, d: dict, figs: Sequence[Any]) -> Path:
