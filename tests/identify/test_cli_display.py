@@ -223,3 +223,15 @@ def test_identification_tests_that_start_cold_are_warned(identified, tmp_path, c
     warn = [line for line in err.splitlines() if line.startswith("vehval: warning:")]
     assert len(warn) == 1 and "cold_d3 (coolant 20 °C at the start" in warn[0], err
     assert "hot_d3" not in warn[0] and "--cold-test" in warn[0]
+
+
+def test_prediction_report_marks_in_sample_rows(identified, tmp_path, capsys):
+    """predict --report: the A/C test's fitted phase (and the test) marked in sample, its
+    first phase not; an identification test and its phases all in sample."""
+    files, tpl, out, argv = identified
+    _run(capsys, argv)
+    page = tmp_path / "pred.html"
+    _run(capsys, ["predict", str(out), files["udds"], files["ac"], "-t", tpl, "--report",
+                  str(page)])
+    html = page.read_text(encoding="utf-8")
+    assert html.count("(in sample)") == 5      # udds: test + 2 phases; A/C test: test + phase 2

@@ -94,6 +94,10 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
     return out + _figures(figs)  # every figure after the text, as plotly.js draws them
 
 
+def _in_sample(row: dict) -> str:
+    return " (in sample)" if row.get("in_sample") else ""
+
+
 def _keyed(key: str, value: Any, digits: int = 4) -> str:
     """A number of a unit-suffixed key in the display units; anything else as given."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
@@ -122,8 +126,8 @@ def write_prediction_page(path: str | Path, vehicle: str, predictions: Sequence[
     predictions : sequence of dict
         ``test``, ``cycle``, ``amb_temp_c`` [°C], ``ac_on``, ``ac_reason``, ``start`` (start
         label), ``cold_reason``, ``fuel_measured_g``, ``fuel_predicted_g`` [g], ``error_rel``
-        [-], ``phases`` (``name``, ``measured_g``, ``u_g`` or None, ``predicted_g``,
-        ``error_rel``).
+        [-], ``in_sample``, ``phases`` (``name``, ``measured_g``, ``u_g`` or None,
+        ``predicted_g``, ``error_rel``, ``in_sample``).
     figs : sequence
         One plotly figure per prediction.
     """
@@ -133,13 +137,16 @@ def write_prediction_page(path: str | Path, vehicle: str, predictions: Sequence[
         rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", ac,
                      f"{p['start']} ({p.get('cold_reason', '')})", "test",
                      f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
-                     f"{100 * p['error_rel']:+.2f}"])
+                     f"{100 * p['error_rel']:+.2f}" + _in_sample(p)])
         for ph in p["phases"]:
             u = ph.get("u_g")
             rows.append(["", "", "", "", "", ph["name"],
                          f"{ph['measured_g']:.1f}" + (f" ± {u:.1f}" if u else ""),
-                         f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"])
+                         f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"
+                         + _in_sample(ph)])
     blocks = [h1(f"Predictions of {vehicle}"),
+              para("An error marked in sample is of a test (or phase) the model was fitted "
+                   "on: no check of the model."),
               table(["test", "cycle", "cell °C", "A/C", "start", "scope", "measured g (U, k = 2)",
                      "predicted g", "error %"], rows)] + _figures(figs)
     write_text_atomic(path, render_document(blocks, title="vehval predictions", css="simple.css"))
