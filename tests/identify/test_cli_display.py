@@ -235,3 +235,15 @@ def test_prediction_report_marks_in_sample_rows(identified, tmp_path, capsys):
                   str(page)])
     html = page.read_text(encoding="utf-8")
     assert html.count("(in sample)") == 5      # udds: test + 2 phases; A/C test: test + phase 2
+
+
+@pytest.mark.parametrize("extra", [["--ac-test", "AC"], ["--report", "r.html"],
+                                   ["--name", "x"]])
+def test_cross_validate_refuses_options_it_would_ignore(identified, tmp_path, capsys, extra):
+    files, tpl, _, _ = identified
+    extra = [files["ac"] if x == "AC" else x for x in extra]
+    rc = main(["identify", files["udds"], files["hwfet"], "-t", tpl, "--cross-validate",
+               "-o", str(tmp_path / "cv.json"), *extra])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and f"{extra[0]} would be ignored" in err[0], err
+    assert not (tmp_path / "cv.json").exists()

@@ -118,6 +118,12 @@ def identify_cmd(
     if pairs and not cross_validate:
         raise ConfigError("--pairs: give it with --cross-validate")
     if cross_validate:
+        unused = [opt for opt, val in (("--ac-test", ac_test), ("--cold-test", cold_test),
+                                       ("--report", report), ("--name", name)) if val is not None]
+        if unused:
+            raise ConfigError(f"--cross-validate: {', '.join(unused)} would be ignored (the "
+                              "cross-validation identifies from FILES only and writes its "
+                              "table); run identify without --cross-validate for them")
         _cross_validate(files, template, declared, pairs, output, as_json, spec)
         return
     if output is None:
