@@ -50,7 +50,7 @@ def _road_load_line(text: str) -> str:
 def test_identify_prints_road_load_and_mass_in_the_display_units(identified, capsys,
                                                                   monkeypatch):
     files, tpl, out, argv = identified
-    monkeypatch.delenv("VEHVAL_UNITS", raising=False)      # `--units` stays in force after it
+    monkeypatch.setenv("VEHVAL_UNITS", "us")   # `--units` sets it for the run: restored after
     si = json.loads(_run(capsys, [*argv, "--json"]))["road_load"]["values"]
     text = _run(capsys, argv)                                        # us: the default
     us = _road_load_line(text)
@@ -152,7 +152,7 @@ def test_identification_report_in_display_units_and_in_sample_marked(identified,
     """The report predicts the identification tests themselves: in sample, and said so; its
     road-load table is in the display units like the screen."""
     files, tpl, _, argv = identified
-    monkeypatch.delenv("VEHVAL_UNITS", raising=False)
+    monkeypatch.setenv("VEHVAL_UNITS", "us")   # `--units` sets it: restored after the test
     page = tmp_path / "ident.html"
     _run(capsys, [*argv[:-1], str(tmp_path / "v.yaml"), "--report", str(page)])
     html = page.read_text(encoding="utf-8")

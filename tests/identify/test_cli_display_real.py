@@ -19,7 +19,7 @@ pytestmark = [pytest.mark.realdata, pytest.mark.slow,
 
 
 def test_cold_starts_clamped_c_and_cold_warning(tmp_path, capsys, monkeypatch):
-    monkeypatch.delenv("VEHVAL_UNITS", raising=False)
+    monkeypatch.setenv("VEHVAL_UNITS", "us")   # `--units` sets it: restored after the test
     rc = main(["--units", "metric", "identify", str(CRUZE / "61410012 Test Data.txt"),
                str(CRUZE / "61410028 Test Data.txt"), "-t", str(TEMPLATE), "--spec", str(SPEC),
                "-o", str(tmp_path / "v.yaml")])
