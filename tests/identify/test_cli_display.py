@@ -6,6 +6,7 @@ identify from, a UDDS run with the A/C on)."""
 import json
 import re
 
+import numpy as np
 import pytest
 
 from vehval.cli import main
@@ -247,3 +248,24 @@ def test_cross_validate_refuses_options_it_would_ignore(identified, tmp_path, ca
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and f"{extra[0]} would be ignored" in err[0], err
     assert not (tmp_path / "cv.json").exists()
+
+
+def test_peak_efficiency_of_a_map_where_the_engine_runs():
+    """Brake power over fuel power, from the idle speed up, within the full load; a map
+    with no fuelled point there has none (nan, refused by identify)."""
+    from types import SimpleNamespace
+
+    from vehval.cli.commands_identify import peak_efficiency
+
+    eng = SimpleNamespace(speed_rpm=[600.0, 1000.0, 2000.0], torque_nm=[0.0, 50.0, 100.0],
+                          fuel_rate_g_per_s=[[0.0, 0.01, 0.02], [0.1, 0.6, 1.2],
+                                             [0.2, 1.1, 2.4]],
+                          max_torque_nm=[100.0, 100.0, 60.0], idle_speed_rpm=800.0,
+                          fuel_lhv_j_per_kg=42.8e6)
+    eta, rpm, nm = peak_efficiency(eng)
+    # 600 rpm is below idle (its 1.2 would be 600·π/30·50 / (0.01e-3 · 42.8e6)); 2000 rpm,
+    # 100 N·m is above the full load: the peak is 2000 rpm, 50 N·m
+    assert (rpm, nm) == (2000.0, 50.0)
+    assert eta == pytest.approx(2000 * np.pi / 30 * 50 / (1.1e-3 * 42.8e6), rel=1e-12)
+    eng.fuel_rate_g_per_s = [[0.0] * 3] * 3
+    assert all(np.isnan(peak_efficiency(eng)))

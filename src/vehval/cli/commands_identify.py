@@ -242,10 +242,12 @@ def _check_fuel_map(idf, files) -> None:
         raise ConfigError(
             f"identify: the fuel map does not fit the measured fuel of {tests} (R² of 5 s "
             f"means {fm.r2_5s:.2f}: worse than a constant rate); {_UNIT_HINT}")
-    if eta > 1.0:
+    if not eta <= 1.0:
         raise ConfigError(
-            f"identify: the fuel map of {tests} gives {100 * eta:.0f} % brake efficiency "
-            f"(more work than the fuel's energy); {_UNIT_HINT}")
+            f"identify: the fuel map of {tests} gives "
+            + (f"{100 * eta:.0f} % brake efficiency (more work than the fuel's energy)"
+               if eta == eta else "no fuel where the engine runs")
+            + f"; {_UNIT_HINT}")
 
 
 def _cold_warnings(traces) -> list[str]:
@@ -286,6 +288,8 @@ def peak_efficiency(engine) -> tuple[float, float, float]:
           & (trq[None, :] <= tmax[:, None]) & (fuel > 0))
     eta = np.where(ok, power / np.where(ok, fuel, 1.0) / engine.fuel_lhv_j_per_kg, -np.inf)
     i, j = np.unravel_index(int(np.argmax(eta)), eta.shape)
+    if not np.isfinite(eta[i, j]):
+        return float("nan"), float("nan"), float("nan")     # no fuelled point: no efficiency
     return float(eta[i, j]), float(spd[i]), float(trq[j])
 
 
