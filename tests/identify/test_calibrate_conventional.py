@@ -70,5 +70,5 @@ def test_cli_says_a_bound_hit_and_the_held_out_mean(virtual, tmp_path, capsys):
     eff = next(line for line in lines if line.startswith("gearbox.efficiency:"))
     assert "(at its upper bound 1: not identified" in eff, out
     assert any("(tune, in sample)" in line for line in lines)
-    assert any(line.startswith("tuning tests (in sample): mean |fuel error|") for line in lines)
-    assert any(line.startswith("held-out tests: mean |fuel error|") for line in lines)
+    note = next(line for line in lines if line.startswith("held-out: 1 tests, mean |fuel error|"))
+    assert "; in-sample (a fit, not a prediction): 1 tests, mean |fuel error|" in note

@@ -227,13 +227,18 @@ def _calibrate_conventional(veh, files, test_group, holdout, template, params, o
         typer.echo(f"{row['test']} ({row['role']}{', in sample' if row['role'] == 'tune' else ''})"
                    f": fuel error {100 * row['error_rel_before']:+.2f}"
                    f" -> {100 * row['error_rel_after']:+.2f} %")
-    for role, label in (("tune", "tuning tests (in sample)"), ("holdout", "held-out tests")):
+    # the summary line of the power-split calibration: held-out and in-sample apart
+    from vehval.validate.calibration import _sample_note
+    stats: dict[str, dict] = {}
+    for role in ("holdout", "tune"):
         rows = [r for r in res.tests if r["role"] == role]
-        if rows:
-            b, a = (100 * sum(abs(r[k]) for r in rows) / len(rows)
-                    for k in ("error_rel_before", "error_rel_after"))
-            typer.echo(f"{label}: mean |fuel error| {b:.2f} -> {a:.2f} %"
-                       + (" (worse)" if a > b else ""))
+        b, a = (100 * sum(abs(r[k]) for r in rows) / len(rows) if rows else None
+                for k in ("error_rel_before", "error_rel_after"))
+        stats[role] = {"n_tests": len(rows), "fuel_pct_before": b, "fuel_pct_after": a}
+    hb, ha = stats["holdout"]["fuel_pct_before"], stats["holdout"]["fuel_pct_after"]
+    worse = hb is not None and ha is not None and ha > hb
+    typer.echo(_sample_note(stats["holdout"], stats["tune"])
+               + ("; the held-out tests got worse: the tuning overfits its tests" if worse else ""))
     typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
                f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
     typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")
