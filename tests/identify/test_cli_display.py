@@ -269,3 +269,24 @@ def test_peak_efficiency_of_a_map_where_the_engine_runs():
     assert eta == pytest.approx(2000 * np.pi / 30 * 50 / (1.1e-3 * 42.8e6), rel=1e-12)
     eng.fuel_rate_g_per_s = [[0.0] * 3] * 3
     assert all(np.isnan(peak_efficiency(eng)))
+
+
+@pytest.mark.parametrize("power, torque, refused", [
+    ("112.6", "358", False),    # the Cruze: 151 hp at 4000 rpm, 358 N·m
+    ("151", "264", True),       # hp given as kW and lb·ft as N·m: 360 N·m needed at 4000 rpm
+    ("112.6", "264", False),    # the torque in lb·ft: 269 N·m needed, 264 declared: within
+                                # the 2 % rounding margin, not caught
+    ("150", "200", True),       # 358 N·m needed at 4000 rpm
+])
+def test_rated_power_beyond_the_peak_torque_is_refused(identified, tmp_path, capsys, power,
+                                                       torque, refused):
+    files, tpl, _, _ = identified
+    out = tmp_path / "v.yaml"
+    rc = main(["identify", files["udds"], files["hwfet"], "-t", tpl, "--rated-power-kw", power,
+               "--rated-speed-rpm", "4000", "--peak-torque-nm", torque, "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    if refused:
+        assert rc == 2 and len(err) == 1 and "above the declared peak torque" in err[0], err
+        assert not out.exists()
+    else:
+        assert rc == 0 and out.exists()

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import typer
@@ -115,6 +116,7 @@ def identify_cmd(
         "peak_torque_nm": peak_torque_nm, "displacement_l": displacement_l,
         "fuel": engine_fuel, "tyre": tyre, "gears": gears})
     _check_radius(declared)
+    _check_power_torque(declared)
     if pairs and not cross_validate:
         raise ConfigError("--pairs: give it with --cross-validate")
     if cross_validate:
@@ -181,6 +183,24 @@ def _check_radius(declared: dict) -> None:
             f"identify: the declared wheel radius {r:.3f} m ({declared['wheel_radius_m'][2]}) "
             f"is {100 * (r / r_tyre - 1):+.0f} % from the rolling radius of the declared "
             f"{tyre} tyre ({r_tyre:.3f} m): give one of them, or the right one")
+
+
+POWER_TOL = 0.02    # [-] rounding of published ratings
+
+
+def _check_power_torque(declared: dict) -> None:
+    """The torque at rated power cannot exceed the peak torque: P_rated <= T_peak · ω_rated
+    (within the rounding of published ratings); beyond, a unit slip (hp as kW, lb·ft as N·m)."""
+    keys = ("rated_power_kw", "rated_speed_rpm", "peak_torque_nm")
+    if not all(k in declared for k in keys):
+        return
+    p_kw, n_rpm, t_nm = (float(declared[k][0]) for k in keys)
+    t_rated = p_kw * 1e3 / (n_rpm * math.pi / 30.0)
+    if t_rated > (1 + POWER_TOL) * t_nm:
+        raise ConfigError(
+            f"identify: a rated power of {p_kw:g} kW at {n_rpm:g} rpm needs {t_rated:.0f} N·m "
+            f"there, above the declared peak torque {t_nm:g} N·m: is the power in hp (1 hp = "
+            "0.7457 kW) or the torque in lb·ft (1 lb·ft = 1.356 N·m)?")
 
 
 def _check_mass(idf, declared: dict) -> None:
