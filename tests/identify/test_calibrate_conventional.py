@@ -52,3 +52,23 @@ def test_cli_calibrate_conventional_writes_both_files(virtual, tmp_path, capsys)
     assert doc["architecture"] == "conventional"
     assert [r["role"] for r in doc["tests"]] == ["tune", "holdout"]
     assert load_vehicle(out / "vehicle_calibrated.yaml").architecture == "conventional"
+
+
+def test_cli_says_a_bound_hit_and_the_held_out_mean(virtual, tmp_path, capsys):
+    """A car that needs more than 100 % gearbox efficiency to match (it has no accessory load,
+    the start vehicle 300 W): the tuned value ends on its bound, which the table says; the
+    tuning tests are marked in sample and each role's mean |error| is given before -> after."""
+    truth = load_vehicle("cruze_diesel_2014").with_overrides(
+        {"gearbox.efficiency": 1.0, "engine_control.accessory_power_w": 0.0})
+    info = make_conventional_test(truth, load_cycle("udds"), seed=6, outdir=tmp_path / "t")
+    rc = main(["calibrate", str(info["files"][0]), "-t", str(info["template"]),
+               "--vehicle", "cruze_diesel_2014", "--params", "gearbox.efficiency",
+               "--holdout", str(virtual["hwfet"][0]), "-o", str(tmp_path / "cal")])
+    out = capsys.readouterr().out
+    assert rc == 0
+    lines = out.splitlines()
+    eff = next(line for line in lines if line.startswith("gearbox.efficiency:"))
+    assert "(at its upper bound 1: not identified" in eff, out
+    assert any("(tune, in sample)" in line for line in lines)
+    note = next(line for line in lines if line.startswith("held-out: 1 tests, mean |fuel error|"))
+    assert "; in-sample (a fit, not a prediction): 1 tests, mean |fuel error|" in note

@@ -28,6 +28,20 @@ def test_no_engine_speed_is_named():
         trace_from_test(_test(with_engine=False))
 
 
+def test_a_speed_and_fuel_only_test_is_pointed_to_the_specification_route():
+    """A test of speed and fuel only (like the Camry's reduced D3 files) cannot be identified;
+    the line names the flow that uses such tests. One missing signal among others does not."""
+    full = _test(with_engine=False)
+    only = VTest(meta=TestMeta(test_id="t1", files=["t1.txt"]))
+    for name in ("veh_spd_test", "fuel_rate_test"):
+        only.add(full[name])
+    with pytest.raises(IdentificationError, match=r"no tractive force.*epa vehicle .* --calibrate"):
+        trace_from_test(only)
+    with pytest.raises(IdentificationError, match="no engine speed signal") as err:
+        trace_from_test(full)
+    assert "epa vehicle" not in str(err.value)
+
+
 def test_hybrid_test_is_refused():
     with pytest.raises(IdentificationError, match="t1.txt: this is a hybrid test"):
         trace_from_test(_test(hybrid=True))

@@ -116,3 +116,23 @@ def test_existing_output_kept_on_failure(tmp_path, cli, d3_template):
     bad.write_bytes(b"")
     code, out, err = cli("import", bad, "-t", d3_template, "-o", o)
     assert code != 0 and o.read_bytes() == b"previous"
+
+
+def test_info_of_an_imported_test_shows_the_display_units(tmp_path, cli, d3_file, monkeypatch):
+    """A test Parquet stores SI units; `info` names the unit each channel is read in under
+    the chosen display system, next to the stored one (a raw file lists its own units)."""
+    monkeypatch.setenv("VEHVAL_UNITS", "us")     # `--units` sets it: restored after the test
+    t, o = tmp_path / "T.yaml", tmp_path / "o.parquet"
+    assert cli("template", "init", d3_file, "-o", t)[0] == 0
+    assert cli("import", d3_file, "-t", t, "-o", o)[0] == 0
+    rows = {}
+    for system in ("us", "metric"):
+        code, out, err = cli("--units", system, "info", o)
+        assert code == 0, err
+        assert "unit (SI)" in out and "shown as" in out
+        rows[system] = next(line.split() for line in out.splitlines()
+                            if line.split()[:1] == ["veh_spd_test"])
+    assert rows["us"][1:3] == ["m/s", "mph"]
+    assert rows["metric"][1:3] == ["m/s", "km/h"]
+    code, out, err = cli("info", o, "--json")
+    assert {c["unit"] for c in json.loads(out)["channels"]} >= {"m/s"}   # JSON stays SI

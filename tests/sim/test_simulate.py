@@ -197,3 +197,6 @@ def test_cli_simulate_metric_reads_litres_per_100km(capsys, monkeypatch):
     for key in ("fuel economy", "SOC-corrected"):
         figure = lines[key].split(key)[1].strip()
         assert figure.split(" (")[0].endswith("L/100 km") and figure.endswith("mpg)"), lines[key]
+    # the trace tolerance (±2 mph, the regulatory band) in the display unit of speed too
+    assert lines["trace max miss"].endswith("(outside ±3.2 km/h / ±1 s)"), lines["trace max miss"]
+    assert "mph" not in lines["trace max miss"]

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import typer
@@ -114,9 +115,17 @@ def identify_cmd(
         "rated_power_kw": rated_power_kw, "rated_speed_rpm": rated_speed_rpm,
         "peak_torque_nm": peak_torque_nm, "displacement_l": displacement_l,
         "fuel": engine_fuel, "tyre": tyre, "gears": gears})
+    _check_radius(declared)
+    _check_power_torque(declared)
     if pairs and not cross_validate:
         raise ConfigError("--pairs: give it with --cross-validate")
     if cross_validate:
+        unused = [opt for opt, val in (("--ac-test", ac_test), ("--cold-test", cold_test),
+                                       ("--report", report), ("--name", name)) if val is not None]
+        if unused:
+            raise ConfigError(f"--cross-validate: {', '.join(unused)} would be ignored (the "
+                              "cross-validation identifies from FILES only and writes its "
+                              "table); run identify without --cross-validate for them")
         _cross_validate(files, template, declared, pairs, output, as_json, spec)
         return
     if output is None:
@@ -137,6 +146,7 @@ def identify_cmd(
         idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
                                     cold_trace=cold_trace, declared=declared)
     _check_mass(idf, declared)
+    _check_fuel_map(idf, files)
     from vehval.io.atomic import atomic_files
     preds = None
     if report is not None:
@@ -149,10 +159,48 @@ def identify_cmd(
         if report is not None:
             from vehval.identify.report import write_identification_report
             write_identification_report(idf, preds, staged[1])
+    for line in _fuel_map_warnings(idf) + _cold_warnings(traces):
+        typer.echo(f"vehval: warning: {line}", err=True)
     if as_json:
         typer.echo(json.dumps(idf.summary(), indent=2))
         return
     _print_identification(idf, output, report)
+
+
+RADIUS_TOL = 0.10   # [-] a rolling radius is within a few % of 0.97 x the unloaded radius
+
+
+def _check_radius(declared: dict) -> None:
+    """A declared wheel radius far from the declared tyre's: a unit slip or another tyre (the
+    radius would win silently and scale every gear ratio)."""
+    if "tyre" not in declared or "wheel_radius_m" not in declared:
+        return
+    from vehval.identify.spec import tyre_radius_m
+    tyre, r = declared["tyre"][0], float(declared["wheel_radius_m"][0])
+    r_tyre = tyre_radius_m(tyre)
+    if abs(r / r_tyre - 1) > RADIUS_TOL:
+        raise ConfigError(
+            f"identify: the declared wheel radius {r:.3f} m ({declared['wheel_radius_m'][2]}) "
+            f"is {100 * (r / r_tyre - 1):+.0f} % from the rolling radius of the declared "
+            f"{tyre} tyre ({r_tyre:.3f} m): give one of them, or the right one")
+
+
+POWER_TOL = 0.02    # [-] rounding of published ratings
+
+
+def _check_power_torque(declared: dict) -> None:
+    """The torque at rated power cannot exceed the peak torque: P_rated <= T_peak · ω_rated
+    (within the rounding of published ratings); beyond, a unit slip (hp as kW, lb·ft as N·m)."""
+    keys = ("rated_power_kw", "rated_speed_rpm", "peak_torque_nm")
+    if not all(k in declared for k in keys):
+        return
+    p_kw, n_rpm, t_nm = (float(declared[k][0]) for k in keys)
+    t_rated = p_kw * 1e3 / (n_rpm * math.pi / 30.0)
+    if t_rated > (1 + POWER_TOL) * t_nm:
+        raise ConfigError(
+            f"identify: a rated power of {p_kw:g} kW at {n_rpm:g} rpm needs {t_rated:.0f} N·m "
+            f"there, above the declared peak torque {t_nm:g} N·m: is the power in hp (1 hp = "
+            "0.7457 kW) or the torque in lb·ft (1 lb·ft = 1.356 N·m)?")
 
 
 def _check_mass(idf, declared: dict) -> None:
@@ -167,13 +215,117 @@ def _check_mass(idf, declared: dict) -> None:
             "specification of another car?")
 
 
+def _keyed(key: str, value_si: float, ci95_si: float | None = None) -> str:
+    """``value [± ci] unit`` of a vehicle key (``mass_kg``, ``road_load_b_n_per_mps``...) in
+    the display units (us: lb, lbf, lbf/mph, lbf/mph²; metric: kg, N, N/(m/s), N/(m/s)²)."""
+    from vehval.display import format_keyed, keyed_unit, number
+
+    text = format_keyed(key, value_si)
+    unit = keyed_unit(key, magnitude=abs(value_si))
+    if ci95_si is None or unit is None or not text.endswith(unit.label):
+        return text
+    shown = text[: -len(unit.label)].rstrip()
+    ci = abs(ci95_si) * unit.factor
+    # the interval to the value's last decimal (2 significant digits for a whole value)
+    decimals = len(shown.partition(".")[2])
+    half = (f"{ci:.{decimals}f}" if "e" not in shown and "\u2009" not in shown
+            and decimals > 0 else number(ci, 2))
+    return f"{shown} ± {half} {unit.label}"
+
+
+def _drag_text(a_n: float, b_n_per_mps: float) -> str:
+    """``a + b·v`` of a drag in the display units (``18.86 lbf + 0.1517 lbf/mph``)."""
+    return f"{_keyed('drag_force_n', a_n)} + {_keyed('drag_force_n_per_mps', b_n_per_mps)}"
+
+
+def _drag_note(drag) -> str:
+    """The drag's note with its dyno losses (written in SI in the vehicle file) in the
+    display units."""
+    si = f"{drag.dyno_loss_a_n:.1f} N + {drag.dyno_loss_b_n_per_mps:.3f} N/(m/s)"
+    return drag.note.replace(si, _drag_text(drag.dyno_loss_a_n, drag.dyno_loss_b_n_per_mps))
+
+
+#: [-] peak brake efficiency of road engines: above the best diesels' (~0.42), below the
+#: worst engines' in service (~0.25)
+ETA_PLAUSIBLE = (0.20, 0.45)
+_UNIT_HINT = ("check the fuel flow's unit and the test fuel's heating value (template "
+              "constants) and the fuel channel's mapping")
+
+
+def _check_fuel_map(idf, files) -> None:
+    """A fuel map that explains the fuel worse than its mean, or burns less fuel than the
+    work it gives (brake efficiency above 100 %): a unit or mapping mistake, refused."""
+    fm = idf.fuel_map
+    eta = peak_efficiency(idf.vehicle.engine)[0]
+    tests = ", ".join(str(f) for f in files)
+    if not fm.r2_5s >= 0.0:
+        raise ConfigError(
+            f"identify: the fuel map does not fit the measured fuel of {tests} (R² of 5 s "
+            f"means {fm.r2_5s:.2f}: worse than a constant rate); {_UNIT_HINT}")
+    if not eta <= 1.0:
+        raise ConfigError(
+            f"identify: the fuel map of {tests} gives "
+            + (f"{100 * eta:.0f} % brake efficiency (more work than the fuel's energy)"
+               if eta == eta else "no fuel where the engine runs")
+            + f"; {_UNIT_HINT}")
+
+
+def _cold_warnings(traces) -> list[str]:
+    """Identification tests that start cold: their warm-up fuel goes into the warm fuel map."""
+    from vehval.identify.warmup import cold_start_state
+    cold = [(t.test_id, why) for t in traces for c, why in [cold_start_state(t)] if c]
+    if not cold:
+        return []
+    return [f"{', '.join(f'{tid} ({why})' for tid, why in cold)} "
+            f"start{'s' if len(cold) == 1 else ''} cold: the warm fuel map takes in "
+            f"{'its' if len(cold) == 1 else 'their'} warm-up fuel; identify from hot-start "
+            "tests and give a cold start as --cold-test"]
+
+
+def _fuel_map_warnings(idf) -> list[str]:
+    """A peak brake efficiency outside the range of road engines, in one line."""
+    eta, rpm, nm = peak_efficiency(idf.vehicle.engine)
+    lo, hi = ETA_PLAUSIBLE
+    if lo <= eta <= hi:
+        return []
+    return [f"the identified fuel map peaks at {100 * eta:.1f} % brake efficiency ({rpm:.0f} "
+            f"rpm, {nm:.0f} N·m), outside the {100 * lo:.0f}-{100 * hi:.0f} % of road "
+            f"engines: {_UNIT_HINT}"]
+
+
+def peak_efficiency(engine) -> tuple[float, float, float]:
+    """Highest brake efficiency [-] of an engine's fuel map where the model runs it fired
+    (from the idle speed up, torque above zero and within the full load), with its speed
+    [rpm] and torque [N·m]."""
+    import numpy as np
+
+    spd = np.asarray(engine.speed_rpm, dtype=float)
+    trq = np.asarray(engine.torque_nm, dtype=float)
+    fuel = np.asarray(engine.fuel_rate_g_per_s, dtype=float) * 1e-3
+    tmax = np.asarray(engine.max_torque_nm, dtype=float)   # full load at each map speed
+    power = spd[:, None] * np.pi / 30.0 * trq[None, :]
+    ok = ((spd[:, None] >= engine.idle_speed_rpm) & (trq[None, :] > 0)
+          & (trq[None, :] <= tmax[:, None]) & (fuel > 0))
+    eta = np.where(ok, power / np.where(ok, fuel, 1.0) / engine.fuel_lhv_j_per_kg, -np.inf)
+    i, j = np.unravel_index(int(np.argmax(eta)), eta.shape)
+    if not np.isfinite(eta[i, j]):
+        return float("nan"), float("nan"), float("nan")     # no fuelled point: no efficiency
+    return float(eta[i, j]), float(spd[i]), float(trq[j])
+
+
 def _print_identification(idf, output: Path, report: Path | None) -> None:
     rl = idf.road_load
+    v, ci = rl.values, rl.ci95
     typer.echo(f"wrote {output}")
-    typer.echo(f"road load: A {rl.values['road_load_a_n']:.1f} N, B "
-               f"{rl.values['road_load_b_n_per_mps']:.2f} N/(m/s), C "
-               f"{rl.values['road_load_c_n_per_mps2']:.4f} N/(m/s)^2, mass "
-               f"{rl.values['mass_kg']:.0f} kg (R^2 {rl.r2:.4f})")
+    body = idf.vehicle.body
+    terms = []
+    for name, k in (("A", "road_load_a_n"), ("B", "road_load_b_n_per_mps"),
+                    ("C", "road_load_c_n_per_mps2"), ("mass", "mass_kg")):
+        kept = float(getattr(body, k))
+        terms.append(f"{name} {_keyed(k, v[k], ci.get(k))}" + (
+            "" if abs(kept - v[k]) <= 1e-9 * max(abs(v[k]), 1.0) else
+            f" (the vehicle file holds {_keyed(k, kept)}: a physical bound)"))
+    typer.echo(f"road load (95 % intervals): {', '.join(terms)} (R^2 {rl.r2:.4f})")
     g = idf.gears
     typer.echo("gear ratios (engine/wheel): " + ", ".join(f"{r:.3f}" for r in g.ratios)
                + ("" if g.declared is None else f" ({len(g.ratios)} of the {g.declared} "
@@ -184,16 +336,19 @@ def _print_identification(idf, output: Path, report: Path | None) -> None:
     typer.echo(f"fuel map: R^2 {fm.r2:.3f} (5 s means {fm.r2_5s:.3f}), idle "
                f"{fm.idle_fuel_kg_s * 1e3:.3f} g/s, fuel cut above "
                f"{fm.fuel_cut_speed_rad_s * 30 / 3.141592653589793:.0f} rpm")
+    eta, rpm, nm = peak_efficiency(idf.vehicle.engine)
+    typer.echo(f"fuel map: peak brake efficiency {100 * eta:.1f} % at {rpm:.0f} rpm, {nm:.0f} N·m "
+               "(between idle and full load)")
     if idf.drag is not None:
-        typer.echo(f"driveline drag: {idf.drag.force_n:.1f} N + {idf.drag.force_n_per_mps:.3f} "
-                   f"N/(m/s) ({idf.drag.note})")
+        typer.echo(f"driveline drag: {_drag_text(idf.drag.force_n, idf.drag.force_n_per_mps)} "
+                   f"({_drag_note(idf.drag)})")
     if idf.warmup is not None:
         w = idf.warmup
         typer.echo(f"warm-up fuel: +{100 * w.fraction:.1f} % at the start, time constant "
                    f"{w.time_constant_s:.0f} s (from {w.cold_test} against {w.hot_test}, "
                    f"R^2 {w.r2:.3f}{'; ' + w.note if w.note else ''})")
     if idf.ac is not None:
-        typer.echo(f"A/C load: {idf.ac['ac_power_w']:.0f} W (from {idf.ac['test']}, phases "
+        typer.echo(f"A/C load: {idf.ac['ac_power_w'] / 1e3:.2f} kW (from {idf.ac['test']}, phases "
                    f"{', '.join(map(str, idf.ac['phases']))})")
     a = idf.assumptions
     if a is not None:
@@ -215,7 +370,11 @@ def _cross_validate(files, template, declared, pairs, output, as_json, spec) -> 
     if output is not None:
         from vehval.io.paths import check_outputs
         check_outputs(outfile=output, inputs=[*files, template] + ([spec] if spec else []))
-    result = cross_validate(load_traces(files, template), pairs=pairs, declared=declared)
+    traces = load_traces(files, template)
+    from vehval.cli.progress import bar
+    with bar(f"identify: cross-validation ({'pairs' if pairs else 'leave-one-out'})",
+             as_json=as_json):
+        result = cross_validate(traces, pairs=pairs, declared=declared)
     if output is not None:
         from vehval.io.atomic import write_text_atomic
         write_text_atomic(output, json.dumps(result, indent=1) + "\n")
@@ -251,7 +410,14 @@ def predict_cmd(
     traces = load_traces(files, template)
     for t in traces:
         check_same_car(veh, t)
-    preds = [predict_trace(veh, t, ac=ac) for t in traces]
+    from vehval import progress
+    from vehval.cli.progress import bar
+    with bar("predict: driving each test's speed", as_json=as_json):
+        progress.add(len(traces))
+        preds = []
+        for t in traces:
+            preds.append(predict_trace(veh, t, ac=ac))
+            progress.advance()
     for line in poor_coverage(preds):
         typer.echo(f"vehval: warning: {line}", err=True)
     if report is not None:

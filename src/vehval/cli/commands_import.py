@@ -182,10 +182,26 @@ def info_cmd(
         typer.echo(f"  cycle: {info['cycle'] or '(not identified)'}"
                    + (f"  [{info['cycle_found']}]" if info.get("cycle_found") else ""))
     for n in info["notes"]:
-        typer.echo(f"  note: {n}")
-    typer.echo(f"  {'channel':28s} {'unit':13s} {'samples':>8s} {'rate[Hz]':>9s} {'dur[s]':>9s} {'NaN':>6s}")
+        if n != info.get("cycle_found"):     # already on the cycle line
+            typer.echo(f"  note: {n}")
+    # a test stores SI units: a person reads them in the display units (--units), as the
+    # other commands print them, next to the stored unit
+    shown = info["kind"] == "test"
+    typer.echo(f"  {'channel':28s} {'unit (SI)' if shown else 'unit':13s} "
+               + (f"{'shown as':9s} " if shown else "")
+               + f"{'samples':>8s} {'rate[Hz]':>9s} {'dur[s]':>9s} {'NaN':>6s}")
     for c in info["channels"]:
         rate = f"{c['rate_hz']:.3g}" if c["rate_hz"] else "-"
         dur = f"{c['duration_s']:.1f}" if c["duration_s"] is not None else "-"
-        typer.echo(f"  {c['name']:28s} {str(c['unit'] or '-'):13s} {c['samples']:8d} {rate:>9s} "
-                   f"{dur:>9s} {c['nan']:6d}")
+        typer.echo(f"  {c['name']:28s} {str(c['unit'] or '-'):13s} "
+                   + (f"{_display_label(c):9s} " if shown else "")
+                   + f"{c['samples']:8d} {rate:>9s} {dur:>9s} {c['nan']:6d}")
+
+
+def _display_label(channel: dict) -> str:
+    """The display unit (``--units``) a stored SI channel is shown in by the other commands."""
+    from vehval.display import unit_for
+
+    if not channel["unit"]:
+        return "-"
+    return unit_for(channel["unit"], signal=channel["name"]).label or "-"

@@ -205,7 +205,9 @@ def _calibrate_conventional(veh, files, test_group, holdout, template, params, o
     tune = [trace_from_test(TestRun.load(g, template, use_qa=False).test) for g in groups]
     hold = [trace_from_test(TestRun.load([Path(x.strip()) for x in h.split(",") if x.strip()],
                                          template, use_qa=False).test) for h in holdout]
-    res = calibrate_conventional(veh, tune, names, hold)
+    from vehval.cli.progress import bar
+    with bar("calibrate: tuning the fuel model", as_json=as_json):
+        res = calibrate_conventional(veh, tune, names, hold)
     doc = res.to_dict()
     with atomic_dir(output) as stage:
         (stage / "calibration.json").write_text(dumps(doc) + "\n", encoding="utf-8")
@@ -213,11 +215,30 @@ def _calibrate_conventional(veh, files, test_group, holdout, template, params, o
     if as_json:
         typer.echo(dumps(doc), nl=False)
         return
+    from vehval.identify.calibrate import _bounds
     for n in res.parameters:
-        typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}")
+        lo, hi = _bounds(n, res.start[n])
+        edge = next((f"{name} bound {b:.6g}" for name, b in (("lower", lo), ("upper", hi))
+                     if abs(res.best[n] - b) <= 1e-3 * max(hi - lo, 1e-12)), None)
+        typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}"
+                   + (f"  (at its {edge}: not identified, the fuel data push it beyond its "
+                      "range)" if edge else ""))
     for row in res.tests:
-        typer.echo(f"{row['test']} ({row['role']}): fuel error {100 * row['error_rel_before']:+.2f}"
+        typer.echo(f"{row['test']} ({row['role']}{', in sample' if row['role'] == 'tune' else ''})"
+                   f": fuel error {100 * row['error_rel_before']:+.2f}"
                    f" -> {100 * row['error_rel_after']:+.2f} %")
+    # the summary line of the power-split calibration: held-out and in-sample apart
+    from vehval.validate.calibration import _sample_note
+    stats: dict[str, dict] = {}
+    for role in ("holdout", "tune"):
+        rows = [r for r in res.tests if r["role"] == role]
+        b, a = (100 * sum(abs(r[k]) for r in rows) / len(rows) if rows else None
+                for k in ("error_rel_before", "error_rel_after"))
+        stats[role] = {"n_tests": len(rows), "fuel_pct_before": b, "fuel_pct_after": a}
+    hb, ha = stats["holdout"]["fuel_pct_before"], stats["holdout"]["fuel_pct_after"]
+    worse = hb is not None and ha is not None and ha > hb
+    typer.echo(_sample_note(stats["holdout"], stats["tune"])
+               + ("; the held-out tests got worse: the tuning overfits its tests" if worse else ""))
     typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
                f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
     typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")

@@ -130,6 +130,11 @@ def find_gears(traces: list[Trace], wheel_radius_m: float,
                          f"{c['contrast']:.0f}): used as a gear, {declared} gears declared")
         launch = r[r > 1.25 * max(c["ratio"] for c in chosen)]
         has_launch = launch.size > 0.01 * r.size and len(chosen) < declared
+        if launch.size > 0.01 * r.size and not has_launch:
+            notes.append(f"launches at ratio {float(np.median(launch)):.3f} "
+                         f"({100 * launch.size / r.size:.1f} % of the moving samples, above the "
+                         "first locked gear): taken as converter slip in first gear, not as a "
+                         f"gear of its own, {declared} gears declared")
     else:
         notes += [f"ratio {c['ratio']:.3f} seen briefly ({c['band']} samples, "
                   f"{100 * c['share']:.2f} % of the moving samples, contrast "

@@ -67,8 +67,8 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     whole test, ``trace_max_miss_mps``, ``ac_on`` and ``ac_reason`` (the A/C state the
     model ran with; see :func:`ac_state`), ``starts_cold`` (the test starts cold: True, False
     or None, unknown), ``cold_start`` and ``cold_reason`` (whether the model ran with its
-    warm-up fuel, and why), ``in_sample`` (the test is one the vehicle was identified from,
-    by its identification's ``tests``), ``uncovered_share``, ``pi95_rel`` and ``pi95_g``
+    warm-up fuel, and why), ``in_sample`` (the test is one the vehicle was identified from:
+    its identification's ``tests``, its warm-up's cold test, its A/C test; per phase too), ``uncovered_share``, ``pi95_rel`` and ``pi95_g``
     (coverage and 95 % prediction interval, :mod:`vehval.identify.uncertainty`; also per
     phase; None for a vehicle without identification uncertainty), ``sim`` (the
     :class:`~vehval.sim.simulate.SimResult`) and ``trace``.
@@ -111,19 +111,31 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     tot = sum(r["predicted_g"] for r in phases) or 1.0
     sels["test"] = (sel, [r["predicted_g"] / tot for r in phases] or [1.0])
     unc = interval_parts(ident, res.test, dt, sels)
-    for r in phases:
+    ac_fit = ident.get("ac") or {}
+    for r in phases:     # the A/C test's load was fitted on its phases after the first
         _add_interval(r, unc.get(int(r["phase"])))
+        r["in_sample"] = (trace.test_id in _fitted_tests(ident)
+                          or (ac_fit.get("test") == trace.test_id
+                              and r["phase"] in (ac_fit.get("phases") or [])))
     out = {"test": trace.test_id, "cycle": trace.cycle, "amb_temp_c": trace.amb_temp_c,
             "fuel_measured_g": mg, "fuel_predicted_g": pg,
             "error_rel": pg / mg - 1 if mg > 0 else float("nan"), "phases": phases,
             "trace_max_miss_mps": res.summary["trace_max_miss_mps"], "ac_on": ac_on,
             "ac_reason": ac_reason, "starts_cold": cold, "cold_start": cold_run,
             "cold_reason": cold_reason,
-            "in_sample": trace.test_id in (ident.get("tests") or []),
+            "in_sample": (trace.test_id in _fitted_tests(ident)
+                          or any(r["in_sample"] for r in phases)),
             "sim": res, "trace": trace}
     _add_interval(out, unc.get("test"))
     out.update(stage.get("test", {}))
     return out
+
+
+def _fitted_tests(ident: dict) -> set[str]:
+    """The tests a vehicle's identification fitted as a whole: its identification tests and
+    the cold-start test of its warm-up fuel (the A/C test is fitted on some phases only)."""
+    warm = ident.get("warmup") or {}
+    return set(ident.get("tests") or []) | ({warm["cold_test"]} if warm.get("cold_test") else set())
 
 
 MASS_TOL = 0.15    # [-] relative inertia-mass difference beyond which the car is another

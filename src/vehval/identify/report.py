@@ -92,7 +92,8 @@ def identification_data(idf, preds: list[dict]) -> dict:
                                           "provenance": w.provenance(), "note": w.note,
                                           "phases": list(w.phases)},
         "predictions": [{k: p.get(k) for k in ("test", "cycle", "amb_temp_c", "fuel_measured_g",
-                                               "fuel_predicted_g", "error_rel", "ac_on")}
+                                               "fuel_predicted_g", "error_rel", "ac_on",
+                                               "in_sample")}
                         for p in preds],
     }
 
@@ -111,11 +112,12 @@ def prediction_data(preds: list[dict]) -> list[dict]:
     for p in preds:
         phases = [{"name": ph.get("results_name", f"phase {ph['phase']}"),
                    "measured_g": ph["measured_g"], "u_g": ph.get("results_fuel_U_g"),
-                   "predicted_g": ph["predicted_g"], "error_rel": ph["error_rel"]}
+                   "predicted_g": ph["predicted_g"], "error_rel": ph["error_rel"],
+                   "in_sample": bool(ph.get("in_sample"))}
                   for ph in p["phases"]]
         out.append({**{k: p.get(k) for k in ("test", "cycle", "amb_temp_c", "ac_on", "ac_reason",
                                               "cold_reason", "fuel_measured_g",
-                                              "fuel_predicted_g", "error_rel")},
+                                              "fuel_predicted_g", "error_rel", "in_sample")},
                     "ac_reason": p.get("ac_reason", ""), "cold_reason": p.get("cold_reason", ""),
                     "start": start_label(p), "phases": phases})
     return out

@@ -159,7 +159,8 @@ class Assumptions:
         rpm, nm = full_load_curve(self.max_power_w, float(prov["rated_speed_rpm"]["value"]),
                                   self.max_speed_rpm, new_t)
         self.full_load_rpm, self.full_load_nm = tuple(rpm), tuple(nm)
-        why = f"; raised to 1.1 x the highest engine torque of the tests ({torque_seen_nm:.0f} N·m)"
+        why = (f"; raised to {new_t:.0f} N·m, 1.1 x the highest engine torque of the tests "
+               f"({torque_seen_nm:.0f} N·m)")
         prov["peak_torque_nm"] = {**prov["peak_torque_nm"], "value": new_t,
                                   "source": prov["peak_torque_nm"]["source"] + why}
         prov["full_load"] = {**prov["full_load"], "source": prov["full_load"]["source"] + why}

@@ -98,9 +98,14 @@ def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
     for base, what in REQUIRED.items():
         s = test.best(base, ("test",))  # the one selection rule
         if s is None:
+            only = ("; a test with only speed and fuel calibrates a car built from its public "
+                    "specifications instead (vehval epa vehicle ... --calibrate FILE, "
+                    "docs/validation.md)"
+                    if all(test.best(b, ("test",)) is None for b in REQUIRED
+                           if b not in ("veh_spd", "fuel_rate")) else "")
             raise IdentificationError(
                 f"{where}: no {what} signal ({base}_test): identification of a conventional "
-                f"car needs it; map the channel to {base}_test in the template")
+                f"car needs it; map the channel to {base}_test in the template{only}")
         sig[base] = s
     t0 = max(0.0, max(float(s.time[0]) for s in sig.values()))
     t1 = min(float(s.time[-1]) for s in sig.values())

@@ -193,8 +193,8 @@ class Constants(_Strict):
     road_load_a_n: float | None = None
     road_load_b_n_per_mps: float | None = None
     road_load_c_n_per_mps2: float | None = None
-    fuel_density_kg_per_m3: PositiveFloat | None = None
-    fuel_lhv_j_per_kg: PositiveFloat | None = None
+    fuel_density_kg_per_m3: float | None = Field(default=None, gt=0, le=2_000)
+    fuel_lhv_j_per_kg: float | None = Field(default=None, ge=5e6, le=1.5e8)  # methanol to H2
     wheel_radius_m: PositiveFloat | None = None
     final_drive_ratio: PositiveFloat | None = None
     inertia_fraction: float | None = None
@@ -224,8 +224,8 @@ class FuelSpec(_Strict):
     """
 
     name: str | None = None
-    density_kg_per_m3: PositiveFloat | None = None
-    lhv_j_per_kg: PositiveFloat | None = None
+    density_kg_per_m3: float | None = Field(default=None, gt=0, le=2_000)
+    lhv_j_per_kg: float | None = Field(default=None, ge=5e6, le=1.5e8)  # methanol to H2
     carbon_mass_fraction: float | None = Field(default=None, gt=0.0, le=1.0)
 
 

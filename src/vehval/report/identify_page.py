@@ -11,6 +11,7 @@ import math
 from pathlib import Path
 from typing import Any, Sequence
 
+from vehval.display import format_keyed
 from vehval.io.atomic import write_text_atomic
 from vehval.report.document import Block, bullets, figure, h1, h2, para, render_document, table
 from vehval.report.figures import FigSpec
@@ -51,9 +52,9 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
     out = [h1(f"Identification of {d['vehicle']}"), para("Tests: " + ", ".join(d["tests"])),
            h2("Road load"),
            table(["coefficient", "identified", "95 % CI", "template"],
-                 [[k, f"{v:.4g}", f"±{rl['ci95'][k]:.3g}", rl["template"].get(k, "")]
-                  for k, v in rl["values"].items()]),
-           para(f"R² {rl['r2']:.4f}, RMSE {rl['rmse_n']:.1f} N, force lag {rl['lag_s']:+.2f} s"),
+                 [[k, _keyed(k, v), "±" + _keyed(k, rl["ci95"][k], 3),
+                   _keyed(k, rl["template"].get(k, ""))] for k, v in rl["values"].items()]),
+           para(f"R² {rl['r2']:.4f}, RMSE {_keyed('rmse_n', rl['rmse_n'])}, force lag {rl['lag_s']:+.2f} s"),
            h2("Gears"),
            table(["gear", "ratio (engine/wheel)", "median of locked samples", "samples"],
                  [[c["gear"], f"{c['identified']:.4f}",
@@ -67,7 +68,8 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
     if d.get("drag") is not None:
         dr = d["drag"]
         out += [h2("Driveline drag"),
-                para(f"{dr['force_n']:.1f} N + {dr['force_n_per_mps']:.3f} N/(m/s): {dr['note']}")]
+                para(f"{_keyed('force_n', dr['force_n'])} + "
+                     f"{_keyed('force_n_per_mps', dr['force_n_per_mps'])}: {dr['note']}")]
     if d.get("ac") is not None:
         ac = d["ac"]
         out += [h2("A/C load"),
@@ -83,11 +85,24 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
                 bullets([f"phase {p['phase']}: cold {p['cold_g']:.1f} g, hot {p['hot_g']:.1f} g, "
                          f"fitted excess {p['fitted_excess_g']:.1f} g" for p in w["phases"]])]
     out += [h2("Predictions"),
+            para("Tests marked in sample are ones the model was fitted on: their errors "
+                 "are not a check of the model."),
             table(["test", "cycle", "cell °C", "measured g", "predicted g", "error %", "A/C"],
-                  [[p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", f"{p['fuel_measured_g']:.1f}",
+                  [[p["test"] + (" (in sample)" if p.get("in_sample") else ""), p["cycle"], f"{p['amb_temp_c']:.1f}", f"{p['fuel_measured_g']:.1f}",
                     f"{p['fuel_predicted_g']:.1f}", f"{100 * p['error_rel']:+.2f}",
                     "on" if p.get("ac_on") else "off"] for p in d["predictions"]])]
     return out + _figures(figs)  # every figure after the text, as plotly.js draws them
+
+
+def _in_sample(row: dict) -> str:
+    return " (in sample)" if row.get("in_sample") else ""
+
+
+def _keyed(key: str, value: Any, digits: int = 4) -> str:
+    """A number of a unit-suffixed key in the display units; anything else as given."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return format_keyed(key, value, digits=digits)
+    return str(value)
 
 
 def write_identification_page(path: str | Path, d: dict, figs: Sequence[Any]) -> Path:
@@ -111,8 +126,8 @@ def write_prediction_page(path: str | Path, vehicle: str, predictions: Sequence[
     predictions : sequence of dict
         ``test``, ``cycle``, ``amb_temp_c`` [°C], ``ac_on``, ``ac_reason``, ``start`` (start
         label), ``cold_reason``, ``fuel_measured_g``, ``fuel_predicted_g`` [g], ``error_rel``
-        [-], ``phases`` (``name``, ``measured_g``, ``u_g`` or None, ``predicted_g``,
-        ``error_rel``).
+        [-], ``in_sample``, ``phases`` (``name``, ``measured_g``, ``u_g`` or None,
+        ``predicted_g``, ``error_rel``, ``in_sample``).
     figs : sequence
         One plotly figure per prediction.
     """
@@ -122,13 +137,16 @@ def write_prediction_page(path: str | Path, vehicle: str, predictions: Sequence[
         rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", ac,
                      f"{p['start']} ({p.get('cold_reason', '')})", "test",
                      f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
-                     f"{100 * p['error_rel']:+.2f}"])
+                     f"{100 * p['error_rel']:+.2f}" + _in_sample(p)])
         for ph in p["phases"]:
             u = ph.get("u_g")
             rows.append(["", "", "", "", "", ph["name"],
                          f"{ph['measured_g']:.1f}" + (f" ± {u:.1f}" if u else ""),
-                         f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"])
+                         f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"
+                         + _in_sample(ph)])
     blocks = [h1(f"Predictions of {vehicle}"),
+              para("An error marked in sample is of a test (or phase) the model was fitted "
+                   "on: no check of the model."),
               table(["test", "cycle", "cell °C", "A/C", "start", "scope", "measured g (U, k = 2)",
                      "predicted g", "error %"], rows)] + _figures(figs)
     write_text_atomic(path, render_document(blocks, title="vehval predictions", css="simple.css"))

@@ -1,0 +1,33 @@
+"""What `vehval identify` prints on the Cruze's cold starts (skipped without the real files):
+the fitted road-load C is negative, the vehicle file holds 0; both tests start cold."""
+
+import os
+from pathlib import Path
+
+import pytest
+
+from vehval.cli import main
+
+HERE = Path(__file__).resolve().parent
+REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
+CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
+TEMPLATE = HERE.parent / "qa" / "templates" / "cruze.yaml"
+SPEC = HERE / "cruze_spec.yaml"
+
+pytestmark = [pytest.mark.realdata, pytest.mark.slow,
+              pytest.mark.skipif(not CRUZE.is_dir(), reason="real data not available")]
+
+
+def test_cold_starts_clamped_c_and_cold_warning(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("VEHVAL_UNITS", "us")   # `--units` sets it: restored after the test
+    rc = main(["--units", "metric", "identify", str(CRUZE / "61410012 Test Data.txt"),
+               str(CRUZE / "61410028 Test Data.txt"), "-t", str(TEMPLATE), "--spec", str(SPEC),
+               "-o", str(tmp_path / "v.yaml")])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.err
+    line = next(x for x in cap.out.splitlines() if x.startswith("road load"))
+    # C fitted at -0.0164 ± 0.0351 N/(m/s)²: the vehicle file holds the bound, 0, and says so
+    assert ", C -0.0164 ± 0.0351 N/(m/s)² (the vehicle file holds 0 N/(m/s)²: a physical" in line
+    warn = [x for x in cap.err.splitlines() if x.startswith("vehval: warning:")]
+    assert len(warn) == 1 and "61410012 Test Data (coolant 24 °C" in warn[0]
+    assert "61410028 Test Data (coolant -4 °C" in warn[0]
