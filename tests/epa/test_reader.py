@@ -134,7 +134,8 @@ def test_cli_tests_and_list_in_display_units(prius_list, capsys, monkeypatch):
     assert "ETW lb" in out[0] and "A lbf" in out[0] and "B lbf/mph" in out[0]
     assert "C lbf/mph²" in out[0]
     t4 = next(ln for ln in out if ln.startswith("T4 ")).split()
-    assert t4[5:11] == ["3375", "20.0", "2.83", "24.15", "0.3350", "0.01410"]
+    # transmission and fuel after the procedure ('?' when the list has no column)
+    assert t4[5:13] == ["?", "gas", "3375", "20.0", "2.83", "24.15", "0.3350", "0.01410"]
     assert main(["epa", "list", str(prius_list), "--model", "PRIUS"]) == 0
     assert "ETW [lb]" in capsys.readouterr().out
     monkeypatch.setenv(ENV_VAR, "metric")
@@ -144,7 +145,7 @@ def test_cli_tests_and_list_in_display_units(prius_list, capsys, monkeypatch):
     t4 = next(ln for ln in out if ln.startswith("T4 ")).split()
     kg, a_n = 3375 * LB_KG, 24.153 * LBF_N
     b = 0.33502 * LBF_N / MPH_M_PER_S / 3.6
-    assert t4[5] == f"{kg:.0f}" and t4[8] == f"{a_n:.2f}" and t4[9] == f"{b:.4f}"
+    assert t4[7] == f"{kg:.0f}" and t4[10] == f"{a_n:.2f}" and t4[11] == f"{b:.4f}"
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert any(d["mass_kg"] == pytest.approx(kg) for d in data)

@@ -54,13 +54,15 @@ def test_specs_from_list_rows(specs):
     assert len(specs.rows) == 2
 
 
-def test_specs_refuse_mixed_configurations_and_cvt(tmp_path):
+def test_specs_refuse_mixed_configurations_and_cvt(tmp_path, monkeypatch):
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
     rows = _camry_rows() + _camry_rows(vid="18-GV2A", weight=3875)
     path = write_list(tmp_path / "mixed.csv", rows, header=HEADER)
     with pytest.raises(ConfigError, match="more than one configuration") as err:
         specs_from_tests(read_test_car_list(path))
-    # the message names the test vehicles to choose from and this command's option
-    assert "18-AV3A: 1644.27; 18-GV2A: 1757.67" in str(err.value)
+    # the message names the test vehicles to choose from, in the units the list gives
+    # (was kg to six digits: 1644.27), and this command's options
+    assert "18-AV3A config 1: 3625 lb; 18-GV2A config 1: 3875 lb" in str(err.value)
     assert "--vehicle-id" in str(err.value) and "CAMRY" not in str(err.value)
     # a CVT (a hybrid's) is refused as such before any narrowing is asked for
     cvt_mixed = rows

@@ -100,14 +100,20 @@ def tests_cmd(
     mu, fu, vu = unit_for("kg"), unit_for("N"), unit_for("m/s")
     per = vu.label if "/" not in vu.label else f"({vu.label})"
     b_k, c_k = fu.factor / vu.factor, fu.factor / vu.factor ** 2
-    typer.echo(f"{'test':14s} {'vehicle':9s} {'cfg':>3} {'orig':4s} {'proc':7s} "
+    # the test and vehicle IDs whole: they are what --tests number=/vehicle= and
+    # --vehicle-id take
+    wt = max([14, *(len(t.label) for t in tests)])
+    wv = max([9, *(len(t.vehicle_id) for t in tests)])
+    typer.echo(f"{'test':{wt}s} {'vehicle':{wv}s} {'cfg':>3} {'orig':4s} {'proc':7s} "
+               f"{'trans':5s} {'fuel':6s} "
                f"{f'ETW {mu.label}':>7} {'N/V':>5} {'axle':>5} {f'A {fu.label}':>7} "
                f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE mpg':>6}  "
                "bags 1-4 [mpg]")
     for t, chk in zip(tests, checks):
         bags = " ".join(f"{_fmt(b_):>6}" for b_ in t.bags) + ("" if chk.ok else "  !")
-        typer.echo(f"{t.label[:14]:14s} {t.vehicle_id[:9]:9s} {t.config[:3]:>3} "
+        typer.echo(f"{t.label:{wt}s} {t.vehicle_id:{wv}s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
+                   f"{_trans_text(t):5s} {_fuel_text(t):6s} "
                    f"{_fmt(float(mu.convert(t.mass_kg)), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
                    f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(float(fu.convert(t.target_a_n)), '.2f'):>7} "
                    f"{_fmt(b_k * t.target_b_n_per_mps, '.4f'):>11} "
@@ -117,6 +123,23 @@ def tests_cmd(
     for t, chk in zip(tests, checks):
         if not chk.ok:
             typer.echo(f"! {t.label} ({t.source}): {chk.note}")
+
+
+def _trans_text(t) -> str:
+    """Transmission code and gear count as listed (``SA8``, ``M6``, ``CVT``; ``?``)."""
+    code = t.transmission or "?"
+    return code if code in ("CVT", "?") or t.gears <= 1 else f"{code}{t.gears}"
+
+
+#: the list's test fuel descriptions, shortened (first match wins)
+_FUELS = (("COLD CO", "coldCO"), ("DIESEL", "diesel"), ("E85", "E85"),
+          ("ELECTRIC", "elec"), ("HYDROGEN", "H2"), ("CNG", "CNG"), ("E10", "E10"),
+          ("GASOLINE", "gas"))
+
+
+def _fuel_text(t) -> str:
+    up = t.fuel.upper()
+    return next((short for key, short in _FUELS if key in up), t.fuel[:6] or "?")
 
 
 def _selected(paths: list[Path], selector: str, dt: float, every: list | None = None):
@@ -165,12 +188,18 @@ def validate_cmd(
 
         from vehval.errors import InputFileError
 
-        kinds = ", ".join(f"{n} {d}" for d, n in Counter(
-            s["description"] for s in val.skipped).items())
+        by_reason: dict[str, Counter] = {}
+        for sk in val.skipped:
+            by_reason.setdefault(sk["reason"], Counter())[sk["description"]] += 1
+        kinds = "; ".join(", ".join(f"{n} {d}" for d, n in c.items()) + f": {why}"
+                          for why, c in by_reason.items())
+        runnable = {"ftp75", "hwfet", "us06"}
+        hint = ("select FTP-75, HWFET or US06 tests, e.g. add procedure=ftp75"
+                if any(sk["procedure"] not in runnable for sk in val.skipped) else
+                "select tests the list states on gasoline with their weight and road load")
         raise InputFileError(
             f"the selector '{tests}' matches {len(val.skipped)} test(s), none of which the "
-            f"simulator can run ({kinds}: {val.skipped[0]['reason']}); select FTP-75, HWFET "
-            "or US06 tests, e.g. add procedure=ftp75")
+            f"simulator can run ({kinds}); {hint}")
     written = []
     if outdir is not None:
         from vehval.report.epa import write_epa_report
@@ -312,6 +341,23 @@ def calibrate_cmd(
         typer.echo(f"wrote {output}")
 
 
+def _narrow(rows: list, vehicle_id: str | None, config: str | None) -> list:
+    """The rows of one test vehicle and configuration; an ID or number that matches none
+    is refused with the ones there are."""
+    from vehval.errors import ConfigError
+
+    for value, attr, opt in ((vehicle_id, "vehicle_id", "--vehicle-id"),
+                             (config, "config", "--config")):
+        if value is None:
+            continue
+        sel = [t for t in rows if getattr(t, attr).upper() == value.strip().upper()]
+        if not sel:
+            there = ", ".join(sorted({getattr(t, attr) or "''" for t in rows}))
+            raise ConfigError(f"{opt} {value}: no selected row has it (there are: {there})")
+        rows = sel
+    return rows
+
+
 @epa_app.command("vehicle")
 def vehicle_cmd(
     paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
@@ -321,6 +367,9 @@ def vehicle_cmd(
     year: int = typer.Option(..., "--year", callback=bounded("year"), help="Model year."),
     vehicle_id: str | None = typer.Option(None, "--vehicle-id", help="Test vehicle ID, "
                                           "when the model has several configurations."),
+    config: str | None = typer.Option(None, "--config", help="Test vehicle configuration "
+                                      "number (the list's 'cfg'), when one test vehicle "
+                                      "has several."),
     calibrate: list[Path] = typer.Option([], "--calibrate", help="A dyno test (one file: "
                                          "vehicle speed and fuel rate) to fit the fuel "
                                          "model on; repeatable."),
@@ -353,8 +402,7 @@ def vehicle_cmd(
 
     check_outputs(outfile=output, inputs=[*paths, *calibrate, *predict, template])
     rows = select_tests(read_lists(paths), make, model, year)
-    if vehicle_id:
-        rows = [t for t in rows if t.vehicle_id == vehicle_id]
+    rows = _narrow(rows, vehicle_id, config)
     specs = specs_from_tests(rows)
     files = [*calibrate, *predict]
     if files and template is None:

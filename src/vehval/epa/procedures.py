@@ -89,6 +89,15 @@ UNRUNNABLE = {
 }
 
 
+def is_gasoline(fuel: str) -> bool:
+    """Whether a listed test fuel description is a gasoline (Tier 2 certification, CARB,
+    E10...; an empty description counts as one). E85 is not: its description names the
+    gasoline it is blended with ("E85 (85% Ethanol 15% EPA Unleaded Gasoline)"), but a
+    gallon holds about 30 % less energy."""
+    up = fuel.upper()
+    return not up.strip() or ("GASOLINE" in up and "E85" not in up and "ETHANOL" not in up)
+
+
 def procedure_key(test: EpaTest) -> str:
     """Short key of a test's procedure (``ftp75``, ``hwfet``, ``us06``, ``sc03``...)."""
     return _CODES.get(test.procedure_code, f"code{test.procedure_code}")
@@ -102,7 +111,7 @@ def plan_for(test: EpaTest) -> tuple[Procedure | None, str]:
     if key not in RUNNABLE:
         return None, (f"procedure code {test.procedure_code} ('{test.procedure}') is not an "
                       "FTP-75, HWFET or US06 test")
-    if "GASOLINE" not in test.fuel.upper() and test.fuel:
+    if not is_gasoline(test.fuel):
         return None, f"test fuel '{test.fuel}' is not gasoline"
     if test.fe_unit and test.fe_unit != "MPG":
         return None, f"fuel economy unit '{test.fe_unit}' is not MPG"
