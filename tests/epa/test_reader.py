@@ -155,3 +155,20 @@ def test_cli_list_counts_read_as_english(prius_list, capsys):
     """'1 vehicles, 1 tests' -> '1 vehicle, 1 test'."""
     assert main(["epa", "list", str(prius_list), "--model", "PRIUS c"]) == 0
     assert capsys.readouterr().out.splitlines()[-1] == "1 vehicle, 1 test"
+
+
+def test_exact_model_name_says_what_it_left_out(prius_list, capsys):
+    """`--model F150` selected the one Roush named exactly so and said nothing of the 12 Ford
+    names containing F150; the note now names them (and the partial match still says so)."""
+    from vehval.epa.select import model_note
+
+    tests = read_lists([prius_list])
+    note = model_note(tests, "prius")
+    assert "exact name of a model (TOYOTA)" in note and "'PRIUS c'" in note
+    assert model_note(tests, "PRIUS c") is None
+    assert model_note(tests, "CAMRY").startswith("no model is named 'CAMRY'")
+    assert main(["epa", "list", str(prius_list), "--model", "PRIUS"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("note: 'PRIUS' is the exact name") and "'PRIUS c'" in err
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS c"]) == 0
+    assert capsys.readouterr().err == ""

@@ -26,17 +26,21 @@ def _fmt(x: float | None, spec: str = ".1f") -> str:
 def _load(paths: list[Path], make, model, year):
     from vehval.epa import read_lists, select_tests
 
-    return _note_partial_model(select_tests(read_lists(paths), make, model, year), model)
+    every = read_lists(paths)
+    selected = select_tests(every, make, model, year)
+    _note_model(every, model, make, year)
+    return selected
 
 
-def _note_partial_model(tests: list, model: str | None) -> list:
-    """Say on stderr when ``model`` matched no model exactly and was taken as a part of
-    the names (``PRIUS`` in a year that lists only ``PRIUS c``)."""
-    if model and tests and all(t.model.upper() != model.strip().upper() for t in tests):
-        names = ", ".join(sorted({repr(t.model) for t in tests}))
-        typer.echo(f"note: no model is named '{model.strip()}'; taken as part of a name: "
-                   f"{names}", err=True)
-    return tests
+def _note_model(every: list, model: str | None, make: str | None, year) -> None:
+    """Say on stderr what a model name took when it may not be what was meant: a part of
+    the names (``PRIUS`` in a year that lists only ``PRIUS c``), or one exact name where
+    others contain it too (``F150``: a Roush, not the 13 Ford F150 names)."""
+    from vehval.epa.select import model_note
+
+    note = model_note(every, model, make, year)
+    if note:
+        typer.echo(f"note: {note}", err=True)
 
 
 @epa_app.command("list")
@@ -157,7 +161,9 @@ def _selected(paths: list[Path], selector: str, dt: float, every: list | None = 
     selected = apply_selector(tests, selector)
     if not selected:
         raise InputFileError(f"the selector '{selector}' matches no test")
-    return _note_partial_model(selected, parse_selector(selector).get("model"))
+    sel = parse_selector(selector)
+    _note_model(tests, sel.get("model"), sel.get("make"), sel.get("year"))
+    return selected
 
 
 @epa_app.command("validate")

@@ -35,6 +35,31 @@ def _match_model(tests: list[EpaTest], model: str) -> list[EpaTest]:
     return [t for t in tests if model.upper() in t.model.upper()]
 
 
+def model_note(tests: list[EpaTest], model: str | None, make: str | None = None,
+               year: int | str | None = None) -> str | None:
+    """What a ``model`` selection took, when it may not be what was meant: no model is named
+    ``model`` and it was taken as part of the names; or one is, and other names (of the
+    same make and year, when given) that contain it were left out (``F150`` is a Roush's
+    exact name and part of 13 Ford names). None otherwise."""
+    if not model or not model.strip():
+        return None
+    want = model.strip().upper()
+    pool = [t for t in tests
+            if (year is None or str(t.year) == str(year).strip())
+            and (not make or t.make.upper() == make.strip().upper())]
+    exact = sorted({t.model for t in pool if t.model.upper() == want})
+    part = sorted({t.model for t in pool if want in t.model.upper()} - set(exact))
+    if not part:
+        return None
+    shown = ", ".join(repr(n) for n in part[:6]) + (" ..." if len(part) > 6 else "")
+    if not exact:
+        return f"no model is named '{model.strip()}'; taken as part of a name: {shown}"
+    makes = sorted({t.make for t in pool if t.model in exact})
+    return (f"'{model.strip()}' is the exact name of a model ({', '.join(makes)}), which alone "
+            f"is selected; {len(part)} other name(s) contain it: {shown}: give the full name "
+            "(and --make / make=) to select one of those")
+
+
 def select_tests(tests: list[EpaTest], make: str | None = None, model: str | None = None,
                  year: int | None = None) -> list[EpaTest]:
     """Tests of one make / model / year (each optional; case-insensitive).
