@@ -338,3 +338,16 @@ def test_cli_tests_shows_whole_ids_transmission_and_fuel(tmp_path, capsys):
     out = capsys.readouterr().out.splitlines()
     assert out[1].split()[1:6] == ["PS7N0AU01AC", "1", "MFR", "ftp75", "A8"]
     assert out[1].split()[6] == "gas"
+
+
+def test_cli_vehicle_without_tests_says_it_is_not_calibrated(tmp_path, capsys):
+    """Without --calibrate the generic start values make the fuel model (16 cars of the
+    lists: FTP-75 -18..+19 %, HWFET -24..+4 %) and nothing said so."""
+    lists = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    out = tmp_path / "v.yaml"
+    assert main(["epa", "vehicle", str(lists), "--make", "MAKER", "--model", "SEDAN XLE",
+                 "--year", "2019", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "fuel model not calibrated (no --calibrate test)" in text
+    assert "indicated efficiency 38 %" in text
+    assert "fuel model not calibrated" in load_vehicle(out).description

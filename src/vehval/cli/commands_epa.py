@@ -347,6 +347,15 @@ def calibrate_cmd(
         typer.echo(f"wrote {output}")
 
 
+def _uncalibrated() -> str:
+    """What a vehicle built without calibration tests is."""
+    from vehval.epa.specs import INDICATED_EFFICIENCY
+
+    return ("fuel model not calibrated (no --calibrate test): the generic start values, "
+            f"indicated efficiency {100 * INDICATED_EFFICIENCY:.0f} %, Heywood's friction "
+            "(scale 1), idle fuel from the map")
+
+
 def _narrow(rows: list, vehicle_id: str | None, config: str | None) -> list:
     """The rows of one test vehicle and configuration; an ID or number that matches none
     is refused with the ones there are."""
@@ -423,7 +432,8 @@ def vehicle_cmd(
     cal = [runs[f] for f in calibrate]
     held = [runs[f] for f in predict]
     fit = calibrate_specs(specs, cal, dt) if cal else None
-    veh = fit.vehicle() if fit is not None else vehicle_from_specs(specs)
+    veh = fit.vehicle() if fit is not None else vehicle_from_specs(
+        specs, note=f"; {_uncalibrated()}")
     pred = predict_runs(fit.model() if fit else veh, held, dt) if held else {}
     split_rows = all_splits(specs, list(runs.values()), splits, dt) if splits else []
     write_vehicle_yaml(veh, output, "vehval epa vehicle")
@@ -445,6 +455,9 @@ def vehicle_cmd(
                f"{format_value(specs.mass_kg, 'kg')}, {specs.displacement_l:g} L, "
                f"{specs.rated_power_w / 1e3:.0f} kW, {specs.gears}-speed, axle "
                f"{specs.axle_ratio:g}, N/V {specs.n_v_ratio:g}")
+    if fit is None:
+        typer.echo(f"{_uncalibrated()}: expect errors up to about 25 % against the list's "
+                   "figures (docs/validation.md); give dyno tests with --calibrate")
     if fit is not None:
         idle = "-" if fit.idle_fuel_g_per_s is None else f"{fit.idle_fuel_g_per_s:.3f}"
         typer.echo(f"fitted on {', '.join(fit.tests)}: indicated efficiency "
