@@ -330,3 +330,27 @@ def test_unnumbered_repeat_of_a_calibration_test(prius_list, tmp_path, capsys):
                      "vehicle=16-ZV1H,procedure=3,config=1", "--dt", "1"]) == 0
         text = capsys.readouterr().out
         assert "T4 " in text and "in-sample" in text and "unknown" not in text
+
+
+def test_a_diesel_vehicle_runs_the_diesel_tests(tmp_path):
+    """Every diesel row was skipped as 'not gasoline', also for the packaged diesel
+    (cruze_diesel_2014): nothing of a diesel could be validated. The tests on the vehicle's
+    fuel family run; the others are skipped with the reason."""
+    from tests.epa.conftest import row, write_list
+    from vehval.epa import read_test_car_list
+    from vehval.epa.procedures import fuel_family, plan_for
+
+    diesel = ("20", "Federal Cert Diesel 7-15 PPM Sulfur")
+    rows = read_test_car_list(write_list(tmp_path / "19tstcar.csv", [
+        row(model="CRUZE", number="D1", fuel=diesel, fe=70.2, weight=3500,
+            target=(26.56, 0.1978, 0.01536)),
+        row(model="CRUZE", number="G1", fe=50.1, weight=3500, target=(26.56, 0.1978, 0.01536)),
+    ]))
+    assert fuel_family("diesel") == fuel_family(diesel[1]) == "diesel"
+    assert plan_for(rows[0])[0] is None and plan_for(rows[1])[0] is not None
+    assert plan_for(rows[0], "diesel")[0] is not None
+    assert "not the vehicle's fuel (diesel)" in plan_for(rows[1], "diesel")[1]
+    val = validate_tests("cruze_diesel_2014", rows, dt=1.0)
+    assert [p.test.label for p in val.predictions] == ["D1"]
+    assert [s["test"] for s in val.skipped] == ["G1"]
+    assert 20 < val.predictions[0].overall_mpg < 120

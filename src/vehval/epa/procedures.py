@@ -89,6 +89,19 @@ UNRUNNABLE = {
 }
 
 
+def fuel_family(fuel: str) -> str:
+    """``gasoline``, ``diesel``, ``e85`` or ``other`` of a listed test fuel description or
+    a fuel-table name (``gasoline_e10``, ``diesel``, ``biodiesel_b20``...)."""
+    up = fuel.upper()
+    if is_gasoline(fuel):
+        return "gasoline"
+    if "DIESEL" in up:
+        return "diesel"
+    if "E85" in up or "ETHANOL" in up:
+        return "e85"
+    return "other"
+
+
 def is_gasoline(fuel: str) -> bool:
     """Whether a listed test fuel description is a gasoline (Tier 2 certification, CARB,
     E10...; an empty description counts as one). E85 is not: its description names the
@@ -103,16 +116,21 @@ def procedure_key(test: EpaTest) -> str:
     return _CODES.get(test.procedure_code, f"code{test.procedure_code}")
 
 
-def plan_for(test: EpaTest) -> tuple[Procedure | None, str]:
-    """The simulation plan of a test, or (None, reason it cannot be run)."""
+def plan_for(test: EpaTest, fuel: str = "gasoline") -> tuple[Procedure | None, str]:
+    """The simulation plan of a test, or (None, reason it cannot be run).
+
+    ``fuel`` is the vehicle's fuel (a fuel-table name, e.g. ``diesel``): a test on another
+    fuel family is not run (its mpg counts gallons of another fuel)."""
     key = procedure_key(test)
     if key in UNRUNNABLE:
         return None, UNRUNNABLE[key]
     if key not in RUNNABLE:
         return None, (f"procedure code {test.procedure_code} ('{test.procedure}') is not an "
                       "FTP-75, HWFET or US06 test")
-    if not is_gasoline(test.fuel):
-        return None, f"test fuel '{test.fuel}' is not gasoline"
+    want = fuel_family(fuel)
+    if fuel_family(test.fuel) != want:
+        return None, (f"test fuel '{test.fuel}' is not gasoline" if want == "gasoline" else
+                      f"test fuel '{test.fuel}' is not the vehicle's fuel ({fuel})")
     if test.fe_unit and test.fe_unit != "MPG":
         return None, f"fuel economy unit '{test.fe_unit}' is not MPG"
     for name, value in (("equivalent test weight", test.mass_kg),

@@ -47,6 +47,7 @@ from vehval.epa.procedures import (
     FTP_WEIGHT_COLD,
     FTP_WEIGHT_HOT,
     Procedure,
+    fuel_family,
     plan_for,
     procedure_key,
 )
@@ -480,6 +481,10 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         (:func:`repeated_calibration_tests`).
     """
     veh = load_vehicle(vehicle)
+    # the tests on the vehicle's fuel: a diesel's on diesel, any other's on gasoline
+    fuel = resolve_fuel(vehicle=veh)
+    fuel_name = ("diesel" if fuel is not None and fuel_family(fuel.name) == "diesel"
+                 else "gasoline")
     cold_model = has_cold_start_model(veh)
     res = EpaValidation(vehicle=veh.name, calibrated=calibration_tests(veh))
     res.repeats, res.sample_unknown = repeated_calibration_tests(
@@ -488,7 +493,7 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         res.calibrated[label] = res.calibrated[same]
     progress.add(len(tests))
     for t in tests:
-        proc, why = plan_for(t)
+        proc, why = plan_for(t, fuel_name)
         progress.advance()
         if proc is None:
             res.skipped.append({"test": t.label, "vehicle_id": t.vehicle_id,
