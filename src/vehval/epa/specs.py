@@ -41,7 +41,7 @@ import numpy as np
 from vehval.constants import MPH_M_PER_S as MPH
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.epa import engine_model as em
-from vehval.epa.procedures import is_gasoline, procedure_key
+from vehval.epa.procedures import is_gasoline, procedure_key, road_load_without_b
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
 from vehval.vehicle.conventional import ConventionalVehicle
@@ -399,19 +399,24 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                     f"x (1 + f exp(-t / {WARMUP_TIME_CONSTANT_S:g} s)) over bag 1 (505 s): "
                     f"f = {warm:.4f}")
     est = _EST
+    rl = road_load_without_b(s.target_a_n, s.target_b_n_per_mps,
+                             max(s.target_c_n_per_mps2, 0.0))
+    refit = ("" if s.target_b_n_per_mps >= 0 else
+             f" (listed B {s.target_b_n_per_mps:.4g} N/(m/s) < 0: A and C refitted with B = 0 "
+             "over the UDDS, HWFET and US06 speeds, vehval.epa.procedures."
+             "road_load_without_b)")
     data = {
         "architecture": "conventional", "name": s.name,
         "description": (f"{s.make} {s.model} ({s.year} EPA Test Car List, test vehicle "
                         f"{s.vehicle_id}) from its public specification: vehval epa "
                         f"vehicle{note}"),
-        "body": {"mass_kg": s.mass_kg, "road_load_a_n": s.target_a_n,
-                 "road_load_b_n_per_mps": max(s.target_b_n_per_mps, 0.0),
-                 "road_load_c_n_per_mps2": max(s.target_c_n_per_mps2, 0.0),
+        "body": {"mass_kg": s.mass_kg, "road_load_a_n": rl[0],
+                 "road_load_b_n_per_mps": rl[1], "road_load_c_n_per_mps2": rl[2],
                  "aux_power_w": 0.0,
                  "sources": {"mass_kg": f"equivalent test weight, {where}",
-                             "road_load_a_n": f"road-load target A, {where}",
-                             "road_load_b_n_per_mps": f"road-load target B, {where}",
-                             "road_load_c_n_per_mps2": f"road-load target C, {where}",
+                             "road_load_a_n": f"road-load target A, {where}{refit}",
+                             "road_load_b_n_per_mps": f"road-load target B, {where}{refit}",
+                             "road_load_c_n_per_mps2": f"road-load target C, {where}{refit}",
                              "aux_power_w": "accessories are in engine_control"}},
         "engine": {"speed_rpm": speeds.tolist(), "torque_nm": torques.tolist(),
                    "fuel_rate_g_per_s": fuel.tolist(), "max_torque_nm": tmax.tolist(),
