@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import difflib
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from vehval.epa.procedures import procedure_key
 from vehval.epa.reader import EpaTest
@@ -45,7 +45,7 @@ def model_note(tests: list[EpaTest], model: str | None, make: str | None = None,
         return None
     want = model.strip().upper()
     pool = [t for t in tests
-            if (year is None or str(t.year) == str(year).strip())
+            if (year is None or str(year).strip() in map(str, t.listed_years))
             and (not make or t.make.upper() == make.strip().upper())]
     exact = sorted({t.model for t in pool if t.model.upper() == want})
     part = sorted({t.model for t in pool if want in t.model.upper()} - set(exact))
@@ -74,9 +74,12 @@ def select_tests(tests: list[EpaTest], make: str | None = None, model: str | Non
     """
     out = tests
     if year is not None:
-        out = [t for t in out if t.year == int(year)]
+        # a test listed again in a later year's list (carried over) is found under each
+        # year, and read as of the year asked for
+        y = int(year)
+        out = [t if t.year == y else replace(t, year=y) for t in out if y in t.listed_years]
         if not out:
-            years = sorted({t.year for t in tests})
+            years = sorted({y_ for t in tests for y_ in t.listed_years})
             raise InputFileError(f"no test of model year {year} in the list (years: "
                                  f"{', '.join(map(str, years))})")
     if make:
