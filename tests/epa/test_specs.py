@@ -351,3 +351,18 @@ def test_cli_vehicle_without_tests_says_it_is_not_calibrated(tmp_path, capsys):
     assert "fuel model not calibrated (no --calibrate test)" in text
     assert "indicated efficiency 38 %" in text
     assert "fuel model not calibrated" in load_vehicle(out).description
+
+
+def test_an_implausible_fitted_map_is_named(specs):
+    """The fit accepts an indicated efficiency anywhere in 0.1-0.6; a map whose best brake
+    efficiency no spark-ignition engine reaches (fuel in the wrong unit, another car's list
+    row) was written and used without a word. Its best brake efficiency is now stated and
+    flagged outside 20-45 %."""
+    from vehval.epa.specs_fit import best_brake_efficiency, efficiency_note
+
+    eff, rpm, nm = best_brake_efficiency(vehicle_from_specs(specs, 0.43, 1.0))
+    assert 0.30 < eff < 0.42 and rpm >= 700 and nm > 0
+    assert efficiency_note(vehicle_from_specs(specs, 0.43, 1.0)) == ""
+    note = efficiency_note(vehicle_from_specs(specs, 0.59, 0.5))
+    assert "best brake efficiency is" in note and "outside the 20-45 %" in note
+    assert "outside the 20-45 %" in efficiency_note(vehicle_from_specs(specs, 0.15, 2.0))

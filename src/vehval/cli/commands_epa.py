@@ -407,9 +407,11 @@ def vehicle_cmd(
     from vehval.epa.specs import model_fuel_lhv, specs_from_tests, vehicle_from_specs
     from vehval.epa.specs_fit import (
         all_splits,
+        best_brake_efficiency,
         calibrate_specs,
         cold_note,
         dyno_run,
+        efficiency_note,
         predict_runs,
     )
     from vehval.errors import ConfigError
@@ -460,10 +462,14 @@ def vehicle_cmd(
                    "figures (docs/validation.md); give dyno tests with --calibrate")
     if fit is not None:
         idle = "-" if fit.idle_fuel_g_per_s is None else f"{fit.idle_fuel_g_per_s:.3f}"
+        brake = best_brake_efficiency(veh)
         typer.echo(f"fitted on {', '.join(fit.tests)}: indicated efficiency "
                    f"{100 * fit.indicated_efficiency:.1f} %, friction scale "
                    f"{fit.friction_scale:.3f}, "
-                   f"idle {idle} g/s")
+                   f"idle {idle} g/s; best brake efficiency {100 * brake[0]:.1f} % "
+                   f"({brake[1]:.0f} rpm, {brake[2]:.0f} N·m)")
+        if efficiency_note(veh):
+            typer.echo(f"! {efficiency_note(veh)}")
     for row in tests_doc:
         err = "-" if row["error"] is None else f"{100 * row['error']:+.1f} %"
         typer.echo(f"{row['test'][:24]:24s} {'in-sample' if row['in_sample'] else 'held-out':9s}"
