@@ -192,3 +192,21 @@ def test_a_carried_over_test_is_found_under_each_year(tmp_path, capsys):
     assert "2017  TOYOTA       PRIUS v" in capsys.readouterr().out
     assert main(["epa", "tests", str(tmp_path), "--year", "2017", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)[0]["years"] == [2016, 2017]
+
+
+def test_cli_metric_reads_fuel_consumption(prius_list, capsys, monkeypatch):
+    """`--units metric` converted weight and road load but left every fuel figure in mpg
+    (README: metric leads with L/100 km); `epa tests` and `epa validate` now show L/100 km
+    (235.215 / mpg), --json keeps the list's mpg."""
+    from vehval.display import ENV_VAR
+
+    monkeypatch.setenv(ENV_VAR, "metric")
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert "L/100 km" in out[0] and "mpg" not in out[0]
+    t1 = next(ln for ln in out if ln.startswith("T1 ")).split()
+    assert t1[13] == f"{235.2146 / 71.2:.2f}"
+    monkeypatch.setenv(ENV_VAR, "us")
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert next(ln for ln in out if ln.startswith("T1 ")).split()[13] == "71.2"

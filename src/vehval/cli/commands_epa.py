@@ -102,6 +102,7 @@ def tests_cmd(
     # the display units (us: lb, lbf, lbf/mph, lbf/mph², as the list itself; metric: kg, N,
     # N/(km/h), N/(km/h)²); --json stays SI
     mu, fu, vu = unit_for("kg"), unit_for("N"), unit_for("m/s")
+    fe = _fe_display()
     per = vu.label if "/" not in vu.label else f"({vu.label})"
     b_k, c_k = fu.factor / vu.factor, fu.factor / vu.factor ** 2
     # the test and vehicle IDs whole: they are what --tests number=/vehicle= and
@@ -111,22 +112,40 @@ def tests_cmd(
     typer.echo(f"{'test':{wt}s} {'vehicle':{wv}s} {'cfg':>3} {'orig':4s} {'proc':7s} "
                f"{'trans':5s} {'fuel':6s} "
                f"{f'ETW {mu.label}':>7} {'N/V':>5} {'axle':>5} {f'A {fu.label}':>7} "
-               f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE mpg':>6}  "
-               "bags 1-4 [mpg]")
+               f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE':>6}  "
+               f"bags 1-4 (FE, bags: {fe[0]})")
     for t, chk in zip(tests, checks):
-        bags = " ".join(f"{_fmt(b_):>6}" for b_ in t.bags) + ("" if chk.ok else "  !")
+        bags = " ".join(f"{_fmt(fe[1](b_), fe[2]):>6}" for b_ in t.bags) + (
+            "" if chk.ok else "  !")
         typer.echo(f"{t.label:{wt}s} {t.vehicle_id:{wv}s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
                    f"{_trans_text(t):5s} {_fuel_text(t):6s} "
                    f"{_fmt(float(mu.convert(t.mass_kg)), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
                    f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(float(fu.convert(t.target_a_n)), '.2f'):>7} "
                    f"{_fmt(b_k * t.target_b_n_per_mps, '.4f'):>11} "
-                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {_fmt(t.fe):>6}  {bags}")
+                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {_fmt(fe[1](t.fe), fe[2]):>6}  {bags}")
     typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients and SI "
                "units in --json; N/V in rpm/mph as listed)")
     for t, chk in zip(tests, checks):
         if not chk.ok:
             typer.echo(f"! {t.label} ({t.source}): {chk.note}")
+
+
+def _fe_display():
+    """(unit label, mpg -> shown value, format) of a listed fuel economy: mpg in the us
+    system, L/100 km in metric (the list states mpg; --json keeps it)."""
+    from vehval.display import system
+
+    if system() == "metric":
+        from vehval.constants import MILE_M
+        from vehval.fuels.quantities import GALLON_US_M3, l_per_100km_from_volume_per_distance
+
+        def to_l(mpg: float | None) -> float | None:
+            if mpg is None or not mpg > 0:
+                return None
+            return float(l_per_100km_from_volume_per_distance(GALLON_US_M3 / MILE_M / mpg))
+        return "L/100 km", to_l, ".2f"
+    return "mpg", (lambda mpg: mpg), ".1f"
 
 
 def _trans_text(t) -> str:
@@ -214,12 +233,16 @@ def validate_cmd(
     if as_json:
         typer.echo(jsonsafe.dumps(val), nl=False)
         return
-    typer.echo(f"{'test':14s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
-               f"{'err %':>6} {'batt %':>6} {'sample':9s} judged")
+    fe = _fe_display()
+    wt = max([14, *(len(c.test) for c in val.comparisons)])
+    typer.echo(f"{'test':{wt}s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
+               f"{'err %':>6} {'batt %':>6} {'sample':9s} judged   (pred, meas: {fe[0]}; "
+               "err: fuel economy, pred / meas mpg - 1)")
     for c in val.comparisons:
         batt = share_text(c.battery_share)
-        typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
-                   f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f} "
+        typer.echo(f"{c.test:{wt}s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
+                   f"{_fmt(fe[1](c.predicted_mpg), fe[2]):>6} "
+                   f"{_fmt(fe[1](c.measured_mpg), fe[2]):>6} {100 * c.error:+6.1f} "
                    f"{batt:>6} {_sample_text(c):9s} {_judged_text(c)}")
     st = val.stats()
     for p in val.predictions:
@@ -236,8 +259,9 @@ def validate_cmd(
     if st["n_judged_in_sample"]:
         typer.echo("in-sample (the vehicle file was calibrated on these tests; not a "
                    "prediction): " + _stats_text(val.stats(in_sample=True)))
-    typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
-               "(J1711 balances the whole test, not each bag)")
+    if any(c.battery_share is not None for c in val.comparisons):
+        typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the "
+                   "model (J1711 balances the whole test, not each bag)")
     if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
 
