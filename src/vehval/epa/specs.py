@@ -204,7 +204,7 @@ def _check_car(tests: list[EpaTest]) -> None:
     mark = "HYBRID" if "HYBRID" in name else next(iter(sorted(words & set(HYBRID_WORDS))), "")
     plug = next((t for t in tests if procedure_key(t) in ("cd_udds", "cd_hwfet")), None)
     if mark or plug is not None:
-        why = (f"'{mark}' in the model name" if mark else
+        why = (f"'{mark}' in the model name" if mark or plug is None else
                f"charge-depleting test {plug.label} in the list")
         raise ConfigError(f"{t0.make} {t0.model}: {why}: a hybrid or plug-in hybrid is not "
                           "modelled from specs (the model is a conventional car); use a "
