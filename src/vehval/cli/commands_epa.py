@@ -137,13 +137,18 @@ def _fe_display():
     from vehval.display import system
 
     if system() == "metric":
-        from vehval.constants import MILE_M
-        from vehval.fuels.quantities import GALLON_US_M3, l_per_100km_from_volume_per_distance
+        from vehval.fuels import (
+            l_per_100km_from_volume_per_distance,
+            mpg_from_volume_per_distance,
+        )
+
+        # mpg = k / (volume per distance), k the fuel quantities' own gallon per mile
+        k = float(mpg_from_volume_per_distance(1.0))
 
         def to_l(mpg: float | None) -> float | None:
             if mpg is None or not mpg > 0:
                 return None
-            return float(l_per_100km_from_volume_per_distance(GALLON_US_M3 / MILE_M / mpg))
+            return float(l_per_100km_from_volume_per_distance(k / mpg))
         return "L/100 km", to_l, ".2f"
     return "mpg", (lambda mpg: mpg), ".1f"
 
