@@ -112,3 +112,22 @@ def test_cli(prius_list, tmp_path, capsys):
     assert main(["epa", "calibrate", str(prius_list), "--vehicle", "prius_2016", "--tests",
                  "model=PRIUS", "--param", "soc_gain_w"]) == 2
     assert "NAME=v1,v2" in capsys.readouterr().err
+
+
+def test_unknown_parameter_of_a_conventional_car_names_its_blocks(tmp_path):
+    """A bare name means controller.NAME; on a car without a controller (`epa vehicle`'s
+    conventional cars) the message suggested 'controller.soc_gain_w', a parameter it has
+    not either. It now names the same parameter in another block, or the blocks."""
+    from tests.epa.conftest import write_list
+    from tests.epa.test_specs import HEADER, _camry_rows
+    from vehval.epa.specs import specs_from_tests, vehicle_from_specs
+
+    rows = read_test_car_list(write_list(tmp_path / "l.csv", _camry_rows(), header=HEADER))
+    car = vehicle_from_specs(specs_from_tests(rows))
+    with pytest.raises(ConfigError, match=r"did you mean engine_control\.accessory_power_w\?"):
+        calibrate_on_tests(car, rows, {"accessory_power_w": [200.0, 300.0]})
+    with pytest.raises(ConfigError) as err:
+        calibrate_on_tests(car, rows, {"soc_gain_w": [1.0, 2.0]})
+    msg = str(err.value)
+    assert "a bare name is controller.soc_gain_w" in msg and "did you mean" not in msg
+    assert "blocks body, converter, driveline, driver, engine, engine_control, gearbox" in msg

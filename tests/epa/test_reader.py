@@ -134,7 +134,8 @@ def test_cli_tests_and_list_in_display_units(prius_list, capsys, monkeypatch):
     assert "ETW lb" in out[0] and "A lbf" in out[0] and "B lbf/mph" in out[0]
     assert "C lbf/mph²" in out[0]
     t4 = next(ln for ln in out if ln.startswith("T4 ")).split()
-    assert t4[5:11] == ["3375", "20.0", "2.83", "24.15", "0.3350", "0.01410"]
+    # transmission and fuel after the procedure ('?' when the list has no column)
+    assert t4[5:13] == ["?", "gas", "3375", "20.0", "2.83", "24.15", "0.3350", "0.01410"]
     assert main(["epa", "list", str(prius_list), "--model", "PRIUS"]) == 0
     assert "ETW [lb]" in capsys.readouterr().out
     monkeypatch.setenv(ENV_VAR, "metric")
@@ -144,7 +145,7 @@ def test_cli_tests_and_list_in_display_units(prius_list, capsys, monkeypatch):
     t4 = next(ln for ln in out if ln.startswith("T4 ")).split()
     kg, a_n = 3375 * LB_KG, 24.153 * LBF_N
     b = 0.33502 * LBF_N / MPH_M_PER_S / 3.6
-    assert t4[5] == f"{kg:.0f}" and t4[8] == f"{a_n:.2f}" and t4[9] == f"{b:.4f}"
+    assert t4[7] == f"{kg:.0f}" and t4[10] == f"{a_n:.2f}" and t4[11] == f"{b:.4f}"
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert any(d["mass_kg"] == pytest.approx(kg) for d in data)
@@ -154,3 +155,58 @@ def test_cli_list_counts_read_as_english(prius_list, capsys):
     """'1 vehicles, 1 tests' -> '1 vehicle, 1 test'."""
     assert main(["epa", "list", str(prius_list), "--model", "PRIUS c"]) == 0
     assert capsys.readouterr().out.splitlines()[-1] == "1 vehicle, 1 test"
+
+
+def test_exact_model_name_says_what_it_left_out(prius_list, capsys):
+    """`--model F150` selected the one Roush named exactly so and said nothing of the 12 Ford
+    names containing F150; the note now names them (and the partial match still says so)."""
+    from vehval.epa.select import model_note
+
+    tests = read_lists([prius_list])
+    note = model_note(tests, "prius")
+    assert "exact name of a model (TOYOTA)" in note and "'PRIUS c'" in note
+    assert model_note(tests, "PRIUS c") is None
+    assert model_note(tests, "CAMRY").startswith("no model is named 'CAMRY'")
+    assert main(["epa", "list", str(prius_list), "--model", "PRIUS"]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith("note: 'PRIUS' is the exact name") and "'PRIUS c'" in err
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS c"]) == 0
+    assert capsys.readouterr().err == ""
+
+
+def test_a_carried_over_test_is_found_under_each_year(tmp_path, capsys):
+    """A test the next year's list repeats (a carried-over certification) was kept once, under
+    its first year only: with the 2016-2019 lists read together, 298 of the 498 models of
+    2017 had no test (`--model "PRIUS v" --year 2017`: 'unknown model'). It is still kept
+    once, and found under each year that lists it."""
+    r16 = row(model="PRIUS v", vid="12-ZW2H", number="P1", fe=45.0, year=2016)
+    r17 = {**row(model="PRIUS v", vid="12-ZW2H", number="", fe=45.0, year=2017)}
+    write_list(tmp_path / "16tstcar.csv", [r16])
+    write_list(tmp_path / "17tstcar.csv", [r17])
+    tests = read_lists([tmp_path])
+    assert len(tests) == 1 and tests[0].years == (2016, 2017)
+    assert tests[0].test_number == "P1"
+    sel = select_tests(tests, model="PRIUS v", year=2017)
+    assert len(sel) == 1 and sel[0].year == 2017 and sel[0].test_number == "P1"
+    assert main(["epa", "list", str(tmp_path), "--model", "PRIUS v", "--year", "2017"]) == 0
+    assert "2017  TOYOTA       PRIUS v" in capsys.readouterr().out
+    assert main(["epa", "tests", str(tmp_path), "--year", "2017", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)[0]["years"] == [2016, 2017]
+
+
+def test_cli_metric_reads_fuel_consumption(prius_list, capsys, monkeypatch):
+    """`--units metric` converted weight and road load but left every fuel figure in mpg
+    (README: metric leads with L/100 km); `epa tests` and `epa validate` now show L/100 km
+    (235.215 / mpg), --json keeps the list's mpg."""
+    from vehval.display import ENV_VAR
+
+    monkeypatch.setenv(ENV_VAR, "metric")
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert "L/100 km" in out[0] and "mpg" not in out[0]
+    t1 = next(ln for ln in out if ln.startswith("T1 ")).split()
+    assert t1[13] == f"{235.2146 / 71.2:.2f}"
+    monkeypatch.setenv(ENV_VAR, "us")
+    assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert next(ln for ln in out if ln.startswith("T1 ")).split()[13] == "71.2"

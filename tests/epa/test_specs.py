@@ -54,13 +54,15 @@ def test_specs_from_list_rows(specs):
     assert len(specs.rows) == 2
 
 
-def test_specs_refuse_mixed_configurations_and_cvt(tmp_path):
+def test_specs_refuse_mixed_configurations_and_cvt(tmp_path, monkeypatch):
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
     rows = _camry_rows() + _camry_rows(vid="18-GV2A", weight=3875)
     path = write_list(tmp_path / "mixed.csv", rows, header=HEADER)
     with pytest.raises(ConfigError, match="more than one configuration") as err:
         specs_from_tests(read_test_car_list(path))
-    # the message names the test vehicles to choose from and this command's option
-    assert "18-AV3A: 1644.27; 18-GV2A: 1757.67" in str(err.value)
+    # the message names the test vehicles to choose from, in the units the list gives
+    # (was kg to six digits: 1644.27), and this command's options
+    assert "18-AV3A config 1: 3625 lb; 18-GV2A config 1: 3875 lb" in str(err.value)
     assert "--vehicle-id" in str(err.value) and "CAMRY" not in str(err.value)
     # a CVT (a hybrid's) is refused as such before any narrowing is asked for
     cvt_mixed = rows
@@ -216,3 +218,151 @@ def test_cli_builds_calibrates_and_marks_in_sample(tmp_path, specs, capsys):
     out = capsys.readouterr().out
     assert re.search(r": \d{4} lb, ", out), out
     assert re.search(r"indicated efficiency (4[0-6]\.\d) %", out), out
+
+
+def _specs_of(tmp_path, rows, name="l.csv"):
+    return specs_from_tests(read_test_car_list(write_list(tmp_path / name, rows, header=HEADER)))
+
+
+def test_e85_is_not_gasoline(tmp_path):
+    """An E85 row names the gasoline it is blended with; it was simulated and judged as a
+    gasoline test (a 2016 EQUINOX FWD's E85 HWFET at +19 % against a gasoline model)."""
+    from vehval.epa.procedures import is_gasoline, plan_for
+
+    assert not is_gasoline("E85 (85% Ethanol 15% EPA Unleaded Gasoline)")
+    for fuel in ("Tier 2 Cert Gasoline", "Tier 3 E10 Premium Gasoline (9 RVP @Low Alt.)",
+                 "CARB Phase II Gasoline", ""):
+        assert is_gasoline(fuel), fuel
+    assert not is_gasoline("Federal Cert Diesel 7-15 PPM Sulfur")
+    e85 = read_test_car_list(write_list(tmp_path / "e.csv", [row(
+        fuel=("19", "E85 (85% Ethanol 15% EPA Unleaded Gasoline)"))]))[0]
+    proc, why = plan_for(e85)
+    assert proc is None and "not gasoline" in why
+
+
+def test_specs_refuse_what_the_conventional_model_is_not(tmp_path):
+    """A hybrid by name ('ActiveHybrid 5' has an 8-speed automatic), a plug-in by its
+    charge-depleting rows, a diesel or E85-only configuration: each was built as a
+    gasoline conventional car without a word."""
+    with pytest.raises(ConfigError, match="'HYBRID' in the model name"):
+        _specs_of(tmp_path, _camry_rows(model="ActiveHybrid 5"))
+    with pytest.raises(ConfigError, match="'HEV' in the model name"):
+        _specs_of(tmp_path, _camry_rows(model="Fusion (HEV)"))
+    _specs_of(tmp_path, _camry_rows(model="CHEVROLET SEDAN"))  # HEV inside a word: a car
+    plug = _camry_rows()
+    plug.append({**plug[0], "Test Procedure Cd": "81", "Test Number": "CD1",
+                 "Test Procedure Description": "Charge Depleting UDDS"})
+    with pytest.raises(ConfigError, match="charge-depleting test CD1"):
+        _specs_of(tmp_path, plug)
+    for fuel in (("20", "Federal Cert Diesel 7-15 PPM Sulfur"),
+                 ("19", "E85 (85% Ethanol 15% EPA Unleaded Gasoline)")):
+        with pytest.raises(ConfigError, match="no gasoline: the model from specs is a "
+                                              "spark-ignition engine"):
+            _specs_of(tmp_path, _camry_rows(fuel=fuel))
+    # a flexible-fuel configuration tested on both: the gasoline rows make the cold start
+    ffv = _camry_rows() + [{**r, "Test Number": r["Test Number"] + "E", "FE Bag 1": "20",
+                            "Test Fuel Type Description": "E85 (85% Ethanol 15% EPA "
+                            "Unleaded Gasoline)"} for r in _camry_rows()]
+    assert _specs_of(tmp_path, ffv).cold_bag_ratio == pytest.approx(40.9 / 36.1)
+
+
+def test_specs_leave_out_cold_co_rows(tmp_path):
+    """Cold CO rows carry the road load raised for -7 degC (a 2019 Kia Soul: A 28.83 and
+    31.71 lbf in one configuration), which refused every configuration with a cold CO test
+    as 'more than one configuration'."""
+    rows = _camry_rows()
+    rows.append({**rows[0], "Test Procedure Cd": "11", "Test Number": "C1",
+                 "Test Procedure Description": "Cold CO", "Test Fuel Type Cd": "26",
+                 "Test Fuel Type Description": "Cold CO Regular (Tier 2)",
+                 "Target Coef A (lbf)": str(26.508 * 1.1), "FE Bag 1": "20.0"})
+    specs = _specs_of(tmp_path, rows)
+    assert specs.target_a_n == pytest.approx(26.508 * 4.4482216, rel=1e-6)
+    assert len(specs.rows) == 2 and not any("C1" in r for r in specs.rows)
+    assert specs.cold_bag_ratio == pytest.approx(40.9 / 36.1)
+
+
+def test_specs_refuse_implausible_or_missing_values(tmp_path):
+    """A rated power of 1 hp (a 2019 Golf GTI row), an N/V of 4.2 rpm/mph (a 2019 Urus row:
+    252 rpm at 60 mph) and a missing displacement (the 2017 list) are named with the row."""
+    rows = _camry_rows()
+    for r in rows:
+        r["Rated Horsepower"] = "1"
+    with pytest.raises(ConfigError, match=r"rated power 0.7 kW for 2.487 L .*typing error"):
+        _specs_of(tmp_path, rows)
+    rows = _camry_rows()
+    for r in rows:
+        r["N/V Ratio"] = "4.2"
+    with pytest.raises(ConfigError, match=r"N/V 4.2 rpm/mph puts the engine at 252 rpm"):
+        _specs_of(tmp_path, rows)
+    rows = _camry_rows()
+    for r in rows:
+        r["Test Veh Displacement (L)"] = ""
+    with pytest.raises(ConfigError, match=r"F1 \(l.csv:2\): no displacement \[L\] \('Test Veh "
+                                          r"Displacement \(L\)' empty or absent"):
+        _specs_of(tmp_path, rows)
+    # several weights under one test vehicle of a list without configuration numbers
+    rows = _camry_rows() + _camry_rows(weight=3875)
+    for r in rows:
+        r["Test Veh Configuration #"] = ""
+    with pytest.raises(ConfigError, match="the list has no configuration number"):
+        _specs_of(tmp_path, rows)
+
+
+def test_cli_vehicle_chooses_a_configuration(tmp_path, capsys):
+    """One test vehicle at two road loads (a 2019 BMW 540i, configurations 0 and 2) could not
+    be built: the message asked for --vehicle-id, which selected both again."""
+    rows = _camry_rows() + _camry_rows(cfg="2", target=(25.0, 0.1976, 0.00733))
+    for r in rows[2:]:
+        r["Test Number"] += "b"
+    lists = write_list(tmp_path / "19tstcar.csv", rows, header=HEADER)
+    args = ["epa", "vehicle", str(lists), "--make", "MAKER", "--model", "SEDAN XLE",
+            "--year", "2019", "--vehicle-id", "18-AV3A", "-o", str(tmp_path / "v.yaml")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "18-AV3A config 1:" in err and "18-AV3A config 2:" in err and "--config N" in err
+    assert main([*args, "--config", "7"]) == 2
+    assert "--config 7: no selected row has it (there are: 1, 2)" in capsys.readouterr().err
+    assert main([*args, "--config", "2", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["specs"]["target_a_n"] == pytest.approx(25.0 * 4.4482216, rel=1e-6)
+    assert all("b (" in r for r in doc["specs"]["rows"])
+
+
+def test_cli_tests_shows_whole_ids_transmission_and_fuel(tmp_path, capsys):
+    """The table cut vehicle IDs to 9 characters ('PS7N0AU01' of 'PS7N0AU01AC'), which then
+    matched nothing in --vehicle-id or vehicle=; it now also shows what `epa vehicle` needs
+    (transmission and gears, test fuel)."""
+    rows = _camry_rows(vid="PS7N0AU01AC")
+    lists = write_list(tmp_path / "19tstcar.csv", rows, header=HEADER)
+    assert main(["epa", "tests", str(lists), "--model", "SEDAN XLE"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1].split()[1:6] == ["PS7N0AU01AC", "1", "MFR", "ftp75", "A8"]
+    assert out[1].split()[6] == "gas"
+
+
+def test_cli_vehicle_without_tests_says_it_is_not_calibrated(tmp_path, capsys):
+    """Without --calibrate the generic start values make the fuel model (16 cars of the
+    lists: FTP-75 -18..+19 %, HWFET -24..+4 %) and nothing said so."""
+    lists = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    out = tmp_path / "v.yaml"
+    assert main(["epa", "vehicle", str(lists), "--make", "MAKER", "--model", "SEDAN XLE",
+                 "--year", "2019", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "fuel model not calibrated (no --calibrate test)" in text
+    assert "indicated efficiency 38 %" in text
+    assert "fuel model not calibrated" in load_vehicle(out).description
+
+
+def test_an_implausible_fitted_map_is_named(specs):
+    """The fit accepts an indicated efficiency anywhere in 0.1-0.6; a map whose best brake
+    efficiency no spark-ignition engine reaches (fuel in the wrong unit, another car's list
+    row) was written and used without a word. Its best brake efficiency is now stated and
+    flagged outside 20-45 %."""
+    from vehval.epa.specs_fit import best_brake_efficiency, efficiency_note
+
+    eff, rpm, nm = best_brake_efficiency(vehicle_from_specs(specs, 0.43, 1.0))
+    assert 0.30 < eff < 0.42 and rpm >= 700 and nm > 0
+    assert efficiency_note(vehicle_from_specs(specs, 0.43, 1.0)) == ""
+    note = efficiency_note(vehicle_from_specs(specs, 0.59, 0.5))
+    assert "best brake efficiency is" in note and "outside the 20-45 %" in note
+    assert "outside the 20-45 %" in efficiency_note(vehicle_from_specs(specs, 0.15, 2.0))

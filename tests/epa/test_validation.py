@@ -175,9 +175,13 @@ def test_conventional_vehicle(prius_list):
     """A conventional car runs its own loop: no battery to balance, HWFET equal to a plain
     simulation with the test's weight and road load, hot and cold UDDS identical (no cold
     start in the conventional model), cold-start figures not judged."""
+    import dataclasses
+
     from vehval.sim.simulate import simulate
 
-    tests = [t for t in read_test_car_list(prius_list) if t.model == "PRIUS"]
+    # the diesel car runs the tests on its fuel
+    tests = [dataclasses.replace(t, fuel="Federal Cert Diesel 7-15 PPM Sulfur")
+             for t in read_test_car_list(prius_list) if t.model == "PRIUS"]
     val = validate_tests("cruze_diesel_2014", tests, dt=0.5)
     assert val.stats()["n_tests_simulated"] == 4
     by = {(c.test, c.item): c for c in val.comparisons}
@@ -330,3 +334,53 @@ def test_unnumbered_repeat_of_a_calibration_test(prius_list, tmp_path, capsys):
                      "vehicle=16-ZV1H,procedure=3,config=1", "--dt", "1"]) == 0
         text = capsys.readouterr().out
         assert "T4 " in text and "in-sample" in text and "unknown" not in text
+
+
+def test_a_diesel_vehicle_runs_the_diesel_tests(tmp_path):
+    """Every diesel row was skipped as 'not gasoline', also for the packaged diesel
+    (cruze_diesel_2014): nothing of a diesel could be validated. The tests on the vehicle's
+    fuel family run; the others are skipped with the reason."""
+    from tests.epa.conftest import row, write_list
+    from vehval.epa import read_test_car_list
+    from vehval.epa.procedures import fuel_family, plan_for
+
+    diesel = ("20", "Federal Cert Diesel 7-15 PPM Sulfur")
+    rows = read_test_car_list(write_list(tmp_path / "19tstcar.csv", [
+        row(model="CRUZE", number="D1", fuel=diesel, fe=70.2, weight=3500,
+            target=(26.56, 0.1978, 0.01536)),
+        row(model="CRUZE", number="G1", fe=50.1, weight=3500, target=(26.56, 0.1978, 0.01536)),
+    ]))
+    assert fuel_family("diesel") == fuel_family(diesel[1]) == "diesel"
+    assert plan_for(rows[0])[0] is None and plan_for(rows[1])[0] is not None
+    assert plan_for(rows[0], "diesel")[0] is not None
+    assert "not the vehicle's fuel (diesel)" in plan_for(rows[1], "diesel")[1]
+    val = validate_tests("cruze_diesel_2014", rows, dt=1.0)
+    assert [p.test.label for p in val.predictions] == ["D1"]
+    assert [s["test"] for s in val.skipped] == ["G1"]
+    assert 20 < val.predictions[0].overall_mpg < 120
+
+
+def test_a_negative_b_keeps_the_road_load_work(tmp_path, prius_2016):
+    """A fifth of the runnable list rows have a negative target B, which a vehicle file
+    cannot hold (B >= 0); B was set to 0 with A and C kept, raising the road load at every
+    speed (a 2019 BMW 540i, B -0.172 lbf/mph: HWFET tractive energy +7.5 %). A' + C' v^2 is
+    now fitted over the procedure's speeds: the tractive energy stays within 0.1 %."""
+    from vehval.cycles import load_cycle
+    from vehval.epa.procedures import road_load_without_b
+    from vehval.sim.sensitivity import tractive_energy_j
+
+    t = read_test_car_list(write_list(tmp_path / "19tstcar.csv", [
+        row(number="N1", weight=4250, target=(49.20, -0.1720, 0.02102))]))[0]
+    a, b, c = t.target_a_n, t.target_b_n_per_mps, t.target_c_n_per_mps2
+    hwfet = load_cycle("hwfet")
+    listed = tractive_energy_j(hwfet, t.mass_kg, a, b, c)
+    clamped = tractive_energy_j(hwfet, t.mass_kg, a, 0.0, c)
+    assert clamped / listed - 1 > 0.07  # what setting B to 0 did
+    v = vehicle_for_test(prius_2016, t, ("hwfet",))
+    body = v.body
+    assert body.road_load_b_n_per_mps == 0.0 and body.road_load_a_n < a
+    fitted = tractive_energy_j(hwfet, t.mass_kg, body.road_load_a_n, 0.0,
+                               body.road_load_c_n_per_mps2)
+    assert fitted / listed == pytest.approx(1.0, abs=1e-3)
+    assert road_load_without_b(a, 0.3, c) == (a, 0.3, c)  # B >= 0: unchanged
+    assert vehicle_for_test(prius_2016, t).body.road_load_b_n_per_mps == 0.0

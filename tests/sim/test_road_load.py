@@ -121,3 +121,21 @@ def test_cli_road_load_json_and_output(tmp_path, capsys):
                                     "body.road_load_c_n_per_mps2", "all"}
     assert r["tractive_energy_j"] > 0 and r["per_100_lb_pct"] < 0
     assert json.loads((tmp_path / "rl" / "road_load.json").read_text()) == doc
+
+
+def test_cli_default_step_is_epa_validates(capsys):
+    """`vehval sensitivity` ran at 1 s by default where `vehval epa validate` and the docs'
+    tables use 0.2 s (the 2016 Prius's UDDS weight elasticity read -0.326, the docs -0.288):
+    both modes now default to 0.2 s."""
+    import inspect
+
+    from vehval.cli import main
+    from vehval.cli.commands_epa import validate_cmd
+
+    validate_dt = inspect.signature(validate_cmd).parameters["dt"].default.default
+    assert main(["sensitivity", "--road-load", "--cycles", "ece15", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["derivatives"]["dt_s"] == validate_dt == 0.2
+    assert main(["sensitivity", "--cycles", "ece15", "--params", "body.aux_power_w",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["dt_s"] == 0.2

@@ -26,17 +26,21 @@ def _fmt(x: float | None, spec: str = ".1f") -> str:
 def _load(paths: list[Path], make, model, year):
     from vehval.epa import read_lists, select_tests
 
-    return _note_partial_model(select_tests(read_lists(paths), make, model, year), model)
+    every = read_lists(paths)
+    selected = select_tests(every, make, model, year)
+    _note_model(every, model, make, year)
+    return selected
 
 
-def _note_partial_model(tests: list, model: str | None) -> list:
-    """Say on stderr when ``model`` matched no model exactly and was taken as a part of
-    the names (``PRIUS`` in a year that lists only ``PRIUS c``)."""
-    if model and tests and all(t.model.upper() != model.strip().upper() for t in tests):
-        names = ", ".join(sorted({repr(t.model) for t in tests}))
-        typer.echo(f"note: no model is named '{model.strip()}'; taken as part of a name: "
-                   f"{names}", err=True)
-    return tests
+def _note_model(every: list, model: str | None, make: str | None, year) -> None:
+    """Say on stderr what a model name took when it may not be what was meant: a part of
+    the names (``PRIUS`` in a year that lists only ``PRIUS c``), or one exact name where
+    others contain it too (``F150``: a Roush, not the 13 Ford F150 names)."""
+    from vehval.epa.select import model_note
+
+    note = model_note(every, model, make, year)
+    if note:
+        typer.echo(f"note: {note}", err=True)
 
 
 @epa_app.command("list")
@@ -98,25 +102,72 @@ def tests_cmd(
     # the display units (us: lb, lbf, lbf/mph, lbf/mph², as the list itself; metric: kg, N,
     # N/(km/h), N/(km/h)²); --json stays SI
     mu, fu, vu = unit_for("kg"), unit_for("N"), unit_for("m/s")
+    fe = _fe_display()
     per = vu.label if "/" not in vu.label else f"({vu.label})"
     b_k, c_k = fu.factor / vu.factor, fu.factor / vu.factor ** 2
-    typer.echo(f"{'test':14s} {'vehicle':9s} {'cfg':>3} {'orig':4s} {'proc':7s} "
+    # the test and vehicle IDs whole: they are what --tests number=/vehicle= and
+    # --vehicle-id take
+    wt = max([14, *(len(t.label) for t in tests)])
+    wv = max([9, *(len(t.vehicle_id) for t in tests)])
+    typer.echo(f"{'test':{wt}s} {'vehicle':{wv}s} {'cfg':>3} {'orig':4s} {'proc':7s} "
+               f"{'trans':5s} {'fuel':6s} "
                f"{f'ETW {mu.label}':>7} {'N/V':>5} {'axle':>5} {f'A {fu.label}':>7} "
-               f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE mpg':>6}  "
-               "bags 1-4 [mpg]")
+               f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE':>6}  "
+               f"bags 1-4 (FE, bags: {fe[0]})")
     for t, chk in zip(tests, checks):
-        bags = " ".join(f"{_fmt(b_):>6}" for b_ in t.bags) + ("" if chk.ok else "  !")
-        typer.echo(f"{t.label[:14]:14s} {t.vehicle_id[:9]:9s} {t.config[:3]:>3} "
+        bags = " ".join(f"{_fmt(fe[1](b_), fe[2]):>6}" for b_ in t.bags) + (
+            "" if chk.ok else "  !")
+        typer.echo(f"{t.label:{wt}s} {t.vehicle_id:{wv}s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
+                   f"{_trans_text(t):5s} {_fuel_text(t):6s} "
                    f"{_fmt(float(mu.convert(t.mass_kg)), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
                    f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(float(fu.convert(t.target_a_n)), '.2f'):>7} "
                    f"{_fmt(b_k * t.target_b_n_per_mps, '.4f'):>11} "
-                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {_fmt(t.fe):>6}  {bags}")
+                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {_fmt(fe[1](t.fe), fe[2]):>6}  {bags}")
     typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients and SI "
                "units in --json; N/V in rpm/mph as listed)")
     for t, chk in zip(tests, checks):
         if not chk.ok:
             typer.echo(f"! {t.label} ({t.source}): {chk.note}")
+
+
+def _fe_display():
+    """(unit label, mpg -> shown value, format) of a listed fuel economy: mpg in the us
+    system, L/100 km in metric (the list states mpg; --json keeps it)."""
+    from vehval.display import system
+
+    if system() == "metric":
+        from vehval.fuels import (
+            l_per_100km_from_volume_per_distance,
+            mpg_from_volume_per_distance,
+        )
+
+        # mpg = k / (volume per distance), k the fuel quantities' own gallon per mile
+        k = float(mpg_from_volume_per_distance(1.0))
+
+        def to_l(mpg: float | None) -> float | None:
+            if mpg is None or not mpg > 0:
+                return None
+            return float(l_per_100km_from_volume_per_distance(k / mpg))
+        return "L/100 km", to_l, ".2f"
+    return "mpg", (lambda mpg: mpg), ".1f"
+
+
+def _trans_text(t) -> str:
+    """Transmission code and gear count as listed (``SA8``, ``M6``, ``CVT``; ``?``)."""
+    code = t.transmission or "?"
+    return code if code in ("CVT", "?") or t.gears <= 1 else f"{code}{t.gears}"
+
+
+#: the list's test fuel descriptions, shortened (first match wins)
+_FUELS = (("COLD CO", "coldCO"), ("DIESEL", "diesel"), ("E85", "E85"),
+          ("ELECTRIC", "elec"), ("HYDROGEN", "H2"), ("CNG", "CNG"), ("E10", "E10"),
+          ("GASOLINE", "gas"))
+
+
+def _fuel_text(t) -> str:
+    up = t.fuel.upper()
+    return next((short for key, short in _FUELS if key in up), t.fuel[:6] or "?")
 
 
 def _selected(paths: list[Path], selector: str, dt: float, every: list | None = None):
@@ -134,7 +185,9 @@ def _selected(paths: list[Path], selector: str, dt: float, every: list | None = 
     selected = apply_selector(tests, selector)
     if not selected:
         raise InputFileError(f"the selector '{selector}' matches no test")
-    return _note_partial_model(selected, parse_selector(selector).get("model"))
+    sel = parse_selector(selector)
+    _note_model(tests, sel.get("model"), sel.get("make"), sel.get("year"))
+    return selected
 
 
 @epa_app.command("validate")
@@ -165,12 +218,18 @@ def validate_cmd(
 
         from vehval.errors import InputFileError
 
-        kinds = ", ".join(f"{n} {d}" for d, n in Counter(
-            s["description"] for s in val.skipped).items())
+        by_reason: dict[str, Counter] = {}
+        for sk in val.skipped:
+            by_reason.setdefault(sk["reason"], Counter())[sk["description"]] += 1
+        kinds = "; ".join(", ".join(f"{n} {d}" for d, n in c.items()) + f": {why}"
+                          for why, c in by_reason.items())
+        runnable = {"ftp75", "hwfet", "us06"}
+        hint = ("select FTP-75, HWFET or US06 tests, e.g. add procedure=ftp75"
+                if any(sk["procedure"] not in runnable for sk in val.skipped) else
+                "select tests the list states on gasoline with their weight and road load")
         raise InputFileError(
             f"the selector '{tests}' matches {len(val.skipped)} test(s), none of which the "
-            f"simulator can run ({kinds}: {val.skipped[0]['reason']}); select FTP-75, HWFET "
-            "or US06 tests, e.g. add procedure=ftp75")
+            f"simulator can run ({kinds}); {hint}")
     written = []
     if outdir is not None:
         from vehval.report.epa import write_epa_report
@@ -179,12 +238,16 @@ def validate_cmd(
     if as_json:
         typer.echo(jsonsafe.dumps(val), nl=False)
         return
-    typer.echo(f"{'test':14s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
-               f"{'err %':>6} {'batt %':>6} {'sample':9s} judged")
+    fe = _fe_display()
+    wt = max([14, *(len(c.test) for c in val.comparisons)])
+    typer.echo(f"{'test':{wt}s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
+               f"{'err %':>6} {'batt %':>6} {'sample':9s} judged   (pred, meas: {fe[0]}; "
+               "err: fuel economy, pred / meas mpg - 1)")
     for c in val.comparisons:
         batt = share_text(c.battery_share)
-        typer.echo(f"{c.test[:14]:14s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
-                   f"{c.predicted_mpg:6.1f} {c.measured_mpg:6.1f} {100 * c.error:+6.1f} "
+        typer.echo(f"{c.test:{wt}s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
+                   f"{_fmt(fe[1](c.predicted_mpg), fe[2]):>6} "
+                   f"{_fmt(fe[1](c.measured_mpg), fe[2]):>6} {100 * c.error:+6.1f} "
                    f"{batt:>6} {_sample_text(c):9s} {_judged_text(c)}")
     st = val.stats()
     for p in val.predictions:
@@ -201,8 +264,9 @@ def validate_cmd(
     if st["n_judged_in_sample"]:
         typer.echo("in-sample (the vehicle file was calibrated on these tests; not a "
                    "prediction): " + _stats_text(val.stats(in_sample=True)))
-    typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the model "
-               "(J1711 balances the whole test, not each bag)")
+    if any(c.battery_share is not None for c in val.comparisons):
+        typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the "
+                   "model (J1711 balances the whole test, not each bag)")
     if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
 
@@ -312,6 +376,32 @@ def calibrate_cmd(
         typer.echo(f"wrote {output}")
 
 
+def _uncalibrated() -> str:
+    """What a vehicle built without calibration tests is."""
+    from vehval.epa.specs import INDICATED_EFFICIENCY
+
+    return ("fuel model not calibrated (no --calibrate test): the generic start values, "
+            f"indicated efficiency {100 * INDICATED_EFFICIENCY:.0f} %, Heywood's friction "
+            "(scale 1), idle fuel from the map")
+
+
+def _narrow(rows: list, vehicle_id: str | None, config: str | None) -> list:
+    """The rows of one test vehicle and configuration; an ID or number that matches none
+    is refused with the ones there are."""
+    from vehval.errors import ConfigError
+
+    for value, attr, opt in ((vehicle_id, "vehicle_id", "--vehicle-id"),
+                             (config, "config", "--config")):
+        if value is None:
+            continue
+        sel = [t for t in rows if getattr(t, attr).upper() == value.strip().upper()]
+        if not sel:
+            there = ", ".join(sorted({getattr(t, attr) or "''" for t in rows}))
+            raise ConfigError(f"{opt} {value}: no selected row has it (there are: {there})")
+        rows = sel
+    return rows
+
+
 @epa_app.command("vehicle")
 def vehicle_cmd(
     paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
@@ -321,6 +411,9 @@ def vehicle_cmd(
     year: int = typer.Option(..., "--year", callback=bounded("year"), help="Model year."),
     vehicle_id: str | None = typer.Option(None, "--vehicle-id", help="Test vehicle ID, "
                                           "when the model has several configurations."),
+    config: str | None = typer.Option(None, "--config", help="Test vehicle configuration "
+                                      "number (the list's 'cfg'), when one test vehicle "
+                                      "has several."),
     calibrate: list[Path] = typer.Option([], "--calibrate", help="A dyno test (one file: "
                                          "vehicle speed and fuel rate) to fit the fuel "
                                          "model on; repeatable."),
@@ -343,9 +436,11 @@ def vehicle_cmd(
     from vehval.epa.specs import model_fuel_lhv, specs_from_tests, vehicle_from_specs
     from vehval.epa.specs_fit import (
         all_splits,
+        best_brake_efficiency,
         calibrate_specs,
         cold_note,
         dyno_run,
+        efficiency_note,
         predict_runs,
     )
     from vehval.errors import ConfigError
@@ -353,8 +448,7 @@ def vehicle_cmd(
 
     check_outputs(outfile=output, inputs=[*paths, *calibrate, *predict, template])
     rows = select_tests(read_lists(paths), make, model, year)
-    if vehicle_id:
-        rows = [t for t in rows if t.vehicle_id == vehicle_id]
+    rows = _narrow(rows, vehicle_id, config)
     specs = specs_from_tests(rows)
     files = [*calibrate, *predict]
     if files and template is None:
@@ -369,7 +463,8 @@ def vehicle_cmd(
     cal = [runs[f] for f in calibrate]
     held = [runs[f] for f in predict]
     fit = calibrate_specs(specs, cal, dt) if cal else None
-    veh = fit.vehicle() if fit is not None else vehicle_from_specs(specs)
+    veh = fit.vehicle() if fit is not None else vehicle_from_specs(
+        specs, note=f"; {_uncalibrated()}")
     pred = predict_runs(fit.model() if fit else veh, held, dt) if held else {}
     split_rows = all_splits(specs, list(runs.values()), splits, dt) if splits else []
     write_vehicle_yaml(veh, output, "vehval epa vehicle")
@@ -391,12 +486,19 @@ def vehicle_cmd(
                f"{format_value(specs.mass_kg, 'kg')}, {specs.displacement_l:g} L, "
                f"{specs.rated_power_w / 1e3:.0f} kW, {specs.gears}-speed, axle "
                f"{specs.axle_ratio:g}, N/V {specs.n_v_ratio:g}")
+    if fit is None:
+        typer.echo(f"{_uncalibrated()}: expect errors up to about 25 % against the list's "
+                   "figures (docs/validation.md); give dyno tests with --calibrate")
     if fit is not None:
         idle = "-" if fit.idle_fuel_g_per_s is None else f"{fit.idle_fuel_g_per_s:.3f}"
+        brake = best_brake_efficiency(veh)
         typer.echo(f"fitted on {', '.join(fit.tests)}: indicated efficiency "
                    f"{100 * fit.indicated_efficiency:.1f} %, friction scale "
                    f"{fit.friction_scale:.3f}, "
-                   f"idle {idle} g/s")
+                   f"idle {idle} g/s; best brake efficiency {100 * brake[0]:.1f} % "
+                   f"({brake[1]:.0f} rpm, {brake[2]:.0f} N·m)")
+        if efficiency_note(veh):
+            typer.echo(f"! {efficiency_note(veh)}")
     for row in tests_doc:
         err = "-" if row["error"] is None else f"{100 * row['error']:+.1f} %"
         typer.echo(f"{row['test'][:24]:24s} {'in-sample' if row['in_sample'] else 'held-out':9s}"

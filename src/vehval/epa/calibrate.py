@@ -103,6 +103,24 @@ class EpaCalibration:
                 "evaluations": self.evaluations}
 
 
+def _unknown_text(veh: Vehicle, name: str, full: str, params: list[str]) -> str:
+    """Message for a parameter the vehicle does not have: the closest names, those of the
+    same last part in any block (``accessory_power_w`` -> ``engine_control.``), else the
+    vehicle's blocks (a conventional car has no ``controller``)."""
+    last = full.rpartition(".")[2]
+    close = [p for p in params if p.rpartition(".")[2] == last]
+    close += [p for p in difflib.get_close_matches(full, params, n=3, cutoff=0.75)
+              if p not in close]
+    text = f"unknown parameter '{name}' of vehicle {veh.name}"
+    if "." not in name:
+        text += f" (a bare name is {full})"
+    if close:
+        return text + f"; did you mean {', '.join(close[:4])}?"
+    blocks = sorted({p.partition(".")[0] for p in params})
+    return text + (f"; its parameters are in the blocks {', '.join(blocks)} (write "
+                   f"BLOCK.NAME, e.g. {sorted(params)[0]})")
+
+
 def _check_grid(veh: Vehicle, grid: dict[str, list[float]]) -> dict[str, list[float]]:
     params = veh.parameters()
     if not grid:
@@ -111,10 +129,7 @@ def _check_grid(veh: Vehicle, grid: dict[str, list[float]]) -> dict[str, list[fl
     for name, values in grid.items():
         full = name if "." in name else f"controller.{name}"
         if full not in params:
-            close = difflib.get_close_matches(full, list(params), n=3, cutoff=0.75)
-            raise ConfigError(f"unknown parameter '{name}' of vehicle {veh.name}"
-                              + (f" (did you mean {', '.join(close)}?)" if close else
-                                 "; use a dotted name such as controller.soc_gain_w"))
+            raise ConfigError(_unknown_text(veh, name, full, list(params)))
         vals = sorted({float(v) for v in values})
         if not vals or not all(math.isfinite(v) for v in vals):
             raise ConfigError(f"parameter '{name}': give finite values")

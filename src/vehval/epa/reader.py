@@ -12,7 +12,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -115,6 +115,9 @@ class EpaTest:
     transmission : str
         ``Tested Transmission Type Code`` (``A``, ``SA``, ``M``, ``AM``, ``CVT``...; '' when
         absent).
+    years : tuple of int
+        Every model year whose list holds this test (a carried-over certification is listed
+        again the next years; :func:`read_lists` keeps it once); ``(year,)`` for one list.
     """
 
     year: int
@@ -147,6 +150,12 @@ class EpaTest:
     source: str
     gears: int = 0  # number of gears (0 when absent; 1 for a CVT)
     transmission: str = ""  # tested transmission type code (A, SA, M, AM, CVT...; '' absent)
+    years: tuple[int, ...] = ()  # model years whose lists hold this test (read_lists)
+
+    @property
+    def listed_years(self) -> tuple[int, ...]:
+        """The model years whose lists hold this test (at least its own)."""
+        return self.years or (self.year,)
 
     @property
     def label(self) -> str:
@@ -157,6 +166,7 @@ class EpaTest:
         """JSON-ready dict (NaN -> None)."""
         out = asdict(self)
         out["bags"] = [None if math.isnan(b) else b for b in self.bags]
+        out["years"] = list(self.listed_years)
         return {k: (None if isinstance(v, float) and math.isnan(v) else v)
                 for k, v in out.items()}
 
@@ -337,7 +347,8 @@ def read_lists(paths: Sequence[str | Path]) -> list[EpaTest]:
 
     A test that appears in several years' lists (same test number, or the same vehicle,
     procedure and results when the list has no test numbers) is kept once, from the
-    earliest list read that gives its test number.
+    earliest list read that gives its test number, with every year that lists it
+    (``EpaTest.years``: a selection by year finds it under each).
     """
     seen: dict[tuple, int] = {}
     out: list[EpaTest] = []
@@ -347,8 +358,11 @@ def read_lists(paths: Sequence[str | Path]) -> list[EpaTest]:
                     tuple(round(b, 3) if not math.isnan(b) else None for b in t.bags),
                     round(t.target_a_n, 3)))
             if key in seen:
-                if t.test_number and not out[seen[key]].test_number:
-                    out[seen[key]] = t      # the numbered row says which test it is
+                kept = out[seen[key]]
+                years = tuple(sorted({*kept.listed_years, t.year}))
+                if t.test_number and not kept.test_number:
+                    kept = t                # the numbered row says which test it is
+                out[seen[key]] = replace(kept, years=years)
                 continue
             seen[key] = len(out)
             out.append(t)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import difflib
 from collections import defaultdict
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from vehval.epa.procedures import procedure_key
 from vehval.epa.reader import EpaTest
@@ -35,6 +35,31 @@ def _match_model(tests: list[EpaTest], model: str) -> list[EpaTest]:
     return [t for t in tests if model.upper() in t.model.upper()]
 
 
+def model_note(tests: list[EpaTest], model: str | None, make: str | None = None,
+               year: int | str | None = None) -> str | None:
+    """What a ``model`` selection took, when it may not be what was meant: no model is named
+    ``model`` and it was taken as part of the names; or one is, and other names (of the
+    same make and year, when given) that contain it were left out (``F150`` is a Roush's
+    exact name and part of 13 Ford names). None otherwise."""
+    if not model or not model.strip():
+        return None
+    want = model.strip().upper()
+    pool = [t for t in tests
+            if (year is None or str(year).strip() in map(str, t.listed_years))
+            and (not make or t.make.upper() == make.strip().upper())]
+    exact = sorted({t.model for t in pool if t.model.upper() == want})
+    part = sorted({t.model for t in pool if want in t.model.upper()} - set(exact))
+    if not part:
+        return None
+    shown = ", ".join(repr(n) for n in part[:6]) + (" ..." if len(part) > 6 else "")
+    if not exact:
+        return f"no model is named '{model.strip()}'; taken as part of a name: {shown}"
+    makes = sorted({t.make for t in pool if t.model in exact})
+    return (f"'{model.strip()}' is the exact name of a model ({', '.join(makes)}), which alone "
+            f"is selected; {len(part)} other name(s) contain it: {shown}: give the full name "
+            "(and --make / make=) to select one of those")
+
+
 def select_tests(tests: list[EpaTest], make: str | None = None, model: str | None = None,
                  year: int | None = None) -> list[EpaTest]:
     """Tests of one make / model / year (each optional; case-insensitive).
@@ -49,9 +74,12 @@ def select_tests(tests: list[EpaTest], make: str | None = None, model: str | Non
     """
     out = tests
     if year is not None:
-        out = [t for t in out if t.year == int(year)]
+        # a test listed again in a later year's list (carried over) is found under each
+        # year, and read as of the year asked for
+        y = int(year)
+        out = [t if t.year == y else replace(t, year=y) for t in out if y in t.listed_years]
         if not out:
-            years = sorted({t.year for t in tests})
+            years = sorted({y_ for t in tests for y_ in t.listed_years})
             raise InputFileError(f"no test of model year {year} in the list (years: "
                                  f"{', '.join(map(str, years))})")
     if make:

@@ -41,7 +41,7 @@ import numpy as np
 from vehval.constants import MPH_M_PER_S as MPH
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.epa import engine_model as em
-from vehval.epa.procedures import procedure_key
+from vehval.epa.procedures import is_gasoline, procedure_key, road_load_without_b
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
 from vehval.vehicle.conventional import ConventionalVehicle
@@ -127,49 +127,165 @@ class Specs:
 
 
 def _refuse_transmission(t0: EpaTest) -> None:
+    gears = "1 gear" if t0.gears == 1 else f"{t0.gears} gears"
     raise ConfigError(f"{t0.label}: transmission '{t0.transmission or '?'}' with "
-                      f"{t0.gears} gears: the conventional model is an automatic with "
+                      f"{gears}: the conventional model is an automatic with "
                       f"a torque converter and {min(RATIO_SPREAD)}-{max(RATIO_SPREAD)} "
                       "gears (CVT, manual and hybrid are not modelled from specs)")
+
+
+#: what a specification key is called in a message
+_SPEC_NAMES = {"mass_kg": "equivalent test weight", "target_a_n": "road-load target A",
+               "target_b_n_per_mps": "road-load target B",
+               "target_c_n_per_mps2": "road-load target C", "axle_ratio": "axle ratio",
+               "n_v_ratio": "N/V [rpm/mph]", "displacement_l": "displacement [L]",
+               "rated_power_w": "rated power"}
+#: list columns of the specification keys (named when a list lacks one)
+_SPEC_COLUMNS = {"mass_kg": "Equivalent Test Weight (lbs.)", "axle_ratio": "Axle Ratio",
+                 "n_v_ratio": "N/V Ratio", "displacement_l": "Test Veh Displacement (L)",
+                 "rated_power_w": "Rated Horsepower"}
+#: words of a model name that mark a hybrid or plug-in (whole words, upper case; any name
+#: containing HYBRID is one too, e.g. 'ActiveHybrid 5')
+HYBRID_WORDS = ("HEV", "PHEV", "FHEV", "MHEV", "PLUG-IN")
+#: plausible rated power per litre of a car engine [W/L] (naturally aspirated to racing
+#: turbo: 40-140 kW/L in the 2016-2019 lists); outside it the listed power or displacement
+#: is a typing error
+SPECIFIC_POWER_W_PER_L = (20e3, 200e3)
+
+
+def _refuse_mixed(tests: list[EpaTest], key: str) -> None:
+    """Refuse rows of several configurations, naming the value of ``key`` (display units)
+    of each test vehicle and configuration number and the options that choose one."""
+    from vehval.display import format_keyed, number
+
+    by_cfg: dict[str, set[str]] = {}
+    for t in tests:
+        value = float(getattr(t, key))
+        text = (format_keyed(key, value) if key in ("mass_kg", "rated_power_w")
+                or key.startswith("target_") else number(value))
+        by_cfg.setdefault(f"{t.vehicle_id or '?'} config {t.config or '?'}", set()).add(text)
+    shown = "; ".join(f"{k}: {', '.join(sorted(v))}" for k, v in sorted(by_cfg.items()))
+    t0 = tests[0]
+    how = ("choose one with --vehicle-id ID and, when one test vehicle has several, "
+           "--config N")
+    if any(not t.config for t in tests):
+        how = ("the list has no configuration number (the reduced column set of some "
+               "years) to choose one by: use another year's list that lists this test "
+               "vehicle with its configurations")
+    raise ConfigError(f"the selected {t0.make} {t0.model} rows describe more than one "
+                      f"configuration ({_SPEC_NAMES.get(key, key)} by test vehicle and "
+                      f"configuration: {shown}): {how}")
+
+
+def _where(t: EpaTest) -> str:
+    """``test (file:line)``, or ``file:line`` for a row without a test number."""
+    return f"{t.test_number} ({t.source})" if t.test_number else t.source
+
+
+def _is_gasoline(t: EpaTest) -> bool:
+    return is_gasoline(t.fuel)
+
+
+def _spec_rows(tests: list[EpaTest]) -> list[EpaTest]:
+    """The rows that state the configuration: all but the cold CO tests, whose road-load
+    coefficients are the warm ones raised for -7 degC (about +10 %) and whose fuel is the
+    cold CO fuel; every row is used when only cold CO rows are selected."""
+    warm = [t for t in tests if procedure_key(t) != "coldco"]
+    return warm or tests
+
+
+def _check_car(tests: list[EpaTest]) -> None:
+    """Refuse what the spark-ignition conventional model cannot describe: a hybrid or
+    plug-in by its model name, a configuration tested on no gasoline (diesel, E85,
+    electricity), a transmission other than a geared automatic."""
+    t0 = tests[0]
+    name = t0.model.upper()
+    words = set(name.replace("(", " ").replace(")", " ").replace(",", " ").split())
+    mark = "HYBRID" if "HYBRID" in name else next(iter(sorted(words & set(HYBRID_WORDS))), "")
+    plug = next((t for t in tests if procedure_key(t) in ("cd_udds", "cd_hwfet")), None)
+    if mark or plug is not None:
+        why = (f"'{mark}' in the model name" if mark or plug is None else
+               f"charge-depleting test {plug.label} in the list")
+        raise ConfigError(f"{t0.make} {t0.model}: {why}: a hybrid or plug-in hybrid is not "
+                          "modelled from specs (the model is a conventional car); use a "
+                          "hybrid vehicle file with `vehval epa validate`")
+    if not any(_is_gasoline(t) for t in tests):
+        fuels = ", ".join(sorted({f"'{t.fuel}'" for t in tests}))
+        raise ConfigError(f"{t0.make} {t0.model} ({t0.vehicle_id}): tested on {fuels}, no "
+                          "gasoline: the model from specs is a spark-ignition engine on "
+                          "certification gasoline (a diesel, E85 or electric test is not "
+                          "modelled)")
+    if all(t.transmission not in ("A", "SA") or t.gears not in RATIO_SPREAD for t in tests):
+        _refuse_transmission(t0)  # before any other check: no narrowing makes it modelled
+
+
+def _check_values(tests: list[EpaTest]) -> None:
+    """Refuse a missing or implausible listed value, naming the row and the column."""
+    for key in _SPEC_KEYS:
+        if key.startswith("target_"):
+            continue
+        for t in tests:
+            v = float(getattr(t, key))
+            if not math.isfinite(v) or v <= 0:
+                col = _SPEC_COLUMNS[key]
+                raise ConfigError(f"EPA list row {_where(t)}: no "
+                                  f"{_SPEC_NAMES[key]} ('{col}' empty or absent: some years' "
+                                  "lists have a reduced column set); the specs need weight, "
+                                  "road load, axle ratio, N/V, displacement and rated power: "
+                                  "use a list that gives them for this test vehicle")
+    t0 = tests[0]
+    spec = t0.rated_power_w / t0.displacement_l
+    lo, hi = SPECIFIC_POWER_W_PER_L
+    if not lo <= spec <= hi:
+        raise ConfigError(f"EPA list row {_where(t0)}: rated power "
+                          f"{t0.rated_power_w / 1e3:.1f} kW for {t0.displacement_l:g} L is "
+                          f"{spec / 1e3:.0f} kW/L, outside the {lo / 1e3:.0f}-{hi / 1e3:.0f} "
+                          "kW/L of car engines: a typing error in the list (horsepower or "
+                          "displacement); the specs cannot size the engine")
+    rpm60 = 60.0 * t0.n_v_ratio
+    if not 1.3 * IDLE_SPEED_RPM <= rpm60 <= 0.9 * RATED_SPEED_RPM:
+        raise ConfigError(f"EPA list row {_where(t0)}: N/V {t0.n_v_ratio:g} "
+                          f"rpm/mph puts the engine at {rpm60:.0f} rpm at 60 mph in top gear, "
+                          f"outside {1.3 * IDLE_SPEED_RPM:.0f}-{0.9 * RATED_SPEED_RPM:.0f} "
+                          "rpm: not a plausible N/V (a typing error in the list?); the specs "
+                          "cannot set the gear ratios")
 
 
 def specs_from_tests(tests: list[EpaTest]) -> Specs:
     """The specification of the one configuration the selected list rows describe.
 
     The rows must agree on the test vehicle's weight, road load, axle ratio, N/V,
-    gears, displacement and rated power (one car); an automatic with a torque converter
-    (transmission ``A`` or ``SA``, 3-10 gears) is required.
+    gears, displacement and rated power (one car; cold CO rows, whose road load is raised
+    for -7 degC, are not compared); an automatic with a torque converter (transmission
+    ``A`` or ``SA``, 3-10 gears), a gasoline test and a model name without a hybrid mark
+    are required, and the listed power and N/V must be plausible.
+
+    Raises
+    ------
+    ConfigError
+        Naming the row, the value and what to choose or why the car is not modelled.
     """
     if not tests:
         raise ConfigError("no EPA list row selected: name the make, model and year")
-    t0 = tests[0]
-    if all(t.transmission not in ("A", "SA") or t.gears not in RATIO_SPREAD for t in tests):
-        _refuse_transmission(t0)  # before any other check: no narrowing makes it modelled
+    _check_car(tests)
+    rows = _spec_rows(tests)
+    t0 = rows[0]
+    _check_values(rows)
     for key in _SPEC_KEYS:
-        vals = [getattr(t, key) for t in tests]
-        if any(not math.isfinite(v) or v <= 0 for v in vals) and key not in (
-                "target_b_n_per_mps", "target_c_n_per_mps2", "target_a_n"):
-            raise ConfigError(f"EPA list row {t0.label} ({t0.source}): no {key}; the specs "
-                              "need weight, road load, axle ratio, N/V, displacement and "
-                              "rated power")
+        vals = [getattr(t, key) for t in rows]
         if max(vals) - min(vals) > 1e-6 * max(abs(v) for v in vals) + 1e-9:
-            by_id: dict[str, set[str]] = {}
-            for t in tests:
-                by_id.setdefault(t.vehicle_id or "?", set()).add(f"{getattr(t, key):.6g}")
-            shown = "; ".join(f"{vid}: {', '.join(sorted(v))}" for vid, v in sorted(by_id.items()))
-            raise ConfigError(f"the selected {t0.make} {t0.model} rows describe more than one "
-                              f"configuration ({key} by test vehicle: {shown}): choose one "
-                              "test vehicle (--vehicle-id ID)")
-    gears = {t.gears for t in tests}
-    trans = {t.transmission for t in tests}
+            _refuse_mixed(rows, key)
+    gears = {t.gears for t in rows}
+    trans = {t.transmission for t in rows}
     if len(gears) != 1 or len(trans) != 1:
         raise ConfigError("the selected rows differ in transmission or gear count: narrow "
                           "the selection")
     if t0.transmission not in ("A", "SA") or t0.gears not in RATIO_SPREAD:
         _refuse_transmission(t0)
     ratios = []
-    for t in tests:
-        if procedure_key(t) == "ftp75" and all(math.isfinite(b) for b in t.bags[:3]):
+    for t in rows:
+        if (procedure_key(t) == "ftp75" and _is_gasoline(t)
+                and all(math.isfinite(b) for b in t.bags[:3])):
             ratios.append(t.bags[2] / t.bags[0])
     name = f"{t0.make} {t0.model} {t0.year}".lower()
     return Specs(
@@ -178,7 +294,7 @@ def specs_from_tests(tests: list[EpaTest]) -> Specs:
         **{k: float(getattr(t0, k)) for k in _SPEC_KEYS}, gears=t0.gears,
         transmission=t0.transmission,
         cold_bag_ratio=float(np.mean(ratios)) if ratios else math.nan,
-        rows=[f"{t.label} ({t.source})" for t in tests])
+        rows=[f"{t.label} ({t.source})" for t in rows])
 
 
 def friction_torque_nm(speed_rpm: np.ndarray, displacement_l: float,
@@ -283,19 +399,24 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                     f"x (1 + f exp(-t / {WARMUP_TIME_CONSTANT_S:g} s)) over bag 1 (505 s): "
                     f"f = {warm:.4f}")
     est = _EST
+    rl = road_load_without_b(s.target_a_n, s.target_b_n_per_mps,
+                             max(s.target_c_n_per_mps2, 0.0))
+    refit = ("" if s.target_b_n_per_mps >= 0 else
+             f" (listed B {s.target_b_n_per_mps:.4g} N/(m/s) < 0: A and C refitted with B = 0 "
+             "over the UDDS, HWFET and US06 speeds, vehval.epa.procedures."
+             "road_load_without_b)")
     data = {
         "architecture": "conventional", "name": s.name,
         "description": (f"{s.make} {s.model} ({s.year} EPA Test Car List, test vehicle "
                         f"{s.vehicle_id}) from its public specification: vehval epa "
                         f"vehicle{note}"),
-        "body": {"mass_kg": s.mass_kg, "road_load_a_n": s.target_a_n,
-                 "road_load_b_n_per_mps": max(s.target_b_n_per_mps, 0.0),
-                 "road_load_c_n_per_mps2": max(s.target_c_n_per_mps2, 0.0),
+        "body": {"mass_kg": s.mass_kg, "road_load_a_n": rl[0],
+                 "road_load_b_n_per_mps": rl[1], "road_load_c_n_per_mps2": rl[2],
                  "aux_power_w": 0.0,
                  "sources": {"mass_kg": f"equivalent test weight, {where}",
-                             "road_load_a_n": f"road-load target A, {where}",
-                             "road_load_b_n_per_mps": f"road-load target B, {where}",
-                             "road_load_c_n_per_mps2": f"road-load target C, {where}",
+                             "road_load_a_n": f"road-load target A, {where}{refit}",
+                             "road_load_b_n_per_mps": f"road-load target B, {where}{refit}",
+                             "road_load_c_n_per_mps2": f"road-load target C, {where}{refit}",
                              "aux_power_w": "accessories are in engine_control"}},
         "engine": {"speed_rpm": speeds.tolist(), "torque_nm": torques.tolist(),
                    "fuel_rate_g_per_s": fuel.tolist(), "max_torque_nm": tmax.tolist(),

@@ -34,8 +34,15 @@ from typing import Any, Sequence
 import numpy as np
 
 from vehval.calibration.provenance import Provenance
+from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.cycles import Cycle
-from vehval.epa.specs import ENRICHMENT, INDICATED_EFFICIENCY, Specs, vehicle_from_specs
+from vehval.epa.specs import (
+    ENRICHMENT,
+    INDICATED_EFFICIENCY,
+    Specs,
+    model_fuel_lhv,
+    vehicle_from_specs,
+)
 from vehval.errors import ConfigError, SignalError
 from vehval.sim.simulate import simulate
 
@@ -198,11 +205,46 @@ class SpecsFit:
                                   idle_source=self.idle_source, enrichment=self.enrichment)
 
     def to_dict(self) -> dict[str, Any]:
+        eff = best_brake_efficiency(self.model())
         return {"tests": self.tests, "indicated_efficiency": self.indicated_efficiency,
+                "best_brake_efficiency": eff[0],
+                "plausibility_note": efficiency_note(self.model()),
                 "idle_fuel_g_per_s": self.idle_fuel_g_per_s,
                 "friction_scale": self.friction_scale, "errors": self.errors,
                 "start_errors": self.start_errors, "objective": self.objective,
                 "dt_s": self.dt, "specs": self.specs.to_dict()}
+
+
+#: plausible best brake efficiency of a car's spark-ignition engine [-] (production engines
+#: 30-41 %; outside the range a fitted fuel map describes no real engine)
+BRAKE_EFFICIENCY_RANGE = (0.20, 0.45)
+
+
+def best_brake_efficiency(vehicle: Any) -> tuple[float, float, float]:
+    """Best brake efficiency of the vehicle's engine map at or above idle speed and within
+    full load: (efficiency [-], speed [rpm], torque [N·m])."""
+    e = vehicle.engine
+    speed, torque = np.asarray(e.speed_rpm, float), np.asarray(e.torque_nm, float)
+    fuel, tmax = np.asarray(e.fuel_rate_g_per_s, float), np.asarray(e.max_torque_nm, float)
+    power = np.outer(speed * RPM, torque)
+    ok = ((fuel > 0) & (power > 0) & (torque[None, :] <= tmax[:, None] + 1e-9)
+          & (speed[:, None] >= e.idle_speed_rpm))
+    eff = np.where(ok, power / np.where(fuel > 0, fuel * 1e-3, 1.0) / model_fuel_lhv(), 0.0)
+    i, j = np.unravel_index(int(np.argmax(eff)), eff.shape)
+    return float(eff[i, j]), float(speed[i]), float(torque[j])
+
+
+def efficiency_note(vehicle: Any) -> str:
+    """'' when the map's best brake efficiency is plausible, else what is wrong with it."""
+    eff, rpm, nm = best_brake_efficiency(vehicle)
+    lo, hi = BRAKE_EFFICIENCY_RANGE
+    if lo <= eff <= hi:
+        return ""
+    return (f"the fitted fuel map's best brake efficiency is {100 * eff:.1f} % ({rpm:.0f} rpm, "
+            f"{nm:.0f} N·m), outside the {100 * lo:.0f}-{100 * hi:.0f} % of real "
+            "spark-ignition engines: the tests' fuel (its unit, density or fuel) or the list "
+            "row (weight, road load) does not describe this car; the figures it predicts are "
+            "not to be trusted")
 
 
 def measured_idle(runs: Sequence[DynoRun]) -> tuple[float | None, str]:
@@ -306,5 +348,6 @@ def cold_note(run: DynoRun) -> str:
             "run cold")
 
 
-__all__ = ["DynoRun", "SpecsFit", "all_splits", "calibrate_specs", "cold_note", "dyno_run",
+__all__ = ["BRAKE_EFFICIENCY_RANGE", "DynoRun", "SpecsFit", "all_splits", "best_brake_efficiency",
+           "calibrate_specs", "cold_note", "dyno_run", "efficiency_note",
            "measured_idle", "predict_runs", "simulated_fuel_kg"]

@@ -44,11 +44,14 @@ from vehval.epa.consistency import (
     group_mismatches,
 )
 from vehval.epa.procedures import (
+    CERTIFICATION_CYCLES,
     FTP_WEIGHT_COLD,
     FTP_WEIGHT_HOT,
     Procedure,
+    fuel_family,
     plan_for,
     procedure_key,
+    road_load_without_b,
 )
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
@@ -253,12 +256,15 @@ def spread_correlation(comparisons: list[Comparison]) -> dict[str, Any]:
             "per_kind": {k: pearson(v) for k, v in sorted(kinds.items())}}
 
 
-def vehicle_for_test(vehicle: Vehicle, test: EpaTest) -> Vehicle:
-    """The vehicle with the test's equivalent test weight and road-load target."""
+def vehicle_for_test(vehicle: Vehicle, test: EpaTest,
+                     cycles: tuple[str, ...] = CERTIFICATION_CYCLES) -> Vehicle:
+    """The vehicle with the test's equivalent test weight and road-load target (a negative
+    B refitted as A' + C' v^2 over the speeds of ``cycles``: :func:`road_load_without_b`)."""
+    a, b, c = road_load_without_b(test.target_a_n, test.target_b_n_per_mps,
+                                  max(test.target_c_n_per_mps2, 0.0), cycles)
     return vehicle.with_overrides({
-        "body.mass_kg": test.mass_kg, "body.road_load_a_n": test.target_a_n,
-        "body.road_load_b_n_per_mps": max(test.target_b_n_per_mps, 0.0),
-        "body.road_load_c_n_per_mps2": max(test.target_c_n_per_mps2, 0.0)})
+        "body.mass_kg": test.mass_kg, "body.road_load_a_n": a,
+        "body.road_load_b_n_per_mps": b, "body.road_load_c_n_per_mps2": c})
 
 
 def _grids(veh: Vehicle, proc: Procedure, dt: float) -> list[Grid]:
@@ -292,7 +298,7 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
 
     A conventional vehicle (``architecture: conventional``) runs its own loop; it has no
     battery, so nothing is balanced (``soc_initial`` NaN, ``soc_delta`` 0)."""
-    veh = vehicle_for_test(vehicle, test)
+    veh = vehicle_for_test(vehicle, test, tuple(dict.fromkeys(proc.runs)))
     grids = _grids(veh, proc, dt)
     arch = architecture(veh)
     conventional = not arch.has_battery
@@ -480,6 +486,10 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         (:func:`repeated_calibration_tests`).
     """
     veh = load_vehicle(vehicle)
+    # the tests on the vehicle's fuel: a diesel's on diesel, any other's on gasoline
+    fuel = resolve_fuel(vehicle=veh)
+    fuel_name = ("diesel" if fuel is not None and fuel_family(fuel.name) == "diesel"
+                 else "gasoline")
     cold_model = has_cold_start_model(veh)
     res = EpaValidation(vehicle=veh.name, calibrated=calibration_tests(veh))
     res.repeats, res.sample_unknown = repeated_calibration_tests(
@@ -488,7 +498,7 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         res.calibrated[label] = res.calibrated[same]
     progress.add(len(tests))
     for t in tests:
-        proc, why = plan_for(t)
+        proc, why = plan_for(t, fuel_name)
         progress.advance()
         if proc is None:
             res.skipped.append({"test": t.label, "vehicle_id": t.vehicle_id,
