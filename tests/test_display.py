@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import pytest
 
@@ -86,3 +88,17 @@ def test_keyed_small_length_is_a_dimension_not_a_distance():
     # a template's wheel_radius_m 0.305 was shown as '0.0001895 mi'
     assert display.format_keyed("wheel_radius_m", 0.305, system_name="us") == "0.305 m"
     assert display.format_keyed("distance_m", 11_990.0, system_name="us") == "7.45 mi"
+
+
+def test_units_option_holds_for_one_run_only(monkeypatch, capsys):
+    """``--units metric`` run in-process leaves the caller's unit system as it was."""
+    from vehval.cli import main
+    from vehval.display import ENV_VAR, system
+
+    monkeypatch.delenv(ENV_VAR, raising=False)
+    assert main(["--units", "metric", "cycles", "list"]) == 0
+    assert ENV_VAR not in os.environ and system() == "us"
+    monkeypatch.setenv(ENV_VAR, "us")
+    assert main(["--units", "metric", "cycles", "list"]) == 0
+    assert os.environ[ENV_VAR] == "us"
+    capsys.readouterr()

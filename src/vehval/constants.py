@@ -26,3 +26,7 @@ LBF_N = 4.4482216152605
 #: One pound (mass) [kg].
 LB_KG = 0.45359237
 
+
+#: Environment variable holding the display unit system chosen with ``--units``
+#: (read by :mod:`vehval.display`; the CLI sets it for one run).
+UNITS_ENV_VAR = "VEHVAL_UNITS"

@@ -20,7 +20,15 @@ from typing import Iterable
 
 import numpy as np
 
-from vehval.constants import KMH_M_PER_S, LB_KG, LBF_N, MILE_M, MPH_M_PER_S, RPM_RAD_PER_S
+from vehval.constants import (
+    KMH_M_PER_S,
+    LB_KG,
+    LBF_N,
+    MILE_M,
+    MPH_M_PER_S,
+    RPM_RAD_PER_S,
+    UNITS_ENV_VAR,
+)
 from vehval.fuels.quantities import VOLUME_DISPLAY
 
 #: The unit systems a person can choose.
@@ -28,7 +36,7 @@ SYSTEMS: tuple[str, ...] = ("us", "metric")
 #: The system used when none is chosen.
 DEFAULT_SYSTEM = "us"
 #: Environment variable holding the chosen system (set by the CLI's ``--units``).
-ENV_VAR = "VEHVAL_UNITS"
+ENV_VAR = UNITS_ENV_VAR
 
 
 @dataclass(frozen=True)

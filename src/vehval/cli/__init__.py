@@ -40,7 +40,23 @@ def _register() -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point: run the CLI, turn user errors into one clear line and an exit code."""
+    """Entry point: run the CLI, turn user errors into one clear line and an exit code.
+
+    ``--units`` is in force for this run only: the unit system the caller's environment
+    had is restored afterwards (an in-process caller runs several commands)."""
+    from vehval.constants import UNITS_ENV_VAR as ENV_VAR
+
+    before = os.environ.get(ENV_VAR)
+    try:
+        return _main(argv)
+    finally:
+        if before is None:
+            os.environ.pop(ENV_VAR, None)
+        else:
+            os.environ[ENV_VAR] = before
+
+
+def _main(argv: list[str] | None) -> int:
     _register()
     args = list(sys.argv[1:] if argv is None else argv)
     try:
