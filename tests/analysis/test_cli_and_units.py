@@ -122,7 +122,8 @@ def _hybrid_like_csv(tmp_path):
 
 
 def test_the_rule_fit_announces_its_kernel_and_a_conventional_car_has_no_rule(tmp_path,
-                                                                              monkeypatch):
+                                                                              monkeypatch,
+                                                                              capsys):
     """The engine-rule replay kernel says it compiles (first run) before the rule fit; a car
     whose engine runs whenever it moves gets no hybrid rule fit at all."""
     from vehval import numba_cache
@@ -135,6 +136,9 @@ def test_the_rule_fit_announces_its_kernel_and_a_conventional_car_has_no_rule(tm
     assert main(["analyze", str(tmp_path / "run.csv"), "-t", str(tmp_path / "t.yaml"), "-o",
                  str(tmp_path / "out"), "--no-qa"]) == 0
     assert ("supervisor", "replay_rule") in asked
+    # no hybrid signal, but the engine stops while the car moves: the screen reports the rule
+    out = capsys.readouterr().out
+    assert "controller parameter(s) estimated" in out and "conventional" not in out
     # the same drive with the engine always running: a conventional car
     text = (tmp_path / "run.csv").read_text().splitlines()
     rows = [text[0]] + [",".join(r.split(",")[:3] + ["1500"]) for r in text[1:]]
@@ -145,6 +149,7 @@ def test_the_rule_fit_announces_its_kernel_and_a_conventional_car_has_no_rule(tm
     d = json.loads((tmp_path / "conv" / "control.json").read_text())
     assert asked == [] and d["rule_agreement"] is None and d["controller"] == {}
     assert any("conventional vehicle" in f["message"] for f in d["findings"])
+    assert "no hybrid control strategy to estimate" in capsys.readouterr().out
 
 
 def test_cli_analyze_says_why_nothing_is_estimated(tmp_path, capsys):

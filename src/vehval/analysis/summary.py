@@ -259,10 +259,7 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  
             "pdis_av": f64(np.full(inp.n, np.inf) if pdis_av is None
                            else np.where(np.isfinite(pdis_av), pdis_av, np.inf))}
     elif not hybrid:
-        findings.append(Finding("info", "engine state",
-                                "engine on/off rule not estimated: a conventional vehicle (its "
-                                "vehicle file says so, or no battery, motor or generator signal "
-                                "and the engine runs whenever the car moves)"))
+        findings.append(Finding("info", "engine state", CONVENTIONAL_NOTE))
         events = event_table(inp.t, es.on, es.valid, inp.v, inp.p_whl, soc, ess_pwr,
                              base, aux, 0.0)
     else:
@@ -296,6 +293,18 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  
 #: Engine-off time while moving [s] (above ``ELECTRIC_DRIVE_MIN_MPS``) that shows a hybrid
 #: when neither a vehicle file nor a battery, motor or generator signal says so.
 ELECTRIC_DRIVE_MIN_S, ELECTRIC_DRIVE_MIN_MPS = 5.0, 2.0
+
+
+#: The analysis' finding when it judges the drive a conventional car's (the CLI reads it).
+CONVENTIONAL_NOTE = ("engine on/off rule not estimated: a conventional vehicle (its vehicle "
+                     "file says so, or no battery, motor or generator signal and the engine runs "
+                     "whenever the car moves)")
+
+
+def judged_conventional(findings: list) -> bool:
+    """Whether :func:`_is_hybrid_drive` judged the drive conventional (from the findings)."""
+    return any((f.get("message") if isinstance(f, dict) else getattr(f, "message", None))
+               == CONVENTIONAL_NOTE for f in findings)
 
 
 def _is_hybrid_drive(test: Test, vehicle: Any, es: Any, inp: Any) -> bool:

@@ -38,16 +38,15 @@ def analyze_cmd(
     if as_json:
         typer.echo(text, nl=False)
         return
-    from vehval.test import hybrid_signals
+    from vehval.analysis.summary import judged_conventional
 
     c = result.controller
     agree = result.rule_agreement
-    conventional = (getattr(run.vehicle, "architecture", None) == "conventional"
-                    or not hybrid_signals(run.test))
-    if conventional:
+    if judged_conventional(result.findings):  # the analysis' own decision, not a second rule
         # the engine on/off rule, SOC regulation and modes are the hybrid's control strategy
-        typer.echo(f"wrote {outdir / 'control.json'}: a conventional vehicle (no battery, motor "
-                   "or generator signal): no hybrid control strategy to estimate")
+        typer.echo(f"wrote {outdir / 'control.json'}: a conventional vehicle (its vehicle file "
+                   "says so, or no battery, motor or generator signal and the engine runs "
+                   "whenever the car moves): no hybrid control strategy to estimate")
         return
     typer.echo(f"wrote {outdir / 'control.json'}: {len(c)} controller parameter(s) estimated, "
                f"rule agreement {f'{agree:.1%} of steps' if agree is not None else 'n/a'}")
