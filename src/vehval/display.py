@@ -205,6 +205,45 @@ def number(value: float, digits: int = 4) -> str:
     return text
 
 
+#: The smallest share :func:`percent` writes out [%]; below it: ``< 0.0001 %``.
+PERCENT_FLOOR = 1e-4
+
+
+def percent(fraction: float | None, decimals: int = 1) -> str:
+    """A fraction [-] as a percentage with its sign: ``0.1234`` -> ``"12.3 %"``.
+
+    ``decimals`` decimals, more where they would hide a difference: two significant digits
+    for a non-zero share below 1 % (``0.014 %``, never ``0.0 %``) and for the distance to
+    100 % just short of it (``99.986 %``, never ``100.0 %``), to at most four decimals
+    (``< 0.0001 %``, ``> 99.9999 %`` beyond); ``n/a`` when not finite.
+
+    Parameters
+    ----------
+    fraction : float or None
+        The share [-] (1 is 100 %).
+    decimals : int
+        Decimals of a share from 1 to 99 % [-].
+
+    Returns
+    -------
+    str
+        The percentage followed by `` %``.
+    """
+    if fraction is None or not math.isfinite(fraction):
+        return "n/a"
+    p = 100.0 * float(fraction)
+    a, sign = abs(p), "-" if p < 0 else ""
+    if 0.0 < a < PERCENT_FLOOR:
+        return f"< {PERCENT_FLOOR:g} %" if p > 0 else f"> -{PERCENT_FLOOR:g} %"
+    if 0.0 < 100.0 - a < PERCENT_FLOOR:
+        return f"> {100 - PERCENT_FLOOR:g} %" if p > 0 else f"< -{100 - PERCENT_FLOOR:g} %"
+    digits = max(decimals, 0)
+    for gap in (a, 100.0 - a):           # the share, and what it lacks to the whole
+        if 0.0 < gap < 1.0:
+            digits = max(digits, min(1 - math.floor(math.log10(gap)), 4))
+    return f"{sign}{a:.{digits}f} %"
+
+
 def format_value(value_si: float, si_unit: str, *, system_name: str | None = None,
                  signal: str | None = None, digits: int = 4) -> str:
     """One SI value as a person reads it: ``-1e-06`` kg/s -> ``"-0.001 g/s"``.

@@ -117,3 +117,16 @@ def test_backwards_time_is_error():
     s = Signal.standard("veh_spd_test", t, np.arange(6.0), source="dyno")
     f = check_signal(Test([s]), s)
     assert any(x.kind == Kind.RATE_IRREGULAR and x.severity == Severity.ERROR for x in f)
+
+
+def test_small_negative_share_is_not_shown_as_zero_percent():
+    """5 negative samples of 36 000 (0.0139 %): the message says 0.014 %, not 0.0 %."""
+    from vehval.test import Test
+    t = np.arange(0, 3600, 0.1)
+    fuel = 4e-4 + 1e-4 * np.sin(t / 30)                     # [kg/s] 0.3-0.5 g/s
+    fuel[[1000, 9000, 17000, 25000, 33000]] = -2e-5
+    s = Signal.standard("fuel_rate_test", t, fuel, source="dyno")
+    neg = [f for f in check_signal(Test([s]), s) if f.kind == Kind.NEGATIVE]
+    assert len(neg) == 1
+    assert neg[0].numbers["fraction"] == pytest.approx(5 / t.size)
+    assert "(0.014 % of samples" in neg[0].message, neg[0].message

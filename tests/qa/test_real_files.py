@@ -1,7 +1,7 @@
 """QA on real public files (skipped when the shared data directory is absent).
 
-Cruze D3 files are imported with tests/qa/templates/cruze.yaml (test mass 3808 lb, A and B
-from the D3 master summary; C was not captured there and is set to 0, see the template).
+Cruze D3 files are imported with tests/qa/templates/cruze.yaml (test mass 3808 lb and the
+target A, B, C of the D3 master summary, see the template).
 Every other real file is imported with a template proposed by `template init` logic: the
 point there is only that nothing crashes.
 """
@@ -36,7 +36,7 @@ def test_cruze_wot_all_zero_fuel_and_force_check():
     assert [(f.signal, f.severity) for f in zero] == [("fuel_rate_test", Severity.ERROR)]
     assert "fuel_rate_test" in res.selection.dropped
     row = [r for r in res.table3 if r.measured == "veh_frc_in_test"][0]
-    # dyno force vs m·a + A + B v (C unknown): the check runs and agrees in shape
+    # dyno force vs m·a + A + B v + C v²: the check runs and agrees in shape
     assert row.r2 > 0.9
     print(f"\n61410007 vehicle-force check: R2 {row.r2:.3f}, mean |diff| {row.mean_abs_diff:.0f} N "
           f"= {100 * row.rel_diff:.1f} % of range, slope {row.slope:.3f}, offset {row.offset:.0f} N")

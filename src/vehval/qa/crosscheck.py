@@ -38,6 +38,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from vehval.display import percent
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.qa.unit_hints import (
     UnitHint,
@@ -517,7 +518,7 @@ def phase_channel_check(test: Test) -> list[Finding]:
         raw = sig.raw_name or sig.name
         out.append(Finding(
             sig.name, Kind.UNIT_SUSPECT, t0, t1, Severity.ERROR,
-            f"{sig.name} (raw '{raw}') is no phase counter: {frac:.0%} of its samples are not "
+            f"{sig.name} (raw '{raw}') is no phase counter: {percent(frac, 0)} of its samples are not "
             f"whole numbers, {distinct} distinct values, {changes} changes: a wrong channel "
             "mapped as the phase channel",
             {"non_integer_fraction": frac, "distinct": distinct, "changes": changes},

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vehval.display import percent
 from vehval.io.importer import TIME_REPAIRED
 from vehval.nomenclature import registry
 from vehval.qa.findings import Finding, Kind, Severity, merge_runs, message_units, runs
@@ -127,7 +128,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
             if jitter > opts.jitter_info:
                 out.append(Finding(sig.name, Kind.RATE_IRREGULAR, t_start, t_end, Severity.INFO,
                                    f"{sig.name} is sampled irregularly: period {med:.3g} s with "
-                                   f"{100 * jitter:.0f} % jitter", {"period_s": med,
+                                   f"{percent(jitter, 0)} jitter", {"period_s": med,
                                                                     "jitter_fraction": jitter}))
 
     # missing samples ----------------------------------------------------------------------
@@ -213,7 +214,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
             i0, i1 = rs[0][0], rs[-1][1]
             out.append(Finding(sig.name, Kind.NEGATIVE, float(t[i0]), float(t[i1]), sev,
                                f"{sig.name} is negative in {len(rs)} stretch(es) "
-                               f"({100 * frac:.1f} % of samples, down to {shown(vmin)})"
+                               f"({percent(frac)} of samples, down to {shown(vmin)})"
                                + ("; beyond the sensor noise" if beyond else "; within noise"),
                                {"value": vmin, "limit_min": 0.0, "fraction": frac,
                                 "noise_sigma": sigma, "runs": len(rs)}))

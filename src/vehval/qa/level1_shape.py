@@ -22,6 +22,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from vehval.align import CORRELATED_BASES
+from vehval.display import percent
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
 from vehval.qa.findings import Finding, Kind, Severity, delta_units, merge_runs, message_units, runs
@@ -333,7 +334,7 @@ def stuck_findings(test: Test, sig: Signal, opts: Level1Options,  # noqa: C901, 
             psig, dup, frac = mover
             sev = Severity.ERROR if dup else Severity.WARNING
             msg = (f"{sig.name} stays exactly at {shown(float(v[i0]))} for {t1 - t0:.1f} s "
-                   f"while {psig.name} varies by {100 * frac:.0f} % of its range")
+                   f"while {psig.name} varies by {percent(frac, 0)} of its range")
             nums = {"value": value, "duration_s": t1 - t0, "samples": j1 - i0 + 1,
                     "partner_range_fraction": frac}
             found.append(Finding(sig.name, Kind.STUCK, t0, t1, sev, msg, nums,
@@ -455,7 +456,7 @@ def _corroborate_by_step(test: Test, f: Finding, base: str, period: float) -> No
         moved, share = _moves(other, f.start_s - h, f.end_s + h, frac)
         if moved:
             f.severity = Severity.INFO
-            f.message += (f"; {other.name} changes by {100 * share:.0f} % of its range at the "
+            f.message += (f"; {other.name} changes by {percent(share, 0)} of its range at the "
                           "same time: a real transient (engine stop or start), not a sensor spike")
             f.related.append(other.name)
             return

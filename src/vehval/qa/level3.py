@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vehval.display import percent
 from vehval.equations.calc import CalcResult
 from vehval.errors import SignalError
 from vehval.jsonsafe import finite_or_none
@@ -263,7 +264,7 @@ def _row_findings(test: Test, measured: str, cname: str, info: dict, row: CalcCo
             measured, Kind.CALC_MISMATCH, float(test[cname].time[0]),
             float(test[cname].time[-1]), Severity.WARNING,
             f"{measured} disagrees with {cname} = {info['expr']} (R² {row.r2:.3f}, mean "
-            f"difference {delta_units(measured, row.unit)(row.mean_abs_diff)} = {100 * row.rel_diff:.1f} % of "
+            f"difference {delta_units(measured, row.unit)(row.mean_abs_diff)} = {percent(row.rel_diff)} of "
             f"its range); check it or the inputs ({ins})",
             {"r2": row.r2, "mean_abs_diff": row.mean_abs_diff, "test_range": row.test_range,
              "rel_diff": row.rel_diff, "slope": row.slope},
@@ -373,7 +374,7 @@ def residual_drift(test: Test, measured: str, calculated: str, rng: float,
                  "road load and inertia, fitted and removed)" if fitted else "")
     return Finding(measured, Kind.OFFSET, t0, float(t[-1]), Severity.WARNING,
                    f"{measured} drifts from {calculated} by {delta_units(measured, c.unit)(total, signed=True)} over the test "
-                   f"({100 * abs(total) / rng:.1f} % of its range){like_note}: zero drift of "
+                   f"({percent(abs(total) / rng)} of its range){like_note}: zero drift of "
                    "the sensor?",
                    {"drift": float(total), "test_range": rng, "block_medians": med.tolist(),
                     "median_se": se, **fitted},

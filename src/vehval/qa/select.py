@@ -25,6 +25,7 @@ from typing import Any, TypeGuard
 
 import numpy as np
 
+from vehval.display import percent
 from vehval.errors import SignalError
 from vehval.nomenclature import preference_rank, registry
 from vehval.qa.findings import Finding, Kind, Severity
@@ -181,7 +182,7 @@ def select_signals(test: Test, findings: list[Finding], table2: Sequence[PairCom
                 if cand[0] != best and cand[1] > (_calc_score(r3[best]) if best in r3 else -9) + 0.02:
                     best = cand[0]
                     reason = (f"agrees best with {r3[best].calculated} (R² {r3[best].r2:.3f}, mean "
-                              f"difference {100 * r3[best].rel_diff:.1f} % of range) among "
+                              f"difference {percent(r3[best].rel_diff)} of range) among "
                               f"disagreeing sources of {base}")
             else:
                 fewest = min(scored, key=lambda s: (s[2], preference_rank(s[0])))
@@ -237,7 +238,7 @@ def _willis_consistency(test: Test, sel: Selection, params: dict) -> None:
     if slow.sample_period > 1.5 * fast.sample_period and f"{b}_calc" in test:
         del sel.kept[slow.name]
         sel.dropped[slow.name] = (f"breaks the Willis equation with the other kept speeds in "
-                                  f"transients (RMS residual {100 * rms:.1f} % of the engine-side "
+                                  f"transients (RMS residual {percent(rms)} of the engine-side "
                                   f"term, slower sampling); use {b}_calc")
 
 
