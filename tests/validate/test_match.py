@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -13,8 +14,8 @@ from vehval.vehicle import load_vehicle
 
 from .helpers import hand_test
 
-CRUZE = (Path(__file__).resolve().parents[2] / ".." / "shared" / "data" / "real"
-         / "d3_2014_chevrolet_cruze_diesel" / "61410007 Test Data.txt")
+CRUZE = (Path(os.environ.get("VEHVAL_SHARED_DATA",
+                         Path(__file__).resolve().parents[2] / ".." / "shared" / "data")) / "real" / "d3_2014_chevrolet_cruze_diesel" / "61410007 Test Data.txt")
 
 
 def _diesel_conventional() -> Test:
