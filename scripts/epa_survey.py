@@ -8,13 +8,17 @@ mean engine speed and gear of the model against the top-gear engine speed N/V x 
 share of time in top gear and locked, share of the fuel burnt at low load (brake MEP below
 2 bar) and the friction share of the fuel (friction MEP / (BMEP + FMEP) on the Willans line).
 
-The cars are taken in list order (year, make, model), at most ``--per-make`` per make and
-year; ``half`` A / B alternates along that order (A chooses a change, B checks it).
+The cars are the ``CARS`` list (the first configuration of each; ``--all``: every
+configuration in list order, at most ``--per-make`` per make and year); ``half`` A / B
+alternates along that order (A chooses a change, B checks it). What-if options change one
+generic value for the run only (``--set NAME=VALUE`` for a constant of
+``vehval.epa.specs`` / ``engine_model``, ``--eta``, ``--friction-scale``, ``--idle-factor``,
+``--pumping-bar``, ``--high-load-from-bar``); docs/validation.md gives the results.
 
 Usage::
 
-    python scripts/epa_survey.py 16tstcar.csv 19tstcar.csv [--max 30] [--dt 0.5] \
-        [--per-make 2] [--json out.json]
+    python scripts/epa_survey.py 16tstcar.csv 19tstcar.csv [--dt 0.5] [--json out.json] \
+        [--set UPSHIFT_RPM=1100] [--idle-factor 1.73] [--pumping-bar 0.5]
 """
 
 from __future__ import annotations
@@ -66,7 +70,8 @@ def candidates(paths: list[str], per_make: int, cars=CARS) -> list[list]:
     for p in paths:
         for t in read_test_car_list(p):
             groups[(t.year, t.make, t.model, t.vehicle_id, t.config)].append(t)
-    out, per = [], defaultdict(int)
+    out: list[list] = []
+    per: dict[tuple, int] = defaultdict(int)
     for key in sorted(groups):
         rows = groups[key]
         t0 = rows[0]
@@ -85,7 +90,7 @@ def candidates(paths: list[str], per_make: int, cars=CARS) -> list[list]:
         out.append(rows)
     if not cars:
         return out
-    first = {}
+    first: dict[tuple, list] = {}
     for rows in out:
         first.setdefault((rows[0].year, rows[0].make.upper(), rows[0].model.upper()), rows)
     return [first[c] for c in cars if c in first]
