@@ -169,6 +169,17 @@ def with_high_load_from_bmep(from_bar: float) -> None:
     em.fuel_rate_g_per_s = fuel
 
 
+def ftp_idle_share(veh, test, dt: float) -> float:
+    """Share of the model's FTP-75 fuel burnt standing (engine idling) [-]."""
+    proc, _ = plan_for(test)
+    v = vehicle_for_test(veh, test, tuple(dict.fromkeys(proc.runs)))
+    _, runs, _ = balanced_plan(v, _grids(v, proc, dt))
+    col = architecture(v).column
+    fuel = np.concatenate([r[0][:, col["fuel_rate"]] for r in runs])
+    spd = np.concatenate([r[0][:, col["veh_spd"]] for r in runs])
+    return float(fuel[spd < 0.05].sum() / max(fuel.sum(), 1e-12))
+
+
 def survey(paths: list[str], n_max: int, dt: float, per_make: int, cars=CARS,
            idle_factor: float = 1.0, **model_kw) -> list[dict]:
     rows_out = []
@@ -198,6 +209,8 @@ def survey(paths: list[str], n_max: int, dt: float, per_make: int, cars=CARS,
                         if math.isfinite(t.bags[b - 1]):
                             bag_errs.setdefault(b, []).append(
                                 pred.bags_mpg[b] / t.bags[b - 1] - 1.0)
+                if key == "ftp75" and "ftp_idle_share" not in rec:
+                    rec["ftp_idle_share"] = ftp_idle_share(veh, t, dt)
                 if key == "hwfet" and "eng_rpm" not in rec:
                     rec.update(hwfet_diagnostics(veh, t, specs, dt))
             rec[key] = float(np.mean(errs)) if errs else math.nan
@@ -213,7 +226,7 @@ def survey(paths: list[str], n_max: int, dt: float, per_make: int, cars=CARS,
 
 HEAD = ("| car | half | gears | L | kW | FTP | HWFET | US06 | HWFET/FTP | HWFET/hot bags | "
         "HWFET rpm model / "
-        "N/V | gear (top share) | fuel at BMEP < 2 bar | friction share |")
+        "N/V | gear (top share) | fuel at BMEP < 2 bar | friction share | FTP-75 fuel standing |")
 
 
 def _pc(x: float) -> str:
@@ -226,7 +239,8 @@ def _line(r: dict) -> str:
             f"{_pc(r['ratio'])} | {_pc(r['ratio_hot'])} | "
             f"{r['eng_rpm']:.0f} / {r['nv_rpm']:.0f} | "
             f"{r['gear']:.2f} ({100 * r['top_share']:.0f} %) | "
-            f"{100 * r['low_load_fuel_share']:.0f} % | {100 * r['friction_share']:.0f} % |")
+            f"{100 * r['low_load_fuel_share']:.0f} % | {100 * r['friction_share']:.0f} % | "
+            f"{100 * r['ftp_idle_share']:.1f} % |")
 
 
 def summary(rows: list[dict]) -> str:

@@ -74,6 +74,7 @@ def test_survey_first_cars_match_the_docs_table():
         assert 100 * r["ratio"] == pytest.approx(ratio, abs=0.06)
         assert 1.0 <= r["gear"] <= r["gears"] and 0.0 <= r["top_share"] <= 1.0
         assert 0.0 < r["friction_share"] < 1.0 and 0.0 <= r["low_load_fuel_share"] <= 1.0
+        assert 0.0 < r["ftp_idle_share"] < 0.2  # the FTP-75 stands 18 % of its time
         # the model's engine is never slower than top gear's N/V at the same speed
         assert r["eng_rpm"] > r["nv_rpm"] * 0.98
     assert [r["half"] for r in rows] == ["A", "B", "A"]
