@@ -418,7 +418,8 @@ def predict_cmd(
         for t in traces:
             preds.append(predict_trace(veh, t, ac=ac))
             progress.advance()
-    for line in poor_coverage(preds):
+    from vehval.identify.conditions import conditions_warnings
+    for line in poor_coverage(preds) + conditions_warnings(preds, veh.identification):
         typer.echo(f"vehval: warning: {line}", err=True)
     if report is not None:
         from vehval.identify.report import write_prediction_report
