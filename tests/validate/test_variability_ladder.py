@@ -112,3 +112,45 @@ def test_ladder_marks_in_sample_tests():
     assert d["n_in_sample_passed"] == 1 and d["calibration_tests"] == {"u": ["controller.soc_gain_w"]}
     assert [r[-1] for r in d["tables"][0]["rows"]] == ["held-out", "in-sample"]
     assert ladder([good, bad]).summary() == "held-out: 1/2 tests pass"
+
+
+def _without(test, base: str):
+    """``test`` without its ``<base>_test`` signal (a log that does not record it)."""
+    from vehval.test import Test
+
+    return Test([s for s in test if s.name != f"{base}_test"], test.meta)
+
+
+def test_a_test_without_fuel_is_not_judged_on_fuel():
+    """A log without a fuel channel (the Prius c OBD logs) cannot be judged on fuel: the
+    criterion is listed as not judged with its reason, not as a FAIL; the SOC is still
+    judged. A test measured nothing the tolerances judge is 'not judged', never passed."""
+    sim_good = hand_test(fuel_g_per_s=0.51, soc1=0.585, origin="simu")
+    sim_bad_soc = hand_test(fuel_g_per_s=0.51, soc1=0.50, origin="simu")
+    no_fuel = _without(hand_test(soc1=0.58, cycle="udds", test_id="nf"), "fuel_rate")
+    good = compare(no_fuel, sim_good, dt=1.0)
+    ok, fails, err = verdict(good, Tolerances())
+    assert ok and fails == [] and math.isnan(err["fuel_pct"])
+    res = ladder([good])
+    e = res.entries[0]
+    assert e.passed and e.status == "pass" and e.not_judged == ["fuel_pct: no fuel measured"]
+    assert e.verdict_text() == "pass (not judged: fuel_pct: no fuel measured)"
+    assert res.summary() == "held-out: 1/1 tests pass"
+    d = res.to_dict()
+    assert d["entries"][0]["not_judged"] == ["fuel_pct: no fuel measured"]
+    assert d["tables"][0]["rows"][0][7] == "pass (not judged: fuel_pct: no fuel measured)"
+    # the SOC still fails on its own error, the fuel is not among the failures
+    bad = ladder([compare(no_fuel, sim_bad_soc, dt=1.0)]).entries[0]
+    assert not bad.passed and bad.failures == ["soc_pct = 13.8 > 5"]
+    assert bad.verdict_text() == "FAIL: soc_pct = 13.8 > 5; not judged: fuel_pct: no fuel measured"
+    # fuel the only criterion, no fuel measured: nothing judged, not a pass
+    only = ladder([good], {"soc_pct": None})
+    assert only.entries[0].status == "not judged" and not only.passed
+    assert only.entries[0].verdict_text() == "not judged: fuel_pct: no fuel measured"
+    assert only.summary().endswith("; 1 not judged (the tests measured nothing the "
+                                   "tolerances judge)")
+    # a measured fuel keeps the entry as it was: no not_judged key in the JSON
+    measured = ladder([compare(hand_test(soc1=0.58), sim_good, dt=1.0)])
+    assert "not_judged" not in measured.to_dict()["entries"][0]
+    # a fuel criterion switched off is not 'not judged'
+    assert ladder([good], {"fuel_pct": None}).entries[0].not_judged == []
