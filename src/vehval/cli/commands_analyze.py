@@ -95,8 +95,8 @@ def _shown(key: str) -> tuple[str, Callable[..., str]]:
         return key, lambda value, labelled=True: display.number(float(value), 3)
 
     def fmt(value: float, labelled: bool = True) -> str:
-        shown = display.number(float(unit.convert(float(value))), 3)  # thresholds are resolved
-        # to 0.1 m/s, 100 W, one step: three digits
+        # three digits: the thresholds are resolved to 0.1 m/s, 100 W and one time step
+        shown = display.number(float(unit.convert(float(value))), 3)
         return f"{shown} {unit.label}".rstrip() if labelled else shown
 
     return name, fmt

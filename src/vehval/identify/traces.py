@@ -88,10 +88,9 @@ def hybrid_refusal(test: Test, vehicle: object = None) -> str | None:
     """
     if not is_hybrid(test, vehicle, measured_only=False):
         return None
-    arch = getattr(vehicle, "architecture", None)
-    why = (f"its vehicle {getattr(vehicle, 'name', '')} is {arch}".replace("  ", " ")
-           if arch is not None else
-           f"it has {', '.join(hybrid_signals(test, measured_only=False)[:3])}")
+    arch, name = getattr(vehicle, "architecture", None), getattr(vehicle, "name", None)
+    why = (f"it has {', '.join(hybrid_signals(test, measured_only=False)[:3])}" if arch is None
+           else f"its vehicle {name} is {arch}" if name else f"its vehicle file says {arch}")
     where = ", ".join(test.meta.files) or test.meta.test_id or "the test"
     return (f"{where}: this is a hybrid ({why}): identify and the conventional model take "
             "conventional cars only; use `vehval validate` or `vehval calibrate` with a "
