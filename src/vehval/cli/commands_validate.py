@@ -104,8 +104,9 @@ def validate_cmd(
     for e in lad.entries:
         typer.echo(f"{e.test_id} ({_cycle(e.cycle, e.rung)}): fuel {_pct(e.errors['fuel_pct'], 2)}, "
                    f"SOC {_pct(e.errors['soc_pct'], 2)}, engine state agreement "
-                   f"{_pct(e.errors['engine_on_agreement_pct'], 1)}: {e.verdict_text()}"
-                   f"{' (in-sample)' if e.in_sample else ''}")
+                   f"{_pct(e.errors['engine_on_agreement_pct'], 1)}: {'pass' if e.passed else 'FAIL'}"
+                   f"{' (in-sample)' if e.in_sample else ''}"
+                   f"{'' if e.passed or not e.failures else ': ' + '; '.join(e.failures)}")
     typer.echo(lad.summary())
     typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
 

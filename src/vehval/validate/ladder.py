@@ -14,12 +14,6 @@ Error definitions (documented in docs/validation.md):
   (a relative error of ΔSOC itself would blow up). The ΔSOC mismatch in SOC points
   (100 · |ΔSOC_sim − ΔSOC_test|) is reported alongside and may be bounded too.
 
-A criterion whose quantity the test did not measure is not judged (a log without a fuel
-channel says nothing about the model's fuel): the entry lists it under ``not_judged`` with
-the reason (``fuel_pct: no fuel measured``) and it does not fail the test; a test with no
-criterion left to judge is "not judged", not passed. A criterion the test measured but
-whose error cannot be computed still fails.
-
 A test the vehicle file was calibrated on (its provenance,
 :func:`vehval.calibration.provenance.calibration_tests`) is marked in-sample: its verdict is
 a fit, not a prediction; the summary counts held-out tests and in-sample ones apart.
@@ -121,65 +115,20 @@ class LadderEntry:
     passed: bool
     failures: list[str] = field(default_factory=list)
     in_sample: bool = False  # the vehicle file was calibrated on this test
-    #: criteria not judged, with the reason (``fuel_pct: no fuel measured``)
-    not_judged: list[str] = field(default_factory=list)
-
-    @property
-    def status(self) -> str:
-        """``pass``, ``FAIL`` or ``not judged`` (no criterion could be judged)."""
-        return "pass" if self.passed else "FAIL" if self.failures else "not judged"
-
-    def verdict_text(self) -> str:
-        """The verdict as the screen and the ladder table write it: ``pass``, ``FAIL:
-        <reasons>``, with ``not judged: <criteria and why>`` when some were not judged."""
-        nj = f"not judged: {'; '.join(self.not_judged)}" if self.not_judged else ""
-        if self.passed:
-            return f"pass ({nj})" if nj else "pass"
-        if not self.failures:
-            return nj or "not judged"
-        return "FAIL: " + "; ".join(self.failures + ([nj] if nj else []))
-
-    def to_dict(self) -> dict[str, Any]:
-        """The entry of ``ladder.entries`` (``not_judged`` only when some criterion was not
-        judged)."""
-        out = asdict(self)
-        if not out["not_judged"]:
-            del out["not_judged"]
-        return out
-
-
-#: Criteria judged only when the test measured their quantity: criterion -> (key of
-#: :func:`errors_of` holding the measured value, reason given when it is missing).
-MEASURED_BY_TEST = {"fuel_pct": ("fuel_test_kg", "no fuel measured")}
-
-
-def not_judged(err: dict[str, float], tol: Tolerances) -> dict[str, str]:
-    """Criteria of ``tol`` whose quantity the test did not measure -> why (see the module
-    docstring)."""
-    out = {}
-    for key, (measured, why) in MEASURED_BY_TEST.items():
-        if getattr(tol, key) is not None and not np.isfinite(err.get(measured, math.nan)):
-            out[key] = why
-    return out
 
 
 def verdict(comp: Comparison, tol: Tolerances) -> tuple[bool, list[str], dict[str, float]]:
     """(passed, reasons for failure, errors) of one comparison against ``tol``.
 
-    A criterion whose quantity the test did not measure is not judged (:func:`not_judged`);
-    a criterion the test measured whose error cannot be computed fails with that reason.
-    The test passes when no criterion fails and at least one was judged.
+    A criterion whose error cannot be computed (missing signal) fails with that reason.
     """
     err = errors_of(comp)
-    skip = not_judged(err, tol)
     fails = []
-    judged = 0
     for key, limit, op in (("fuel_pct", tol.fuel_pct, "max"), ("soc_pct", tol.soc_pct, "max"),
                            ("soc_points", tol.soc_points, "max"),
                            ("engine_on_agreement_pct", tol.engine_on_agreement_min_pct, "min")):
-        if limit is None or key in skip:
+        if limit is None:
             continue
-        judged += 1
         v = err[key]
         if not np.isfinite(v):
             fails.append(f"{key}: cannot be computed (missing signal)")
@@ -187,7 +136,7 @@ def verdict(comp: Comparison, tol: Tolerances) -> tuple[bool, list[str], dict[st
             fails.append(f"{key} = {v:.3g} > {limit:g}")
         elif op == "min" and v < limit:
             fails.append(f"{key} = {v:.3g} < {limit:g}")
-    return not fails and judged > 0, fails, err
+    return not fails, fails, err
 
 
 @dataclass
@@ -213,9 +162,6 @@ class LadderResult:
         if n["n_in_sample"]:
             text += (f"; in-sample (the vehicle file was calibrated on them, a fit, not a "
                      f"prediction): {n['n_in_sample_passed']}/{n['n_in_sample']}")
-        none = sum(e.status == "not judged" for e in self.entries)
-        if none:
-            text += f"; {none} not judged (the tests measured nothing the tolerances judge)"
         return text
 
     @property
@@ -245,7 +191,8 @@ class LadderResult:
     def tables(self) -> list[dict]:
         t = self.tolerances
         rows = [[RUNG_LABELS[e.rung], e.cycle, e.test_id, e.errors["fuel_pct"], e.errors["soc_pct"],
-                 e.errors["soc_points"], e.errors["engine_on_agreement_pct"], e.verdict_text(),
+                 e.errors["soc_points"], e.errors["engine_on_agreement_pct"],
+                 "pass" if e.passed else "FAIL: " + "; ".join(e.failures),
                  "in-sample" if e.in_sample else "held-out"] for e in self.entries]
         return [{"title": "Validation ladder",
                  "columns": ["rung", "cycle", "test", "fuel error [%]", "SOC error [%]",
@@ -262,7 +209,7 @@ class LadderResult:
                        "rung_passed": self.rung_passed(),
                        "highest_rung_passed": self.highest_rung_passed(),
                        **self.sample_counts(), "calibration_tests": self.calibrated,
-                       "entries": [e.to_dict() for e in self.entries], "tables": self.tables()})
+                       "entries": [asdict(e) for e in self.entries], "tables": self.tables()})
 
 
 def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | None = None,
@@ -290,8 +237,6 @@ def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | No
             raise ConfigError(f"test '{c.test_id}': unknown rung '{rung}' (use {', '.join(RUNGS)})")
         ok, fails, err = verdict(c, tol)
         entries.append(LadderEntry(c.test_id, c.cycle, rung, err, ok, fails,
-                                   in_sample=c.test_id in (calibrated or {}),
-                                   not_judged=[f"{k}: {why}" for k, why in
-                                               not_judged(err, tol).items()]))
+                                   in_sample=c.test_id in (calibrated or {})))
     entries.sort(key=lambda e: (RUNGS.index(e.rung), e.cycle, e.test_id))
     return LadderResult(entries, tol, dict(calibrated or {}))
