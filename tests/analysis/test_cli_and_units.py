@@ -174,3 +174,61 @@ def test_cli_analyze_says_why_nothing_is_estimated(tmp_path, capsys):
     assert "0 controller parameter(s) estimated" in out
     assert "engine on/off rule not estimated" in out and "(found 0 switch(es))" in out
     assert "the engine state never changes: on over the whole test" in out
+
+
+def test_cli_analyze_screen_shows_thresholds_in_display_units(tmp_path, capsys):
+    """The screen shows each threshold in the display units of the chosen system (kW, mph or
+    km/h, s), never the SI key with an SI number (``engine_on_speed_mps ... >= 15.3``);
+    control.json keeps the SI keys and values."""
+    import re
+
+    from vehval.cli import main
+
+    _hybrid_like_csv(tmp_path)
+    for system, speed in (("us", "mph"), ("metric", "km/h")):
+        out_dir = tmp_path / system
+        assert main(["--units", system, "analyze", str(tmp_path / "run.csv"), "-t",
+                     str(tmp_path / "t.yaml"), "-o", str(out_dir), "--no-qa"]) == 0
+        out = capsys.readouterr().out
+        d = json.loads((out_dir / "control.json").read_text())
+        assert "engine_on_power_w" in d["controller"]              # the JSON stays SI
+        shown = out.split("\n", 1)[1]                              # after the 'wrote' line
+        assert not re.search(r"_(w|mps|s)\b", shown), shown        # no SI key on screen
+        on_kw = d["controller"]["engine_on_power_w"] / 1000.0
+        m = re.search(r"engine_on_power = ([0-9.]+) kW", shown)
+        assert m and abs(float(m.group(1)) - on_kw) <= 0.05 * on_kw, shown
+        speed_keys = [k for k in (*d["controller"], *d["rule"]["bounds"]) if k.endswith("_mps")]
+        assert speed_keys                                          # a speed threshold or bound
+        for line in shown.splitlines():
+            if "_speed" in line and "not identifiable" not in line:
+                assert speed in line and "m/s" not in line, line
+
+
+def test_analyze_screen_units_of_each_controller_key(monkeypatch):
+    """Each controller key of control.json and a bound's reason on screen, per unit system."""
+    from vehval import display
+    from vehval.cli.commands_analyze import _shown, _soc_why, _why
+
+    cases = {"engine_on_speed_mps": (15.3, {"us": "34.2 mph", "metric": "55.1 km/h"}),
+             "engine_off_power_w": (2900.0, {"us": "2.9 kW", "metric": "2.9 kW"}),
+             "min_on_time_s": (5.1, {"us": "5.1 s", "metric": "5.1 s"}),
+             "soc_target": (0.6123, {"us": "61.2 %", "metric": "61.2 %"})}
+    for system in display.SYSTEMS:
+        monkeypatch.setenv(display.ENV_VAR, system)
+        for key, (value, expected) in cases.items():
+            name, fmt = _shown(key)
+            assert fmt(value) == expected[system], (key, system)
+            assert name == key.removesuffix("_mps").removesuffix("_w").removesuffix("_s")
+    monkeypatch.setenv(display.ENV_VAR, "us")
+    _, fmt = _shown("engine_on_speed_mps")
+    above = {"why": "the speed condition never decided an engine start: any value above "
+                    "15.3 reproduces the test up to the end of the plausible range"}
+    assert _why(above, fmt) == ("the speed condition never decided an engine start: any "
+                                "value above 34.2 mph reproduces the test up to the end "
+                                "of the plausible range")
+    rng = {"why": "the speed condition never decided an engine start: any value in the "
+                  "plausible range [0.0, 9.8] reproduces the test (not identifiable)"}
+    assert "[0, 21.9 mph] reproduces" in _why(rng, fmt)
+    assert _why({"why": "empty plausible range"}, fmt) == "empty plausible range"
+    assert _soc_why("SOC spans only 0.008 during engine-on propulsion: the slope is not "
+                    "identifiable").startswith("SOC spans only 0.80 % during")

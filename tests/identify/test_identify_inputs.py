@@ -43,8 +43,63 @@ def test_a_speed_and_fuel_only_test_is_pointed_to_the_specification_route():
 
 
 def test_hybrid_test_is_refused():
-    with pytest.raises(IdentificationError, match="t1.txt: this is a hybrid test"):
+    with pytest.raises(IdentificationError, match=r"t1.txt: this is a hybrid \(it has "
+                       r"mot_spd_out_test\).*vehval validate. or .vehval calibrate. with a "
+                       r"power-split vehicle file"):
         trace_from_test(_test(hybrid=True))
+
+
+def _two_file_test(tmp_path, hybrid: bool, vehicle: str | None = None):
+    """A test of two files (dyno: speed, force, engine speed, fuel; logger: speed and the
+    battery current of a hybrid, or the engine speed of a conventional car) and its template
+    of two entries."""
+    t = np.arange(0.0, 120.0, 0.1)
+    v = np.clip(10 * np.sin(np.pi * t / 60.0), 0, None)
+    (tmp_path / "run_dyno.csv").write_text("Time,Speed,Force,Engine,Fuel\n" + "".join(
+        f"{a:.1f},{b:.3f},{200 + 1500 * c:.1f},{900 + 100 * b:.0f},{0.2 + 0.1 * b:.3f}\n"
+        for a, b, c in zip(t, v, np.gradient(v, t))))
+    other = ("Current", "ess_curr_test", "A") if hybrid else ("RPM", "eng_spd_out_obd_test", "rpm")
+    (tmp_path / "run_obd.csv").write_text(f"Time,VSS,{other[0]}\n" + "".join(
+        f"{a:.1f},{3.6 * b:.0f},{10 * np.sin(a) if hybrid else 900 + 100 * b:.1f}\n"
+        for a, b in zip(t[::10], v[::10])))
+    (tmp_path / "t.yaml").write_text(
+        "template_version: 1\n" + (f"vehicle: {vehicle}\n" if vehicle else "") + "files:\n"
+        "  - {match: '*_dyno.csv', source: dyno, format: csv, time: {column: Time, unit: s},\n"
+        "     channels: {Speed: {name: veh_spd_test, unit: m/s},\n"
+        "                Force: {name: veh_frc_in_test, unit: N},\n"
+        "                Engine: {name: eng_spd_out_test, unit: rpm},\n"
+        "                Fuel: {name: fuel_rate_test, unit: g/s}}}\n"
+        "  - {match: '*_obd.csv', source: obd, format: csv, time: {column: Time, unit: s},\n"
+        "     channels: {VSS: {name: veh_spd_obd_test, unit: km/h},\n"
+        f"                {other[0]}: {{name: {other[1]}, unit: {other[2]}}}}}}}\n")
+    return [tmp_path / "run_dyno.csv", tmp_path / "run_obd.csv"], tmp_path / "t.yaml"
+
+
+@pytest.mark.parametrize("case", ["signals", "vehicle", "vehicle, dyno file only"])
+def test_cli_refuses_a_hybrid_test_of_several_files_in_one_line(tmp_path, capsys, case):
+    """The files of a hybrid test (two files, battery current in the logger's; or a template
+    whose vehicle is a power-split hybrid) are refused as a hybrid, in one line naming what
+    to use, not as a missing files[1] of the template."""
+    files, tpl = _two_file_test(tmp_path, hybrid=True,
+                                vehicle=None if case == "signals" else "prius_2004")
+    given = files[:1] if case.endswith("only") else files
+    out = tmp_path / "veh.yaml"
+    rc = main(["identify", *map(str, given), "-t", str(tpl), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert "this is a hybrid" in err[0] and "files[" not in err[0]
+    assert ("it has ess_curr_test" if case == "signals" else "its vehicle prius_2004") in err[0]
+    assert "`vehval validate` or `vehval calibrate` with a power-split vehicle file" in err[0]
+    assert not out.exists()
+
+
+def test_cli_says_identify_reads_one_file_per_test(tmp_path, capsys):
+    """A conventional test of two files: identify reads one file per test, and says so."""
+    files, tpl = _two_file_test(tmp_path, hybrid=False)
+    rc = main(["identify", *map(str, files), "-t", str(tpl), "-o", str(tmp_path / "v.yaml")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert "these files are one test" in err[0] and "one file per test" in err[0]
 
 
 def test_single_short_test_says_how_much_is_missing():

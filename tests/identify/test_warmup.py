@@ -103,10 +103,13 @@ def test_identified_warmup_is_written_and_used_by_predict(hot):
     assert eng.warmup_time_constant_s == pytest.approx(TAU, rel=0.05)
     assert "cold-start test cold" in eng.sources["warmup_fuel_fraction"]
     assert idf.summary()["warmup"]["cold_test"] == "cold"
+    # the coolant range the identification covered takes in its cold-start test
+    assert idf.summary()["conditions"]["coolant_start_c"] == [22.0, 88.0]
     cold_pred = predict_trace(idf.vehicle, _cold(hw))
     hot_pred = predict_trace(idf.vehicle, hw)
     assert cold_pred["cold_start"] and cold_pred["starts_cold"]
     assert not hot_pred["cold_start"] and hot_pred["starts_cold"] is False
+    assert cold_pred["outside_identification"] == hot_pred["outside_identification"] == {}
     # the model's warm-up excess on the cold test is the identified one
     excess = cold_pred["fuel_predicted_g"] / hot_pred["fuel_predicted_g"] - 1.0
     measured = _cold(hw).fuel.sum() / hw.fuel.sum() - 1.0

@@ -132,7 +132,37 @@ def test_info_of_an_imported_test_shows_the_display_units(tmp_path, cli, d3_file
         assert "unit (SI)" in out and "shown as" in out
         rows[system] = next(line.split() for line in out.splitlines()
                             if line.split()[:1] == ["veh_spd_test"])
-    assert rows["us"][1:3] == ["m/s", "mph"]
-    assert rows["metric"][1:3] == ["m/s", "km/h"]
+    assert rows["us"][1:4] == ["mph", "m/s", "mph"]          # declared, stored, shown
+    assert rows["metric"][1:4] == ["mph", "m/s", "km/h"]
     code, out, err = cli("info", o, "--json")
     assert {c["unit"] for c in json.loads(out)["channels"]} >= {"m/s"}   # JSON stays SI
+
+
+def test_info_of_a_test_shows_the_declared_percent_and_kpa(tmp_path, cli, monkeypatch):
+    """Channels declared in % and kPa: `info` of the imported test names the declared unit
+    next to the stored SI one ('dimensionless', 'Pa', which alone read as a wrong import) and
+    the unit they are shown in; --json adds the raw name and unit."""
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    (tmp_path / "run.csv").write_text("Time,SOC,MAP,Speed\n" + "".join(
+        f"{i * 0.1:.1f},{55 + i % 7},{40 + i % 5},{i % 30}\n" for i in range(200)))
+    (tmp_path / "t.yaml").write_text(
+        "template_version: 1\nfiles:\n  - source: obd\n    format: csv\n"
+        "    time: {column: Time, unit: s}\n    channels:\n"
+        "      SOC: {name: ess_soc_test, unit: '%'}\n"
+        "      MAP: {name: eng_pres_intake_test, unit: kPa}\n"
+        "      Speed: {name: veh_spd_test, unit: km/h}\n")
+    o = tmp_path / "o.parquet"
+    assert cli("import", tmp_path / "run.csv", "-t", tmp_path / "t.yaml", "-o", o)[0] == 0
+    code, out, err = cli("info", o)
+    assert code == 0, err
+    header = next(line for line in out.splitlines() if line.split()[:1] == ["channel"])
+    assert header.split()[1:5] == ["declared", "unit", "(SI)", "shown"]
+    rows = {line.split()[0]: line.split()[1:4] for line in out.splitlines()
+            if line.strip().startswith(("ess_", "eng_", "veh_"))}
+    assert rows["ess_soc_test"] == ["%", "dimensionless", "%"]
+    assert rows["eng_pres_intake_test"] == ["kPa", "Pa", "kPa"]
+    assert rows["veh_spd_test"] == ["km/h", "m/s", "km/h"]
+    chans = {c["name"]: c for c in json.loads(cli("info", o, "--json")[1])["channels"]}
+    assert chans["ess_soc_test"]["unit"] == "dimensionless"          # the JSON stays SI
+    assert (chans["ess_soc_test"]["raw_unit"], chans["ess_soc_test"]["raw_name"]) == ("%", "SOC")
+    assert chans["eng_pres_intake_test"]["raw_unit"] == "kPa"

@@ -72,7 +72,9 @@ def test_other_sheets(workbook):
     assert rows == [["veh_spd_obd_test", qa["selection"]["dropped"]["veh_spd_obd_test"]]]
     header, rows = _table(wb["Mapping"], "Channel mapping")
     r = rows[[x[0] for x in rows].index("veh_spd_test")]
-    assert r[:5] == ["veh_spd_test", "m/s", "dyno", "Dyno_Speed", "mph"]
+    assert header[:6] == ["standard name", "unit (SI)", "shown as", "source", "raw name",
+                          "raw unit"]
+    assert r[:6] == ["veh_spd_test", "m/s", "mph", "dyno", "Dyno_Speed", "mph"]
 
 
 def test_timeseries_sheet(workbook):

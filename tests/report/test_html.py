@@ -95,7 +95,9 @@ def test_virtual_banner_only_when_synthetic(tmp_path):
 
 def test_import_mapping_and_finding_rows(report):
     # raw name and unit -> standard name and unit, deleted channel with its reason
-    assert re.search(r"<td>veh_spd_test</td><td>m/s</td><td>dyno</td><td>Dyno_Speed</td><td>mph</td>", report)
+    # standard name, SI unit stored, unit shown, source, raw name, declared (raw) unit
+    assert re.search(r"<td>veh_spd_test</td><td>m/s</td><td>mph</td><td>dyno</td>"
+                     r"<td>Dyno_Speed</td><td>mph</td>", report)
     assert "Test_Cell_RH" in report and "not used" in report
     assert report.count('class="sev-error"') == 1 and report.count('class="sev-warning"') == 2
 
@@ -258,3 +260,27 @@ def test_long_numeric_lists_are_sent_as_typed_arrays_short_and_text_lists_as_jso
     assert yy[6] == 6.0
     assert d[1]["x"][:2] == ["a", "b"] and isinstance(d[1]["y"], dict)   # categories stay text
     assert d[2]["x"] == [0, 1, 2]                                        # short: plain JSON
+
+
+def test_import_mapping_names_declared_stored_and_shown_units(monkeypatch):
+    """A channel declared in % or kPa reads 'dimensionless' or 'Pa' as its stored SI unit:
+    the mapping names the declared (raw) unit, the SI unit stored and the unit shown."""
+    from vehval.report.sections import import_section
+    from vehval.test import Signal, Test, TestMeta
+
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    t = np.arange(0.0, 10.0, 1.0)
+    sigs = [Signal.standard("ess_soc_test", t, np.full(t.size, 0.55), source="obd",
+                            raw_name="SOC", raw_unit="%"),
+            Signal.standard("eng_pres_intake_test", t, np.full(t.size, 4.0e4), source="obd",
+                            raw_name="MAP", raw_unit="kPa"),
+            Signal.standard("veh_spd_test", t, np.full(t.size, 10.0), source="obd",
+                            raw_name="VSS", raw_unit="mph")]
+    table = import_section(Test(sigs, TestMeta(test_id="T"))).tables[0]
+    rows = {r[0]: dict(zip(table.columns, r)) for r in table.rows}
+    want = {"ess_soc_test": ("dimensionless", "%", "%"),
+            "eng_pres_intake_test": ("Pa", "kPa", "kPa"),
+            "veh_spd_test": ("m/s", "km/h", "mph")}
+    for name, (si, shown, raw) in want.items():
+        assert (rows[name]["unit (SI)"], rows[name]["shown as"], rows[name]["raw unit"]) == \
+            (si, shown, raw), name

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
+from typing import Callable
 
 import typer
 
@@ -59,13 +61,82 @@ def analyze_cmd(
             typer.echo(f"  the engine state never changes: {'on' if on > 0.5 else 'off'} over "
                        "the whole test")
         if result.soc_regulation.get("why"):
-            typer.echo(f"  SOC regulation not fitted: {result.soc_regulation['why']}")
+            typer.echo(f"  SOC regulation not fitted: {_soc_why(result.soc_regulation['why'])}")
     for k, v in c.items():
         u = result.uncertainty.get(k, {})
-        rng = f"  [{u['low']:g}, {u['high']:g}]" if u.get("low") is not None and u.get("high") is not None else ""
-        typer.echo(f"  {k} = {v:g}{rng}")
+        name, fmt = _shown(k)
+        rng = (f"  [{fmt(u['low'], False)}, {fmt(u['high'])}]"
+               if u.get("low") is not None and u.get("high") is not None else "")
+        typer.echo(f"  {name} = {fmt(v)}{rng}")
     for k, b in result.rule.get("bounds", {}).items():
-        side = (f">= {b['low']:g}" if b.get("low") is not None and b.get("high") is None else
-                f"<= {b['high']:g}" if b.get("high") is not None and b.get("low") is None else
+        name, fmt = _shown(k)
+        low, high = b.get("low"), b.get("high")
+        side = (f">= {fmt(low)}" if low is not None and high is None else
+                f"<= {fmt(high)}" if high is not None and low is None else
                 "not identifiable")
-        typer.echo(f"  {k}: bound only ({side}): {b.get('why', '')}")
+        typer.echo(f"  {name}: bound only ({side}): {_why(b, fmt)}")
+
+
+def _shown(key: str) -> tuple[str, Callable[..., str]]:
+    """A controller key as the screen names it, and the formatter of its SI values.
+
+    ``engine_on_speed_mps`` -> ``engine_on_speed`` in mph (or km/h), ``engine_on_power_w``
+    -> ``engine_on_power`` in kW, ``min_on_time_s`` in s, ``soc_target`` (a fraction) in %;
+    control.json keeps the SI keys and values.
+    """
+    from vehval import display
+
+    if key.startswith("soc_") and display.keyed_unit(key) is None:    # a SOC fraction
+        unit: display.DisplayUnit | None = display.unit_for("dimensionless", signal="ess_soc")
+        name = key
+    else:
+        name, unit = display.keyed_metric(key)
+    if unit is None:
+        return key, lambda value, labelled=True: display.number(float(value), 3)
+
+    def fmt(value: float, labelled: bool = True) -> str:
+        # three digits: the thresholds are resolved to 0.1 m/s, 100 W and one time step
+        shown = display.number(float(unit.convert(float(value))), 3)
+        return f"{shown} {unit.label}".rstrip() if labelled else shown
+
+    return name, fmt
+
+
+#: The analysis writes a bound's reason as ``<reason>: any value above|below <x> ...`` or
+#: ``<reason>: any value in the plausible range [<lo>, <hi>] ...``, in SI.
+_NUM = r"[-+0-9.eE]+"
+_WHY_SIDE = re.compile(rf"^(?P<head>.*?: any value (?:above|below) )(?P<x>{_NUM})(?P<rest> .*)$")
+_WHY_RANGE = re.compile(rf"^(?P<head>.*?: any value in the plausible range )"
+                        rf"\[(?P<lo>{_NUM}), (?P<hi>{_NUM})\](?P<rest> .*)$")
+
+
+def _why(bound: dict, fmt: Callable[..., str]) -> str:
+    """The reason of a bound with its numbers in display units (control.json keeps SI)."""
+    why = str(bound.get("why", ""))
+    try:
+        if (m := _WHY_SIDE.match(why)) is not None:
+            return f"{m['head']}{fmt(float(m['x']))}{m['rest']}"
+        if (m := _WHY_RANGE.match(why)) is not None:
+            return (f"{m['head']}[{fmt(float(m['lo']), False)}, {fmt(float(m['hi']))}]"
+                    f"{m['rest']}")
+    except ValueError:
+        pass
+    return why
+
+
+#: The SOC fit's reason writes the SOC span as a fraction (control.json); the screen in %.
+_SOC_SPAN = re.compile(rf"^(?P<head>SOC spans only )(?P<x>{_NUM})(?P<rest> .*)$")
+
+
+def _soc_why(why: str) -> str:
+    """Why the SOC regulation was not fitted, a SOC span in % (control.json keeps the
+    fraction)."""
+    from vehval import display
+
+    m = _SOC_SPAN.match(str(why))
+    if m is None:
+        return str(why)
+    try:
+        return f"{m['head']}{display.percent(float(m['x']))}{m['rest']}"
+    except ValueError:
+        return str(why)

@@ -138,6 +138,7 @@ def identify_cmd(
         if path is not None and path.resolve() in {f.resolve() for f in files}:
             raise ConfigError(f"{opt} {path}: it is also an identification test; give a "
                               "separate test run")
+    _refuse_one_test_of_several_files(files, template)
     traces = load_traces(files, template)
     ac_trace = load_traces([ac_test], template)[0] if ac_test is not None else None
     cold_trace = load_traces([cold_test], template)[0] if cold_test is not None else None
@@ -165,6 +166,33 @@ def identify_cmd(
         typer.echo(json.dumps(idf.summary(), indent=2))
         return
     _print_identification(idf, output, report)
+
+
+def _refuse_one_test_of_several_files(files: list[Path], template: Path) -> None:
+    """Refuse, in one line, what identify cannot read one test per file: a hybrid (the
+    template's vehicle says so, or the files are one test with battery or motor signals:
+    :func:`vehval.identify.traces.hybrid_refusal`) and the files of one test of several
+    files (the template has an entry per file)."""
+    from vehval.errors import VehvalError
+    from vehval.identify.traces import IdentificationError, hybrid_refusal
+    from vehval.test import Test, TestMeta
+    from vehval.workflow import TestRun, load_template_arg, load_vehicle_arg
+
+    tpl = load_template_arg(template)
+    names = [str(f) for f in files]
+    refusal = hybrid_refusal(Test(meta=TestMeta(test_id=", ".join(names), files=names)),
+                             load_vehicle_arg(getattr(tpl, "vehicle", None)))
+    if refusal is None and len(files) > 1 and len(tpl.files) > 1:
+        try:
+            run = TestRun.load(files, tpl, use_qa=False)
+        except VehvalError:
+            return                       # not one test: each file is read as one below
+        refusal = hybrid_refusal(run.test, run.vehicle) or (
+            f"{', '.join(names)}: these files are one test (one per files[] entry of "
+            f"{Path(template).name}); identify reads one file per test: give a template with "
+            "the one entry of the file that has speed, tractive force, engine speed and fuel")
+    if refusal:
+        raise IdentificationError(refusal)
 
 
 RADIUS_TOL = 0.10   # [-] a rolling radius is within a few % of 0.97 x the unloaded radius
@@ -370,6 +398,7 @@ def _cross_validate(files, template, declared, pairs, output, as_json, spec) -> 
     if output is not None:
         from vehval.io.paths import check_outputs
         check_outputs(outfile=output, inputs=[*files, template] + ([spec] if spec else []))
+    _refuse_one_test_of_several_files(files, template)
     traces = load_traces(files, template)
     from vehval.cli.progress import bar
     with bar(f"identify: cross-validation ({'pairs' if pairs else 'leave-one-out'})",
@@ -418,7 +447,8 @@ def predict_cmd(
         for t in traces:
             preds.append(predict_trace(veh, t, ac=ac))
             progress.advance()
-    for line in poor_coverage(preds):
+    from vehval.identify.conditions import conditions_warnings
+    for line in poor_coverage(preds) + conditions_warnings(preds, veh.identification):
         typer.echo(f"vehval: warning: {line}", err=True)
     if report is not None:
         from vehval.identify.report import write_prediction_report

@@ -156,7 +156,8 @@ def info_cmd(
         info.update(kind="test", test_id=test.meta.test_id, cycle=test.meta.cycle or None,
                     cycle_found=next((n for n in test.meta.notes if n.startswith("cycle ")), None),
                     synthetic=bool(test.meta.synthetic), notes=test.meta.notes,
-                    channels=[dict(_channel_stats(s.name, s.unit, s.time, s.values), source=s.source)
+                    channels=[dict(_channel_stats(s.name, s.unit, s.time, s.values),
+                                   source=s.source, raw_name=s.raw_name, raw_unit=s.raw_unit)
                               for s in test])
     else:
         raw = read_raw(file)
@@ -185,16 +186,19 @@ def info_cmd(
         if n != info.get("cycle_found"):     # already on the cycle line
             typer.echo(f"  note: {n}")
     # a test stores SI units: a person reads them in the display units (--units), as the
-    # other commands print them, next to the stored unit
+    # other commands print them, next to the unit the file or template declared and the
+    # stored one
     shown = info["kind"] == "test"
-    typer.echo(f"  {'channel':28s} {'unit (SI)' if shown else 'unit':13s} "
-               + (f"{'shown as':9s} " if shown else "")
+    typer.echo(f"  {'channel':28s} "
+               + (f"{'declared':9s} {'unit (SI)':13s} {'shown as':9s} " if shown
+                  else f"{'unit':13s} ")
                + f"{'samples':>8s} {'rate[Hz]':>9s} {'dur[s]':>9s} {'NaN':>6s}")
     for c in info["channels"]:
         rate = f"{c['rate_hz']:.3g}" if c["rate_hz"] else "-"
         dur = f"{c['duration_s']:.1f}" if c["duration_s"] is not None else "-"
-        typer.echo(f"  {c['name']:28s} {str(c['unit'] or '-'):13s} "
-                   + (f"{_display_label(c):9s} " if shown else "")
+        typer.echo(f"  {c['name']:28s} "
+                   + (f"{str(c.get('raw_unit') or '-'):9s} {str(c['unit'] or '-'):13s} "
+                      f"{_display_label(c):9s} " if shown else f"{str(c['unit'] or '-'):13s} ")
                    + f"{c['samples']:8d} {rate:>9s} {dur:>9s} {c['nan']:6d}")
 
 

@@ -18,6 +18,7 @@ import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.fuels import known_fuels, resolve_fuel, table_fuel
+from vehval.identify.conditions import identification_conditions
 from vehval.identify.fuelmap import ETA_MAX, FuelMapFit, engine_power
 from vehval.identify.gears import (
     GearFit,
@@ -56,10 +57,11 @@ class Identification:
     warmup: WarmupFit | None = None
     assumptions: Assumptions | None = None
     coverage: dict | None = None
+    conditions: dict | None = None
 
     def summary(self) -> dict:
         return {"assumptions": None if self.assumptions is None else self.assumptions.provenance,
-                "coverage": self.coverage,
+                "coverage": self.coverage, "conditions": self.conditions,
                 "tests": [t.test_id for t in self.traces], "road_load": self.road_load.to_dict(),
                 "gears": self.gears.to_dict(), "gear_ratio_check": self.gear_ratio_check,
                 "fuel_map": self.fuel_map.to_dict(), "n_shifts": len(self.shifts),
@@ -274,7 +276,8 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     result = Identification(road_load=rl, gears=gf, fuel_map=fm, traces=traces,
                             gear_ratio_check=check, shifts=events, drag=drag, assumptions=a,
                             coverage=coverage_grid(fm.points["w"], fm.points["p"],
-                                                   traces[0].dt))
+                                                   traces[0].dt),
+                            conditions=identification_conditions(traces, cold_trace, ac_trace))
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
     if cold_trace is not None:

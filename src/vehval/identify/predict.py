@@ -24,6 +24,7 @@ import numpy as np
 
 from vehval.cycles import Cycle
 from vehval.errors import ConfigError
+from vehval.identify.conditions import outside_conditions
 from vehval.identify.traces import Trace
 from vehval.identify.uncertainty import POOR_COVERAGE, interval_parts
 from vehval.identify.warmup import cold_start_state
@@ -68,7 +69,11 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     model ran with; see :func:`ac_state`), ``starts_cold`` (the test starts cold: True, False
     or None, unknown), ``cold_start`` and ``cold_reason`` (whether the model ran with its
     warm-up fuel, and why), ``in_sample`` (the test is one the vehicle was identified from:
-    its identification's ``tests``, its warm-up's cold test, its A/C test; per phase too), ``uncovered_share``, ``pi95_rel`` and ``pi95_g``
+    its identification's ``tests``, its warm-up's cold test, its A/C test; per phase too),
+    ``outside_identification`` (the test's cell temperature and coolant at the start outside
+    the identification tests' range, :func:`vehval.identify.conditions.outside_conditions`:
+    ``{key: {value, range}}``, empty when covered, None when the vehicle records no
+    conditions), ``uncovered_share``, ``pi95_rel`` and ``pi95_g``
     (coverage and 95 % prediction interval, :mod:`vehval.identify.uncertainty`; also per
     phase; None for a vehicle without identification uncertainty), ``sim`` (the
     :class:`~vehval.sim.simulate.SimResult`) and ``trace``.
@@ -125,6 +130,7 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
             "cold_reason": cold_reason,
             "in_sample": (trace.test_id in _fitted_tests(ident)
                           or any(r["in_sample"] for r in phases)),
+            "outside_identification": outside_conditions(ident, trace),
             "sim": res, "trace": trace}
     _add_interval(out, unc.get("test"))
     out.update(stage.get("test", {}))

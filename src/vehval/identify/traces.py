@@ -17,7 +17,7 @@ import numpy as np
 
 from vehval.errors import SignalError
 from vehval.fuels import resolve_fuel
-from vehval.test import Test, hybrid_signals
+from vehval.test import Test, hybrid_signals, is_hybrid
 
 if TYPE_CHECKING:
     from vehval.fuels import ResolvedFuel
@@ -80,8 +80,31 @@ def acceleration(v: np.ndarray, dt: float, window_s: float = 0.5) -> np.ndarray:
     return np.gradient(smooth(v, max(round(window_s / dt), 1)), dt)
 
 
-def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
+def hybrid_refusal(test: Test, vehicle: object = None) -> str | None:
+    """The one line refusing to identify a hybrid test, None for a conventional one.
+
+    The decision is :func:`vehval.test.is_hybrid`'s: the vehicle file's architecture when
+    one is given (the template's ``vehicle:``), else a hybrid-component signal in the test.
+    """
+    if not is_hybrid(test, vehicle, measured_only=False):
+        return None
+    arch, name = getattr(vehicle, "architecture", None), getattr(vehicle, "name", None)
+    why = (f"it has {', '.join(hybrid_signals(test, measured_only=False)[:3])}" if arch is None
+           else f"its vehicle {name} is {arch}" if name else f"its vehicle file says {arch}")
+    where = ", ".join(test.meta.files) or test.meta.test_id or "the test"
+    return (f"{where}: this is a hybrid ({why}): identify and the conventional model take "
+            "conventional cars only; use `vehval validate` or `vehval calibrate` with a "
+            "power-split vehicle file (--vehicle)")
+
+
+def trace_from_test(test: Test, dt: float = 0.1, vehicle: object = None) -> Trace:
     """Trace of ``test`` on a ``dt`` grid from time 0 (the start of the drive) to its end.
+
+    Parameters
+    ----------
+    vehicle : Vehicle, optional
+        The test's vehicle file (the template's ``vehicle:``): its architecture decides
+        whether the test is a hybrid (:func:`hybrid_refusal`).
 
     Raises
     ------
@@ -89,11 +112,9 @@ def trace_from_test(test: Test, dt: float = 0.1) -> Trace:
         The test is a hybrid, or lacks one of the signals in :data:`REQUIRED`.
     """
     where = test.meta.files[0] if test.meta.files else test.meta.test_id
-    hybrid = hybrid_signals(test, measured_only=False)
-    if hybrid:
-        raise IdentificationError(
-            f"{where}: this is a hybrid test (it has {', '.join(hybrid[:3])}): conventional "
-            "identification needs a car whose engine alone drives the wheels")
+    refusal = hybrid_refusal(test, vehicle)
+    if refusal:
+        raise IdentificationError(refusal)
     sig = {}
     for base, what in REQUIRED.items():
         s = test.best(base, ("test",))  # the one selection rule
@@ -146,8 +167,9 @@ def load_traces(files: Sequence[str | Path], template, dt: float = 0.1) -> list[
     from vehval.workflow import TestRun
     out = []
     for f in files:
-        test = TestRun.load([f], template, use_qa=False).test
-        tr = trace_from_test(test, dt)
+        run = TestRun.load([f], template, use_qa=False)
+        test = run.test
+        tr = trace_from_test(test, dt, run.vehicle)
         tr.results = compute_results(test)
         out.append(tr)
     return out

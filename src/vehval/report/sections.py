@@ -53,15 +53,19 @@ def display_label(test: Test, name: str) -> tuple[str, float]:
     """``name [display unit]`` for time-trace axes, and the factor SI -> display unit
     (the one display-unit table, :mod:`vehval.display`; offsets are zero for every unit
     the nomenclature uses)."""
-    from vehval.display import unit_for
-
     if name not in test:
         return name, 1.0
-    sig = test[name]
-    finite = sig.values[np.isfinite(sig.values)]
-    unit = unit_for(sig.unit, signal=name,
-                    magnitude=float(np.max(np.abs(finite))) if finite.size else None)
+    unit = _display_unit(test[name])
     return (f"{name} [{unit.label}]" if unit.label else name), unit.factor
+
+
+def _display_unit(sig: Any) -> Any:
+    """The display unit of a signal (kJ or MJ from its largest magnitude)."""
+    from vehval.display import unit_for
+
+    finite = sig.values[np.isfinite(sig.values)]
+    return unit_for(sig.unit, signal=sig.name,
+                    magnitude=float(np.max(np.abs(finite))) if finite.size else None)
 
 
 def _trace(test: Test, name: str, i: int, **kw) -> dict:
@@ -135,13 +139,18 @@ def _constant(key: str, value: Any) -> Any:
 
 # ----------------------------------------------------------------------------- import
 def import_section(test: Test) -> Section:
-    rows = [{"standard name": s.name, "unit": s.unit, "source": s.source, "raw name": s.raw_name,
-             "raw unit": s.raw_unit, "file": s.file, "samples": int(s.time.size),
-             "period [s]": s.sample_period, "resample": s.resample, "notes": "; ".join(s.notes)}
+    """The import mapping: each raw channel with the unit the file or template declared, its
+    standard name, the SI unit stored and the unit the report shows it in; deleted channels."""
+    rows = [{"standard name": s.name, "unit (SI)": s.unit,
+             "shown as": _display_unit(s).label or "-", "source": s.source,
+             "raw name": s.raw_name, "raw unit": s.raw_unit, "file": s.file,
+             "samples": int(s.time.size), "period [s]": s.sample_period,
+             "resample": s.resample, "notes": "; ".join(s.notes)}
             for s in test]
     sec = Section("import", "Import mapping",
-                  intro="Raw channel name and unit as read from the file, mapped to the standard "
-                        "name and SI unit.")
+                  intro="Raw channel name and the unit the file or template declared (raw "
+                        "unit), mapped to the standard name and the SI unit stored; the "
+                        "report shows each channel in its display unit (shown as).")
     sec.tables.append(rows_table("Channel mapping", rows, key="mapping"))
     deleted = [d if isinstance(d, dict) else {"channel": str(d)} for d in test.meta.deleted]
     sec.tables.append(rows_table("Deleted channels", deleted, key="deleted",
