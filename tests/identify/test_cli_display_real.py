@@ -1,21 +1,9 @@
 """What `vehval identify` prints on the Cruze's cold starts (skipped without the real files):
 the fitted road-load C is negative, the vehicle file holds 0; both tests start cold."""
 
-import os
-from pathlib import Path
-
-import pytest
+from test_cruze_real import CRUZE, SPEC, TEMPLATE, pytestmark  # noqa: F401 - the real files
 
 from vehval.cli import main
-
-HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
-TEMPLATE = HERE.parent / "qa" / "templates" / "cruze.yaml"
-SPEC = HERE / "cruze_spec.yaml"
-
-pytestmark = [pytest.mark.realdata, pytest.mark.slow,
-              pytest.mark.skipif(not CRUZE.is_dir(), reason="real data not available")]
 
 
 def test_cold_starts_clamped_c_and_cold_warning(tmp_path, capsys, monkeypatch):
