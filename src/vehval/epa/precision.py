@@ -160,6 +160,16 @@ class Samples:
                                            k[1]))
 
 
+def pool_families(samples: Samples, name: str = "all") -> Samples:
+    """The same samples with every powertrain family pooled under ``name``."""
+    out = Samples(rows=samples.rows, dedup=samples.dedup)
+    for src, dst in ((samples.repeats, out.repeats), (samples.pairs, out.pairs),
+                     (samples.pairs_vehicle, out.pairs_vehicle)):
+        for (_, proc), items in src.items():
+            dst[(name, proc)] += items
+    return out
+
+
 def collect(tests: Sequence[EpaTest]) -> Samples:
     """De-duplicate, match and group the rows of one list (or of several, pooled)."""
     d = dedupe(tests)
@@ -194,12 +204,15 @@ class CellPrecision:
     s_R: Precision | None
     s_R_vehicle: Precision | None = None
     notes: tuple[str, ...] = ()
+    counts: tuple[int, int, int] = (0, 0, 0)   # pairs of repeats, settings, settings (vehicle)
 
     def to_dict(self) -> dict[str, Any]:
         return {"family": self.family, "procedure": self.procedure,
                 "s_r": self.s_r.to_dict() if self.s_r else None,
                 "s_R": self.s_R.to_dict() if self.s_R else None,
                 "s_R_vehicle": self.s_R_vehicle.to_dict() if self.s_R_vehicle else None,
+                "available": {"s_r_pairs": self.counts[0], "s_R_settings": self.counts[1],
+                              "s_R_vehicle_settings": self.counts[2]},
                 "notes": list(self.notes)}
 
 
@@ -229,7 +242,10 @@ def estimate(samples: Samples, confidence: float = 0.95) -> list[CellPrecision]:
         s_Rv = _try(lambda: _reproducibility(samples.pairs_vehicle.get((fam, proc), []),
                                              s_r=ref, confidence=confidence,
                                              what=f"s_R (vehicle) {fam} {proc}"), notes)
-        out.append(CellPrecision(fam, proc, s_r, s_R, s_Rv, tuple(notes)))
+        counts = (sum(len(g) - 1 for g in samples.repeats.get((fam, proc), [])),
+                  len(samples.pairs.get((fam, proc), [])),
+                  len(samples.pairs_vehicle.get((fam, proc), [])))
+        out.append(CellPrecision(fam, proc, s_r, s_R, s_Rv, tuple(notes), counts))
     return out
 
 

@@ -12,8 +12,9 @@ ISO 5725-2:
   manufacturer's). Each setting gives one relative difference of the two labs' means
   ``D = (abar - bbar) / ((abar + bbar) / 2)``. With ``n_a`` and ``n_b`` results per lab,
   ``E[D^2] = 2 s_L^2 + s_r^2 (1/n_a + 1/n_b)``, where s_L is the between-lab component, and
-  ``s_R^2 = s_L^2 + s_r^2``. So ``s_R^2 = mean(D^2) / 2 + s_r^2 (1 - mean(1/n_a + 1/n_b) / 2)``
-  (exactly ``mean(D^2) / 2`` when every setting has one result per lab). A systematic offset
+  ``s_R^2 = s_L^2 + s_r^2``, ``s_L^2 = max(mean(D^2) / 2 - s_r^2 mean(1/n_a + 1/n_b) / 2, 0)``
+  (clamped at zero as ISO 5725-2 does, so that s_R >= s_r; ``mean(D^2) / 2`` when s_r is
+  not given). A systematic offset
   between the labs is part of s_R (it is what a model tuned on one lab's results meets in the
   other's); it is also stated alone (``offset``, mean D with its t-interval).
 
@@ -251,10 +252,10 @@ def reproducibility(pairs: Sequence[LabPair], *, s_r: float = 0.0, confidence: f
             f"{what}: {n} setting(s) measured by both labs; at least {MIN_PAIRS} pairs are "
             "needed for a reproducibility with an interval")
     msq = sum(x * x for x in d) / n
-    corr = s_r * s_r * (1.0 - (sum(inv) / n) / 2.0)
+    half_inv = (sum(inv) / n) / 2.0
 
-    def s_of(m: float) -> float:
-        return math.sqrt(max(m / 2.0 + corr, 0.0))
+    def s_of(m: float) -> float:        # s_L^2 clamped at 0 (ISO 5725-2): s_R >= s_r
+        return math.sqrt(max(m / 2.0 - s_r * s_r * half_inv, 0.0) + s_r * s_r)
 
     a_ = (1.0 - confidence) / 2.0
     lo = s_of(msq * n / stats.chi2.ppf(1.0 - a_, n))
