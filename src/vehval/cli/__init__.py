@@ -26,9 +26,9 @@ def _register() -> None:
         commands_batch,  # noqa: F401
         commands_cycles,  # noqa: F401
         commands_epa,  # noqa: F401
-        commands_precision,  # noqa: F401
         commands_identify,  # noqa: F401
         commands_import,  # noqa: F401
+        commands_precision,  # noqa: F401
         commands_qa,  # noqa: F401
         commands_report,  # noqa: F401
         commands_results,  # noqa: F401

@@ -163,10 +163,11 @@ class Samples:
 def pool_families(samples: Samples, name: str = "all") -> Samples:
     """The same samples with every powertrain family pooled under ``name``."""
     out = Samples(rows=samples.rows, dedup=samples.dedup)
-    for src, dst in ((samples.repeats, out.repeats), (samples.pairs, out.pairs),
-                     (samples.pairs_vehicle, out.pairs_vehicle)):
-        for (_, proc), items in src.items():
-            dst[(name, proc)] += items
+    for (_, proc), groups in samples.repeats.items():
+        out.repeats[(name, proc)] += groups
+    for src, dst in ((samples.pairs, out.pairs), (samples.pairs_vehicle, out.pairs_vehicle)):
+        for (_, proc), pairs in src.items():
+            dst[(name, proc)] += pairs
     return out
 
 

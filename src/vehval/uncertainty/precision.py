@@ -262,7 +262,7 @@ def reproducibility(pairs: Sequence[LabPair], *, s_r: float = 0.0, confidence: f
     hi = s_of(msq * n / stats.chi2.ppf(a_, n))
     mean_d = sum(d) / n
     sd_d = math.sqrt(sum((x - mean_d) ** 2 for x in d) / (n - 1))
-    half = stats.t.ppf(1.0 - a_, n - 1) * sd_d / math.sqrt(n)
+    half = float(stats.t.ppf(1.0 - a_, n - 1)) * sd_d / math.sqrt(n)
     return Precision("reproducibility", s_of(msq), n, n, sum(counts), lo, hi, confidence,
                      offset=mean_d, offset_ci=(mean_d - half, mean_d + half), s_r_used=s_r,
                      excluded=every - n)

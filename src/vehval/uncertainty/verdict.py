@@ -247,7 +247,7 @@ def set_verdict(comparisons: Sequence[Comparison], *, s_r: float, s_R: float | N
     e = [c.error for c in comparisons]
     mean = sum(e) / n
     sd = math.sqrt(sum((x - mean) ** 2 for x in e) / (n - 1))
-    half = stats.t.ppf(0.975, n - 1) * sd / math.sqrt(n)
+    half = float(stats.t.ppf(0.975, n - 1)) * sd / math.sqrt(n)
     s_l2 = max((s_R or 0.0) ** 2 - s_r ** 2, 0.0) if different_source else 0.0
     limit = k * math.sqrt(s_r ** 2 / n + s_l2)
     biased = (mean - half > 0.0 or mean + half < 0.0) and abs(mean) > limit
