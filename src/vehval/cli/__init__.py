@@ -28,6 +28,7 @@ def _register() -> None:
         commands_epa,  # noqa: F401
         commands_identify,  # noqa: F401
         commands_import,  # noqa: F401
+        commands_precision,  # noqa: F401
         commands_qa,  # noqa: F401
         commands_report,  # noqa: F401
         commands_results,  # noqa: F401
