@@ -494,7 +494,6 @@ def _results_errors(t: Template, mapped: dict[str, str]) -> list[str]:
     """Checks of the results keys: fuel known, accuracy and phase channel on mapped signals."""
     from vehval.errors import VehvalError
     from vehval.fuels import fuel_properties
-
     from vehval.fuels.table import density_problem
 
     errors: list[str] = [p for p in (

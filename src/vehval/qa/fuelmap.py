@@ -233,7 +233,7 @@ def _unit_hint(f: Finding, fuel: Signal, gain: float, tol: float, test: Test,
     declared as a mass rate: the density; mg/s for g/s: 1000) names that unit: the finding
     becomes an error with the unit's fix (:mod:`vehval.qa.unit_hints`)."""
     from vehval.fuels import resolve_fuel
-    from vehval.qa.unit_hints import CANDIDATES, factor, fix_text, hint_sentence, UnitHint
+    from vehval.qa.unit_hints import CANDIDATES, UnitHint, factor, fix_text, hint_sentence
 
     if not fuel.raw_unit:
         return
