@@ -11,6 +11,7 @@ import typer
 
 from vehval.cli.app import app
 from vehval.cli.options import bounded
+from vehval.constants import BRAKE_EFFICIENCY_RANGE
 from vehval.errors import ConfigError
 
 
@@ -273,9 +274,8 @@ def _drag_note(drag) -> str:
     return drag.note.replace(si, _drag_text(drag.dyno_loss_a_n, drag.dyno_loss_b_n_per_mps))
 
 
-#: [-] peak brake efficiency of road engines: above the best diesels' (~0.42), below the
-#: worst engines' in service (~0.25)
-ETA_PLAUSIBLE = (0.20, 0.45)
+#: [-] peak brake efficiency of road engines (the band of :mod:`vehval.constants`)
+ETA_PLAUSIBLE = BRAKE_EFFICIENCY_RANGE
 _UNIT_HINT = ("check the fuel flow's unit and the test fuel's heating value (template "
               "constants) and the fuel channel's mapping")
 

@@ -494,8 +494,13 @@ def _results_errors(t: Template, mapped: dict[str, str]) -> list[str]:
     """Checks of the results keys: fuel known, accuracy and phase channel on mapped signals."""
     from vehval.errors import VehvalError
     from vehval.fuels import fuel_properties
+    from vehval.fuels.table import density_problem
 
-    errors: list[str] = []
+    errors: list[str] = [p for p in (
+        density_problem("constants.fuel_density_kg_per_m3", t.constants.fuel_density_kg_per_m3),
+        density_problem("fuel.density_kg_per_m3",
+                        t.fuel.density_kg_per_m3 if isinstance(t.fuel, FuelSpec) else None))
+        if p]
     try:
         fuel_properties(t.fuel)
     except VehvalError as exc:

@@ -27,7 +27,7 @@ EXIT_WITHHELD = 4
 #: Kinds whose finding speaks for the whole channel, whatever span it carries.
 WHOLE_CHANNEL_KINDS = frozenset({Kind.ALL_ZERO, Kind.CONSTANT, Kind.UNIT, Kind.UNIT_SUSPECT,
                                  Kind.GAIN, Kind.OFFSET, Kind.SIGN_FLIP, Kind.SPARSE,
-                                 Kind.FUEL_MAP, Kind.UNRECOGNISED})
+                                 Kind.FUEL_MAP, Kind.UNRECOGNISED, Kind.FUEL_EFFICIENCY})
 
 _DIST = ("distance_m", "mean_speed_mps", "max_speed_mps")
 _FUEL = ("fuel_mass_kg", "fuel_volume_m3", "fuel_energy_j")
