@@ -474,6 +474,11 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
         return evaluate(theta)
 
     nominal, unc = propagate(evaluate_full, theta_params, method=method, draws=draws, seed=seed)
+    # the method that gave the stated U: first order when no parameter was drawn
+    if method == "monte_carlo" and not any(u.get("method") == "monte_carlo" for u in unc.values()):
+        method = "first_order"
+        notes.append("uncertainty: first-order propagation: Monte Carlo asked for, but no "
+                     "parameter has an uncertainty to draw")
     values: dict[str, dict[str, float | None]] = {}
     uncertainty: dict[str, dict[str, dict]] = {}
     for key, v in nominal.items():
