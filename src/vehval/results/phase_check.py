@@ -129,5 +129,5 @@ def _check_one(ph: Phase, segs: list[tuple[float, float]], match: CycleMatch, sp
          "end_offset_s": end, "tolerance": PHASE_TOL},
         level=4,
         fix=(f"check the phase channel {channel}: its bag marks lie {start:+.1f} s from the "
-             "cycle's (a late marker or another clock); correct or shift it in the template, "
-             f"or leave it unmapped so the phases follow the cycle's table"))
+             "cycle's (a late marker, another clock): correct the marks in the file, or leave "
+             "the channel unmapped and the phases follow the cycle's table"))
