@@ -71,6 +71,15 @@ def _fuel_declared(fuel) -> str:
     return f"{fuel.name} ({props}; {origin}: not checkable from the data)" if props else fuel.name
 
 
+def _method_text(res) -> str:
+    """The propagation that gave the stated U; a Monte Carlo with its own sampling error."""
+    if res.method != "monte_carlo" or not res.draws:
+        return res.method.replace("_", " ")
+    n = int(res.draws)
+    return (f"monte carlo ({n} draws: U itself uncertain by about "
+            f"{100 / (2 * (n - 1)) ** 0.5:.2g} %)")
+
+
 def withheld_exit(doc: dict) -> None:
     """Exit code 4 when a figure of a results.json document was withheld (not forced)."""
     from vehval.results.gate import EXIT_WITHHELD
@@ -127,7 +136,7 @@ def echo_results(res) -> None:
     for note in res.notes:
         if note.startswith("FTP-75:"):
             typer.echo(f"  ! {note}")
-    typer.echo(f"  uncertainty: {res.method.replace('_', ' ')}, k = 2; SOC: {res.soc['status']}")
+    typer.echo(f"  uncertainty: {_method_text(res)}, k = 2; SOC: {res.soc['status']}")
     if res.withheld:
         typer.echo(f"  {len(res.withheld)} figure(s) "
                    + ("stated despite QA errors (--force)" if res.forced else

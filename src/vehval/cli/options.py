@@ -2,7 +2,8 @@
 every numeric option.
 
 ``BOUNDS`` is the one table of numeric option limits: each entry gives the closed range and
-the reason for it, which the refusal repeats. Commands attach :func:`bounded` as the option's
+the reason for it, which the refusal repeats, and optionally the one value outside the
+range that switches the option off (``--monte-carlo 0``: first-order propagation). Commands attach :func:`bounded` as the option's
 ``callback``; a value outside its range (or not finite) is refused before anything runs, with
 one ``vehval: error:`` line. Memory is checked separately, where an allocation's size is known
 (:mod:`vehval.sim.budget`).
@@ -27,6 +28,8 @@ class Bound:
     hi: float
     unit: str
     reason: str
+    #: A value outside the range that switches the option off (``--monte-carlo 0``).
+    off: float | None = None
 
 
 SEED_MAX = 2**32 - 1
@@ -36,9 +39,11 @@ BOUNDS: dict[str, Bound] = {
                 "below 1 ms changes no result and only costs time and memory; one above 1 s "
                 "misses the cycle's accelerations"),
     "soc": Bound(0.0, 1.0, "-", "a state of charge is a fraction"),
-    "mc_results": Bound(0, 10_000_000, "draws", "GUM Supplement 1 asks for about 10^6 draws "
-                        "for a 95 % interval good to two digits; more adds time and memory, "
-                        "not accuracy"),
+    "mc_results": Bound(100, 10_000_000, "draws", "0 is first-order propagation; fewer "
+                        "than 100 draws give a standard deviation uncertain by more than 7 % "
+                        "of itself (1/sqrt(2(n-1))); GUM Supplement 1 asks for about 10^6 "
+                        "draws for a 95 % interval good to two digits; more adds time and "
+                        "memory, not accuracy", off=0),
     "mc_sensitivity": Bound(0, 10_000, "draws", "every draw is one simulation per cycle "
                             "and 10^4 draws of five cycles take hours"),
     "seed": Bound(0, SEED_MAX, "-", "numpy and scipy generators take seeds in [0, 2^32 - 1]"),
@@ -93,9 +98,12 @@ def check_bound(kind: str, value: Any, option: str) -> Any:
         return value
     b = BOUNDS[kind]
     v = float(value)
+    if b.off is not None and v == b.off:
+        return value
     if not math.isfinite(v) or not (b.lo <= v <= b.hi):
         unit = "" if b.unit == "-" else f" {b.unit}"
-        raise ConfigError(f"{option} {value}: must be within [{_num(b.lo)}, {_num(b.hi)}]"
+        off = f"{_num(b.off)} or " if b.off is not None else ""
+        raise ConfigError(f"{option} {value}: must be {off}within [{_num(b.lo)}, {_num(b.hi)}]"
                           f"{unit}; {b.reason}")
     return value
 

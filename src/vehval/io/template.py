@@ -487,6 +487,9 @@ def semantic_errors(t: Template) -> list[str]:
         except SignalError as exc:
             errors.append(f"selection: {exc}")
     errors.extend(_results_errors(t, seen))
+    from vehval.io.road_load import road_load_errors
+
+    errors.extend(road_load_errors(t.constants))   # signs and magnitudes of a target road load
     return errors
 
 
