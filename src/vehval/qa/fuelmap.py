@@ -230,7 +230,8 @@ def fuel_map_check(test: Test, vehicle: Any, findings: list[Finding], computed: 
 def _unit_hint(f: Finding, fuel: Signal, gain: float, tol: float, test: Test,
                vehicle: Any) -> None:
     """A gain that another unit of the fuel rate brings within ``tol`` of 1 (a volume rate
-    declared as a mass rate: the density; mg/s for g/s: 1000) names that unit: the finding
+    declared as a mass rate: the density; mg/s for g/s: 1000) names that unit when the factor
+    lies beyond three tolerances of 1 (closer, it is a gain error like any other): the finding
     becomes an error with the unit's fix (:mod:`vehval.qa.unit_hints`)."""
     from vehval.fuels import resolve_fuel
     from vehval.qa.unit_hints import CANDIDATES, UnitHint, factor, fix_text, hint_sentence
@@ -242,7 +243,8 @@ def _unit_hint(f: Finding, fuel: Signal, gain: float, tol: float, test: Test,
     hits = []
     for unit in CANDIDATES.get(fuel.unit, ()):
         k = factor(fuel, unit, density)
-        if np.isfinite(k) and abs(k - 1.0) > tol and abs(gain * k - 1.0) <= tol:
+        # a factor within a few tolerances of 1 cannot be told from a meter gain error
+        if np.isfinite(k) and k > 0 and abs(np.log(k)) > 3 * tol and abs(gain * k - 1.0) <= tol:
             hits.append(UnitHint(unit, k, gain * k))
     if not hits:
         return
