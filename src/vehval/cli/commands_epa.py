@@ -88,13 +88,14 @@ def tests_cmd(
     cycle, originator, results."""
     from vehval import jsonsafe
     from vehval.epa import procedure_key
-    from vehval.epa.consistency import check_listed_figures
+    from vehval.epa.consistency import check_listed_figures, impossible_values
 
     tests = _load(paths, make, model, year)
     checks = [check_listed_figures(t) for t in tests]
     if as_json:
         typer.echo(jsonsafe.dumps([{**t.to_dict(), "procedure_key": procedure_key(t),
-                                    "list_check": c.to_dict()}
+                                    "list_check": c.to_dict(),
+                                    "impossible_values": impossible_values(t)}
                                    for t, c in zip(tests, checks)]), nl=False)
         return
     from vehval.display import unit_for
@@ -116,7 +117,7 @@ def tests_cmd(
                f"bags 1-4 (FE, bags: {fe[0]})")
     for t, chk in zip(tests, checks):
         bags = " ".join(f"{_fmt(fe[1](b_), fe[2]):>6}" for b_ in t.bags) + (
-            "" if chk.ok else "  !")
+            "" if chk.ok else "  !") + ("  AD" if t.analytically_derived else "")
         typer.echo(f"{t.label:{wt}s} {t.vehicle_id:{wv}s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
                    f"{_trans_text(t):5s} {_fuel_text(t):6s} "
@@ -129,6 +130,26 @@ def tests_cmd(
     for t, chk in zip(tests, checks):
         if not chk.ok:
             typer.echo(f"! {t.label} ({t.source}): {chk.note}")
+        for text in impossible_values(t).values():
+            typer.echo(f"! {t.label} ({t.source}): {text}")
+    _echo_list_marks(tests)
+
+
+def _echo_list_marks(tests: list) -> None:
+    """The list's own marks: tests listed again (one line each) and the analytically
+    derived ones (one line: the 'AD' of the table)."""
+    for t in tests:
+        if t.duplicate_note:
+            typer.echo(f"note: {t.label} ({t.source}): {t.duplicate_note}")
+    derived = [t for t in tests if t.analytically_derived]
+    if derived:
+        typer.echo(f"AD: {len(derived)} test(s) the list marks as analytically derived "
+                   "('Analytically Derived FE?' Yes: figures computed from another test, "
+                   "'adfe_test_number' in --json), not measured; `epa validate` does not "
+                   "judge them")
+    if tests and all(t.analytically_derived is None for t in tests):
+        typer.echo("AD: the list has no 'Analytically Derived FE?' column (a reduced column "
+                   "set): derived figures cannot be told from measured ones")
 
 
 def _fe_display():
@@ -255,6 +276,12 @@ def validate_cmd(
             typer.echo(f"! {p.test.label} ({p.test.source}): {p.list_check.note}; its figures "
                        "are listed, not judged")
     _echo_mismatches([(p.test.label, p.vehicle_check) for p in val.predictions])
+    derived = [p.test.label for p in val.predictions if p.test.analytically_derived]
+    if derived:
+        typer.echo(f"! {len(derived)} test(s) ({', '.join(derived[:3])}"
+                   f"{' ...' if len(derived) > 3 else ''}) the list marks as analytically "
+                   "derived (figures computed from another test, not measured): simulated, "
+                   "not judged")
     for s in val.skipped:
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
     typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped, "
@@ -312,6 +339,8 @@ def _echo_mismatches(checks, err: bool = False) -> None:
 def _judged_text(c) -> str:
     if c.judged:
         return "yes"
+    if c.analytically_derived:
+        return "no (derived)"
     return "no (list doubtful)" if c.list_doubtful else "no (cold start)"
 
 

@@ -46,7 +46,8 @@ def judged_errors(val: EpaValidation, with_cold: bool = False) -> np.ndarray:
     """Relative errors [-] of the judged figures of a validation (``with_cold``: and of the
     cold-start figures whether or not the vehicle models the cold start)."""
     return np.array([c.error for c in val.comparisons
-                     if c.judged or (with_cold and c.cold_start)])
+                     if c.judged or (with_cold and c.cold_start and not c.list_doubtful
+                                     and not c.analytically_derived)])
 
 
 def _score(val: EpaValidation, with_cold: bool = False) -> tuple[float, float]:
