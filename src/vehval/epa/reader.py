@@ -397,6 +397,12 @@ def _record(path: Path, lineno: int, row: list[str], index: dict[str, int],
     )
 
 
+#: columns a test listed again may differ in and still be one test: the dyno set
+#: coefficients (the 2016 and 2019 lists give some GM tests twice, once per set of
+#: coefficients; the simulation uses the target coefficients)
+MAY_DIFFER = frozenset({"Set Coef A (lbf)", "Set Coef B (lbf/mph)", "Set Coef C (lbf/mph**2)"})
+
+
 def _repeat_note(lines: list[int], differ: list[str], read: set[str]) -> str:
     """What the rows ``lines`` of one test number are, given the columns that differ
     between them (``read``: the columns the reader reads)."""
@@ -406,8 +412,15 @@ def _repeat_note(lines: list[int], differ: list[str], read: set[str]) -> str:
     shown = ", ".join(f"'{c}'" for c in differ[:4]) + (" ..." if len(differ) > 4 else "")
     if not any(c in read for c in differ):
         return f"{where} differing only in {shown} (columns not read): one test, kept once"
-    return (f"{where} with different {shown}: one test number, kept once with the values "
-            f"of line {lines[0]}")
+    return (f"{where} with different {shown}: one test, kept once with the values of line "
+            f"{lines[0]}")
+
+
+def _conflict_note(number: str, others: list[int], differ: set[str], header: list[str]) -> str:
+    cols = [h for h in header if h in differ]
+    shown = ", ".join(f"'{c}'" for c in cols[:4]) + (" ..." if len(cols) > 4 else "")
+    return (f"test number {number} is also given to line(s) {', '.join(map(str, others))} "
+            f"with another {shown}: kept as separate rows (a typing error in the list?)")
 
 
 def _read(path: Path, rows) -> list[EpaTest]:
@@ -416,9 +429,11 @@ def _read(path: Path, rows) -> list[EpaTest]:
     if year_col:
         read.add(year_col)
     tests: list[EpaTest] = []
-    first: dict[str, tuple[int, list[str]]] = {}  # test number -> (position, its row)
+    first: dict[str, list[tuple[int, list[str]]]] = {}  # test number -> (position, row) each
     repeats: dict[int, tuple[list[int], set[str]]] = {}  # position -> (lines, columns differing)
+    conflicts: dict[int, tuple[list[int], set[str]]] = {}  # position -> (other lines, columns)
     unnumbered: dict[tuple[str, ...], int] = {}  # a row without a test number -> its line
+    line_of: dict[int, int] = {}  # position -> line
     for lineno, row in rows:
         if not any(cell.strip() for cell in row):
             continue
@@ -430,27 +445,37 @@ def _read(path: Path, rows) -> list[EpaTest]:
                                  "in a text list: a damaged file): fix or remove the line")
         row = [c.strip() for c in row[:len(header)]] + [""] * (len(header) - len(row))
         number = _cell(row, index, "Test Number")
-        if number and number in first:
-            pos, row0 = first[number]
-            lines, differ = repeats.setdefault(pos, ([int(tests[pos].source.rpartition(":")[2])],
-                                                     set()))
+        earlier = [(pos, {h for h, a, b in zip(header, row0, row) if a != b})
+                   for pos, row0 in (first.get(number, []) if number else [])]
+        same = next(((pos, d) for pos, d in earlier if not (d & read) - MAY_DIFFER), None)
+        if same is not None:        # the same test listed again
+            lines, seen = repeats.setdefault(same[0], ([line_of[same[0]]], set()))
             lines.append(lineno)
-            differ.update(h for h, a, b in zip(header, row0, row) if a != b)
+            seen.update(same[1])
             continue
+        for pos, differ in earlier:     # the same number, another test: both kept, named
+            for p_, other in ((pos, lineno), (len(tests), line_of[pos])):
+                conflicts.setdefault(p_, ([], set()))[0].append(other)
+                conflicts[p_][1].update(differ & read)
         if number:
-            first[number] = (len(tests), row)
+            first.setdefault(number, []).append((len(tests), row))
         rec = _record(path, lineno, row, index, year_col)
         if not number:      # no number to tell a repeated row from another test
-            same = unnumbered.setdefault(tuple(row), lineno)
-            if same != lineno:
+            seen_at = unnumbered.setdefault(tuple(row), lineno)
+            if seen_at != lineno:
                 rec = replace(rec, duplicate_note=(
-                    f"identical in every column to line {same}, and the list gives no test "
+                    f"identical in every column to line {seen_at}, and the list gives no test "
                     "number to tell a repeated row from another test: kept as a test"))
+        line_of[len(tests)] = lineno
         tests.append(rec)
     for pos, (lines, differ) in repeats.items():
         tests[pos] = replace(tests[pos], duplicate_rows=tuple(f"{path.name}:{n}" for n in lines[1:]),
                              duplicate_note=_repeat_note(
                                  lines, [h for h in header if h in differ], read))
+    for pos, (others, differ) in conflicts.items():
+        note = _conflict_note(tests[pos].test_number, others, differ, header)
+        old = tests[pos].duplicate_note
+        tests[pos] = replace(tests[pos], duplicate_note=f"{old}; {note}" if old else note)
     return tests
 
 
@@ -505,7 +530,8 @@ def read_lists(paths: Sequence[str | Path]) -> list[EpaTest]:
     for f in find_list_files(paths):
         name = str(f)
         for t in read_test_car_list(f):
-            if t.test_number and t.test_number in by_number:
+            if t.test_number and t.test_number in by_number \
+                    and name not in taken[by_number[t.test_number]]:
                 i = by_number[t.test_number]
                 kept = out[i]
                 assert kept is not None
