@@ -378,18 +378,24 @@ def calibrate_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print the calibration JSON."),
     output: Path | None = typer.Option(None, "-o", "--output", help="Write the calibrated "
                                        "vehicle YAML here (values carry their provenance)."),
+    long_run: bool = typer.Option(False, "--long-run", help="Run a calibration estimated "
+                                  "to take more than 15 min (refused without it)."),
 ) -> None:
-    """Choose unpublished parameters (controller thresholds, gains) on a set of EPA tests."""
+    """Choose unpublished parameters (controller thresholds, gains) on a set of EPA tests.
+
+    At most 1,000 grid settings; the estimated run time is stated on stderr before a run
+    of 10 s or more."""
     from vehval import jsonsafe
-    from vehval.epa.calibrate import calibrate_on_tests
+    from vehval.epa.calibrate import LONG_RUN_S, calibrate_on_tests, grid_from_pairs
     from vehval.epa.consistency import check_vehicle_match
     from vehval.vehicle import load_vehicle
 
-    grid = dict(_parse_param(p) for p in param)
+    grid = grid_from_pairs([_parse_param(p) for p in param])
     selected, veh = _selected(paths, tests, dt), load_vehicle(vehicle)
     _echo_mismatches([(t.label, check_vehicle_match(t, veh)) for t in selected], err=True)
     cal = calibrate_on_tests(veh, selected, grid, dt=dt, refine_rounds=refine,
-                             workers=workers)
+                             workers=workers, max_seconds=None if long_run else LONG_RUN_S,
+                             notify=lambda text: typer.echo(text, err=True))
     if output is not None:
         cal.write_vehicle(output)
     if as_json:
