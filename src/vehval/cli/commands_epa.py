@@ -411,6 +411,52 @@ def calibrate_cmd(
         typer.echo(f"wrote {output}")
 
 
+def _check_roles(calibrate: list[Path], predict: list[Path]) -> None:
+    """Refuse a dyno file given to both --calibrate and --predict (a test the fuel model is
+    fitted on is no held-out prediction: its fit error is already shown, in-sample) or twice
+    to one of them (it would count twice in the fit)."""
+    import os
+
+    from vehval.errors import ConfigError
+
+    def same(a: Path, b: Path) -> bool:
+        try:
+            return os.path.samefile(a, b)
+        except OSError:
+            return a.resolve() == b.resolve()
+
+    for k, f in enumerate(calibrate):
+        for g in predict:
+            if same(f, g):
+                raise ConfigError(f"{g}: given to both --calibrate and --predict: a test the "
+                                  "fuel model is fitted on is no held-out prediction (its "
+                                  "in-sample fit error is shown with --calibrate); give it to "
+                                  "one of them")
+    for opt, files in (("--calibrate", calibrate), ("--predict", predict)):
+        for k, f in enumerate(files):
+            if any(same(f, g) for g in files[:k]):
+                raise ConfigError(f"{f}: given twice to {opt}; give each test once")
+
+
+def _unit_hints(path: Path, test, template, force: bool) -> list[dict[str, str]]:
+    """The unit hints of the results stage (:func:`vehval.qa.plausibility.run_plausibility`)
+    on the speed and fuel signals `epa vehicle` uses; refused unless ``force``."""
+    from vehval.errors import InputFileError
+    from vehval.qa.findings import Kind
+    from vehval.qa.plausibility import run_plausibility
+
+    used = ("veh_spd_test", "fuel_rate_test")
+    found = [{"signal": f.signal, "message": f.message, "fix": f.fix}
+             for f in run_plausibility(test, template=template)
+             if f.kind == Kind.UNIT_SUSPECT and f.signal in used]
+    if found and not force:
+        h = found[0]
+        raise InputFileError(f"{path}: {h['message']}: {h['fix']} (a fuel model fitted or "
+                             "judged on it would be wrong by that factor; --force uses it "
+                             "anyway)")
+    return found
+
+
 def _uncalibrated() -> str:
     """What a vehicle built without calibration tests is."""
     from vehval.epa.specs import INDICATED_EFFICIENCY
@@ -453,7 +499,7 @@ def vehicle_cmd(
                                          "vehicle speed and fuel rate) to fit the fuel "
                                          "model on; repeatable."),
     predict: list[Path] = typer.Option([], "--predict", help="A held-out dyno test to "
-                                       "predict; repeatable."),
+                                       "predict (not also a --calibrate test); repeatable."),
     template: Path | None = typer.Option(None, "-t", "--template", help="Import template "
                                          "of the dyno test files."),
     splits: int = typer.Option(0, "--splits", callback=bounded("splits"), help="Also fit on "
@@ -462,6 +508,8 @@ def vehicle_cmd(
     dt: float = typer.Option(0.5, "--dt", callback=bounded("dt"), help="Simulation step [s]."),
     as_json: bool = typer.Option(False, "--json", help="Print the result JSON."),
     output: Path = typer.Option(..., "-o", "--output", help="Write the vehicle YAML here."),
+    force: bool = typer.Option(False, "--force", help="Use dyno tests whose speed or fuel "
+                               "unit QA doubts (the hint is still printed)."),
 ) -> None:
     """A conventional vehicle from its EPA Test Car List specification, its fuel model
     calibrated on dyno tests with speed and fuel only."""
@@ -485,14 +533,17 @@ def vehicle_cmd(
     rows = select_tests(read_lists(paths), make, model, year)
     rows = _narrow(rows, vehicle_id, config)
     specs = specs_from_tests(rows)
+    _check_roles(calibrate, predict)
     files = [*calibrate, *predict]
     if files and template is None:
         raise ConfigError("give the import template of the dyno tests with -t")
-    runs = {}
+    runs, hints = {}, {}
     for f in files:
         from vehval.workflow import TestRun
 
-        test = TestRun.load([f], template, use_qa=False).test
+        loaded = TestRun.load([f], template, use_qa=False)
+        test = loaded.test
+        hints[f] = _unit_hints(f, test, loaded.template, force)
         runs[f] = dyno_run(test, test.meta.test_id or f.stem,
                            model_lhv_j_per_kg=model_fuel_lhv())
     cal = [runs[f] for f in calibrate]
@@ -506,6 +557,7 @@ def vehicle_cmd(
     tests_doc: list[dict[str, Any]] = [{"test": r.test_id, "in_sample": f in calibrate,
                   "fuel_measured_kg": r.fuel_kg, "distance_m": r.distance_m,
                   "cold_start": r.cold, "note": cold_note(r), "fuel_note": r.fuel_note,
+                  "unit_hints": hints[f],
                   "error": (fit.errors.get(r.test_id) if f in calibrate and fit
                             else pred.get(r.test_id))} for f, r in runs.items()]
     doc = {"vehicle": veh.name, "specs": specs.to_dict(),
@@ -540,6 +592,9 @@ def vehicle_cmd(
                    f" fuel error {err:>8}  ({row['note']})")
     for note in dict.fromkeys(r["fuel_note"] for r in tests_doc if r["fuel_note"]):
         typer.echo(f"test fuel: {note}")
+    for f, found in hints.items():
+        for h in found:
+            typer.echo(f"! {f}: {h['message']} ({h['fix']}; used with --force)")
     if held:
         worst = max(abs(e) for e in pred.values())
         typer.echo(f"held-out: {len(pred)} tests, largest |fuel error| {100 * worst:.1f} %")
