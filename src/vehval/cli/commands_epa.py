@@ -411,52 +411,6 @@ def calibrate_cmd(
         typer.echo(f"wrote {output}")
 
 
-def _check_roles(calibrate: list[Path], predict: list[Path]) -> None:
-    """Refuse a dyno file given to both --calibrate and --predict (a test the fuel model is
-    fitted on is no held-out prediction: its fit error is already shown, in-sample) or twice
-    to one of them (it would count twice in the fit)."""
-    import os
-
-    from vehval.errors import ConfigError
-
-    def same(a: Path, b: Path) -> bool:
-        try:
-            return os.path.samefile(a, b)
-        except OSError:
-            return a.resolve() == b.resolve()
-
-    for k, f in enumerate(calibrate):
-        for g in predict:
-            if same(f, g):
-                raise ConfigError(f"{g}: given to both --calibrate and --predict: a test the "
-                                  "fuel model is fitted on is no held-out prediction (its "
-                                  "in-sample fit error is shown with --calibrate); give it to "
-                                  "one of them")
-    for opt, files in (("--calibrate", calibrate), ("--predict", predict)):
-        for k, f in enumerate(files):
-            if any(same(f, g) for g in files[:k]):
-                raise ConfigError(f"{f}: given twice to {opt}; give each test once")
-
-
-def _unit_hints(path: Path, test, template, force: bool) -> list[dict[str, str]]:
-    """The unit hints of the results stage (:func:`vehval.qa.plausibility.run_plausibility`)
-    on the speed and fuel signals `epa vehicle` uses; refused unless ``force``."""
-    from vehval.errors import InputFileError
-    from vehval.qa.findings import Kind
-    from vehval.qa.plausibility import run_plausibility
-
-    used = ("veh_spd_test", "fuel_rate_test")
-    found = [{"signal": f.signal, "message": f.message, "fix": f.fix}
-             for f in run_plausibility(test, template=template)
-             if f.kind == Kind.UNIT_SUSPECT and f.signal in used]
-    if found and not force:
-        h = found[0]
-        raise InputFileError(f"{path}: {h['message']}: {h['fix']} (a fuel model fitted or "
-                             "judged on it would be wrong by that factor; --force uses it "
-                             "anyway)")
-    return found
-
-
 def _uncalibrated() -> str:
     """What a vehicle built without calibration tests is."""
     from vehval.epa.specs import INDICATED_EFFICIENCY
@@ -515,6 +469,7 @@ def vehicle_cmd(
     calibrated on dyno tests with speed and fuel only."""
     from vehval import jsonsafe
     from vehval.calibration.provenance import write_vehicle_yaml
+    from vehval.cli.epa_inputs import check_roles, unit_hints
     from vehval.epa import read_lists, select_tests
     from vehval.epa.specs import model_fuel_lhv, specs_from_tests, vehicle_from_specs
     from vehval.epa.specs_fit import (
@@ -533,7 +488,7 @@ def vehicle_cmd(
     rows = select_tests(read_lists(paths), make, model, year)
     rows = _narrow(rows, vehicle_id, config)
     specs = specs_from_tests(rows)
-    _check_roles(calibrate, predict)
+    check_roles(calibrate, predict)
     files = [*calibrate, *predict]
     if files and template is None:
         raise ConfigError("give the import template of the dyno tests with -t")
@@ -543,7 +498,7 @@ def vehicle_cmd(
 
         loaded = TestRun.load([f], template, use_qa=False)
         test = loaded.test
-        hints[f] = _unit_hints(f, test, loaded.template, force)
+        hints[f] = unit_hints(f, test, loaded.template, force)
         runs[f] = dyno_run(test, test.meta.test_id or f.stem,
                            model_lhv_j_per_kg=model_fuel_lhv())
     cal = [runs[f] for f in calibrate]

@@ -7,9 +7,11 @@ displacement). :func:`read_test_car_list` reads any of them into :class:`EpaTest
 with the road-load coefficients, test weight and rated power in SI; fuel economy stays in
 the list's unit (``FE_UNIT``, miles per US gallon for gasoline).
 
-Every test number is kept. Rows of one list sharing a test number are one test listed
-again (once per aftertreatment device, or a repeated row): the first row is kept and the
-others are named in ``EpaTest.duplicate_rows`` with what differs (``duplicate_note``).
+Every test number is kept. Rows of one list sharing a test number and differing at most in
+columns not read or in the dyno set coefficients are one test listed again (once per
+aftertreatment device, or a repeated row): the first row is kept and the others are named
+in ``EpaTest.duplicate_rows`` with what differs (``duplicate_note``); rows of one number
+that differ in anything else are kept apart, each naming the other.
 """
 
 from __future__ import annotations
@@ -141,7 +143,10 @@ class EpaTest:
         kept is ``source``); empty for a test listed once.
     duplicate_note : str
         What those rows are: identical, differing only in columns not read (e.g. one row per
-        aftertreatment device), or differing in values read (the first row's are used).
+        aftertreatment device) or in the dyno set coefficients (the first row's are used).
+        Also set, with ``duplicate_rows`` empty, on a row whose test number another row of
+        other values carries (both kept) and on a row without a number identical in every
+        column to another (kept: nothing tells a repeated row from another test).
     """
 
     year: int
