@@ -109,7 +109,8 @@ def _road_load(vehicle: str, cycles: list[str], dt: float, epa: Optional[list[Pa
             val = validate_tests(vehicle, chosen, dt=dt)
             by_test = {p.test.label: p.test for p in val.predictions}
             for c in val.comparisons:
-                if c.item != "overall" or c.measured_mpg is None or c.list_doubtful:
+                if (c.item != "overall" or c.measured_mpg is None or c.list_doubtful
+                        or c.analytically_derived):
                     continue
                 t = by_test[c.test]
                 rows.append({"procedure": c.procedure, "label": sel, "mass_kg": t.mass_kg,
