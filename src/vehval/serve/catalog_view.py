@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from vehval.errors import InputFileError, VehvalError
-from vehval.serve.security import inside_workspace
+from vehval.serve.security import classify, inside_workspace
 from vehval.serve.series import series
 
 #: Catalog columns listed on the page (metrics [SI] and the fuel economy [mpg]).
@@ -38,16 +38,24 @@ _db_lock = threading.Lock()
 _tests: dict[tuple, Any] = {}
 
 
-def find_catalogs(root: Path, limit: int = 200) -> list[Path]:
-    """``catalog.duckdb`` files under the workspace (at most ``limit``, 4 levels deep)."""
+def find_catalogs(root: Path, limit: int = 200) -> tuple[list[Path], list[dict]]:
+    """``catalog.duckdb`` files under the workspace (at most ``limit``, 4 levels deep), and
+    those left out (``[{"name", "why"}]``: a link leading out of the workspace, a loop...)."""
     out: list[Path] = []
+    left: list[dict] = []
     for depth in range(0, 4):
         for p in sorted(root.glob("/".join(["*"] * depth + ["catalog.duckdb"]))):
-            if p.is_file() and not any(part.startswith(".") for part in p.relative_to(root).parts):
-                out.append(p)
-                if len(out) >= limit:
-                    return out
-    return out
+            rel = p.relative_to(root)
+            if any(part.startswith(".") for part in rel.parts):
+                continue
+            kind, _, why = classify(root, p)
+            if kind != "file":
+                left.append({"name": rel.as_posix(), "why": why or "a folder, not a catalog"})
+                continue
+            out.append(p)
+            if len(out) >= limit:
+                return out, left
+    return out, left
 
 
 def rows(db: Path, filters: dict[str, str]) -> dict:
