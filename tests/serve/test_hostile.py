@@ -268,7 +268,8 @@ def test_bad_n_is_a_400_naming_it(small, n):
 @pytest.mark.parametrize("params, word", [
     ({"t0": "nan"}, "t0"), ({"t1": "inf"}, "t1"), ({"t0": "5", "t1": "1"}, "after"),
     ({"raw": None}, "raw: required"), ({"file": None}, "file: required"),
-    ({"bogus": "1"}, "bogus: unknown key")])
+    ({"bogus": "1"}, "bogus: unknown key"), ({"file": "a\x00b"}, "not a data file"),
+    ({"file": "../run.csv"}, "not a data file")])
 def test_bad_query_is_a_400_naming_it(small, params, word):
     q = {"dir": "t", "file": "run.csv", "raw": "Speed", **params}
     r = small.get("/api/channel", **{k: v for k, v in q.items() if v is not None})

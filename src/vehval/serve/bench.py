@@ -141,7 +141,8 @@ class Bench:
         from vehval.io.readers import read_raw
 
         path = self.folder / name
-        if not name or name.startswith(".") or path.parent != self.folder:
+        if not name or name.startswith(".") or "\x00" in name or "/" in name or "\\" in name \
+                or path.parent != self.folder:
             raise InputFileError(f"{name[:200]}: not a data file of {self.folder.name}")
         real = sec.regular_file(self.root, path, name)
         if real is None:
