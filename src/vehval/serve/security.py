@@ -5,13 +5,17 @@
   (or the ``X-Vehval-Token`` header): no token -> 403.
 * **CSRF**: a second random value is written into each page (``<meta name="vehval-csrf">``);
   every write (POST) must send it back in ``X-CSRF-Token`` and come from the workbench's
-  own origin. A page elsewhere cannot read it, so it cannot forge a write.
+  own origin (scheme, host and port: :func:`same_origin`). A page elsewhere cannot read it,
+  so it cannot forge a write.
 * **host**: only ``127.0.0.1``, ``localhost`` and ``[::1]`` (plus the bound host) are
   answered, so a DNS-rebinding page cannot reach the server under another name.
 * **content policy**: scripts and data only from the workbench itself; no request can leave
   the machine (``connect-src 'self'``, no remote source anywhere).
 * **paths**: every path of a request is relative to the workspace and must stay inside it
-  after symlinks are resolved (:func:`inside_workspace`).
+  after symlinks are resolved (:func:`inside_workspace`); every file listed or read is
+  resolved too (:func:`list_folder`, :func:`regular_file`), and what a listing leaves out is
+  named. The filesystem root and the home directory are no workspace
+  (:func:`check_workspace`).
 """
 
 from __future__ import annotations
