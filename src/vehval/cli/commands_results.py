@@ -158,7 +158,7 @@ def results_cmd(
     from vehval.io.paths import check_outputs, vehicle_path
     from vehval.workflow import TestRun
 
-    check_outputs(outdir=outdir, inputs=[*files, template, vehicle_path(vehicle), *hot_start],
+    check_outputs(outdir=outdir, inputs=[*files, template, vehicle_path(vehicle), *(hot_start or [])],
                   writes=["results.json", "findings.json", "validated.parquet"])
     run = TestRun.load(files, template, vehicle)
     hot = hot_start_bag1(list(hot_start), run.template) if hot_start else None
