@@ -130,7 +130,7 @@ def _output_callback(directory: bool) -> Callable[..., Any]:
             return value
         from vehval.io.paths import check_output_path
 
-        name = max(param.opts, key=len) if param.opts else str(param.name)
+        name = min(param.opts, key=len) if param.opts else str(param.name)  # -o, as documented
         check_output_path(value, name, directory=directory)
         return value
 
