@@ -10,7 +10,7 @@ from typing import Any
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir, output_file
 
 epa_app = typer.Typer(help="EPA Test Car List: certification dyno results per test.",
                       no_args_is_help=True)
@@ -222,7 +222,7 @@ def validate_cmd(
     dt: float = typer.Option(0.2, "--dt", callback=bounded("dt"), help="Simulation step [s] (0.2 s: within 0.3 % "
                              "of 0.1 s on US06)."),
     as_json: bool = typer.Option(False, "--json", help="Print the validation JSON."),
-    outdir: Path | None = typer.Option(None, "-o", "--output",
+    outdir: Path | None = typer.Option(None, "-o", "--output", callback=output_dir,
                                        help="Directory for report.html, epa_validation.json "
                                             "and epa_validation.csv."),
 ) -> None:
@@ -230,7 +230,11 @@ def validate_cmd(
     from vehval import jsonsafe
     from vehval.cli.progress import bar
     from vehval.epa.validation import validate_tests
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.report.epa import share_text
+    if outdir is not None:
+        check_outputs(outdir=outdir, inputs=[*paths, vehicle_path(vehicle)],
+                      writes=["report.html", "epa_validation.json", "epa_validation.csv"])
     with bar("epa validate: simulating tests", as_json=as_json):
         every: list = []
         val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every)
@@ -376,7 +380,8 @@ def calibrate_cmd(
                                 "settings in parallel (0: one per CPU, at most 8; the result "
                                 "does not depend on it)."),
     as_json: bool = typer.Option(False, "--json", help="Print the calibration JSON."),
-    output: Path | None = typer.Option(None, "-o", "--output", help="Write the calibrated "
+    output: Path | None = typer.Option(None, "-o", "--output", callback=output_file,
+                                       help="Write the calibrated "
                                        "vehicle YAML here (values carry their provenance)."),
     long_run: bool = typer.Option(False, "--long-run", help="Run a calibration estimated "
                                   "to take more than 15 min (refused without it)."),
@@ -388,8 +393,11 @@ def calibrate_cmd(
     from vehval import jsonsafe
     from vehval.epa.calibrate import LONG_RUN_S, calibrate_on_tests, grid_from_pairs
     from vehval.epa.consistency import check_vehicle_match
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.vehicle import load_vehicle
 
+    if output is not None:
+        check_outputs(outfile=output, inputs=[*paths, vehicle_path(vehicle)])
     grid = grid_from_pairs([_parse_param(p) for p in param])
     selected, veh = _selected(paths, tests, dt), load_vehicle(vehicle)
     _echo_mismatches([(t.label, check_vehicle_match(t, veh)) for t in selected], err=True)
@@ -461,7 +469,8 @@ def vehicle_cmd(
                                "(0: no)."),
     dt: float = typer.Option(0.5, "--dt", callback=bounded("dt"), help="Simulation step [s]."),
     as_json: bool = typer.Option(False, "--json", help="Print the result JSON."),
-    output: Path = typer.Option(..., "-o", "--output", help="Write the vehicle YAML here."),
+    output: Path = typer.Option(..., "-o", "--output", callback=output_file,
+                                help="Write the vehicle YAML here."),
     force: bool = typer.Option(False, "--force", help="Use dyno tests whose speed or fuel "
                                "unit QA doubts (the hint is still printed)."),
 ) -> None:

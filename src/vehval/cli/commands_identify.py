@@ -10,7 +10,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_file
 from vehval.constants import BRAKE_EFFICIENCY_RANGE
 from vehval.errors import ConfigError
 
@@ -86,9 +86,9 @@ def identify_cmd(
     files: list[Path] = typer.Argument(..., help="Raw test files (one test per file)."),
     template: Path = typer.Option(..., "-t", "--template", help="Import template."),
     architecture: str = typer.Option("conventional", "--architecture", help="Model to identify (conventional)."),
-    output: Path = typer.Option(None, "-o", "--output", help="Vehicle YAML to write (atomically); with --cross-validate the table as JSON."),
+    output: Path = typer.Option(None, "-o", "--output", callback=output_file, help="Vehicle YAML to write (atomically); with --cross-validate the table as JSON."),
     name: str = typer.Option(None, "--name", help="Vehicle name (default: the output file stem)."),
-    report: Path = typer.Option(None, "--report", help="Also write an HTML report (fitted map with the measured points, traces)."),
+    report: Path = typer.Option(None, "--report", callback=output_file, help="Also write an HTML report (fitted map with the measured points, traces)."),
     ac_test: Path = typer.Option(None, "--ac-test", help="A test run with the A/C on (not one of FILES): identifies the A/C compressor load from its phases after the first."),
     cold_test: Path = typer.Option(None, "--cold-test", help="A cold-start test (not one of FILES) on the cycle of a hot-start test among FILES: identifies the warm-up fuel (fraction and time constant) from the two tests' measured fuel."),
     spec: Path = typer.Option(None, "--spec", help="Specification YAML (rated power and speed, peak torque, displacement, fuel, tyre, gears...; see docs/identification.md): values the data cannot separate."),
@@ -134,7 +134,8 @@ def identify_cmd(
     extra = [p for p in (ac_test, cold_test, spec) if p is not None]
     check_outputs(outfile=output, inputs=[*files, *extra, template])
     if report is not None:
-        check_outputs(outfile=report, inputs=[*files, *extra, template, output])
+        check_outputs(outfile=report, inputs=[*files, *extra, template, output],
+                      option="--report")
     for opt, path in (("--ac-test", ac_test), ("--cold-test", cold_test)):
         if path is not None and path.resolve() in {f.resolve() for f in files}:
             raise ConfigError(f"{opt} {path}: it is also an identification test; give a "
@@ -420,7 +421,7 @@ def predict_cmd(
     vehicle: str = typer.Argument(..., help="Vehicle name or YAML path (conventional)."),
     files: list[Path] = typer.Argument(..., help="Raw test files to predict (one test per file)."),
     template: Path = typer.Option(..., "-t", "--template", help="Import template."),
-    report: Path = typer.Option(None, "--report", help="Also write an HTML report (table, engine speed and fuel rate overlays)."),
+    report: Path = typer.Option(None, "--report", callback=output_file, help="Also write an HTML report (table, engine speed and fuel rate overlays)."),
     ac: str = typer.Option("auto", "--ac", help="A/C of the model: auto (on for SC03 or a cell at 30 C or more), on, off."),
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
 ) -> None:
@@ -428,13 +429,14 @@ def predict_cmd(
     from vehval.identify.predict import predict_trace
     from vehval.identify.traces import load_traces
     from vehval.vehicle import load_vehicle
+    if report is not None:
+        from vehval.io.paths import check_outputs, vehicle_path
+        check_outputs(outfile=report, inputs=[*files, template, vehicle_path(vehicle)],
+                      option="--report")
     veh = load_vehicle(vehicle)
     if veh.architecture != "conventional":
         raise ConfigError(f"{vehicle}: predict compares fuel of conventional cars; this vehicle "
                           f"is '{veh.architecture}' (use vehval validate)")
-    if report is not None:
-        from vehval.io.paths import check_outputs
-        check_outputs(outfile=report, inputs=[*files, template])
     from vehval.identify.predict import check_same_car, poor_coverage
     traces = load_traces(files, template)
     for t in traces:

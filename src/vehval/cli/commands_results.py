@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 from vehval.errors import InputFileError, VehvalError
 
 
@@ -149,7 +149,7 @@ def results_cmd(
     template: Path = typer.Option(..., "-t", "--template", help="Import template YAML."),
     vehicle: str = typer.Option(None, "--vehicle",
                                 help="Vehicle file name or path (default: the template's)."),
-    outdir: Path = typer.Option(..., "-o", "--outdir", help="Output directory."),
+    outdir: Path = typer.Option(..., "-o", "--outdir", callback=output_dir, help="Output directory."),
     as_json: bool = typer.Option(False, "--json", help="Print results.json on stdout."),
     monte_carlo: int = typer.Option(0, "--monte-carlo", callback=bounded("mc_results"),
                                     help="Monte Carlo draws (0: first-order propagation)."),
@@ -164,8 +164,11 @@ def results_cmd(
     SOC correction and drive quality. Writes results.json into OUTDIR (atomically).
     Exit code 4: computed, but a figure was withheld for a QA error on its signals."""
     from vehval.io.atomic import atomic_dir, write_text_atomic
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.workflow import TestRun
 
+    check_outputs(outdir=outdir, inputs=[*files, template, vehicle_path(vehicle), *(hot_start or [])],
+                  writes=["results.json", "findings.json", "validated.parquet"])
     run = TestRun.load(files, template, vehicle)
     hot = hot_start_bag1(list(hot_start), run.template) if hot_start else None
     res = run.results(method="monte_carlo" if monte_carlo else "first_order",

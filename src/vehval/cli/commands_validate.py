@@ -14,7 +14,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 from vehval.errors import ConfigError
 from vehval.io.paths import check_outputs, sanitize_id, vehicle_path
 
@@ -49,7 +49,7 @@ def validate_cmd(
     files: list[Path] = typer.Argument(None, help="Test directories, validated .parquet tests or the raw files of one test."),
     template: Path = typer.Option(None, "-t", "--template", help="Import template (default: template.yaml of each test directory)."),
     vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
-    output: Path = typer.Option(..., "-o", "--output", help="Output directory (written atomically)."),
+    output: Path = typer.Option(..., "-o", "--output", callback=output_dir, help="Output directory (written atomically)."),
     test_group: list[str] = typer.Option([], "--test", metavar="A,B", help="Files (comma-separated) of one test; repeatable."),
     dt: float = typer.Option(0.1, "--dt", callback=bounded("dt"), help="Simulation step (s)."),
     window_s: float = typer.Option(2.0, "--window", callback=bounded("window"), help="Engine start/stop matching window (s)."),
@@ -116,7 +116,7 @@ def calibrate_cmd(
     files: list[Path] = typer.Argument(None, help="Tests to tune on (directories, .parquet tests or raw files of one test)."),
     template: Path = typer.Option(None, "-t", "--template", help="Import template (default: template.yaml of each test directory)."),
     vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
-    output: Path = typer.Option(..., "-o", "--output", help="Output directory (written atomically)."),
+    output: Path = typer.Option(..., "-o", "--output", callback=output_dir, help="Output directory (written atomically)."),
     test_group: list[str] = typer.Option([], "--test", metavar="A,B", help="Files of one tuning test; repeatable."),
     holdout: list[str] = typer.Option([], "--holdout", metavar="DIR_OR_A,B", help="A held-out test (directory, .parquet or comma-separated files); repeatable."),
     params: str = typer.Option("controller.engine_on_power_w,controller.soc_gain_w,controller.regen_fraction_max",

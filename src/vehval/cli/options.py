@@ -1,5 +1,5 @@
-"""Option parsing shared by several commands: ``KEY=VALUE`` assignments and the bounds of
-every numeric option.
+"""Option parsing shared by several commands: ``KEY=VALUE`` assignments, the bounds of
+every numeric option and the output policy of every output option.
 
 ``BOUNDS`` is the one table of numeric option limits: each entry gives the closed range and
 the reason for it, which the refusal repeats, and optionally the one value outside the
@@ -7,6 +7,12 @@ range that switches the option off (``--monte-carlo 0``: first-order propagation
 ``callback``; a value outside its range (or not finite) is refused before anything runs, with
 one ``vehval: error:`` line. Memory is checked separately, where an allocation's size is known
 (:mod:`vehval.sim.budget`).
+
+Every option naming an output (``-o``, ``--report``...) takes :func:`output_file` or
+:func:`output_dir` as its ``callback``: a device node, FIFO or socket (or a link to one),
+a directory given for a file or a file for a directory is refused while the command line
+is parsed (:func:`vehval.io.paths.check_output_path`, the one owner of the rule); the
+command then checks its outputs against its inputs (:func:`vehval.io.paths.check_outputs`).
 """
 
 from __future__ import annotations
@@ -124,6 +130,30 @@ def bounded(kind: str) -> Callable[..., Any]:
         return check_bound(kind, value, name)
 
     return callback
+
+
+def _output_callback(directory: bool) -> Callable[..., Any]:
+    def callback(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> Any:
+        if ctx.resilient_parsing or value is None:
+            return value
+        from vehval.io.paths import check_output_path
+
+        name = min(param.opts, key=len) if param.opts else str(param.name)  # -o, as documented
+        check_output_path(value, name, directory=directory)
+        return value
+
+    return callback
+
+
+def output_file(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> Any:
+    """Option ``callback`` of an output file: absent or a regular file (see
+    :func:`vehval.io.paths.output_problem`), else one ``vehval: error:`` line."""
+    return _output_callback(False)(ctx, param, value)
+
+
+def output_dir(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> Any:
+    """Option ``callback`` of an output directory: absent or a directory."""
+    return _output_callback(True)(ctx, param, value)
 
 
 def parse_assignments(items: list[str], option: str, example: str) -> dict:
