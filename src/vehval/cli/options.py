@@ -69,6 +69,9 @@ BOUNDS: dict[str, Bound] = {
     "smooth_hz": Bound(1e-3, 50.0, "Hz", "a cut-off below the 100 Hz rate of a fast "
                        "acquisition and above one cycle per 1000 s"),
     "year": Bound(1900, 2100, "-", "a model year"),
+    "confidence": Bound(0.5, 0.999, "-", "the level of a confidence interval: below one half "
+                        "it is no interval worth stating, above 99.9 % the chi-square tails "
+                        "of a few dozen pairs say nothing"),
     "test_timeout": Bound(0.0, 7 * 86400.0, "s", "0 means no limit; a week is far beyond the "
                           "longest test a batch runs"),
     "query_rows": Bound(1, 10_000_000, "rows", "rows are printed to the terminal; export "
