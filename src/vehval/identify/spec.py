@@ -87,10 +87,10 @@ def tyre_radius_m(tyre: str) -> float:
             raise ConfigError(f"tyre {tyre!r}: {what} {x} {unit} is outside {lo}-{hi} {unit} "
                               "(road-car tyres, e.g. 225/50 R17)")
     radius = 0.97 * (rim * 0.0254 / 2 + w * ar / 100 / 1000)
-    lo, hi = _RANGES["wheel_radius_m"]
-    if not lo <= radius <= hi:
+    r_lo, r_hi = _RANGES["wheel_radius_m"]
+    if not r_lo <= radius <= r_hi:
         raise ConfigError(f"tyre {tyre!r}: its rolling radius {radius:.3f} m is outside "
-                          f"{lo}-{hi} m (road-car wheels)")
+                          f"{r_lo}-{r_hi} m (road-car wheels)")
     return radius
 
 
