@@ -149,6 +149,7 @@ def identify_cmd(
         idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
                                     cold_trace=cold_trace, declared=declared)
     _check_mass(idf, declared)
+    _check_template_mass(idf, template)
     _check_fuel_map(idf, files)
     from vehval.io.atomic import atomic_files
     preds = None
@@ -243,6 +244,37 @@ def _check_mass(idf, declared: dict) -> None:
             f"identify: the declared test mass {m_dec:.0f} kg ({declared['test_mass_kg'][2]}) "
             f"is far from the inertia identified from the tests ({m_id:.0f} kg): is the "
             "specification of another car?")
+
+
+def _check_template_mass(idf, template: Path) -> None:
+    """The template's ``test_mass_kg`` against the inertia identified from the tests.
+
+    The template's constant is the test mass every later stage uses (a template constant
+    beats the vehicle's value: :mod:`vehval.conditions`), so a wrong one is refused here
+    rather than written into the vehicle's record: the ratio tells a value in lb (or
+    converted from lb twice) from another car's. The band is QA's gain of the force over
+    ``test_mass_kg`` x acceleration (:data:`vehval.qa.crosscheck.MASS_GAIN_BAND`)."""
+    from vehval.constants import LB_KG
+    from vehval.qa.crosscheck import MASS_GAIN_BAND
+
+    m_tpl = idf.road_load.template.get("mass_kg")
+    m_id = idf.road_load.values["mass_kg"]
+    if m_tpl is None or not m_tpl > 0:
+        return
+    lo, hi = MASS_GAIN_BAND
+    gain = m_id / m_tpl
+    if lo <= gain <= hi:
+        return
+    head = (f"identify: {template}: constants.test_mass_kg {m_tpl:g} is far from the inertia "
+            f"identified from the tests ({m_id:.0f} kg, {gain:.3g} x it)")
+    if lo <= gain / LB_KG <= hi:
+        raise ConfigError(f"{head}: it is probably in lb ({m_tpl:g} lb = {m_tpl * LB_KG:.1f} kg): "
+                          f"set test_mass_kg: {m_tpl * LB_KG:.1f}")
+    if lo <= gain * LB_KG <= hi:
+        raise ConfigError(f"{head}: it is probably converted from lb twice: set test_mass_kg: "
+                          f"{m_tpl / LB_KG:.1f}")
+    raise ConfigError(f"{head}: is the template of another car? Set the test (inertia) mass "
+                      "of these tests")
 
 
 def _keyed(key: str, value_si: float, ci95_si: float | None = None) -> str:

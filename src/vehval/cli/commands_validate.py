@@ -149,16 +149,19 @@ def calibrate_cmd(
                                 as_json)
         return
     names = _params(params)
+    start_values = None
+    if start is not None:       # checked before any test is read: finite, inside the bounds
+        from vehval.safe_yaml import read_json
+        from vehval.validate.calibration import check_start
+        from vehval.validate.calibration import start_values as parse_start
+        from vehval.validate.conditions import full_name
+        start_values = read_json(start)
+        full = [full_name(n) for n in names]
+        check_start(veh, parse_start(start_values, full), full)
     tests = [r.validated for r in runs_from_args(files or [], test_group, template, veh,
                                                  use_qa=not no_qa)]
     hold = [TestRun.from_paths([Path(x.strip()) for x in h.split(",") if x.strip()], template, veh,
                                use_qa=not no_qa).validated for h in holdout]
-    start_values = None
-    if start is not None:
-        try:
-            start_values = json.loads(Path(start).read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"{start}: cannot read the start values ({exc})") from None
     from vehval import progress
     from vehval.cli.progress import bar
     with bar("calibrate: generations (at most)", as_json=as_json):
