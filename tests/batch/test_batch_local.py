@@ -229,7 +229,7 @@ def test_a_fifo_is_skipped_and_listed_with_its_reason(tmp_path, template_path, c
     err = capsys.readouterr().err
     assert rc == 1, err
     for fifo in (inp / "t0" / "extra.txt", inp / "pipe" / "run.txt"):
-        assert f"skipped {fifo}: a FIFO, not a regular file: not read" in err, err
+        assert f"skipped {fifo}: a FIFO (named pipe), not a regular file: not read" in err, err
     assert "no input file given" not in err
     assert "no regular file of the test folder matches the template's file patterns (*.txt)" in err
     res = json.loads((out / "tests" / "t0" / "result.json").read_text())

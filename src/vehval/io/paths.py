@@ -239,17 +239,11 @@ def vehicle_path(name: str | Path | None) -> Path | None:
 
 def special_kind(path: str | Path) -> str | None:
     """What ``path`` (a symlink followed) is when it is neither a regular file nor a directory:
-    ``a FIFO``, ``a socket``, ``a character device``, ``a block device``; None otherwise (also
-    when it cannot be stat'ed: the caller reports that itself). Reading a FIFO blocks until a
-    writer comes, a device may never end: inputs are regular files."""
-    import stat
-
+    a FIFO, a socket, a character or block device (the words of :data:`_SPECIAL_NODES`); None
+    otherwise (also when it cannot be stat'ed: the caller reports that itself). Reading a
+    FIFO blocks until a writer comes, a device may never end: inputs are regular files."""
     try:
         mode = Path(path).stat().st_mode
     except OSError:
         return None
-    for test, kind in ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"),
-                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device")):
-        if test(mode):
-            return kind
-    return None
+    return next((kind for test, kind in _SPECIAL_NODES if test(mode)), None)
