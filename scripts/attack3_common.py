@@ -79,6 +79,11 @@ def check(spec: Check, text: str) -> bool:
     return re.search(spec, text, re.I | re.S) is not None
 
 
+def never(text: str) -> bool:
+    """``refusal_must`` of a valid input: any refusal of it is wrong."""
+    return False
+
+
 #: Lines that report a problem: findings, refusals, withheld figures, warnings.
 _FINDING_LINE = re.compile(r"^\s*(warning|error|vehval: error|note)\b|withheld|refus|"
                            r"not stated|suspect|implausible", re.I)

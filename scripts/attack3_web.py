@@ -270,7 +270,7 @@ class Kit:
 
     def __init__(self, root: Path) -> None:
         self.base = root / "wb"
-        self.ws, self.outside = self.base / "ws", self.base / "outside"
+        self.ws, self.outside = self.base / "ws", self.base / "elsewhere"  # no LEAK word
         self.wb = Workbench(self.ws)
         self.secret_d3 = self.outside / "secret_d3.txt"
 
@@ -340,15 +340,21 @@ def _symlinks(kit: Kit) -> Iterator[Case]:
                    "/api/test?dir=link_mixed", s_mixed, expect="ok", must=LEAK,
                    refusal_must=LEAK, breach=_marked)
 
-    def s_tpl():
-        folder("link_tpl", template=False)
-        (outside / "tpl.yaml").parent.mkdir(parents=True, exist_ok=True)
-        (outside / "tpl.yaml").write_text(f"{MARK_CHANNEL}_key: 1\nother: [\n")
-        link(ws / "link_tpl" / "template.yaml", outside / "tpl.yaml")
-    for method, path in (("GET", "/api/test?dir=link_tpl"), ("POST", "/api/run?dir=link_tpl")):
-        yield kit.http(f"template.yaml linked outside: {method} {path.split('?')[0]}", method,
-                       path, s_tpl, body=b"{}" if method == "POST" else None,
-                       expect="ok", must=LEAK, refusal_must=LEAK, breach=_marked)
+    # an outside YAML file whose key (valid YAML) or line (invalid) an error would show
+    for k, body in enumerate([f"template_version: 1\n{MARK_CHANNEL}_key: 1\nfiles: []\n",
+                              f"{MARK_CHANNEL}_key: [1,\n  other: ]]\n"]):
+        name = f"link_tpl{k}"
+
+        def s_tpl(name=name, body=body):
+            folder(name, template=False)
+            (outside / f"tpl{k}.yaml").parent.mkdir(parents=True, exist_ok=True)
+            (outside / f"tpl{k}.yaml").write_text(body)
+            link(ws / name / "template.yaml", outside / f"tpl{k}.yaml")
+        for method, path in (("GET", f"/api/test?dir={name}"), ("POST", f"/api/run?dir={name}")):
+            yield kit.http(f"template.yaml linked outside ({'valid' if k == 0 else 'invalid'} "
+                           f"YAML): {method} {path.split('?')[0]}", method, path, s_tpl,
+                           body=b"{}" if method == "POST" else None, expect="ok", must=LEAK,
+                           refusal_must=LEAK, breach=_marked)
 
     qa_out = outside / "qa_out"
 
@@ -377,18 +383,18 @@ def _symlinks(kit: Kit) -> Iterator[Case]:
 def _serve_root(kit: Kit) -> Iterator[Case]:
     """``vehval serve`` over the filesystem root or the home folder: refused."""
     base = kit.base
-    home = base / "home"
+    home = base / "hm"  # the refusal must say "home", not echo the path
     for what, target, env in (("/", "/", {}), ("//", "//", {}),
-                              ("a symlink to /", base / "root_link", {}),
+                              ("a symlink to /", base / "rl", {}),
                               ("the home folder", home, {"HOME": str(home)}),
                               ("the home folder with a trailing slash", f"{home}/",
                                {"HOME": str(home)})):
         case = Case("workbench", f"vehval serve {what}", [], refusal_must=r"root|home|whole|"
-                    r"filesystem|too broad|workspace", breach=lambda text: "open: http" in text)
+                    r"filesystem|too broad", breach=lambda text: "open: http" in text)
 
         def prep():
             home.mkdir(parents=True, exist_ok=True)
-            kit.link(base / "root_link", Path("/"))
+            kit.link(base / "rl", Path("/"))
         case.prepare = prep
         case.request = lambda target=target, env=env: start_serve(
             [target], log=base / "serve_root.log", keep=False, env=env)[:2]
@@ -439,11 +445,13 @@ def _bad_requests(kit: Kit) -> Iterator[Case]:
         if not (ws / "bad" / "qa" / "findings.json").is_file():
             wb.request("POST", "/api/run?dir=bad", b"{}")
     chan = "/api/channel?dir=bad&file=run_d3.txt&raw=Dyno_Speed"
-    for q in ("n=nan", "n=inf", "n=-inf", "n=1e300", "n=-1", "n=abc", "t0=nan&t1=1",
-              "t0=inf&t1=-inf"):
+    for q in ("n=nan", "n=inf", "n=-inf", "n=abc", "t0=nan&t1=1", "t0=inf&t1=-inf"):
         key = q.split("=")[0]
         yield http_case(f"GET /api/channel {q}", "GET", f"{chan}&{q}", ready,
                         refusal_must=rf"\b{key}\b")
+    for q in ("n=1e300", "n=-1"):  # finite: refused, or answered within bounds
+        yield http_case(f"GET /api/channel {q}", "GET", f"{chan}&{q}", ready, expect="ok",
+                        refusal_must=r"\bn\b")
     yield http_case("GET /api/signal n=nan", "GET",
                     "/api/signal?dir=bad&name=veh_spd_test&n=nan", ready,
                     refusal_must=r"\bn\b")
@@ -451,7 +459,8 @@ def _bad_requests(kit: Kit) -> Iterator[Case]:
         'channels = "x"': (b'{"channels": "x"}', "channels"),
         "channels = 5": (b'{"channels": 5}', "channels"),
         "channels = [1, 2]": (b'{"channels": [1, 2]}', "channels"),
-        "channel raw = 5": (b'{"channels": [{"file": 0, "raw": 5, "unit": []}]}', "raw|unit"),
+        "channel raw = 5": (b'{"channels": [{"file": 0, "raw": 5, "unit": []}]}',
+                            "raw|unit|channels"),
         "sources = [1]": (b'{"sources": [1]}', "sources"),
         "fuel = {}": (b'{"fuel": {"a": 1}}', "fuel"),
         "channels = NaN": (b'{"channels": NaN}', "channels|nan|json"),

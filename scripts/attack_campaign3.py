@@ -35,6 +35,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import shutil
 import socket
 import stat
@@ -49,7 +50,7 @@ from typing import Callable, Iterator
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from attack3_common import KINDS, Case, run_case  # noqa: E402
+from attack3_common import KINDS, Case, never, run_case  # noqa: E402
 from attack3_inputs import (  # noqa: E402
     CRUZE_REAL,
     CRUZE_TEMPLATE,
@@ -156,7 +157,7 @@ def outputs(root: Path, rng: np.random.Generator) -> Iterator[Case]:
              "template init --force -o": "t.yaml", "report -o": "report.html"}
     for k, (what, (args, need)) in enumerate(commands.items()):
         for kind in rng.permutation(kinds):
-            node = d / f"{k}_{kind}" / names[what]
+            node = d / f"c{k}{kind[0]}" / names[what]  # no refusal keyword in the path
             yield Case("outputs", f"{what} a {kind}", args(node),
                        refusal_must=NODE_REFUSAL,
                        breach=lambda text, node=node, kind=kind: replaced(node, kind),
@@ -168,7 +169,7 @@ def outputs(root: Path, rng: np.random.Generator) -> Iterator[Case]:
             "results -o": lambda x: ["results", f, "-t", t, "-o", x],
             "synth -o": lambda x: ["synth", "--cycle", "steady:30kph:20s", "-o", x]}.items()):
         kind = str(rng.choice(kinds))
-        node = d / f"dir{k}_{kind}" / "out"
+        node = d / f"dc{k}{kind[0]}" / "out"
         yield Case("outputs", f"{what} (a folder) a {kind}", args(node),
                    refusal_must=NODE_REFUSAL,
                    breach=lambda text, node=node, kind=kind: replaced(node, kind),
@@ -180,7 +181,7 @@ def _same_as_input(root: Path, d: Path, f: Path, t: Path, vhw) -> Iterator[Case]
     """An output path equal to one of the command's inputs: refused, the input unchanged."""
     def guarded(name: str, args: Callable[[Path, Path], list], src: Callable[[], Path],
                 other: Callable[[], Path] | None = None) -> Case:
-        folder = d / "same" / name.replace(" ", "_").replace("-", "")
+        folder = d / "eq" / "".join(ch for ch in name if ch.isalnum())[:40]
         held: dict = {}
 
         def prep():
@@ -216,7 +217,7 @@ def _same_as_input(root: Path, d: Path, f: Path, t: Path, vhw) -> Iterator[Case]
         "identify", data, "-t", inp, "-o", inp], lambda: vhw() / "template.yaml",
         other=lambda: d3_of(vhw()))
     yield guarded("identify --report equal to its data file", lambda inp, tpl: [
-        "identify", inp, "-t", tpl, "-o", d / "same" / "id.yaml", "--report", inp],
+        "identify", inp, "-t", tpl, "-o", d / "eq" / "id.yaml", "--report", inp],
         lambda: d3_of(vhw()), other=lambda: vhw() / "template.yaml")
     yield guarded("epa vehicle -o equal to its list", lambda inp, _: [
         "epa", "vehicle", inp, "--make", "MAKER", "--model", "SEDAN XLE", "--year", "2019",
@@ -226,7 +227,11 @@ def _same_as_input(root: Path, d: Path, f: Path, t: Path, vhw) -> Iterator[Case]
 # ----------------------------------------------------------------------------------------
 # hangs
 
-ESTIMATE = r"estimat|about \d|would take|will take|expected (run )?time|\d+ (s|min|h)\b.*(run|take)"
+def states_estimate(text: str) -> bool:
+    """An estimate of the run time stated (the kernel compilation's 'about 20 s' aside)."""
+    return any(re.search(r"estimat|would take|will take|expected (run )?time|"
+                         r"\d+(\.\d+)? ?(s|min|h|hours?|minutes?)\b", line, re.I)
+               and "compiling" not in line for line in text.splitlines())
 GRID_REFUSAL = r"grid|settings|evaluations|combinations|values|simulations"
 
 
@@ -252,7 +257,7 @@ def hangs(root: Path, rng: np.random.Generator) -> Iterator[Case]:
             for p in params:
                 args += ["--param", p]
             yield Case("hangs", f"epa calibrate {what} (--refine {refine}, --workers {workers})",
-                       args, expect="ok", must=ESTIMATE, estimate_ok=True,
+                       args, expect="ok", must=states_estimate, estimate_ok=True,
                        refusal_must=GRID_REFUSAL, prepare=lambda: prius_list(root))
 
 
@@ -318,7 +323,7 @@ def internal(root: Path, rng: np.random.Generator) -> Iterator[Case]:
     for k, tyre in enumerate(["999/99 R99", "0/50 R17", "225/0 R17", "225/50 R0",
                               "99999/99 R17", "225/50 R1e9"]):
         yield Case("internal", f"identify --tyre {tyre!r}", [
-            "identify", "{hw}", "-t", "{tpl}", "--tyre", tyre, "-o", d / f"tyre{k}.yaml"],
+            "identify", "{hw}", "-t", "{tpl}", "--tyre", tyre, "-o", d / f"t{k}.yaml"],
             refusal_must=r"tyre|tire")
     for k, (what, body) in enumerate([
             ("a list nested 50,000 deep", '{"controller": ' + "[" * 50_000 + "]" * 50_000 + "}"),
@@ -329,7 +334,7 @@ def internal(root: Path, rng: np.random.Generator) -> Iterator[Case]:
         yield Case("internal", f"calibrate --start {what}", [
             "calibrate", "--test", "{pd3},{pobd}", "-t", "{ptpl}", "-o", d / f"cal{k}",
             "--start", sp, "--params", "controller.engine_on_power_w", "--maxiter", "1",
-            "--popsize", "1"], refusal_must=r"start|json|deep|nest",
+            "--popsize", "1"], refusal_must=r"deep|nest|depth",
             prepare=lambda sp=sp, body=body: _text(sp, body))
     _, t = base_test(root)
     for k, mode in enumerate(["garbage", "silent", "http", "close"]):
@@ -349,7 +354,7 @@ def internal(root: Path, rng: np.random.Generator) -> Iterator[Case]:
         yield case
     for k, where in enumerate(["the only data file of a test", "beside a valid test",
                                "a single-file test in a flat folder"]):
-        src = d / f"fifo_batch{k}"
+        src = d / f"fq{k}"
 
         def mkf(src=src, k=k):
             if src.is_dir():
@@ -365,7 +370,7 @@ def internal(root: Path, rng: np.random.Generator) -> Iterator[Case]:
                 base_write(src / "a_d3.txt")
                 os.mkfifo(src / "b_d3.txt")
         yield Case("internal", f"a FIFO in a batch folder ({where})", [
-            "batch", src, "-t", t, "-o", d / f"fifo_out{k}", "-j", "0", "-q", "--no-report"],
+            "batch", src, "-t", t, "-o", d / f"fq_out{k}", "-j", "0", "-q", "--no-report"],
             refusal_must=r"fifo|pipe|not a regular file|special file", prepare=mkf)
 
 
@@ -386,8 +391,10 @@ def resolve(case: Case) -> Case:
         for a in case.args:
             if isinstance(a, str):
                 for key, val in table.items():
-                    if key in a:
-                        a = a.replace(key, str(val)) if a != key else val
+                    if a == key:
+                        a = val
+                        break
+                    a = a.replace(key, str(val))
             out.append(a)
         case.args = out
         if inner is not None:
@@ -417,6 +424,7 @@ def epa_reader(root: Path, rng: np.random.Generator) -> Iterator[Case]:
             for cmd in (["epa", "list", p], ["epa", "tests", p, "--model", "PRIUS"]):
                 yield Case("EPA reader", f"{cmd[1]}: {what}", cmd, expect="ok",
                            must=r"PRIUS" if cmd[1] == "list" else r"\bT1\b.*\bT2\b",
+                           refusal_must=never,  # a list as published: no refusal is right
                            prepare=lambda p=p, bom=bom, nl=nl: write_list(
                                p, rows, EPA_HEADER, newline=nl, bom=bom))
     # rows differing only in test number: every number kept
@@ -424,7 +432,7 @@ def epa_reader(root: Path, rng: np.random.Generator) -> Iterator[Case]:
         nums = [f"HCRX{int(x)}" for x in rng.choice(10**8, size=2 + k, replace=False)]
         p = d / f"numbers{k}.csv"
         yield Case("EPA reader", f"{len(nums)} rows differing only in test number", [
-            "epa", "tests", p, "--model", "PRIUS", "--json"], expect="ok",
+            "epa", "tests", p, "--model", "PRIUS", "--json"], expect="ok", refusal_must=never,
             must=lambda text, nums=nums: all(n in text for n in nums),
             prepare=lambda p=p, nums=nums: write_list(
                 p, [epa_row(**{"Test Number": n}) for n in nums], EPA_HEADER))
@@ -442,8 +450,7 @@ def epa_reader(root: Path, rng: np.random.Generator) -> Iterator[Case]:
                    "Analytically Derived FE?": flag}
         yield Case("EPA reader", f"an analytically derived row ({flag!r}) in epa validate", [
             "epa", "validate", p, "--vehicle", "prius_2016", "--tests", "model=PRIUS",
-            "--dt", "1", "-o", d / f"adfe_out{k}"], expect="ok",
-            must=r"analytically derived|ADFE",
+            "--dt", "1", "-o", d / f"derived_out{k}"], expect="ok", must=_derived_not_judged,
             prepare=lambda p=p, derived=derived: write_list(
                 p, [{**epa_row(), "Analytically Derived FE?": "No"}, derived],
                 EPA_FULL_HEADER))
@@ -454,6 +461,12 @@ def epa_reader(root: Path, rng: np.random.Generator) -> Iterator[Case]:
         "-o", d / "axle0.yaml"],
         refusal_must=lambda text: "axle" in text.lower() and "empty" not in text.lower(),
         prepare=lambda: write_list(p, sedan_rows(**{"Axle Ratio": "0"}), SEDAN_HEADER))
+
+
+def _derived_not_judged(text: str) -> bool:
+    """The analytically derived row AD1 is named as such and not judged as a test."""
+    judged = re.search(r"^AD1\b.*\byes\s*$", text, re.M | re.I)
+    return judged is None and re.search(r"analytically derived", text, re.I) is not None
 
 
 # ----------------------------------------------------------------------------------------
