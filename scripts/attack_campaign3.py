@@ -158,11 +158,15 @@ def outputs(root: Path, rng: np.random.Generator) -> Iterator[Case]:
     for k, (what, (args, need)) in enumerate(commands.items()):
         for kind in rng.permutation(kinds):
             node = d / f"c{k}{kind[0]}" / names[what]  # no refusal keyword in the path
-            yield Case("outputs", f"{what} a {kind}", args(node),
-                       refusal_must=NODE_REFUSAL,
-                       breach=lambda text, node=node, kind=kind: replaced(node, kind),
-                       prepare=lambda node=node, kind=kind, need=need: (
-                           need(), make_node(node, kind)))
+            case = Case("outputs", f"{what} a {kind}", [], refusal_must=NODE_REFUSAL,
+                        breach=lambda text, node=node, kind=kind: replaced(node, kind))
+
+            def prep(case=case, node=node, kind=kind, need=need, args=args):
+                need()  # inputs are made when the case runs, not when it is listed
+                make_node(node, kind)
+                case.args = args(node)
+            case.prepare = prep
+            yield case
     # commands writing a folder, given a node
     for k, (what, args) in enumerate({
             "qa -o": lambda x: ["qa", f, "-t", t, "-o", x],
