@@ -320,10 +320,10 @@ def internal(root: Path, rng: np.random.Generator) -> Iterator[Case]:
     d = root / "internal"
     vhw = lambda: synth(root, "cruze_diesel_2014", "hwfet")  # noqa: E731
     prius = lambda: synth(root, "prius_2004", "udds", seed=7)  # noqa: E731
-    _PLACEHOLDERS["internal"] = lambda: {
-        "{hw}": d3_of(vhw()), "{tpl}": vhw() / "template.yaml",
-        "{pd3}": d3_of(prius()), "{pobd}": next(prius().glob("*_obd.csv")),
-        "{ptpl}": prius() / "template.yaml"}
+    _PLACEHOLDERS["internal"] = {
+        "{hw}": lambda: d3_of(vhw()), "{tpl}": lambda: vhw() / "template.yaml",
+        "{pd3}": lambda: d3_of(prius()), "{pobd}": lambda: next(prius().glob("*_obd.csv")),
+        "{ptpl}": lambda: prius() / "template.yaml"}
     for k, tyre in enumerate(["999/99 R99", "0/50 R17", "225/0 R17", "225/50 R0",
                               "99999/99 R17", "225/50 R1e9"]):
         yield Case("internal", f"identify --tyre {tyre!r}", [
@@ -378,9 +378,9 @@ def internal(root: Path, rng: np.random.Generator) -> Iterator[Case]:
             refusal_must=r"fifo|pipe|not a regular file|special file", prepare=mkf)
 
 
-#: Per class: placeholders in case arguments (``{hw}``) and the function giving their paths,
-#: resolved when the case runs (inputs are made then, not when cases are listed).
-_PLACEHOLDERS: dict[str, Callable[[], dict]] = {}
+#: Per class: placeholders in case arguments (``{hw}``) and the functions making their
+#: inputs, called when the case runs (inputs are made then, not when cases are listed).
+_PLACEHOLDERS: dict[str, dict[str, Callable[[], Path]]] = {}
 
 
 def resolve(case: Case) -> Case:
@@ -390,15 +390,16 @@ def resolve(case: Case) -> Case:
     inner = case.prepare
 
     def prep():
-        table = _PLACEHOLDERS[case.cls]()
+        table = _PLACEHOLDERS[case.cls]
         out = []
         for a in case.args:
             if isinstance(a, str):
-                for key, val in table.items():
+                for key, make in table.items():
                     if a == key:
-                        a = val
+                        a = make()
                         break
-                    a = a.replace(key, str(val))
+                    if key in a:
+                        a = a.replace(key, str(make()))
             out.append(a)
         case.args = out
         if inner is not None:
