@@ -118,6 +118,7 @@ class Workbench:
         finally:
             conn.close()
         code = 0 if status < 400 else 2 if status < 500 else 3
+        time.sleep(0.5)  # the server logs an exception after its answer: read it with it
         return code, f"HTTP {status}\n{text}" + self.new_log()
 
     def new_log(self) -> str:

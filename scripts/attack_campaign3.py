@@ -175,7 +175,7 @@ def outputs(root: Path, rng: np.random.Generator) -> Iterator[Case]:
         kind = str(rng.choice(kinds))
         node = d / f"dc{k}{kind[0]}" / "out"
         yield Case("outputs", f"{what} (a folder) a {kind}", args(node),
-                   refusal_must=NODE_REFUSAL,
+                   refusal_must=NODE_REFUSAL + "|not a directory",
                    breach=lambda text, node=node, kind=kind: replaced(node, kind),
                    prepare=lambda node=node, kind=kind: make_node(node, kind))
     yield from _same_as_input(root, d, f, t, vhw)
