@@ -49,7 +49,7 @@ SAMPLE = {
     "hangs": "epa calibrate 5,000-value grid (--refine 0, --workers 1)",
     "internal": "identify --tyre '999/99 R99'",
     "EPA reader": "list: UTF-8 BOM, CR LF line ends",
-    "exit crash": "template check over the 10 Cruze files x20",
+    "exit crash": "template check over the 10 Cruze files x40",
 }
 
 
@@ -59,8 +59,8 @@ def _case(tmp_path: Path, cls: str):
     if cls == "outputs" and not CAMPAIGN.can_mknod():
         name = "import -o a FIFO"  # no device nodes without CAP_MKNOD
     if cls == "exit crash":
-        # the crash (exit 134) was seen only on the real files, in about 1 run of 20: 10
-        # runs here (about 35 s); without the real files, virtual ones stand in
+        # the crash (exit 134) was seen only on the real files, in about 1 run of 20 to 50:
+        # 10 runs here (about 35 s); without the real files, virtual ones stand in
         if name not in cases:
             name = "template check over 3 virtual files x10"
         cases[name].repeat = 10
