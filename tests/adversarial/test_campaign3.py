@@ -135,7 +135,7 @@ def test_campaign_has_every_class_and_unique_names(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.skipif(os.environ.get("VEHVAL_CAMPAIGN") != "1",
-                    reason="the whole campaign takes about 25 min on 2 cores: VEHVAL_CAMPAIGN=1")
+                    reason="the whole campaign takes about 15 min on 2 cores: VEHVAL_CAMPAIGN=1")
 def test_whole_campaign(tmp_path):
     out = tmp_path / "campaign3.json"
     subprocess.run([sys.executable, str(SCRIPT), "--json", str(out), "--jobs", "2"],
