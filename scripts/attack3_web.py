@@ -181,6 +181,11 @@ def start_serve(args: list, *, log: Path, keep: bool, env: dict | None = None,
     threading.Thread(target=read, daemon=True).start()
     started.wait(wait_s)
     text = "".join(lines)
+    if "open: http" not in text:  # stdout closed: give the exiting process time to be reaped
+        try:
+            proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            pass
     if proc.poll() is not None and "open: http" not in text:
         proc.wait()
         time.sleep(0.2)

@@ -55,10 +55,15 @@ def list_cmd(
     from vehval import jsonsafe
     from vehval.epa import vehicles
 
-    rows = vehicles(_load(paths, make, model, year))
+    tests = _load(paths, make, model, year)
+    rows = vehicles(tests)
     if as_json:
         typer.echo(jsonsafe.dumps(rows), nl=False)
         return
+    repeated = sum(1 for t in tests if t.duplicate_rows)
+    if repeated:
+        typer.echo(f"note: {repeated} test number(s) listed on several rows (duplicate rows "
+                   "counted once; `vehval epa tests` names their lines)", err=True)
     from vehval.display import unit_for
 
     mu = unit_for("kg")
