@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from vehval.nomenclature import registry
+from vehval.uncertainty.sensors import sensor_defaults
 from vehval.units import conversion
 
 __all__ = [
@@ -54,25 +55,11 @@ COVERAGE_K = 2.0
 MIN_DRAWS = 100
 _SQRT3 = math.sqrt(3.0)
 
-#: Default accuracy per signal class (base name): reading [%], offset [SI unit], and why.
-DEFAULT_ACCURACY: dict[str, tuple[float, float, str]] = {
-    "veh_spd": (0.1, 0.01, "chassis-dyno roll speed: 0.1 % of reading, 0.01 m/s"),
-    "fuel_rate": (1.0, 2e-6, "fuel flow meter or modal bench: 1 % of reading, 0.002 g/s"),
-    "co2_rate": (2.0, 0.0, "modal CO2 from the exhaust bench: 2 % of reading"),
-    "ess_curr": (0.5, 0.05, "battery current (power analyser or clamp): 0.5 % of reading, 0.05 A"),
-    "ess_volt": (0.2, 0.0, "battery voltage: 0.2 % of reading"),
-    "ess_pwr": (0.5, 20.0, "battery power (power analyser): 0.5 % of reading, 20 W"),
-}
-#: Defaults of a class measured by a given source (base name, source), before the base's:
-#: an OBD speed is no roll speed.
-SOURCE_ACCURACY: dict[tuple[str, str], tuple[float, float, str]] = {
-    ("veh_spd", "obd"): (2.0, 0.5 / 3.6,
-                         "OBD vehicle speed (SAE J1979 PID 0x0D): whole km/h (0.5 km/h), from "
-                         "the wheel speed with the nominal tyre radius (tread wear and pressure: "
-                         "about 2 % of reading)"),
-}
-#: Class used for base names not listed above: 1 % of reading.
-FALLBACK_ACCURACY = (1.0, 0.0, "no class default: 1 % of reading")
+#: Default accuracy per signal class (base name): reading [%], offset [SI unit], and why;
+#: defaults of a class measured by a given source (base name, source) are looked up first (an
+#: OBD speed is no roll speed); a base in neither gets the fallback (1 % of reading). The
+#: table and its sources: data/uncertainty/sensor_accuracy.yaml.
+DEFAULT_ACCURACY, SOURCE_ACCURACY, FALLBACK_ACCURACY = sensor_defaults()
 
 
 @dataclass(frozen=True)
