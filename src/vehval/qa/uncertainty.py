@@ -171,3 +171,27 @@ def calc_uncertainty(test: Test, calc: CalcResult, row: Any, mask: np.ndarray | 
     row.en = en_of(m_mean, c_mean, row.u_measured, row.u_calculated,
                    f"{row.measured} vs {cname}")
     row.accuracy = record
+
+
+def comparison_lines(doc: Mapping[str, Any]) -> list[str]:
+    """One screen line per Table-2/3 row of a ``findings.json`` document: the signed mean
+    difference, the mean relative difference, each side's U (k = 2) and En."""
+    from vehval.qa.findings import delta_units
+
+    out: list[str] = []
+    for table, a_key, b_key, ua, ub, rel, what in (
+            ("table2", "other", "ref", "u_other", "u_ref", "mean_rel_diff", "mean |rel. diff|"),
+            ("table3", "measured", "calculated", "u_measured", "u_calculated", "rel_diff",
+             "mean |diff| / range")):
+        for r in doc.get(table) or []:
+            if r.get("mean_diff") is None or r.get(a_key) is None:
+                continue
+            fmt = delta_units(r[a_key], r.get("unit") or "")
+            en = r.get("en")
+            rel_txt = "" if r.get(rel) is None else f" ({what} {100 * r[rel]:.2g} %)"
+            u = ("U n/a" if r.get(ua) is None or r.get(ub) is None
+                 else f"U {fmt(r[ua])} / {fmt(r[ub])}")
+            out.append(f"  {'Table 2' if table == 'table2' else 'Table 3'}  {r[a_key]} - "
+                       f"{r[b_key]}: {fmt(r['mean_diff'], signed=True)}{rel_txt}, {u}, "
+                       f"En {'n/a' if en is None else f'{en:+.2f}'}")
+    return out
