@@ -116,7 +116,7 @@ def test_power_uncertainty_propagated_first_order():
         "inputs": {"eng_trq_out": "eng_trq_out_test", "eng_spd_out": "eng_spd_out_test"}}})
     acc = Accuracies()
     row = SimpleNamespace(measured="eng_pwr_out_test", calculated="eng_pwr_out_calc")
-    calc_uncertainty(test, calc, row, None, acc)
+    calc_uncertainty(test, calc, row, None, acc, {"eng_trq_out_test", "eng_spd_out_test"})
     a_t, a_w = acc("eng_trq_out_test"), acc("eng_spd_out_test")
     u_t = math.hypot(a_t.gain_limit * trq, a_t.offset_limit) / math.sqrt(3)
     u_w = math.hypot(a_w.gain_limit * spd, a_w.offset_limit) / math.sqrt(3)

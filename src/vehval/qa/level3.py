@@ -243,7 +243,8 @@ def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None, 
                 row = compare_calc(test, sig.name, cname, info.get("inputs"))
             if row is None:
                 continue
-            calc_uncertainty(test, calc, row, mask, acc, chain)
+            calc_uncertainty(test, calc, row, mask, acc, measured_inputs(cname, calc.computed),
+                             chain)
             rows.append(row)
             if base in CUMULATIVE:
                 continue

@@ -10,7 +10,7 @@ the row's signed mean difference ``mean_diff``. Its normalised error
 with the sign of ``mean_diff`` (other - reference in Table 2, measured - calculated in
 Table 3). ``|En| <= 1``: the two sides agree within their combined accuracy.
 
-**Accuracy of a sensor** (:func:`vehval.results.uncertainty.channel_accuracy`, the one
+**Accuracy of a sensor** (:func:`vehval.uncertainty.sensors.channel_accuracy`, the one
 resolver): the template's ``accuracy:`` entry of the signal when declared, else the default of
 its class (``data/uncertainty/sensor_accuracy.yaml``, with its source), flagged assumed. It is
 a limit of error held over the test, ``x (1 + g) + o`` with ``|g| <= G`` and ``|o| <= O``,
@@ -43,9 +43,10 @@ import numpy as np
 from vehval.equations.calc import CalcResult
 from vehval.equations.expr import parse_expression
 from vehval.errors import VehvalError
-from vehval.results.uncertainty import COVERAGE_K, ChannelAccuracy, channel_accuracy
 from vehval.test import Test
 from vehval.uncertainty import normalised_error
+from vehval.uncertainty.precision import COVERAGE_K
+from vehval.uncertainty.sensors import ChannelAccuracy, channel_accuracy
 
 _SQRT3 = math.sqrt(3.0)
 
@@ -133,11 +134,11 @@ class CalcChain:
 
 
 def calc_uncertainty(test: Test, calc: CalcResult, row: Any, mask: np.ndarray | None,
-                     acc: Accuracies, chain: CalcChain | None = None) -> None:
+                     acc: Accuracies, inputs: set[str], chain: CalcChain | None = None) -> None:
     """Fill the uncertainty keys of a Table-3 row (``mean_diff``, ``u_measured``,
-    ``u_calculated``, ``en``, ``accuracy``) over the samples it compared (``mask``)."""
-    from vehval.qa.level3 import measured_inputs
-
+    ``u_calculated``, ``en``, ``accuracy``) over the samples it compared (``mask``);
+    ``inputs``: the measured signals the calculated one rests on
+    (:func:`vehval.qa.level3.measured_inputs`)."""
     chain = chain or CalcChain(test, calc)
     cname = row.calculated
     c = np.asarray(test[cname].values, float)
@@ -153,7 +154,7 @@ def calc_uncertainty(test: Test, calc: CalcResult, row: Any, mask: np.ndarray | 
     row.u_measured = mean_uncertainty(a, m_mean)
     var = 0.0
     record = {row.measured: accuracy_entry(a)}
-    for name in sorted(measured_inputs(cname, calc.computed)):
+    for name in sorted(inputs):
         if name not in test:
             continue
         ai = acc(name)

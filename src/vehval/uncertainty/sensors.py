@@ -11,11 +11,16 @@ The results stage (:mod:`vehval.results.uncertainty`) and the QA levels 2 and 3
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
 from functools import cache
 from importlib import resources
+from typing import Any
 
 from vehval.errors import ConfigError
+from vehval.nomenclature import registry
 from vehval.safe_yaml import load_yaml
+from vehval.units import conversion
 
 _PATH = "data/uncertainty/sensor_accuracy.yaml"
 
@@ -54,3 +59,69 @@ def sensor_defaults() -> tuple[dict[str, Default], dict[tuple[str, str], Default
             raise ConfigError(f"{_PATH}: source entry '{k}' must be written base/source")
         sources[(base, src)] = _entry(k, v)
     return classes, sources, _entry("fallback", data.get("fallback"))
+
+
+_SQRT3 = math.sqrt(3.0)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One uncertain input: a rectangular error of half-width ``limit`` around zero.
+
+    ``kind`` is ``gain`` (relative, -), ``offset`` (in the signal's SI unit) or ``property``
+    (absolute, in the property's unit).
+    """
+
+    name: str
+    limit: float
+    kind: str
+    assumed: bool = False
+
+    @property
+    def std(self) -> float:
+        return self.limit / _SQRT3
+
+
+@dataclass(frozen=True)
+class ChannelAccuracy:
+    """Resolved accuracy of one signal: gain limit [-], offset limit [SI], provenance."""
+
+    signal: str
+    gain_limit: float
+    offset_limit: float
+    assumed: bool
+    basis: str
+
+    def parameters(self) -> list[Parameter]:
+        out = []
+        if self.gain_limit > 0:
+            out.append(Parameter(f"{self.signal} reading", self.gain_limit, "gain", self.assumed))
+        if self.offset_limit > 0:
+            out.append(Parameter(f"{self.signal} offset", self.offset_limit, "offset",
+                                 self.assumed))
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"reading_pct": round(self.gain_limit * 100, 6), "offset_si": self.offset_limit,
+                "assumed": self.assumed, "basis": self.basis}
+
+
+def channel_accuracy(signal: str, spec: Any | None) -> ChannelAccuracy:
+    """The accuracy of ``signal``: the template's ``AccuracySpec`` or its class default."""
+    name = registry().parse(signal)
+    base = name.base
+    if spec is None:
+        classes, sources, fallback = sensor_defaults()
+        pct, off, why = sources.get((base, name.source or ""), classes.get(base, fallback))
+        return ChannelAccuracy(signal, pct / 100.0, off, True, f"assumed class default: {why}")
+    unit = spec.unit
+    si = registry().spec_of(signal).unit
+    scale = 1.0
+    if unit is not None:
+        scale, _ = conversion(unit, si)
+    fs = (spec.full_scale or 0.0) * spec.full_scale_pct / 100.0
+    off = (fs + spec.offset) * abs(scale)
+    basis = (f"template: {spec.reading_pct:g} % of reading"
+             + (f", {spec.full_scale_pct:g} % of {spec.full_scale:g} {unit or si}" if fs else "")
+             + (f", offset {spec.offset:g} {unit or si}" if spec.offset else ""))
+    return ChannelAccuracy(signal, spec.reading_pct / 100.0, off, False, basis)
