@@ -41,10 +41,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from scipy import stats
-
 from vehval.errors import VehvalError
-from vehval.uncertainty.precision import COVERAGE_K, InsufficientDataError
+from vehval.uncertainty.precision import COVERAGE_K, InsufficientDataError, stats
 
 #: A comparison is uninformative when its combined U exceeds this share of |measured| [-].
 UNINFORMATIVE_FRACTION = 0.10
