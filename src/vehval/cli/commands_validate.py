@@ -188,6 +188,15 @@ def calibrate_cmd(
     for row in res.rows():
         typer.echo(f"{row[0]} ({_cycle(row[1])}): fuel error {_pct(row[2], 2, '')} -> "
                    f"{_pct(row[3], 2)}, SOC error {_pct(row[4], 2, '')} -> {_pct(row[5], 2)}")
+    for tid in res.holdout:
+        en = res.after.get(tid, {}).get("en")
+        if en is not None:
+            typer.echo(f"{tid} (held out): fuel En after calibration {en:+.2f} "
+                       f"({'consistent' if abs(en) <= 1 else 'inconsistent'}; U_model = 0)")
+    sv, why = res.holdout_verdict()
+    if res.holdout:
+        typer.echo("held-out set verdict: " + (f"{sv['verdict']} (n = {sv['n']}, mean fuel "
+                   f"error {sv['mean_error_pct']:+.2f} %)" if sv else f"none ({why})"))
     typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
                f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
     typer.echo(res.tables()[1]["note"])

@@ -26,13 +26,14 @@ from vehval.uncertainty import InsufficientDataError, normalised_error, set_verd
 from vehval.uncertainty.defaults import cycle_precision
 from vehval.uncertainty.verdict import measurement_uncertainty
 
-_KEYS = ("en", "consistent", "u_model_g", "u_meas_g", "uninformative", "s_r")
+#: keys added to a row and a phase
+EN_KEYS = ("en", "consistent", "u_model_g", "u_meas_g", "uninformative", "s_r")
 
 
 def _judge(r: dict[str, Any], meas: float, pred: float, s_r: float, label: str) -> Any:
     """Add the En keys to one row (None where the figure is missing); the Comparison."""
     if not (math.isfinite(meas) and meas > 0 and math.isfinite(pred)):
-        r.update(dict.fromkeys(_KEYS))
+        r.update(dict.fromkeys(EN_KEYS))
         return None
     h = r.get("pi95_rel")
     u_model = 0.0 if h is None else h * abs(pred)
@@ -42,6 +43,39 @@ def _judge(r: dict[str, Any], meas: float, pred: float, s_r: float, label: str) 
              consistent=c.consistent, u_model_g=u_model, u_meas_g=u_meas,
              uninformative=c.uninformative, s_r=s_r)
     return c
+
+
+def judge_row(r: dict[str, Any]) -> tuple[Any, float, str]:
+    """Add the En keys to one ``predict_trace`` row and its phases (in place).
+
+    Returns
+    -------
+    comparison : vehval.uncertainty.Comparison or None
+        Of the whole test (None without a fuel figure).
+    s_r : float
+        The repeatability used [-].
+    note : str
+        Empty, or the cycle whose precision was borrowed.
+    """
+    d, note = cycle_precision(r.get("cycle"), "conventional")
+    s_r = d.s_r if d.s_r is not None else 0.0
+    c = _judge(r, r["fuel_measured_g"], r["fuel_predicted_g"], s_r, r["test"])
+    for p in r.get("phases", []):
+        _judge(p, p["measured_g"], p["predicted_g"], s_r, f"{r['test']} {p['phase']}")
+    return c, s_r, (f"{r['test']}: {note}" if note else "")
+
+
+def verdict_of(judged: list[tuple[Any, float]]) -> tuple[dict[str, Any] | None, str]:
+    """Set verdict of (comparison, s_r) pairs with the root mean square s_r; (None, reason)
+    with fewer than 3."""
+    s_r = math.sqrt(sum(s * s for _, s in judged) / len(judged)) if judged else 0.0
+    try:
+        sv = set_verdict([c for c, _ in judged], s_r=s_r)
+    except InsufficientDataError as exc:
+        return None, f"no set verdict: {exc}"
+    out = sv.to_dict()
+    out["tests"] = [c.label for c, _ in judged]
+    return out, ""
 
 
 def judge_rows(rows: list[dict[str, Any]]) -> tuple[dict[str, Any] | None, list[str]]:
@@ -55,26 +89,15 @@ def judge_rows(rows: list[dict[str, Any]]) -> tuple[dict[str, Any] | None, list[
     """
     notes: list[str] = []
     held = []
-    s_rs = []
     for r in rows:
-        d, note = cycle_precision(r.get("cycle"), "conventional")
-        s_r = d.s_r if d.s_r is not None else 0.0
+        c, s_r, note = judge_row(r)
         if note:
-            notes.append(f"{r['test']}: {note}")
-        c = _judge(r, r["fuel_measured_g"], r["fuel_predicted_g"], s_r, r["test"])
-        for p in r.get("phases", []):
-            _judge(p, p["measured_g"], p["predicted_g"], s_r, f"{r['test']} {p['phase']}")
+            notes.append(note)
         if c is not None and not r.get("in_sample"):
-            held.append(c)
-            s_rs.append(s_r)
+            held.append((c, s_r))
     if any(r.get("pi95_rel") is None for r in rows):
         notes.append("a vehicle without identification uncertainty: U_model = 0")
-    try:
-        sv = set_verdict(held, s_r=math.sqrt(sum(s * s for s in s_rs) / len(s_rs))
-                         if s_rs else 0.0)
-    except InsufficientDataError as exc:
-        notes.append(f"no set verdict: {exc}")
-        return None, sorted(set(notes))
-    out = sv.to_dict()
-    out["tests"] = [c.label for c in held]
-    return out, sorted(set(notes))
+    verdict, why = verdict_of(held)
+    if why:
+        notes.append(why)
+    return verdict, sorted(set(notes))

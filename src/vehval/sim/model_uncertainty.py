@@ -133,7 +133,9 @@ def _linear(veh: Vehicle, unc: list[Uncertain], cyc: Any, dt: float, soc0: float
     variants = [{u.key: u.low} for u in unc] + [{u.key: u.high} for u in unc]
     res = _figures(veh, cyc, variants, dt, soc0, workers) if unc else []
     n = len(unc)
-    rows, notes, var = [], [], 0.0
+    rows: list[dict[str, Any]] = []
+    notes: list[str] = []
+    var = 0.0
     for j, u in enumerate(unc):
         lo, hi = res[j], res[n + j]
         if not (math.isfinite(lo) and math.isfinite(hi)):
@@ -143,8 +145,8 @@ def _linear(veh: Vehicle, unc: list[Uncertain], cyc: Any, dt: float, soc0: float
         var += s * s
         rows.append({"key": u.key, "u_rel": s / base})
     for r in rows:
-        r["share"] = (r["u_rel"] * base) ** 2 / var if var > 0 else 0.0
-    rows.sort(key=lambda r: -r["share"])
+        r["share"] = (float(r["u_rel"]) * base) ** 2 / var if var > 0 else 0.0
+    rows.sort(key=lambda r: -float(r["share"]))
     return var, rows, notes
 
 

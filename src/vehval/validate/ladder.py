@@ -234,13 +234,13 @@ class LadderResult:
         t = self.tolerances
         rows = [[RUNG_LABELS[e.rung], e.cycle, e.test_id, e.errors["fuel_pct"], e.errors["soc_pct"],
                  e.errors["soc_points"], e.errors["engine_on_agreement_pct"],
-                 "pass" if e.passed else "FAIL: " + "; ".join(e.failures),
-                 "in-sample" if e.in_sample else "held-out", e.en, e.verdict]
+                 "pass" if e.passed else "FAIL: " + "; ".join(e.failures), e.en, e.verdict,
+                 "in-sample" if e.in_sample else "held-out"]
                 for e in self.entries]
         return [{"title": "Validation ladder",
                  "columns": ["rung", "cycle", "test", "fuel error [%]", "SOC error [%]",
                              "ΔSOC error [points]", "engine state agreement [%]", "verdict",
-                             "sample", "En (fuel)", "verdict by En"],
+                             "En (fuel)", "verdict by En", "sample"],
                  "rows": rows,
                  "note": f"tolerances: fuel ≤ {t.fuel_pct} %, SOC ≤ {t.soc_pct} % (relative error of "
                          f"final SOC), ΔSOC ≤ {t.soc_points} points, engine agreement ≥ "
@@ -289,7 +289,7 @@ def judge_fuel(entry: LadderEntry, comp: Comparison, u_model_rel: float | None,
 def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | None = None,
            rungs: dict[str, str] | None = None,
            calibrated: dict[str, list[str]] | None = None,
-           u_model_rel: dict[str, float] | None = None,
+           u_model_rel: dict[str, float | None] | None = None,
            family: str = "all") -> LadderResult:
     """Place comparisons on the ladder and judge each against the tolerances.
 
