@@ -46,9 +46,9 @@ from vehval.errors import ConfigError
 from vehval.jsonsafe import clean
 from vehval.sim.simulate import simulate
 from vehval.test import Test
+from vehval.uncertainty import InsufficientDataError, normalised_error, set_verdict
 from vehval.validate.conditions import full_name as _full_name
 from vehval.validate.conditions import vehicle_variant as variant
-from vehval.uncertainty import InsufficientDataError, normalised_error, set_verdict
 from vehval.validate.ladder import LadderEntry, errors_of, judge_fuel
 from vehval.validate.objective import (
     DEFAULT_SIGNALS,
