@@ -520,7 +520,7 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
         payload["tables"] += p["tables"]
         payload["figures"] += p["figures"]
         payload["notes"] += [f"{v.validation.comparison.test_id}: {n}" for n in p["notes"]]
-    payload["tables"] += lad.tables()
+    payload["tables"] += lad.tables() + [lad.en_table()]
     metrics: dict[str, Any] = {
         "vehicle": veh.name, "vehicle_file": veh.file, "dt_s": dt,
         "speed_smoothing_hz": smooth_hz, "tests": [v.validation.to_dict() for v in vals],

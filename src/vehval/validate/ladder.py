@@ -234,19 +234,31 @@ class LadderResult:
         t = self.tolerances
         rows = [[RUNG_LABELS[e.rung], e.cycle, e.test_id, e.errors["fuel_pct"], e.errors["soc_pct"],
                  e.errors["soc_points"], e.errors["engine_on_agreement_pct"],
-                 "pass" if e.passed else "FAIL: " + "; ".join(e.failures), e.en, e.verdict,
-                 "in-sample" if e.in_sample else "held-out"]
-                for e in self.entries]
+                 "pass" if e.passed else "FAIL: " + "; ".join(e.failures),
+                 "in-sample" if e.in_sample else "held-out"] for e in self.entries]
         return [{"title": "Validation ladder",
                  "columns": ["rung", "cycle", "test", "fuel error [%]", "SOC error [%]",
                              "ΔSOC error [points]", "engine state agreement [%]", "verdict",
-                             "En (fuel)", "verdict by En", "sample"],
+                             "sample"],
                  "rows": rows,
                  "note": f"tolerances: fuel ≤ {t.fuel_pct} %, SOC ≤ {t.soc_pct} % (relative error of "
                          f"final SOC), ΔSOC ≤ {t.soc_points} points, engine agreement ≥ "
-                         f"{t.engine_on_agreement_min_pct} % (None = not checked; the secondary "
-                         f"check); {self.summary()}. En = (m_sim - m_test) / sqrt(U_model² + "
-                         f"U_meas²), k = 2; |En| ≤ 1 consistent; {self.en_summary()}"}]
+                         f"{t.engine_on_agreement_min_pct} % (None = not checked); "
+                         f"{self.summary()}"}]
+
+    def en_table(self) -> dict:
+        """The verdict by the normalised error of the fuel mass, one row per test."""
+        rows = [[e.test_id, e.cycle, e.errors["fuel_sim_kg"], e.errors["fuel_test_kg"],
+                 e.u_model_kg, e.u_meas_kg, e.s_r, e.en, e.verdict,
+                 "in-sample" if e.in_sample else "held-out", e.en_note] for e in self.entries]
+        return {"title": "Verdict by the normalised error (fuel mass)",
+                "columns": ["test", "cycle", "fuel sim [kg]", "fuel test [kg]",
+                            "U_model [kg]", "U_meas [kg]", "s_r [-]", "En", "verdict",
+                            "sample", "note"],
+                "rows": rows,
+                "note": "En = (m_sim - m_test) / sqrt(U_model² + U_meas²), k = 2; |En| ≤ 1 "
+                        "is consistent; the fixed tolerances of the ladder above are the "
+                        f"secondary check. {self.en_summary()}"}
 
     def to_dict(self) -> dict[str, Any]:
         return clean({"passed": self.passed, "tolerances": asdict(self.tolerances),
