@@ -49,7 +49,7 @@ def test_monte_carlo_refuses_few_draws_and_states_its_sampling_error(veh):
 
 
 def test_no_ranges_no_model_uncertainty():
-    fu = figure_uncertainty("prius_2016_eco", "hwfet")
+    fu = figure_uncertainty("cruze_diesel_2014", "hwfet")
     assert fu.method == "none" and fu.u_mpg == 0.0 and "no parameter" in fu.notes[0]
 
 
