@@ -25,6 +25,10 @@ KWH_J = 3.6e6
 LBF_N = 4.4482216152605
 #: One pound (mass) [kg].
 LB_KG = 0.45359237
+#: Plausible best (peak) brake efficiency of a road vehicle's engine [-]: production
+#: spark-ignition engines 30-41 %, the best diesels about 42 %; outside the range a fuel map
+#: describes no real engine, and no test's engine work over its fuel energy can exceed it.
+BRAKE_EFFICIENCY_RANGE = (0.20, 0.45)
 
 
 #: Environment variable holding the display unit system chosen with ``--units``

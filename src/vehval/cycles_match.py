@@ -39,7 +39,7 @@ import numpy as np
 
 from vehval.errors import VehvalError
 
-__all__ = ["identify_cycle", "describe", "MAX_RMS_MPS", "MIN_COVERAGE", "MIN_EXPLAINED",
+__all__ = ["identify_cycle", "identify_scaled", "run_distance_ratios", "describe", "MAX_RMS_MPS", "MIN_COVERAGE", "MIN_EXPLAINED",
            "MOVING_MPS", "SPLIT_AT_S"]
 
 
@@ -465,3 +465,132 @@ def describe(name: str | None, details: dict) -> str:
     where = (f"offset {offs[0]:.1f} s" if len(offs) == 1
              else "offsets " + ", ".join(f"{o:.1f}" for o in offs) + " s")
     return f"cycle identified as {name} ({extra}rms {details['rms_mps']:.2f} m/s, {where})"
+
+
+# ------------------------------------------------------------------------------ scale
+#: Speed scales searched by :func:`identify_scaled`: a trace 0.2..5 times a cycle's. Unit
+#: mistakes (km/h for mph: 1.609) lie inside; beyond, no speed channel of a car.
+SCALE_RANGE = (0.2, 5.0)
+
+
+def run_distance_ratios(time_s: Any, speed_mps: Any, details: dict, shift_s: float = 0.0
+                        ) -> list[tuple[float, float]]:
+    """Measured and cycle distance [m] of every run of an identification.
+
+    Parameters
+    ----------
+    time_s, speed_mps : array_like
+        The measured speed [m/s] at record times [s].
+    details : dict
+        :func:`identify_cycle` details of a ``cycle`` match (``cycle``, ``offsets_s``,
+        ``windows_s``, ``split_by_soak``).
+    shift_s : float
+        Time shift [s] the speed received since the identification (alignment).
+
+    Returns
+    -------
+    list of (float, float)
+        Per run: (distance the measured speed covers over the run's window, the cycle's own
+        distance over the same cycle time) [m]; a window without data counts only where
+        data exist.
+    """
+    from vehval.cycles import load_cycle
+
+    if details.get("method") != "cycle" or not details.get("offsets_s"):
+        return []
+    cyc = load_cycle(str(details["cycle"]))
+    t = np.asarray(time_s, float)
+    v = np.asarray(speed_mps, float)
+    ok = np.isfinite(t) & np.isfinite(v)
+    t, v = t[ok], v[ok]
+    if t.size < 2:
+        return []
+    dur = float(cyc.duration_s)
+    split = SPLIT_AT_S.get(str(details["cycle"]))
+    if details.get("split_by_soak") and split and len(details.get("windows_s", [])) == 2:
+        off = float(details["offsets_s"][0]) + shift_s
+        tail = float(details["windows_s"][1][0]) + shift_s - (split + 1.0)
+        runs = [[(0.0, split, off), (split, dur, tail)]]
+    else:
+        runs = [[(0.0, dur, float(o) + shift_s)] for o in details["offsets_s"]]
+    out = []
+    for pieces in runs:
+        meas = ref = 0.0
+        for c0, c1, off in pieces:
+            tt = np.arange(c0, c1, 0.1)
+            inside = (tt + off >= t[0]) & (tt + off <= t[-1])
+            if inside.sum() < 2:
+                continue
+            tt = tt[inside]
+            meas += float(np.trapezoid(np.interp(tt + off, t, v), tt))
+            ref += float(np.trapezoid(np.interp(tt, cyc.time_s, cyc.speed_mps), tt))
+        out.append((meas, ref))
+    return out
+
+
+def identify_scaled(time_s: Any, speed_mps: Any, *, cycles: list[str] | None = None
+                    ) -> tuple[str | None, float, dict]:
+    """The cycle a speed trace follows once divided by a constant factor (a speed scale).
+
+    For every cycle the start where the trace has the cycle's shape (largest cosine
+    similarity over a whole cycle) gives the least-squares factor ``k`` (trace ≈ k x cycle);
+    the trace divided by ``k`` must then pass :func:`identify_cycle` for that cycle.
+
+    Returns
+    -------
+    name : str or None
+        The cycle identified in the scaled trace (``hwfet_x2``), None when none is.
+    factor : float
+        Measured over cycle distance of its runs together [-] (nan when none).
+    details : dict
+        :func:`identify_cycle` details of the scaled trace.
+    """
+    from vehval.cycles import list_cycles
+
+    t = np.asarray(time_s, float)
+    v = np.asarray(speed_mps, float)
+    g = _bin_1hz(t, v)
+    if g.v.size == 0 or not g.moving.any():
+        return None, float("nan"), {}
+    best: tuple[float, float, str, float, dict] | None = None
+    for name in (list(cycles) if cycles is not None else list_cycles()):
+        k = _shape_factor(g, _cycle_1hz(name))
+        if not (SCALE_RANGE[0] <= k <= SCALE_RANGE[1]):
+            continue
+        found, _, det = identify_cycle(t, v / k, cycles=[name])
+        if found is None or det.get("method") != "cycle":
+            continue
+        key = (-float(det["explained"]), float(det["rms_mps"]))
+        if best is None or key < (best[0], best[1]):
+            best = (key[0], key[1], found, k, det)
+    if best is None:
+        return None, float("nan"), {}
+    _, _, found, k, det = best
+    runs = run_distance_ratios(t, v / k, det)
+    ref = sum(r for _, r in runs)
+    factor = k * sum(m for m, _ in runs) / ref if ref > 0 else k
+    return found, float(factor), det
+
+
+def _shape_factor(g: _Grid, c: np.ndarray) -> float:
+    """Least-squares factor of the trace over cycle ``c`` where the two are most alike in
+    shape (the largest cosine similarity over windows covering ``MIN_COVERAGE``); nan when
+    the trace is shorter than the cycle."""
+    m = c.size
+    w = g.valid.astype(float)
+    vw = g.v * w
+    if w.size < m:
+        return float("nan")
+    cs = np.concatenate([[0.0], np.cumsum(vw * vw)])
+    s_vv = cs[m:] - cs[:-m]
+    s_vc = correlate(vw, c, mode="valid")
+    s_cc = correlate(w, c * c, mode="valid")
+    cn = np.concatenate([[0.0], np.cumsum(w)])
+    cover = (cn[m:] - cn[:-m]) / m
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cos = np.where((cover >= MIN_COVERAGE) & (s_vv > 0) & (s_cc > 0),
+                       s_vc / np.sqrt(s_vv * s_cc), -np.inf)
+    i = int(np.argmax(cos))
+    if not np.isfinite(cos[i]) or s_cc[i] <= 0:
+        return float("nan")
+    return float(s_vc[i] / s_cc[i])

@@ -49,6 +49,8 @@ def test_every_numeric_option_has_a_bound():
     (["sensitivity", "--seed", "-1"], "--seed -1: must be within [0, 4294967295]"),
     (["sensitivity", "--monte-carlo", "10000000"], "one simulation per cycle"),
     (["results", "x", "-t", "y", "-o", "z", "--monte-carlo", "1000000000"], "GUM Supplement 1"),
+    (["results", "x", "-t", "y", "-o", "z", "--monte-carlo", "2"],
+     "--monte-carlo 2: must be 0 or within [100, 10000000] draws"),
     (["batch", "d", "-t", "t", "-o", "o", "-j", "-1"], "--workers -1: must be within [0, 64]"),
     (["epa", "validate", "x", "--vehicle", "v", "--tests", "t", "--dt", "1e-5"], "--dt 1e-05"),
     (["epa", "calibrate", "x", "--vehicle", "v", "--tests", "t", "--param", "a=1",

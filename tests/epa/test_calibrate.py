@@ -131,3 +131,60 @@ def test_unknown_parameter_of_a_conventional_car_names_its_blocks(tmp_path):
     msg = str(err.value)
     assert "a bare name is controller.soc_gain_w" in msg and "did you mean" not in msg
     assert "blocks body, converter, driveline, driver, engine, engine_control, gearbox" in msg
+
+
+def test_two_grids_of_one_parameter_refused(prius_list, capsys):
+    """The first of two grids of one parameter was silently dropped."""
+    for second in ("engine_min_power_w=1,2", "controller.engine_min_power_w=1,2"):
+        rc = main(["epa", "calibrate", str(prius_list), "--vehicle", "prius_2016", "--tests",
+                   "model=PRIUS,procedure=hwfet", "--param", "engine_min_power_w=9000,11000",
+                   "--param", second, "--refine", "0", "--workers", "1"])
+        assert rc == 2
+        err = capsys.readouterr().err
+        assert "parameter 'controller.engine_min_power_w' is given two grids" in err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    base = load_vehicle("prius_2016")
+    with pytest.raises(ConfigError, match="given two grids"):
+        calibrate_on_tests(base, [], {"soc_gain_w": [1.0], "controller.soc_gain_w": [2.0]})
+
+
+def test_grid_size_bounded_before_anything_runs(prius_list, capsys, monkeypatch):
+    """A 5,000-value grid or a 60^3 grid ran with no bound, no estimate and no output."""
+    import vehval.epa.calibrate as cal_mod
+    from vehval.epa.calibrate import MAX_GRID_POINTS
+
+    def no_run(*a, **k):
+        raise AssertionError("simulated before the grid was refused")
+
+    monkeypatch.setattr(cal_mod, "validate_tests", no_run)
+    big = ",".join(str(9000 + k) for k in range(5000))
+    cube = ",".join(str(1000 + k) for k in range(60))
+    for params in (["engine_min_power_w=" + big],
+                   ["engine_min_power_w=" + cube, "soc_gain_w=" + cube,
+                    "engine_on_power_w=" + cube]):
+        args = ["epa", "calibrate", str(prius_list), "--vehicle", "prius_2016", "--tests",
+                "model=PRIUS,procedure=hwfet"]
+        for p in params:
+            args += ["--param", p]
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert f"more than the {MAX_GRID_POINTS:,} of one calibration" in err
+        assert ("5,000 settings" in err) or ("216,000 settings (60 x 60 x 60 values)" in err)
+
+
+def test_long_run_estimated_stated_and_refused_unless_asked(virtual, monkeypatch):
+    import vehval.epa.calibrate as cal_mod
+
+    base, tests = virtual
+    said: list[str] = []
+    with pytest.raises(ConfigError, match=r"would take about .* settings x 2 tests.*--long-run"):
+        calibrate_on_tests(base, tests, {PARAM: [9000.0, 10000.0, 11000.0]}, refine_rounds=0,
+                           max_seconds=1e-6, notify=said.append)
+    assert said == []
+    monkeypatch.setattr(cal_mod, "STATE_ESTIMATE_S", 0.0)
+    cal = calibrate_on_tests(base, tests, {PARAM: [9000.0, 11000.0]}, refine_rounds=1,
+                             notify=said.append)
+    # stated before the run: the settings bound (2 grid + 2 refinement), tests, time per setting
+    assert len(said) == 1 and said[0].startswith("epa calibrate: at most 4 settings x 2 tests")
+    assert "s per setting measured on the start values, 1 worker(s): about" in said[0]
+    assert len(cal.evaluations) <= 4

@@ -171,3 +171,29 @@ def test_camry_from_specs_all_splits(tmp_path):
                for r in rows)
     loo = all_splits(specs, runs, 3, dt=0.5)
     assert len(loo) == 4 and max(r["max_abs_held_out"] for r in loo) < 0.05
+
+
+def test_every_test_number_kept_and_a_byte_order_mark_read(tmp_path):
+    """Every distinct test number of the 2016 and 2019 lists is a test (the 2019 Pacifica
+    HCRX10045415 repeats HCRX10045413's values and was dropped: 5 of its 6 rows); a test
+    listed again is named; the list saved with a UTF-8 byte-order mark reads the same."""
+    import csv
+
+    for name in ("16tstcar.csv", "19tstcar.csv"):
+        with (EPA / name).open(encoding="latin-1", newline="") as fh:
+            rows = list(csv.reader(fh))
+        numbers = {r[rows[0].index("Test Number")] for r in rows[1:]}
+        tests = read_test_car_list(EPA / name)
+        assert {t.test_number for t in tests} == numbers
+        assert len(read_lists([EPA / name])) == len(tests) == len(numbers)
+        assert sum(len(t.duplicate_rows) for t in tests) == len(rows) - 1 - len(numbers)
+        derived = sum(r[rows[0].index("Analytically Derived FE?")] == "Yes" for r in rows[1:])
+        assert 0 < sum(bool(t.analytically_derived) for t in tests) <= derived
+    pacifica = apply_selector(read_lists([EPA]), "make=CHRYSLER,model=PACIFICA,year=2019,"
+                                                 "vehicle=L7RUC2302")
+    assert sorted(t.test_number for t in pacifica) == [f"HCRX1004541{k}" for k in (2, 3, 4, 5)]
+    bom = tmp_path / "19tstcar.csv"
+    bom.write_bytes(b"\xef\xbb\xbf" + (EPA / "19tstcar.csv").read_bytes().decode("latin-1")
+                    .encode("utf-8"))
+    assert [t.to_dict() | {"source": ""} for t in read_test_car_list(bom)] == \
+        [t.to_dict() | {"source": ""} for t in read_test_car_list(EPA / "19tstcar.csv")]

@@ -186,3 +186,33 @@ def test_catalog_in_chromium(browser, batch_ws):
         assert s.foreign() == []
     finally:
         s.close()
+
+
+def test_triage_after_a_restart_runs_qa_by_post(browser, workspace):
+    """QA ran before this server started (qa/ on disk): the page shows its findings without a
+    run; a finding's plot asks for its signals, gets 409 (a GET never runs QA), POSTs the run
+    and asks again."""
+    from vehval.serve.bench import Bench
+
+    folder = (workspace / "virtual").resolve()
+    assert Bench(folder).rerun().error is None
+    s = Visit(browser, workspace)
+    posts: list[str] = []
+    s.context.on("request", lambda r: posts.append(r.url) if r.method == "POST" else None)
+    try:
+        page = s.page
+        page.goto(s.server.url)
+        page.click("text=virtual")
+        _wait(page, "document.body.dataset.busy === '0'")
+        assert not posts  # findings from qa/: no run on open
+        page.click("button[data-tab=triage]")
+        page.locator("#findings tr.finding").first.click()
+        _wait(page, "document.getElementById('findplot').dataset.finding")
+        assert any("/api/run" in u for u in posts)
+        legend = page.text_content("#findplot") or ""
+        assert "not available" not in legend and int(
+            page.evaluate("document.getElementById('findplot').dataset.points")) > 0
+        assert s.errors == [] or all("409" in e for e in s.errors)
+        assert s.foreign() == []
+    finally:
+        s.close()

@@ -10,6 +10,7 @@ from typing import Callable
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import output_dir
 
 
 @app.command("analyze")
@@ -18,7 +19,7 @@ def analyze_cmd(
     template: Path = typer.Option(..., "-t", "--template", help="Import template (YAML)."),
     vehicle: str = typer.Option(None, "--vehicle", help="Vehicle name or file (fixed controller "
                                 "parameters, fuel map, battery limits)."),
-    outdir: Path = typer.Option(..., "-o", "--outdir", help="Directory for control.json."),
+    outdir: Path = typer.Option(..., "-o", "--outdir", callback=output_dir, help="Directory for control.json."),
     qa: bool = typer.Option(True, "--qa/--no-qa", help="Align and compute _calc signals with the QA first."),
     as_json: bool = typer.Option(False, "--json", help="Print control.json."),
 ) -> None:

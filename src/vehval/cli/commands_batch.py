@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 
 catalog_app = typer.Typer(help="Query the results catalog (OUTDIR/catalog.duckdb).",
                           no_args_is_help=True)
@@ -21,7 +21,7 @@ def batch_cmd(
     target: str = typer.Argument(..., help="Directory of tests (one subdirectory per test, or one "
                                  "file per test for a single-file template) or a quoted glob."),
     template: Path = typer.Option(..., "--template", "-t", help="Import template YAML."),
-    outdir: Path = typer.Option(..., "--outdir", "-o", help="Output directory."),
+    outdir: Path = typer.Option(..., "--outdir", "-o", callback=output_dir, help="Output directory."),
     vehicle: Optional[str] = typer.Option(None, "--vehicle", help="Vehicle name or file "
                                           "(default: the template's vehicle)."),
     steps: str = typer.Option("qa", "--steps", help="Comma-separated steps: qa,analyze,validate "

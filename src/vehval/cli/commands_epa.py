@@ -10,7 +10,7 @@ from typing import Any
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir, output_file
 
 epa_app = typer.Typer(help="EPA Test Car List: certification dyno results per test.",
                       no_args_is_help=True)
@@ -88,13 +88,14 @@ def tests_cmd(
     cycle, originator, results."""
     from vehval import jsonsafe
     from vehval.epa import procedure_key
-    from vehval.epa.consistency import check_listed_figures
+    from vehval.epa.consistency import check_listed_figures, impossible_values
 
     tests = _load(paths, make, model, year)
     checks = [check_listed_figures(t) for t in tests]
     if as_json:
         typer.echo(jsonsafe.dumps([{**t.to_dict(), "procedure_key": procedure_key(t),
-                                    "list_check": c.to_dict()}
+                                    "list_check": c.to_dict(),
+                                    "impossible_values": impossible_values(t)}
                                    for t, c in zip(tests, checks)]), nl=False)
         return
     from vehval.display import unit_for
@@ -116,7 +117,7 @@ def tests_cmd(
                f"bags 1-4 (FE, bags: {fe[0]})")
     for t, chk in zip(tests, checks):
         bags = " ".join(f"{_fmt(fe[1](b_), fe[2]):>6}" for b_ in t.bags) + (
-            "" if chk.ok else "  !")
+            "" if chk.ok else "  !") + ("  AD" if t.analytically_derived else "")
         typer.echo(f"{t.label:{wt}s} {t.vehicle_id:{wv}s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
                    f"{_trans_text(t):5s} {_fuel_text(t):6s} "
@@ -129,6 +130,26 @@ def tests_cmd(
     for t, chk in zip(tests, checks):
         if not chk.ok:
             typer.echo(f"! {t.label} ({t.source}): {chk.note}")
+        for text in impossible_values(t).values():
+            typer.echo(f"! {t.label} ({t.source}): {text}")
+    _echo_list_marks(tests)
+
+
+def _echo_list_marks(tests: list) -> None:
+    """The list's own marks: tests listed again (one line each) and the analytically
+    derived ones (one line: the 'AD' of the table)."""
+    for t in tests:
+        if t.duplicate_note:
+            typer.echo(f"note: {t.label} ({t.source}): {t.duplicate_note}")
+    derived = [t for t in tests if t.analytically_derived]
+    if derived:
+        typer.echo(f"AD: {len(derived)} test(s) the list marks as analytically derived "
+                   "('Analytically Derived FE?' Yes: figures computed from another test, "
+                   "'adfe_test_number' in --json), not measured; `epa validate` does not "
+                   "judge them")
+    if tests and all(t.analytically_derived is None for t in tests):
+        typer.echo("AD: the list has no 'Analytically Derived FE?' column (a reduced column "
+                   "set): derived figures cannot be told from measured ones")
 
 
 def _fe_display():
@@ -201,7 +222,7 @@ def validate_cmd(
     dt: float = typer.Option(0.2, "--dt", callback=bounded("dt"), help="Simulation step [s] (0.2 s: within 0.3 % "
                              "of 0.1 s on US06)."),
     as_json: bool = typer.Option(False, "--json", help="Print the validation JSON."),
-    outdir: Path | None = typer.Option(None, "-o", "--output",
+    outdir: Path | None = typer.Option(None, "-o", "--output", callback=output_dir,
                                        help="Directory for report.html, epa_validation.json "
                                             "and epa_validation.csv."),
     model_u: str = typer.Option("linear", "--model-uncertainty",
@@ -217,7 +238,11 @@ def validate_cmd(
     from vehval import jsonsafe
     from vehval.cli.progress import bar
     from vehval.epa.validation import validate_tests
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.report.epa import share_text
+    if outdir is not None:
+        check_outputs(outdir=outdir, inputs=[*paths, vehicle_path(vehicle)],
+                      writes=["report.html", "epa_validation.json", "epa_validation.csv"])
     with bar("epa validate: simulating tests", as_json=as_json):
         every: list = []
         val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every,
@@ -264,6 +289,12 @@ def validate_cmd(
             typer.echo(f"! {p.test.label} ({p.test.source}): {p.list_check.note}; its figures "
                        "are listed, not judged")
     _echo_mismatches([(p.test.label, p.vehicle_check) for p in val.predictions])
+    derived = [p.test.label for p in val.predictions if p.test.analytically_derived]
+    if derived:
+        typer.echo(f"! {len(derived)} test(s) ({', '.join(derived[:3])}"
+                   f"{' ...' if len(derived) > 3 else ''}) the list marks as analytically "
+                   "derived (figures computed from another test, not measured): simulated, "
+                   "not judged")
     for s in val.skipped:
         typer.echo(f"skipped {s['test']} ({s['description']}): {s['reason']}")
     typer.echo(f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped, "
@@ -357,6 +388,8 @@ def _echo_mismatches(checks, err: bool = False) -> None:
 def _judged_text(c) -> str:
     if c.judged:
         return "yes"
+    if c.analytically_derived:
+        return "no (derived)"
     return "no (list doubtful)" if c.list_doubtful else "no (cold start)"
 
 
@@ -392,20 +425,30 @@ def calibrate_cmd(
                                 "settings in parallel (0: one per CPU, at most 8; the result "
                                 "does not depend on it)."),
     as_json: bool = typer.Option(False, "--json", help="Print the calibration JSON."),
-    output: Path | None = typer.Option(None, "-o", "--output", help="Write the calibrated "
+    output: Path | None = typer.Option(None, "-o", "--output", callback=output_file,
+                                       help="Write the calibrated "
                                        "vehicle YAML here (values carry their provenance)."),
+    long_run: bool = typer.Option(False, "--long-run", help="Run a calibration estimated "
+                                  "to take more than 15 min (refused without it)."),
 ) -> None:
-    """Choose unpublished parameters (controller thresholds, gains) on a set of EPA tests."""
+    """Choose unpublished parameters (controller thresholds, gains) on a set of EPA tests.
+
+    At most 1,000 grid settings; the estimated run time is stated on stderr before a run
+    of 10 s or more."""
     from vehval import jsonsafe
-    from vehval.epa.calibrate import calibrate_on_tests
+    from vehval.epa.calibrate import LONG_RUN_S, calibrate_on_tests, grid_from_pairs
     from vehval.epa.consistency import check_vehicle_match
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.vehicle import load_vehicle
 
-    grid = dict(_parse_param(p) for p in param)
+    if output is not None:
+        check_outputs(outfile=output, inputs=[*paths, vehicle_path(vehicle)])
+    grid = grid_from_pairs([_parse_param(p) for p in param])
     selected, veh = _selected(paths, tests, dt), load_vehicle(vehicle)
     _echo_mismatches([(t.label, check_vehicle_match(t, veh)) for t in selected], err=True)
     cal = calibrate_on_tests(veh, selected, grid, dt=dt, refine_rounds=refine,
-                             workers=workers)
+                             workers=workers, max_seconds=None if long_run else LONG_RUN_S,
+                             notify=lambda text: typer.echo(text, err=True))
     if output is not None:
         cal.write_vehicle(output)
     if as_json:
@@ -463,7 +506,7 @@ def vehicle_cmd(
                                          "vehicle speed and fuel rate) to fit the fuel "
                                          "model on; repeatable."),
     predict: list[Path] = typer.Option([], "--predict", help="A held-out dyno test to "
-                                       "predict; repeatable."),
+                                       "predict (not also a --calibrate test); repeatable."),
     template: Path | None = typer.Option(None, "-t", "--template", help="Import template "
                                          "of the dyno test files."),
     splits: int = typer.Option(0, "--splits", callback=bounded("splits"), help="Also fit on "
@@ -471,12 +514,16 @@ def vehicle_cmd(
                                "(0: no)."),
     dt: float = typer.Option(0.5, "--dt", callback=bounded("dt"), help="Simulation step [s]."),
     as_json: bool = typer.Option(False, "--json", help="Print the result JSON."),
-    output: Path = typer.Option(..., "-o", "--output", help="Write the vehicle YAML here."),
+    output: Path = typer.Option(..., "-o", "--output", callback=output_file,
+                                help="Write the vehicle YAML here."),
+    force: bool = typer.Option(False, "--force", help="Use dyno tests whose speed or fuel "
+                               "unit QA doubts (the hint is still printed)."),
 ) -> None:
     """A conventional vehicle from its EPA Test Car List specification, its fuel model
     calibrated on dyno tests with speed and fuel only."""
     from vehval import jsonsafe
     from vehval.calibration.provenance import write_vehicle_yaml
+    from vehval.cli.epa_inputs import check_roles, unit_hints
     from vehval.epa import read_lists, select_tests
     from vehval.epa.specs import model_fuel_lhv, specs_from_tests, vehicle_from_specs
     from vehval.epa.specs_fit import (
@@ -495,14 +542,17 @@ def vehicle_cmd(
     rows = select_tests(read_lists(paths), make, model, year)
     rows = _narrow(rows, vehicle_id, config)
     specs = specs_from_tests(rows)
+    check_roles(calibrate, predict)
     files = [*calibrate, *predict]
     if files and template is None:
         raise ConfigError("give the import template of the dyno tests with -t")
-    runs = {}
+    runs, hints = {}, {}
     for f in files:
         from vehval.workflow import TestRun
 
-        test = TestRun.load([f], template, use_qa=False).test
+        loaded = TestRun.load([f], template, use_qa=False)
+        test = loaded.test
+        hints[f] = unit_hints(f, test, loaded.template, force)
         runs[f] = dyno_run(test, test.meta.test_id or f.stem,
                            model_lhv_j_per_kg=model_fuel_lhv())
     cal = [runs[f] for f in calibrate]
@@ -516,6 +566,7 @@ def vehicle_cmd(
     tests_doc: list[dict[str, Any]] = [{"test": r.test_id, "in_sample": f in calibrate,
                   "fuel_measured_kg": r.fuel_kg, "distance_m": r.distance_m,
                   "cold_start": r.cold, "note": cold_note(r), "fuel_note": r.fuel_note,
+                  "unit_hints": hints[f],
                   "error": (fit.errors.get(r.test_id) if f in calibrate and fit
                             else pred.get(r.test_id))} for f, r in runs.items()]
     doc = {"vehicle": veh.name, "specs": specs.to_dict(),
@@ -550,6 +601,9 @@ def vehicle_cmd(
                    f" fuel error {err:>8}  ({row['note']})")
     for note in dict.fromkeys(r["fuel_note"] for r in tests_doc if r["fuel_note"]):
         typer.echo(f"test fuel: {note}")
+    for f, found in hints.items():
+        for h in found:
+            typer.echo(f"! {f}: {h['message']} ({h['fix']}; used with --force)")
     if held:
         worst = max(abs(e) for e in pred.values())
         typer.echo(f"held-out: {len(pred)} tests, largest |fuel error| {100 * worst:.1f} %")

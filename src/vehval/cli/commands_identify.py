@@ -10,7 +10,8 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_file
+from vehval.constants import BRAKE_EFFICIENCY_RANGE
 from vehval.errors import ConfigError
 
 
@@ -106,9 +107,9 @@ def identify_cmd(
     files: list[Path] = typer.Argument(..., help="Raw test files (one test per file)."),
     template: Path = typer.Option(..., "-t", "--template", help="Import template."),
     architecture: str = typer.Option("conventional", "--architecture", help="Model to identify (conventional)."),
-    output: Path = typer.Option(None, "-o", "--output", help="Vehicle YAML to write (atomically); with --cross-validate the table as JSON."),
+    output: Path = typer.Option(None, "-o", "--output", callback=output_file, help="Vehicle YAML to write (atomically); with --cross-validate the table as JSON."),
     name: str = typer.Option(None, "--name", help="Vehicle name (default: the output file stem)."),
-    report: Path = typer.Option(None, "--report", help="Also write an HTML report (fitted map with the measured points, traces)."),
+    report: Path = typer.Option(None, "--report", callback=output_file, help="Also write an HTML report (fitted map with the measured points, traces)."),
     ac_test: Path = typer.Option(None, "--ac-test", help="A test run with the A/C on (not one of FILES): identifies the A/C compressor load from its phases after the first."),
     cold_test: Path = typer.Option(None, "--cold-test", help="A cold-start test (not one of FILES) on the cycle of a hot-start test among FILES: identifies the warm-up fuel (fraction and time constant) from the two tests' measured fuel."),
     spec: Path = typer.Option(None, "--spec", help="Specification YAML (rated power and speed, peak torque, displacement, fuel, tyre, gears...; see docs/identification.md): values the data cannot separate."),
@@ -154,7 +155,8 @@ def identify_cmd(
     extra = [p for p in (ac_test, cold_test, spec) if p is not None]
     check_outputs(outfile=output, inputs=[*files, *extra, template])
     if report is not None:
-        check_outputs(outfile=report, inputs=[*files, *extra, template, output])
+        check_outputs(outfile=report, inputs=[*files, *extra, template, output],
+                      option="--report")
     for opt, path in (("--ac-test", ac_test), ("--cold-test", cold_test)):
         if path is not None and path.resolve() in {f.resolve() for f in files}:
             raise ConfigError(f"{opt} {path}: it is also an identification test; give a "
@@ -168,6 +170,7 @@ def identify_cmd(
         idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
                                     cold_trace=cold_trace, declared=declared)
     _check_mass(idf, declared)
+    _check_template_mass(idf, template)
     _check_fuel_map(idf, files)
     from vehval.io.atomic import atomic_files
     preds = None
@@ -264,6 +267,37 @@ def _check_mass(idf, declared: dict) -> None:
             "specification of another car?")
 
 
+def _check_template_mass(idf, template: Path) -> None:
+    """The template's ``test_mass_kg`` against the inertia identified from the tests.
+
+    The template's constant is the test mass every later stage uses (a template constant
+    beats the vehicle's value: :mod:`vehval.conditions`), so a wrong one is refused here
+    rather than written into the vehicle's record: the ratio tells a value in lb (or
+    converted from lb twice) from another car's. The band is QA's gain of the force over
+    ``test_mass_kg`` x acceleration (:data:`vehval.qa.crosscheck.MASS_GAIN_BAND`)."""
+    from vehval.constants import LB_KG
+    from vehval.qa.crosscheck import MASS_GAIN_BAND
+
+    m_tpl = idf.road_load.template.get("mass_kg")
+    m_id = idf.road_load.values["mass_kg"]
+    if m_tpl is None or not m_tpl > 0:
+        return
+    lo, hi = MASS_GAIN_BAND
+    gain = m_id / m_tpl
+    if lo <= gain <= hi:
+        return
+    head = (f"identify: {template}: constants.test_mass_kg {m_tpl:g} is far from the inertia "
+            f"identified from the tests ({m_id:.0f} kg, {gain:.3g} x it)")
+    if lo <= gain / LB_KG <= hi:
+        raise ConfigError(f"{head}: it is probably in lb ({m_tpl:g} lb = {m_tpl * LB_KG:.1f} kg): "
+                          f"set test_mass_kg: {m_tpl * LB_KG:.1f}")
+    if lo <= gain * LB_KG <= hi:
+        raise ConfigError(f"{head}: it is probably converted from lb twice: set test_mass_kg: "
+                          f"{m_tpl / LB_KG:.1f}")
+    raise ConfigError(f"{head}: is the template of another car? Set the test (inertia) mass "
+                      "of these tests")
+
+
 def _keyed(key: str, value_si: float, ci95_si: float | None = None) -> str:
     """``value [± ci] unit`` of a vehicle key (``mass_kg``, ``road_load_b_n_per_mps``...) in
     the display units (us: lb, lbf, lbf/mph, lbf/mph²; metric: kg, N, N/(m/s), N/(m/s)²)."""
@@ -294,9 +328,8 @@ def _drag_note(drag) -> str:
     return drag.note.replace(si, _drag_text(drag.dyno_loss_a_n, drag.dyno_loss_b_n_per_mps))
 
 
-#: [-] peak brake efficiency of road engines: above the best diesels' (~0.42), below the
-#: worst engines' in service (~0.25)
-ETA_PLAUSIBLE = (0.20, 0.45)
+#: [-] peak brake efficiency of road engines (the band of :mod:`vehval.constants`)
+ETA_PLAUSIBLE = BRAKE_EFFICIENCY_RANGE
 _UNIT_HINT = ("check the fuel flow's unit and the test fuel's heating value (template "
               "constants) and the fuel channel's mapping")
 
@@ -441,7 +474,7 @@ def predict_cmd(
     vehicle: str = typer.Argument(..., help="Vehicle name or YAML path (conventional)."),
     files: list[Path] = typer.Argument(..., help="Raw test files to predict (one test per file)."),
     template: Path = typer.Option(..., "-t", "--template", help="Import template."),
-    report: Path = typer.Option(None, "--report", help="Also write an HTML report (table, engine speed and fuel rate overlays)."),
+    report: Path = typer.Option(None, "--report", callback=output_file, help="Also write an HTML report (table, engine speed and fuel rate overlays)."),
     ac: str = typer.Option("auto", "--ac", help="A/C of the model: auto (on for SC03 or a cell at 30 C or more), on, off."),
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
 ) -> None:
@@ -449,13 +482,14 @@ def predict_cmd(
     from vehval.identify.predict import predict_trace
     from vehval.identify.traces import load_traces
     from vehval.vehicle import load_vehicle
+    if report is not None:
+        from vehval.io.paths import check_outputs, vehicle_path
+        check_outputs(outfile=report, inputs=[*files, template, vehicle_path(vehicle)],
+                      option="--report")
     veh = load_vehicle(vehicle)
     if veh.architecture != "conventional":
         raise ConfigError(f"{vehicle}: predict compares fuel of conventional cars; this vehicle "
                           f"is '{veh.architecture}' (use vehval validate)")
-    if report is not None:
-        from vehval.io.paths import check_outputs
-        check_outputs(outfile=report, inputs=[*files, template])
     from vehval.identify.predict import check_same_car, poor_coverage
     traces = load_traces(files, template)
     for t in traces:

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import output_file
 from vehval.errors import InputFileError
 
 if TYPE_CHECKING:
@@ -39,7 +40,8 @@ app.add_typer(template_app, name="template")
 @template_app.command("init")
 def template_init_cmd(
     files: list[Path] = typer.Argument(..., help="Raw files of one test."),
-    output: Path = typer.Option(..., "-o", "--output", help="Template YAML to write."),
+    output: Path = typer.Option(..., "-o", "--output", callback=output_file,
+                                help="Template YAML to write."),
     force: bool = typer.Option(False, "--force", help="Overwrite an existing template."),
 ) -> None:
     """Propose a template: standard names, units and source tags for every channel."""
@@ -80,7 +82,8 @@ def template_check_cmd(
 def import_cmd(
     files: list[Path] = typer.Argument(..., help="Raw files of one test."),
     template: Path = typer.Option(..., "-t", "--template", help="Template YAML."),
-    output: Path = typer.Option(..., "-o", "--output", help="Test Parquet file to write."),
+    output: Path = typer.Option(..., "-o", "--output", callback=output_file,
+                                help="Test Parquet file to write."),
     repair_time: bool = typer.Option(False, "--repair-time",
                                      help="Sort decreasing and drop repeated timestamps."),
 ) -> None:

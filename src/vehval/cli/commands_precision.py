@@ -9,6 +9,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.commands_epa import epa_app
+from vehval.cli.options import bounded
 
 
 def _pct(p, width: int = 18) -> str:
@@ -56,8 +57,8 @@ def precision_tables(paths: list[Path], confidence: float = 0.95,
 def repeatability_cmd(
     paths: list[Path] = typer.Argument(..., help="EPA Test Car List CSV files (e.g. "
                                        "16tstcar.csv) or directories holding them."),
-    confidence: float = typer.Option(0.95, "--confidence",
-                                     help="Level of the intervals (0-1)."),
+    confidence: float = typer.Option(0.95, "--confidence", callback=bounded("confidence"),
+                                     help="Level of the intervals (0.5-0.999)."),
     pooled: bool = typer.Option(False, "--pooled", help="One estimate over every list given "
                                 "(test numbers de-duplicated across them)."),
     as_json: bool = typer.Option(False, "--json", help="Print JSON (figures in per cent)."),
@@ -65,10 +66,6 @@ def repeatability_cmd(
     """Repeatability s_r (same lab, car, setting) and reproducibility s_R (EPA lab against
     manufacturer at one setting; strict and at the vehicle level), per list, powertrain
     family and procedure, with counts and chi-square intervals (docs/validation.md)."""
-    from vehval.errors import ConfigError
-
-    if not 0.0 < confidence < 1.0:
-        raise ConfigError(f"--confidence must lie between 0 and 1 (got {confidence:g})")
     tables = precision_tables(paths, confidence, pooled)
     if as_json:
         from vehval import jsonsafe

@@ -9,7 +9,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 
 
 def _count(n: int, noun: str) -> str:
@@ -40,7 +40,7 @@ def qa_cmd(
     template: Path = typer.Option(..., "-t", "--template", help="Import template YAML."),
     vehicle: str = typer.Option(None, "--vehicle",
                                 help="Vehicle file name or path (default: the template's)."),
-    outdir: Path = typer.Option(..., "-o", "--outdir", help="Output directory."),
+    outdir: Path = typer.Option(..., "-o", "--outdir", callback=output_dir, help="Output directory."),
     as_json: bool = typer.Option(False, "--json", help="Print findings.json (plus outdir and files) on stdout."),
     report: bool = typer.Option(False, "--report", help="Also write the HTML QA report."),
     max_offset: float = typer.Option(30.0, "--max-offset", callback=bounded("max_offset"), help="Alignment search range ±[s]."),

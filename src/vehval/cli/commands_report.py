@@ -8,6 +8,7 @@ from typing import Any
 import typer
 
 from vehval.cli.app import app
+from vehval.cli.options import output_file
 from vehval.errors import InputFileError
 
 FINDINGS = "findings.json"
@@ -62,12 +63,21 @@ def _existing(path: Path | None, what: str) -> Path | None:
     return path
 
 
+def _check_report_outputs(output: Path, excel: bool, inputs: list) -> None:
+    """The report and, with ``--excel``, tables.xlsx beside it: the output policy."""
+    from vehval.io.paths import check_outputs
+
+    check_outputs(outfile=output, inputs=inputs)
+    if excel:
+        check_outputs(outfile=output.parent / "tables.xlsx", inputs=inputs)
+
+
 @app.command("report")
 def report_cmd(
     inputs: list[Path] = typer.Argument(..., help="Output directories of `vehval qa` (and `analyze`, "
                                                   "`validate`), or findings.json + validated.parquet "
                                                   "(+ control.json, validation.json)."),
-    output: Path = typer.Option(None, "-o", "--output", help="Report file (default OUTDIR/report.html)."),
+    output: Path = typer.Option(None, "-o", "--output", callback=output_file, help="Report file (default OUTDIR/report.html)."),
     control: Path = typer.Option(None, "--control", help="control.json of `vehval analyze` "
                                                          "(default: found in the input directories)."),
     validation: Path = typer.Option(None, "--validation", help="validation.json of `vehval validate` "
@@ -84,11 +94,10 @@ def report_cmd(
     Exit code 4: the results.json it shows has a figure withheld for QA errors (run
     `vehval results --force` or `vehval qa --force` to state them under a banner)."""
     from vehval.io.parquet import read_test
-    from vehval.io.paths import check_outputs
     from vehval.report import build_reports, load_json, write_report
 
     if output is not None:
-        check_outputs(outfile=output, inputs=[*inputs, control, validation, raw])
+        _check_report_outputs(output, excel, [*inputs, control, validation, raw])
     found = collect_inputs(list(inputs))
     for kind, path in (("control", _existing(control, "control.json")),
                        ("validation", _existing(validation, "validation.json"))):
@@ -103,6 +112,7 @@ def report_cmd(
     if output is None:
         base = inputs[0] if inputs[0].is_dir() else found["test"].parent
         output = base / "report.html"
+        _check_report_outputs(output, excel, [*inputs, control, validation, raw])
     kw: dict[str, Any] = {"vehicle": vehicle, "control": ctl, "validation": val, "title": title, "raw": raw_test,
           "results": res}
     if excel:

@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 from vehval.errors import InputFileError, VehvalError
 
 
@@ -71,6 +71,15 @@ def _fuel_declared(fuel) -> str:
     return f"{fuel.name} ({props}; {origin}: not checkable from the data)" if props else fuel.name
 
 
+def _method_text(res) -> str:
+    """The propagation that gave the stated U; a Monte Carlo with its own sampling error."""
+    if res.method != "monte_carlo" or not res.draws:
+        return res.method.replace("_", " ")
+    n = int(res.draws)
+    return (f"monte carlo ({n} draws: U itself uncertain by about "
+            f"{100 / (2 * (n - 1)) ** 0.5:.2g} %)")
+
+
 def withheld_exit(doc: dict) -> None:
     """Exit code 4 when a figure of a results.json document was withheld (not forced)."""
     from vehval.results.gate import EXIT_WITHHELD
@@ -127,7 +136,7 @@ def echo_results(res) -> None:
     for note in res.notes:
         if note.startswith("FTP-75:"):
             typer.echo(f"  ! {note}")
-    typer.echo(f"  uncertainty: {res.method.replace('_', ' ')}, k = 2; SOC: {res.soc['status']}")
+    typer.echo(f"  uncertainty: {_method_text(res)}, k = 2; SOC: {res.soc['status']}")
     if res.withheld:
         typer.echo(f"  {len(res.withheld)} figure(s) "
                    + ("stated despite QA errors (--force)" if res.forced else
@@ -140,7 +149,7 @@ def results_cmd(
     template: Path = typer.Option(..., "-t", "--template", help="Import template YAML."),
     vehicle: str = typer.Option(None, "--vehicle",
                                 help="Vehicle file name or path (default: the template's)."),
-    outdir: Path = typer.Option(..., "-o", "--outdir", help="Output directory."),
+    outdir: Path = typer.Option(..., "-o", "--outdir", callback=output_dir, help="Output directory."),
     as_json: bool = typer.Option(False, "--json", help="Print results.json on stdout."),
     monte_carlo: int = typer.Option(0, "--monte-carlo", callback=bounded("mc_results"),
                                     help="Monte Carlo draws (0: first-order propagation)."),
@@ -155,8 +164,11 @@ def results_cmd(
     SOC correction and drive quality. Writes results.json into OUTDIR (atomically).
     Exit code 4: computed, but a figure was withheld for a QA error on its signals."""
     from vehval.io.atomic import atomic_dir, write_text_atomic
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.workflow import TestRun
 
+    check_outputs(outdir=outdir, inputs=[*files, template, vehicle_path(vehicle), *(hot_start or [])],
+                  writes=["results.json", "findings.json", "validated.parquet"])
     run = TestRun.load(files, template, vehicle)
     hot = hot_start_bag1(list(hot_start), run.template) if hot_start else None
     res = run.results(method="monte_carlo" if monte_carlo else "first_order",

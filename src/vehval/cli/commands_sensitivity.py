@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 
 #: default simulation step [s]: the step of `vehval epa validate` and of the figures in the
 #: docs (1 s moved the 2016 Prius's UDDS weight elasticity from -0.288 to -0.326)
@@ -30,7 +30,7 @@ def sensitivity_cmd(
                                     help="Monte Carlo draws (0: none)."),
     seed: int = typer.Option(0, "--seed", callback=bounded("seed"), help="Seed of the Monte Carlo draws."),
     as_json: bool = typer.Option(False, "--json", help="Print the result as one JSON object."),
-    outdir: Optional[Path] = typer.Option(None, "-o", "--output",
+    outdir: Optional[Path] = typer.Option(None, "-o", "--output", callback=output_dir,
                                           help="Directory for sensitivity.json and .html."),
     road_load: bool = typer.Option(False, "--road-load", help="Instead of the tornado: the "
                                    "fuel economy's elasticity to test weight and road load "
@@ -46,6 +46,11 @@ def sensitivity_cmd(
     from vehval.jsonsafe import clean
     from vehval.sim.sensitivity import sensitivity
 
+    if outdir is not None:
+        from vehval.io.paths import check_outputs, vehicle_path
+
+        check_outputs(outdir=outdir, inputs=[vehicle_path(vehicle), *(epa or [])],
+                      writes=["sensitivity.json", "sensitivity.html", "road_load.json"])
     names = [c.strip() for c in cycles.split(",") if c.strip()]
     if not names:
         raise ConfigError("--cycles: give at least one cycle name, e.g. udds,hwfet")
@@ -109,7 +114,8 @@ def _road_load(vehicle: str, cycles: list[str], dt: float, epa: Optional[list[Pa
             val = validate_tests(vehicle, chosen, dt=dt)
             by_test = {p.test.label: p.test for p in val.predictions}
             for c in val.comparisons:
-                if c.item != "overall" or c.measured_mpg is None or c.list_doubtful:
+                if (c.item != "overall" or c.measured_mpg is None or c.list_doubtful
+                        or c.analytically_derived):
                     continue
                 t = by_test[c.test]
                 rows.append({"procedure": c.procedure, "label": sel, "mass_kg": t.mass_kg,

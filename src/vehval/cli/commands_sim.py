@@ -10,7 +10,7 @@ from typing import Optional
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 
 vehicle_app = typer.Typer(help="Vehicle parameter files.", no_args_is_help=True)
 app.add_typer(vehicle_app, name="vehicle")
@@ -63,7 +63,7 @@ def simulate_cmd(
     as_json: bool = typer.Option(False, "--json", help="Print the summary as one JSON object."),
     audit: bool = typer.Option(False, "--audit", help="Energy audit: where fuel and battery "
                                "energy went (JSON key 'audit', audit.json/audit.md with -o)."),
-    outdir: Optional[Path] = typer.Option(None, "-o", "--output",
+    outdir: Optional[Path] = typer.Option(None, "-o", "--output", callback=output_dir,
                                           help="Directory for summary.json and the signals."),
 ) -> None:
     """Simulate a vehicle over a drive cycle (forward-looking, state-machine controller)."""

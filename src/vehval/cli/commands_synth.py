@@ -8,7 +8,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 from vehval.errors import ConfigError, VehvalError
 
 
@@ -25,7 +25,7 @@ def synth_cmd(
     seed: int = typer.Option(7, "--seed", callback=bounded("seed"), help="Seed of every random draw (same seed, same bytes)."),
     faults: str = typer.Option("default", "--faults",
                                help="'default' (a representative mix), 'none', or a fault YAML file."),
-    out: Path = typer.Option(..., "-o", "--out", help="Output directory (written atomically)."),
+    out: Path = typer.Option(..., "-o", "--out", callback=output_dir, help="Output directory (written atomically)."),
     control: list[str] = typer.Option([], "--control", metavar="KEY=VALUE",
                                       help="Controller parameter override (repeatable)."),
     param: list[str] = typer.Option([], "--param", metavar="KEY=VALUE",
@@ -36,19 +36,18 @@ def synth_cmd(
 ) -> None:
     """Simulate VEHICLE on CYCLE and write it as a virtual dyno test: a D3 facility file, an
     OBD logger file, an import template and truth.json (every injected offset and fault)."""
+    from vehval.io.paths import check_outputs, vehicle_path
     from vehval.synth import make_virtual_test
     from vehval.synth.dyno import is_virtual_test_dir
     from vehval.vehicle import load_vehicle
 
+    check_outputs(outdir=out, inputs=[vehicle_path(vehicle), vehicle_path(cycle),
+                                      vehicle_path(faults)])
     veh = load_vehicle(vehicle)
     if veh.architecture == "conventional":
         _synth_conventional(veh, cycle, seed, faults, out, control, param, as_json)
         return
 
-    from vehval.io.paths import check_outputs, vehicle_path
-
-    check_outputs(outdir=out, inputs=[vehicle_path(vehicle), vehicle_path(cycle),
-                                      vehicle_path(faults)])
     if out.is_dir() and any(out.iterdir()) and not is_virtual_test_dir(out) and not force:
         raise VehvalError(f"output directory '{out}' is not empty and holds no virtual test: "
                           "choose an empty directory or pass --force")
@@ -84,8 +83,6 @@ def _synth_conventional(veh, cycle, seed, faults, out, control, param, as_json) 
         raise ConfigError("--control: a conventional vehicle has no supervisory controller")
     if faults not in ("default", "none"):
         raise ConfigError("--faults: fault files apply to power-split virtual tests only")
-    if out.exists() and not out.is_dir():
-        raise VehvalError(f"output '{out}' exists and is not a directory: choose another -o")
     veh = veh.with_overrides(_pairs(param, "--param") or None)
     truth = make_conventional_test(veh, load_cycle(cycle), seed, out)
     if as_json:

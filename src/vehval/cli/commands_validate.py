@@ -14,7 +14,7 @@ from pathlib import Path
 import typer
 
 from vehval.cli.app import app
-from vehval.cli.options import bounded
+from vehval.cli.options import bounded, output_dir
 from vehval.errors import ConfigError
 from vehval.io.paths import check_outputs, sanitize_id, vehicle_path
 
@@ -49,7 +49,7 @@ def validate_cmd(
     files: list[Path] = typer.Argument(None, help="Test directories, validated .parquet tests or the raw files of one test."),
     template: Path = typer.Option(None, "-t", "--template", help="Import template (default: template.yaml of each test directory)."),
     vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
-    output: Path = typer.Option(..., "-o", "--output", help="Output directory (written atomically)."),
+    output: Path = typer.Option(..., "-o", "--output", callback=output_dir, help="Output directory (written atomically)."),
     test_group: list[str] = typer.Option([], "--test", metavar="A,B", help="Files (comma-separated) of one test; repeatable."),
     dt: float = typer.Option(0.1, "--dt", callback=bounded("dt"), help="Simulation step (s)."),
     window_s: float = typer.Option(2.0, "--window", callback=bounded("window"), help="Engine start/stop matching window (s)."),
@@ -124,7 +124,7 @@ def calibrate_cmd(
     files: list[Path] = typer.Argument(None, help="Tests to tune on (directories, .parquet tests or raw files of one test)."),
     template: Path = typer.Option(None, "-t", "--template", help="Import template (default: template.yaml of each test directory)."),
     vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
-    output: Path = typer.Option(..., "-o", "--output", help="Output directory (written atomically)."),
+    output: Path = typer.Option(..., "-o", "--output", callback=output_dir, help="Output directory (written atomically)."),
     test_group: list[str] = typer.Option([], "--test", metavar="A,B", help="Files of one tuning test; repeatable."),
     holdout: list[str] = typer.Option([], "--holdout", metavar="DIR_OR_A,B", help="A held-out test (directory, .parquet or comma-separated files); repeatable."),
     params: str = typer.Option("controller.engine_on_power_w,controller.soc_gain_w,controller.regen_fraction_max",
@@ -157,16 +157,19 @@ def calibrate_cmd(
                                 as_json)
         return
     names = _params(params)
+    start_values = None
+    if start is not None:       # checked before any test is read: finite, inside the bounds
+        from vehval.safe_yaml import read_json
+        from vehval.validate.calibration import check_start
+        from vehval.validate.calibration import start_values as parse_start
+        from vehval.validate.conditions import full_name
+        start_values = read_json(start)
+        full = [full_name(n) for n in names]
+        check_start(veh, parse_start(start_values, full), full)
     tests = [r.validated for r in runs_from_args(files or [], test_group, template, veh,
                                                  use_qa=not no_qa)]
     hold = [TestRun.from_paths([Path(x.strip()) for x in h.split(",") if x.strip()], template, veh,
                                use_qa=not no_qa).validated for h in holdout]
-    start_values = None
-    if start is not None:
-        try:
-            start_values = json.loads(Path(start).read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"{start}: cannot read the start values ({exc})") from None
     from vehval import progress
     from vehval.cli.progress import bar
     with bar("calibrate: generations (at most)", as_json=as_json):

@@ -1,11 +1,18 @@
-"""Option parsing shared by several commands: ``KEY=VALUE`` assignments and the bounds of
-every numeric option.
+"""Option parsing shared by several commands: ``KEY=VALUE`` assignments, the bounds of
+every numeric option and the output policy of every output option.
 
 ``BOUNDS`` is the one table of numeric option limits: each entry gives the closed range and
-the reason for it, which the refusal repeats. Commands attach :func:`bounded` as the option's
+the reason for it, which the refusal repeats, and optionally the one value outside the
+range that switches the option off (``--monte-carlo 0``: first-order propagation). Commands attach :func:`bounded` as the option's
 ``callback``; a value outside its range (or not finite) is refused before anything runs, with
 one ``vehval: error:`` line. Memory is checked separately, where an allocation's size is known
 (:mod:`vehval.sim.budget`).
+
+Every option naming an output (``-o``, ``--report``...) takes :func:`output_file` or
+:func:`output_dir` as its ``callback``: a device node, FIFO or socket (or a link to one),
+a directory given for a file or a file for a directory is refused while the command line
+is parsed (:func:`vehval.io.paths.check_output_path`, the one owner of the rule); the
+command then checks its outputs against its inputs (:func:`vehval.io.paths.check_outputs`).
 """
 
 from __future__ import annotations
@@ -27,6 +34,8 @@ class Bound:
     hi: float
     unit: str
     reason: str
+    #: A value outside the range that switches the option off (``--monte-carlo 0``).
+    off: float | None = None
 
 
 SEED_MAX = 2**32 - 1
@@ -36,9 +45,11 @@ BOUNDS: dict[str, Bound] = {
                 "below 1 ms changes no result and only costs time and memory; one above 1 s "
                 "misses the cycle's accelerations"),
     "soc": Bound(0.0, 1.0, "-", "a state of charge is a fraction"),
-    "mc_results": Bound(0, 10_000_000, "draws", "GUM Supplement 1 asks for about 10^6 draws "
-                        "for a 95 % interval good to two digits; more adds time and memory, "
-                        "not accuracy"),
+    "mc_results": Bound(100, 10_000_000, "draws", "0 is first-order propagation; fewer "
+                        "than 100 draws give a standard deviation uncertain by more than 7 % "
+                        "of itself (1/sqrt(2(n-1))); GUM Supplement 1 asks for about 10^6 "
+                        "draws for a 95 % interval good to two digits; more adds time and "
+                        "memory, not accuracy", off=0),
     "mc_sensitivity": Bound(0, 10_000, "draws", "every draw is one simulation per cycle "
                             "and 10^4 draws of five cycles take hours"),
     "seed": Bound(0, SEED_MAX, "-", "numpy and scipy generators take seeds in [0, 2^32 - 1]"),
@@ -58,6 +69,9 @@ BOUNDS: dict[str, Bound] = {
     "smooth_hz": Bound(1e-3, 50.0, "Hz", "a cut-off below the 100 Hz rate of a fast "
                        "acquisition and above one cycle per 1000 s"),
     "year": Bound(1900, 2100, "-", "a model year"),
+    "confidence": Bound(0.5, 0.999, "-", "the level of a confidence interval: below one half "
+                        "it is no interval worth stating, above 99.9 % the chi-square tails "
+                        "of a few dozen pairs say nothing"),
     "test_timeout": Bound(0.0, 7 * 86400.0, "s", "0 means no limit; a week is far beyond the "
                           "longest test a batch runs"),
     "query_rows": Bound(1, 10_000_000, "rows", "rows are printed to the terminal; export "
@@ -93,9 +107,12 @@ def check_bound(kind: str, value: Any, option: str) -> Any:
         return value
     b = BOUNDS[kind]
     v = float(value)
+    if b.off is not None and v == b.off:
+        return value
     if not math.isfinite(v) or not (b.lo <= v <= b.hi):
         unit = "" if b.unit == "-" else f" {b.unit}"
-        raise ConfigError(f"{option} {value}: must be within [{_num(b.lo)}, {_num(b.hi)}]"
+        off = f"{_num(b.off)} or " if b.off is not None else ""
+        raise ConfigError(f"{option} {value}: must be {off}within [{_num(b.lo)}, {_num(b.hi)}]"
                           f"{unit}; {b.reason}")
     return value
 
@@ -116,6 +133,30 @@ def bounded(kind: str) -> Callable[..., Any]:
         return check_bound(kind, value, name)
 
     return callback
+
+
+def _output_callback(directory: bool) -> Callable[..., Any]:
+    def callback(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> Any:
+        if ctx.resilient_parsing or value is None:
+            return value
+        from vehval.io.paths import check_output_path
+
+        name = min(param.opts, key=len) if param.opts else str(param.name)  # -o, as documented
+        check_output_path(value, name, directory=directory)
+        return value
+
+    return callback
+
+
+def output_file(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> Any:
+    """Option ``callback`` of an output file: absent or a regular file (see
+    :func:`vehval.io.paths.output_problem`), else one ``vehval: error:`` line."""
+    return _output_callback(False)(ctx, param, value)
+
+
+def output_dir(ctx: typer.Context, param: typer.CallbackParam, value: Any) -> Any:
+    """Option ``callback`` of an output directory: absent or a directory."""
+    return _output_callback(True)(ctx, param, value)
 
 
 def parse_assignments(items: list[str], option: str, example: str) -> dict:

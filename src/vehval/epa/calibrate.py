@@ -10,6 +10,11 @@ function of its thresholds, so a gradient method would stall on its plateaus. Th
 provenance written into the vehicle file is the calibration engine's
 (:class:`vehval.calibration.Provenance`).
 
+Bounds: a grid of at most :data:`MAX_GRID_POINTS` settings; before the grid runs, the time
+it takes is estimated from the measured time of the start values' simulation (settings x
+that time / workers) and stated, and a run estimated over :data:`LONG_RUN_S` is refused
+unless asked for (``max_seconds=None``).
+
 Objective: the root-mean-square relative error of the judged figures of the calibration
 tests, exactly those :func:`vehval.epa.validation.validate_tests` judges; the cold-start
 figures are included at every grid point when a cold-start parameter is calibrated (or the
@@ -22,6 +27,8 @@ import datetime as _dt
 import difflib
 import math
 import os
+import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -41,12 +48,51 @@ from vehval.epa.validation import (
 from vehval.errors import ConfigError
 from vehval.vehicle import Vehicle, load_vehicle
 
+#: Most settings of one grid (the product of the numbers of values): at about 1 s per
+#: setting and test, 1,000 settings of 6 tests are 1-2 hours on one core; --refine then
+#: refines between the values, so a finer grid is rarely needed.
+MAX_GRID_POINTS = 1000
+#: Estimated run time [s] above which a calibration runs only when asked for (`--long-run`).
+LONG_RUN_S = 900.0
+#: Estimated run time [s] from which the estimate is stated before the grid runs.
+STATE_ESTIMATE_S = 10.0
+
+
+def full_name(name: str) -> str:
+    """The dotted parameter name (a bare name is ``controller.NAME``)."""
+    return name if "." in name else f"controller.{name}"
+
+
+def grid_from_pairs(pairs: list[tuple[str, list[float]]]) -> dict[str, list[float]]:
+    """``{name: values}`` of ``(name, values)`` pairs; two grids of one parameter (also
+    ``soc_gain_w`` and ``controller.soc_gain_w``) are refused, naming it."""
+    grid: dict[str, list[float]] = {}
+    given: dict[str, str] = {}
+    for name, values in pairs:
+        full = full_name(name)
+        if full in given:
+            raise ConfigError(f"parameter '{full}' is given two grids ('{given[full]}' and "
+                              f"'{name}'): give all its values in one NAME=v1,v2,...")
+        given[full] = name
+        grid[name] = list(values)
+    return grid
+
+
+def _duration(seconds: float) -> str:
+    """``45 s``, ``12 min``, ``3 h 20 min``."""
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    if seconds < 5400:
+        return f"{seconds / 60:.0f} min"
+    return f"{int(seconds // 3600)} h {int(seconds % 3600 // 60):02d} min"
+
 
 def judged_errors(val: EpaValidation, with_cold: bool = False) -> np.ndarray:
     """Relative errors [-] of the judged figures of a validation (``with_cold``: and of the
     cold-start figures whether or not the vehicle models the cold start)."""
     return np.array([c.error for c in val.comparisons
-                     if c.judged or (with_cold and c.cold_start)])
+                     if c.judged or (with_cold and c.cold_start and not c.list_doubtful
+                                     and not c.analytically_derived)])
 
 
 def _score(val: EpaValidation, with_cold: bool = False) -> tuple[float, float]:
@@ -125,9 +171,16 @@ def _check_grid(veh: Vehicle, grid: dict[str, list[float]]) -> dict[str, list[fl
     params = veh.parameters()
     if not grid:
         raise ConfigError("give at least one parameter to calibrate (NAME=v1,v2,...)")
+    grid_from_pairs(list(grid.items()))  # one grid per parameter, whatever its spelling
+    sizes = [len({float(v) for v in values}) for values in grid.values()]
+    if math.prod(sizes) > MAX_GRID_POINTS:
+        raise ConfigError(f"the grid has {math.prod(sizes):,} settings "
+                          f"({' x '.join(map(str, sizes))} values), more than the "
+                          f"{MAX_GRID_POINTS:,} of one calibration: give fewer values "
+                          "(--refine refines between them)")
     out = {}
     for name, values in grid.items():
-        full = name if "." in name else f"controller.{name}"
+        full = full_name(name)
         if full not in params:
             raise ConfigError(_unknown_text(veh, name, full, list(params)))
         vals = sorted({float(v) for v in values})
@@ -153,9 +206,34 @@ def _evaluate(args) -> tuple[float, float]:
     return _score(validate_tests(veh, tests, dt=dt), with_cold)
 
 
+def _estimate(base: Vehicle, tests: list[EpaTest], dt: float, n_settings: int, workers: int,
+              measured_s: float, max_seconds: float | None,
+              notify: Callable[[str], None] | None) -> None:
+    """State the estimated run time of ``n_settings`` settings (``measured_s``: one
+    setting's time, measured on the start values); refuse it over ``max_seconds``."""
+    parallel = max(1, min(workers, n_settings))
+    est = n_settings * measured_s / parallel
+    if est >= STATE_ESTIMATE_S:     # measure again warm (the first run may compile kernels)
+        t0 = time.perf_counter()
+        validate_tests(base, tests, dt=dt)
+        measured_s = min(measured_s, time.perf_counter() - t0)
+        est = n_settings * measured_s / parallel
+    text = (f"at most {n_settings:,} settings x {len(tests)} tests, {measured_s:.2g} s per "
+            f"setting measured on the start values, {parallel} worker(s): about "
+            f"{_duration(est)}")
+    if max_seconds is not None and est > max_seconds:
+        raise ConfigError(f"the calibration would take about {_duration(est)} ({text}), more "
+                          f"than the {_duration(max_seconds)} run without asking: give fewer "
+                          "values or tests, more --workers, or --long-run to run it")
+    if notify is not None and est >= STATE_ESTIMATE_S:
+        notify(f"epa calibrate: {text}")
+
+
 def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
                        grid: dict[str, list[float]], dt: float = 0.2,
-                       refine_rounds: int = 2, workers: int = 1) -> EpaCalibration:
+                       refine_rounds: int = 2, workers: int = 1,
+                       max_seconds: float | None = None,
+                       notify: Callable[[str], None] | None = None) -> EpaCalibration:
     """Grid search, then coordinate refinement, of ``grid``'s parameters on ``tests``.
 
     Parameters
@@ -174,19 +252,27 @@ def calibrate_on_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         Processes evaluating settings in parallel (1: in this process; 0: one per CPU, at
         most 8). The result does not depend on it. Workers are spawned: a script calling this with ``workers > 1`` needs
         the ``if __name__ == "__main__":`` guard.
+    max_seconds : float, optional
+        Refuse (ConfigError) a calibration estimated to take longer [s] (None: no limit).
+    notify : callable, optional
+        Receives the estimated run time before the grid runs (when it is 10 s or more).
     """
     base = load_vehicle(vehicle)
     grid = _check_grid(base, grid)
     names = list(grid)
     # calibrating a cold-start parameter scores the cold-start figures at every setting
     with_cold = has_cold_start_model(base) or any(n in COLD_START_PARAMS for n in names)
+    t0 = time.perf_counter()
     start_val = validate_tests(base, tests, dt=dt)
+    measured = time.perf_counter() - t0
     if judged_errors(start_val, with_cold).size == 0:
         raise ConfigError("the calibration tests have no judged figure: select FTP-75, "
                           "HWFET or US06 tests")
     start_rms = _score(start_val, with_cold)[0]
     if workers <= 0:
         workers = min(os.cpu_count() or 1, 8)
+    n_settings = math.prod(len(v) for v in grid.values()) + 2 * len(grid) * refine_rounds
+    _estimate(base, tests, dt, n_settings, workers, measured, max_seconds, notify)
     pool = None
     if workers > 1:
         import multiprocessing

@@ -9,6 +9,10 @@ lists half the tests agree within 0.13 % and 99 % within 1.8 %; a larger gap, or
 no car reaches (a placeholder such as 10000 mpg), marks a row whose figures cannot be
 trusted to judge a model. :func:`check_listed_figures` is the one place that decides it.
 
+Is a listed specification value possible? :func:`impossible_values` names a listed axle
+ratio, N/V, test weight, displacement or rated power of zero or less (a placeholder: a
+2016-2019 list row may read 0 where the value was not entered), as the list gives it.
+
 Does a listed test describe the car of the vehicle file? :func:`check_vehicle_match`
 compares the list's axle ratio and engine displacement with the vehicle file's final drive
 ratio and displacement: a model name can cover another car (a year's "PRIUS" rows may be a
@@ -21,8 +25,9 @@ import math
 from dataclasses import dataclass
 from functools import cache
 
+from vehval.constants import LB_KG
 from vehval.epa.procedures import FTP75, FTP_WEIGHT_COLD, FTP_WEIGHT_HOT, US06, procedure_key
-from vehval.epa.reader import EpaTest
+from vehval.epa.reader import HP_W, EpaTest
 from vehval.fuels import combine_mpg
 
 #: largest accepted |recombined / listed - 1| [-]
@@ -33,6 +38,34 @@ PLAUSIBLE_MPG = (3.0, 1000.0)
 #: the displacement (listed to 1 cm^3) [-]
 AXLE_RATIO_TOLERANCE = 0.02
 DISPLACEMENT_TOLERANCE = 0.03
+
+
+#: specification values that must be positive: field -> (name, list column, SI per list unit)
+POSITIVE_SPECS = {"mass_kg": ("equivalent test weight", "Equivalent Test Weight (lbs.)", LB_KG),
+                  "axle_ratio": ("axle ratio", "Axle Ratio", 1.0),
+                  "n_v_ratio": ("N/V", "N/V Ratio", 1.0),
+                  "displacement_l": ("displacement", "Test Veh Displacement (L)", 1.0),
+                  "rated_power_w": ("rated power", "Rated Horsepower", HP_W)}
+
+
+def impossible_values(test: EpaTest, keys: tuple[str, ...] = tuple(POSITIVE_SPECS)) -> dict[str, str]:
+    """Listed specification values of zero or less (placeholders, not values).
+
+    Returns
+    -------
+    dict
+        Field (``axle_ratio``...) -> ``axle ratio 0 as listed ('Axle Ratio'): a placeholder
+        or impossible value, not an axle ratio`` (the value in the list's unit). An empty
+        cell (NaN) is not named here: it is absent, not impossible.
+    """
+    out = {}
+    for key in keys:
+        name, col, si = POSITIVE_SPECS[key]
+        v = float(getattr(test, key))
+        if math.isfinite(v) and v <= 0:
+            out[key] = (f"{name} {v / si:g} as listed ('{col}'): a placeholder or impossible "
+                        f"value, not {'an' if name[0] in 'aeiou' else 'a'} {name}")
+    return out
 
 
 @dataclass(frozen=True)

@@ -1,16 +1,25 @@
 """Read the US EPA Test Car List (certification chassis-dynamometer results, one row a test).
 
 The list is published per model year as CSV (``16tstcar.csv``, ``17tstcar.csv``...):
-latin-1 text, CR or CRLF line endings, and in some years a reduced column set (no test
-number, originator or displacement). :func:`read_test_car_list` reads any of them into
-:class:`EpaTest` records with the road-load coefficients, test weight and rated power in SI;
-fuel economy stays in the list's unit (``FE_UNIT``, miles per US gallon for gasoline).
+latin-1 or UTF-8 text (recent years with a UTF-8 byte-order mark), CR, LF or CRLF line
+endings, and in some years a reduced column set (no test number, originator or
+displacement). :func:`read_test_car_list` reads any of them into :class:`EpaTest` records
+with the road-load coefficients, test weight and rated power in SI; fuel economy stays in
+the list's unit (``FE_UNIT``, miles per US gallon for gasoline).
+
+Every test number is kept. Rows of one list sharing a test number and differing at most in
+columns not read or in the dyno set coefficients are one test listed again (once per
+aftertreatment device, or a repeated row): the first row is kept and the others are named
+in ``EpaTest.duplicate_rows`` with what differs (``duplicate_note``); rows of one number
+that differ in anything else are kept apart, each naming the other.
 """
 
 from __future__ import annotations
 
+import codecs
 import csv
 import math
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
@@ -57,6 +66,11 @@ OPTIONAL = {
 }
 #: the model-year column is named differently across years
 YEAR_COLUMNS = ("Model Year", "Year")
+#: columns found by their name without case, spaces and punctuation (record field <- the
+#: normalised names): the lists of 2016 and 2019 name the first 'Analytically Derived FE?'
+#: (Yes/No), the reduced 2017 list lacks both
+LOOSE = {"adfe": ("analyticallyderivedfe", "analyticallyderived", "analyticallyderivedfueleconomy"),
+         "adfe_test_number": ("adfetestnumber",)}
 
 _LBF_PER_MPH = LBF_N / MPH_M_PER_S  # lbf/mph -> N/(m/s)
 _LBF_PER_MPH2 = LBF_N / MPH_M_PER_S**2  # lbf/mph^2 -> N/(m/s)^2
@@ -118,6 +132,21 @@ class EpaTest:
     years : tuple of int
         Every model year whose list holds this test (a carried-over certification is listed
         again the next years; :func:`read_lists` keeps it once); ``(year,)`` for one list.
+    analytically_derived : bool or None
+        The list's ``Analytically Derived FE?``: True when the figures are computed from
+        another test (``adfe_test_number``), not measured; None when the list lacks the
+        column (the reduced 2017 list).
+    adfe_test_number : str
+        ``ADFE Test Number``: the test an analytically derived row is computed from.
+    duplicate_rows : tuple of str
+        ``file:line`` of the other rows of the same list with this test number (the row
+        kept is ``source``); empty for a test listed once.
+    duplicate_note : str
+        What those rows are: identical, differing only in columns not read (e.g. one row per
+        aftertreatment device) or in the dyno set coefficients (the first row's are used).
+        Also set, with ``duplicate_rows`` empty, on a row whose test number another row of
+        other values carries (both kept) and on a row without a number identical in every
+        column to another (kept: nothing tells a repeated row from another test).
     """
 
     year: int
@@ -151,6 +180,10 @@ class EpaTest:
     gears: int = 0  # number of gears (0 when absent; 1 for a CVT)
     transmission: str = ""  # tested transmission type code (A, SA, M, AM, CVT...; '' absent)
     years: tuple[int, ...] = ()  # model years whose lists hold this test (read_lists)
+    analytically_derived: bool | None = None  # 'Analytically Derived FE?' (None: not stated)
+    adfe_test_number: str = ""  # 'ADFE Test Number' ('' when absent)
+    duplicate_rows: tuple[str, ...] = ()  # file:line of the other rows of this test number
+    duplicate_note: str = ""  # what those rows repeat or differ in
 
     @property
     def listed_years(self) -> tuple[int, ...]:
@@ -167,6 +200,7 @@ class EpaTest:
         out = asdict(self)
         out["bags"] = [None if math.isnan(b) else b for b in self.bags]
         out["years"] = list(self.listed_years)
+        out["duplicate_rows"] = list(self.duplicate_rows)
         return {k: (None if isinstance(v, float) and math.isnan(v) else v)
                 for k, v in out.items()}
 
@@ -200,8 +234,39 @@ MAX_LIST_BYTES = 64_000_000
 MAX_FIELD = 131_072
 
 
+def _encoding(path: Path) -> str:
+    """The text encoding of a list: ``utf-8-sig`` after a UTF-8 byte-order mark, ``utf-8``
+    for valid UTF-8 holding non-ASCII text, else ``latin-1`` (which maps every byte).
+
+    Raises InputFileError for UTF-16 (a byte-order mark FF FE / FE FF) and for a file
+    that starts with the UTF-8 mark but is not UTF-8 (naming the line)."""
+    with path.open("rb") as fh:
+        head = fh.read(4)
+        if head[:2] in (codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE):
+            raise InputFileError(f"{path}: UTF-16 text (Excel's 'Unicode text'): save the list "
+                                 "as CSV (UTF-8 or latin-1)")
+        bom = head.startswith(codecs.BOM_UTF8)
+        fh.seek(0)
+        dec, ascii_only, lines = codecs.getincrementaldecoder("utf-8")(), True, 0
+        try:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                ascii_only = ascii_only and chunk.isascii()
+                dec.decode(chunk)
+                lines += chunk.count(b"\n") or chunk.count(b"\r")
+            dec.decode(b"", final=True)
+        except UnicodeDecodeError as exc:
+            if bom:
+                line = lines + (chunk[:exc.start].count(b"\n") or chunk[:exc.start].count(b"\r")) + 1
+                raise InputFileError(f"{path}: line {line}: byte 0x{chunk[exc.start]:02X} is not "
+                                     "UTF-8 although the file starts with a UTF-8 byte-order "
+                                     "mark (a damaged or re-encoded file): save it again as "
+                                     "UTF-8") from None
+            return "latin-1"
+    return "utf-8-sig" if bom else ("latin-1" if ascii_only else "utf-8")
+
+
 def _open(path: Path):
-    """Open a list for streaming (latin-1 maps every byte; CR, LF, CRLF are all line ends)."""
+    """Open a list for streaming (CR, LF, CRLF are all line ends; :func:`_encoding`)."""
     check_input_file(path, "test car list (CSV)")
     try:
         size = path.stat().st_size
@@ -210,7 +275,7 @@ def _open(path: Path):
                 f"{path}: {size / 1e6:.0f} MB is larger than the {MAX_LIST_BYTES / 1e6:.0f} MB "
                 "budget for an EPA Test Car List (a model year's list is 1-3 MB): give the "
                 "yearly list files (e.g. 19tstcar.csv) rather than one concatenated file")
-        return path.open("r", encoding="latin-1", newline=None)
+        return path.open("r", encoding=_encoding(path), newline=None)
     except OSError as exc:
         raise InputFileError(f"{path}: cannot read the test car list ({exc.strerror})") from None
 
@@ -263,13 +328,24 @@ def read_test_car_list(path: str | Path) -> list[EpaTest]:
         return _read(path, _rows(path, fh))
 
 
-def _read(path: Path, rows) -> list[EpaTest]:
+def _norm(name: str) -> str:
+    """A column name without case, spaces and punctuation."""
+    return "".join(ch for ch in name.lower() if ch.isalnum())
+
+
+def _header(path: Path, rows) -> tuple[list[str], dict[str, int], str | None]:
+    """The header, its column index (including the :data:`LOOSE` fields) and the year
+    column; a missing required column is an InputFileError naming them."""
     try:
-        header = [h.strip() for h in next(rows)[1]]
+        header = [h.strip().lstrip("\ufeff") for h in next(rows)[1]]
     except StopIteration:
         raise InputFileError(f"{path}: empty file: expected an EPA Test Car List CSV with a "
                              "header row") from None
     index = {name: k for k, name in enumerate(header)}
+    for field, names in LOOSE.items():
+        k = next((i for i, h in enumerate(header) if _norm(h) in names), None)
+        if k is not None:
+            index[field] = k
     year_col = next((c for c in YEAR_COLUMNS if c in index), None)
     missing = [c for c in REQUIRED if c not in index]
     if year_col is None:
@@ -281,7 +357,88 @@ def _read(path: Path, rows) -> list[EpaTest]:
                              "Test Car List file, or a column was renamed; the list needs "
                              "make, model, test weight, procedure, results and road-load "
                              "coefficients")
+    return header, index, year_col
+
+
+def _flag(text: str) -> bool | None:
+    """A Yes/No cell: True, False, or None when empty or neither."""
+    t = text.strip().upper()
+    return True if t in ("YES", "Y", "TRUE", "1") else False if t in ("NO", "N", "FALSE", "0") \
+        else None
+
+
+def _record(path: Path, lineno: int, row: list[str], index: dict[str, int],
+            year_col: str | None) -> EpaTest:
+    """One row as an EpaTest (SI units)."""
+    f = {field: _cell(row, index, col) for col, field in {**REQUIRED, **OPTIONAL}.items()}
+    year = _num(_cell(row, index, year_col))
+    code = _num(f["procedure_code"])
+    gears = _num(f["gears"])
+    return EpaTest(
+        year=int(year) if not math.isnan(year) else 0,
+        make=f["make"], model=f["model"], vehicle_id=f["vehicle_id"], config=f["config"],
+        test_number=f["test_number"], originator=f["originator"].upper(),
+        procedure_code=int(code) if not math.isnan(code) else -1,
+        procedure=f["procedure"], fuel_code=f["fuel_code"], fuel=f["fuel"],
+        mass_kg=_num(f["weight_lb"]) * LB_KG,
+        axle_ratio=_num(f["axle_ratio"]), n_v_ratio=_num(f["n_v_ratio"]),
+        target_a_n=_num(f["target_a"]) * LBF_N,
+        target_b_n_per_mps=_num(f["target_b"]) * _LBF_PER_MPH,
+        target_c_n_per_mps2=_num(f["target_c"]) * _LBF_PER_MPH2,
+        set_a_n=_num(f["set_a"]) * LBF_N,
+        set_b_n_per_mps=_num(f["set_b"]) * _LBF_PER_MPH,
+        set_c_n_per_mps2=_num(f["set_c"]) * _LBF_PER_MPH2,
+        fe=_result(f["fe"]), fe_unit=f["fe_unit"].upper(),
+        bags=tuple(_result(f[f"bag{k}"]) for k in range(1, 5)),
+        co2_g_per_km=_num(f["co2_g_per_mi"]) / (MILE_M / 1000.0),
+        displacement_l=_num(f["displacement_l"]),
+        rated_power_w=_num(f["rated_hp"]) * HP_W,
+        manufacturer=f["manufacturer"],
+        source=f"{path.name}:{lineno}",
+        gears=int(gears) if not math.isnan(gears) else 0,
+        transmission=f["transmission"].upper(),
+        analytically_derived=_flag(_cell(row, index, "adfe")) if "adfe" in index else None,
+        adfe_test_number=_cell(row, index, "adfe_test_number"),
+    )
+
+
+#: columns a test listed again may differ in and still be one test: the dyno set
+#: coefficients (the 2016 and 2019 lists give some GM tests twice, once per set of
+#: coefficients; the simulation uses the target coefficients)
+MAY_DIFFER = frozenset({"Set Coef A (lbf)", "Set Coef B (lbf/mph)", "Set Coef C (lbf/mph**2)"})
+
+
+def _repeat_note(lines: list[int], differ: list[str], read: set[str]) -> str:
+    """What the rows ``lines`` of one test number are, given the columns that differ
+    between them (``read``: the columns the reader reads)."""
+    where = f"listed {len(lines)} times (lines {', '.join(map(str, lines))})"
+    if not differ:
+        return f"{where} with identical values: a repeated row, kept once"
+    shown = ", ".join(f"'{c}'" for c in differ[:4]) + (" ..." if len(differ) > 4 else "")
+    if not any(c in read for c in differ):
+        return f"{where} differing only in {shown} (columns not read): one test, kept once"
+    return (f"{where} with different {shown}: one test, kept once with the values of line "
+            f"{lines[0]}")
+
+
+def _conflict_note(number: str, others: list[int], differ: set[str], header: list[str]) -> str:
+    cols = [h for h in header if h in differ]
+    shown = ", ".join(f"'{c}'" for c in cols[:4]) + (" ..." if len(cols) > 4 else "")
+    return (f"test number {number} is also given to line(s) {', '.join(map(str, others))} "
+            f"with another {shown}: kept as separate rows (a typing error in the list?)")
+
+
+def _read(path: Path, rows) -> list[EpaTest]:
+    header, index, year_col = _header(path, rows)
+    read = {*REQUIRED, *OPTIONAL, *(header[index[k]] for k in LOOSE if k in index)}
+    if year_col:
+        read.add(year_col)
     tests: list[EpaTest] = []
+    first: dict[str, list[tuple[int, list[str]]]] = {}  # test number -> (position, row) each
+    repeats: dict[int, tuple[list[int], set[str]]] = {}  # position -> (lines, columns differing)
+    conflicts: dict[int, tuple[list[int], set[str]]] = {}  # position -> (other lines, columns)
+    unnumbered: dict[tuple[str, ...], int] = {}  # a row without a test number -> its line
+    line_of: dict[int, int] = {}  # position -> line
     for lineno, row in rows:
         if not any(cell.strip() for cell in row):
             continue
@@ -291,35 +448,39 @@ def _read(path: Path, rows) -> list[EpaTest]:
         if any("\x00" in cell for cell in row):
             raise InputFileError(f"{path}: line {lineno}: a NUL byte in a field (binary data "
                                  "in a text list: a damaged file): fix or remove the line")
-        row = row + [""] * (len(header) - len(row))
-
-        f = {field: _cell(row, index, col) for col, field in {**REQUIRED, **OPTIONAL}.items()}
-        year = _num(_cell(row, index, year_col))
-        code = _num(f["procedure_code"])
-        tests.append(EpaTest(
-            year=int(year) if not math.isnan(year) else 0,
-            make=f["make"], model=f["model"], vehicle_id=f["vehicle_id"], config=f["config"],
-            test_number=f["test_number"], originator=f["originator"].upper(),
-            procedure_code=int(code) if not math.isnan(code) else -1,
-            procedure=f["procedure"], fuel_code=f["fuel_code"], fuel=f["fuel"],
-            mass_kg=_num(f["weight_lb"]) * LB_KG,
-            axle_ratio=_num(f["axle_ratio"]), n_v_ratio=_num(f["n_v_ratio"]),
-            target_a_n=_num(f["target_a"]) * LBF_N,
-            target_b_n_per_mps=_num(f["target_b"]) * _LBF_PER_MPH,
-            target_c_n_per_mps2=_num(f["target_c"]) * _LBF_PER_MPH2,
-            set_a_n=_num(f["set_a"]) * LBF_N,
-            set_b_n_per_mps=_num(f["set_b"]) * _LBF_PER_MPH,
-            set_c_n_per_mps2=_num(f["set_c"]) * _LBF_PER_MPH2,
-            fe=_result(f["fe"]), fe_unit=f["fe_unit"].upper(),
-            bags=tuple(_result(f[f"bag{k}"]) for k in range(1, 5)),
-            co2_g_per_km=_num(f["co2_g_per_mi"]) / (MILE_M / 1000.0),
-            displacement_l=_num(f["displacement_l"]),
-            rated_power_w=_num(f["rated_hp"]) * HP_W,
-            manufacturer=f["manufacturer"],
-            source=f"{path.name}:{lineno}",
-            gears=int(_num(f["gears"])) if not math.isnan(_num(f["gears"])) else 0,
-            transmission=f["transmission"].upper(),
-        ))
+        row = [c.strip() for c in row[:len(header)]] + [""] * (len(header) - len(row))
+        number = _cell(row, index, "Test Number")
+        earlier = [(pos, {h for h, a, b in zip(header, row0, row) if a != b})
+                   for pos, row0 in (first.get(number, []) if number else [])]
+        same = next(((pos, d) for pos, d in earlier if not (d & read) - MAY_DIFFER), None)
+        if same is not None:        # the same test listed again
+            lines, seen = repeats.setdefault(same[0], ([line_of[same[0]]], set()))
+            lines.append(lineno)
+            seen.update(same[1])
+            continue
+        for pos, differ in earlier:     # the same number, another test: both kept, named
+            for p_, other in ((pos, lineno), (len(tests), line_of[pos])):
+                conflicts.setdefault(p_, ([], set()))[0].append(other)
+                conflicts[p_][1].update(differ & read)
+        if number:
+            first.setdefault(number, []).append((len(tests), row))
+        rec = _record(path, lineno, row, index, year_col)
+        if not number:      # no number to tell a repeated row from another test
+            seen_at = unnumbered.setdefault(tuple(row), lineno)
+            if seen_at != lineno:
+                rec = replace(rec, duplicate_note=(
+                    f"identical in every column to line {seen_at}, and the list gives no test "
+                    "number to tell a repeated row from another test: kept as a test"))
+        line_of[len(tests)] = lineno
+        tests.append(rec)
+    for pos, (lines, differ) in repeats.items():
+        tests[pos] = replace(tests[pos], duplicate_rows=tuple(f"{path.name}:{n}" for n in lines[1:]),
+                             duplicate_note=_repeat_note(
+                                 lines, [h for h in header if h in differ], read))
+    for pos, (others, differ) in conflicts.items():
+        note = _conflict_note(tests[pos].test_number, others, differ, header)
+        old = tests[pos].duplicate_note
+        tests[pos] = replace(tests[pos], duplicate_note=f"{old}; {note}" if old else note)
     return tests
 
 
@@ -342,28 +503,69 @@ def find_list_files(paths: Sequence[str | Path]) -> list[Path]:
     return files
 
 
+def _value_key(t: EpaTest) -> tuple:
+    """What identifies a test of a list without test numbers: make, vehicle, procedure,
+    figures and road load."""
+    return (t.make.upper(), t.vehicle_id, t.procedure_code, round(t.fe, 3),
+            tuple(round(b, 3) if not math.isnan(b) else None for b in t.bags),
+            round(t.target_a_n, 3))
+
+
+def _rows_of(t: EpaTest) -> int:
+    """How many rows of its own list a test stands for."""
+    return 1 + len(t.duplicate_rows)
+
+
 def read_lists(paths: Sequence[str | Path]) -> list[EpaTest]:
     """Read every list file in ``paths`` (files or directories) into one list of tests.
 
-    A test that appears in several years' lists (same test number, or the same vehicle,
-    procedure and results when the list has no test numbers) is kept once, from the
-    earliest list read that gives its test number, with every year that lists it
-    (``EpaTest.years``: a selection by year finds it under each).
+    Every test number is kept: rows with different test numbers are different tests, even
+    when all their values are equal. A test that appears in several years' lists (a
+    carried-over certification: the same test number, or, for a list without test numbers,
+    the same make, vehicle, procedure, figures and road load) is kept once, with every year
+    that lists it (``EpaTest.years``: a selection by year finds it under each); the
+    numbered row is kept over one without a number. A row without a number matches at most
+    as many rows of another list as that list holds for the test (one, or the
+    ``duplicate_rows`` of a test listed again), and never another row of its own list.
     """
-    seen: dict[tuple, int] = {}
-    out: list[EpaTest] = []
+    out: list[EpaTest | None] = []
+    taken: list[Counter] = []  # per record: rows it holds from each file
+    by_number: dict[str, int] = {}
+    by_key: dict[tuple, list[int]] = {}
     for f in find_list_files(paths):
+        name = str(f)
         for t in read_test_car_list(f):
-            key = ((t.make.upper(), t.vehicle_id, t.procedure_code, round(t.fe, 3),
-                    tuple(round(b, 3) if not math.isnan(b) else None for b in t.bags),
-                    round(t.target_a_n, 3)))
-            if key in seen:
-                kept = out[seen[key]]
-                years = tuple(sorted({*kept.listed_years, t.year}))
-                if t.test_number and not kept.test_number:
-                    kept = t                # the numbered row says which test it is
-                out[seen[key]] = replace(kept, years=years)
+            if t.test_number and t.test_number in by_number \
+                    and name not in taken[by_number[t.test_number]]:
+                i = by_number[t.test_number]
+                kept = out[i]
+                assert kept is not None
+                out[i] = replace(kept, years=tuple(sorted({*kept.listed_years, t.year})))
+                taken[i][name] += _rows_of(t)
                 continue
-            seen[key] = len(out)
+            key = _value_key(t)
+            same = [i for i in by_key.get(key, []) if out[i] is not None]
+            if t.test_number:   # takes over rows without a number, of other files
+                match = [i for i in same if not out[i].test_number  # type: ignore[union-attr]
+                         and name not in taken[i]][:_rows_of(t)]
+            else:               # joins a test holding fewer rows of this file than it stands for
+                match = [i for i in same if taken[i][name] < _rows_of(out[i])][:1]  # type: ignore[arg-type]
+            if match:
+                i = match[0]
+                years = {t.year, *(y for j in match for y in out[j].listed_years)}  # type: ignore[union-attr]
+                base = t if t.test_number else out[i]
+                assert base is not None
+                out[i] = replace(base, years=tuple(sorted(years)))
+                for j in match[1:]:
+                    taken[i].update(taken[j])
+                    out[j] = None
+                taken[i][name] += 1 if not t.test_number else _rows_of(t)
+                if t.test_number:
+                    by_number[t.test_number] = i
+                continue
+            if t.test_number:
+                by_number[t.test_number] = len(out)
+            by_key.setdefault(key, []).append(len(out))
+            taken.append(Counter({name: _rows_of(t)}))
             out.append(t)
-    return out
+    return [t for t in out if t is not None]

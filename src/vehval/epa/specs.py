@@ -41,6 +41,7 @@ import numpy as np
 from vehval.constants import MPH_M_PER_S as MPH
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.epa import engine_model as em
+from vehval.epa.consistency import impossible_values
 from vehval.epa.procedures import is_gasoline, procedure_key, road_load_without_b
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
@@ -226,7 +227,12 @@ def _check_values(tests: list[EpaTest]) -> None:
             continue
         for t in tests:
             v = float(getattr(t, key))
-            if not math.isfinite(v) or v <= 0:
+            bad = impossible_values(t, (key,))
+            if bad:
+                raise ConfigError(f"EPA list row {_where(t)}: {bad[key]}; the specs need weight, "
+                                  "road load, axle ratio, N/V, displacement and rated power: "
+                                  "use a list row that gives it for this test vehicle")
+            if not math.isfinite(v):
                 col = _SPEC_COLUMNS[key]
                 raise ConfigError(f"EPA list row {_where(t)}: no "
                                   f"{_SPEC_NAMES[key]} ('{col}' empty or absent: some years' "

@@ -34,6 +34,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from vehval.calibration.provenance import Provenance
+from vehval.constants import BRAKE_EFFICIENCY_RANGE as _BRAKE_EFFICIENCY_RANGE
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.cycles import Cycle
 from vehval.epa.specs import (
@@ -215,9 +216,8 @@ class SpecsFit:
                 "dt_s": self.dt, "specs": self.specs.to_dict()}
 
 
-#: plausible best brake efficiency of a car's spark-ignition engine [-] (production engines
-#: 30-41 %; outside the range a fitted fuel map describes no real engine)
-BRAKE_EFFICIENCY_RANGE = (0.20, 0.45)
+#: plausible best brake efficiency of a car's engine [-] (owned by :mod:`vehval.constants`)
+BRAKE_EFFICIENCY_RANGE = _BRAKE_EFFICIENCY_RANGE
 
 
 def best_brake_efficiency(vehicle: Any) -> tuple[float, float, float]:

@@ -9,6 +9,9 @@ Like is compared with like: the whole-test result is charge balanced, the bags a
 (the lab's bags are not individually balanced either; each UDDS of an FTP-75, bags 1+2 and
 3+4, nearly is), and every figure carries the model's battery share (battery energy over
 fuel energy). Hot-start figures (bags 2-4, hot UDDS, HWFET, US06) are judged;
+a test the list marks as analytically derived (``Analytically Derived FE?`` Yes: its
+figures are computed from another test) and one whose listed figures contradict each other
+are simulated and listed, never judged;
 the cold-start figures (FTP bag 1, cold UDDS and the composite) only when the vehicle models
 the cold start (warm-up fuel, a hybrid's engine-on hold, applied to the FTP's first run),
 else they are reported as the cold-start gap.
@@ -97,6 +100,7 @@ class Comparison:
     list_doubtful: bool = False  # the list's own figures of this test disagree (not judged)
     in_sample: bool = False  # the vehicle file was calibrated on this test
     sample_unknown: bool = False  # no test number, may be a calibration test (not counted)
+    analytically_derived: bool = False  # the list computed the figure, not measured (not judged)
     # normalised error (vehval.epa.verdicts.judge): En, U_model and U_meas [mpg, k = 2]
     en: float | None = None
     u_model: float | None = None
@@ -123,6 +127,7 @@ class Comparison:
                                   else round(self.battery_share, 5)),
                 "list_doubtful": self.list_doubtful, "in_sample": self.in_sample,
                 "sample_unknown": self.sample_unknown,
+                "analytically_derived": self.analytically_derived,
                 "en": None if self.en is None or not math.isfinite(self.en) else round(self.en, 4),
                 "consistent": None if self.en is None else abs(self.en) <= 1.0,
                 "u_model": None if self.u_model is None else round(self.u_model, 4),
@@ -232,6 +237,8 @@ class EpaValidation:
                            "in_sample": p.test.label in self.calibrated,
                            "calibrated_parameters": self.calibrated.get(p.test.label, []),
                            "sample_unknown": p.test.label in self.sample_unknown,
+                           "analytically_derived": p.test.analytically_derived,
+                           "adfe_test_number": p.test.adfe_test_number,
                            "source": p.test.source} for p in self.predictions],
                 "skipped": self.skipped, "model_uncertainty": self.model_uncertainty,
                 "set_verdict": self.set_verdict, "set_verdict_note": self.set_verdict_note,
@@ -441,6 +448,13 @@ def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Co
     return rows
 
 
+def derived_note(t: EpaTest) -> str:
+    """Why a test the list marks as analytically derived is not judged."""
+    src = f" from test {t.adfe_test_number}" if t.adfe_test_number else ""
+    return (f"analytically derived{src} (the list's 'Analytically Derived FE?'): a computed "
+            "figure, not a measurement; listed, not judged")
+
+
 def _row_key(t: EpaTest) -> tuple:
     """What identifies a list row without its test number: vehicle, procedure, weight, road
     load and the listed figures (a later list repeating a test repeats all of them)."""
@@ -540,6 +554,10 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
             for c in rows:
                 c.judged, c.list_doubtful = False, True
                 c.note = f"list figures doubtful: {pred.list_check.note}"
+        if t.analytically_derived:  # computed by the list from another test: not a measurement
+            for c in rows:
+                c.judged, c.analytically_derived = False, True
+                c.note = derived_note(t)
         for c in rows:
             c.in_sample = t.label in res.calibrated
             c.sample_unknown = t.label in res.sample_unknown

@@ -141,3 +141,25 @@ def fuel_properties(spec: str | dict | Any | None) -> Fuel | None:
     src = {p: ("template" if p in explicit else base.sources[p]) for p in _PROPS}
     return Fuel(name=base.name, description=base.description, **vals, uncertainty=unc,
                 sources=src)
+
+
+#: Density of a liquid road fuel [kg/m^3]: LPG (about 510) to biodiesel (about 880) with
+#: margin. A value outside is a unit slip (g/cm^3 is x1000, a missing digit x10), refused.
+LIQUID_DENSITY_RANGE = (450.0, 1100.0)
+
+
+def density_problem(key: str, value: float | None) -> str | None:
+    """Why ``value`` [kg/m^3] given as ``key`` is no liquid fuel's density, naming the
+    probable unit slip; None when it is plausible (or not given)."""
+    if value is None:
+        return None
+    lo, hi = LIQUID_DENSITY_RANGE
+    if lo <= value <= hi:
+        return None
+    guesses = [(f, why) for f, why in ((1000.0, "g/cm3 or kg/L"), (10.0, "a digit missing"),
+                                       (0.1, "a digit too many"), (0.001, "g/m3"))
+               if lo <= value * f <= hi]
+    hint = (f": probably {guesses[0][1]}, i.e. {value * guesses[0][0]:g} kg/m3"
+            if guesses else "")
+    return (f"{key}: {value:g} kg/m3 is no liquid fuel's density ({lo:g}-{hi:g} kg/m3, LPG to "
+            f"biodiesel){hint}; give it in kg/m3 (diesel about 851, gasoline about 740)")

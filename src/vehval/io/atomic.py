@@ -5,6 +5,10 @@ Every temporary carries the id of the process that made it: a file
 ``.<name>.vehval-stage.<pid>.<rand>`` (:func:`atomic_dir`, :func:`atomic_files`). Those of a
 process that is no longer alive are debris of a killed run; :func:`clean_stale_stages` and
 :func:`sweep_debris` remove them.
+
+Every final rename re-checks its target at commit time (:func:`check_commit_target`, the
+output policy of :mod:`vehval.io.paths`): a file is never renamed over a device node, a
+FIFO, a socket or a directory that appeared while the run computed.
 """
 
 from __future__ import annotations
@@ -15,10 +19,23 @@ import errno
 import json
 import os
 import shutil
+import stat
 import sys
 import tempfile
 from pathlib import Path
 from typing import Iterator, Sequence
+
+
+def check_commit_target(target: str | os.PathLike, *, directory: bool = False) -> None:
+    """Refuse, at commit time, a target the output policy does not allow to be replaced
+    (:func:`vehval.io.paths.output_problem`): one :class:`VehvalError` line, nothing renamed."""
+    from vehval.errors import VehvalError
+    from vehval.io.paths import output_problem
+
+    problem = output_problem(target, directory=directory)
+    if problem:
+        what = "an output directory" if directory else "the path of a new or regular file"
+        raise VehvalError(f"{target}: {problem}; the output was not written (give {what})")
 
 
 def _umask() -> int:
@@ -45,6 +62,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
         yield tmp_path
         if tmp_path.exists():
             os.chmod(tmp_path, 0o666 & ~_umask())
+        check_commit_target(target)
         os.replace(tmp_path, target)
     except BaseException:
         tmp_path.unlink(missing_ok=True)
@@ -187,15 +205,28 @@ def _carry_over(old: Path, stage: Path) -> None:
 
 
 def _link_or_copy(src, dst) -> None:
+    """Hard-link ``src`` to ``dst``, else copy a regular file; a device node, FIFO or socket
+    is linked, never opened (copying ``/dev/zero`` would never end): one that cannot be
+    linked stops the commit, and the directory holding it is left as it was."""
     try:
         os.link(src, dst)
-    except OSError:
+    except OSError as exc:
+        if not stat.S_ISREG(os.lstat(src).st_mode):
+            from vehval.errors import VehvalError
+
+            raise VehvalError(f"{src}: not a regular file and cannot be carried over into the "
+                              f"new output directory ({exc.strerror}); move it out of the "
+                              "output directory") from None
         shutil.copy2(src, dst)
 
 
 def _move_files(stage: Path, target: Path) -> None:
+    items = sorted(stage.rglob("*"))
+    for item in items:                  # every target checked before the first move
+        if not item.is_dir():
+            check_commit_target(target / item.relative_to(stage))
     target.mkdir(parents=True, exist_ok=True)
-    for item in sorted(stage.rglob("*")):
+    for item in items:
         dest = target / item.relative_to(stage)
         if item.is_dir():
             dest.mkdir(parents=True, exist_ok=True)
@@ -229,6 +260,7 @@ def atomic_dir(path: str | os.PathLike, *, whole: bool = True) -> Iterator[Path]
     try:
         yield stage
         os.chmod(stage, 0o777 & ~_umask())
+        check_commit_target(target, directory=True)
         if not whole:
             _move_files(stage, target)
         elif target.is_dir() and not target.is_symlink():
@@ -251,9 +283,11 @@ def _roll_forward(stage: Path) -> None:
         plan = json.loads((stage / _COMMIT).read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return                          # not committed: the run's outputs are dropped
+    from vehval.io.paths import output_problem
+
     for staged, target in plan if isinstance(plan, list) else ():
         src = Path(staged)
-        if src.is_file() and not src.is_symlink():
+        if src.is_file() and not src.is_symlink() and output_problem(target) is None:
             with contextlib.suppress(OSError):
                 os.replace(src, target)
 
@@ -288,6 +322,8 @@ def atomic_files(paths: Sequence[str | os.PathLike]) -> Iterator[list[Path]]:
             raise FileNotFoundError(errno.ENOENT, "output not written", missing[0])
         for s in staged:
             os.chmod(s, 0o666 & ~_umask())
+        for t in targets:               # before the commit record: all renamed or none
+            check_commit_target(t)
         commit = stages[0] / _COMMIT
         tmp = commit.with_name(commit.name + ".tmp")
         tmp.write_text(json.dumps([[str(s), str(t)] for s, t in zip(staged, targets)]),

@@ -6,16 +6,23 @@ becomes a file name.
 - :func:`check_input_file` / :func:`check_input_dir` refuse a directory where a file is
   expected (and the reverse), an unreadable file and a document that is not data (PDF,
   image, spreadsheet, archive), with one line naming the path.
-- :func:`check_outputs` refuses an output that would overwrite an input or the template in
-  use, and an output directory that is an existing file (or the reverse).
+- The output policy, one rule for every command that writes: an output file must be a
+  regular file or absent, an output directory a directory or absent. A device node, a
+  FIFO, a socket (or a symbolic link to one of them) is never replaced, and an output is
+  never one of the run's inputs (the same file, hard links included).
+  :func:`output_problem` states the rule, :func:`check_output_path` refuses one path (the
+  CLI's output options call it while parsing, :mod:`vehval.io.atomic` again at the final
+  rename) and :func:`check_outputs` refuses a command's outputs against its inputs.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import stat
 from pathlib import Path
-from typing import Iterable
+from typing import Callable, Iterable
 
 from vehval.errors import InputFileError, VehvalError
 
@@ -119,43 +126,106 @@ def inside(child: str | Path, parent: str | Path) -> bool:
         return False
 
 
+#: Kinds of file system node an output never replaces, by ``stat`` test.
+_SPECIAL_NODES: tuple[tuple[Callable[[int], bool], str], ...] = (
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISFIFO, "a FIFO (named pipe)"),
+    (stat.S_ISSOCK, "a socket"),
+)
+
+
+def output_problem(path: str | os.PathLike, *, directory: bool = False) -> str | None:
+    """Why ``path`` cannot be written as an output, or None when it can.
+
+    An output file may be absent or a regular file (a symbolic link to one: the link is
+    replaced); an output directory absent or a directory. Anything else, a device node, a
+    FIFO, a socket or a symbolic link to one of them, would be destroyed by the rename that
+    commits the output (a device node of ``/dev`` replaced by a regular file) and is refused.
+    A dangling symbolic link is replaced like a file. Paths the system cannot look at (a
+    parent that is a file, a name too long) are left to the write, which fails with its
+    own message.
+    """
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return None
+    link = stat.S_ISLNK(st.st_mode)
+    if link:
+        try:
+            st = os.stat(path)
+        except OSError:
+            return None                  # dangling link or loop: the link itself is replaced
+    what = "a symbolic link to " if link else ""
+    mode = st.st_mode
+    for test, kind in _SPECIAL_NODES:
+        if test(mode):
+            return (f"is {what}{kind}, not {'a directory' if directory else 'a regular file'}"
+                    ": writing the output would replace it")
+    if directory and not stat.S_ISDIR(mode):
+        return f"exists and is {what}a file, not a directory"
+    if not directory and stat.S_ISDIR(mode):
+        return f"is {what}a directory, a file name is expected"
+    return None
+
+
+def check_output_path(path: str | Path, option: str = "-o", *, directory: bool = False) -> Path:
+    """``path`` if it may be written as an output (see :func:`output_problem`), else one
+    :class:`VehvalError` line naming ``option`` and the path."""
+    problem = output_problem(path, directory=directory)
+    if problem:
+        what = "an output directory" if directory else "the path of a new or regular file"
+        raise VehvalError(f"{option} {path}: {problem}; give {what} (nothing was written)")
+    return Path(path)
+
+
+def _same_file(a: os.stat_result, b: os.stat_result) -> bool:
+    return (a.st_dev, a.st_ino) == (b.st_dev, b.st_ino)
+
+
 def check_outputs(*, outdir: str | Path | None = None, writes: Iterable[str] = (),
                   outfile: str | Path | None = None,
-                  inputs: Iterable[str | Path | None] = ()) -> None:
-    """Refuse outputs that would destroy what the run reads, before anything is computed.
+                  inputs: Iterable[str | Path | None] = (), option: str = "-o") -> None:
+    """Refuse outputs that would destroy what the run reads, or a device, FIFO or socket,
+    before anything is computed.
 
     Parameters
     ----------
     outdir : path, optional
-        An output directory: must not be an existing file nor one of the inputs.
+        An output directory: absent or a directory, and not one of the inputs.
     writes : names
-        The files the run writes into ``outdir``; none of them may be an input (a
-        ``template_final.yaml`` given as ``-t``).
+        The files the run writes into ``outdir``; each must be absent or a regular file and
+        none of them an input (a ``template_final.yaml`` given as ``-t``).
     outfile : path, optional
-        An output file: must not be an existing directory nor one of the inputs.
+        An output file: absent or a regular file, and not one of the inputs.
     inputs : paths
-        Every file or directory the run reads (None entries are ignored).
+        Every file or directory the run reads (None entries are ignored). An output is the
+        same as an input when both name one file (same device and inode: a symbolic or hard
+        link to the input is the input).
+    option : str
+        The option that names the output, for the message.
     """
-    resolved = [(Path(p), Path(p).resolve()) for p in inputs
-                if p is not None and Path(p).exists()]
+    resolved: list[tuple[Path, os.stat_result]] = []
+    for p in inputs:
+        if p is None:
+            continue
+        with contextlib.suppress(OSError):
+            resolved.append((Path(p), os.stat(p)))
     targets: list[Path] = []
     if outdir is not None:
-        d = Path(outdir)
-        if d.exists() and not d.is_dir():
-            raise VehvalError(f"output '{d}' exists and is not a directory: choose a directory "
-                              "for -o")
-        targets += [d] + [d / name for name in writes]
+        d = check_output_path(outdir, option, directory=True)
+        targets += [d] + [check_output_path(d / name, option) for name in writes]
     if outfile is not None:
-        f = Path(outfile)
-        if f.is_dir():
-            raise VehvalError(f"output '{f}' is a directory, a file name is expected for -o")
-        targets.append(f)
+        targets.append(check_output_path(outfile, option))
     for t in targets:
-        rt = t.resolve()
-        for p, rp in resolved:
-            if rp == rt:
-                raise VehvalError(f"output '{t}' is also an input ('{p}'): writing it would "
-                                  "replace the input; choose another -o")
+        try:
+            st = os.stat(t)
+        except OSError:
+            continue
+        for p, sp in resolved:
+            if _same_file(st, sp):
+                raise VehvalError(f"{option} {t}: is also an input ('{p}'): writing it would "
+                                  f"replace the input; choose another {option}")
 
 
 def vehicle_path(name: str | Path | None) -> Path | None:
@@ -165,3 +235,15 @@ def vehicle_path(name: str | Path | None) -> Path | None:
         return None
     p = Path(str(name))
     return p if p.exists() else None
+
+
+def special_kind(path: str | Path) -> str | None:
+    """What ``path`` (a symlink followed) is when it is neither a regular file nor a directory:
+    a FIFO, a socket, a character or block device (the words of :data:`_SPECIAL_NODES`); None
+    otherwise (also when it cannot be stat'ed: the caller reports that itself). Reading a
+    FIFO blocks until a writer comes, a device may never end: inputs are regular files."""
+    try:
+        mode = Path(path).stat().st_mode
+    except OSError:
+        return None
+    return next((kind for test, kind in _SPECIAL_NODES if test(mode)), None)

@@ -487,6 +487,9 @@ def semantic_errors(t: Template) -> list[str]:
         except SignalError as exc:
             errors.append(f"selection: {exc}")
     errors.extend(_results_errors(t, seen))
+    from vehval.io.road_load import road_load_errors
+
+    errors.extend(road_load_errors(t.constants))   # signs and magnitudes of a target road load
     return errors
 
 
@@ -494,8 +497,13 @@ def _results_errors(t: Template, mapped: dict[str, str]) -> list[str]:
     """Checks of the results keys: fuel known, accuracy and phase channel on mapped signals."""
     from vehval.errors import VehvalError
     from vehval.fuels import fuel_properties
+    from vehval.fuels.table import density_problem
 
-    errors: list[str] = []
+    errors: list[str] = [p for p in (
+        density_problem("constants.fuel_density_kg_per_m3", t.constants.fuel_density_kg_per_m3),
+        density_problem("fuel.density_kg_per_m3",
+                        t.fuel.density_kg_per_m3 if isinstance(t.fuel, FuelSpec) else None))
+        if p]
     try:
         fuel_properties(t.fuel)
     except VehvalError as exc:

@@ -10,7 +10,9 @@ when the statistic is impossible as declared it names the unit that makes it pos
   distance in 0.5..15 MJ/km;
 - **speed trace against the drive cycle**: the measured speed follows no known cycle as
   declared but does in another speed unit (km/h, mph, m/s), or another channel of its
-  file does (swapped mappings); with no cycle at all, the top speed in 5..70 m/s;
+  file does (swapped mappings); with no cycle at all, the top speed in 5..70 m/s; its
+  distance over the cycle's runs within 2 % of the cycle's, also when it follows a cycle
+  only once divided by a factor (a speed scale, :mod:`vehval.qa.speed_scale`);
 - **force against mass x acceleration**: the measured tractive force regressed on
   ``m·a`` and a free road-load polynomial; a gain of 0.454 names a test mass written in lb,
   4.448 a force in lbf;
@@ -573,6 +575,11 @@ def run_crosschecks(test: Test, template: Any = None, vehicle: Any = None,
     consts = dict(constants or {})
     density, _ = _fuel_density(template, test, vehicle)
     found = speed_cycle_check(test, verdicts, density)
+    from vehval.qa.speed_scale import speed_scale_check
+
+    scaled = speed_scale_check(test, verdicts.flagged, template)
+    verdicts.flagged.update(f.signal for f in scaled)
+    found += scaled
     found += force_mass_check(test, consts, verdicts)
     found += fuel_energy_check(test, template, vehicle, verdicts)
     found += engine_speed_check(test, verdicts)

@@ -57,6 +57,8 @@ class Kind(str, Enum):
     CALC_MISMATCH = "calc_mismatch"
     FUEL_MAP = "fuel_map"                # fuel meter against the engine fuel map
     UNIT_SUSPECT = "unit_suspect"        # physics points at a wrong unit in the template
+    FUEL_EFFICIENCY = "fuel_efficiency"  # fuel energy against the work the engine can give
+    FUEL_RESPONSE = "fuel_response"      # fuel zero/missing/flat while the engine delivers
     # results stage (level 4): results and their inputs
     RESULTS = "results"                  # a result cannot be given or needs attention
     DRIVE_QUALITY = "drive_quality"      # driver outside the SAE J2951 tolerances
@@ -72,6 +74,8 @@ LEVEL_OF_KIND = {
     Kind.CALC_MISMATCH: 3,
     Kind.FUEL_MAP: 3,
     Kind.UNIT_SUSPECT: 3,
+    Kind.FUEL_EFFICIENCY: 3,
+    Kind.FUEL_RESPONSE: 3,
     Kind.RESULTS: 4,
     Kind.DRIVE_QUALITY: 4,
 }

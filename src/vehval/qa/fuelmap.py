@@ -215,11 +215,43 @@ def fuel_map_check(test: Test, vehicle: Any, findings: list[Finding], computed: 
     if np.isfinite(gain) and abs(gain - 1.0) > opts.gain_tol:
         tu = t[use]
         word = "high" if gain > 1 else "low"
-        out.append(Finding(
+        f = Finding(
             fuel.name, Kind.FUEL_MAP, float(tu[0]), float(tu[-1]), Severity.WARNING,
             f"{fuel.name} reads {100 * abs(gain - 1):.0f} % {word} against the engine fuel map at "
             f"the measured speed and torque ({', '.join(names)}; {duration:.0f} s of firing, "
             f"quasi-steady data): a meter gain error, or a map that does not match this engine",
             {"gain": gain, "gain_tol": opts.gain_tol, "n": int(use.sum()), "duration_s": duration,
-             "r2": row["r2"]}, related=names))
+             "r2": row["r2"]}, related=names)
+        _unit_hint(f, fuel, gain, opts.gain_tol, test, vehicle)
+        out.append(f)
     return [row], out
+
+
+def _unit_hint(f: Finding, fuel: Signal, gain: float, tol: float, test: Test,
+               vehicle: Any) -> None:
+    """A gain that another unit of the fuel rate brings within ``tol`` of 1 (a volume rate
+    declared as a mass rate: the density; mg/s for g/s: 1000) names that unit when the factor
+    lies beyond three tolerances of 1 (closer, it is a gain error like any other): the finding
+    becomes an error with the unit's fix (:mod:`vehval.qa.unit_hints`)."""
+    from vehval.fuels import resolve_fuel
+    from vehval.qa.unit_hints import CANDIDATES, UnitHint, factor, fix_text, hint_sentence
+
+    if not fuel.raw_unit:
+        return
+    rf = resolve_fuel(test=test, vehicle=vehicle)
+    density = rf.density_kg_per_m3 if rf is not None else None
+    hits = []
+    for unit in CANDIDATES.get(fuel.unit, ()):
+        k = factor(fuel, unit, density)
+        # a factor within a few tolerances of 1 cannot be told from a meter gain error
+        if np.isfinite(k) and k > 0 and abs(np.log(k)) > 3 * tol and abs(gain * k - 1.0) <= tol:
+            hits.append(UnitHint(unit, k, gain * k))
+    if not hits:
+        return
+    hits.sort(key=lambda h: abs(h.value - 1.0))
+    f.severity = Severity.ERROR
+    f.message += (f"; read in {hits[0].unit} it agrees with the map (gain {hits[0].value:.3f}): "
+                  + hint_sentence(fuel, hits))
+    f.numbers.update(probable_unit=hits[0].unit, factor=hits[0].factor,
+                     declared_unit=fuel.raw_unit)
+    f.fix = fix_text(fuel, hits[0])

@@ -31,6 +31,7 @@ from vehval.qa.findings import Finding, Kind, Severity
 from vehval.results.composites import Composite, composites_for
 from vehval.results.drive_quality import RMSSE_TOLERANCE_MPS, drive_quality, iwr_reading
 from vehval.results.gate import headline
+from vehval.results.phase_check import check_phases
 from vehval.results.phases import (
     Phase,
     match_cycle,
@@ -321,6 +322,8 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
             "(mpg, L/100 km), fuel energy or CO2; declare 'fuel:' in the template "
             "(e.g. fuel: diesel)", fuel_sig.name))
     phases, phase_source, match = _phases(test, speed, phase_channel, findings)
+    if phase_source.startswith("phase channel "):      # the bags against the cycle's table
+        findings += check_phases(phases, match, speed, phase_source.removeprefix("phase channel "))
     inputs = {role: [s.name] for role, s in (("speed", speed), ("fuel", fuel_sig),
                                              ("co2", co2_sig)) if s is not None}
     ess = [s.name for s in (pwr, volt, curr) if s is not None]
@@ -471,6 +474,11 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
         return evaluate(theta)
 
     nominal, unc = propagate(evaluate_full, theta_params, method=method, draws=draws, seed=seed)
+    # the method that gave the stated U: first order when no parameter was drawn
+    if method == "monte_carlo" and not any(u.get("method") == "monte_carlo" for u in unc.values()):
+        method = "first_order"
+        notes.append("uncertainty: first-order propagation: Monte Carlo asked for, but no "
+                     "parameter has an uncertainty to draw")
     values: dict[str, dict[str, float | None]] = {}
     uncertainty: dict[str, dict[str, dict]] = {}
     for key, v in nominal.items():

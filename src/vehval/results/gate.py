@@ -27,7 +27,7 @@ EXIT_WITHHELD = 4
 #: Kinds whose finding speaks for the whole channel, whatever span it carries.
 WHOLE_CHANNEL_KINDS = frozenset({Kind.ALL_ZERO, Kind.CONSTANT, Kind.UNIT, Kind.UNIT_SUSPECT,
                                  Kind.GAIN, Kind.OFFSET, Kind.SIGN_FLIP, Kind.SPARSE,
-                                 Kind.FUEL_MAP, Kind.UNRECOGNISED})
+                                 Kind.FUEL_MAP, Kind.UNRECOGNISED, Kind.FUEL_EFFICIENCY})
 
 _DIST = ("distance_m", "mean_speed_mps", "max_speed_mps")
 _FUEL = ("fuel_mass_kg", "fuel_volume_m3", "fuel_energy_j")
@@ -220,7 +220,9 @@ def headline(res: Any) -> dict[str, Any]:
         ``name``, ``kind`` (``composite`` or ``test``), ``rule``, ``fuel_economy_mpg``
         [mile/US gal], ``fuel_economy_u_mpg`` (U, k = 2), ``fuel_consumption_l_per_100km``,
         ``withheld`` (the scope's entry or None), ``forced`` and ``caveats`` (the
-        composite's departures from the procedure's conditions, each naming its clause).
+        composite's departures from the procedure's conditions, each naming its clause;
+        a whole-test headline of a test with no identified cycle says so,
+        :data:`NO_CYCLE_CAVEAT`).
     """
     base = (res.cycle or "").split("_x")[0]
     names = {c.name for c in res.composites}
@@ -239,4 +241,15 @@ def headline(res: Any) -> dict[str, Any]:
             "fuel_economy_u_mpg": res.expanded(name, "fuel_economy_mpg"),
             "fuel_consumption_l_per_100km": res.value(name, "fuel_consumption_l_per_100km"),
             "withheld": held, "forced": bool(held and res.forced),
-            "caveats": list(getattr(comp, "caveats", None) or [])}
+            "caveats": list(getattr(comp, "caveats", None) or []) + _whole_test_caveat(res, comp)}
+
+
+#: Caveat of a headline that is the whole test because no drive cycle was identified.
+NO_CYCLE_CAVEAT = ("no drive cycle identified in the speed trace: this is the whole test's "
+                   "figure (every second of the record), not a cycle's regulatory figure; "
+                   "check the speed channel (unit, scale) or declare 'cycle:' in the template")
+
+
+def _whole_test_caveat(res: Any, comp: Any) -> list[str]:
+    """The caveat a whole-test headline carries when the test has no identified cycle."""
+    return [NO_CYCLE_CAVEAT] if comp is None and not res.cycle else []

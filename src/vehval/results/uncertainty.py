@@ -38,6 +38,7 @@ from vehval.units import conversion
 __all__ = [
     "COVERAGE_K",
     "DEFAULT_ACCURACY",
+    "MIN_DRAWS",
     "SOURCE_ACCURACY",
     "ChannelAccuracy",
     "Parameter",
@@ -47,6 +48,10 @@ __all__ = [
 
 #: Coverage factor of the expanded uncertainty.
 COVERAGE_K = 2.0
+#: Fewest Monte Carlo draws: the standard deviation of n draws is itself uncertain by about
+#: 1 / sqrt(2 (n - 1)) of its value (7 % at 100 draws, 71 % at 2) and the 95 % interval's
+#: ends rest on the 2.5 % of draws beyond each (none below 40 draws).
+MIN_DRAWS = 100
 _SQRT3 = math.sqrt(3.0)
 
 #: Default accuracy per signal class (base name): reading [%], offset [SI unit], and why.
@@ -161,11 +166,24 @@ def propagate(evaluate: Callable[[dict[str, np.ndarray]], dict[str, np.ndarray]]
         Result key -> value.
     uncertainty : dict
         Result key -> ``{"U": k u, "k": 2, "u": u, "method", "contributors": [{"parameter",
-        "share", "assumed"}], "interval_95": [lo, hi] (Monte Carlo only)}``.
+        "share", "assumed"}], "interval_95": [lo, hi] (Monte Carlo only)}``; ``method`` is
+        what the entry's U comes from: ``monte_carlo`` only where the draws gave it (a
+        result without a parameter to draw keeps ``first_order``).
+
+    Raises
+    ------
+    ConfigError
+        A Monte Carlo of fewer than :data:`MIN_DRAWS` draws.
     """
     if method not in ("first_order", "monte_carlo"):
         from vehval.errors import VehvalError
         raise VehvalError(f"uncertainty method '{method}': use first_order or monte_carlo")
+    if method == "monte_carlo" and not draws >= MIN_DRAWS:
+        from vehval.errors import ConfigError
+        raise ConfigError(f"{draws} Monte Carlo draws: at least {MIN_DRAWS} are needed (the "
+                          "standard deviation of n draws is uncertain by 1/sqrt(2(n-1)) of its "
+                          "value: 7 % at 100 draws); ask for more draws or first-order "
+                          "propagation")
     m = len(params)
     n = 1 + 2 * m
     theta = {p.name: np.zeros(n) for p in params}
@@ -185,7 +203,7 @@ def propagate(evaluate: Callable[[dict[str, np.ndarray]], dict[str, np.ndarray]]
         order: list[int] = [int(j) for j in np.argsort(-ci ** 2)[:top]] if m else []
         contrib = [{"parameter": params[j].name, "share": round(float(ci[j] ** 2 / var), 4),
                     "assumed": params[j].assumed} for j in order if var > 0 and ci[j] != 0]
-        unc[key] = {"u": u, "U": COVERAGE_K * u, "k": COVERAGE_K, "method": method,
+        unc[key] = {"u": u, "U": COVERAGE_K * u, "k": COVERAGE_K, "method": "first_order",
                     "contributors": contrib}
     if method == "monte_carlo" and m:
         from vehval.sim.budget import check_samples
@@ -205,5 +223,5 @@ def propagate(evaluate: Callable[[dict[str, np.ndarray]], dict[str, np.ndarray]]
             u = float(np.std(ok, ddof=1))
             lo, hi = np.percentile(ok, [2.5, 97.5])
             unc[key].update(u=u, U=COVERAGE_K * u, interval_95=[float(lo), float(hi)],
-                            draws=int(draws))
+                            draws=int(draws), method="monte_carlo")
     return nominal, unc

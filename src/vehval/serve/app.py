@@ -2,7 +2,8 @@
 
 Pages are jinja2 templates (autoescaped) with one script file (``static/workbench.js``) and
 the plotly.js bundled with plotly (served from the workbench, never a CDN). Data goes through
-a small JSON API; every write is a POST guarded by the CSRF value (:mod:`.security`).
+a small JSON API whose queries and bodies are typed models (:mod:`.params`); every write is a
+POST guarded by the CSRF value and the origin (:mod:`.security`), and no GET writes or runs QA.
 """
 
 from __future__ import annotations
@@ -25,8 +26,9 @@ from starlette.routing import Route
 
 from vehval.errors import InputFileError, VehvalError
 from vehval.jsonsafe import clean
+from vehval.serve import params as prm
 from vehval.serve import security as sec
-from vehval.serve.bench import NOT_DATA, QA_DIR, RAW_EXT, TEMPLATE_NAME, Bench
+from vehval.serve.bench import QA_DIR, TEMPLATE_NAME, Bench, QANotRun, pick_data
 
 STATIC = Path(__file__).with_name("static")
 #: The one path served without the token: the plotly.js bundled with plotly (a report from the
@@ -40,6 +42,12 @@ SERVED_TYPES = {".html": "text/html; charset=utf-8", ".json": "application/json"
                 ".csv": "text/plain; charset=utf-8", ".png": "image/png"}
 #: Folders never listed as tests (outputs).
 SKIP_DIRS = {QA_DIR, "assets", "tests", "__pycache__", "node_modules"}
+#: Most folders and entries the home page's listing looks at (it says so when it stops).
+MAX_TESTS = 500
+MAX_WALK_ENTRIES = 50_000
+#: ``Sec-Fetch-Site`` values of a request made by a page of another origin (another port of
+#: this machine is "same-site"): refused on the API, whatever the method.
+FOREIGN_SITES = {"cross-site", "same-site"}
 
 
 @lru_cache(maxsize=1)
@@ -81,11 +89,15 @@ class _Guard(BaseHTTPMiddleware):
         elif not (sec.same(request.cookies.get(sec.TOKEN_COOKIE), wb.token)
                   or sec.same(request.headers.get(sec.TOKEN_HEADER), wb.token)):
             return _forbidden("token required: open the URL `vehval serve` printed")
+        if request.url.path.startswith("/api/") and \
+                request.headers.get("sec-fetch-site") in FOREIGN_SITES:
+            return _forbidden("request refused: made by a page of another origin")
         if request.method not in ("GET", "HEAD"):
             origin = request.headers.get("origin")
-            if origin is not None and not sec.host_allowed(origin.split("://", 1)[-1],
-                                                           wb.extra_hosts):
-                return _forbidden("write refused: request from another origin")
+            if origin is not None and not sec.same_origin(origin, request.url.scheme,
+                                                          request.headers.get("host")):
+                return _forbidden("write refused: request from another origin (scheme, host "
+                                  "and port must be the workbench's own)")
             if not sec.same(request.headers.get(sec.CSRF_HEADER), wb.csrf):
                 return _forbidden("write refused: CSRF token missing or wrong: reload the page")
         response = await call_next(request)
@@ -100,20 +112,38 @@ def _forbidden(message: str) -> Response:
     return JSONResponse({"error": message}, status_code=403)
 
 
-def _api(fn: Callable[..., Any]) -> Callable[[Request], Any]:
-    """A JSON endpoint: vehval errors become ``{"error": ...}`` (the CLI's message)."""
+async def _body(request: Request) -> bytes:
+    """The request body, read no further than :data:`.params.MAX_BODY_BYTES`."""
+    declared = request.headers.get("content-length")
+    if declared is not None and (not declared.isdigit() or int(declared) > prm.MAX_BODY_BYTES):
+        raise prm.BadRequest(f"the request body is over {prm.MAX_BODY_BYTES:,} bytes: refused",
+                             413)
+    buf = bytearray()
+    async for chunk in request.stream():
+        buf += chunk
+        if len(buf) > prm.MAX_BODY_BYTES:
+            raise prm.BadRequest(f"the request body is over {prm.MAX_BODY_BYTES:,} bytes: "
+                                 "refused", 413)
+    return bytes(buf)
+
+
+def _api(fn: Callable[..., Any], query: type, body: type | None = None) -> Callable[[Request], Any]:
+    """A JSON endpoint: ``fn(workbench, query, body)`` with the query parameters and the body
+    parsed by their models first (a bad request: 4xx); vehval errors become
+    ``{"error": ...}`` (the CLI's message): 403 outside the workspace, 409 before QA ran."""
     async def endpoint(request: Request) -> Response:
         from starlette.concurrency import run_in_threadpool
 
         try:
-            body = await request.json() if request.method == "POST" else {}
-        except ValueError:
-            return JSONResponse({"error": "the request body is not JSON"}, status_code=400)
-        try:
-            out = await run_in_threadpool(fn, request.app.state.workbench, request.query_params,
-                                          body if isinstance(body, dict) else {})
+            q = prm.parse_query(query, request.query_params.multi_items())
+            b = prm.parse_body(body, await _body(request)) if body is not None else None
+            out = await run_in_threadpool(fn, request.app.state.workbench, q, b)
+        except prm.BadRequest as exc:
+            return JSONResponse({"error": str(exc)}, status_code=exc.status)
         except sec.OutsideWorkspace as exc:
             return JSONResponse({"error": str(exc)}, status_code=403)
+        except QANotRun as exc:
+            return JSONResponse({"error": str(exc)}, status_code=409)
         except VehvalError as exc:
             return JSONResponse({"error": str(exc)}, status_code=400)
         except Exception as exc:  # noqa: BLE001 - the page shows it; the server goes on
@@ -133,6 +163,7 @@ class Workbench:
         self.root = Path(workspace).resolve()
         if not self.root.is_dir():
             raise InputFileError(f"{workspace}: workspace folder not found")
+        sec.check_workspace(self.root)
         self.token = token or sec.new_secret()
         self.csrf = sec.new_secret()
         self.extra_hosts = extra_hosts
@@ -145,26 +176,54 @@ class Workbench:
             raise InputFileError(f"{rel}: not a folder of the workspace")
         with self._lock:
             if folder not in self._benches:
-                self._benches[folder] = Bench(folder)
+                self._benches[folder] = Bench(folder, self.root)
             return self._benches[folder]
 
-    def tests(self, limit: int = 500) -> list[dict]:
-        """Folders holding raw data files or a template (3 levels deep at most)."""
-        out = []
-        for dirpath, dirnames, filenames in os.walk(self.root):
-            d = Path(dirpath)
-            depth = len(d.relative_to(self.root).parts)
-            dirnames[:] = sorted(n for n in dirnames if not n.startswith(".") and n not in SKIP_DIRS
-                                 and depth < 3)
-            data = [f for f in filenames if Path(f).suffix.lower() in RAW_EXT
-                    and f.lower() not in NOT_DATA and not f.startswith(".")]
-            if data or TEMPLATE_NAME in filenames:
-                out.append({"dir": sec.relative(self.root, d), "files": sorted(data),
-                            "template": TEMPLATE_NAME in filenames,
-                            "qa": (d / QA_DIR / "findings.json").is_file()})
-                if len(out) >= limit:
-                    break
-        return out
+    def tests(self, limit: int = MAX_TESTS) -> tuple[list[dict], list[dict]]:
+        """Folders holding raw data files or a template (3 levels deep at most), and what the
+        listing left out (``[{"name", "why"}]``: links out of the workspace, loops, special
+        files, folders beyond the bounds).
+
+        Symlinks are resolved: one leading out of the workspace is left out; a linked folder
+        inside is listed under its link once (never twice, never in a loop).
+        """
+        out: list[dict] = []
+        left: list[dict] = []
+        seen = {self.root}
+        queue: list[tuple[Path, int]] = [(self.root, 0)]
+        budget = MAX_WALK_ENTRIES
+        while queue:
+            d, depth = queue.pop(0)
+            if budget <= 0 or len(out) >= limit:
+                why = (f"too many files: the listing stops after {MAX_WALK_ENTRIES:,} entries"
+                       if budget <= 0 else f"at most {limit} test folders are listed")
+                left.append({"name": sec.relative(self.root, d), "why": why})
+                break
+            listing = sec.list_folder(self.root, d, max_entries=min(sec.MAX_ENTRIES, budget))
+            budget -= len(listing.files) + len(listing.dirs) + len(listing.left_out)
+            rel = sec.relative(self.root, d)
+            data, gone = pick_data(listing)
+            left += [{"name": f"{rel}/{x['name']}".removeprefix("./"), "why": x["why"]}
+                     for x in gone]
+            has_tpl = any(p.name == TEMPLATE_NAME for p in listing.files)
+            if data or has_tpl:
+                out.append({"dir": rel, "files": [p.name for p in data], "template": has_tpl, "qa": _qa_done(self.root, d)})
+            if depth >= 3:
+                continue
+            for sub in listing.dirs:
+                real = sub.resolve()
+                if sub.name not in SKIP_DIRS and real not in seen:
+                    seen.add(real)
+                    queue.append((sub, depth + 1))
+        return out, sec.bounded_left_out(left, 100)
+
+
+def _qa_done(root: Path, folder: Path) -> bool:
+    """True when the folder holds ``qa/findings.json`` (inside the workspace)."""
+    try:
+        return sec.regular_file(root, folder / QA_DIR / "findings.json", "findings") is not None
+    except VehvalError:
+        return False
 
 
 # --------------------------------------------------------------------------- pages
@@ -175,33 +234,36 @@ def _page(name: str, request: Request, **ctx: Any) -> HTMLResponse:
 
 
 async def home(request: Request) -> Response:
+    from starlette.concurrency import run_in_threadpool
+
     from vehval.serve.catalog_view import find_catalogs
 
     wb: Workbench = request.app.state.workbench
-    cats = [sec.relative(wb.root, p) for p in find_catalogs(wb.root)]
-    return _page("home.html", request, tests=wb.tests(), catalogs=cats)
+    tests, left = await run_in_threadpool(wb.tests)
+    found, gone = await run_in_threadpool(find_catalogs, wb.root)
+    cats = [sec.relative(wb.root, p) for p in found]
+    return _page("home.html", request, tests=tests, catalogs=cats,
+                 left_out=sec.bounded_left_out(left + gone, 100))
 
 
 async def test_page(request: Request) -> Response:
     wb: Workbench = request.app.state.workbench
-    rel = request.query_params.get("dir", ".")
     try:
-        wb.bench(rel)
-    except sec.OutsideWorkspace as exc:
-        return _page("error.html", request, message=str(exc))
+        q = prm.parse_query(prm.DirQuery, request.query_params.multi_items())
+        wb.bench(q.dir)
     except VehvalError as exc:
         return _page("error.html", request, message=str(exc))
-    return _page("test.html", request, dir=rel)
+    return _page("test.html", request, dir=q.dir)
 
 
 async def catalog_page(request: Request) -> Response:
     wb: Workbench = request.app.state.workbench
-    rel = request.query_params.get("db", "")
     try:
-        sec.inside_workspace(wb.root, rel)
+        q = prm.parse_query(prm.CatalogQuery, request.query_params.multi_items())
+        sec.regular_file(wb.root, sec.inside_workspace(wb.root, q.db), q.db)
     except VehvalError as exc:
         return _page("error.html", request, message=str(exc))
-    return _page("catalog.html", request, db=rel)
+    return _page("catalog.html", request, db=q.db)
 
 
 async def static(request: Request) -> Response:
@@ -242,79 +304,75 @@ async def files(request: Request) -> Response:
 
 
 # --------------------------------------------------------------------------- API
-def _f(q: Any, key: str) -> float | None:
-    v = q.get(key)
-    if v in (None, "", "null"):
-        return None
-    try:
-        return float(v)
-    except ValueError:
-        raise InputFileError(f"{key}: not a number: {v[:40]!r}") from None
+def api_test(wb: Workbench, q: prm.DirQuery, body: None) -> dict:
+    """The test page's model (GET: reads only)."""
+    return {"dir": q.dir, **wb.bench(q.dir).overview()}
 
 
-def _n(q: Any) -> int:
-    v = _f(q, "n")
-    return 4000 if v is None else int(v)
+def api_channel(wb: Workbench, q: prm.ChannelQuery, body: None) -> dict:
+    return wb.bench(q.dir).channel(q.file, q.raw, q.t0, q.t1, q.n)
 
 
-def api_test(wb: Workbench, q: Any, body: dict) -> dict:
-    b = wb.bench(q.get("dir"))
-    return {"dir": q.get("dir"), **b.overview()}
+def api_signal(wb: Workbench, q: prm.SignalQuery, body: None) -> dict:
+    """One signal of the last QA run (409 before QA ran: a GET never runs it)."""
+    return wb.bench(q.dir).signal(q.name, q.t0, q.t1, q.n)
 
 
-def api_channel(wb: Workbench, q: Any, body: dict) -> dict:
-    return wb.bench(q.get("dir")).channel(q.get("file", ""), q.get("raw", ""), _f(q, "t0"),
-                                          _f(q, "t1"), _n(q))
-
-
-def api_signal(wb: Workbench, q: Any, body: dict) -> dict:
-    return wb.bench(q.get("dir")).signal(q.get("name", ""), _f(q, "t0"), _f(q, "t1"), _n(q))
-
-
-def api_save(wb: Workbench, q: Any, body: dict) -> dict:
-    b = wb.bench(q.get("dir"))
-    b.save_edits(body)
+def api_save(wb: Workbench, q: prm.DirQuery, body: prm.TemplateEdits) -> dict:
+    b = wb.bench(q.dir)
+    b.save_edits(body.edits())
     b.rerun()
-    return api_test(wb, q, body)
+    return api_test(wb, q, None)
 
 
-def api_run(wb: Workbench, q: Any, body: dict) -> dict:
-    wb.bench(q.get("dir")).rerun()
-    return api_test(wb, q, body)
+def api_run(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
+    wb.bench(q.dir).rerun()
+    return api_test(wb, q, None)
 
 
-def api_selection(wb: Workbench, q: Any, body: dict) -> dict:
-    b = wb.bench(q.get("dir"))
-    b.decide(str(body.get("signal") or ""), str(body.get("action") or ""),
-             str(body.get("reason") or ""))
+def api_selection(wb: Workbench, q: prm.DirQuery, body: prm.Decision) -> dict:
+    b = wb.bench(q.dir)
+    b.decide(body.signal, body.action, body.reason)
     b.rerun()
-    return api_test(wb, q, body)
+    return api_test(wb, q, None)
 
 
-def api_model(wb: Workbench, q: Any, body: dict) -> dict:
+def api_model(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
     from vehval.serve.model_view import model_overlay
 
-    return model_overlay(wb.bench(q.get("dir")))
+    return model_overlay(wb.bench(q.dir))
 
 
-def api_catalog(wb: Workbench, q: Any, body: dict) -> dict:
+def _report_of(wb: Workbench, base: Path, test_id: Any) -> str | None:
+    """A catalog test's ``tests/ID/report.html`` (relative), when it is a file of the
+    workspace."""
+    name = str(test_id)
+    if not name or name.startswith(".") or "/" in name or "\\" in name:
+        return None
+    path = base / "tests" / name / "report.html"
+    try:
+        return sec.relative(wb.root, path) if sec.regular_file(wb.root, path, name) else None
+    except VehvalError:
+        return None
+
+
+def api_catalog(wb: Workbench, q: prm.CatalogQuery, body: None) -> dict:
     from vehval.serve.catalog_view import rows
 
-    db = sec.inside_workspace(wb.root, q.get("db"))
-    out = rows(db, dict(q))
-    base = db.parent
+    db = sec.inside_workspace(wb.root, q.db)
+    sec.regular_file(wb.root, db, q.db)
+    out = rows(db, q.model_dump(exclude={"db"}, exclude_none=True))
     for r in out["rows"]:
-        rep = base / "tests" / str(r["test_id"]) / "report.html"
-        r["report"] = sec.relative(wb.root, rep) if rep.is_file() else None
+        r["report"] = _report_of(wb, db.parent, r["test_id"])
     return out
 
 
-def api_trace(wb: Workbench, q: Any, body: dict) -> dict:
+def api_trace(wb: Workbench, q: prm.TraceQuery, body: None) -> dict:
     from vehval.serve.catalog_view import test_traces
 
-    db = sec.inside_workspace(wb.root, q.get("db"))
-    return test_traces(wb.root, db, q.get("test", ""), q.get("q", "speed"), _n(q),
-                       per_phase=q.get("axis") == "phase")
+    db = sec.inside_workspace(wb.root, q.db)
+    sec.regular_file(wb.root, db, q.db)
+    return test_traces(wb.root, db, q.test, q.q, q.n, per_phase=q.axis == "phase")
 
 
 def create_app(workspace: str | Path, *, token: str | None = None,
@@ -334,13 +392,16 @@ def create_app(workspace: str | Path, *, token: str | None = None,
         Route("/", home), Route("/test", test_page), Route("/catalog", catalog_page),
         Route("/static/{name}", static), Route("/files/{path:path}", files),
         Route("/favicon.ico", lambda request: Response(status_code=204)),
-        Route("/api/test", _api(api_test)), Route("/api/channel", _api(api_channel)),
-        Route("/api/signal", _api(api_signal)),
-        Route("/api/template", _api(api_save), methods=["POST"]),
-        Route("/api/run", _api(api_run), methods=["POST"]),
-        Route("/api/selection", _api(api_selection), methods=["POST"]),
-        Route("/api/model", _api(api_model), methods=["POST"]),
-        Route("/api/catalog", _api(api_catalog)), Route("/api/catalog/trace", _api(api_trace)),
+        Route("/api/test", _api(api_test, prm.DirQuery)),
+        Route("/api/channel", _api(api_channel, prm.ChannelQuery)),
+        Route("/api/signal", _api(api_signal, prm.SignalQuery)),
+        Route("/api/template", _api(api_save, prm.DirQuery, prm.TemplateEdits), methods=["POST"]),
+        Route("/api/run", _api(api_run, prm.DirQuery, prm.NoBody), methods=["POST"]),
+        Route("/api/selection", _api(api_selection, prm.DirQuery, prm.Decision),
+              methods=["POST"]),
+        Route("/api/model", _api(api_model, prm.DirQuery, prm.NoBody), methods=["POST"]),
+        Route("/api/catalog", _api(api_catalog, prm.CatalogQuery)),
+        Route("/api/catalog/trace", _api(api_trace, prm.TraceQuery)),
     ]
     app = Starlette(routes=routes, middleware=[Middleware(_Guard)])
     app.state.workbench = Workbench(Path(workspace), token, extra_hosts)

@@ -4,12 +4,17 @@ A test folder holds the raw files of one test and (once saved) its ``template.ya
 bench proposes a template when there is none (what ``vehval template init`` writes), applies
 the edits of the page to the template's YAML (comments kept), and reruns import, QA and the
 results stage, writing what ``vehval qa FOLDER/FILES -t template.yaml -o FOLDER/qa`` writes.
+
+Every file the bench lists or reads (data files, ``template.yaml``, ``qa/``) is resolved and
+must stay inside the workspace (:mod:`.security`); only a POST runs QA or writes: a view of a
+test whose QA has not run says so (:class:`QANotRun`) instead of running it.
 """
 
 from __future__ import annotations
 
 import fnmatch
 import json
+import os
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -18,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from vehval.errors import ConfigError, InputFileError, VehvalError
+from vehval.serve import security as sec
 from vehval.serve.series import series
 from vehval.serve.yamlcomments import carry_comments
 
@@ -30,15 +36,39 @@ NOT_DATA = {"clean.parquet", "validated.parquet", "template.yaml", "template_fin
 RAW_EXT = {".txt", ".csv", ".tsv", ".dat", ".mf4", ".mdf", ".parquet", ".pq"}
 #: Finding kinds shown as unit hints beside a channel.
 UNIT_KINDS = ("unit", "unit_suspect")
+#: Most data files of one test folder read (by name); a folder holding more is not one test.
+MAX_DATA_FILES = 64
 
 
-def data_files(folder: Path, template: Any = None) -> list[Path]:
-    """Raw data files of a test folder (the template's ``match`` globs when it has them)."""
-    files = sorted(p for p in folder.iterdir() if p.is_file() and not p.name.startswith("."))
+class QANotRun(VehvalError):
+    """A view needing the test's QA run before the workbench has run it (answered 409: the
+    page runs QA with a POST, then asks again; a GET never runs it)."""
+
+
+def pick_data(listing: sec.Listing, template: Any = None) -> tuple[list[Path], list[dict]]:
+    """Raw data files of a listed test folder (the template's ``match`` globs when it has
+    them), at most :data:`MAX_DATA_FILES`; and the listing's left-out entries plus the count
+    of data files beyond the bound (``[{"name", "why"}]``)."""
+    files = listing.files
     globs = [f.match for f in template.files if f.match] if template is not None else []
     if globs and len(globs) == len(template.files):
-        return [p for p in files if any(fnmatch.fnmatch(p.name, g) for g in globs)]
-    return [p for p in files if p.suffix.lower() in RAW_EXT and p.name.lower() not in NOT_DATA]
+        data = [p for p in files if any(fnmatch.fnmatch(p.name, g) for g in globs)]
+    else:
+        data = [p for p in files if p.suffix.lower() in RAW_EXT and p.name.lower() not in NOT_DATA]
+    left = list(listing.left_out)
+    if len(data) > MAX_DATA_FILES:
+        left.append({"name": f"({len(data) - MAX_DATA_FILES:,} more data files)",
+                     "why": f"too many files: the first {MAX_DATA_FILES} data files (by name) "
+                            "are read; put each test's files in a folder of their own"})
+        data = data[:MAX_DATA_FILES]
+    return data, left
+
+
+def data_files(folder: Path, template: Any = None,
+               root: Path | None = None) -> tuple[list[Path], list[dict]]:
+    """Raw data files of a test folder inside the workspace ``root`` (default: the folder
+    itself) and what was left out (:func:`pick_data`)."""
+    return pick_data(sec.list_folder(root or folder, folder), template)
 
 
 @dataclass
@@ -58,10 +88,13 @@ class Bench:
     ----------
     folder : Path
         The test folder (inside the workspace, resolved).
+    root : Path, optional
+        The workspace (resolved; default: the folder): nothing outside it is read.
     """
 
-    def __init__(self, folder: Path) -> None:
+    def __init__(self, folder: Path, root: Path | None = None) -> None:
         self.folder = folder
+        self.root = root or folder
         self.lock = threading.RLock()
         self._raw: dict[str, tuple[float, Any]] = {}
         self.run: Any = None
@@ -73,14 +106,29 @@ class Bench:
     def template_path(self) -> Path:
         return self.folder / TEMPLATE_NAME
 
+    def saved(self) -> bool:
+        """True when the folder holds its ``template.yaml`` (refused when it links outside)."""
+        return sec.regular_file(self.root, self.template_path, TEMPLATE_NAME) is not None
+
     def template_text(self) -> str:
         """The saved template, or the proposal ``vehval template init`` would write."""
-        if self.template_path.is_file():
+        if self.saved():
             return self.template_path.read_text(encoding="utf-8")
         from vehval.io.propose import propose_template
 
-        tmpl, _ = propose_template(data_files(self.folder))
+        files, left = data_files(self.folder, None, self.root)
+        if not files:
+            why = "; ".join(f"{x['name']}: {x['why']}" for x in left[:5])
+            raise InputFileError(f"{self._label()}: no raw data file in the folder"
+                                 + (f" (left out: {why})" if why else "")
+                                 + ": put the test's raw files (D3 text, CSV, MDF4, Parquet) "
+                                 "in it")
+        tmpl, _ = propose_template(files)
         return _placeholder_text(tmpl)
+
+    def _label(self) -> str:
+        return sec.relative(self.root, self.folder) if self.folder != self.root else \
+            "the workspace folder"
 
     def template(self) -> Any:
         """The template model (saved or proposed), validated as ``vehval`` loads it."""
@@ -93,12 +141,16 @@ class Bench:
         from vehval.io.readers import read_raw
 
         path = self.folder / name
-        if path.parent != self.folder or not path.is_file():
-            raise InputFileError(f"{name}: not a data file of {self.folder.name}")
-        mtime = path.stat().st_mtime
+        if not name or name.startswith(".") or "\x00" in name or "/" in name or "\\" in name \
+                or path.parent != self.folder:
+            raise InputFileError(f"{name[:200]}: not a data file of {self.folder.name}")
+        real = sec.regular_file(self.root, path, name)
+        if real is None:
+            raise InputFileError(f"{name[:200]}: not a data file of {self.folder.name}")
+        mtime = real.stat().st_mtime
         hit = self._raw.get(name)
         if hit is None or hit[0] != mtime:
-            hit = (mtime, read_raw(path))
+            hit = (mtime, read_raw(real))
             self._raw[name] = hit
         return hit[1]
 
@@ -167,12 +219,17 @@ class Bench:
 
         with self.lock:
             try:
-                if not self.template_path.is_file():
+                if not self.saved():
                     raise ConfigError(f"{TEMPLATE_NAME}: save the template before running QA")
+                self._qa_dir()
                 from vehval.io.template import load_template
 
                 tmpl = load_template(self.template_path)
-                run = TestRun.load(data_files(self.folder, tmpl), tmpl)
+                files, _ = data_files(self.folder, tmpl, self.root)
+                if not files:
+                    raise InputFileError(f"{self._label()}: no raw data file the template "
+                                         "matches in the folder")
+                run = TestRun.load(files, tmpl)
                 qa = run.qa()
                 results = run.results().results
                 with atomic_dir(self.folder / QA_DIR) as stage:
@@ -181,6 +238,8 @@ class Bench:
                     write_test(qa.result.validated, stage / "validated.parquet")
                     save_final_template(run.template, qa.result.selection,
                                         stage / "template_final.yaml")
+            except sec.OutsideWorkspace:
+                raise
             except VehvalError as exc:
                 self.state = BenchState(error=str(exc), findings=self.state.findings,
                                         results=self.state.results)
@@ -190,16 +249,26 @@ class Bench:
                                     notes=list(qa.document.get("notes") or []))
             return self.state
 
+    def _qa_dir(self) -> Path:
+        """``qa/`` of the folder: absent or a folder of its own (never a link, a file...)."""
+        d = self.folder / QA_DIR
+        if os.path.lexists(d) and (os.path.islink(d) or not d.is_dir()):
+            raise InputFileError(f"{QA_DIR}: a symlink or a file, not the test's own folder: "
+                                 "refused: remove it so QA can write its outputs there")
+        return d
+
     def _load_outputs(self) -> None:
-        """The last QA outputs of the folder (``qa/``), when present."""
+        """The last QA outputs of the folder (``qa/``), when present (never through a link
+        leading out of the workspace)."""
         from vehval.safe_yaml import load_json
 
-        d = self.folder / QA_DIR
         try:
-            if (d / "findings.json").is_file():
-                self.state.findings = load_json((d / "findings.json").read_text(encoding="utf-8"))
-            if (d / "results.json").is_file():
-                self.state.results = load_json((d / "results.json").read_text(encoding="utf-8"))
+            d = self._qa_dir()
+            for name in ("findings.json", "results.json"):
+                path = sec.regular_file(self.root, d / name, f"{QA_DIR}/{name}")
+                if path is not None:
+                    doc = load_json(path.read_text(encoding="utf-8"))
+                    setattr(self.state, name.split(".")[0], doc)
         except VehvalError as exc:
             self.state.error = str(exc)
 
@@ -207,11 +276,16 @@ class Bench:
     def overview(self) -> dict:
         """The page's model: files and channels with their mapping and hints, findings,
         selection, headline result, error."""
+        saved = self.saved()  # a template linked out of the workspace is refused here (403)
+        listing = sec.list_folder(self.root, self.folder)
+        left = listing.left_out
         try:
             tmpl = self.template()
-            files = data_files(self.folder, tmpl if self.template_path.is_file() else None)
+            files, left = pick_data(listing, tmpl if saved else None)
+        except sec.OutsideWorkspace:
+            raise
         except VehvalError as exc:
-            return {"error": str(exc), "files": [], "saved": self.template_path.is_file()}
+            return {"error": str(exc), "files": [], "saved": saved, "left_out": left}
         findings = (self.state.findings or {}).get("findings") or []
         hints: dict[str, list[dict]] = {}
         for f in findings:
@@ -223,7 +297,7 @@ class Bench:
             out_files.append(self._file_view(i, entry, path, hints))
         from vehval.fuels import known_fuels
 
-        return {"saved": self.template_path.is_file(), "files": out_files,
+        return {"saved": saved, "files": out_files, "left_out": left,
                 "fuel": tmpl.fuel if isinstance(tmpl.fuel, str) or tmpl.fuel is None else "explicit",
                 "fuels": list(known_fuels()), "findings": findings,
                 "selection": _with_user_drops((self.state.findings or {}).get("selection") or {},
@@ -290,8 +364,19 @@ class Bench:
         return {"file": file, "raw": raw_name, "unit": unit, **series(t, y, t0, t1, n)}
 
     def signal(self, name: str, t0: float | None, t1: float | None, n: int) -> dict:
-        """Samples of one imported signal [SI], on the test's aligned time, for triage."""
-        run = self._ensure_run()
+        """Samples of one imported signal [SI], on the test's aligned time, for triage.
+
+        Raises
+        ------
+        QANotRun
+            QA has not run on the test since the workbench started (a view never runs it).
+        """
+        run = self.run
+        if run is None:
+            last = f" (the last run stopped: {self.state.error})" if self.state.error else ""
+            raise QANotRun(f"{self._label()}: QA has not run on this test since the workbench "
+                           f"started{last}: run it first (the page's Rerun QA, POST /api/run), "
+                           "then ask again")
         test = run.qa().validated
         sig = test[name] if name in test else None
         if sig is None and name in run.test:

@@ -8,6 +8,7 @@ in the workspace), cached while the files are unchanged.
 
 from __future__ import annotations
 
+import os
 import threading
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from vehval.errors import InputFileError, VehvalError
-from vehval.serve.security import inside_workspace
+from vehval.serve.security import classify, inside_workspace, regular_file
 from vehval.serve.series import series
 
 #: Catalog columns listed on the page (metrics [SI] and the fuel economy [mpg]).
@@ -38,16 +39,24 @@ _db_lock = threading.Lock()
 _tests: dict[tuple, Any] = {}
 
 
-def find_catalogs(root: Path, limit: int = 200) -> list[Path]:
-    """``catalog.duckdb`` files under the workspace (at most ``limit``, 4 levels deep)."""
+def find_catalogs(root: Path, limit: int = 200) -> tuple[list[Path], list[dict]]:
+    """``catalog.duckdb`` files under the workspace (at most ``limit``, 4 levels deep), and
+    those left out (``[{"name", "why"}]``: a link leading out of the workspace, a loop...)."""
     out: list[Path] = []
+    left: list[dict] = []
     for depth in range(0, 4):
         for p in sorted(root.glob("/".join(["*"] * depth + ["catalog.duckdb"]))):
-            if p.is_file() and not any(part.startswith(".") for part in p.relative_to(root).parts):
-                out.append(p)
-                if len(out) >= limit:
-                    return out
-    return out
+            rel = p.relative_to(root)
+            if any(part.startswith(".") for part in rel.parts):
+                continue
+            kind, _, why = classify(root, p)
+            if kind != "file":
+                left.append({"name": rel.as_posix(), "why": why or "a folder, not a catalog"})
+                continue
+            out.append(p)
+            if len(out) >= limit:
+                return out, left
+    return out, left
 
 
 def rows(db: Path, filters: dict[str, str]) -> dict:
@@ -88,10 +97,15 @@ def _test_record(db: Path, test_id: str) -> tuple[list[str], dict]:
 
 
 def _workspace_path(root: Path, p: str) -> Path:
-    full = Path(p).resolve()
+    """A file the catalog records, read only when it resolves to a regular file inside the
+    workspace (a loop, a FIFO or a link leading out is refused with one line)."""
+    full = Path(os.path.realpath(p))  # never raises: a loop is named by the checks below
     if not full.is_relative_to(root):
         raise InputFileError(f"{Path(p).name}: recorded outside the workspace: not read")
-    return inside_workspace(root, full.relative_to(root).as_posix())
+    path = inside_workspace(root, full.relative_to(root).as_posix())
+    if regular_file(root, path, Path(p).name) is None:
+        raise InputFileError(f"{Path(p).name}: recorded in the catalog, not found")
+    return path
 
 
 def _per_phase(test: Any, time: np.ndarray, values: np.ndarray, n: int) -> list[dict]:

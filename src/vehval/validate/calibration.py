@@ -62,8 +62,8 @@ from vehval.validate.validation import validate_test
 from vehval.vehicle import BLOCKS, Vehicle, load_vehicle
 
 __all__ = ["HOLDOUT_TOL_POINTS", "MODES", "PENALTY", "CalibrationResult", "calibrate",
-           "default_bounds", "holdout_worse", "start_values", "vehicle_with_values",
-           "write_vehicle_yaml"]
+           "check_start", "default_bounds", "holdout_worse", "start_limits", "start_values",
+           "vehicle_with_values", "write_vehicle_yaml"]
 
 PENALTY = 1e6  # objective of an invalid parameter combination
 MODES = ("traces", "batch")
@@ -103,11 +103,44 @@ def default_bounds(vehicle: Vehicle, name: str, start: float, rel: float = 0.5) 
     return max(start - span, lo), min(start + span, hi)
 
 
-def start_values(start: Any) -> dict[str, float]:
+#: A given start value lies within this factor of the vehicle's own value in magnitude: a
+#: start refines the model of this car (1e300 W is no controller threshold of any car)
+START_FACTOR = 10.0
+#: [SI] largest magnitude of a start when the vehicle's value is 0
+START_MAX_ABS = 1e9
+
+
+def start_limits(vehicle: Vehicle, name: str) -> tuple[float, float]:
+    """Closed range a given start value of parameter ``name`` must lie in: the parameter's
+    own constraints (the vehicle model's), within ``START_FACTOR`` x the magnitude of the
+    vehicle's value (``START_MAX_ABS`` when that value is 0)."""
+    cap = START_FACTOR * abs(_value_of(vehicle, name)) or START_MAX_ABS
+    lo, hi = _field_limits(vehicle, name)
+    return max(lo, -cap), min(hi, cap)
+
+
+def check_start(vehicle: Vehicle, given: dict[str, float], names: Sequence[str]) -> None:
+    """Refuse, naming the parameter and its range, a given start value of a tuned parameter
+    outside :func:`start_limits` (a start is written into the calibrated vehicle when the
+    search finds nothing better)."""
+    for n in names:
+        if n not in given:
+            continue
+        lo, hi = start_limits(vehicle, n)
+        if not lo <= given[n] <= hi:
+            raise ConfigError(f"calibration start of '{n}' {given[n]:.6g} is outside its "
+                              f"bounds {lo:.6g} to {hi:.6g} (the model's limits, within "
+                              f"{START_FACTOR:g} x the vehicle's value): give a start inside")
+
+
+def start_values(start: Any, names: Sequence[str] = ()) -> dict[str, float]:
     """Start values from a dict (dotted or controller keys) or an analysis result.
 
     An analysis result is anything with ``to_dict()`` (or a dict) holding a ``controller``
-    mapping of estimated controller parameters in vehicle-file keys.
+    mapping of estimated controller parameters in vehicle-file keys. A number that is not
+    finite (NaN, Infinity) is refused naming its key, and so is any other value (text) of a
+    parameter in ``names`` (dotted: the tuned ones); other text entries (notes) and ``null``
+    are not start values.
     """
     if start is None:
         return {}
@@ -120,8 +153,12 @@ def start_values(start: Any) -> dict[str, float]:
     for k, v in src.items():
         if isinstance(v, dict) and "value" in v:  # {"value": x, ...} entries
             v = v["value"]
-        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
-            out[_full_name(k)] = float(v)
+        number = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if v is None or not (number or _full_name(k) in names):
+            continue
+        if not number or not math.isfinite(v):
+            raise ConfigError(f"calibration start of '{k}': {v!r} is not a finite number")
+        out[_full_name(k)] = float(v)
     return out
 
 
@@ -421,7 +458,8 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         raise ConfigError("calibration needs at least one parameter (e.g. controller.engine_on_power_w)")
     if len(set(names)) != len(names):
         raise ConfigError(f"calibration parameters repeated: {', '.join(names)}")
-    given = start_values(start)
+    given = start_values(start, names)
+    check_start(veh0, given, names)
     x0 = {n: given.get(n, _value_of(veh0, n)) for n in names}
     notes = []
     if given:

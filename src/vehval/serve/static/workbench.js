@@ -37,7 +37,7 @@
     const r = await fetch(path + "?" + qs(params || {}), opts);
     let data;
     try { data = await r.json(); } catch (e) { data = {error: "HTTP " + r.status}; }
-    if (!r.ok) throw new Error(data.error || ("HTTP " + r.status));
+    if (!r.ok) { const e = new Error(data.error || ("HTTP " + r.status)); e.status = r.status; throw e; }
     return data;
   }
   function fmt(x, d) { return (x === null || x === undefined) ? "" : (typeof x === "number" ? x.toFixed(d === undefined ? 3 : d) : String(x)); }
@@ -121,6 +121,10 @@
       for (const f of m.fuels || []) fuel.append(el("option", {value: f, text: f, selected: m.fuel === f}));
       if (m.fuel && !(m.fuels || []).includes(m.fuel)) fuel.append(el("option", {value: m.fuel, text: m.fuel, selected: true}));
       document.getElementById("saved-note").textContent = m.saved ? "" : "(proposed by template init: not saved yet)";
+      const lo = document.getElementById("left-out");
+      lo.textContent = ""; lo.hidden = !(m.left_out && m.left_out.length);
+      if (!lo.hidden) lo.append(el("b", {text: "Left out of this folder (never read): "}));
+      for (const x of m.left_out || []) lo.append(el("div", {class: "left-out", text: x.name + ": " + x.why}));
       const files = document.getElementById("files");
       files.textContent = "";
       for (const f of m.files) {
@@ -210,7 +214,7 @@
       else { t0 = null; t1 = null; }
       const fetchers = names.map(n => async (a, b) => {
         try {
-          const s = await api("/api/signal", {dir, name: n, t0: a, t1: b, n: N});
+          const s = await signal({dir, name: n, t0: a, t1: b, n: N});
           return Object.assign(trace(s, n + " [" + s.unit + "]"), {exact: s.exact});
         } catch (e) { return {type: "scatter", x: [], y: [], name: n + " (not available)", exact: true}; }
       });
@@ -225,6 +229,20 @@
       try { render(await p); } catch (e) { showError(e.message); } finally { b.hidden = true; document.body.dataset.busy = "0"; document.body.dataset.runs = String(Number(document.body.dataset.runs || 0) + 1); }
     }
     function decide(signal, action, reason) { busy(api("/api/selection", {dir}, {signal, action, reason})); }
+    // QA runs only on a POST: a signal asked before this server ran QA answers 409, and the
+    // page runs it (one run shared by every plot waiting), then asks again
+    let running = null;
+    function runQA() {
+      if (!running) running = busy(api("/api/run", {dir}, {})).finally(() => { running = null; });
+      return running;
+    }
+    async function signal(params) {
+      try { return await api("/api/signal", params); } catch (e) {
+        if (e.status !== 409) throw e;
+        await runQA();
+        return await api("/api/signal", params);
+      }
+    }
 
     document.getElementById("save").addEventListener("click", () => {
       const edits = {channels: [], sources: {}, fuel: document.getElementById("fuel").value};
@@ -244,7 +262,7 @@
       if ((model.fuel || "") === edits.fuel) delete edits.fuel;
       busy(api("/api/template", {dir}, edits));
     });
-    document.getElementById("rerun").addEventListener("click", () => busy(api("/api/run", {dir}, {})));
+    document.getElementById("rerun").addEventListener("click", () => runQA());
     document.getElementById("run-model").addEventListener("click", async () => {
       const out = document.getElementById("model-out");
       out.textContent = "simulating...";
