@@ -461,8 +461,10 @@ def model_uncertainty_by_cycle(veh: Any, cycles: Sequence[str], method: str = "l
     the vehicle as filed on the named cycle, dt 1 s); None where the cycle cannot be run by
     name (a trace without a packaged cycle) or ``method`` is ``none``; and notes."""
     from vehval.errors import VehvalError
-    from vehval.sim.model_uncertainty import figure_uncertainty
+    from vehval.sim.model_uncertainty import check_method, figure_uncertainty
 
+    if method != "none":
+        check_method(method, draws)
     out: dict[str, float | None] = {}
     notes: list[str] = []
     for cyc in dict.fromkeys(cycles):
@@ -471,9 +473,7 @@ def model_uncertainty_by_cycle(veh: Any, cycles: Sequence[str], method: str = "l
             continue
         try:
             fu = figure_uncertainty(veh, cyc, method=method, draws=draws)
-        except VehvalError as exc:
-            if "draws is refused" in str(exc) or "unknown method" in str(exc):
-                raise
+        except VehvalError as exc:   # e.g. a trace named after no packaged cycle
             out[cyc] = None
             notes.append(f"model uncertainty on '{cyc}': {exc}; U_model = 0")
             continue
@@ -495,6 +495,10 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
 
     if not runs:
         raise ConfigError("no test to validate")
+    if model_uncertainty != "none":   # refused before any simulation
+        from vehval.sim.model_uncertainty import check_method
+
+        check_method(model_uncertainty, draws)
     veh = runs[0].vehicle
     if veh is None:
         raise ConfigError("validation needs a vehicle model: pass --vehicle or set 'vehicle:' "

@@ -57,7 +57,7 @@ from vehval.epa.procedures import (
     road_load_without_b,
 )
 from vehval.epa.reader import EpaTest
-from vehval.epa.verdicts import judge
+from vehval.epa.verdicts import check_model_u, judge
 from vehval.errors import ConfigError
 from vehval.fuels import (
     combine_mpg,
@@ -525,6 +525,7 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         ``linear``, ``monte_carlo`` (``draws`` draws) or ``none`` (U_model = 0, no extra
         runs: the default, for callers that only need the errors).
     """
+    check_model_u(model_uncertainty, draws)
     veh = load_vehicle(vehicle)
     # the tests on the vehicle's fuel: a diesel's on diesel, any other's on gasoline
     fuel = resolve_fuel(vehicle=veh)

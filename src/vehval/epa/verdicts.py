@@ -34,7 +34,7 @@ from typing import Any
 
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
-from vehval.sim.model_uncertainty import FigureUncertainty, figure_uncertainty
+from vehval.sim.model_uncertainty import FigureUncertainty, check_method, figure_uncertainty
 from vehval.sim.sensitivity import PROCEDURE_CYCLE
 from vehval.sim.simulate import architecture
 from vehval.uncertainty import InsufficientDataError, normalised_error, set_verdict
@@ -84,12 +84,19 @@ def measurement_precision(procedure: str, family: str, vehicle_id: str, originat
             "provenance": d.provenance}
 
 
+def check_model_u(method: str, draws: int) -> None:
+    """Refuse an unknown ``--model-uncertainty`` or too few draws (before any simulation)."""
+    if method not in MODEL_U_METHODS:
+        raise ConfigError(f"--model-uncertainty {method.replace('_', '-')}: use one of "
+                          f"{', '.join(m.replace('_', '-') for m in MODEL_U_METHODS)}")
+    if method != "none":
+        check_method(method, draws)
+
+
 def model_uncertainties(veh: Vehicle, procedures: set[str], method: str = "linear",
                         draws: int = 200, seed: int = 0) -> dict[str, FigureUncertainty | None]:
     """U_model of each procedure's cycle (None: no cycle, or ``method`` ``none``)."""
-    if method not in MODEL_U_METHODS:
-        raise ConfigError(f"--model-uncertainty {method}: use one of "
-                          f"{', '.join(MODEL_U_METHODS)}")
+    check_model_u(method, draws)
     out: dict[str, FigureUncertainty | None] = {}
     for proc in sorted(procedures):
         cyc = PROCEDURE_CYCLE.get(proc)

@@ -159,6 +159,18 @@ def _monte_carlo(veh: Vehicle, unc: list[Uncertain], cyc: Any, dt: float, soc0: 
     return out[np.isfinite(out)]
 
 
+def check_method(method: str, draws: int) -> None:
+    """Refuse an unknown method or a Monte Carlo of fewer than :data:`MIN_DRAWS` draws
+    (ConfigError naming the count and the sampling error it would have)."""
+    if method not in METHODS:
+        raise ConfigError(f"model uncertainty: unknown method '{method}' (use "
+                          f"{', '.join(METHODS)})")
+    if method == "monte_carlo" and draws < MIN_DRAWS:
+        raise ConfigError(f"model uncertainty: a Monte Carlo of {draws} draws is refused: at "
+                          f"least {MIN_DRAWS} are needed (the relative sampling error of U "
+                          f"would be {100 / math.sqrt(2 * max(draws - 1, 1)):.0f} %)")
+
+
 def figure_uncertainty(vehicle: Vehicle | str, cycle: str | Cycle, *, method: str = "linear",
                        draws: int = 200, dt: float = 1.0, seed: int = 0, workers: int = 2,
                        params: Sequence[str] | None = None) -> FigureUncertainty:
@@ -187,13 +199,7 @@ def figure_uncertainty(vehicle: Vehicle | str, cycle: str | Cycle, *, method: st
         An unknown method, fewer than :data:`MIN_DRAWS` draws, or a parameter named in
         ``params`` without an uncertainty.
     """
-    if method not in METHODS:
-        raise ConfigError(f"model uncertainty: unknown method '{method}' (use "
-                          f"{', '.join(METHODS)})")
-    if method == "monte_carlo" and draws < MIN_DRAWS:
-        raise ConfigError(f"model uncertainty: a Monte Carlo of {draws} draws is refused: at "
-                          f"least {MIN_DRAWS} are needed (the relative sampling error of U "
-                          f"would be {100 / math.sqrt(2 * max(draws - 1, 1)):.0f} %)")
+    check_method(method, draws)
     veh = load_vehicle(vehicle)
     name = cycle if isinstance(cycle, str) else cycle.name
     unc = uncertain_parameters(veh, params)
