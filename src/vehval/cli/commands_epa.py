@@ -230,8 +230,16 @@ def validate_cmd(
     outdir: Path | None = typer.Option(None, "-o", "--output", callback=output_dir,
                                        help="Directory for report.html, epa_validation.json "
                                             "and epa_validation.csv."),
+    model_u: str = typer.Option("linear", "--model-uncertainty",
+                                help="U_model of the normalised error: linear (the parameter "
+                                     "ranges one at a time), monte_carlo, or none (U_model = 0)."),
+    draws: int = typer.Option(200, "--draws", callback=bounded("mc_sensitivity"),
+                              help="Monte Carlo draws (at least 100)."),
 ) -> None:
-    """Simulate each selected EPA test with its own weight and road load; compare per bag."""
+    """Simulate each selected EPA test with its own weight and road load; compare per bag.
+
+    Each figure gets its normalised error En (|En| <= 1: consistent) and the held-out
+    figures a set verdict (docs/validation.md)."""
     from vehval import jsonsafe
     from vehval.cli.progress import bar
     from vehval.epa.validation import validate_tests
@@ -242,7 +250,8 @@ def validate_cmd(
                       writes=["report.html", "epa_validation.json", "epa_validation.csv"])
     with bar("epa validate: simulating tests", as_json=as_json):
         every: list = []
-        val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every)
+        val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every,
+                             model_uncertainty=model_u.replace("-", "_"), draws=draws)
     if not val.predictions:
         from collections import Counter
 
@@ -271,14 +280,14 @@ def validate_cmd(
     fe = _fe_display()
     wt = max([14, *(len(c.test) for c in val.comparisons)])
     typer.echo(f"{'test':{wt}s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
-               f"{'err %':>6} {'batt %':>6} {'sample':9s} judged   (pred, meas: {fe[0]}; "
-               "err: fuel economy, pred / meas mpg - 1)")
+               f"{'err %':>6} {'En':>6} {'batt %':>6} {'sample':9s} judged   (pred, meas: "
+               f"{fe[0]}; err: fuel economy, pred / meas mpg - 1; En: normalised error)")
     for c in val.comparisons:
         batt = share_text(c.battery_share)
         typer.echo(f"{c.test:{wt}s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
                    f"{_fmt(fe[1](c.predicted_mpg), fe[2]):>6} "
                    f"{_fmt(fe[1](c.measured_mpg), fe[2]):>6} {100 * c.error:+6.1f} "
-                   f"{batt:>6} {_sample_text(c):9s} {_judged_text(c)}")
+                   f"{_en_text(c):>6} {batt:>6} {_sample_text(c):9s} {_judged_text(c)}")
     st = val.stats()
     for p in val.predictions:
         if p.list_check is not None and not p.list_check.ok:
@@ -300,11 +309,47 @@ def validate_cmd(
     if st["n_judged_in_sample"]:
         typer.echo("in-sample (the vehicle file was calibrated on these tests; not a "
                    "prediction): " + _stats_text(val.stats(in_sample=True)))
+    for line in _verdict_lines(val):
+        typer.echo(line)
     if any(c.battery_share is not None for c in val.comparisons):
         typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the "
                    "model (J1711 balances the whole test, not each bag)")
     if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _en_text(c) -> str:
+    """``+0.42``, ``+0.42?`` when uninformative, ``-`` without an En."""
+    if c.en is None or not math.isfinite(c.en):
+        return "-"
+    return f"{c.en:+.2f}" + ("?" if c.uninformative else "")
+
+
+def _verdict_lines(val) -> list[str]:
+    """The uncertainties behind En and the set verdict of the held-out figures."""
+    out = [f"note: {n}" for n in val.notes]
+    for proc, f in sorted(val.model_uncertainty.items()):
+        if f is not None and f["method"] != "none":
+            extra = (f", {f['n_draws']} draws, sampling error {100 * f['sampling_error_rel']:.0f}"
+                     " % of U" if f["n_draws"] else "")
+            out.append(f"U_model {proc} ({f['figure']}): {100 * f['U_rel']:.2f} % (k = 2, "
+                       f"{f['method'].replace('_', ' ')}{extra})")
+    bases = sorted({c.precision["basis"] for c in val.comparisons if c.precision})
+    out += [f"U_meas: {b}" for b in bases]
+    if any(c.uninformative for c in val.comparisons):
+        out.append("En?: uninformative, the combined U exceeds 10 % of the measured figure")
+    sv = val.set_verdict
+    if sv is None:
+        out.append(f"set verdict: none ({val.set_verdict_note})")
+        return out
+    lo, hi = sv["mean_error_ci_pct"]
+    clo, chi = sv["coverage_ci"]
+    out.append(f"set verdict (held-out, one figure per test, n = {sv['n']}): {sv['verdict']}; "
+               f"mean error {sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}] (scatter "
+               f"explains {sv['bias_limit_pct']:.2f} %); |En| <= 1 for {sv['n_consistent']}/"
+               f"{sv['n']} (coverage [{100 * clo:.0f}, {100 * chi:.0f}] %, target 95 %)")
+    out += [f"  {n}" for n in sv["notes"]]
+    return out
 
 
 def _sample_text(c) -> str:

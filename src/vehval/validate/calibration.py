@@ -46,9 +46,10 @@ from vehval.errors import ConfigError
 from vehval.jsonsafe import clean
 from vehval.sim.simulate import simulate
 from vehval.test import Test
+from vehval.uncertainty import InsufficientDataError, normalised_error, set_verdict
 from vehval.validate.conditions import full_name as _full_name
 from vehval.validate.conditions import vehicle_variant as variant
-from vehval.validate.ladder import errors_of
+from vehval.validate.ladder import LadderEntry, errors_of, judge_fuel
 from vehval.validate.objective import (
     DEFAULT_SIGNALS,
     Target,
@@ -239,6 +240,23 @@ class CalibrationResult:
         """Write the calibrated vehicle YAML atomically; it loads with ``load_vehicle``."""
         return write_vehicle_yaml(self.calibrated_vehicle(), path, "vehval calibrate")
 
+    def holdout_verdict(self) -> tuple[dict[str, Any] | None, str]:
+        """Set verdict (:func:`vehval.uncertainty.set_verdict`) of the held-out tests after
+        calibration, from their fuel En; (None, reason) with fewer than 3."""
+        judged, s_rs = [], []
+        for tid in self.holdout:
+            a = self.after.get(tid, {})
+            if self.in_sample(tid) or a.get("en") is None:
+                continue
+            judged.append(normalised_error(a["fuel_sim_kg"], a["fuel_test_kg"], 0.0,
+                                           a["u_meas_kg"], label=tid))
+            s_rs.append(a["s_r"] or 0.0)
+        try:
+            s_r = math.sqrt(sum(x * x for x in s_rs) / len(s_rs)) if s_rs else 0.0
+            return set_verdict(judged, s_r=s_r).to_dict(), ""
+        except InsufficientDataError as exc:
+            return None, str(exc)
+
     def rows(self) -> list[list[Any]]:
         """[test, role, fuel err before %, after %, SOC err before %, after %, engine agreement
         before %, after %, sample ("in-sample" or "held-out")]."""
@@ -282,7 +300,9 @@ class CalibrationResult:
             "stats": self.sample_stats(), "stats_in_sample": self.sample_stats(in_sample=True),
             "prior_calibration_tests": self.prior,
             "provenance": {n: self.provenance(n) for n in self.parameters},
-            "history": self.history, "tables": self.tables()})
+            "history": self.history, "tables": self.tables(),
+            "set_verdict_holdout": self.holdout_verdict()[0],
+            "set_verdict_holdout_note": self.holdout_verdict()[1]})
 
 
 def _sample_note(held: dict[str, Any], ins: dict[str, Any]) -> str:
@@ -515,7 +535,13 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
 
 
 def _errors(v) -> dict[str, float]:
+    """The ladder's errors of one validation, the signed ones, and the normalised error of
+    the fuel mass (``en``, ``u_meas_kg``, ``s_r``; U_model = 0: the tuned values carry no
+    stated range)."""
     e = errors_of(v.comparison)
+    entry = LadderEntry(v.comparison.test_id, v.comparison.cycle, "", dict(e), True)
+    judge_fuel(entry, v.comparison, None, "hybrid")
+    e["en"], e["u_meas_kg"], e["s_r"] = entry.en, entry.u_meas_kg, entry.s_r  # type: ignore[assignment]  # None: no fuel
     e["fuel_signed_pct"] = v.comparison.fuel_error * 100.0
     e["soc_final_signed_pct"] = v.comparison.soc_final_error * 100.0
     return e
