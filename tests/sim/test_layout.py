@@ -3,6 +3,11 @@ packed from its vehicle-file key and read back at its own position."""
 
 from __future__ import annotations
 
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -71,3 +76,18 @@ def test_conventional_parameters_read_back():
     k = layout.CONV_PARAMS.index("warm_frac")
     assert conv_param_vector(veh)[k] == 0.0
     assert conv_param_vector(veh, cold_start=True)[k] == veh.engine.warmup_fuel_fraction
+
+
+def test_generated_indices_are_current_plain_constants():
+    """indices.py is what scripts/sim_indices.py writes from the layout today, and holds only
+    plain ``NAME = int`` assignments (no generated globals: a reader, grep and mypy see each)."""
+    root = Path(__file__).resolve().parents[2]
+    run = subprocess.run([sys.executable, str(root / "scripts" / "sim_indices.py"), "--check"],
+                         capture_output=True, text=True, cwd=root)
+    assert run.returncode == 0, run.stdout + run.stderr
+    tree = ast.parse(Path(indices.__file__).read_text(encoding="utf-8"))
+    body = tree.body[1:]                                   # after the docstring
+    assert body and all(isinstance(s, ast.Assign) and isinstance(s.value, ast.Constant)
+                        and type(s.value.value) is int for s in body)
+    assert {s.targets[0].id for s in body} == {
+        k for k in vars(indices) if not k.startswith("_")}
