@@ -15,12 +15,11 @@ from pathlib import Path
 import pytest
 
 import vehval.batch.task as task_mod
+from helpers.cli import TEMPLATE, run_cli, write_d3
 from vehval.batch import run_batch
 from vehval.batch.runner import MAX_WORKERS_PER_CPU
 from vehval.catalog import open_catalog
 from vehval.errors import ConfigError
-
-from .conftest import TEMPLATE, run_cli, write_d3
 
 HELPER = Path(__file__).with_name("killrun.py")
 #: Names of what an interrupted run may leave: staging folders and temporaries.

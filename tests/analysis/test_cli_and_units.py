@@ -83,7 +83,7 @@ def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
     from vehval.cli import main
     from vehval.synth import make_virtual_test
 
-    from .test_recovery import CASES, check_recovery
+    from .recovery import CASES, check_recovery
 
     _, overrides, identified, bounded = CASES["p10k_v14"]
     vt = make_virtual_test(cycle="udds", seed=5, faults="default", outdir=tmp_path / "vt",

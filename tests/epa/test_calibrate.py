@@ -23,7 +23,7 @@ TRUTH = 10500.0
 def virtual(tmp_path_factory):
     """The EPA HWFET and US06 rows with their results replaced by the model's own predictions
     at PARAM = TRUTH (virtual lab results: the calibration must find TRUTH again)."""
-    from tests.epa.conftest import row, write_list
+    from helpers.epa_lists import row, write_list
 
     path = write_list(tmp_path_factory.mktemp("epa") / "16tstcar.csv", [
         row(number="T1", code=3, desc="HWFE", fe=71.2),
@@ -118,11 +118,10 @@ def test_unknown_parameter_of_a_conventional_car_names_its_blocks(tmp_path):
     """A bare name means controller.NAME; on a car without a controller (`epa vehicle`'s
     conventional cars) the message suggested 'controller.soc_gain_w', a parameter it has
     not either. It now names the same parameter in another block, or the blocks."""
-    from tests.epa.conftest import write_list
-    from tests.epa.test_specs import HEADER, _camry_rows
+    from helpers.epa_lists import HEADER, camry_rows, write_list
     from vehval.epa.specs import specs_from_tests, vehicle_from_specs
 
-    rows = read_test_car_list(write_list(tmp_path / "l.csv", _camry_rows(), header=HEADER))
+    rows = read_test_car_list(write_list(tmp_path / "l.csv", camry_rows(), header=HEADER))
     car = vehicle_from_specs(specs_from_tests(rows))
     with pytest.raises(ConfigError, match=r"did you mean engine_control\.accessory_power_w\?"):
         calibrate_on_tests(car, rows, {"accessory_power_w": [200.0, 300.0]})

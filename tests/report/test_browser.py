@@ -9,23 +9,18 @@ playwright package; skipped cleanly otherwise. Playwright's own browser download
 
 from __future__ import annotations
 
-import os
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.browser import ARGS, CHROMIUM, LOCAL
 from vehval.report import write_report
 
 from .conftest import make_control, make_qa, make_test, make_validation
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("report_browser")]
 
-CHROMIUM = os.environ.get("VEHVAL_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
-LOCAL = ("file:", "data:", "about:", "blob:")
 
 BATCH_TEMPLATE = """template_version: 1
 files:

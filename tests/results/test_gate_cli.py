@@ -102,7 +102,7 @@ def test_qa_force_gives_the_stated_despite_banner(mg_test, cli, tmp_path):
 
 # ---------------------------------------------------------------- the example, real data
 def _cruze_template(tmp_path, fuel_unit: str):
-    from .test_cli_realdata import CRUZE_TEMPLATE
+    from helpers.data import CRUZE_TEMPLATE
 
     text = CRUZE_TEMPLATE.read_text()
     text = text.replace("  fuel_density_kg_per_m3: 851\n", "").replace(
@@ -115,7 +115,7 @@ def _cruze_template(tmp_path, fuel_unit: str):
 
 @pytest.mark.realdata
 def test_cruze_fuel_declared_mg_per_s_is_withheld_not_33857_mpg(cli, tmp_path):
-    from .test_cli_realdata import CRUZE
+    from helpers.data import CRUZE
 
     if not CRUZE.is_dir():
         pytest.skip("real data not available")

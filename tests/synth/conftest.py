@@ -9,12 +9,12 @@ suite fast.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
+from helpers.data import CRUZE
 from vehval.cycles import Cycle, load_cycle
 from vehval.synth import make_virtual_test
 
@@ -76,7 +76,5 @@ def virtual_default_again(tmp_path_factory) -> Virtual:
 @pytest.fixture(scope="session")
 def real_d3_dir() -> Path | None:
     """The real D3 sample directory, or None when the shared data is absent."""
-    env = os.environ.get("VEHVAL_SHARED_DATA")
-    root = Path(env) if env else Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
-    d = root / "real" / "d3_2014_chevrolet_cruze_diesel"
+    d = CRUZE
     return d if d.is_dir() and any(d.glob("*Test Data.txt")) else None
