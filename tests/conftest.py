@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from helpers.data import REAL, SHARED_DATA, require
+from helpers.data import CRUZE, REAL, SHARED_DATA, require
 
 
 @pytest.fixture(scope="session")
@@ -24,3 +24,9 @@ def shared_data() -> Path:
 def real_data() -> Path:
     """The folder of real test files, ``<shared data>/real`` (skips when absent)."""
     return require(REAL)
+
+
+@pytest.fixture(scope="session")
+def cruze_data() -> Path:
+    """The folder of the Cruze D3 10 Hz tests (skips when absent)."""
+    return require(CRUZE)

@@ -14,7 +14,6 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from helpers.data import CRUZE
 from vehval.cycles import Cycle, load_cycle
 from vehval.synth import make_virtual_test
 
@@ -71,10 +70,3 @@ def virtual_default(tmp_path_factory) -> Virtual:
 def virtual_default_again(tmp_path_factory) -> Virtual:
     """Same settings as ``virtual_default``, in another directory (determinism)."""
     return _make(tmp_path_factory, "vt_default2", seed=7, faults="default")
-
-
-@pytest.fixture(scope="session")
-def real_d3_dir() -> Path | None:
-    """The real D3 sample directory, or None when the shared data is absent."""
-    d = CRUZE
-    return d if d.is_dir() and any(d.glob("*Test Data.txt")) else None
