@@ -59,6 +59,7 @@ def test_worker_count_is_bounded(tmp_path, folder, capsys, workers):
     assert not out.exists() and time.perf_counter() - t0 < 30
 
 
+@pytest.mark.slow
 def test_a_hanging_test_times_out_and_the_batch_goes_on(tmp_path, folder, monkeypatch, capsys):
     d, t = folder
     out = tmp_path / "out"

@@ -8,8 +8,6 @@ W, m/s, s) or a bound containing the truth.
 from __future__ import annotations
 
 TOL = {"_w": 600.0, "_mps": 0.5, "_s": 1.0}
-
-
 KEYS = ("engine_on_power_w", "engine_off_power_w", "engine_on_speed_mps",
         "engine_off_speed_mps", "min_on_time_s", "min_off_time_s")
 

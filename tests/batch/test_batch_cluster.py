@@ -260,6 +260,7 @@ def test_all_steps_on_one_virtual_test(batch_inputs, tmp_path):
     assert float(fuel_err) == pytest.approx(val["fuel_error"], rel=0, abs=0)
 
 
+@pytest.mark.slow
 def test_hanging_test_on_a_cluster_times_out(tmp_path):
     """--test-timeout on Dask workers: the hanging test fails with the reason, the others
     complete on the same worker, and the batch ends."""

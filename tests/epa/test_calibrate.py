@@ -39,6 +39,7 @@ def virtual(tmp_path_factory):
     return base, out
 
 
+@pytest.mark.slow
 def test_recovers_the_value_that_made_the_results(virtual):
     base, tests = virtual
     grid = [9000.0, TRUTH, 12000.0]
@@ -53,6 +54,7 @@ def test_recovers_the_value_that_made_the_results(virtual):
     assert errs.size == 4 and abs(errs).max() < 1e-9  # HWFET, US06 whole and both parts
 
 
+@pytest.mark.slow
 def test_parallel_workers_give_the_same_result(virtual):
     base, tests = virtual
     grid = {PARAM: [9000.0, 12000.0]}
@@ -62,6 +64,7 @@ def test_parallel_workers_give_the_same_result(virtual):
     assert one.evaluations == two.evaluations and len(one.evaluations) == 4
 
 
+@pytest.mark.slow
 def test_written_vehicle_carries_the_value_and_its_provenance(virtual, tmp_path):
     base, tests = virtual
     cal = calibrate_on_tests(base, tests, {"engine_min_power_w": [TRUTH]}, refine_rounds=0)
@@ -73,6 +76,7 @@ def test_written_vehicle_carries_the_value_and_its_provenance(virtual, tmp_path)
     assert veh.engine == base.engine and veh.body == base.body
 
 
+@pytest.mark.slow
 def test_bad_parameters_refused(virtual):
     base, tests = virtual
     with pytest.raises(ConfigError, match="did you mean controller.soc_gain_w"):
@@ -171,6 +175,7 @@ def test_grid_size_bounded_before_anything_runs(prius_list, capsys, monkeypatch)
         assert ("5,000 settings" in err) or ("216,000 settings (60 x 60 x 60 values)" in err)
 
 
+@pytest.mark.slow
 def test_long_run_estimated_stated_and_refused_unless_asked(virtual, monkeypatch):
     import vehval.epa.calibrate as cal_mod
 

@@ -122,6 +122,7 @@ def page_report(tmp_path_factory):
             "sections": sections, "batch": batch, "batch_report": batch_report}
 
 
+@pytest.mark.slow
 def test_report_in_chromium(page_report):
     """One test on purpose: pytest-xdist runs a test on one worker, so the browser starts once
     (``xdist_group`` does not keep tests together with pytest 9)."""

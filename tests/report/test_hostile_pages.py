@@ -241,6 +241,7 @@ def test_page_shows_hostile_text_escaped(pages, name):
 
 
 # --------------------------------------------------------------------------- Chromium
+@pytest.mark.slow
 @pytest.mark.browser
 def test_hostile_pages_in_chromium(pages):
     if not Path(CHROMIUM).exists():

@@ -62,6 +62,7 @@ RECOVERY_TOL = {"controller.engine_on_power_w": 0.03, "controller.soc_gain_w": 0
                 "driveline.final_drive_efficiency": 0.002}
 
 
+@pytest.mark.slow
 def test_calibration_recovers_controller_and_component_parameters(virtual_tests, nominal, tmp_path):
     tune = [virtual_tests[c] for c in TUNE_CYCLES]
     hold = [virtual_tests[c] for c in HOLDOUT_CYCLES]
@@ -91,6 +92,7 @@ def test_calibration_recovers_controller_and_component_parameters(virtual_tests,
     json.dumps(res.to_dict())
 
 
+@pytest.mark.slow
 def test_batch_mode_calibration(virtual_tests, nominal):
     # the fast summary-only search on the three controller parameters, the component
     # parameters at their true values: the end-of-test quantities pin these well at dt = 1 s
