@@ -53,12 +53,12 @@ def _mermaid(floors: dict[int, list[str]]) -> list[str]:
     return out
 
 
-def render() -> str:
-    """The page, as text."""
+def render(graph: dict[str, set[str]] | None = None) -> str:
+    """The page, as text (``graph``: the module import graph, read from the sources if None)."""
     floors: dict[int, list[str]] = {}
     for u, f in sorted(layers.LAYERS.items()):
         floors.setdefault(f, []).append(u)
-    deps = layers.unit_graph(layers.graph(SRC))
+    deps = layers.unit_graph(layers.graph(SRC) if graph is None else graph)
     lines = [
         "# Architecture: the floors of the package",
         "",

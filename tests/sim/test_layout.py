@@ -4,8 +4,7 @@ packed from its vehicle-file key and read back at its own position."""
 from __future__ import annotations
 
 import ast
-import subprocess
-import sys
+import importlib.util
 from pathlib import Path
 
 import numpy as np
@@ -82,10 +81,14 @@ def test_generated_indices_are_current_plain_constants():
     """indices.py is what scripts/sim_indices.py writes from the layout today, and holds only
     plain ``NAME = int`` assignments (no generated globals: a reader, grep and mypy see each)."""
     root = Path(__file__).resolve().parents[2]
-    run = subprocess.run([sys.executable, str(root / "scripts" / "sim_indices.py"), "--check"],
-                         capture_output=True, text=True, cwd=root)
-    assert run.returncode == 0, run.stdout + run.stderr
-    tree = ast.parse(Path(indices.__file__).read_text(encoding="utf-8"))
+    spec = importlib.util.spec_from_file_location("sim_indices", root / "scripts" / "sim_indices.py")
+    assert spec and spec.loader
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    text = Path(indices.__file__).read_text(encoding="utf-8")
+    assert text == script.render(), \
+        "sim/indices.py is stale: run python scripts/sim_indices.py --write (make generate)"
+    tree = ast.parse(text)
     body = tree.body[1:]                                   # after the docstring
     assert body and all(isinstance(s, ast.Assign) and isinstance(s.value, ast.Constant)
                         and type(s.value.value) is int for s in body)
