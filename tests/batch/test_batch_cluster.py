@@ -26,7 +26,7 @@ from vehval.batch.metrics import test_metrics as key_metrics
 from vehval.batch.task import _selected, jsonable
 from vehval.catalog import open_catalog
 
-from .conftest import TEMPLATE, write_d3
+from .helpers import TEMPLATE, write_d3
 
 N_DISTINCT, N_COPIES = 2, 10         # 20 good tests: 2 distinct recordings, 10 copies each
 WAIT_S = 120                          # generous wall for subprocess waits (not an assertion of speed)

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from helpers.data import CRUZE
+from helpers.data import CRUZE_TEMPLATE as TEMPLATE
 
 HERE = Path(__file__).resolve().parent
-TEMPLATE = HERE.parent / "qa" / "templates" / "cruze.yaml"
 SPEC = HERE / "cruze_spec.yaml"
 
 pytestmark = [pytest.mark.realdata, pytest.mark.slow,

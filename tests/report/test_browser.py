@@ -17,7 +17,7 @@ import pytest
 from helpers.browser import ARGS, CHROMIUM, LOCAL
 from vehval.report import write_report
 
-from .conftest import make_control, make_qa, make_test, make_validation
+from .helpers import make_control, make_qa, make_test, make_validation
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("report_browser")]
 

@@ -26,7 +26,7 @@ from helpers.browser import ARGS, CHROMIUM, LOCAL
 from vehval.report import write_report
 from vehval.report.safety import script_hash
 
-from .conftest import make_control, make_qa, make_test, make_validation
+from .helpers import make_control, make_qa, make_test, make_validation
 
 PAYLOAD = ("<svg onload=alert(1)>\"><script>document.title='pwned'</script>"
            "&#x3C;img src=x onerror=alert(2)&#x3E;</script><script>alert(3)</script>")

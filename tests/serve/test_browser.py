@@ -20,7 +20,7 @@ from helpers.browser import ARGS, CHROMIUM
 from vehval.catalog import open_catalog
 from vehval.io.template import Template
 
-from .conftest import FUEL_COLUMN, expected_mpg
+from .helpers import FUEL_COLUMN, expected_mpg
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("serve_browser")]
 

@@ -13,7 +13,7 @@ from vehval.validate.calibration import calibrate, default_bounds, start_values
 from vehval.validate.conditions import vehicle_variant
 from vehval.vehicle import load_vehicle
 
-from .conftest import CONSTANTS, HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
+from .helpers import CONSTANTS, HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
 
 
 def test_validation_of_unperturbed_model_shows_the_differences(virtual_tests, nominal):

@@ -16,7 +16,7 @@ from vehval.validate.calibration import calibrate
 from vehval.vehicle import load_vehicle
 from vehval.workflow import TestRun, group_args
 
-from .conftest import HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
+from .helpers import HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
 
 synth = pytest.importorskip("vehval.synth")
 

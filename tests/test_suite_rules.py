@@ -1,9 +1,12 @@
-"""Markers the Makefile relies on: every test that drives Chromium is marked ``browser``.
+"""Rules of the test suite, read from the test modules with ``ast``.
 
-The scan reads the test modules with ``ast``: a test function that starts Playwright, or that
-takes a fixture of its module that does, must carry ``@pytest.mark.browser`` (or its module a
-``pytestmark`` with it). ``slow`` is by measure (``--durations``), not by scan; unknown marker
-names are refused by ``--strict-markers`` (pyproject's ``addopts``).
+* Markers the Makefile relies on: a test function that starts Playwright, or that takes a
+  fixture of its module that does, carries ``@pytest.mark.browser`` (or its module a
+  ``pytestmark`` with it). ``slow`` is by measure (``--durations``), not by scan; unknown
+  marker names are refused by ``--strict-markers`` (pyproject's ``addopts``).
+* No test imports a test module or a conftest (``tests.x``, ``test_x``, ``conftest``): what
+  tests share lives in ``tests/helpers`` or a ``helpers`` module of their folder, so that the
+  suite collects from any directory.
 """
 
 from __future__ import annotations
@@ -84,3 +87,46 @@ def test_plain():
     assert unmarked_browser_tests(ast.parse(src)) == ["test_uses_fixture:9", "test_direct:16"]
     marked = "pytestmark = [pytest.mark.browser]\n" + src
     assert unmarked_browser_tests(ast.parse(marked)) == []
+
+
+def _is_test_module(module: str, absolute: bool) -> bool:
+    parts = module.split(".")
+    return (absolute and parts[0] == "tests") or any(
+        p == "conftest" or p.startswith("test_") for p in parts)
+
+
+def forbidden_imports(tree: ast.Module) -> list[str]:
+    """Imports of a test module, a conftest or the ``tests`` package, as ``line: module``."""
+    bad = []
+    for n in ast.walk(tree):
+        if isinstance(n, ast.ImportFrom):
+            # ``from . import test_x`` names the module in the import list
+            mods = [n.module] if n.module else [a.name for a in n.names]
+            bad += [f"{n.lineno}: {m}" for m in mods if _is_test_module(m, n.level == 0)]
+        elif isinstance(n, ast.Import):
+            bad += [f"{n.lineno}: {a.name}" for a in n.names if _is_test_module(a.name, True)]
+    return bad
+
+
+def test_no_test_imports_another_test_module_or_a_conftest():
+    bad = []
+    for path in sorted(TESTS.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        bad += [f"{path.relative_to(TESTS)}:{b}" for b in forbidden_imports(tree)]
+    assert not bad, "move what is shared into tests/helpers:\n" + "\n".join(bad)
+
+
+def test_the_import_scan_can_fail():
+    src = """
+from tests.epa.conftest import row
+from .conftest import make_test
+from .test_browser import ARGS
+import test_golden
+from helpers.data import REAL
+from .helpers import make_test
+from vehval.batch.metrics import test_metrics
+from . import test_other
+"""
+    assert forbidden_imports(ast.parse(src)) == [
+        "2: tests.epa.conftest", "3: conftest", "4: test_browser", "5: test_golden",
+        "9: test_other"]
