@@ -12,7 +12,7 @@ from vehval.catalog import open_catalog
 from vehval.cli import main
 from vehval.errors import ConfigError
 
-from .conftest import write_d3
+from .helpers import write_d3
 
 # Metrics are trapezoidal integrals of the values as written (10 significant digits) and the
 # reader parses them exactly, so the only differences are float summation order: rtol 1e-9.
