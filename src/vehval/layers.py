@@ -63,6 +63,8 @@ SAME_LAYER: frozenset[tuple[str, str]] = frozenset({
     ("units", "errors"),
     # floor 0: tables read with the safe YAML loader
     ("fuels", "safe_yaml"), ("nomenclature", "safe_yaml"), ("uncertainty", "safe_yaml"),
+    # floor 0: sensor accuracies per signal class, in the signals' SI units
+    ("uncertainty", "nomenclature"), ("uncertainty", "units"),
     # floor 0: fuel properties at reference conditions; display formats fuels and names
     ("fuels", "conditions"), ("fuels", "constants"), ("display", "constants"),
     ("display", "fuels"), ("display", "nomenclature"),

@@ -15,7 +15,7 @@ from vehval.batch.scheduler import check_scheduler
 from vehval.cli import main
 from vehval.errors import ConfigError
 
-from .conftest import write_d3
+from .helpers import write_d3
 
 
 class _Server:
@@ -63,7 +63,7 @@ def test_a_server_that_is_not_dask_is_refused_naming_the_address(not_dask, tmp_p
     inp, out = tmp_path / "in", tmp_path / "out"
     write_d3(inp / "t0" / "run0.txt", seed=0)
     tpl = tmp_path / "t.yaml"
-    from .conftest import TEMPLATE
+    from .helpers import TEMPLATE
     tpl.write_text(TEMPLATE, encoding="utf-8")
     t0 = time.monotonic()
     rc = main(["batch", str(inp), "-t", str(tpl), "-o", str(out), "--scheduler", address,

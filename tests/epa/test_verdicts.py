@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from tests.epa.conftest import row, write_list
+from helpers.epa_lists import row, write_list
 from vehval.cli import main
 from vehval.epa import read_test_car_list
 from vehval.epa.validation import validate_tests
