@@ -182,3 +182,21 @@ def test_vehicle_without_ranges_noted_once(tmp_path, capsys):
     notes = _doc(capsys)["notes"]
     said = [n for n in notes if "no parameter carries an uncertainty" in n]
     assert len(said) == 1, notes
+
+
+def test_report_sentence_names_both_verdicts():
+    """The report's verdict text: the held-out sentence, and the all-tests one when given."""
+    from vehval.epa.validation import EpaValidation
+    from vehval.report.epa import verdict_text
+
+    sv = {"n": 4, "verdict": "consistent with the data", "mean_error_pct": -1.0,
+          "mean_error_ci_pct": [-2.0, 0.0], "bias_limit_pct": 1.3, "n_consistent": 4,
+          "coverage_ci": [0.4, 1.0]}
+    val = EpaValidation.__new__(EpaValidation)
+    val.set_verdict, val.set_verdict_note = sv, ""
+    val.set_verdict_all, val.set_verdict_all_note = None, ""
+    assert "all tests" not in verdict_text(val)
+    val.set_verdict_all = dict(sv, n=12)
+    text = verdict_text(val)
+    assert "Set verdict (held-out, one figure per test, n = 4)" in text
+    assert "Set verdict (all tests, in-sample included, not a prediction, n = 12)" in text
