@@ -139,3 +139,64 @@ def test_source_rule():
     assert h["s"] is not None and h["different_source"]
     unknown = measurement_precision("cd_udds", "hybrid", "16-XX", "EPA", labs, cars)
     assert unknown["s"] is None
+
+
+def test_set_verdict_over_all_tests_when_some_are_in_sample(tmp_path, capsys, predicted):
+    """A row carrying a calibration test number of the vehicle file is in-sample: the
+    held-out verdict leaves it out, ``set_verdict_all`` counts it (one figure per test)."""
+    rows = _hwfet_rows([p * 0.99 for p in predicted])
+    rows[0] = row(number="GTYX10038683", code=3, desc="HWFE", weight=WEIGHTS[0], orig="MFR",
+                  fe=repr(predicted[0] * 0.99))
+    path = write_list(tmp_path / "16tstcar.csv", rows)
+    main(["epa", "validate", str(path), "--vehicle", "prius_2016", "--tests", "model=PRIUS",
+          "--dt", "1", "--model-uncertainty", "none", "--json"])
+    doc = _doc(capsys)
+    assert any(c["in_sample"] for c in doc["comparisons"])
+    assert doc["set_verdict"]["n"] == 5
+    every = doc["set_verdict_all"]
+    assert every["n"] == 6 and every["verdict"] == "consistent with the data"
+    assert "GTYX10038683 hwfet overall" in every["figures"]
+    main(["epa", "validate", str(path), "--vehicle", "prius_2016", "--tests", "model=PRIUS",
+          "--dt", "1", "--model-uncertainty", "none"])
+    out = capsys.readouterr().out
+    assert "set verdict (all tests, in-sample included, not a prediction, n = 6)" in out
+    assert "against s_r alone (one lab's repeats) the scatter explains" in out
+    # no in-sample test: no second verdict
+    _validate(tmp_path, [p * 0.99 for p in predicted], "--model-uncertainty", "none")
+    assert _doc(capsys)["set_verdict_all"] is None
+
+
+
+def test_vehicle_without_ranges_noted_once(tmp_path, capsys):
+    """A car built from the list (no parameter ranges) on an FTP-75 and an HWFET:
+    U_model = 0 is said once, not once per procedure."""
+    from tests.epa.test_specs import HEADER, _camry_rows
+
+    path = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    car = tmp_path / "car.yaml"
+    assert main(["epa", "vehicle", str(path), "--make", "MAKER", "--model", "SEDAN XLE",
+                 "--year", "2019", "-o", str(car)]) in (0, None)
+    capsys.readouterr()
+    main(["epa", "validate", str(path), "--vehicle", str(car), "--tests", "make=MAKER",
+          "--dt", "1", "--json"])
+    notes = _doc(capsys)["notes"]
+    said = [n for n in notes if "no parameter carries an uncertainty" in n]
+    assert len(said) == 1, notes
+
+
+def test_report_sentence_names_both_verdicts():
+    """The report's verdict text: the held-out sentence, and the all-tests one when given."""
+    from vehval.epa.validation import EpaValidation
+    from vehval.report.epa import verdict_text
+
+    sv = {"n": 4, "verdict": "consistent with the data", "mean_error_pct": -1.0,
+          "mean_error_ci_pct": [-2.0, 0.0], "bias_limit_pct": 1.3, "n_consistent": 4,
+          "coverage_ci": [0.4, 1.0]}
+    val = EpaValidation.__new__(EpaValidation)
+    val.set_verdict, val.set_verdict_note = sv, ""
+    val.set_verdict_all, val.set_verdict_all_note = None, ""
+    assert "all tests" not in verdict_text(val)
+    val.set_verdict_all = dict(sv, n=12)
+    text = verdict_text(val)
+    assert "Set verdict (held-out, one figure per test, n = 4)" in text
+    assert "Set verdict (all tests, in-sample included, not a prediction, n = 12)" in text

@@ -338,16 +338,28 @@ def _verdict_lines(val) -> list[str]:
     out += [f"U_meas: {b}" for b in bases]
     if any(c.uninformative for c in val.comparisons):
         out.append("En?: uninformative, the combined U exceeds 10 % of the measured figure")
-    sv = val.set_verdict
+    out += _set_verdict_line(val.set_verdict, val.set_verdict_note,
+                             "held-out, one figure per test")
+    if val.set_verdict_all is not None or val.set_verdict_all_note:
+        out += _set_verdict_line(val.set_verdict_all, val.set_verdict_all_note,
+                                 "all tests, in-sample included, not a prediction")
+    return out
+
+
+def _set_verdict_line(sv: dict | None, note: str, what: str) -> list[str]:
+    """One set verdict on screen (and, for a set judged against s_R, the bias against s_r)."""
     if sv is None:
-        out.append(f"set verdict: none ({val.set_verdict_note})")
-        return out
+        return [f"set verdict ({what}): none ({note})"]
     lo, hi = sv["mean_error_ci_pct"]
     clo, chi = sv["coverage_ci"]
-    out.append(f"set verdict (held-out, one figure per test, n = {sv['n']}): {sv['verdict']}; "
-               f"mean error {sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}] (scatter "
-               f"explains {sv['bias_limit_pct']:.2f} %); |En| <= 1 for {sv['n_consistent']}/"
-               f"{sv['n']} (coverage [{100 * clo:.0f}, {100 * chi:.0f}] %, target 95 %)")
+    out = [f"set verdict ({what}, n = {sv['n']}): {sv['verdict']}; "
+           f"mean error {sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}] (scatter "
+           f"explains {sv['bias_limit_pct']:.2f} %); |En| <= 1 for {sv['n_consistent']}/"
+           f"{sv['n']} (coverage [{100 * clo:.0f}, {100 * chi:.0f}] %, target 95 %)"]
+    if sv.get("different_source"):
+        out.append(f"  against s_r alone (one lab's repeats) the scatter explains "
+                   f"{sv['bias_limit_s_r_pct']:.2f} %: the mean error is "
+                   f"{'beyond' if sv['beyond_s_r'] else 'within'} it")
     out += [f"  {n}" for n in sv["notes"]]
     return out
 

@@ -176,6 +176,9 @@ class EpaValidation:
     #: bias, coverage and verdict of the held-out figures (vehval.epa.verdicts)
     set_verdict: dict[str, Any] | None = None
     set_verdict_note: str = ""
+    #: the same over every judged test, in-sample included (None: no in-sample test)
+    set_verdict_all: dict[str, Any] | None = None
+    set_verdict_all_note: str = ""
     notes: list[str] = field(default_factory=list)
 
     def stats(self, in_sample: bool = False) -> dict[str, Any]:
@@ -242,6 +245,8 @@ class EpaValidation:
                            "source": p.test.source} for p in self.predictions],
                 "skipped": self.skipped, "model_uncertainty": self.model_uncertainty,
                 "set_verdict": self.set_verdict, "set_verdict_note": self.set_verdict_note,
+                "set_verdict_all": self.set_verdict_all,
+                "set_verdict_all_note": self.set_verdict_all_note,
                 "notes": self.notes}
 
 

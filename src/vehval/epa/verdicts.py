@@ -24,7 +24,10 @@ Each predicted-vs-listed figure (:class:`vehval.epa.validation.Comparison`) gets
 one per test so that bags do not count a test twice: its whole-test figure when judged,
 else its hot UDDS (bags 3 + 4). The set's s_r is the root mean square of the figures'
 s_r; it counts as from a different source when any figure does, with the root mean square
-of their s_R. Fewer than 3 such figures: no verdict, and the reason.
+of their s_R. Fewer than 3 such figures: no verdict, and the reason. When some tests are
+in-sample (the vehicle file was calibrated on them) a second verdict, ``set_verdict_all``,
+is over every judged test, in-sample included, with the same rule (one figure per test): the
+whole selection's agreement, which is not a prediction.
 """
 
 from __future__ import annotations
@@ -105,11 +108,13 @@ def model_uncertainties(veh: Vehicle, procedures: set[str], method: str = "linea
     return out
 
 
-def _set_figures(comparisons: list) -> list:
-    """Held-out judged figures, one per test: whole test when judged, else bags 3+4."""
+def _set_figures(comparisons: list, in_sample: bool = False) -> list:
+    """Judged figures, one per test: whole test when judged, else bags 3+4; held-out tests
+    only unless ``in_sample``."""
     by_test: dict[str, list] = {}
     for c in comparisons:
-        if c.judged and not c.in_sample and not c.sample_unknown and c.en is not None:
+        if (c.judged and (in_sample or not c.in_sample) and not c.sample_unknown
+                and c.en is not None):
             by_test.setdefault(c.test, []).append(c)
     out = []
     for rows in by_test.values():
@@ -133,7 +138,7 @@ def judge(val: Any, veh: Vehicle, every: list[EpaTest], *, method: str = "linear
                          "U_model = 0")
     for p, f in mu.items():
         if f is not None and f.method == "none":
-            val.notes.extend(f.notes)
+            val.notes.extend(n for n in f.notes if n not in val.notes)
         elif f is None and method != "none":
             val.notes.append(f"{p}: no cycle to propagate the model uncertainty on; "
                              "U_model = 0")
@@ -151,11 +156,14 @@ def judge(val: Any, veh: Vehicle, every: list[EpaTest], *, method: str = "linear
         c.en, c.u_model, c.u_meas, c.uninformative = cmp.en, u_model, u_meas, cmp.uninformative
         c.verdict = cmp
     val.set_verdict, val.set_verdict_note = _verdict(_set_figures(val.comparisons))
+    if any(c.in_sample and c.en is not None for c in val.comparisons):
+        val.set_verdict_all, val.set_verdict_all_note = _verdict(
+            _set_figures(val.comparisons, in_sample=True))
 
 
 def _verdict(figs: list) -> tuple[dict[str, Any] | None, str]:
     if not figs:
-        return None, "no held-out judged figure with an En"
+        return None, "no judged figure with an En"
     s_r = math.sqrt(sum(c.precision["s_r"] ** 2 for c in figs) / len(figs))
     diff = [c for c in figs if c.precision["different_source"]]
     s_R = math.sqrt(sum(c.precision["s"] ** 2 for c in diff) / len(diff)) if diff else None

@@ -34,13 +34,22 @@ def table_rows(val: EpaValidation) -> list[dict]:
 
 
 def verdict_text(val: EpaValidation) -> str:
-    """The set verdict of the held-out figures as a sentence (or why there is none)."""
-    sv = val.set_verdict
+    """The set verdict of the held-out figures as a sentence (or why there is none), and the
+    verdict over every test, in-sample included, when some are in-sample."""
+    text = _verdict_sentence(val.set_verdict, val.set_verdict_note,
+                             "held-out, one figure per test")
+    if val.set_verdict_all is not None:
+        text += " " + _verdict_sentence(val.set_verdict_all, val.set_verdict_all_note,
+                                        "all tests, in-sample included, not a prediction")
+    return text.strip()
+
+
+def _verdict_sentence(sv: dict | None, note: str, what: str) -> str:
     if sv is None:
-        return f"Set verdict: none ({val.set_verdict_note})." if val.set_verdict_note else ""
+        return f"Set verdict: none ({note})." if note else ""
     lo, hi = sv["mean_error_ci_pct"]
     clo, chi = sv["coverage_ci"]
-    return (f"Set verdict (held-out, one figure per test, n = {sv['n']}): {sv['verdict']}; "
+    return (f"Set verdict ({what}, n = {sv['n']}): {sv['verdict']}; "
             f"mean error {sv['mean_error_pct']:+.2f} % (95 % interval {lo:+.2f} to "
             f"{hi:+.2f} %; the scatter explains {sv['bias_limit_pct']:.2f} %); |En| ≤ 1 for "
             f"{sv['n_consistent']} of {sv['n']} (coverage {100 * clo:.0f}-{100 * chi:.0f} %, "
