@@ -170,9 +170,9 @@ def test_set_verdict_over_all_tests_when_some_are_in_sample(tmp_path, capsys, pr
 def test_vehicle_without_ranges_noted_once(tmp_path, capsys):
     """A car built from the list (no parameter ranges) on an FTP-75 and an HWFET:
     U_model = 0 is said once, not once per procedure."""
-    from tests.epa.test_specs import HEADER, _camry_rows
+    from helpers.epa_lists import HEADER, camry_rows
 
-    path = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    path = write_list(tmp_path / "19tstcar.csv", camry_rows(), header=HEADER)
     car = tmp_path / "car.yaml"
     assert main(["epa", "vehicle", str(path), "--make", "MAKER", "--model", "SEDAN XLE",
                  "--year", "2019", "-o", str(car)]) in (0, None)
