@@ -11,6 +11,8 @@ Tables
 ``tests``        one row per test and run (status ``ok``, ``failed`` or ``skipped``),
                  with input hashes, key metrics [SI and mpg], QA summary and validation.
 ``findings``     one row per QA finding of a test in a run.
+``set_verdicts``  the set verdict over the validated tests of a run, per vehicle (bias with
+                 its interval, coverage of |En| <= 1, verdict).
 ``phase_results`` one row per phase, whole test and regulatory composite of a test in a run
                  (results stage: fuel economy with its expanded uncertainty, drive quality).
 View ``latest_tests``: the most recent row of every test id.
@@ -34,7 +36,7 @@ from typing import Any, Iterable, Iterator
 from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.jsonsafe import clean
 
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 
 #: Key metrics stored as DOUBLE columns of ``tests`` (name -> description [unit]).
 METRIC_COLUMNS: dict[str, str] = {
@@ -73,6 +75,23 @@ HEADLINE_COLUMNS: dict[str, str] = {
     "headline_l_per_100km": "headline fuel consumption [L/100 km]; NULL when withheld",
 }
 
+#: The validate step's normalised error of the fuel mass in ``tests`` (name -> description);
+#: the keys of ``result.json``'s ``validation.normalised_error`` without the ``fuel_`` prefix.
+EN_COLUMNS: dict[str, str] = {
+    "fuel_en": "normalised error En of the fuel mass, (model - measured) / sqrt(U_model^2 + "
+               "U_meas^2) [-]",
+    "fuel_error_pct": "fuel mass error, model / measured - 1 (signed) [%]",
+    "fuel_u_model_kg": "U_model of the fuel mass, k = 2 [kg]",
+    "fuel_u_meas_kg": "U_meas of the fuel mass, k = 2 (results-stage U with s_r) [kg]",
+    "fuel_s_r": "repeatability s_r of the test's procedure used in U_meas [-]",
+}
+#: Flags of the normalised error in ``tests`` (BOOLEAN columns).
+EN_FLAGS: dict[str, str] = {
+    "fuel_consistent": "|En| <= 1",
+    "fuel_uninformative": "combined U over 10 % of the measured fuel mass",
+    "in_sample": "the vehicle file was calibrated on this test (a fit, not a prediction)",
+}
+
 #: Metrics summarised by :func:`summary` (variability per vehicle, cycle and conditions).
 SUMMARY_METRICS = ("headline_mpg", "fuel_economy_mpg", "fuel_mass_kg", "soc_change",
                    "fuel_energy_j", "ess_energy_j", "eng_energy_j", "tractive_energy_j")
@@ -96,7 +115,9 @@ _DDL = [
     + "    withheld_reason VARCHAR, withheld_count INTEGER,\n"
     "    n_findings INTEGER, n_findings_by_severity JSON, qa_summary JSON,\n"
     "    validation JSON, validation_errors JSON, outputs VARCHAR[],\n"
-    "    PRIMARY KEY (test_id, run_id))",
+    + "".join(f"    {c} DOUBLE,\n" for c in EN_COLUMNS)
+    + "".join(f"    {c} BOOLEAN,\n" for c in EN_FLAGS)
+    + "    PRIMARY KEY (test_id, run_id))",
     """CREATE TABLE IF NOT EXISTS findings (
         test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, signal VARCHAR, kind VARCHAR,
         severity VARCHAR, start_s DOUBLE, end_s DOUBLE, message VARCHAR)""",
@@ -106,6 +127,13 @@ _DDL = [
     + "".join(f"    {c} DOUBLE,\n" for c in PHASE_COLUMNS)
     + "    withheld_reason VARCHAR,\n"
     "    PRIMARY KEY (test_id, run_id, kind, scope))",  # a phase and a composite may share a name (hwfet)
+    """CREATE TABLE IF NOT EXISTS set_verdicts (
+        run_id VARCHAR NOT NULL, vehicle VARCHAR NOT NULL, figure VARCHAR NOT NULL,
+        n_validated INTEGER, n INTEGER, mean_error_pct DOUBLE, mean_error_lo_pct DOUBLE,
+        mean_error_hi_pct DOUBLE, bias_limit_pct DOUBLE, biased BOOLEAN, n_consistent INTEGER,
+        coverage DOUBLE, coverage_lo DOUBLE, coverage_hi DOUBLE, understated BOOLEAN,
+        n_uninformative INTEGER, verdict VARCHAR, note VARCHAR, detail JSON,
+        PRIMARY KEY (run_id, vehicle, figure))""",
     """CREATE OR REPLACE VIEW latest_tests AS
         SELECT t.* FROM tests t JOIN runs r USING (run_id)
         QUALIFY row_number() OVER (PARTITION BY t.test_id
@@ -348,12 +376,18 @@ class Catalog:
         row += [len(findings), to_json(result.get("findings_by_severity") or {}),
                 to_json(result.get("qa_summary")), to_json(validation), to_json(val_errors),
                 [str(o) for o in result.get("outputs", [])]]
+        ne = validation.get("normalised_error") if isinstance(validation, dict) else None
+        ne = ne if isinstance(ne, dict) else {}
+        row += [_num(ne.get(c.removeprefix("fuel_"))) for c in EN_COLUMNS]
+        row += [v if isinstance(v := ne.get(c.removeprefix("fuel_")), bool) else None
+                for c in EN_FLAGS]
         cols = (["test_id", "run_id", "status", "error", "error_type", "source_run_id", "vehicle",
                  "cycle", "files", "file_hashes", "input_hash", "elapsed_s"] + list(METRIC_COLUMNS)
                 + ["fuel", "cell_temp_c", "start_condition", "ac", "headline_name", "headline_rule"]
                 + list(HEADLINE_COLUMNS)
                 + ["withheld_reason", "withheld_count", "n_findings", "n_findings_by_severity",
-                   "qa_summary", "validation", "validation_errors", "outputs"])
+                   "qa_summary", "validation", "validation_errors", "outputs"]
+                + list(EN_COLUMNS) + list(EN_FLAGS))
         self.con.execute("BEGIN TRANSACTION")
         try:
             self.con.execute("DELETE FROM tests WHERE test_id = ? AND run_id = ?", [row[0], run_id])
@@ -378,6 +412,23 @@ class Catalog:
         except BaseException:
             self.con.execute("ROLLBACK")
             raise
+
+    def add_set_verdicts(self, run_id: str, rows: Iterable[dict]) -> None:
+        """Store the set verdicts of a run (:func:`vehval.batch.verdicts.batch_set_verdicts`); read back by
+        :func:`vehval.batch.verdicts.stored_set_verdicts`."""
+        self.con.execute("DELETE FROM set_verdicts WHERE run_id = ?", [run_id])
+        for r in rows:
+            sv = r.get("set_verdict") or {}
+            lo, hi = sv.get("mean_error_ci_pct") or (None, None)
+            clo, chi = sv.get("coverage_ci") or (None, None)
+            self.con.execute(
+                f"INSERT INTO set_verdicts VALUES ({', '.join('?' * 19)})",
+                [run_id, r.get("vehicle") or "", r.get("figure") or "fuel_mass_kg",
+                 r.get("n_validated"), sv.get("n"), _num(sv.get("mean_error_pct")), _num(lo),
+                 _num(hi), _num(sv.get("bias_limit_pct")), sv.get("biased"),
+                 sv.get("n_consistent"), _num(sv.get("coverage")), _num(clo), _num(chi),
+                 sv.get("understated"), sv.get("n_uninformative"), sv.get("verdict"),
+                 r.get("note") or None, to_json(r)])
 
     # -- reading -----------------------------------------------------------------------
     @contextlib.contextmanager

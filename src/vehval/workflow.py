@@ -482,6 +482,51 @@ def model_uncertainty_by_cycle(veh: Any, cycles: Sequence[str], method: str = "l
     return out, notes
 
 
+def fuel_normalised_error(veh: Any, comp: Any, u_model_rel: float | None,
+                          notes: Sequence[str] = ()) -> dict[str, Any]:
+    """The verdict by the normalised error of one test's fuel mass, as ``vehval validate``
+    gives it per test (:func:`vehval.validate.ladder.judge_fuel`).
+
+    Parameters
+    ----------
+    veh : Vehicle
+        The model (its calibration tests make a test in-sample; its architecture picks the
+        packaged precision's family).
+    comp : vehval.validate.compare.Comparison
+        The test's comparison.
+    u_model_rel : float or None
+        Relative U_model (k = 2) of the fuel on the test's cycle
+        (:func:`model_uncertainty_by_cycle`); None: U_model = 0, noted.
+    notes : sequence of str
+        Notes of the model uncertainty, appended to ``note``.
+
+    Returns
+    -------
+    dict
+        ``figure`` (``fuel_mass_kg``), ``en``, ``consistent``, ``uninformative``,
+        ``u_model_kg``, ``u_meas_kg`` (k = 2) [kg], ``s_r`` [-], ``model_kg``, ``measured_kg``
+        [kg], ``error_pct`` (signed, model / measured - 1) [%], ``u_model_rel`` [-],
+        ``in_sample``, ``verdict`` (``consistent``, ``inconsistent``, ``no En``), ``note``.
+    """
+    import math
+
+    from vehval.calibration.provenance import calibration_tests
+    from vehval.sim.simulate import architecture
+    from vehval.validate.ladder import ladder
+
+    lad = ladder([comp], calibrated=calibration_tests(veh), u_model_rel={comp.test_id: u_model_rel},
+                 family="hybrid" if architecture(veh).has_battery else "conventional")
+    e = lad.entries[0]
+    model, meas = e.errors["fuel_sim_kg"], e.errors["fuel_test_kg"]
+    err = (100.0 * (model / meas - 1.0) if math.isfinite(model) and math.isfinite(meas)
+           and meas > 0 else None)
+    return {"figure": "fuel_mass_kg", "en": e.en, "consistent": e.consistent,
+            "uninformative": e.uninformative, "u_model_kg": e.u_model_kg,
+            "u_meas_kg": e.u_meas_kg, "s_r": e.s_r, "model_kg": model, "measured_kg": meas,
+            "error_pct": err, "u_model_rel": u_model_rel, "in_sample": e.in_sample,
+            "verdict": e.verdict, "note": "; ".join(n for n in (e.en_note, *notes) if n)}
+
+
 def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
                   window_s: float = 2.0, smooth_hz: float | None = None,
                   model_uncertainty: str = "none", draws: int = 200) -> SuiteOutcome:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import subprocess
@@ -42,6 +43,20 @@ def test_model_overlay_with_verdicts(synth_dir, tmp_path):
     assert spd["simulated"]["name"].endswith("_simu") and spd["measured"]["name"].endswith("_test")
     titles = [t["title"] for t in m["tables"]]
     assert any("summary" in t for t in titles)
+    # the fuel mass's normalised error beside the summary's % difference, in grams
+    ne = m["normalised_error"]
+    assert ne["u_model_kg"] > 0 and ne["u_meas_kg"] > 0 and ne["s_r"] > 0
+    assert ne["en"] == pytest.approx((ne["model_kg"] - ne["measured_kg"])
+                                     / math.hypot(ne["u_model_kg"], ne["u_meas_kg"]), rel=1e-12)
+    assert ne["verdict"] == ("consistent" if abs(ne["en"]) <= 1 else "inconsistent")
+    assert titles[1] == "Verdict by the normalised error (fuel mass)"
+    t = m["tables"][1]
+    row = dict(zip(t["columns"], t["rows"][0]))
+    assert row["unit"] == "g" and row["En"] == pytest.approx(ne["en"], abs=1e-3)
+    assert row["U_model (k = 2)"] == pytest.approx(1e3 * ne["u_model_kg"])
+    assert row["U_meas (k = 2)"] == pytest.approx(1e3 * ne["u_meas_kg"])
+    assert row["error [%]"] == pytest.approx(100 * (ne["model_kg"] / ne["measured_kg"] - 1))
+    assert row["verdict"].startswith(ne["verdict"])
 
 
 def test_model_needs_a_vehicle(workspace):

@@ -69,6 +69,9 @@ class BatchSummary:
     notes: list[tuple[str, str]] = field(default_factory=list)
     #: Debris of interrupted runs removed at the start (staging folders, temporaries).
     n_debris_removed: int = 0
+    #: Set verdicts over the validated tests, one per vehicle
+    #: (:func:`vehval.batch.verdicts.batch_set_verdicts`); empty without a validate step.
+    set_verdicts: list[dict] = field(default_factory=list)
 
     @property
     def n_tests(self) -> int:
@@ -374,6 +377,8 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
             summary.status = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
             catalog.finish_run(run_id, summary.status)
             raise
+        if "validate" in steps:
+            _set_verdicts(catalog, run_id, summary)
         catalog.finish_run(run_id, "done")
         from vehval.batch.index import write_index
 
@@ -381,6 +386,19 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     finally:
         catalog.close()
     return summary
+
+
+def _set_verdicts(catalog: Any, run_id: str, summary: BatchSummary) -> None:
+    """The set verdicts over the run's validated tests: in the summary, the catalog's
+    ``set_verdicts`` table and ``OUTDIR/set_verdict.json``."""
+    from vehval.batch.verdicts import SET_VERDICT_NAME, batch_set_verdicts
+    from vehval.io.atomic import write_text_atomic
+    from vehval.jsonsafe import dumps
+
+    summary.set_verdicts = batch_set_verdicts(summary.results)
+    catalog.add_set_verdicts(run_id, summary.set_verdicts)
+    write_text_atomic(summary.outdir / SET_VERDICT_NAME,
+                      dumps({"run_id": run_id, "set_verdicts": summary.set_verdicts}))
 
 
 def _check_outdir_not_a_test(target: str | Path, out: Path, tmpl: Any, own: list[Path],

@@ -146,7 +146,30 @@ def _validation_summary(val: dict) -> dict:
         k: val.get(k) for k in VALIDATION_ERRORS if k in val}
     if errors:
         out["errors"] = errors
+    if isinstance(val.get("normalised_error"), dict):
+        out["normalised_error"] = val["normalised_error"]
     return out
+
+
+@lru_cache(maxsize=64)
+def _u_model_rel(name: str | None, digest: str, cycle: str) -> tuple[float | None, tuple[str, ...]]:
+    """Relative U_model (k = 2) of the fuel on ``cycle`` (the vehicle's parameter ranges,
+    linear propagation, :func:`vehval.workflow.model_uncertainty_by_cycle`) and its notes;
+    computed once per vehicle and cycle in a worker."""
+    from vehval.workflow import model_uncertainty_by_cycle
+
+    u, notes = model_uncertainty_by_cycle(_vehicle(name, digest), [cycle], "linear")
+    return u.get(cycle), tuple(notes)
+
+
+def _normalised_error(job: dict, run: TestRun, outcome: Any) -> dict[str, Any]:
+    """The validate step's verdict by the normalised error of the fuel mass
+    (:func:`vehval.workflow.fuel_normalised_error`), U_model cached per vehicle and cycle."""
+    from vehval.workflow import fuel_normalised_error
+
+    comp = outcome.validation.comparison
+    u_rel, notes = _u_model_rel(job.get("vehicle"), job.get("vehicle_hash", ""), comp.cycle or "")
+    return fuel_normalised_error(run.vehicle, comp, u_rel, notes)
 
 
 def _clear_stale(test_dir: Path, keep: set[str]) -> None:
@@ -190,6 +213,8 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     for step in job["steps"]:
         outcome = STEPS[step](run)
         out = jsonable(outcome.validation if step == "validate" else outcome.result)
+        if step == "validate" and isinstance(out, dict):
+            out["normalised_error"] = jsonable(_normalised_error(job, run, outcome))
         if step == "analyze":
             report_parts["control"] = out
         elif step == "validate":

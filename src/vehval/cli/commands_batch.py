@@ -63,6 +63,10 @@ def batch_cmd(
     skipped = (f", {len(res.skipped_inputs)} input(s) skipped" if res.skipped_inputs else "")
     typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged"
                f"{skipped} -> {res.outdir / 'index.html'}")
+    from vehval.batch.verdicts import verdict_line
+
+    for row in res.set_verdicts:
+        typer.echo(verdict_line(row))
     for path, why in res.notes:
         typer.echo(f"  not a test: {path} ({why})", err=True)
     for path, why in res.skipped_inputs:
@@ -149,6 +153,9 @@ def catalog_summary(
         raise VehvalError(f"--timeout {timeout}: give a positive number of seconds")
     with open_catalog(_db(db), read_only=True, timeout_s=timeout) as cat:
         rows = cat.summary()
+        from vehval.batch.verdicts import stored_set_verdicts
+
+        verdicts = stored_set_verdicts(cat)
     if as_json:
         typer.echo(json.dumps(rows, indent=1))
         return
@@ -169,3 +176,7 @@ def catalog_summary(
                       _cell(None if r["min"] is None else r["min"] * f + off, 5),
                       _cell(None if r["max"] is None else r["max"] * f + off, 5)])
     _print_table(cols, table, group_by=("vehicle", "cycle", "start", "cell", "a/c"))
+    from vehval.batch.verdicts import verdict_line
+
+    for row in verdicts:
+        typer.echo(f"run {row['run_id']}: {verdict_line(row)}")

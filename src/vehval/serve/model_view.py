@@ -2,8 +2,9 @@
 
 The test's template names the vehicle; :meth:`vehval.workflow.TestRun.validate` simulates it
 on the test's speed trace and conditions and compares (verdicts against the measurement
-uncertainty, docs/validation.md). The page gets the comparison tables and, per quantity,
-the measured and simulated traces on one time axis.
+uncertainty, docs/validation.md). The page gets the comparison tables, the fuel mass's
+normalised error En with U_model and U_meas (``normalised_error``, and a table beside the
+summary's % differences) and, per quantity, the measured and simulated traces on one time axis.
 """
 
 from __future__ import annotations
@@ -37,5 +38,37 @@ def model_overlay(bench: Any, n: int = 2000) -> dict:
         traces.append({"base": base, "unit": m.unit,
                        "measured": {"name": m.name, **series(m.time, m.values, None, None, n)},
                        "simulated": {"name": s.name, **series(s.time, s.values, None, None, n)}})
-    return {"vehicle": val.sim.vehicle.name, "tables": val.comparison.tables(),
+    ne = _normalised_error(run.vehicle, val.comparison)
+    tables = val.comparison.tables()
+    tables.insert(1 if tables else 0, en_table(ne))   # beside the summary's % differences
+    return {"vehicle": val.sim.vehicle.name, "tables": tables, "normalised_error": ne,
             "notes": outcome.payload(figures=False).get("notes", []), "traces": traces}
+
+
+def _normalised_error(veh: Any, comp: Any) -> dict:
+    """En of the fuel mass as ``vehval validate`` gives it (U_model: the vehicle's parameter
+    ranges on the test's cycle, linear; U_meas: the results stage's U with s_r)."""
+    from vehval.workflow import fuel_normalised_error, model_uncertainty_by_cycle
+
+    u, notes = model_uncertainty_by_cycle(veh, [comp.cycle or ""], "linear")
+    return fuel_normalised_error(veh, comp, u.get(comp.cycle or ""), notes)
+
+
+def en_table(ne: dict) -> dict:
+    """The page's table of the fuel mass's normalised error, in display units (g)."""
+    def g(v: Any) -> Any:
+        return None if v is None else v * 1e3
+
+    en = ne.get("en")
+    flag = "; uninformative (combined U over 10 % of the measured fuel)" if ne.get("uninformative") else ""
+    return {"title": "Verdict by the normalised error (fuel mass)",
+            "columns": ["quantity", "unit", "test", "simulation", "error [%]",
+                        "U_model (k = 2)", "U_meas (k = 2)", "En", "verdict", "sample"],
+            "rows": [["fuel mass", "g", g(ne.get("measured_kg")), g(ne.get("model_kg")),
+                      ne.get("error_pct"), g(ne.get("u_model_kg")), g(ne.get("u_meas_kg")),
+                      None if en is None else round(en, 3), f"{ne.get('verdict')}{flag}",
+                      "in-sample" if ne.get("in_sample") else "held-out"]],
+            "note": ("En = (m_sim - m_test) / sqrt(U_model² + U_meas²); |En| ≤ 1 is consistent. "
+                     "U_model: the vehicle's parameter ranges on the cycle; U_meas: the "
+                     f"measured fuel's U with the repeatability s_r = {100 * (ne.get('s_r') or 0):.2f} %"
+                     + (f". {ne['note']}" if ne.get("note") else ""))}

@@ -336,9 +336,19 @@ def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | No
         entries.append(e)
     entries.sort(key=lambda e: (RUNGS.index(e.rung), e.cycle, e.test_id))
     res = LadderResult(entries, tol, dict(calibrated or {}))
-    try:
-        s_r = math.sqrt(sum(s * s for _, s in held) / len(held)) if held else 0.0
-        res.set_verdict = set_verdict([c for c, _ in held], s_r=s_r).to_dict()
-    except InsufficientDataError as exc:
-        res.set_verdict_note = str(exc)
+    res.set_verdict, res.set_verdict_note = held_out_set_verdict(held)
     return res
+
+
+def held_out_set_verdict(judged: Sequence[tuple[Any, float]]
+                         ) -> tuple[dict[str, Any] | None, str]:
+    """Set verdict over held-out fuel comparisons: ``(SetVerdict.to_dict(), "")``, or
+    ``(None, why)`` with fewer than 3.
+
+    ``judged`` holds (:class:`vehval.uncertainty.Comparison`, s_r [-]) pairs; the set's s_r is
+    their root mean square (the tests of one car and lab, see :func:`set_verdict`)."""
+    try:
+        s_r = math.sqrt(sum(s * s for _, s in judged) / len(judged)) if judged else 0.0
+        return set_verdict([c for c, _ in judged], s_r=s_r).to_dict(), ""
+    except InsufficientDataError as exc:
+        return None, str(exc)

@@ -274,6 +274,7 @@
           out.append(el("h3", {text: t.title}));
           out.append(el("table", {class: "data model-table"}, el("thead", {}, el("tr", {}, ...t.columns.map(c => el("th", {text: c})))),
             el("tbody", {}, ...t.rows.map(row => el("tr", {}, ...(Array.isArray(row) ? row : t.columns.map(c => row[c])).map(v => el("td", {text: fmt(v)})))))));
+          if (t.note) out.append(el("p", {class: "note", text: t.note}));
         }
         for (const tr of r.traces) {
           const div = el("div", {class: "plot model-plot"});
