@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.cycles import part_boundary_s, part_rule
 from vehval.results.phases import CycleMatch, Phase
 from vehval.test import Signal
 
@@ -47,8 +48,7 @@ _ENGINE_OFF_SHARE = 0.9
 _LAST_RUN_RULES = {
     "hwfet": "40 CFR 600.111-08(b): the HWFET is run twice, the first run prepares the "
              "vehicle and the second is the test run; the result is the last run",
-    "us06": "40 CFR 86.164-08 / 600.114-12: US06 city part (0-130 s, 496-600 s) and "
-            "highway part (130-496 s); with two runs the first prepares and the result is "
+    "us06": part_rule("us06") + "; with two runs the first prepares and the result is "
             "the last run",
     "sc03": "40 CFR 86.160-00: SC03 result of the test run; with two runs the first "
             "prepares and the result is the last run",
@@ -275,7 +275,7 @@ def _udds(labelled: list[Phase], by_part: dict[str, str], cold_start: bool | Non
         return out
     if hot_bag1:
         sub = ("bag 3 taken from the bag 1 of a hot-start UDDS run of the same vehicle "
-               "(the FTP-75 bag 3 repeats the first 505 s hot)")
+               f"(the FTP-75 bag 3 repeats the first {part_boundary_s('udds', 'bag1'):g} s hot)")
         g3 = ["__hot_bag1__", b2]
     else:
         sub = ("no hot-start run given: bag 3 (hot transient) taken as the stabilised "
