@@ -31,9 +31,6 @@ US06_CITY_END_S = part_boundary_s("us06", "city")
 US06_HWY_END_S = part_boundary_s("us06", "highway")
 #: engine-off soak between the cold and hot UDDS of the FTP-75 [s]
 FTP_SOAK_S = 600.0
-#: FTP-75 composite weights of the cold and hot UDDS (40 CFR 600.113)
-FTP_WEIGHT_COLD = 0.43
-FTP_WEIGHT_HOT = 0.57
 
 
 @dataclass(frozen=True)
@@ -55,7 +52,7 @@ class Procedure:
     name: str
     runs: tuple[str, ...]
     bags: tuple[Bag, ...]
-    composite: str  # "ftp" (0.43/0.57 weighting) or "distance" (fuel over distance)
+    composite: str  # "ftp" (results.composites.FTP_WEIGHTS) or "distance" (fuel over distance)
 
 
 FTP75 = Procedure(

@@ -28,7 +28,7 @@ from vehval.fuels import (
     resolve_fuel,
 )
 from vehval.qa.findings import Finding, Kind, Severity
-from vehval.results.composites import Composite, composites_for
+from vehval.results.composites import Composite, composites_for, weighted_per_distance
 from vehval.results.drive_quality import RMSSE_TOLERANCE_MPS, drive_quality, iwr_reading
 from vehval.results.gate import headline
 from vehval.results.phase_check import check_phases
@@ -432,8 +432,7 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
         out = {f"{sc}|{k}": v[:, i] for k, v in q.items() for i, sc in enumerate(scopes)}
         idx = {sc: i for i, sc in enumerate(scopes)}
         for comp in composites:
-            fpd = np.zeros(n)
-            cpd = np.zeros(n)
+            fuel_terms, co2_terms = [], []
             for w, names in comp.groups:
                 fm = np.zeros(n)
                 dd = np.zeros(n)
@@ -450,8 +449,10 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                     fm += mass[:, i]
                     dd += dist[:, i]
                     cc += q["co2_kg"][:, i]
-                fpd += w * fm / dd
-                cpd += w * cc / dd
+                fuel_terms.append((w, fm, dd))
+                co2_terms.append((w, cc, dd))
+            fpd = np.zeros(n) + weighted_per_distance(fuel_terms)
+            cpd = np.zeros(n) + weighted_per_distance(co2_terms)
             pre = f"{comp.name}|"
             out[pre + "fuel_per_distance_kg_per_m"] = fpd
             vpd = fuel_volume_m3(fpd, rho[:, 0]) if rho is not None else np.full(n, np.nan)
