@@ -12,7 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-RPM = 2.0 * np.pi / 60.0  # [rad/s per rpm]
+from vehval.constants import RPM_RAD_PER_S
+
+RPM = RPM_RAD_PER_S  # [rad/s per rpm]
 
 #: Operating modes, in the order used by tables and figures.
 MODES = ("stopped", "ev_drive", "coast", "engine_idle", "engine_drive", "engine_charging",

@@ -4,14 +4,13 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import typer
 
 from vehval.cli.app import app
 from vehval.cli.options import bounded, output_file
-from vehval.constants import BRAKE_EFFICIENCY_RANGE
+from vehval.constants import BRAKE_EFFICIENCY_RANGE, RPM_RAD_PER_S
 from vehval.errors import ConfigError
 
 
@@ -225,7 +224,7 @@ def _check_power_torque(declared: dict) -> None:
     if not all(k in declared for k in keys):
         return
     p_kw, n_rpm, t_nm = (float(declared[k][0]) for k in keys)
-    t_rated = p_kw * 1e3 / (n_rpm * math.pi / 30.0)
+    t_rated = p_kw * 1e3 / (n_rpm * RPM_RAD_PER_S)
     if t_rated > (1 + POWER_TOL) * t_nm:
         raise ConfigError(
             f"identify: a rated power of {p_kw:g} kW at {n_rpm:g} rpm needs {t_rated:.0f} N·m "
@@ -332,7 +331,7 @@ def peak_efficiency(engine) -> tuple[float, float, float]:
     trq = np.asarray(engine.torque_nm, dtype=float)
     fuel = np.asarray(engine.fuel_rate_g_per_s, dtype=float) * 1e-3
     tmax = np.asarray(engine.max_torque_nm, dtype=float)   # full load at each map speed
-    power = spd[:, None] * np.pi / 30.0 * trq[None, :]
+    power = spd[:, None] * RPM_RAD_PER_S * trq[None, :]
     ok = ((spd[:, None] >= engine.idle_speed_rpm) & (trq[None, :] > 0)
           & (trq[None, :] <= tmax[:, None]) & (fuel > 0))
     eta = np.where(ok, power / np.where(ok, fuel, 1.0) / engine.fuel_lhv_j_per_kg, -np.inf)

@@ -40,6 +40,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.display import percent
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.qa.unit_hints import (
@@ -66,7 +67,7 @@ ENERGY_PER_DISTANCE_BAND = (500.0, 15000.0)
 #: rotating inertia adds a few %).
 MASS_GAIN_BAND = (0.85, 1.2)
 #: Median running engine speed [rad/s] (500..4500 rpm).
-ENGINE_SPEED_BAND = (500 * math.pi / 30, 4500 * math.pi / 30)
+ENGINE_SPEED_BAND = (500 * RPM_RAD_PER_S, 4500 * RPM_RAD_PER_S)
 #: Median ambient temperature [degC] and the coolant's maximum [degC].
 AMBIENT_TEMP_BAND = (-45.0, 60.0)
 COOLANT_MAX_BAND = (-45.0, 135.0)

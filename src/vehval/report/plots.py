@@ -12,10 +12,11 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.fuels import resolve_fuel
 from vehval.test import Test
 
-RPM = 2.0 * np.pi / 60.0  # [rad/s] per rpm
+RPM = RPM_RAD_PER_S  # [rad/s] per rpm
 MAX_POINTS = 4000
 #: Engine speed above which the engine counts as running [rad/s] (~480 rpm: above cranking).
 ENGINE_RUNNING_RAD_S = 50.0

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.errors import SignalError
 from vehval.fuels import resolve_fuel
 from vehval.jsonsafe import clean
@@ -43,14 +44,14 @@ if TYPE_CHECKING:
 COMPONENT_SIGNALS: dict[str, tuple[str, str, float]] = {
     "veh_spd": ("vehicle speed", "km/h", 3.6),
     "whl_trq_out": ("wheel torque", "N·m", 1.0),
-    "eng_spd_out": ("engine speed", "rpm", 30.0 / math.pi),
+    "eng_spd_out": ("engine speed", "rpm", 1.0 / RPM_RAD_PER_S),
     "eng_trq_out": ("engine torque", "N·m", 1.0),
     "eng_pwr_out": ("engine power", "kW", 1e-3),
     "fuel_rate": ("fuel rate", "g/s", 1e3),
-    "gen_spd_out": ("generator speed", "rpm", 30.0 / math.pi),
+    "gen_spd_out": ("generator speed", "rpm", 1.0 / RPM_RAD_PER_S),
     "gen_trq_out": ("generator torque", "N·m", 1.0),
     "gen_pwr_out": ("generator mech. power", "kW", 1e-3),
-    "mot_spd_out": ("motor speed", "rpm", 30.0 / math.pi),
+    "mot_spd_out": ("motor speed", "rpm", 1.0 / RPM_RAD_PER_S),
     "mot_trq_out": ("motor torque", "N·m", 1.0),
     "mot_pwr_out": ("motor mech. power", "kW", 1e-3),
     "ess_volt": ("battery voltage", "V", 1.0),
