@@ -28,8 +28,11 @@ def _leaves(node: ast.AST) -> list[ast.AST]:
 
 
 def _is_pi(node: ast.AST) -> bool:
+    """``np.pi``, ``math.pi``, ``pi`` or pi written as a number (3.14159...)."""
     return (isinstance(node, ast.Attribute) and node.attr == "pi") or (
-        isinstance(node, ast.Name) and node.id == "pi")
+        isinstance(node, ast.Name) and node.id == "pi") or (
+        isinstance(node, ast.Constant) and isinstance(node.value, float)
+        and abs(node.value - math.pi) < 1e-4)
 
 
 def scan(root: Path = PKG) -> list[str]:
@@ -72,9 +75,10 @@ def test_the_scan_sees_each_spelling(tmp_path):
         "    d = 2.0 * np.pi / 60.0\n"
         "    e = w * 9.5493\n"
         "    ok = 2 * np.pi * w / 7.0 + 30\n"
-        "    return b, c, d, e, ok\n")
+        "    f = w * 30 / 3.141592653589793\n"
+        "    return b, c, d, e, ok, f\n")
     found = scan(pkg)
-    assert [f.split(":")[1] for f in found] == ["3", "5", "6", "7", "8"], found
+    assert [f.split(":")[1] for f in found] == ["10", "3", "5", "6", "7", "8"], found
     assert not any("constants.py" in f for f in found)
 
 

@@ -35,6 +35,7 @@ from vehval.sim.layout import SIGNALS, SUMMARY
 from vehval.sim.packing import pack
 from vehval.test import Signal, Test, TestMeta
 from vehval.vehicle import Vehicle, load_vehicle
+from vehval.vehicle.maps import best_line_efficiency
 
 __all__ = ["ARCHITECTURES", "BALANCE_MAX_ITER", "BALANCE_TOL", "CHARGE_BALANCE_TOL",
            "Architecture", "Grid", "SimResult", "architecture", "balanced_plan",
@@ -112,9 +113,8 @@ def summarise(veh: Vehicle, ys: np.ndarray, soc0: float) -> dict[str, Any]:
         return fuel_consumption_l_per_100km(fuel_volume_m3(mass_kg, rho), dist)
 
     eta_eng = s["eng_out_energy_j"] / s["fuel_energy_j"] if s["fuel_energy_j"] > 0 else 0.0
-    if eta_eng <= 0.0:  # no engine use: best map efficiency
-        p, w, tq = veh.best_line
-        eta_eng = 0.35
+    if eta_eng <= 0.0:  # no engine use: the best efficiency on the engine's line
+        eta_eng = best_line_efficiency(veh.engine, veh.best_line)
     d_e = s["ess_chem_energy_j"]
     fuel_corr = max(fuel + d_e / (lhv * eta_eng * veh.controller.soc_correction_path_efficiency),
                     0.0)
