@@ -12,7 +12,6 @@ from vehval.cli.app import app
 from vehval.cli.options import bounded, output_file
 from vehval.constants import BRAKE_EFFICIENCY_RANGE, RPM_RAD_PER_S
 from vehval.errors import ConfigError
-from vehval.vehicle.maps import brake_efficiency_plausible, peak_brake_efficiency
 
 
 def _table(rows: list[dict]) -> str:
@@ -282,6 +281,8 @@ _UNIT_HINT = ("check the fuel flow's unit and the test fuel's heating value (tem
 def _check_fuel_map(idf, files) -> None:
     """A fuel map that explains the fuel worse than its mean, or burns less fuel than the
     work it gives (brake efficiency above 100 %): a unit or mapping mistake, refused."""
+    from vehval.vehicle.maps import peak_brake_efficiency
+
     fm = idf.fuel_map
     eta = peak_brake_efficiency(idf.vehicle.engine)[0]
     tests = ", ".join(str(f) for f in files)
@@ -311,6 +312,8 @@ def _cold_warnings(traces) -> list[str]:
 
 def _fuel_map_warnings(idf) -> list[str]:
     """A peak brake efficiency outside the range of road engines, in one line."""
+    from vehval.vehicle.maps import brake_efficiency_plausible, peak_brake_efficiency
+
     eta, rpm, nm = peak_brake_efficiency(idf.vehicle.engine)
     if brake_efficiency_plausible(eta):
         return []
@@ -321,6 +324,8 @@ def _fuel_map_warnings(idf) -> list[str]:
 
 
 def _print_identification(idf, output: Path, report: Path | None) -> None:
+    from vehval.vehicle.maps import peak_brake_efficiency
+
     rl = idf.road_load
     v, ci = rl.values, rl.ci95
     typer.echo(f"wrote {output}")
