@@ -42,6 +42,7 @@ import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S
 from vehval.display import percent
+from vehval.equations.engine_state import engine_running
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.qa.unit_hints import (
     UnitHint,
@@ -452,7 +453,8 @@ def _engine_running_s(test: Test) -> float:
     if t.size < 2:
         return 0.0
     dt = np.diff(t, append=t[-1])
-    on = np.isfinite(v) & (v > ENGINE_SPEED_BAND[0] * 0.8) & (v < 1000.0)
+    # running by the one engine-on rule; above 1000 "rad/s" the speed is in another unit
+    on = np.isfinite(v) & engine_running(t, v) & (v < 1000.0)
     return float(dt[on].sum())
 
 

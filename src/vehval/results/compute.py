@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.conditions import cold_start
 from vehval.display import format_delta
 from vehval.fuels import (
     Fuel,
@@ -70,8 +71,6 @@ COMPOSITE_QUANTITIES = {"fuel_economy_mpg": "mile/US gal",
                         "fuel_consumption_l_per_100km": "L/100 km",
                         "fuel_per_distance_kg_per_m": "kg/m", "co2_g_per_km": "g/km",
                         "fuel_energy_per_distance_j_per_m": "J/m"}
-#: Coolant within this many kelvin of the cell temperature at the start: a cold start.
-COLD_START_BAND_K = 10.0
 #: Cell temperature [degC] at or above which a test runs with the A/C on (the hot-ambient
 #: tests: SC03 at 35 degC, hot UDDS/FTP with A/C max); below it the A/C is off.
 AC_HOT_CELL_C = 30.0
@@ -215,11 +214,8 @@ def _conditions(test: Test, kept: list[str] | None) -> dict[str, Any]:
         v = cool.values[np.isfinite(cool.values)]
         if v.size:
             c0 = float(np.median(v[: max(1, min(v.size, 20))]))
-            cold = abs(c0 - out["cell_temp_c"]) <= COLD_START_BAND_K
+            cold, out["start_basis"] = cold_start(c0, out["cell_temp_c"])
             out["start"] = "cold" if cold else "hot"
-            out["start_basis"] = (f"coolant {c0:.1f} degC at the start, cell "
-                                  f"{out['cell_temp_c']:.1f} degC (cold when within "
-                                  f"{COLD_START_BAND_K:g} K)")
     out["ac"], out["ac_basis"] = _ac(test.meta.cycle or "", out["cell_temp_c"])
     return out
 

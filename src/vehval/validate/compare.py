@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S
+from vehval.equations.engine_state import ENGINE_ON_RPM
 from vehval.errors import SignalError
 from vehval.fuels import resolve_fuel
 from vehval.jsonsafe import clean
@@ -309,7 +310,7 @@ class Comparison:
 def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float = 2.0,  # noqa: PLR0913 - keyword options of the comparison, each with a default
             fuel: Any = None, fuel_density_kg_per_m3: float | None = None,
             fuel_lhv_j_per_kg: float | None = None,
-            on_speed_rpm: float = 400.0, bases: tuple[str, ...] | None = None,
+            on_speed_rpm: float = ENGINE_ON_RPM, bases: tuple[str, ...] | None = None,
             uncertainty_rel: dict[str, float] | None = None,
             uncertainty_basis: str = "") -> Comparison:
     """Compare a measured test with a simulation on the test's clock.
