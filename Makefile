@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.vehval-installed
 DEMO_OUT ?= demo_out
 
-.PHONY: venv demo test test-fast lint golden bench browser clean lock
+.PHONY: venv demo test test-fast lint golden generate bench browser clean lock
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -36,6 +36,13 @@ test-fast: venv
 # regenerate tests/golden/ (outputs of the demo and Cruze tests) after an intended change
 golden: venv
 	$(BIN)/python scripts/golden.py --write
+
+# regenerate the generated files after an intended change of their source: docs/architecture.md
+# (from the layer table, src/vehval/layers.py) and src/vehval/sim/indices.py (from the
+# simulator's layout, src/vehval/sim/layout.py); a test fails while either is stale
+generate: venv
+	$(BIN)/python scripts/architecture.py --write
+	$(BIN)/python scripts/sim_indices.py --write
 
 bench: venv
 	@bash scripts/ensure_bench_deps.sh "$(BIN)"

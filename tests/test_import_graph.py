@@ -1,41 +1,33 @@
 """The package's import graph: data flows one way (import -> QA -> results -> analysis ->
-validate -> report), with no cycle and no ImportError guard around the package's own modules.
+validate -> report), with no cycle, no undeclared import between two units of one floor and no
+ImportError guard around the package's own modules.
 
-Every ``import`` / ``from ... import`` of ``vehval`` in the source is read with ``ast``
-(imports inside functions included: a deferred import is still a dependency).
+The floors and the allowed same-floor imports are the one table of :mod:`vehval.layers`;
+``docs/architecture.md`` is drawn from it by ``scripts/architecture.py`` and must be current.
 """
 
 from __future__ import annotations
 
 import ast
+import functools
+import importlib.util
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parents[1] / "src"
+from vehval import layers
+
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
 PKG = SRC / "vehval"
 
-#: Layer of each top-level module or package: a module may import only its own layer or
-#: lower ones. A new package must be placed here (the test fails until it is).
-LAYERS: dict[str, int] = {
-    "vehval": 0, "errors": 0, "constants": 0, "units": 0, "nomenclature": 0, "safe_yaml": 0,
-    "jsonsafe": 0, "conditions": 0, "protocols": 0, "numba_cache": 0, "__main__": 10,
-    "fuels": 0, "display": 0, "uncertainty": 0,
-    "test": 1, "cycles": 1, "cycles_match": 1, "vehicle": 1,
-    "io": 2, "align": 2,
-    "equations": 3, "sim": 3, "calibration": 3,
-    "qa": 4,
-    "results": 5, "synth": 5,
-    "analysis": 6,
-    "validate": 7, "epa": 7,
-    "report": 8, "catalog": 8,
-    "workflow": 9, "batch": 9, "identify": 9,
-    "cli": 10, "serve": 10,
-    "progress": 0,
-}
+
+@functools.cache
+def _graph() -> dict[str, frozenset[str]]:
+    return {m: frozenset(d) for m, d in layers.graph(SRC).items()}
 
 
-def _module_name(path: Path) -> str:
-    parts = path.relative_to(SRC).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+def graph() -> dict[str, set[str]]:
+    """Module -> the vehval modules it imports (read once, a fresh copy each call)."""
+    return {m: set(d) for m, d in _graph().items()}
 
 
 def _is_module(name: str) -> bool:
@@ -43,69 +35,59 @@ def _is_module(name: str) -> bool:
     return p.with_suffix(".py").is_file() or (p / "__init__.py").is_file()
 
 
-def graph() -> dict[str, set[str]]:
-    """Module -> the vehval modules it imports."""
-    out: dict[str, set[str]] = {}
-    for path in sorted(PKG.rglob("*.py")):
-        mod = _module_name(path)
-        deps = out.setdefault(mod, set())
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 \
-                    and node.module.split(".")[0] == "vehval":
-                for alias in node.names:
-                    sub = f"{node.module}.{alias.name}"
-                    deps.add(sub if _is_module(sub) else node.module)
-            elif isinstance(node, ast.Import):
-                deps.update(a.name for a in node.names if a.name.split(".")[0] == "vehval")
-        deps.discard(mod)
-    return out
-
-
-def _layer(mod: str) -> int:
-    top = mod.split(".")[1] if "." in mod else mod
-    assert top in LAYERS, f"{top}: place the new module in LAYERS of {__file__}"
-    return LAYERS[top]
-
-
-def test_no_module_imports_upward():
-    bad = [f"{a} ({_layer(a)}) imports {b} ({_layer(b)})"
-           for a, deps in graph().items() for b in deps if _layer(b) > _layer(a)]
+def test_the_layer_rule_holds():
+    """No upward import, no undeclared same-floor import, no cycle, every unit placed."""
+    bad = layers.violations(graph())
     assert not bad, "\n".join(bad)
 
 
-def test_no_import_cycle():
+def test_every_declared_same_layer_import_is_used_and_on_one_floor():
+    assert not layers.unused_same_layer(graph()), "remove from vehval.layers.SAME_LAYER"
+    assert all(layers.LAYERS[a] == layers.LAYERS[b] for a, b in layers.SAME_LAYER)
+    assert set(layers.FLOOR_NAMES) == set(layers.LAYERS.values())
+
+
+def test_the_checks_can_fail():
+    """The real check, on small graphs that break the rule, reports each break."""
+    table = {"low": 0, "mid": 1, "mid2": 1, "top": 2}
+    allowed = frozenset({("mid", "mid2")})
+    ok = {"vehval.top": {"vehval.mid.a"}, "vehval.mid.a": {"vehval.mid2", "vehval.mid.b"},
+          "vehval.mid.b": {"vehval.low"}, "vehval.mid2": {"vehval.low"}, "vehval.low": set()}
+    assert layers.violations(ok, table, allowed) == []
+
+    upward = {**ok, "vehval.low": {"vehval.top"}}
+    bad = layers.violations(upward, table, allowed)
+    assert any("vehval.low (floor 0) imports vehval.top (floor 2): upward" in b for b in bad)
+
+    undeclared = {**ok, "vehval.mid2": {"vehval.mid.b"}}
+    assert layers.violations(undeclared, table, allowed) == [
+        "vehval.mid2 imports vehval.mid.b, both on floor 1: declare ('mid2', 'mid') in "
+        "vehval.layers.SAME_LAYER or move a unit"]
+
+    cycle = {**ok, "vehval.mid.b": {"vehval.low", "vehval.mid.a"}}
+    assert layers.violations(cycle, table, allowed) == [
+        "import cycle: vehval.mid.a -> vehval.mid.b"]
+
+    unplaced = {**ok, "vehval.new": {"vehval.low"}}
+    assert layers.violations(unplaced, table, allowed) == [
+        "new: not placed in vehval.layers.LAYERS (give it a floor)"]
+
+    # and the package's own graph, with one real upward import added, fails too
     g = graph()
-    index: dict[str, int] = {}
-    low: dict[str, int] = {}
-    stack: list[str] = []
-    on: set[str] = set()
-    cycles: list[list[str]] = []
+    g["vehval.equations.calc"] = g.get("vehval.equations.calc", set()) | {"vehval.qa.level2"}
+    assert any("vehval.equations.calc (floor 3) imports vehval.qa.level2 (floor 4)" in b
+               for b in layers.violations(g))
 
-    def visit(v: str) -> None:          # Tarjan's strongly connected components
-        index[v] = low[v] = len(index)
-        stack.append(v)
-        on.add(v)
-        for w in g.get(v, ()):
-            if w not in index:
-                visit(w)
-                low[v] = min(low[v], low[w])
-            elif w in on:
-                low[v] = min(low[v], index[w])
-        if low[v] == index[v]:
-            comp = []
-            while True:
-                w = stack.pop()
-                on.discard(w)
-                comp.append(w)
-                if w == v:
-                    break
-            if len(comp) > 1:
-                cycles.append(sorted(comp))
 
-    for v in sorted(g):
-        if v not in index:
-            visit(v)
-    assert not cycles, cycles
+def test_architecture_doc_is_current():
+    """docs/architecture.md is what scripts/architecture.py draws from the table today."""
+    spec = importlib.util.spec_from_file_location("architecture", ROOT / "scripts" / "architecture.py")
+    assert spec and spec.loader
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    doc = ROOT / "docs" / "architecture.md"
+    assert doc.read_text(encoding="utf-8") == script.render(graph()), \
+        "docs/architecture.md is stale: run python scripts/architecture.py --write (make generate)"
 
 
 def test_no_import_error_guard_around_own_modules():
@@ -125,11 +107,6 @@ def test_no_import_error_guard_around_own_modules():
             if own:
                 found.append(f"{path.relative_to(SRC)}:{node.lineno}")
     assert not found, found
-
-
-def test_the_checks_can_fail(tmp_path):
-    """The layer rule sees an upward import (equations -> qa, as before)."""
-    assert _layer("vehval.qa.level2") > _layer("vehval.equations.calc")
 
 
 #: the simulator's insides: only vehval.sim itself may import them (everything else goes

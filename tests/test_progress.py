@@ -60,6 +60,7 @@ def test_bar_drawn_with_rich_follows_the_steps(capsys):
     assert "Traceback" not in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_sensitivity_reports_its_steps():
     from vehval.sim.sensitivity import sensitivity
 

@@ -128,27 +128,33 @@ def load_yaml(text: str, where: str = "document"):
             loader.dispose()
 
 
-def read_yaml(path: str | Path):
-    """Read and parse a YAML file strictly; unreadable or non-UTF-8 files are a ConfigError."""
-    path = Path(path)
+def _read_text(path: Path, kind: str) -> str:
+    """The UTF-8 text of the configuration file ``path`` (a ``kind`` file: YAML, JSON), read
+    to at most :data:`MAX_BYTES`; a directory, device, pipe, unreadable or non-UTF-8 file is
+    a ConfigError."""
     try:
         if path.is_dir():
             raise IsADirectoryError
         if not stat.S_ISREG(path.stat().st_mode):  # a device or a pipe (/dev/zero never ends)
-            raise ConfigError(f"{path}: not a regular file, a YAML file is expected")
+            raise ConfigError(f"{path}: not a regular file, a {kind} file is expected")
         with path.open("rb") as fh:  # bounded read: the size on disk may lie (procfs, growing)
             raw = fh.read(MAX_BYTES + 1)
         if len(raw) > MAX_BYTES:
             raise ConfigError(f"{path}: too large for a configuration file (limit "
                               f"{MAX_BYTES / 1e6:.0f} MB)")
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8")
     except IsADirectoryError:
-        raise ConfigError(f"{path}: is a directory, a YAML file is expected") from None
+        raise ConfigError(f"{path}: is a directory, a {kind} file is expected") from None
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{path}: not UTF-8 text (byte {exc.start}): save it as UTF-8") from None
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc.strerror})") from None
-    return load_yaml(text, str(path))
+
+
+def read_yaml(path: str | Path):
+    """Read and parse a YAML file strictly; unreadable or non-UTF-8 files are a ConfigError."""
+    path = Path(path)
+    return load_yaml(_read_text(path, "YAML"), str(path))
 
 
 def load_json(text: str, where: str = "document", *, finite: bool = False):
@@ -167,3 +173,27 @@ def load_json(text: str, where: str = "document", *, finite: bool = False):
         raise ConfigError(f"{where} line {exc.lineno}: not valid JSON ({exc.msg})") from None
     except RecursionError:
         raise ConfigError(f"{where}: JSON nesting too deep: not a vehval document") from None
+
+
+_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
+
+
+def _check_json_depth(text: str, where: str) -> None:
+    """Refuse JSON nested deeper than :data:`MAX_DEPTH` before it is parsed (brackets inside
+    strings do not count)."""
+    depth = 0
+    for m in re.finditer(r"[\[\]{}]", _JSON_STRING.sub("", text)):
+        depth += 1 if m.group() in "[{" else -1
+        if depth > MAX_DEPTH:
+            raise ConfigError(f"{where}: JSON nesting deeper than {MAX_DEPTH} levels: not a "
+                              "vehval document")
+
+
+def read_json(path: str | Path, *, finite: bool = False):
+    """Read and parse a JSON configuration file (start values, settings): at most
+    :data:`MAX_BYTES`, nesting at most :data:`MAX_DEPTH`, with ``finite`` no NaN/Infinity;
+    every breach a ConfigError naming the file."""
+    path = Path(path)
+    text = _read_text(path, "JSON")
+    _check_json_depth(text, str(path))
+    return load_json(text, str(path), finite=finite)

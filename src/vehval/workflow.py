@@ -447,15 +447,50 @@ class SuiteOutcome:
     metrics: dict
 
 
+def model_uncertainty_by_cycle(veh: Any, cycles: Sequence[str], method: str = "linear",
+                               draws: int = 200) -> tuple[dict[str, float | None], list[str]]:
+    """Relative U_model (k = 2) of the fuel of each cycle (:mod:`vehval.sim.model_uncertainty`,
+    the vehicle as filed on the named cycle, dt 1 s); None where the cycle cannot be run by
+    name (a trace without a packaged cycle) or ``method`` is ``none``; and notes."""
+    from vehval.errors import VehvalError
+    from vehval.sim.model_uncertainty import check_method, figure_uncertainty
+
+    if method != "none":
+        check_method(method, draws)
+    out: dict[str, float | None] = {}
+    notes: list[str] = []
+    for cyc in dict.fromkeys(cycles):
+        if method == "none" or not cyc:
+            out[cyc] = None
+            continue
+        try:
+            fu = figure_uncertainty(veh, cyc, method=method, draws=draws)
+        except VehvalError as exc:   # e.g. a trace named after no packaged cycle
+            out[cyc] = None
+            notes.append(f"model uncertainty on '{cyc}': {exc}; U_model = 0")
+            continue
+        out[cyc] = fu.u_rel
+        notes += fu.notes
+    return out, notes
+
+
 def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
-                  window_s: float = 2.0, smooth_hz: float | None = None) -> SuiteOutcome:
+                  window_s: float = 2.0, smooth_hz: float | None = None,
+                  model_uncertainty: str = "none", draws: int = 200) -> SuiteOutcome:
     """Validate each run, rank them on the tolerance ladder and compare the model error with
-    the test-to-test variability of repeated cycles."""
+    the test-to-test variability of repeated cycles.
+
+    ``model_uncertainty`` (``linear``, ``monte_carlo`` or ``none``) gives U_model of each
+    test's normalised error (:func:`model_uncertainty_by_cycle`)."""
     from vehval.calibration.provenance import calibration_tests
     from vehval.validate import error_vs_repeatability, ladder, variability
 
     if not runs:
         raise ConfigError("no test to validate")
+    if model_uncertainty != "none":   # refused before any simulation
+        from vehval.sim.model_uncertainty import check_method
+
+        check_method(model_uncertainty, draws)
     veh = runs[0].vehicle
     if veh is None:
         raise ConfigError("validation needs a vehicle model: pass --vehicle or set 'vehicle:' "
@@ -465,8 +500,14 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     for one in runs:
         vals.append(one.validate(dt=dt, window_s=window_s, smooth_hz=smooth_hz))
         progress.advance()
-    lad = ladder([v.validation.comparison for v in vals], tolerances,
-                 calibrated=calibration_tests(veh))
+    comps = [v.validation.comparison for v in vals]
+    u_cyc, u_notes = model_uncertainty_by_cycle(veh, [c.cycle for c in comps],
+                                                model_uncertainty, draws)
+    from vehval.sim.simulate import architecture
+
+    lad = ladder(comps, tolerances, calibrated=calibration_tests(veh),
+                 u_model_rel={c.test_id: u_cyc.get(c.cycle) for c in comps},
+                 family="hybrid" if architecture(veh).has_battery else "conventional")
     payload: dict[str, Any] = {
         "title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "
         "initial SOC, mass and road load", "tables": [], "figures": [], "notes": []}
@@ -475,11 +516,12 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
         payload["tables"] += p["tables"]
         payload["figures"] += p["figures"]
         payload["notes"] += [f"{v.validation.comparison.test_id}: {n}" for n in p["notes"]]
-    payload["tables"] += lad.tables()
+    payload["tables"] += lad.tables() + [lad.en_table()]
     metrics: dict[str, Any] = {
         "vehicle": veh.name, "vehicle_file": veh.file, "dt_s": dt,
         "speed_smoothing_hz": smooth_hz, "tests": [v.validation.to_dict() for v in vals],
-        "ladder": lad.to_dict()}
+        "ladder": lad.to_dict(), "model_uncertainty": {
+            "method": model_uncertainty, "u_rel_by_cycle": u_cyc, "notes": u_notes}}
     by_cycle: dict[str, list[int]] = {}
     for i, run in enumerate(runs):
         by_cycle.setdefault(run.validated.meta.cycle or "", []).append(i)

@@ -2,33 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
-TEMPLATE = """\
-template_version: 1
-description: adversarial test template
-vehicle: prius_2004
-files:
-  - source: dyno
-    match: "*_d3.txt"
-    time: {column: Time, unit: s}
-    channels:
-      Dyno_Speed: {name: veh_spd_test, unit: mph}
-      Engine_Speed: {name: eng_spd_out_test, unit: rpm}
-"""
-
-
-def write_d3(path, n: int = 600, dt: float = 0.1, last_t: float | None = None) -> None:
-    """A tab-separated D3-style file: time [s], vehicle speed [mph], engine speed [rpm]."""
-    t = np.arange(n) * dt
-    if last_t is not None:
-        t[-1] = last_t
-    v = 20 + 10 * np.sin(t / 10)
-    e = 1200 + 300 * np.sin(t / 7)
-    lines = ["Time[s]\tDyno_Speed[mph]\tEngine_Speed[rpm]"]
-    lines += [f"{a:.9g}\t{b:.4f}\t{c:.2f}" for a, b, c in zip(t, v, e)]
-    path.write_text("\n".join(lines) + "\n")
+from helpers.cli import TEMPLATE, write_d3
 
 
 @pytest.fixture
@@ -41,12 +17,3 @@ def small_test(tmp_path):
     t = d / "T.yaml"
     t.write_text(TEMPLATE)
     return f, t
-
-
-def run_cli(args, capsys):
-    """Run the CLI in-process: ``(exit code, stdout, stderr)``."""
-    from vehval.cli import main
-
-    rc = main([str(a) for a in args])
-    out = capsys.readouterr()
-    return rc, out.out, out.err

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from .conftest import write_d3
+from helpers.cli import write_d3
 
 HELPER = Path(__file__).with_name("killrun.py")
 

@@ -15,12 +15,11 @@ from pathlib import Path
 import pytest
 
 import vehval.batch.task as task_mod
+from helpers.cli import TEMPLATE, run_cli, write_d3
 from vehval.batch import run_batch
 from vehval.batch.runner import MAX_WORKERS_PER_CPU
 from vehval.catalog import open_catalog
 from vehval.errors import ConfigError
-
-from .conftest import TEMPLATE, run_cli, write_d3
 
 HELPER = Path(__file__).with_name("killrun.py")
 #: Names of what an interrupted run may leave: staging folders and temporaries.
@@ -60,6 +59,7 @@ def test_worker_count_is_bounded(tmp_path, folder, capsys, workers):
     assert not out.exists() and time.perf_counter() - t0 < 30
 
 
+@pytest.mark.slow
 def test_a_hanging_test_times_out_and_the_batch_goes_on(tmp_path, folder, monkeypatch, capsys):
     d, t = folder
     out = tmp_path / "out"

@@ -8,11 +8,10 @@ import os
 
 import pytest
 
+from helpers.cli import TEMPLATE, write_d3
 from vehval.batch import run_batch
 from vehval.batch.discover import discover_tests
 from vehval.io.template import load_template
-
-from .conftest import TEMPLATE, write_d3
 
 TWO_FILES = TEMPLATE + """\
   - source: obd

@@ -12,6 +12,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
+from helpers.cli import TEMPLATE, run_cli
 from vehval.epa.reader import MAX_LIST_BYTES, read_test_car_list
 from vehval.errors import ConfigError, InputFileError, UnitError
 from vehval.io import budget
@@ -20,8 +21,6 @@ from vehval.io.template import load_template
 from vehval.safe_yaml import load_yaml, read_yaml
 from vehval.test import Signal, Test, TestMeta
 from vehval.units import conversion
-
-from .conftest import TEMPLATE, run_cli
 
 
 def test_yaml_alias_bomb_refused_before_it_is_built(tmp_path):

@@ -68,16 +68,19 @@ def outcomes(tmp_path_factory):
     return {o.mutation: o for o in found}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mutation", list(EXPECTED))
 def test_mutation_outcome(outcomes, mutation):
     o = outcomes[mutation]
     assert o.outcome in EXPECTED[mutation], (o.outcome, o.detail, o.breaches)
 
 
+@pytest.mark.slow
 def test_no_breach(outcomes):
     assert [o for o in outcomes.values() if o.outcome == "BREACH"] == []
 
 
+@pytest.mark.slow
 def test_fuel_hint_names_declared_and_probable_unit(outcomes):
     """Virtual fuel flow is in cm³/s: declared mg/s, the hint is ccps, x740 (the density)."""
     assert "in ccps, not mg/s (x740)" in outcomes["fuel mg/s"].detail

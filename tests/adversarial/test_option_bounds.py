@@ -7,7 +7,7 @@ import typing
 
 import pytest
 
-from tests.adversarial.conftest import run_cli
+from helpers.cli import run_cli
 
 
 def _numeric_options():

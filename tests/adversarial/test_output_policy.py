@@ -21,8 +21,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.adversarial.conftest import run_cli, write_d3
-from tests.epa.conftest import row, write_list
+from helpers.cli import run_cli, write_d3
+from helpers.epa_lists import row, write_list
 from vehval.errors import VehvalError
 from vehval.io import atomic
 from vehval.io.paths import check_output_path, output_problem

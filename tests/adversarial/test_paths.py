@@ -11,9 +11,8 @@ import zipfile
 
 import pytest
 
+from helpers.cli import run_cli
 from vehval.io.paths import sanitize_id
-
-from .conftest import run_cli
 
 
 def _snapshot(root):

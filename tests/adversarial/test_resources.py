@@ -16,10 +16,9 @@ import sys
 
 import pytest
 
+from helpers.cli import TEMPLATE, write_d3
 from vehval.errors import ConfigError
 from vehval.io.template import load_template
-
-from .conftest import TEMPLATE, write_d3
 
 LIMIT_BYTES = 1 << 30
 

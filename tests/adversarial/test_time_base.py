@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import json
 
-from .conftest import TEMPLATE, run_cli, write_d3
+from helpers.cli import TEMPLATE, run_cli, write_d3
 
 
 def _swap_rows(path, i: int, dup: int) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from vehval.analysis.modes import (
     MODES,
@@ -75,6 +76,7 @@ def test_cli_analyze_writes_control_json(tmp_path):
     assert abs(d["controller"]["engine_on_power_w"] - 8000) <= 1000
 
 
+@pytest.mark.slow
 def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
     """`vehval analyze FILES -t T.yaml -o OUT` with the QA (default) on a virtual test with
     the default fault mix (OBD clock offset, reversed battery current clamp, SOC PID at
@@ -83,7 +85,7 @@ def test_cli_analyze_virtual_test_with_default_faults_and_qa(tmp_path):
     from vehval.cli import main
     from vehval.synth import make_virtual_test
 
-    from .test_recovery import CASES, check_recovery
+    from .recovery import CASES, check_recovery
 
     _, overrides, identified, bounded = CASES["p10k_v14"]
     vt = make_virtual_test(cycle="udds", seed=5, faults="default", outdir=tmp_path / "vt",

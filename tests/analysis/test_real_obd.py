@@ -3,17 +3,16 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import REAL
 from vehval.analysis import analyze
 from vehval.io.importer import import_test
 
 ROOT = Path(__file__).resolve().parents[2]
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", ROOT / ".." / "shared" / "data")) / "real"
 OBD = REAL / "obd_2014_toyota_prius_c"
 TEMPLATE = Path(__file__).parent / "templates" / "prius_c_obd.yaml"
 

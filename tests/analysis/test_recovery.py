@@ -34,9 +34,7 @@ from vehval.io.template import load_template
 from vehval.synth import make_virtual_test
 from vehval.vehicle import load_vehicle
 
-TOL = {"_w": 600.0, "_mps": 0.5, "_s": 1.0}
-KEYS = ("engine_on_power_w", "engine_off_power_w", "engine_on_speed_mps",
-        "engine_off_speed_mps", "min_on_time_s", "min_off_time_s")
+from .recovery import CASES, check_recovery
 
 
 def speed_ladder() -> Cycle:
@@ -58,56 +56,6 @@ def speed_ladder() -> Cycle:
     return Cycle.from_trace(tt, np.interp(tt, [p[0] for p in pts], [p[1] for p in pts]),
                             "speed_ladder")
 
-
-# name: (cycle, controller overrides, keys that must be identified, keys that must be bounds)
-CASES = {
-    # the packaged car (regen first, ORNL machines) never holds an engine-off run by its
-    # minimum off time on UDDS: that must be a bound (identified in "p14k")
-    "prius_2004": ("udds", {},
-                   ("engine_on_power_w", "engine_off_power_w", "engine_off_speed_mps",
-                    "min_on_time_s"),
-                   ("engine_on_speed_mps", "min_off_time_s")),
-    "p10k_v14": ("udds", {"engine_on_power_w": 10000.0, "engine_off_power_w": 4000.0,
-                          "engine_on_speed_mps": 14.0, "engine_off_speed_mps": 12.0,
-                          "min_on_time_s": 8.0, "min_off_time_s": 4.0},
-                 ("engine_on_power_w", "engine_off_power_w", "engine_off_speed_mps",
-                  "min_on_time_s"),
-                 ("engine_on_speed_mps",)),
-    "p14k": ("udds", {"engine_on_power_w": 14000.0, "engine_off_power_w": 6000.0,
-                      "engine_off_speed_mps": 16.0, "min_on_time_s": 3.0,
-                      "min_off_time_s": 6.0},
-             ("engine_on_power_w", "engine_off_power_w", "engine_off_speed_mps",
-              "min_off_time_s"),
-             ("engine_on_speed_mps",)),
-    # on-power 20 kW never binds on the ladder: it and the off-power must be bounds
-    "ladder_v14.5": ("ladder", {"engine_on_power_w": 20000.0, "engine_off_power_w": 6000.0,
-                                "engine_on_speed_mps": 14.5, "engine_off_speed_mps": 11.5,
-                                "min_on_time_s": 6.0, "min_off_time_s": 3.0},
-                     ("engine_on_speed_mps", "engine_off_speed_mps"),
-                     ("engine_on_power_w", "engine_off_power_w")),
-}
-
-
-def tolerance(key: str) -> float:
-    return next(v for suf, v in TOL.items() if key.endswith(suf))
-
-
-def check_recovery(controller: dict, bounds: dict, agreement: float, truth: dict,
-                   identified=(), bounded=()) -> None:
-    """Every parameter is an estimate within tolerance or a bound containing the truth."""
-    assert agreement >= 0.95, agreement
-    for k in KEYS:
-        assert (k in controller) != (k in bounds), k
-        if k in controller:
-            assert abs(controller[k] - truth[k]) <= tolerance(k), (k, controller[k], truth[k])
-        else:
-            b = bounds[k]
-            assert b["low"] is None or b["low"] <= truth[k] + tolerance(k), (k, b, truth[k])
-            assert b["high"] is None or truth[k] <= b["high"] + tolerance(k), (k, b, truth[k])
-    for k in identified:
-        assert k in controller, (k, bounds.get(k))
-    for k in bounded:
-        assert k in bounds, (k, controller.get(k))
 
 
 @pytest.mark.parametrize("case", sorted(CASES))

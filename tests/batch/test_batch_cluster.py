@@ -26,7 +26,7 @@ from vehval.batch.metrics import test_metrics as key_metrics
 from vehval.batch.task import _selected, jsonable
 from vehval.catalog import open_catalog
 
-from .conftest import TEMPLATE, write_d3
+from .helpers import TEMPLATE, write_d3
 
 N_DISTINCT, N_COPIES = 2, 10         # 20 good tests: 2 distinct recordings, 10 copies each
 WAIT_S = 120                          # generous wall for subprocess waits (not an assertion of speed)
@@ -260,6 +260,7 @@ def test_all_steps_on_one_virtual_test(batch_inputs, tmp_path):
     assert float(fuel_err) == pytest.approx(val["fuel_error"], rel=0, abs=0)
 
 
+@pytest.mark.slow
 def test_hanging_test_on_a_cluster_times_out(tmp_path):
     """--test-timeout on Dask workers: the hanging test fails with the reason, the others
     complete on the same worker, and the batch ends."""

@@ -12,7 +12,7 @@ from vehval.catalog import open_catalog
 from vehval.cli import main
 from vehval.errors import ConfigError
 
-from .conftest import write_d3
+from .helpers import write_d3
 
 # Metrics are trapezoidal integrals of the values as written (10 significant digits) and the
 # reader parses them exactly, so the only differences are float summation order: rtol 1e-9.
@@ -212,3 +212,25 @@ def test_the_templates_vehicle_name_fills_the_vehicle_column(tmp_path, template_
     assert main(["catalog", "summary", "--db", str(out / "catalog.duckdb"), "--json"]) == 0
     summ = json.loads(capsys.readouterr().out)
     assert summ and {r["vehicle"] for r in summ} == {"2014 Test Car Diesel"}
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this platform")
+def test_a_fifo_is_skipped_and_listed_with_its_reason(tmp_path, template_path, capsys):
+    """A FIFO (reading it would block until a writer comes) is never taken as an input: it is
+    listed among the skipped inputs with the reason, beside a test of regular files and in a
+    test folder of its own, whose failure then says that no regular file matches."""
+    inp, out = tmp_path / "in", tmp_path / "out"
+    write_d3(inp / "t0" / "run0.txt", seed=0)
+    os.mkfifo(inp / "t0" / "extra.txt")              # beside the test's regular file
+    (inp / "pipe").mkdir()
+    os.mkfifo(inp / "pipe" / "run.txt")              # the folder's only matching entry
+    rc = main(["batch", str(inp), "-t", str(template_path), "-o", str(out), "--steps", "",
+               "--no-report", "--workers", "0", "-q"])
+    err = capsys.readouterr().err
+    assert rc == 1, err
+    for fifo in (inp / "t0" / "extra.txt", inp / "pipe" / "run.txt"):
+        assert f"skipped {fifo}: a FIFO (named pipe), not a regular file: not read" in err, err
+    assert "no input file given" not in err
+    assert "no regular file of the test folder matches the template's file patterns (*.txt)" in err
+    res = json.loads((out / "tests" / "t0" / "result.json").read_text())
+    assert res["status"] == "ok" and [os.path.basename(f) for f in res["files"]] == ["run0.txt"]

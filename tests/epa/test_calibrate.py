@@ -23,7 +23,7 @@ TRUTH = 10500.0
 def virtual(tmp_path_factory):
     """The EPA HWFET and US06 rows with their results replaced by the model's own predictions
     at PARAM = TRUTH (virtual lab results: the calibration must find TRUTH again)."""
-    from tests.epa.conftest import row, write_list
+    from helpers.epa_lists import row, write_list
 
     path = write_list(tmp_path_factory.mktemp("epa") / "16tstcar.csv", [
         row(number="T1", code=3, desc="HWFE", fe=71.2),
@@ -39,6 +39,7 @@ def virtual(tmp_path_factory):
     return base, out
 
 
+@pytest.mark.slow
 def test_recovers_the_value_that_made_the_results(virtual):
     base, tests = virtual
     grid = [9000.0, TRUTH, 12000.0]
@@ -53,6 +54,7 @@ def test_recovers_the_value_that_made_the_results(virtual):
     assert errs.size == 4 and abs(errs).max() < 1e-9  # HWFET, US06 whole and both parts
 
 
+@pytest.mark.slow
 def test_parallel_workers_give_the_same_result(virtual):
     base, tests = virtual
     grid = {PARAM: [9000.0, 12000.0]}
@@ -62,6 +64,7 @@ def test_parallel_workers_give_the_same_result(virtual):
     assert one.evaluations == two.evaluations and len(one.evaluations) == 4
 
 
+@pytest.mark.slow
 def test_written_vehicle_carries_the_value_and_its_provenance(virtual, tmp_path):
     base, tests = virtual
     cal = calibrate_on_tests(base, tests, {"engine_min_power_w": [TRUTH]}, refine_rounds=0)
@@ -73,6 +76,7 @@ def test_written_vehicle_carries_the_value_and_its_provenance(virtual, tmp_path)
     assert veh.engine == base.engine and veh.body == base.body
 
 
+@pytest.mark.slow
 def test_bad_parameters_refused(virtual):
     base, tests = virtual
     with pytest.raises(ConfigError, match="did you mean controller.soc_gain_w"):
@@ -118,11 +122,10 @@ def test_unknown_parameter_of_a_conventional_car_names_its_blocks(tmp_path):
     """A bare name means controller.NAME; on a car without a controller (`epa vehicle`'s
     conventional cars) the message suggested 'controller.soc_gain_w', a parameter it has
     not either. It now names the same parameter in another block, or the blocks."""
-    from tests.epa.conftest import write_list
-    from tests.epa.test_specs import HEADER, _camry_rows
+    from helpers.epa_lists import HEADER, camry_rows, write_list
     from vehval.epa.specs import specs_from_tests, vehicle_from_specs
 
-    rows = read_test_car_list(write_list(tmp_path / "l.csv", _camry_rows(), header=HEADER))
+    rows = read_test_car_list(write_list(tmp_path / "l.csv", camry_rows(), header=HEADER))
     car = vehicle_from_specs(specs_from_tests(rows))
     with pytest.raises(ConfigError, match=r"did you mean engine_control\.accessory_power_w\?"):
         calibrate_on_tests(car, rows, {"accessory_power_w": [200.0, 300.0]})
@@ -172,6 +175,7 @@ def test_grid_size_bounded_before_anything_runs(prius_list, capsys, monkeypatch)
         assert ("5,000 settings" in err) or ("216,000 settings (60 x 60 x 60 values)" in err)
 
 
+@pytest.mark.slow
 def test_long_run_estimated_stated_and_refused_unless_asked(virtual, monkeypatch):
     import vehval.epa.calibrate as cal_mod
 

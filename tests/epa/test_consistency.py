@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.epa.conftest import row, write_list
+from helpers.epa_lists import row, write_list
 from vehval.cli import main
 from vehval.epa import read_test_car_list
 from vehval.epa.consistency import TOLERANCE, check_listed_figures, recombine
@@ -126,4 +126,3 @@ def test_vehicle_match_by_axle_ratio_and_displacement(tmp_path):
     lumped = veh.with_overrides({"driveline.final_drive_ratio": 1.0,
                                  "engine.displacement_l": None})
     assert check_vehicle_match(c, lumped).ok
-

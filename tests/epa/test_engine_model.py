@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.epa.test_specs import _virtual_run, specs  # noqa: F401 - fixture
+from helpers.epa_lists import virtual_run
 from vehval.constants import RPM_RAD_PER_S
 from vehval.epa import engine_model as em
 from vehval.epa import specs as sp
@@ -57,7 +57,7 @@ def test_idle_control_shift_fades_to_the_fuel_cut_speed():
     assert em.idle_control_shift(np.array([700.0]), 700.0, 1120.0, 0.2, 0.15)[0] < 0
 
 
-def test_vehicle_map_burns_the_measured_idle_and_locks_from_third(specs):  # noqa: F811
+def test_vehicle_map_burns_the_measured_idle_and_locks_from_third(specs):
     plain = vehicle_from_specs(specs, 0.45, 1.0)
     veh = vehicle_from_specs(specs, 0.45, 1.0, idle_fuel_g_per_s=0.16, idle_source="measured")
     e = veh.engine
@@ -81,18 +81,18 @@ def test_vehicle_map_burns_the_measured_idle_and_locks_from_third(specs):  # noq
     assert "knock" in veh.sources()["engine.fuel_rate_g_per_s"]
 
 
-def test_calibration_stays_exact_with_the_idle_control(specs):  # noqa: F811
+def test_calibration_stays_exact_with_the_idle_control(specs):
     """With the measured idle in the map the fuel is still affine in 1 / eta: the closed
     form recovers a known model (virtual runs carry the truth's idle fuel rate)."""
     idle = 0.17
     truth = vehicle_from_specs(specs, 0.44, 0.9, idle_fuel_g_per_s=idle)
-    cal = [_virtual_run(truth, "udds", "u"), _virtual_run(truth, "us06", "s")]
+    cal = [virtual_run(truth, "udds", "u"), virtual_run(truth, "us06", "s")]
     for r in cal:
         r.idle_fuel_kg_s = idle * 1e-3
     fit = calibrate_specs(specs, cal, dt=1.0)
     assert fit.idle_fuel_g_per_s == pytest.approx(idle)
     assert fit.indicated_efficiency == pytest.approx(0.44, rel=0.02)
     assert max(abs(e) for e in fit.errors.values()) < 0.006
-    held = predict_runs(fit.model(), [_virtual_run(truth, "hwfet", "h")], dt=1.0)
+    held = predict_runs(fit.model(), [virtual_run(truth, "hwfet", "h")], dt=1.0)
     assert abs(held["h"]) < 0.01
     assert math.isfinite(fit.friction_scale)

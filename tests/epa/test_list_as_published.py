@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from tests.epa.conftest import FULL_HEADER, row, write_list
+from helpers.epa_lists import FULL_HEADER, row, write_list
 from vehval.cli import main
 from vehval.epa import read_lists, read_test_car_list
 from vehval.epa.validation import validate_tests
@@ -162,10 +162,10 @@ def test_validate_does_not_judge_analytically_derived_rows(tmp_path, capsys):
 
 def test_axle_ratio_zero_named_as_listed(tmp_path, capsys):
     """An axle ratio of 0 was called "empty": it is stated as listed and named a placeholder."""
-    from tests.epa.test_specs import HEADER, _camry_rows
+    from helpers.epa_lists import HEADER, camry_rows
     from vehval.epa.specs import specs_from_tests
 
-    rows = _camry_rows()
+    rows = camry_rows()
     for r in rows:
         r["Axle Ratio"] = "0"
     path = write_list(tmp_path / "19tstcar.csv", rows, header=HEADER)

@@ -3,20 +3,18 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import pytest
 
-from tests.epa.conftest import row, write_list
+from helpers.data import EPA_LISTS as EPA
+from helpers.epa_lists import row, write_list
 from vehval.cli import main
 from vehval.epa import read_test_car_list
 from vehval.epa.precision import collect, dedupe, estimate, powertrain_family
 
 FTP = dict(code=21, desc="Federal fuel 2-day exhaust (w/can load)")
 REPO = Path(__file__).resolve().parents[2]
-_SHARED = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data")
-EPA = (_SHARED / "real" if (_SHARED / "real").is_dir() else _SHARED) / "epa_test_car_list"
 
 
 def _rows():

@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from tests.epa.conftest import FULL_HEADER, row, write_list
+from helpers.epa_lists import FULL_HEADER, row, write_list
 from vehval.cli import main
 from vehval.constants import LB_KG, LBF_N, MPH_M_PER_S
 from vehval.epa import (

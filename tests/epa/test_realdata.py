@@ -6,21 +6,17 @@ Skips cleanly when the shared data directory is absent (env VEHVAL_SHARED_DATA, 
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 
+from helpers.data import REAL
 from vehval.constants import LBF_N
 from vehval.epa import apply_selector, plan_for, read_lists, read_test_car_list
 
 pytestmark = pytest.mark.realdata
 
 REPO = Path(__file__).resolve().parents[2]
-_SHARED = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data")
-#: VEHVAL_SHARED_DATA names the shared `data` directory (as in every test); its `real/`
-#: folder given directly is accepted too.
-REAL = _SHARED / "real" if (_SHARED / "real").is_dir() else _SHARED
 EPA = REAL / "epa_test_car_list"
 
 if not EPA.is_dir():

@@ -9,41 +9,18 @@ import re
 import numpy as np
 import pytest
 
-from tests.epa.conftest import FULL_HEADER, row, write_list
+from helpers.epa_lists import HEADER, camry_rows, row, virtual_run, write_list, write_sim_d3
 from vehval.calibration.provenance import calibration_tests
 from vehval.cli import main
 from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S
 from vehval.cycles import load_cycle
 from vehval.epa import read_test_car_list
 from vehval.epa.specs import specs_from_tests, vehicle_from_specs, warmup_fraction
-from vehval.epa.specs_fit import DynoRun, calibrate_specs, dyno_run, predict_runs
+from vehval.epa.specs_fit import calibrate_specs, dyno_run, predict_runs
 from vehval.errors import ConfigError
 from vehval.sim.simulate import simulate
 from vehval.test import Signal, Test, TestMeta
 from vehval.vehicle import load_vehicle
-
-HEADER = [*FULL_HEADER, "# of Gears", "Tested Transmission Type Code"]
-
-
-def _camry_rows(**kw) -> list[dict]:
-    """A sedan's FTP and HWFET rows (one configuration; figures of a 2.5 L 8-speed)."""
-    base = dict(model="SEDAN XLE", make="MAKER", vid="18-AV3A", cfg="1", orig="MFR",
-                weight=3625, target=(26.508, 0.1976, 0.00733), year=2019)
-    base.update(kw)
-    rows = [row(number="F1", code=21, desc="Federal fuel 2-day exhaust", fe=37.0,
-                bags=(36.1, 35.5, 40.9, ""), **base),
-            row(number="H1", code=3, desc="HWFE", fe=58.2, **base)]
-    for r in rows:  # displacement, power, axle, N/V of the configuration
-        r.update({"Test Veh Displacement (L)": "2.487", "Rated Horsepower": "203",
-                  "Axle Ratio": "2.80", "N/V Ratio": "24.7", "# of Gears": "8",
-                  "Tested Transmission Type Code": "A"})
-    return rows
-
-
-@pytest.fixture
-def specs(tmp_path):
-    path = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
-    return specs_from_tests(read_test_car_list(path))
 
 
 def test_specs_from_list_rows(specs):
@@ -56,7 +33,7 @@ def test_specs_from_list_rows(specs):
 
 def test_specs_refuse_mixed_configurations_and_cvt(tmp_path, monkeypatch):
     monkeypatch.setenv("VEHVAL_UNITS", "us")
-    rows = _camry_rows() + _camry_rows(vid="18-GV2A", weight=3875)
+    rows = camry_rows() + camry_rows(vid="18-GV2A", weight=3875)
     path = write_list(tmp_path / "mixed.csv", rows, header=HEADER)
     with pytest.raises(ConfigError, match="more than one configuration") as err:
         specs_from_tests(read_test_car_list(path))
@@ -71,7 +48,7 @@ def test_specs_refuse_mixed_configurations_and_cvt(tmp_path, monkeypatch):
     path = write_list(tmp_path / "cvt_mixed.csv", cvt_mixed, header=HEADER)
     with pytest.raises(ConfigError, match="automatic with a torque converter"):
         specs_from_tests(read_test_car_list(path))
-    cvt = _camry_rows()
+    cvt = camry_rows()
     for r in cvt:
         r.update({"Tested Transmission Type Code": "CVT", "# of Gears": "1"})
     path = write_list(tmp_path / "cvt.csv", cvt, header=HEADER)
@@ -102,20 +79,15 @@ def test_warmup_fraction_reproduces_the_bag_ratio():
     assert warmup_fraction(0.98) == 0.0
 
 
-def _virtual_run(veh, cycle: str, tid: str, dt: float = 1.0) -> DynoRun:
-    cyc = load_cycle(cycle)
-    fuel = simulate(veh, cyc, dt=dt).summary["fuel_mass_kg"]
-    return DynoRun(test_id=tid, runs=[cyc], fuel_kg=fuel, distance_m=1.0, cold=False)
-
 
 def test_calibration_recovers_a_known_fuel_model(specs):
     truth = vehicle_from_specs(specs, 0.42, 1.3)
-    cal = [_virtual_run(truth, "udds", "u"), _virtual_run(truth, "us06", "s")]
+    cal = [virtual_run(truth, "udds", "u"), virtual_run(truth, "us06", "s")]
     fit = calibrate_specs(specs, cal, dt=1.0)
     assert fit.indicated_efficiency == pytest.approx(0.42, rel=0.02)
     assert fit.friction_scale == pytest.approx(1.3, abs=0.08)  # the prior pulls towards 1
     assert max(abs(e) for e in fit.errors.values()) < 0.006
-    held = predict_runs(fit.model(), [_virtual_run(truth, "hwfet", "h")], dt=1.0)
+    held = predict_runs(fit.model(), [virtual_run(truth, "hwfet", "h")], dt=1.0)
     assert abs(held["h"]) < 0.01
     # the written vehicle names its calibration tests: their figures are in-sample
     assert set(calibration_tests(fit.vehicle())) == {"u", "s"}
@@ -171,22 +143,12 @@ def test_dyno_run_counts_the_test_fuel_as_the_models_fuel_energy():
     assert dyno_run(test).fuel_kg == base.fuel_kg   # no model fuel given: the mass as measured
 
 
-def _write_d3(path, veh, cycle: str) -> None:
-    """A speed-and-fuel file like the D3 1 Hz subsets (time, fuel [cc/s], speed [mph])."""
-    res = simulate(veh, cycle, dt=1.0)
-    t = res.test["veh_spd_simu"].time
-    v = res.test["veh_spd_simu"].values / MPH_M_PER_S
-    q = res.test["fuel_rate_simu"].values / veh.engine.fuel_density_kg_per_m3 * 1e6
-    lines = ["Time[s],Eng_FuelFlow_Direct_DI[ccps],Dyno_Spd[mph]"]
-    lines += [f"{a:.1f},{b:.5f},{c:.4f}" for a, b, c in zip(t, q, v)]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-
 
 def test_cli_builds_calibrates_and_marks_in_sample(tmp_path, specs, capsys):
-    lists = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    lists = write_list(tmp_path / "19tstcar.csv", camry_rows(), header=HEADER)
     truth = vehicle_from_specs(specs, 0.43, 1.1, cold_start=False)
     for name, cyc in (("t1", "udds"), ("t2", "us06"), ("t3", "hwfet")):
-        _write_d3(tmp_path / f"{name} Test Data.txt", truth, cyc)
+        write_sim_d3(tmp_path / f"{name} Test Data.txt", truth, cyc)
     tmpl = tmp_path / "t.yaml"
     tmpl.write_text("template_version: 1\nfuel: gasoline_e0\nfiles:\n- source: dyno\n"
                     "  format: d3\n  time: {column: Time}\n  channels:\n"
@@ -245,11 +207,11 @@ def test_specs_refuse_what_the_conventional_model_is_not(tmp_path):
     charge-depleting rows, a diesel or E85-only configuration: each was built as a
     gasoline conventional car without a word."""
     with pytest.raises(ConfigError, match="'HYBRID' in the model name"):
-        _specs_of(tmp_path, _camry_rows(model="ActiveHybrid 5"))
+        _specs_of(tmp_path, camry_rows(model="ActiveHybrid 5"))
     with pytest.raises(ConfigError, match="'HEV' in the model name"):
-        _specs_of(tmp_path, _camry_rows(model="Fusion (HEV)"))
-    _specs_of(tmp_path, _camry_rows(model="CHEVROLET SEDAN"))  # HEV inside a word: a car
-    plug = _camry_rows()
+        _specs_of(tmp_path, camry_rows(model="Fusion (HEV)"))
+    _specs_of(tmp_path, camry_rows(model="CHEVROLET SEDAN"))  # HEV inside a word: a car
+    plug = camry_rows()
     plug.append({**plug[0], "Test Procedure Cd": "81", "Test Number": "CD1",
                  "Test Procedure Description": "Charge Depleting UDDS"})
     with pytest.raises(ConfigError, match="charge-depleting test CD1"):
@@ -258,11 +220,11 @@ def test_specs_refuse_what_the_conventional_model_is_not(tmp_path):
                  ("19", "E85 (85% Ethanol 15% EPA Unleaded Gasoline)")):
         with pytest.raises(ConfigError, match="no gasoline: the model from specs is a "
                                               "spark-ignition engine"):
-            _specs_of(tmp_path, _camry_rows(fuel=fuel))
+            _specs_of(tmp_path, camry_rows(fuel=fuel))
     # a flexible-fuel configuration tested on both: the gasoline rows make the cold start
-    ffv = _camry_rows() + [{**r, "Test Number": r["Test Number"] + "E", "FE Bag 1": "20",
+    ffv = camry_rows() + [{**r, "Test Number": r["Test Number"] + "E", "FE Bag 1": "20",
                             "Test Fuel Type Description": "E85 (85% Ethanol 15% EPA "
-                            "Unleaded Gasoline)"} for r in _camry_rows()]
+                            "Unleaded Gasoline)"} for r in camry_rows()]
     assert _specs_of(tmp_path, ffv).cold_bag_ratio == pytest.approx(40.9 / 36.1)
 
 
@@ -270,7 +232,7 @@ def test_specs_leave_out_cold_co_rows(tmp_path):
     """Cold CO rows carry the road load raised for -7 degC (a 2019 Kia Soul: A 28.83 and
     31.71 lbf in one configuration), which refused every configuration with a cold CO test
     as 'more than one configuration'."""
-    rows = _camry_rows()
+    rows = camry_rows()
     rows.append({**rows[0], "Test Procedure Cd": "11", "Test Number": "C1",
                  "Test Procedure Description": "Cold CO", "Test Fuel Type Cd": "26",
                  "Test Fuel Type Description": "Cold CO Regular (Tier 2)",
@@ -284,24 +246,24 @@ def test_specs_leave_out_cold_co_rows(tmp_path):
 def test_specs_refuse_implausible_or_missing_values(tmp_path):
     """A rated power of 1 hp (a 2019 Golf GTI row), an N/V of 4.2 rpm/mph (a 2019 Urus row:
     252 rpm at 60 mph) and a missing displacement (the 2017 list) are named with the row."""
-    rows = _camry_rows()
+    rows = camry_rows()
     for r in rows:
         r["Rated Horsepower"] = "1"
     with pytest.raises(ConfigError, match=r"rated power 0.7 kW for 2.487 L .*typing error"):
         _specs_of(tmp_path, rows)
-    rows = _camry_rows()
+    rows = camry_rows()
     for r in rows:
         r["N/V Ratio"] = "4.2"
     with pytest.raises(ConfigError, match=r"N/V 4.2 rpm/mph puts the engine at 252 rpm"):
         _specs_of(tmp_path, rows)
-    rows = _camry_rows()
+    rows = camry_rows()
     for r in rows:
         r["Test Veh Displacement (L)"] = ""
     with pytest.raises(ConfigError, match=r"F1 \(l.csv:2\): no displacement \[L\] \('Test Veh "
                                           r"Displacement \(L\)' empty or absent"):
         _specs_of(tmp_path, rows)
     # several weights under one test vehicle of a list without configuration numbers
-    rows = _camry_rows() + _camry_rows(weight=3875)
+    rows = camry_rows() + camry_rows(weight=3875)
     for r in rows:
         r["Test Veh Configuration #"] = ""
     with pytest.raises(ConfigError, match="the list has no configuration number"):
@@ -311,7 +273,7 @@ def test_specs_refuse_implausible_or_missing_values(tmp_path):
 def test_cli_vehicle_chooses_a_configuration(tmp_path, capsys):
     """One test vehicle at two road loads (a 2019 BMW 540i, configurations 0 and 2) could not
     be built: the message asked for --vehicle-id, which selected both again."""
-    rows = _camry_rows() + _camry_rows(cfg="2", target=(25.0, 0.1976, 0.00733))
+    rows = camry_rows() + camry_rows(cfg="2", target=(25.0, 0.1976, 0.00733))
     for r in rows[2:]:
         r["Test Number"] += "b"
     lists = write_list(tmp_path / "19tstcar.csv", rows, header=HEADER)
@@ -332,7 +294,7 @@ def test_cli_tests_shows_whole_ids_transmission_and_fuel(tmp_path, capsys):
     """The table cut vehicle IDs to 9 characters ('PS7N0AU01' of 'PS7N0AU01AC'), which then
     matched nothing in --vehicle-id or vehicle=; it now also shows what `epa vehicle` needs
     (transmission and gears, test fuel)."""
-    rows = _camry_rows(vid="PS7N0AU01AC")
+    rows = camry_rows(vid="PS7N0AU01AC")
     lists = write_list(tmp_path / "19tstcar.csv", rows, header=HEADER)
     assert main(["epa", "tests", str(lists), "--model", "SEDAN XLE"]) == 0
     out = capsys.readouterr().out.splitlines()
@@ -343,7 +305,7 @@ def test_cli_tests_shows_whole_ids_transmission_and_fuel(tmp_path, capsys):
 def test_cli_vehicle_without_tests_says_it_is_not_calibrated(tmp_path, capsys):
     """Without --calibrate the generic start values make the fuel model (16 cars of the
     lists: FTP-75 -18..+19 %, HWFET -24..+4 %) and nothing said so."""
-    lists = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    lists = write_list(tmp_path / "19tstcar.csv", camry_rows(), header=HEADER)
     out = tmp_path / "v.yaml"
     assert main(["epa", "vehicle", str(lists), "--make", "MAKER", "--model", "SEDAN XLE",
                  "--year", "2019", "-o", str(out)]) == 0

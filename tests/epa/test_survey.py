@@ -9,12 +9,12 @@ from __future__ import annotations
 
 import importlib.util
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import REAL
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.epa import engine_model as em
 
@@ -23,8 +23,6 @@ _spec = importlib.util.spec_from_file_location("vehval_epa_survey",
                                                REPO / "scripts" / "epa_survey.py")
 survey_mod = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(survey_mod)
-_SHARED = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data")
-REAL = _SHARED / "real" if (_SHARED / "real").is_dir() else _SHARED
 EPA = REAL / "epa_test_car_list"
 
 

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from tests.epa.conftest import row, write_list
+from helpers.epa_lists import row, write_list
 from vehval.cli import main
 from vehval.epa import plan_for, read_test_car_list
 from vehval.epa.procedures import FTP75, US06
@@ -340,7 +340,7 @@ def test_a_diesel_vehicle_runs_the_diesel_tests(tmp_path):
     """Every diesel row was skipped as 'not gasoline', also for the packaged diesel
     (cruze_diesel_2014): nothing of a diesel could be validated. The tests on the vehicle's
     fuel family run; the others are skipped with the reason."""
-    from tests.epa.conftest import row, write_list
+    from helpers.epa_lists import row, write_list
     from vehval.epa import read_test_car_list
     from vehval.epa.procedures import fuel_family, plan_for
 

@@ -6,8 +6,7 @@ import json
 
 import pytest
 
-from tests.epa.conftest import write_list
-from tests.epa.test_specs import HEADER, _camry_rows, _write_d3
+from helpers.epa_lists import HEADER, camry_rows, write_list, write_sim_d3
 from vehval.cli import main
 from vehval.epa import read_test_car_list
 from vehval.epa.specs import specs_from_tests, vehicle_from_specs
@@ -20,11 +19,11 @@ TEMPLATE = ("template_version: 1\nfuel: gasoline_e0\nfiles:\n- source: dyno\n"
 
 @pytest.fixture
 def sedan(tmp_path):
-    lists = write_list(tmp_path / "19tstcar.csv", _camry_rows(), header=HEADER)
+    lists = write_list(tmp_path / "19tstcar.csv", camry_rows(), header=HEADER)
     truth = vehicle_from_specs(specs_from_tests(read_test_car_list(lists)), 0.43, 1.1,
                                cold_start=False)
     for name, cyc in (("t1", "udds"), ("t3", "hwfet")):
-        _write_d3(tmp_path / f"{name} Test Data.txt", truth, cyc)
+        write_sim_d3(tmp_path / f"{name} Test Data.txt", truth, cyc)
     base = ["epa", "vehicle", str(lists), "--make", "MAKER", "--model", "SEDAN XLE",
             "--year", "2019", "--dt", "1"]
     return tmp_path, base

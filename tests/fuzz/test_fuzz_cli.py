@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from vehval.cli import main
 
-from .conftest import FUZZ, no_hang
+from .helpers import FUZZ, no_hang
 
 TEMPLATE = """template_version: 1
 files:

@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from vehval.errors import VehvalError
 
-from .conftest import FUZZ, FUZZ_SLOW, outcome
+from .helpers import FUZZ, FUZZ_SLOW, outcome
 
 VALID_TEMPLATE = {
     "template_version": 1,

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from vehval.errors import VehvalError
 from vehval.io.readers import read_raw
 
-from .conftest import FUZZ, check_table, csv_text, d3_text, outcome, parquet_bytes
+from .helpers import FUZZ, check_table, csv_text, d3_text, outcome, parquet_bytes
 
 EXTS = [".txt", ".csv", ".tsv", ".mf4", ".parquet", ".dat"]
 

@@ -290,3 +290,28 @@ def test_rated_power_beyond_the_peak_torque_is_refused(identified, tmp_path, cap
         assert not out.exists()
     else:
         assert rc == 0 and out.exists()
+
+
+@pytest.mark.parametrize("factor, says", [(1 / LB_KG, "it is probably in lb"),
+                                          (LB_KG, "probably converted from lb twice"),
+                                          (1.5, "the template of another car")])
+def test_a_template_test_mass_far_from_the_identified_inertia_is_refused(
+        identified, tmp_path, capsys, factor, says):
+    """The template's test_mass_kg is the test mass of every later stage (a template constant
+    beats the vehicle's value): one in lb (3808 for 1727 kg) is refused in one line naming the
+    key, both masses and the likely unit, nothing written; the right one is accepted."""
+    files, tpl, _, _ = identified
+    text = open(tpl).read()
+    m = re.search(r"test_mass_kg: ([0-9.e+]+)", text)
+    mass = float(m.group(1))
+    bad = tmp_path / "tpl.yaml"
+    bad.write_text(text.replace(m.group(0), f"test_mass_kg: {mass * factor:.1f}"))
+    out = tmp_path / "v.yaml"
+    rc = main(["identify", files["udds"], files["hwfet"], "-t", str(bad), "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert f"constants.test_mass_kg {mass * factor:.1f}".rstrip("0").rstrip(".") in err[0], err
+    assert says in err[0] and "kg" in err[0] and str(bad) in err[0], err
+    if factor == 1 / LB_KG:
+        assert f"set test_mass_kg: {mass:.1f}" in err[0], err
+    assert not out.exists()

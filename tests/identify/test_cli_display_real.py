@@ -1,9 +1,18 @@
 """What `vehval identify` prints on the Cruze's cold starts (skipped without the real files):
 the fitted road-load C is negative, the vehicle file holds 0; both tests start cold."""
 
-from test_cruze_real import CRUZE, SPEC, TEMPLATE, pytestmark  # noqa: F401 - the real files
+from pathlib import Path
 
+import pytest
+
+from helpers.data import CRUZE
+from helpers.data import CRUZE_TEMPLATE as TEMPLATE
 from vehval.cli import main
+
+SPEC = Path(__file__).resolve().parent / "cruze_spec.yaml"
+
+pytestmark = [pytest.mark.realdata,
+              pytest.mark.skipif(not CRUZE.is_dir(), reason="real data not available")]
 
 
 def test_cold_starts_clamped_c_and_cold_warning(tmp_path, capsys, monkeypatch):

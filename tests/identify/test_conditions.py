@@ -2,12 +2,12 @@
 and the warning of a prediction outside them."""
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import CRUZE
 from vehval.identify.conditions import (
     COND_MARGIN_C,
     conditions_warnings,
@@ -18,8 +18,6 @@ from vehval.identify.traces import Trace
 from vehval.identify.warmup import COLD_COOLANT_C
 
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 TEMPLATE = HERE.parent / "qa" / "templates" / "cruze.yaml"
 
 

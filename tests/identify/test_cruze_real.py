@@ -4,16 +4,15 @@ Identified from the hot UDDS (61410013) and the WLTC (61410004) only, with the A
 from the second bag of the 35 C A/C UDDS (61410021); the other hot tests are held out.
 """
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import CRUZE
+from helpers.data import CRUZE_TEMPLATE as TEMPLATE
+
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
-TEMPLATE = HERE.parent / "qa" / "templates" / "cruze.yaml"
 SPEC = HERE / "cruze_spec.yaml"
 
 pytestmark = [pytest.mark.realdata, pytest.mark.slow,

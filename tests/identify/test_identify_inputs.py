@@ -129,6 +129,39 @@ def test_cli_bad_input_one_line_exit_2(tmp_path, capsys):
     assert not out.exists()
 
 
+def _engineless_d3(tmp_path):
+    """A D3 file without engine speed and its template (identify refuses it after reading)."""
+    raw = tmp_path / "t1.txt"
+    t = np.arange(0.0, 100.0, 0.1)
+    rows = ["Time[sec]\tDyno_Speed[mph]\tDyno_Tractive_Effort[N]\tFuel_Flow_Bench_Modal[g/s]"]
+    rows += [f"{x:.1f}\t{5.0:.3f}\t{100.0:.1f}\t{0.5:.3f}" for x in t]
+    raw.write_text("\n".join(rows) + "\n")
+    tpl = tmp_path / "tpl.yaml"
+    tpl.write_text(
+        "template_version: 1\nfiles:\n  - match: '*.txt'\n    source: dyno\n    format: d3\n"
+        "    time: {column: Time, unit: s}\n    channels:\n"
+        "      Dyno_Speed: {name: veh_spd_test, unit: mph}\n"
+        "      Dyno_Tractive_Effort: {name: veh_frc_in_test, unit: N}\n"
+        "      Fuel_Flow_Bench_Modal: {name: fuel_rate_test, unit: g/s}\n")
+    return raw, tpl
+
+
+@pytest.mark.parametrize("tyre, says", [("999/99 R99", "width 999 mm is outside 105-395 mm"),
+                                        ("225/10 R17", "aspect ratio 10 % is outside 20-95 %"),
+                                        ("225/50 R40", "rim 40 in is outside 10-26 in"),
+                                        ("395/95 R26", "rolling radius 0.684 m is outside")])
+def test_cli_refuses_a_tyre_size_outside_road_car_tyres(tmp_path, capsys, tyre, says):
+    """A tyre size that matches the pattern but no road car's (a 2 m wheel) is refused with the
+    valid range, before any file is read, and nothing is written."""
+    raw, tpl = _engineless_d3(tmp_path)
+    out = tmp_path / "veh.yaml"
+    rc = main(["identify", str(raw), "-t", str(tpl), "--tyre", tyre, "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert f"--tyre: tyre {tyre!r}" in err[0] and says in err[0], err
+    assert not out.exists()
+
+
 def test_synth_conventional_cli_writes_an_identifiable_test(tmp_path, capsys):
     out = tmp_path / "v"
     rc = main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "ece15", "--seed", "1",
@@ -168,7 +201,8 @@ def test_predict_cli_table_json_and_report(tmp_path, capsys):
     # the generating model predicts its own virtual test: fuel within 1 % (bench noise,
     # and the 1.5 s meter delay pushes the last grams past the end of the file)
     assert abs(rows[0]["error_rel"]) < 0.01
-    assert [p["phase"] for p in rows[0]["phases"]] == [1, 2]
+    # the ECE-15 has no bags: the virtual test marks one phase, as a lab would
+    assert [p["phase"] for p in rows[0]["phases"]] == [1]
     text = rep.read_text()
     assert "engine speed, model" in text
     assert "<th>A/C</th>" in text and "off (auto: not an SC03 test" in text

@@ -9,23 +9,18 @@ clock puts the cycle start within 0.6 s of t = 0 (0.5 s on the NEDC run).
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import CRUZE, REAL
 from vehval.cycles_match import identify_cycle
 from vehval.io.readers import read_raw
 
 pytestmark = pytest.mark.realdata
 
 REPO = Path(__file__).resolve().parents[2]
-_SHARED = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data")
-#: VEHVAL_SHARED_DATA names the shared `data` directory (as in every test); its `real/`
-#: folder given directly is accepted too.
-REAL = _SHARED / "real" if (_SHARED / "real").is_dir() else _SHARED
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 CAMRY = REAL / "d3_2018_toyota_camry_1hz_subset"
 
 if not (CRUZE.is_dir() and CAMRY.is_dir()):

@@ -8,12 +8,12 @@ Skips cleanly when the shared data directory is absent (env VEHVAL_SHARED_DATA, 
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import CRUZE, REAL
 from vehval.io.importer import import_test
 from vehval.io.propose import check_template, propose_template
 from vehval.io.template import load_template
@@ -21,11 +21,6 @@ from vehval.io.template import load_template
 pytestmark = pytest.mark.realdata
 
 REPO = Path(__file__).resolve().parents[2]
-_SHARED = Path(os.environ.get("VEHVAL_SHARED_DATA") or REPO / ".." / "shared" / "data")
-#: VEHVAL_SHARED_DATA names the shared `data` directory (as in every test); its `real/`
-#: folder given directly is accepted too.
-REAL = _SHARED / "real" if (_SHARED / "real").is_dir() else _SHARED
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 CAMRY = REAL / "d3_2018_toyota_camry_1hz_subset"
 PRIUS = REAL / "obd_2014_toyota_prius_c"
 TEMPLATES = Path(__file__).parent / "templates"

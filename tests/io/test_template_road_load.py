@@ -3,20 +3,18 @@ ratings moved from 0.28 % to 5.7 % on the Cruze HWFET with such a set accepted).
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 import yaml
 
+from helpers.data import CRUZE
 from vehval.errors import ConfigError
 from vehval.io.road_load import road_load_errors
 from vehval.io.template import template_from_data
 
 HERE = Path(__file__).resolve().parent
 CRUZE_TEMPLATE = HERE.parents[0] / "qa" / "templates" / "cruze.yaml"
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 #: The Cruze's target set (D3 summary sheet) in SI, and as the sheet writes it (lbf units).
 CRUZE_SI = {"test_mass_kg": 1727.3, "road_load_a_n": 100.69, "road_load_b_n_per_mps": 12.334,
             "road_load_c_n_per_mps2": 0.04294}

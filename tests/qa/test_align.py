@@ -7,7 +7,7 @@ from vehval.align import align_test, estimate_pair, reference_source
 from vehval.errors import SignalError
 from vehval.test import Signal
 
-from .conftest import make_test
+from .helpers import make_test
 
 
 @pytest.mark.parametrize("seed,offset", [(1, 2.3), (2, -7.45), (3, 0.0), (4, 12.71), (5, -0.37)])

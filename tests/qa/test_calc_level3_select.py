@@ -11,7 +11,7 @@ from vehval.qa.pipeline import run_qa
 from vehval.qa.select import select_signals
 from vehval.test import Signal, Test
 
-from .conftest import CONSTANTS, NR, NS, make_test
+from .helpers import CONSTANTS, NR, NS, make_test
 
 
 def test_calc_computes_power_split_chain_and_explains_missing():

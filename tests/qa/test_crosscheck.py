@@ -8,13 +8,13 @@ Cruze cases on the real file (skipped when the shared data are absent).
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
+from helpers.data import REAL
 from vehval.io.importer import _did_you_mean
 from vehval.qa import crosscheck as cc
 from vehval.qa.findings import Kind, Severity
@@ -155,8 +155,6 @@ def test_did_you_mean_for_a_misspelled_raw_channel():
     assert _did_you_mean("Something_Else", cols) == "Something_Else"
 
 
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA")
-            or Path(__file__).resolve().parents[2] / ".." / "shared" / "data") / "real"
 CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel" / "61410012 Test Data.txt"
 CRUZE_TPL = Path(__file__).parent / "templates" / "cruze.yaml"
 

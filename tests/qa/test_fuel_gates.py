@@ -8,18 +8,17 @@ refused at input or withholds the fuel figures with the reason and the fix.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
 
+from helpers.data import REAL
 from vehval.errors import ConfigError
 from vehval.qa.findings import Kind, Severity
 
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA") or HERE.parents[2] / "shared" / "data") / "real"
 CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel" / "61410015 Test Data.txt"
 FUEL_RAW = "Eng_FuelFlow_Direct"
 

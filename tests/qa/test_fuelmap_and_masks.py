@@ -18,7 +18,7 @@ from vehval.qa.level3 import (
 )
 from vehval.test import Signal, Test
 
-from .conftest import make_test
+from .helpers import make_test
 
 RPM = 2 * np.pi / 60
 

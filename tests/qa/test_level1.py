@@ -7,7 +7,7 @@ from vehval.qa.findings import Kind, Severity
 from vehval.qa.level1 import check_signal, run_level1
 from vehval.test import Signal
 
-from .conftest import make_test
+from .helpers import make_test
 
 
 def _kinds(findings, name, min_sev=Severity.INFO):

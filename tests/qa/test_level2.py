@@ -8,7 +8,7 @@ from vehval.qa.findings import Kind, Severity
 from vehval.qa.level2 import compare_pair, run_level2
 from vehval.test import Signal, Test
 
-from .conftest import make_test
+from .helpers import make_test
 
 
 def test_table2_metrics_hand_computed():

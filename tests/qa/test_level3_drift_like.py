@@ -12,7 +12,7 @@ from vehval.qa.findings import Kind
 from vehval.qa.level3 import run_level3
 from vehval.test import Signal
 
-from .conftest import CONSTANTS, NR, NS, make_test
+from .helpers import CONSTANTS, NR, NS, make_test
 
 VEH = {"planetary": {"ring_teeth": NR, "sun_teeth": NS}}
 

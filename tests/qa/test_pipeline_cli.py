@@ -8,7 +8,7 @@ import pytest
 from vehval.qa.findings import Finding, Kind, Severity, summarise
 from vehval.qa.pipeline import run_qa
 
-from .conftest import NR, NS, make_test
+from .helpers import NR, NS, make_test
 
 TOP_KEYS = {"findings_version", "test", "alignment", "findings", "table2", "table3", "checks",
             "calculations", "selection", "summary", "notes"}

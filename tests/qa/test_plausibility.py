@@ -10,6 +10,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
+from helpers.data import REAL
 from vehval.qa.findings import Kind
 from vehval.workflow import TestRun
 
@@ -62,9 +63,7 @@ def test_both_errors_at_once(dyno_file, tmp_path):
     assert {f.signal for f in found} >= {"veh_spd_test", "fuel_rate_test"}
 
 
-CRUZE = (__import__("pathlib").Path(__import__("os").environ.get(
-    "VEHVAL_SHARED_DATA", __import__("pathlib").Path(__file__).resolve().parents[2] / ".." / "shared"
-    / "data")) / "real" / "d3_2014_chevrolet_cruze_diesel" / "61410012 Test Data.txt")
+CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel" / "61410012 Test Data.txt"
 
 
 @pytest.mark.realdata

@@ -7,18 +7,16 @@ point there is only that nothing crashes.
 """
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import CRUZE, REAL
 from vehval.qa.findings import Kind, Severity
 from vehval.qa.pipeline import run_qa
 
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 
 pytestmark = [pytest.mark.realdata,
               pytest.mark.skipif(not CRUZE.is_dir(), reason="real data not available")]

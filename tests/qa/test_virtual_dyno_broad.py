@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from .test_virtual_dyno import MIXES, _score
+from .virtual_faults import MIXES, score
 
 CYCLES = [("udds", 340.0), ("udds", None), ("la92", 300.0), ("us06", None), ("hwfet", None),
           ("wltc3b", None), ("jc08", None), ("ece15", None)]
@@ -64,7 +64,7 @@ def test_broad_virtual_dyno_figures(name, cut, tmp_path):
             for a in res.alignment:
                 assert a.applied, (cyc.name, mix, seed, a.message)
                 errors.append(abs(a.offset_s - truth["offsets_s"][a.source]))
-            found, missed, clean_sigs, alarms = _score(truth, res)
+            found, missed, clean_sigs, alarms = score(truth, res)
             faults_by_sig = {(f["kind"], f["signal"]): f for f in truth["faults"] if f.get("signal")}
             unobs = [m for m in missed if not _observable(faults_by_sig[m[:2]], truth, clean)]
             n_found += len(found)

@@ -9,23 +9,18 @@ playwright package; skipped cleanly otherwise. Playwright's own browser download
 
 from __future__ import annotations
 
-import os
-import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.browser import ARGS, CHROMIUM, LOCAL
 from vehval.report import write_report
 
-from .conftest import make_control, make_qa, make_test, make_validation
+from .helpers import make_control, make_qa, make_test, make_validation
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("report_browser")]
 
-CHROMIUM = os.environ.get("VEHVAL_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
-LOCAL = ("file:", "data:", "about:", "blob:")
 
 BATCH_TEMPLATE = """template_version: 1
 files:
@@ -127,6 +122,7 @@ def page_report(tmp_path_factory):
             "sections": sections, "batch": batch, "batch_report": batch_report}
 
 
+@pytest.mark.slow
 def test_report_in_chromium(page_report):
     """One test on purpose: pytest-xdist runs a test on one worker, so the browser starts once
     (``xdist_group`` does not keep tests together with pytest 9)."""

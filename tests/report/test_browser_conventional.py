@@ -9,17 +9,16 @@ python playwright package (as test_browser.py); skipped cleanly otherwise.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 
-from .test_browser import ARGS, CHROMIUM, LOCAL
+from helpers.browser import ARGS, CHROMIUM, LOCAL
+from helpers.data import REAL
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("report_browser")]
 
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
 CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel" / "61410013 Test Data.txt"
 CRUZE_TEMPLATE = HERE.parents[0] / "qa" / "templates" / "cruze.yaml"
 #: Upper size of the report of a 10 Hz test of about 1,400 s [bytes].

@@ -8,7 +8,7 @@ import pytest
 
 from vehval.cli import main
 
-from .conftest import make_control, make_qa, make_test
+from .helpers import make_control, make_qa, make_test
 
 parquet = pytest.importorskip("vehval.io.parquet")
 

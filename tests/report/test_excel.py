@@ -11,7 +11,7 @@ openpyxl = pytest.importorskip("openpyxl")
 
 from vehval.report.excel import timeseries_frame, write_tables  # noqa: E402
 
-from .conftest import make_control, make_qa, make_test, make_validation  # noqa: E402
+from .helpers import make_control, make_qa, make_test, make_validation  # noqa: E402
 
 pytestmark = pytest.mark.xdist_group("report_excel")
 

@@ -22,11 +22,11 @@ import numpy as np
 import pytest
 from markupsafe import escape
 
+from helpers.browser import ARGS, CHROMIUM, LOCAL
 from vehval.report import write_report
 from vehval.report.safety import script_hash
 
-from .conftest import make_control, make_qa, make_test, make_validation
-from .test_browser import ARGS, CHROMIUM, LOCAL
+from .helpers import make_control, make_qa, make_test, make_validation
 
 PAYLOAD = ("<svg onload=alert(1)>\"><script>document.title='pwned'</script>"
            "&#x3C;img src=x onerror=alert(2)&#x3E;</script><script>alert(3)</script>")
@@ -95,7 +95,7 @@ EPA_TEXT = {"Vehicle Manufacturer Name": "epamfr", "Represented Test Veh Make": 
 
 
 def _epa_report(root: Path) -> tuple[Path, list[str]]:
-    from tests.epa.conftest import row, write_list
+    from helpers.epa_lists import row, write_list
     from vehval.cli import main
 
     def bad(r: dict) -> dict:
@@ -241,6 +241,8 @@ def test_page_shows_hostile_text_escaped(pages, name):
 
 
 # --------------------------------------------------------------------------- Chromium
+@pytest.mark.slow
+@pytest.mark.browser
 def test_hostile_pages_in_chromium(pages):
     if not Path(CHROMIUM).exists():
         pytest.skip("chromium not installed (run `make browser`)")

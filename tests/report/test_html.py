@@ -11,7 +11,7 @@ import pytest
 
 from vehval.report import build_reports, write_report
 
-from .conftest import make_control, make_qa, make_test, make_validation
+from .helpers import make_control, make_qa, make_test, make_validation
 
 TABLE_KEYS = ("findings", "table2", "table3", "alignment", "alignment-pairs", "selection-kept",
               "selection-dropped", "calculations", "mapping", "deleted")

@@ -11,7 +11,7 @@ from vehval.report import plots
 from vehval.test import Signal, Test
 from vehval.test import TestMeta as Meta
 
-from .conftest import LHV, make_test
+from .helpers import LHV, make_test
 
 
 def test_willans_recovers_the_line():

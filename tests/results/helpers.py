@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import yaml
 
 from vehval.cycles import load_cycle
 from vehval.test import Signal, Test
@@ -32,3 +33,20 @@ def make_test(t: np.ndarray, sig: dict[str, np.ndarray], *, cycle: str = "udds",
     if phase:
         test.add(Signal.standard("test_phase_test", t, sig["test_phase"], source="dyno"))
     return test
+
+
+def cli_files(tmp_path, fuel="diesel", **extra):
+    t, s = true_signals()
+    raw = tmp_path / "run.csv"
+    cols = np.column_stack([t, s["veh_spd"] / 0.44704, s["fuel_rate"] * 1e3, s["test_phase"]])
+    np.savetxt(raw, cols, delimiter=",", fmt="%.6f",
+               header="Time[s],Speed[mph],Fuel[g/s],Phase", comments="")
+    tpl = {"template_version": 1, "files": [{"source": "dyno", "channels": {
+        "Speed": {"name": "veh_spd_test", "unit": "mph"},
+        "Fuel": {"name": "fuel_rate_test", "unit": "g/s"},
+        "Phase": {"name": "test_phase_test"}}}], **extra}
+    if fuel:
+        tpl["fuel"] = fuel
+    p = tmp_path / "t.yaml"
+    p.write_text(yaml.safe_dump(tpl))
+    return raw, p

@@ -1,40 +1,21 @@
 """`vehval results` and `vehval qa` writing results.json; the Cruze D3 acceptance figures."""
 
 import json
-import os
 from pathlib import Path
 
-import numpy as np
 import pytest
-import yaml
 
-from .helpers import true_signals
+from helpers.data import CRUZE
+
+from .helpers import cli_files
 
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 CRUZE_TEMPLATE = HERE.parents[0] / "qa" / "templates" / "cruze.yaml"
 
 
-def _files(tmp_path, fuel="diesel", **extra):
-    t, s = true_signals()
-    raw = tmp_path / "run.csv"
-    cols = np.column_stack([t, s["veh_spd"] / 0.44704, s["fuel_rate"] * 1e3, s["test_phase"]])
-    np.savetxt(raw, cols, delimiter=",", fmt="%.6f",
-               header="Time[s],Speed[mph],Fuel[g/s],Phase", comments="")
-    tpl = {"template_version": 1, "files": [{"source": "dyno", "channels": {
-        "Speed": {"name": "veh_spd_test", "unit": "mph"},
-        "Fuel": {"name": "fuel_rate_test", "unit": "g/s"},
-        "Phase": {"name": "test_phase_test"}}}], **extra}
-    if fuel:
-        tpl["fuel"] = fuel
-    p = tmp_path / "t.yaml"
-    p.write_text(yaml.safe_dump(tpl))
-    return raw, p
-
 
 def test_results_cli_writes_results_json(tmp_path, cli):
-    raw, tpl = _files(tmp_path)
+    raw, tpl = cli_files(tmp_path)
     code, out, err = cli("results", raw, "-t", tpl, "-o", tmp_path / "out", "--json")
     assert code == 0, err
     doc = json.loads(out)
@@ -48,14 +29,14 @@ def test_results_cli_writes_results_json(tmp_path, cli):
 
 
 def test_results_cli_monte_carlo_and_text(tmp_path, cli):
-    raw, tpl = _files(tmp_path)
+    raw, tpl = cli_files(tmp_path)
     code, out, err = cli("results", raw, "-t", tpl, "-o", tmp_path / "o", "--monte-carlo", 200)
     assert code == 0, err
     assert "mpg" in out and "monte carlo" in out and "= udds" in out
 
 
 def test_qa_writes_results_json_next_to_findings(tmp_path, cli):
-    raw, tpl = _files(tmp_path, fuel=None)
+    raw, tpl = cli_files(tmp_path, fuel=None)
     code, out, err = cli("qa", raw, "-t", tpl, "-o", tmp_path / "q")
     assert code == 0, err
     doc = json.loads((tmp_path / "q" / "results.json").read_text())
@@ -65,7 +46,7 @@ def test_qa_writes_results_json_next_to_findings(tmp_path, cli):
 
 
 def test_unknown_fuel_is_one_clear_line_and_no_output(tmp_path, cli):
-    raw, tpl = _files(tmp_path, fuel="unobtainium")
+    raw, tpl = cli_files(tmp_path, fuel="unobtainium")
     code, _out, err = cli("results", raw, "-t", tpl, "-o", tmp_path / "x")
     assert code == 2
     assert "unknown fuel 'unobtainium'" in err and "diesel" in err and "Traceback" not in err
@@ -127,7 +108,7 @@ def test_cruze_cold_udds_bags_and_ftp_weighting(cruze_template):
 
 
 def test_report_shows_results_first(tmp_path, cli):
-    raw, tpl = _files(tmp_path)
+    raw, tpl = cli_files(tmp_path)
     code, out, err = cli("qa", raw, "-t", tpl, "-o", tmp_path / "r", "--report")
     assert code == 0, err
     html = (tmp_path / "r" / "report.html").read_text()

@@ -1,12 +1,12 @@
 """FTP composites from any layout (one record with the hot soak, a substitute bag 3) and the
 caveats a composite carries when the test conditions are not the procedure's."""
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import CRUZE, REAL
 from vehval.results import compute_results
 from vehval.results.composites import SOAK_S
 
@@ -14,7 +14,6 @@ from .helpers import make_test, true_signals
 
 EXPLICIT = {"density_kg_per_m3": 800.0, "lhv_j_per_kg": 42e6, "carbon_mass_fraction": 0.86}
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
 CAMRY = REAL / "d3_2018_toyota_camry_1hz_subset"
 
 
@@ -143,8 +142,8 @@ def test_unknown_start_caveats_the_substitute_ftp():
 
 
 def test_cli_prints_the_caveats(tmp_path, cli):
-    from .test_cli_realdata import _files
-    raw, tpl = _files(tmp_path)
+    from .helpers import cli_files
+    raw, tpl = cli_files(tmp_path)
     code, out, err = cli("results", raw, "-t", tpl, "-o", tmp_path / "o")
     assert code == 0, err
     assert "! substitute: no hot-start run given" in out
@@ -193,7 +192,6 @@ def test_camry_61811011_ftp75_from_its_own_bags(tmp_path, cli):
     assert "= ftp75" in out and "hot soak 10.1 min pause" in comp["ftp75"]["rule"]
 
 
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 CRUZE_TEMPLATE = HERE.parents[0] / "qa" / "templates" / "cruze.yaml"
 
 

@@ -10,17 +10,15 @@ the real Cruze files skip when the data are absent.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from helpers.data import CRUZE, REAL
 from vehval.synth import make_virtual_test
 
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
-CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel"
 CRUZE_TEMPLATE = HERE.parents[0] / "qa" / "templates" / "cruze.yaml"
 CAMRY = REAL / "d3_2018_toyota_camry_1hz_subset"
 SPEED_LINE = "Dyno_Speed: {name: veh_spd_test, unit: mph}"

@@ -11,7 +11,6 @@ the last digit: each figure has one owner (the results stage, through
 from __future__ import annotations
 
 import json
-import os
 import shutil
 from pathlib import Path
 
@@ -19,10 +18,10 @@ import duckdb
 import pytest
 import yaml
 
+from helpers.data import REAL
 from vehval.fuels import table_fuel
 
 HERE = Path(__file__).resolve().parent
-REAL = Path(os.environ.get("VEHVAL_SHARED_DATA", HERE.parents[1] / ".." / "shared" / "data")) / "real"
 CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel" / "61410004 Test Data.txt"
 KEYS = ("distance_m", "fuel_mass_kg", "fuel_economy_mpg")
 

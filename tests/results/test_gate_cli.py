@@ -102,7 +102,7 @@ def test_qa_force_gives_the_stated_despite_banner(mg_test, cli, tmp_path):
 
 # ---------------------------------------------------------------- the example, real data
 def _cruze_template(tmp_path, fuel_unit: str):
-    from .test_cli_realdata import CRUZE_TEMPLATE
+    from helpers.data import CRUZE_TEMPLATE
 
     text = CRUZE_TEMPLATE.read_text()
     text = text.replace("  fuel_density_kg_per_m3: 851\n", "").replace(
@@ -114,12 +114,8 @@ def _cruze_template(tmp_path, fuel_unit: str):
 
 
 @pytest.mark.realdata
-def test_cruze_fuel_declared_mg_per_s_is_withheld_not_33857_mpg(cli, tmp_path):
-    from .test_cli_realdata import CRUZE
-
-    if not CRUZE.is_dir():
-        pytest.skip("real data not available")
-    f = CRUZE / "61410013 Test Data.txt"
+def test_cruze_fuel_declared_mg_per_s_is_withheld_not_33857_mpg(cli, tmp_path, cruze_data):
+    f = cruze_data / "61410013 Test Data.txt"
     code, out, _ = cli("results", f, "-t", _cruze_template(tmp_path, "mg/s"), "-o", tmp_path / "r")
     assert code == 4 and "WITHHELD (fuel_rate_test)" in out
     assert "33856" not in out and "33,857" not in out

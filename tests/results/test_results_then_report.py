@@ -2,11 +2,11 @@
 
 import json
 
-from .test_cli_realdata import _files
+from .helpers import cli_files
 
 
 def test_results_then_report_on_the_same_folder(tmp_path, cli):
-    raw, tpl = _files(tmp_path)
+    raw, tpl = cli_files(tmp_path)
     out = tmp_path / "out"
     code, stdout, err = cli("results", raw, "-t", tpl, "-o", out, "--json")
     assert code == 0, err

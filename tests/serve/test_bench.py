@@ -22,7 +22,7 @@ from vehval.io.readers import read_raw  # noqa: E402
 from vehval.io.template import Template  # noqa: E402
 from vehval.serve.app import create_app  # noqa: E402
 
-from .conftest import FUEL_COLUMN, expected_mpg  # noqa: E402
+from .helpers import FUEL_COLUMN, expected_mpg  # noqa: E402
 
 FUEL = "gasoline_e0"
 DENSITY = 740.0  # gasoline_e0 of the fuel table [kg/m³]

@@ -8,9 +8,7 @@ python playwright package (never Playwright's browser download); skipped cleanly
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
 import time
 from pathlib import Path
 from urllib.parse import urlparse
@@ -18,16 +16,14 @@ from urllib.parse import urlparse
 import pytest
 import yaml
 
+from helpers.browser import ARGS, CHROMIUM
 from vehval.catalog import open_catalog
 from vehval.io.template import Template
 
-from .conftest import FUEL_COLUMN, expected_mpg
+from .helpers import FUEL_COLUMN, expected_mpg
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("serve_browser")]
 
-CHROMIUM = os.environ.get("VEHVAL_CHROMIUM") or shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-        "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 TIMEOUT_MS = 60_000  # QA on a 1,370 s test, on a loaded 2-core machine
 
 

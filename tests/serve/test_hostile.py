@@ -25,7 +25,7 @@ import vehval  # noqa: E402
 from vehval.cli import main  # noqa: E402
 from vehval.serve.app import create_app, start  # noqa: E402
 
-from .conftest import FUEL_COLUMN  # noqa: E402
+from .helpers import FUEL_COLUMN  # noqa: E402
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "symlink"), reason="no symlinks")
 

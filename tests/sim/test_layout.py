@@ -3,6 +3,10 @@ packed from its vehicle-file key and read back at its own position."""
 
 from __future__ import annotations
 
+import ast
+import importlib.util
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -71,3 +75,22 @@ def test_conventional_parameters_read_back():
     k = layout.CONV_PARAMS.index("warm_frac")
     assert conv_param_vector(veh)[k] == 0.0
     assert conv_param_vector(veh, cold_start=True)[k] == veh.engine.warmup_fuel_fraction
+
+
+def test_generated_indices_are_current_plain_constants():
+    """indices.py is what scripts/sim_indices.py writes from the layout today, and holds only
+    plain ``NAME = int`` assignments (no generated globals: a reader, grep and mypy see each)."""
+    root = Path(__file__).resolve().parents[2]
+    spec = importlib.util.spec_from_file_location("sim_indices", root / "scripts" / "sim_indices.py")
+    assert spec and spec.loader
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    text = Path(indices.__file__).read_text(encoding="utf-8")
+    assert text == script.render(), \
+        "sim/indices.py is stale: run python scripts/sim_indices.py --write (make generate)"
+    tree = ast.parse(text)
+    body = tree.body[1:]                                   # after the docstring
+    assert body and all(isinstance(s, ast.Assign) and isinstance(s.value, ast.Constant)
+                        and type(s.value.value) is int for s in body)
+    assert {s.targets[0].id for s in body} == {
+        k for k in vars(indices) if not k.startswith("_")}

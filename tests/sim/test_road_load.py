@@ -56,6 +56,7 @@ def test_configuration_pairs_elasticity():
     assert p["predicted_elasticity"] == pytest.approx(0.0, abs=1e-12)
 
 
+@pytest.mark.slow
 def test_load_derivatives_signs_and_sum():
     d = load_derivatives("prius_2004", ["hwfet"], dt=1.0)
     r = d["cycles"]["hwfet"]

@@ -9,7 +9,6 @@ suite fast.
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import pandas as pd
@@ -71,12 +70,3 @@ def virtual_default(tmp_path_factory) -> Virtual:
 def virtual_default_again(tmp_path_factory) -> Virtual:
     """Same settings as ``virtual_default``, in another directory (determinism)."""
     return _make(tmp_path_factory, "vt_default2", seed=7, faults="default")
-
-
-@pytest.fixture(scope="session")
-def real_d3_dir() -> Path | None:
-    """The real D3 sample directory, or None when the shared data is absent."""
-    env = os.environ.get("VEHVAL_SHARED_DATA")
-    root = Path(env) if env else Path(__file__).resolve().parents[2] / ".." / "shared" / "data"
-    d = root / "real" / "d3_2014_chevrolet_cruze_diesel"
-    return d if d.is_dir() and any(d.glob("*Test Data.txt")) else None

@@ -34,10 +34,10 @@ def test_template_is_valid_and_says_virtual(virtual_none):
 
 
 @pytest.mark.realdata
-def test_d3_reader_and_template_init_treat_virtual_like_real(virtual_none, real_d3_dir):
-    real_dir = real_d3_dir
-    if real_dir is None:
-        pytest.skip("real D3 sample data (../shared/data/real) not present")
+def test_d3_reader_and_template_init_treat_virtual_like_real(virtual_none, cruze_data):
+    real_dir = cruze_data
+    if not any(real_dir.glob("*Test Data.txt")):
+        pytest.skip(f"no D3 test file in {real_dir}")
     real_file = sorted(real_dir.glob("*Test Data.txt"))[0]
     for name in ("61410012 Test Data.txt", "61410013 Test Data.txt"):
         if (real_dir / name).is_file():  # a file without the corrupted 'fp' header

@@ -132,6 +132,28 @@ def test_between_lab_part_widens_the_bias_limit():
     other = set_verdict(comps, s_r=0.01, s_R=0.035, different_source=True)
     assert same.biased and not other.biased
     assert other.bias_limit > abs(other.mean_error) > same.bias_limit
+    # the same mean against s_r alone: beyond one lab's repeatability, within s_R
+    assert other.beyond_s_r and same.beyond_s_r
+    assert other.bias_limit_s_r == pytest.approx(2 * 0.01 / math.sqrt(len(comps)))
+    assert other.to_dict()["bias_limit_s_r_pct"] == pytest.approx(100 * other.bias_limit_s_r)
+    fair = set_verdict(_set(np.random.default_rng(3), 0.0, scatter=0.01), s_r=0.01)
+    assert not fair.beyond_s_r
+
+
+def test_published_figure_by_hand():
+    """En against a published figure: U_meas = the stated U and 2 s_R_vehicle combined."""
+    from vehval.uncertainty import judge_published
+    from vehval.uncertainty.defaults import precision_default
+
+    d = precision_default("hwfet", "hybrid")
+    cmp, basis = judge_published(63.0, 65.4, u_model=1.2, cycle="hwfet", family="hybrid",
+                                 u_stated=0.8)
+    u_meas = math.hypot(0.8, 2 * d.s_R_vehicle * 65.4)
+    assert basis["which"] == "s_R_vehicle" and basis["s_R"] == d.s_R_vehicle
+    assert cmp.u_meas == pytest.approx(u_meas)
+    assert cmp.en == pytest.approx((63.0 - 65.4) / math.hypot(1.2, u_meas))
+    nedc, b2 = judge_published(70.0, 69.0, u_model=3.0, cycle="nedc", family="hybrid")
+    assert b2["procedure"] == "ftp75" and "nedc" in b2["note"]
 
 
 def test_understated_uncertainty_is_called():

@@ -13,7 +13,7 @@ from vehval.validate.calibration import calibrate, default_bounds, start_values
 from vehval.validate.conditions import vehicle_variant
 from vehval.vehicle import load_vehicle
 
-from .conftest import CONSTANTS, HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
+from .helpers import CONSTANTS, HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
 
 
 def test_validation_of_unperturbed_model_shows_the_differences(virtual_tests, nominal):
@@ -62,6 +62,7 @@ RECOVERY_TOL = {"controller.engine_on_power_w": 0.03, "controller.soc_gain_w": 0
                 "driveline.final_drive_efficiency": 0.002}
 
 
+@pytest.mark.slow
 def test_calibration_recovers_controller_and_component_parameters(virtual_tests, nominal, tmp_path):
     tune = [virtual_tests[c] for c in TUNE_CYCLES]
     hold = [virtual_tests[c] for c in HOLDOUT_CYCLES]
@@ -91,6 +92,7 @@ def test_calibration_recovers_controller_and_component_parameters(virtual_tests,
     json.dumps(res.to_dict())
 
 
+@pytest.mark.slow
 def test_batch_mode_calibration(virtual_tests, nominal):
     # the fast summary-only search on the three controller parameters, the component
     # parameters at their true values: the end-of-test quantities pin these well at dt = 1 s

@@ -16,7 +16,7 @@ from vehval.validate.calibration import calibrate
 from vehval.vehicle import load_vehicle
 from vehval.workflow import TestRun, group_args
 
-from .conftest import HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
+from .helpers import HOLDOUT_CYCLES, TRUTH, TUNE_CYCLES
 
 synth = pytest.importorskip("vehval.synth")
 
@@ -99,6 +99,7 @@ def test_virtual_dyno_files_replayed_on_the_measured_speed(dyno_dirs, nominal):
         validate_test(test, nominal, dt=0.1, smooth_hz=6.0)  # 10 Hz samples
 
 
+@pytest.mark.slow
 def test_calibration_through_virtual_dyno_files(dyno_dirs, nominal):
     # the acceptance path end to end: files -> import + QA -> calibrate the five perturbed
     # parameters on two cycles at the data's resolution (dt = 0.1 s, measured speed

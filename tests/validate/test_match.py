@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 
+from helpers.data import REAL
 from vehval.cli.commands_validate import _cycle, _pct
 from vehval.test import Signal, Test, TestMeta
 from vehval.validate.match import vehicle_match
@@ -14,8 +14,7 @@ from vehval.vehicle import load_vehicle
 
 from .helpers import hand_test
 
-CRUZE = (Path(os.environ.get("VEHVAL_SHARED_DATA",
-                         Path(__file__).resolve().parents[2] / ".." / "shared" / "data")) / "real" / "d3_2014_chevrolet_cruze_diesel" / "61410007 Test Data.txt")
+CRUZE = REAL / "d3_2014_chevrolet_cruze_diesel" / "61410007 Test Data.txt"
 
 
 def _diesel_conventional() -> Test:

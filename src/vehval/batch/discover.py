@@ -10,8 +10,8 @@ Discovery rule (documented in ``docs/catalog.md``):
 * A glob given (``"data/*/"``, ``"runs/*.txt"``): each matched directory is a test as above;
   each matched file is a test of that single file.
 * Never taken: hidden entries, the batch's own output folder (when it lies inside the
-  input folder), symlinks leading out of the input folder, symlink loops, broken symlinks and
-  unreadable folders; a template without ``match`` takes only data files (by extension and
+  input folder), symlinks leading out of the input folder, symlink loops, broken symlinks,
+  FIFOs, sockets and devices (reading a FIFO blocks) and unreadable folders; a template without ``match`` takes only data files (by extension and
   content: no PDF, image, README or SOURCE.txt). Every entry skipped for a reason other than
   being hidden or the batch's own output is reported (``skipped``), never silently dropped.
 * The test id is the directory name, or the file name without its extension; ids are made
@@ -30,7 +30,7 @@ from typing import Any
 
 from vehval.errors import InputFileError
 from vehval.io.folder import data_files, is_data_file, template_patterns
-from vehval.io.paths import inside, sanitize_id
+from vehval.io.paths import inside, sanitize_id, special_kind
 
 _GLOB_CHARS = set("*?[")
 
@@ -72,6 +72,9 @@ def _why_not(p: Path, root: Path, exclude: list[Path]) -> str | None:
             return f"a symlink leading out of {root}: not followed"
     if any(inside(p, e) for e in exclude):
         return ""
+    kind = special_kind(p)
+    if kind:
+        return f"{kind}, not a regular file: not read"
     return None
 
 
@@ -125,7 +128,8 @@ def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - o
         the input folder).
     skipped : list, optional
         Receives ``(path, reason)`` of every entry skipped for a reason worth telling: a
-        symlink loop or a broken symlink, a symlink leading out, an unreadable folder.
+        symlink loop or a broken symlink, a symlink leading out, a FIFO, socket or device,
+        an unreadable folder.
 
     Returns
     -------

@@ -243,7 +243,7 @@ def _client(workers: int, scheduler: str | None, dashboard: bool = False):
     if scheduler:
         try:
             return Client(scheduler, timeout="15s"), None
-        except (OSError, TimeoutError, ValueError) as exc:
+        except (OSError, TimeoutError, ValueError, MemoryError) as exc:
             raise VehvalError(f"cannot connect to the Dask scheduler at '{scheduler}': {exc} "
                               "(check the address, e.g. tcp://127.0.0.1:8786)") from None
     return local_cluster(workers, dashboard=dashboard)
@@ -301,6 +301,9 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     """
     if not scheduler:
         workers = check_workers(workers)
+    else:                       # before anything is written: a server that is not Dask's
+        from vehval.batch.scheduler import check_scheduler
+        check_scheduler(scheduler)
     test_timeout_s = check_test_timeout(test_timeout_s)
     steps = [s.strip() for s in steps if s and s.strip()]
     if len(set(steps)) != len(steps):

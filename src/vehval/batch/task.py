@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from vehval.batch.discover import file_sha256
-from vehval.errors import ConfigError, VehvalError
+from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.io.atomic import atomic_dir, write_text_atomic
 from vehval.jsonsafe import clean as jsonable
 from vehval.jsonsafe import dumps
@@ -169,6 +169,11 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     if "validate" in job["steps"] and vehicle is None:
         raise ConfigError("step 'validate' needs a vehicle model: pass --vehicle or set "
                           f"'vehicle:' in {Path(job['template']).name}")
+    if not job["files"]:            # a folder of nothing readable (skipped entries listed)
+        from vehval.batch.discover import template_patterns
+        pats = ", ".join(p or "*" for p in template_patterns(template)) or "none"
+        raise InputFileError(f"{job['test_id']}: no regular file of the test folder matches "
+                             f"the template's file patterns ({pats}): nothing to import")
     # the later steps see QA's validated test when QA is one of the steps
     run = TestRun.load([Path(f) for f in job["files"]], template, vehicle,
                        test_id=job["test_id"], use_qa="qa" in job["steps"])

@@ -55,10 +55,15 @@ def list_cmd(
     from vehval import jsonsafe
     from vehval.epa import vehicles
 
-    rows = vehicles(_load(paths, make, model, year))
+    tests = _load(paths, make, model, year)
+    rows = vehicles(tests)
     if as_json:
         typer.echo(jsonsafe.dumps(rows), nl=False)
         return
+    repeated = sum(1 for t in tests if t.duplicate_rows)
+    if repeated:
+        typer.echo(f"note: {repeated} test number(s) listed on several rows (duplicate rows "
+                   "counted once; `vehval epa tests` names their lines)", err=True)
     from vehval.display import unit_for
 
     mu = unit_for("kg")
@@ -225,8 +230,16 @@ def validate_cmd(
     outdir: Path | None = typer.Option(None, "-o", "--output", callback=output_dir,
                                        help="Directory for report.html, epa_validation.json "
                                             "and epa_validation.csv."),
+    model_u: str = typer.Option("linear", "--model-uncertainty",
+                                help="U_model of the normalised error: linear (the parameter "
+                                     "ranges one at a time), monte_carlo, or none (U_model = 0)."),
+    draws: int = typer.Option(200, "--draws", callback=bounded("mc_sensitivity"),
+                              help="Monte Carlo draws (at least 100)."),
 ) -> None:
-    """Simulate each selected EPA test with its own weight and road load; compare per bag."""
+    """Simulate each selected EPA test with its own weight and road load; compare per bag.
+
+    Each figure gets its normalised error En (|En| <= 1: consistent) and the held-out
+    figures a set verdict (docs/validation.md)."""
     from vehval import jsonsafe
     from vehval.cli.progress import bar
     from vehval.epa.validation import validate_tests
@@ -237,7 +250,8 @@ def validate_cmd(
                       writes=["report.html", "epa_validation.json", "epa_validation.csv"])
     with bar("epa validate: simulating tests", as_json=as_json):
         every: list = []
-        val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every)
+        val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every,
+                             model_uncertainty=model_u.replace("-", "_"), draws=draws)
     if not val.predictions:
         from collections import Counter
 
@@ -266,14 +280,14 @@ def validate_cmd(
     fe = _fe_display()
     wt = max([14, *(len(c.test) for c in val.comparisons)])
     typer.echo(f"{'test':{wt}s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
-               f"{'err %':>6} {'batt %':>6} {'sample':9s} judged   (pred, meas: {fe[0]}; "
-               "err: fuel economy, pred / meas mpg - 1)")
+               f"{'err %':>6} {'En':>6} {'batt %':>6} {'sample':9s} judged   (pred, meas: "
+               f"{fe[0]}; err: fuel economy, pred / meas mpg - 1; En: normalised error)")
     for c in val.comparisons:
         batt = share_text(c.battery_share)
         typer.echo(f"{c.test:{wt}s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "
                    f"{_fmt(fe[1](c.predicted_mpg), fe[2]):>6} "
                    f"{_fmt(fe[1](c.measured_mpg), fe[2]):>6} {100 * c.error:+6.1f} "
-                   f"{batt:>6} {_sample_text(c):9s} {_judged_text(c)}")
+                   f"{_en_text(c):>6} {batt:>6} {_sample_text(c):9s} {_judged_text(c)}")
     st = val.stats()
     for p in val.predictions:
         if p.list_check is not None and not p.list_check.ok:
@@ -295,11 +309,59 @@ def validate_cmd(
     if st["n_judged_in_sample"]:
         typer.echo("in-sample (the vehicle file was calibrated on these tests; not a "
                    "prediction): " + _stats_text(val.stats(in_sample=True)))
+    for line in _verdict_lines(val):
+        typer.echo(line)
     if any(c.battery_share is not None for c in val.comparisons):
         typer.echo("batt %: battery energy spent in the figure / its fuel energy, in the "
                    "model (J1711 balances the whole test, not each bag)")
     if written and outdir is not None:
         typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _en_text(c) -> str:
+    """``+0.42``, ``+0.42?`` when uninformative, ``-`` without an En."""
+    if c.en is None or not math.isfinite(c.en):
+        return "-"
+    return f"{c.en:+.2f}" + ("?" if c.uninformative else "")
+
+
+def _verdict_lines(val) -> list[str]:
+    """The uncertainties behind En and the set verdict of the held-out figures."""
+    out = [f"note: {n}" for n in val.notes]
+    for proc, f in sorted(val.model_uncertainty.items()):
+        if f is not None and f["method"] != "none":
+            extra = (f", {f['n_draws']} draws, sampling error {100 * f['sampling_error_rel']:.0f}"
+                     " % of U" if f["n_draws"] else "")
+            out.append(f"U_model {proc} ({f['figure']}): {100 * f['U_rel']:.2f} % (k = 2, "
+                       f"{f['method'].replace('_', ' ')}{extra})")
+    bases = sorted({c.precision["basis"] for c in val.comparisons if c.precision})
+    out += [f"U_meas: {b}" for b in bases]
+    if any(c.uninformative for c in val.comparisons):
+        out.append("En?: uninformative, the combined U exceeds 10 % of the measured figure")
+    out += _set_verdict_line(val.set_verdict, val.set_verdict_note,
+                             "held-out, one figure per test")
+    if val.set_verdict_all is not None or val.set_verdict_all_note:
+        out += _set_verdict_line(val.set_verdict_all, val.set_verdict_all_note,
+                                 "all tests, in-sample included, not a prediction")
+    return out
+
+
+def _set_verdict_line(sv: dict | None, note: str, what: str) -> list[str]:
+    """One set verdict on screen (and, for a set judged against s_R, the bias against s_r)."""
+    if sv is None:
+        return [f"set verdict ({what}): none ({note})"]
+    lo, hi = sv["mean_error_ci_pct"]
+    clo, chi = sv["coverage_ci"]
+    out = [f"set verdict ({what}, n = {sv['n']}): {sv['verdict']}; "
+           f"mean error {sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}] (scatter "
+           f"explains {sv['bias_limit_pct']:.2f} %); |En| <= 1 for {sv['n_consistent']}/"
+           f"{sv['n']} (coverage [{100 * clo:.0f}, {100 * chi:.0f}] %, target 95 %)"]
+    if sv.get("different_source"):
+        out.append(f"  against s_r alone (one lab's repeats) the scatter explains "
+                   f"{sv['bias_limit_s_r_pct']:.2f} %: the mean error is "
+                   f"{'beyond' if sv['beyond_s_r'] else 'within'} it")
+    out += [f"  {n}" for n in sv["notes"]]
+    return out
 
 
 def _sample_text(c) -> str:

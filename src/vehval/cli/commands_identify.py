@@ -22,7 +22,7 @@ def _table(rows: list[dict]) -> str:
     for r in rows:
         lines.append(f"{r['test']:<22} {r['cycle']:<10} {r['amb_temp_c']:>6.1f} "
                      f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f} "
-                     f"{100 * r['error_rel']:>+8.2f}{_pi(r)}  A/C {'on' if r['ac_on'] else 'off'}: "
+                     f"{100 * r['error_rel']:>+8.2f}{_pi(r)}{_en(r)}  A/C {'on' if r['ac_on'] else 'off'}: "
                      f"{r['ac_reason']}; {_start(r)}")
         if r.get("fuel_economy_measured_mpg") is not None:
             lines.append(f"  {'fuel economy':<38} measured "
@@ -34,8 +34,29 @@ def _table(rows: list[dict]) -> str:
             unc = f"  (results stage: {p['results_fuel_g']:.1f} ± {u:.1f} g)" if u else ""
             lines.append(f"  {p.get('results_name', 'phase ' + str(p['phase'])):<38} "
                          f"{p['measured_g']:>11.1f} {p['predicted_g']:>12.1f} "
-                         f"{100 * p['error_rel']:>+8.2f}{_pi(p)}{unc}")
+                         f"{100 * p['error_rel']:>+8.2f}{_pi(p)}{_en(p)}{unc}")
     return "\n".join(lines)
+
+
+def _en(r: dict) -> str:
+    """`` En +0.42`` (``?`` when uninformative) of a result row; empty without one."""
+    if r.get("en") is None:
+        return ""
+    return f" En {r['en']:+.2f}" + ("?" if r.get("uninformative") else "")
+
+
+def _verdict_lines(verdict: dict | None, notes: list[str]) -> list[str]:
+    """The set verdict of the held-out tests and the notes behind En."""
+    out = [f"note: {n}" for n in notes]
+    if verdict is not None:
+        lo, hi = verdict["mean_error_ci_pct"]
+        clo, chi = verdict["coverage_ci"]
+        out.append(f"set verdict (held-out tests, n = {verdict['n']}): {verdict['verdict']}; "
+                   f"mean error {verdict['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}]; "
+                   f"|En| <= 1 for {verdict['n_consistent']}/{verdict['n']} (coverage "
+                   f"[{100 * clo:.0f}, {100 * chi:.0f}] %, target 95 %)")
+        out += [f"  {n}" for n in verdict["notes"]]
+    return out
 
 
 def _pi(r: dict) -> str:
@@ -148,6 +169,7 @@ def identify_cmd(
         idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
                                     cold_trace=cold_trace, declared=declared)
     _check_mass(idf, declared)
+    _check_template_mass(idf, template)
     _check_fuel_map(idf, files)
     from vehval.io.atomic import atomic_files
     preds = None
@@ -242,6 +264,37 @@ def _check_mass(idf, declared: dict) -> None:
             f"identify: the declared test mass {m_dec:.0f} kg ({declared['test_mass_kg'][2]}) "
             f"is far from the inertia identified from the tests ({m_id:.0f} kg): is the "
             "specification of another car?")
+
+
+def _check_template_mass(idf, template: Path) -> None:
+    """The template's ``test_mass_kg`` against the inertia identified from the tests.
+
+    The template's constant is the test mass every later stage uses (a template constant
+    beats the vehicle's value: :mod:`vehval.conditions`), so a wrong one is refused here
+    rather than written into the vehicle's record: the ratio tells a value in lb (or
+    converted from lb twice) from another car's. The band is QA's gain of the force over
+    ``test_mass_kg`` x acceleration (:data:`vehval.qa.crosscheck.MASS_GAIN_BAND`)."""
+    from vehval.constants import LB_KG
+    from vehval.qa.crosscheck import MASS_GAIN_BAND
+
+    m_tpl = idf.road_load.template.get("mass_kg")
+    m_id = idf.road_load.values["mass_kg"]
+    if m_tpl is None or not m_tpl > 0:
+        return
+    lo, hi = MASS_GAIN_BAND
+    gain = m_id / m_tpl
+    if lo <= gain <= hi:
+        return
+    head = (f"identify: {template}: constants.test_mass_kg {m_tpl:g} is far from the inertia "
+            f"identified from the tests ({m_id:.0f} kg, {gain:.3g} x it)")
+    if lo <= gain / LB_KG <= hi:
+        raise ConfigError(f"{head}: it is probably in lb ({m_tpl:g} lb = {m_tpl * LB_KG:.1f} kg): "
+                          f"set test_mass_kg: {m_tpl * LB_KG:.1f}")
+    if lo <= gain * LB_KG <= hi:
+        raise ConfigError(f"{head}: it is probably converted from lb twice: set test_mass_kg: "
+                          f"{m_tpl / LB_KG:.1f}")
+    raise ConfigError(f"{head}: is the template of another car? Set the test (inertia) mass "
+                      "of these tests")
 
 
 def _keyed(key: str, value_si: float, ci95_si: float | None = None) -> str:
@@ -438,8 +491,14 @@ def predict_cmd(
     if report is not None:
         from vehval.identify.report import write_prediction_report
         write_prediction_report(veh.name, preds, report)
+    from vehval.identify.verdicts import judge_rows
+    verdict, notes = judge_rows(preds)
     rows = [_public(p, veh) for p in preds]
+    for r in rows:   # the set's verdict with every row (the JSON stays a list of rows)
+        r["set_verdict"] = verdict
     if as_json:
         typer.echo(json.dumps(rows, indent=2))
     else:
         typer.echo(_table(rows))
+        for line in _verdict_lines(verdict, notes):
+            typer.echo(line)

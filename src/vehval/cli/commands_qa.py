@@ -108,6 +108,10 @@ def qa_cmd(
         # the same sentence twice (two stretches out of range...): say when each one is
         where = _when(f) if same[(f["kind"], f["message"])] > 1 else ""
         typer.echo(f"  {f['severity']:7s} {f['kind']:14s} {f['message']}{where}")
+    from vehval.qa.uncertainty import comparison_lines
+
+    for line in comparison_lines(doc):   # Tables 2 and 3: differences and En (k = 2)
+        typer.echo(line)
     for note in doc.get("notes") or []:  # repairs made at import (a stray timestamp dropped...)
         if str(note).startswith("warning"):
             typer.echo(f"  {note}", err=True)

@@ -141,6 +141,18 @@ def echo_results(res) -> None:
         typer.echo(f"  {len(res.withheld)} figure(s) "
                    + ("stated despite QA errors (--force)" if res.forced else
                       "withheld for QA errors (exit code 4)"))
+        for reason, fix in _withheld_reasons(res.withheld):
+            typer.echo(f"    withheld because: {reason}")
+            typer.echo(f"    fix: {fix}")
+
+
+def _withheld_reasons(withheld: dict) -> list[tuple[str, str]]:
+    """Each distinct (reason, fix) of the withheld figures, in scope order: the screen names
+    why every figure was withheld, also those the headline does not show."""
+    seen: dict[str, str] = {}
+    for entry in withheld.values():
+        seen.setdefault(entry["reason"], entry.get("fix") or "")
+    return list(seen.items())
 
 
 @app.command("results")

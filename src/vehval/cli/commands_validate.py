@@ -60,9 +60,13 @@ def validate_cmd(
     no_qa: bool = typer.Option(False, "--no-qa", help="Use the imported signals without the QA pipeline."),
     report: bool = typer.Option(False, "--report", help="Also write report.html and tables.xlsx per test."),
     as_json: bool = typer.Option(False, "--json", help="Print the results as JSON."),
+    model_u: str = typer.Option("linear", "--model-uncertainty", help="U_model of the normalised error: linear (the vehicle's parameter ranges one at a time), monte_carlo, or none (U_model = 0)."),
+    draws: int = typer.Option(200, "--draws", callback=bounded("mc_sensitivity"), help="Monte Carlo draws (at least 100)."),
 ) -> None:
     """Simulate VEHICLE on each test's own conditions and compare: writes validation.json
-    (report tables and overlay figures), metrics.json and overlays_<test>.parquet."""
+    (report tables and overlay figures), metrics.json and overlays_<test>.parquet. Each test's
+    verdict is its normalised error (|En| <= 1: consistent); the fixed tolerances are the
+    secondary check (pass / FAIL)."""
     from vehval.io.atomic import atomic_dir
     from vehval.jsonsafe import dumps
     from vehval.workflow import runs_from_args, validate_runs
@@ -75,7 +79,8 @@ def validate_cmd(
     from vehval.cli.progress import bar
     with bar("validate: simulating tests", as_json=as_json):
         suite = validate_runs(runs, _tolerances(fuel_tol, soc_tol, soc_points), dt=dt,
-                              window_s=window_s, smooth_hz=smooth_hz)
+                              window_s=window_s, smooth_hz=smooth_hz,
+                              model_uncertainty=model_u.replace("-", "_"), draws=draws)
     metrics, lad = suite.metrics, suite.ladder
     with atomic_dir(output) as stage:      # every output of the run, reports included
         (stage / "validation.json").write_text(dumps(suite.payload), encoding="utf-8")
@@ -102,12 +107,15 @@ def validate_cmd(
         if m is not None and not m.matches:
             typer.echo(f"warning: {m.message()}", err=True)
     for e in lad.entries:
+        en = ("En -" if e.en is None else f"En {e.en:+.2f}{'?' if e.uninformative else ''}")
         typer.echo(f"{e.test_id} ({_cycle(e.cycle, e.rung)}): fuel {_pct(e.errors['fuel_pct'], 2)}, "
                    f"SOC {_pct(e.errors['soc_pct'], 2)}, engine state agreement "
-                   f"{_pct(e.errors['engine_on_agreement_pct'], 1)}: {'pass' if e.passed else 'FAIL'}"
+                   f"{_pct(e.errors['engine_on_agreement_pct'], 1)}: {en} {e.verdict}; "
+                   f"tolerance {'pass' if e.passed else 'FAIL'}"
                    f"{' (in-sample)' if e.in_sample else ''}"
                    f"{'' if e.passed or not e.failures else ': ' + '; '.join(e.failures)}")
-    typer.echo(lad.summary())
+    typer.echo(lad.en_summary())
+    typer.echo("tolerance (secondary check): " + lad.summary())
     typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
 
 
@@ -149,16 +157,19 @@ def calibrate_cmd(
                                 as_json)
         return
     names = _params(params)
+    start_values = None
+    if start is not None:       # checked before any test is read: finite, inside the bounds
+        from vehval.safe_yaml import read_json
+        from vehval.validate.calibration import check_start
+        from vehval.validate.calibration import start_values as parse_start
+        from vehval.validate.conditions import full_name
+        start_values = read_json(start)
+        full = [full_name(n) for n in names]
+        check_start(veh, parse_start(start_values, full), full)
     tests = [r.validated for r in runs_from_args(files or [], test_group, template, veh,
                                                  use_qa=not no_qa)]
     hold = [TestRun.from_paths([Path(x.strip()) for x in h.split(",") if x.strip()], template, veh,
                                use_qa=not no_qa).validated for h in holdout]
-    start_values = None
-    if start is not None:
-        try:
-            start_values = json.loads(Path(start).read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ConfigError(f"{start}: cannot read the start values ({exc})") from None
     from vehval import progress
     from vehval.cli.progress import bar
     with bar("calibrate: generations (at most)", as_json=as_json):
@@ -180,6 +191,15 @@ def calibrate_cmd(
     for row in res.rows():
         typer.echo(f"{row[0]} ({_cycle(row[1])}): fuel error {_pct(row[2], 2, '')} -> "
                    f"{_pct(row[3], 2)}, SOC error {_pct(row[4], 2, '')} -> {_pct(row[5], 2)}")
+    for tid in res.holdout:
+        en = res.after.get(tid, {}).get("en")
+        if en is not None:
+            typer.echo(f"{tid} (held out): fuel En after calibration {en:+.2f} "
+                       f"({'consistent' if abs(en) <= 1 else 'inconsistent'}; U_model = 0)")
+    sv, why = res.holdout_verdict()
+    if res.holdout:
+        typer.echo("held-out set verdict: " + (f"{sv['verdict']} (n = {sv['n']}, mean fuel "
+                   f"error {sv['mean_error_pct']:+.2f} %)" if sv else f"none ({why})"))
     typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
                f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
     typer.echo(res.tables()[1]["note"])

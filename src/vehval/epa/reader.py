@@ -413,7 +413,7 @@ def _repeat_note(lines: list[int], differ: list[str], read: set[str]) -> str:
     between them (``read``: the columns the reader reads)."""
     where = f"listed {len(lines)} times (lines {', '.join(map(str, lines))})"
     if not differ:
-        return f"{where} with identical values: a repeated row, kept once"
+        return f"{where} with identical values: a duplicate row, kept once"
     shown = ", ".join(f"'{c}'" for c in differ[:4]) + (" ..." if len(differ) > 4 else "")
     if not any(c in read for c in differ):
         return f"{where} differing only in {shown} (columns not read): one test, kept once"

@@ -55,6 +55,7 @@ from vehval.epa.procedures import (
     road_load_without_b,
 )
 from vehval.epa.reader import EpaTest
+from vehval.epa.verdicts import check_model_u, judge
 from vehval.errors import ConfigError
 from vehval.fuels import (
     combine_mpg,
@@ -99,6 +100,13 @@ class Comparison:
     in_sample: bool = False  # the vehicle file was calibrated on this test
     sample_unknown: bool = False  # no test number, may be a calibration test (not counted)
     analytically_derived: bool = False  # the list computed the figure, not measured (not judged)
+    # normalised error (vehval.epa.verdicts.judge): En, U_model and U_meas [mpg, k = 2]
+    en: float | None = None
+    u_model: float | None = None
+    u_meas: float | None = None
+    uninformative: bool | None = None
+    precision: dict[str, Any] | None = None  # s_r, s and the source rule of U_meas
+    verdict: Any = None  # the vehval.uncertainty.Comparison behind en
 
     @property
     def error(self) -> float:
@@ -118,7 +126,12 @@ class Comparison:
                                   else round(self.battery_share, 5)),
                 "list_doubtful": self.list_doubtful, "in_sample": self.in_sample,
                 "sample_unknown": self.sample_unknown,
-                "analytically_derived": self.analytically_derived}
+                "analytically_derived": self.analytically_derived,
+                "en": None if self.en is None or not math.isfinite(self.en) else round(self.en, 4),
+                "consistent": None if self.en is None else abs(self.en) <= 1.0,
+                "u_model": None if self.u_model is None else round(self.u_model, 4),
+                "u_meas": None if self.u_meas is None else round(self.u_meas, 4),
+                "uninformative": self.uninformative, "precision": self.precision}
 
 
 @dataclass
@@ -157,6 +170,15 @@ class EpaValidation:
     repeats: dict[str, str] = field(default_factory=dict)
     #: labels of tests without a number that may be calibration tests (not counted)
     sample_unknown: list[str] = field(default_factory=list)
+    #: procedure -> U_model of its cycle (vehval.sim.model_uncertainty), None: not propagated
+    model_uncertainty: dict[str, Any] = field(default_factory=dict)
+    #: bias, coverage and verdict of the held-out figures (vehval.epa.verdicts)
+    set_verdict: dict[str, Any] | None = None
+    set_verdict_note: str = ""
+    #: the same over every judged test, in-sample included (None: no in-sample test)
+    set_verdict_all: dict[str, Any] | None = None
+    set_verdict_all_note: str = ""
+    notes: list[str] = field(default_factory=list)
 
     def stats(self, in_sample: bool = False) -> dict[str, Any]:
         """Counts, errors of the judged figures and the correlation of spreads.
@@ -220,7 +242,11 @@ class EpaValidation:
                            "analytically_derived": p.test.analytically_derived,
                            "adfe_test_number": p.test.adfe_test_number,
                            "source": p.test.source} for p in self.predictions],
-                "skipped": self.skipped}
+                "skipped": self.skipped, "model_uncertainty": self.model_uncertainty,
+                "set_verdict": self.set_verdict, "set_verdict_note": self.set_verdict_note,
+                "set_verdict_all": self.set_verdict_all,
+                "set_verdict_all_note": self.set_verdict_all_note,
+                "notes": self.notes}
 
 
 def per_kind_errors(comparisons: list[Comparison]) -> dict[str, dict[str, Any]]:
@@ -482,7 +508,8 @@ def repeated_calibration_tests(tests: list[EpaTest], calibrated: dict[str, list[
 
 
 def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
-                   dt: float = 0.2, reference: list[EpaTest] | None = None) -> EpaValidation:
+                   dt: float = 0.2, reference: list[EpaTest] | None = None,
+                   model_uncertainty: str = "none", draws: int = 200) -> EpaValidation:
     """Simulate every test that the model can run; name, skip and count the others.
 
     Parameters
@@ -497,7 +524,12 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
         Every test of the lists read (default ``tests``): where the calibration tests of the
         vehicle file are looked up for the tests without a number
         (:func:`repeated_calibration_tests`).
+    model_uncertainty : str
+        How U_model of the normalised error is found (:func:`vehval.epa.verdicts.judge`):
+        ``linear``, ``monte_carlo`` (``draws`` draws) or ``none`` (U_model = 0, no extra
+        runs: the default, for callers that only need the errors).
     """
+    check_model_u(model_uncertainty, draws)
     veh = load_vehicle(vehicle)
     # the tests on the vehicle's fuel: a diesel's on diesel, any other's on gasoline
     fuel = resolve_fuel(vehicle=veh)
@@ -539,4 +571,6 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     res.sample_unknown = [k for k in res.sample_unknown if k in simulated]
     for k in [k for k in res.repeats if k not in simulated]:
         del res.repeats[k], res.calibrated[k]
+    judge(res, veh, tests if reference is None else reference, method=model_uncertainty,
+          draws=draws)
     return res

@@ -20,6 +20,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from vehval.identify.traces import IdentificationError, Trace
+from vehval.identify.verdicts import EN_KEYS, judge_row, verdict_of
+from vehval.uncertainty import normalised_error
 
 COLUMNS = ("identified_from", "test", "cycle", "measured_g", "predicted_g", "error_rel",
            "pi95_rel", "pi95_g", "inside_pi95", "uncovered_share", "n_gears")
@@ -67,6 +69,7 @@ def _run_combo(arg) -> list[dict]:
     rows = []
     for t in held:
         p = predict_trace(idf.vehicle, t, ac=ac)
+        judge_row(p)   # En of the test and its phases (vehval.identify.verdicts)
         lo_hi = p.get("pi95_g")
         rows.append({
             "identified_from": names, "test": t.test_id, "cycle": t.cycle,
@@ -76,8 +79,10 @@ def _run_combo(arg) -> list[dict]:
                             bool(lo_hi[0] <= p["fuel_measured_g"] <= lo_hi[1])),
             "uncovered_share": p.get("uncovered_share"), "n_gears": len(idf.gears.ratios),
             "gear_notes": idf.gears.notes,
+            **{k: p.get(k) for k in EN_KEYS},
             "phases": [{k: ph.get(k) for k in ("phase", "measured_g", "predicted_g",
-                                               "error_rel", "pi95_rel", "uncovered_share")}
+                                               "error_rel", "pi95_rel", "uncovered_share",
+                                               *EN_KEYS)}
                        for ph in p["phases"]]})
     return rows
 
@@ -108,8 +113,13 @@ def cross_validate(traces: list[Trace], pairs: bool = False, declared: dict | No
     else:
         parts = [_run_combo(a) for a in args]
     rows = [r for part in parts for r in part]
+    judged = [(normalised_error(r["predicted_g"], r["measured_g"], r["u_model_g"],
+                                r["u_meas_g"], label=r["test"]), r["s_r"])
+              for r in rows if r.get("en") is not None]
+    verdict, why = verdict_of(judged)
     return {"mode": "pairs" if pairs else "leave-one-out", "rows": rows, "skipped": skipped,
-            "summary": summarise(rows), "elapsed_s": time.perf_counter() - t0}
+            "summary": summarise(rows), "elapsed_s": time.perf_counter() - t0,
+            "set_verdict": verdict, "set_verdict_note": why}
 
 
 def summarise(rows: list[dict]) -> dict:
@@ -129,7 +139,7 @@ def table(result: dict) -> str:
     """The cross-validation as text: one line per prediction, then the summary."""
     lines = [f"cross-validation ({result['mode']}): fuel of each held-out test",
              f"{'identified from':<36} {'held-out test':<22} {'cycle':<10} {'measured g':>10} "
-             f"{'predicted g':>11} {'error %':>8} {'95 % PI':>8} {'in':>3} {'uncov %':>7}"]
+             f"{'predicted g':>11} {'error %':>8} {'95 % PI':>8} {'in':>3} {'uncov %':>7} {'En':>6}"]
     for r in result["rows"]:
         src = " + ".join(x.split()[0] for x in r["identified_from"])
         if "error" in r:
@@ -138,9 +148,10 @@ def table(result: dict) -> str:
         pi = "" if r["pi95_rel"] is None else f"±{100 * r['pi95_rel']:.1f}"
         inside = "" if r["inside_pi95"] is None else ("yes" if r["inside_pi95"] else "no")
         unc = "" if r["uncovered_share"] is None else f"{100 * r['uncovered_share']:.0f}"
+        en = "" if r.get("en") is None else f"{r['en']:+.2f}" + ("?" if r["uninformative"] else "")
         lines.append(f"{src:<36} {r['test']:<22} {r['cycle'][:10]:<10} {r['measured_g']:>10.1f} "
                      f"{r['predicted_g']:>11.1f} {100 * r['error_rel']:>+8.2f} {pi:>8} "
-                     f"{inside:>3} {unc:>7}")
+                     f"{inside:>3} {unc:>7} {en:>6}")
     for s in result["skipped"]:
         lines.append(f"skipped {s}")
     s = result["summary"]
@@ -153,4 +164,14 @@ def table(result: dict) -> str:
                f"; 95 % intervals hold the measurement in {100 * s['pi95_coverage']:.0f} %, "
                f"median half-width {100 * s['median_pi95_rel']:.1f} %")
             + f" ({result['elapsed_s']:.0f} s)")
+    sv = result.get("set_verdict")
+    if sv is not None:
+        lo, hi = sv["mean_error_ci_pct"]
+        clo, chi = sv["coverage_ci"]
+        lines.append(f"set verdict (held-out predictions, n = {sv['n']}): {sv['verdict']}; mean "
+                     f"error {sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}]; |En| <= 1 for "
+                     f"{sv['n_consistent']}/{sv['n']} (coverage [{100 * clo:.0f}, "
+                     f"{100 * chi:.0f}] %, target 95 %)")
+    elif result.get("set_verdict_note"):
+        lines.append(result["set_verdict_note"])
     return "\n".join(lines)

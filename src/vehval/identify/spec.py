@@ -62,6 +62,11 @@ RATED_SPEED_RPM = {"diesel": 4000.0, "gasoline": 6000.0}
 FMEP_PA = 2e5
 DIESEL_DENSITY = 800.0  # [kg/m³] test fuels at least this dense are diesel (petrol ~745)
 INERTIA_KG_M2_PER_L = 0.12
+#: Sizes of road-car tyres (ETRTO, Tire and Rim Association): section width [mm], aspect
+#: ratio [%] and rim diameter [in]; their rolling radii span about 0.25-0.45 m
+TYRE_WIDTH_MM = (105, 395)
+TYRE_ASPECT_PCT = (20, 95)
+TYRE_RIM_IN = (10, 26)
 TYRE_RE = re.compile(r"^\s*(\d{3})\s*/\s*(\d{2})\s*Z?R\s*(\d{2})\s*$", re.IGNORECASE)
 _RANGES = {"rated_power_kw": (5, 1000), "rated_speed_rpm": (1500, 12000),
            "peak_torque_nm": (20, 2000), "displacement_l": (0.3, 10), "max_speed_rpm": (1500, 13000),
@@ -76,7 +81,18 @@ def tyre_radius_m(tyre: str) -> float:
     if m is None:
         raise ConfigError(f"tyre {tyre!r}: give the size as width/aspect Rrim, e.g. 225/50 R17")
     w, ar, rim = (int(g) for g in m.groups())
-    return 0.97 * (rim * 0.0254 / 2 + w * ar / 100 / 1000)
+    for what, x, (lo, hi), unit in (("width", w, TYRE_WIDTH_MM, "mm"),
+                                    ("aspect ratio", ar, TYRE_ASPECT_PCT, "%"),
+                                    ("rim", rim, TYRE_RIM_IN, "in")):
+        if not lo <= x <= hi:
+            raise ConfigError(f"tyre {tyre!r}: {what} {x} {unit} is outside {lo}-{hi} {unit} "
+                              "(road-car tyres, e.g. 225/50 R17)")
+    radius = 0.97 * (rim * 0.0254 / 2 + w * ar / 100 / 1000)
+    r_lo, r_hi = _RANGES["wheel_radius_m"]
+    if not r_lo <= radius <= r_hi:
+        raise ConfigError(f"tyre {tyre!r}: its rolling radius {radius:.3f} m is outside "
+                          f"{r_lo}-{r_hi} m (road-car wheels)")
+    return radius
 
 
 def load_spec(path: str | Path | None, options: dict | None = None) -> dict:
@@ -111,7 +127,10 @@ def _check(key: str, v, where: str):
         if key == "fuel" and str(v).lower() not in SPECIFIC_POWER_KW_PER_L:
             raise ConfigError(f"{where}: fuel {v!r}: give diesel or gasoline")
         if key == "tyre":
-            tyre_radius_m(str(v))
+            try:
+                tyre_radius_m(str(v))
+            except ConfigError as exc:
+                raise ConfigError(f"{where}: {exc}") from None
         return str(v).lower() if key == "fuel" else str(v)
     try:
         x = float(v)

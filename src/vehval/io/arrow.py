@@ -64,3 +64,20 @@ def float_array(values: np.ndarray, n: int) -> pa.Array:
     bitmap = np.packbits(valid, bitorder="little")
     return pa.Array.from_buffers(pa.float64(), n, [pa.py_buffer(bitmap), pa.py_buffer(full)],
                                  null_count=n - values.size)
+
+
+def arrow_owned(data: bytes) -> pa.Buffer:
+    """A copy of ``data`` in memory Arrow owns (not a view of the Python object).
+
+    pyarrow's threaded CSV reader finishes on its own worker threads and drops its last
+    reference to the input there, sometimes after ``read_csv`` has returned. A buffer that
+    wraps a Python object (``pa.BufferReader(bytes)``) then takes the GIL in its destructor on
+    that worker: during interpreter shutdown Python ends such a thread (``pthread_exit``)
+    and the C++ runtime aborts the process ("terminate called without an active exception",
+    exit 134, after the command's output). An Arrow-owned buffer is freed without Python.
+    """
+    import pyarrow as pa
+
+    buf = pa.allocate_buffer(len(data))
+    np.frombuffer(buf, np.uint8)[:] = np.frombuffer(data, np.uint8)
+    return buf

@@ -13,7 +13,7 @@ import re
 from pathlib import Path
 
 from vehval.errors import InputFileError
-from vehval.io.arrow import float_values
+from vehval.io.arrow import arrow_owned, float_values
 from vehval.io.budget import MAX_TEXT_BYTES, check_file_size
 from vehval.io.raw import RawTable, find_time_column, is_printable, is_time_header, split_headers
 from vehval.units import split_header
@@ -282,7 +282,7 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
 
     try:
         table = pacsv.read_csv(
-            pa.BufferReader(body),
+            pa.BufferReader(arrow_owned(body)),     # never a Python object: see arrow_owned
             read_options=pacsv.ReadOptions(column_names=col_ids),
             parse_options=pacsv.ParseOptions(delimiter=delim),
             convert_options=pacsv.ConvertOptions(

@@ -235,3 +235,15 @@ def vehicle_path(name: str | Path | None) -> Path | None:
         return None
     p = Path(str(name))
     return p if p.exists() else None
+
+
+def special_kind(path: str | Path) -> str | None:
+    """What ``path`` (a symlink followed) is when it is neither a regular file nor a directory:
+    a FIFO, a socket, a character or block device (the words of :data:`_SPECIAL_NODES`); None
+    otherwise (also when it cannot be stat'ed: the caller reports that itself). Reading a
+    FIFO blocks until a writer comes, a device may never end: inputs are regular files."""
+    try:
+        mode = Path(path).stat().st_mode
+    except OSError:
+        return None
+    return next((kind for test, kind in _SPECIAL_NODES if test(mode)), None)

@@ -12,7 +12,9 @@ with the others; with two, to the less preferred source (facility sensor preferr
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -22,6 +24,7 @@ from vehval.errors import SignalError
 from vehval.jsonsafe import finite_or_none
 from vehval.nomenclature import preference_rank, registry
 from vehval.qa.findings import Finding, Kind, Severity, delta_units, untrusted_mask
+from vehval.qa.uncertainty import Accuracies, pair_uncertainty
 from vehval.test import Signal, Test
 
 #: Unit factors a wrong unit typically produces (slope of other vs ref).
@@ -64,6 +67,7 @@ class Level2Options:
     lag_min_s: float = 0.2          # residual lag threshold floor [s]
     lag_search_s: float = 5.0
     max_all_pairs: int = 5          # more sources: compare each with the preferred one only
+    en_max: float = 1.0             # |En| of the mean difference above: beyond the accuracies
 
 
 @dataclass
@@ -89,6 +93,13 @@ class PairComparison:
     end_s: float = float("nan")
     slow_period_s: float = float("nan")
     notes: list[str] = field(default_factory=list)
+    # cumulative uncertainty (vehval.qa.uncertainty): mean of ref over the compared samples,
+    # expanded U (k = 2) of each side's mean [unit], En of mean_diff, each side's accuracy
+    mean_ref: float = float("nan")
+    u_ref: float = float("nan")
+    u_other: float = float("nan")
+    en: float = float("nan")
+    accuracy: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {k: finite_or_none(v) for k, v in self.__dict__.items()}
@@ -150,7 +161,8 @@ def compare_pair(ref: Signal, other: Signal, opts: Level2Options | None = None,
                           mean_diff=float(np.mean(b - a)),
                           ref_range=float(hi - lo), unit=ref.unit,
                           start_s=float(tt[0]), end_s=float(tt[-1]),
-                          slow_period_s=float(max(ref.sample_period, other.sample_period)))
+                          slow_period_s=float(max(ref.sample_period, other.sample_period)),
+                          mean_ref=float(np.mean(a)))
 
 
 def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period: float,
@@ -194,6 +206,8 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
                                f"{row.other} is offset from {row.ref} by {delta_units(row.ref, row.unit)(row.mean_diff, signed=True)} "
                                f"on average ({100 * abs(row.mean_diff) / row.ref_range:.0f} % of its range)",
                                nums, related=rel))
+    if not out and np.isfinite(row.en) and abs(row.en) > opts.en_max:
+        out.append(_beyond_accuracy(row, blamed, nums, rel))
     if (row.r2 < opts.r2_min and not any(f.kind in (Kind.UNIT, Kind.GAIN) for f in out)
             and row.mean_abs_diff > opts.low_agreement_diff * row.ref_range):
         out.append(Finding(blamed, Kind.LOW_AGREEMENT, s0, s1, Severity.WARNING,
@@ -207,15 +221,33 @@ def _findings_for(row: PairComparison, blamed: str, other_name: str, ref_period:
     return out
 
 
+def _beyond_accuracy(row: PairComparison, blamed: str, nums: dict, rel: list[str]) -> Finding:
+    """An offset finding: the two means differ by more than their combined accuracy."""
+    fmt = delta_units(row.ref, row.unit)
+    assumed = [n for n, a in row.accuracy.items() if a.get("assumed")]
+    return Finding(
+        blamed, Kind.OFFSET, row.start_s, row.end_s, Severity.WARNING,
+        f"{row.other} differs from {row.ref} by {fmt(row.mean_diff, signed=True)} on average, "
+        f"beyond their combined accuracy (En {row.en:+.2f}; U {fmt(row.u_other)} and "
+        f"{fmt(row.u_ref)}, k = 2"
+        + (f"; assumed class accuracy of {', '.join(assumed)}" if assumed else "") + ")",
+        {**nums, "mean_diff": row.mean_diff, "en": row.en, "u_ref": row.u_ref,
+         "u_other": row.u_other}, related=rel)
+
+
 def run_level2(test: Test, opts: Level2Options | None = None,
-               findings_before: list[Finding] | None = None
+               findings_before: list[Finding] | None = None,
+               accuracy: Mapping[str, Any] | None = None
                ) -> tuple[list[PairComparison], list[Finding]]:
     """Table 2 (every pair of measured signals of the same base name) and its findings.
 
     ``findings_before`` (level-1 findings): samples under a warning or error of either
     signal of a pair are left out of its comparison (see :func:`compare_pair`).
+    ``accuracy`` (template ``accuracy:``, signal -> ``AccuracySpec``): each side's accuracy
+    for the row's En (:mod:`vehval.qa.uncertainty`; undeclared: the class default).
     """
     opts = opts or Level2Options()
+    acc = Accuracies(accuracy)
     reg = registry()
     groups: dict[str, list[Signal]] = {}
     for sig in test:
@@ -236,6 +268,7 @@ def run_level2(test: Test, opts: Level2Options | None = None,
             for j in range(i + 1, len(sigs)):
                 row = compare_pair(sigs[i], sigs[j], opts, findings_before)
                 if row is not None:
+                    pair_uncertainty(row, acc)
                     pair_rows.append((sigs[i], sigs[j], row))
                     rows.append(row)
         score: dict[str, list[float]] = {s.name: [] for s in sigs}

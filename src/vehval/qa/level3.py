@@ -23,7 +23,9 @@ grid, the comparison uses the grid points nearest to its samples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -72,6 +74,13 @@ class CalcComparison:
     unit: str
     inputs: dict
     samples: str = "all"           # "all" or "quasi-steady" (steady-state relations)
+    # cumulative uncertainty (vehval.qa.uncertainty): signed mean of measured - calculated
+    # [unit], expanded U (k = 2) of each side's mean [unit], En, the sensors' accuracies
+    mean_diff: float = float("nan")
+    u_measured: float = float("nan")
+    u_calculated: float = float("nan")
+    en: float = float("nan")
+    accuracy: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         return {k: finite_or_none(v) for k, v in self.__dict__.items()}
@@ -180,7 +189,8 @@ def compare_calc(test: Test, measured: str, calculated: str, inputs: dict | None
 
 
 def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None,  # noqa: C901 - the level-3 comparison and its exclusions for every calculated signal
-               findings_before: list[Finding] | None = None
+               findings_before: list[Finding] | None = None,
+               accuracy: Mapping[str, Any] | None = None
                ) -> tuple[list[CalcComparison], list[Finding]]:
     """Table 3 and its findings for every calculated signal with a measured counterpart.
 
@@ -190,8 +200,14 @@ def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None, 
     engine torque, and a problem already reported for a span is not reported again for the
     whole test; when that leaves less than half of the samples, every sample is used and
     the findings name the untrusted inputs (the pipeline then demotes them to info).
+    ``accuracy`` (template ``accuracy:``): the sensors' accuracies behind each row's En
+    (:mod:`vehval.qa.uncertainty`; undeclared: the class default).
     """
+    from vehval.qa.uncertainty import Accuracies, CalcChain, calc_uncertainty
+
     opts = opts or Level3Options()
+    acc = Accuracies(accuracy)
+    chain = CalcChain(test, calc)
     before = list(findings_before or [])
     reg = registry()
     rows: list[CalcComparison] = []
@@ -227,6 +243,8 @@ def run_level3(test: Test, calc: CalcResult, opts: Level3Options | None = None, 
                 row = compare_calc(test, sig.name, cname, info.get("inputs"))
             if row is None:
                 continue
+            calc_uncertainty(test, calc, row, mask, acc, measured_inputs(cname, calc.computed),
+                             chain)
             rows.append(row)
             if base in CUMULATIVE:
                 continue

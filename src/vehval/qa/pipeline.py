@@ -222,13 +222,14 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,  # noqa: PLR09
                                         f"source '{a.source}' not aligned to '{a.reference}': {a.message}",
                                         {"offset_s": a.offset_s, "confidence": a.confidence}))
     findings += run_level1(work, _vehicle_limits(vehicle), level1)
-    table2, f2 = run_level2(work, level2, findings)
+    declared = dict(getattr(template, "accuracy", None) or {})
+    table2, f2 = run_level2(work, level2, findings, declared)
     findings += f2
     # inputs not to trust in the calculations
     bad = {f.signal for f in findings if f.severity == Severity.ERROR} | set(user_drop)
     calc = compute(work, vehicle, calc_set, constants, exclude=bad)
     corroborate_spikes_with_calc(work, findings, calc.computed)
-    table3, f3 = run_level3(work, calc, level3, findings)
+    table3, f3 = run_level3(work, calc, level3, findings, declared)
     checks, fc = run_checks(work, calc)
     _blame_inputs(f3, findings, calc.computed)
     _blame_check_inputs(fc, findings + f3)

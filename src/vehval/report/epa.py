@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 from pathlib import Path
 
 from vehval import jsonsafe
@@ -22,8 +23,37 @@ _COLORS = {"ftp75": "#1f77b4", "hwfet": "#2ca02c", "us06": "#d62728"}
 
 
 def table_rows(val: EpaValidation) -> list[dict]:
-    """One dict per compared figure (the CSV rows)."""
-    return [c.to_dict() for c in val.comparisons]
+    """One dict per compared figure (the CSV rows; U_meas's precision as its basis text)."""
+    rows = []
+    for c in val.comparisons:
+        d = c.to_dict()
+        prec = d.pop("precision", None) or {}
+        d["u_meas_basis"] = prec.get("basis")
+        rows.append(d)
+    return rows
+
+
+def verdict_text(val: EpaValidation) -> str:
+    """The set verdict of the held-out figures as a sentence (or why there is none), and the
+    verdict over every test, in-sample included, when some are in-sample."""
+    text = _verdict_sentence(val.set_verdict, val.set_verdict_note,
+                             "held-out, one figure per test")
+    if val.set_verdict_all is not None:
+        text += " " + _verdict_sentence(val.set_verdict_all, val.set_verdict_all_note,
+                                        "all tests, in-sample included, not a prediction")
+    return text.strip()
+
+
+def _verdict_sentence(sv: dict | None, note: str, what: str) -> str:
+    if sv is None:
+        return f"Set verdict: none ({note})." if note else ""
+    lo, hi = sv["mean_error_ci_pct"]
+    clo, chi = sv["coverage_ci"]
+    return (f"Set verdict ({what}, n = {sv['n']}): {sv['verdict']}; "
+            f"mean error {sv['mean_error_pct']:+.2f} % (95 % interval {lo:+.2f} to "
+            f"{hi:+.2f} %; the scatter explains {sv['bias_limit_pct']:.2f} %); |En| ≤ 1 for "
+            f"{sv['n_consistent']} of {sv['n']} (coverage {100 * clo:.0f}-{100 * chi:.0f} %, "
+            "target 95 %).")
 
 
 def scatter_plot(val: EpaValidation, size: int = 420) -> dict | None:
@@ -97,7 +127,10 @@ def render_html(val: EpaValidation) -> str:
         ok = abs(c.error) <= TOLERANCE
         classes.append("" if not c.judged else ("ok" if ok else "bad"))
         rows.append([c.test, c.originator, c.procedure, c.item, f"{c.predicted_mpg:.1f}",
-                     f"{c.measured_mpg:.1f}", f"{100 * c.error:+.1f}", share_text(c.battery_share),
+                     f"{c.measured_mpg:.1f}", f"{100 * c.error:+.1f}",
+                     "-" if c.en is None or not math.isfinite(c.en)
+                     else f"{c.en:+.2f}" + ("?" if c.uninformative else ""),
+                     share_text(c.battery_share),
                      "in-sample" if c.in_sample else ("unknown" if c.sample_unknown
                                                       else "held-out"),
                      "yes" if c.judged else "no", c.note])
@@ -133,7 +166,7 @@ def render_html(val: EpaValidation) -> str:
                        vehicle=val.vehicle, summary=summary, in_sample=in_sample,
                        mismatch=mismatch,
                        plot=scatter_plot(val), tol=tol, kinds=kinds, rows=rows,
-                       row_classes=classes, skipped=skipped)
+                       row_classes=classes, skipped=skipped, verdict=verdict_text(val))
 
 
 def write_epa_report(val: EpaValidation, outdir: str | Path) -> list[str]:

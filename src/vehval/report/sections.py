@@ -367,7 +367,8 @@ def _pair_data(test: Test, a: str, b: str) -> tuple[np.ndarray, np.ndarray]:
 
 
 #: Columns of Tables 2 and 3 in the row's unit (differences: converted by the factor only).
-_PAIR_UNIT_KEYS = ("mean_abs_diff", "max_abs_diff", "test_range", "offset")
+_PAIR_UNIT_KEYS = ("mean_abs_diff", "max_abs_diff", "test_range", "offset", "mean_diff",
+                   "mean_ref", "u_ref", "u_other", "u_measured", "u_calculated")
 #: Columns of Tables 2 and 3 that are fractions (shown in %).
 _PAIR_FRACTION_KEYS = ("rel_diff", "mean_rel_diff")
 
@@ -395,6 +396,10 @@ def _pair_rows(rows: list[dict]) -> list[dict]:
                 row[k] = float(v) * unit.factor
             elif unit is not None and k == "unit":
                 row[k] = unit.label
+            elif k == "accuracy" and isinstance(v, dict):
+                # the sensors' accuracies in one cell; the full record is in findings.json
+                row["accuracy assumed"] = ", ".join(
+                    n for n, a in v.items() if isinstance(a, dict) and a.get("assumed")) or "-"
             else:
                 row[k] = v
         out.append(row)

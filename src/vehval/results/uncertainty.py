@@ -27,13 +27,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from vehval.nomenclature import registry
-from vehval.units import conversion
+from vehval.uncertainty.sensors import ChannelAccuracy, Parameter, channel_accuracy, sensor_defaults
 
 __all__ = [
     "COVERAGE_K",
@@ -54,88 +51,11 @@ COVERAGE_K = 2.0
 MIN_DRAWS = 100
 _SQRT3 = math.sqrt(3.0)
 
-#: Default accuracy per signal class (base name): reading [%], offset [SI unit], and why.
-DEFAULT_ACCURACY: dict[str, tuple[float, float, str]] = {
-    "veh_spd": (0.1, 0.01, "chassis-dyno roll speed: 0.1 % of reading, 0.01 m/s"),
-    "fuel_rate": (1.0, 2e-6, "fuel flow meter or modal bench: 1 % of reading, 0.002 g/s"),
-    "co2_rate": (2.0, 0.0, "modal CO2 from the exhaust bench: 2 % of reading"),
-    "ess_curr": (0.5, 0.05, "battery current (power analyser or clamp): 0.5 % of reading, 0.05 A"),
-    "ess_volt": (0.2, 0.0, "battery voltage: 0.2 % of reading"),
-    "ess_pwr": (0.5, 20.0, "battery power (power analyser): 0.5 % of reading, 20 W"),
-}
-#: Defaults of a class measured by a given source (base name, source), before the base's:
-#: an OBD speed is no roll speed.
-SOURCE_ACCURACY: dict[tuple[str, str], tuple[float, float, str]] = {
-    ("veh_spd", "obd"): (2.0, 0.5 / 3.6,
-                         "OBD vehicle speed (SAE J1979 PID 0x0D): whole km/h (0.5 km/h), from "
-                         "the wheel speed with the nominal tyre radius (tread wear and pressure: "
-                         "about 2 % of reading)"),
-}
-#: Class used for base names not listed above: 1 % of reading.
-FALLBACK_ACCURACY = (1.0, 0.0, "no class default: 1 % of reading")
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """One uncertain input: a rectangular error of half-width ``limit`` around zero.
-
-    ``kind`` is ``gain`` (relative, -), ``offset`` (in the signal's SI unit) or ``property``
-    (absolute, in the property's unit).
-    """
-
-    name: str
-    limit: float
-    kind: str
-    assumed: bool = False
-
-    @property
-    def std(self) -> float:
-        return self.limit / _SQRT3
-
-
-@dataclass(frozen=True)
-class ChannelAccuracy:
-    """Resolved accuracy of one signal: gain limit [-], offset limit [SI], provenance."""
-
-    signal: str
-    gain_limit: float
-    offset_limit: float
-    assumed: bool
-    basis: str
-
-    def parameters(self) -> list[Parameter]:
-        out = []
-        if self.gain_limit > 0:
-            out.append(Parameter(f"{self.signal} reading", self.gain_limit, "gain", self.assumed))
-        if self.offset_limit > 0:
-            out.append(Parameter(f"{self.signal} offset", self.offset_limit, "offset",
-                                 self.assumed))
-        return out
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"reading_pct": round(self.gain_limit * 100, 6), "offset_si": self.offset_limit,
-                "assumed": self.assumed, "basis": self.basis}
-
-
-def channel_accuracy(signal: str, spec: Any | None) -> ChannelAccuracy:
-    """The accuracy of ``signal``: the template's ``AccuracySpec`` or its class default."""
-    name = registry().parse(signal)
-    base = name.base
-    if spec is None:
-        pct, off, why = SOURCE_ACCURACY.get((base, name.source or ""),
-                                            DEFAULT_ACCURACY.get(base, FALLBACK_ACCURACY))
-        return ChannelAccuracy(signal, pct / 100.0, off, True, f"assumed class default: {why}")
-    unit = spec.unit
-    si = registry().spec_of(signal).unit
-    scale = 1.0
-    if unit is not None:
-        scale, _ = conversion(unit, si)
-    fs = (spec.full_scale or 0.0) * spec.full_scale_pct / 100.0
-    off = (fs + spec.offset) * abs(scale)
-    basis = (f"template: {spec.reading_pct:g} % of reading"
-             + (f", {spec.full_scale_pct:g} % of {spec.full_scale:g} {unit or si}" if fs else "")
-             + (f", offset {spec.offset:g} {unit or si}" if spec.offset else ""))
-    return ChannelAccuracy(signal, spec.reading_pct / 100.0, off, False, basis)
+#: Default accuracy per signal class (base name): reading [%], offset [SI unit], and why;
+#: defaults of a class measured by a given source (base name, source) are looked up first (an
+#: OBD speed is no roll speed); a base in neither gets the fallback (1 % of reading). The
+#: table and its sources: data/uncertainty/sensor_accuracy.yaml.
+DEFAULT_ACCURACY, SOURCE_ACCURACY, FALLBACK_ACCURACY = sensor_defaults()
 
 
 def _summary(values: np.ndarray, nominal: float) -> tuple[float, float]:

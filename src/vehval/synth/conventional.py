@@ -42,6 +42,7 @@ def make_conventional_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
     Returns the truth dictionary (also written as ``truth.json``).
     """
     from vehval.sim.simulate import simulate
+    from vehval.synth.clean import test_phase
 
     res = simulate(veh, cyc, dt=0.1)
     test = res.test
@@ -62,8 +63,7 @@ def make_conventional_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
     for k in cols:
         cols[k] = cols[k] + rng.normal(0.0, NOISE[k], t.size)
     cols["Dyno_Speed"] = np.maximum(cols["Dyno_Speed"], 0.0)
-    half = t[-1] / 2
-    phase = np.where(t <= half, 1.0, 2.0)
+    phase = test_phase(t, cyc.name, float(t[-1]))  # the cycle's own bags, as a lab marks them
     units = {"Dyno_Speed": "mph", "Dyno_Tractive_Effort": "N", "Engine_Speed": "rpm",
              "Fuel_Flow_Bench_Modal": "g/s"}
     test_id = f"virtual_{veh.name}_{cyc.name}_seed{int(seed)}"

@@ -23,15 +23,17 @@ from vehval.errors import ConfigError
 from vehval.safe_yaml import load_yaml, read_yaml
 from vehval.synth.sensors import FileSpec, rng_for
 
-FaultKind = Literal["clock_offset", "stuck", "dropout", "spikes", "gain_error", "offset_drift",
-                    "sign_flip", "wrong_unit", "out_of_range", "zero", "truncated"]
+FaultKind = Literal["clock_offset", "stuck", "dropout", "spikes", "gain_error", "offset",
+                    "offset_drift", "sign_flip", "wrong_unit", "out_of_range", "zero", "truncated"]
 
 #: Kinds that apply to a whole file rather than to one channel.
 FILE_KINDS = frozenset({"clock_offset", "truncated"})
 #: Kinds that need a magnitude.
-NEEDS_MAGNITUDE = frozenset({"clock_offset", "spikes", "gain_error", "offset_drift", "out_of_range"})
+NEEDS_MAGNITUDE = frozenset({"clock_offset", "spikes", "gain_error", "offset", "offset_drift",
+                             "out_of_range"})
 #: Kinds applied to the SI samples (in this order of the fault list), before quantisation.
-SI_KINDS = frozenset({"stuck", "spikes", "gain_error", "offset_drift", "sign_flip", "out_of_range"})
+SI_KINDS = frozenset({"stuck", "spikes", "gain_error", "offset", "offset_drift", "sign_flip",
+                      "out_of_range"})
 #: Kinds applied to the raw samples after quantisation.
 RAW_KINDS = frozenset({"zero", "dropout"})
 
@@ -262,6 +264,8 @@ def apply_si_faults(values: np.ndarray, t_file: np.ndarray, faults: list[Fault],
             idx = pick
         elif f.kind == "gain_error":
             y[idx] *= 1.0 + mag
+        elif f.kind == "offset":
+            y[idx] += mag
         elif f.kind == "offset_drift":
             frac = (t_file[idx] - f.start_s) / (f.end_s - f.start_s)
             y[idx] += mag * np.clip(frac, 0.0, 1.0)

@@ -26,6 +26,7 @@ from vehval.uncertainty.verdict import (
     Comparison,
     SetVerdict,
     clopper_pearson,
+    judge_published,
     measurement_uncertainty,
     normalised_error,
     set_verdict,
@@ -33,5 +34,5 @@ from vehval.uncertainty.verdict import (
 
 __all__ = ["COVERAGE_K", "MIN_PAIRS", "UNINFORMATIVE_FRACTION", "Comparison",
            "InsufficientDataError", "LabPair", "Precision", "SetVerdict", "chi2_interval",
-           "clopper_pearson", "measurement_uncertainty", "normalised_error", "repeatability",
-           "reproducibility", "set_verdict"]
+           "clopper_pearson", "judge_published", "measurement_uncertainty", "normalised_error",
+           "repeatability", "reproducibility", "set_verdict"]

@@ -88,3 +88,34 @@ def precision_default(procedure: str, family: str = "all") -> DefaultPrecision:
         prov += f"; {', '.join(fell_back)} of all families ({family} has fewer than 3 pairs)"
     return DefaultPrecision(family, procedure, values["s_r"], values["s_R"],
                             values["s_R_vehicle"], n, prov)
+
+
+#: Cycle names (lower case, no spaces, dashes or underscores; prefixes) -> the procedure
+#: whose packaged precision a test of that cycle takes.
+_CYCLE_PROCEDURE = (("ftp", "ftp75"), ("udds", "ftp75"), ("la4", "ftp75"), ("hwfet", "hwfet"),
+                    ("hwy", "hwfet"), ("us06", "us06"), ("sc03", "sc03"))
+#: The procedure a cycle without a packaged figure of its own takes.
+FALLBACK_PROCEDURE = "ftp75"
+
+
+def procedure_of_cycle(cycle: str | None) -> tuple[str, bool]:
+    """The packaged-precision procedure of a test's cycle, and whether it is its own.
+
+    UDDS and FTP-75 tests (any bag) take ``ftp75``; HWFET ``hwfet``; US06 ``us06``; SC03
+    ``sc03``. Any other cycle (NEDC, WLTC, a steady run, a trace without a name) takes
+    :data:`FALLBACK_PROCEDURE`, with ``False``: the caller states that it is borrowed.
+    """
+    key = "".join(ch for ch in (cycle or "").lower() if ch.isalnum())
+    for prefix, proc in _CYCLE_PROCEDURE:
+        if key.startswith(prefix):
+            return proc, True
+    return FALLBACK_PROCEDURE, False
+
+
+def cycle_precision(cycle: str | None, family: str = "all") -> tuple[DefaultPrecision, str]:
+    """:func:`precision_default` of a test's cycle (:func:`procedure_of_cycle`) and a note
+    (empty, or which procedure's figure was borrowed)."""
+    proc, own = procedure_of_cycle(cycle)
+    note = "" if own else (f"no packaged precision for the cycle '{cycle or '?'}': the "
+                           f"{proc} figure is used")
+    return precision_default(proc, family), note

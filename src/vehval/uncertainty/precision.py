@@ -43,9 +43,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from scipy import stats
-
 from vehval.errors import VehvalError
+
+
+class _LazyStats:
+    """``scipy.stats`` loaded on first use: QA's En (verdict.normalised_error) needs none."""
+
+    def __getattr__(self, name: str) -> Any:
+        from scipy import stats as _stats
+        return getattr(_stats, name)
+
+
+stats = _LazyStats()
 
 #: Coverage factor of an expanded uncertainty U = k u (about 95 % for a normal law).
 COVERAGE_K = 2.0

@@ -32,6 +32,15 @@ computed but says little.
   wholly below 95 %.
 * verdict: ``biased by x +- y %`` (x = 100 ebar, y = the t half-width) when biased; else
   ``uncertainty understated``; else ``consistent with the data``.
+* beside it, the same bias test against s_r alone (``bias_limit_s_r = k s_r / sqrt(n)``,
+  ``beyond_s_r``): whether the mean error is beyond what one lab's repeatability explains,
+  which tells a between-lab offset from a spread of repeats when the set's verdict rests on
+  s_R.
+
+**Published figures** (:func:`judge_published`): a simulated figure against a figure from a
+report or a label, another car in another lab, so U_meas is the packaged vehicle-level s_R
+of the cycle's procedure and the family (:mod:`vehval.uncertainty.defaults`) combined with
+the uncertainty the source states (rounding, say).
 """
 
 from __future__ import annotations
@@ -41,10 +50,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from scipy import stats
-
 from vehval.errors import VehvalError
-from vehval.uncertainty.precision import COVERAGE_K, InsufficientDataError
+from vehval.uncertainty.defaults import cycle_precision
+from vehval.uncertainty.precision import COVERAGE_K, InsufficientDataError, stats
 
 #: A comparison is uninformative when its combined U exceeds this share of |measured| [-].
 UNINFORMATIVE_FRACTION = 0.10
@@ -197,6 +205,10 @@ class SetVerdict:
     n_uninformative: int
     verdict: str
     notes: list[str] = field(default_factory=list)
+    #: what s_r alone explains for the mean, k s_r / sqrt(n) [-]
+    bias_limit_s_r: float = 0.0
+    #: the mean error's interval excludes 0 and |mean| exceeds bias_limit_s_r
+    beyond_s_r: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         return {"n": self.n, "mean_error_pct": 100 * self.mean_error,
@@ -205,7 +217,8 @@ class SetVerdict:
                 "n_consistent": self.n_consistent, "coverage": self.coverage,
                 "coverage_ci": list(self.coverage_ci), "understated": self.understated,
                 "n_uninformative": self.n_uninformative, "verdict": self.verdict,
-                "notes": list(self.notes)}
+                "notes": list(self.notes), "bias_limit_s_r_pct": 100 * self.bias_limit_s_r,
+                "beyond_s_r": self.beyond_s_r}
 
 
 def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
@@ -250,7 +263,9 @@ def set_verdict(comparisons: Sequence[Comparison], *, s_r: float, s_R: float | N
     half = float(stats.t.ppf(0.975, n - 1)) * sd / math.sqrt(n)
     s_l2 = max((s_R or 0.0) ** 2 - s_r ** 2, 0.0) if different_source else 0.0
     limit = k * math.sqrt(s_r ** 2 / n + s_l2)
-    biased = (mean - half > 0.0 or mean + half < 0.0) and abs(mean) > limit
+    excludes_zero = mean - half > 0.0 or mean + half < 0.0
+    biased = excludes_zero and abs(mean) > limit
+    limit_r = k * s_r / math.sqrt(n)
     n_ok = sum(c.consistent for c in comparisons)
     cov_ci = clopper_pearson(n_ok, n)
     understated = cov_ci[1] < TARGET_COVERAGE
@@ -268,4 +283,45 @@ def set_verdict(comparisons: Sequence[Comparison], *, s_r: float, s_R: float | N
     else:
         verdict = CONSISTENT
     return SetVerdict(n, mean, (mean - half, mean + half), limit, biased, n_ok, n_ok / n,
-                      cov_ci, understated, n_unin, verdict, notes)
+                      cov_ci, understated, n_unin, verdict, notes, limit_r,
+                      excludes_zero and abs(mean) > limit_r)
+
+
+def judge_published(model: float, measured: float, *, u_model: float, cycle: str,
+                    family: str, u_stated: float = 0.0, label: str = ""
+                    ) -> tuple[Comparison, dict[str, Any]]:
+    """En of a simulated figure against a published one (another car, another lab).
+
+    Parameters
+    ----------
+    model, measured : float
+        Simulated and published figure (same unit, e.g. mpg).
+    u_model : float
+        The model's expanded uncertainty (k = 2), same unit.
+    cycle : str
+        The published figure's cycle; its packaged procedure
+        (:func:`vehval.uncertainty.defaults.cycle_precision`, FTP-75 for a cycle without one).
+    family : str
+        Powertrain family of the packaged precision (``hybrid``, ``conventional``...).
+    u_stated : float
+        Expanded uncertainty the source states for the figure (rounding...), same unit.
+
+    Returns
+    -------
+    (Comparison, dict)
+        The comparison and the basis of U_meas: ``s_r``, ``s_R`` (the s used), ``which``
+        (``s_R_vehicle``, ``s_R`` or ``s_r`` when the defaults hold no s_R), ``u_stated``,
+        ``note`` (a borrowed procedure) and ``provenance``.
+    """
+    d, note = cycle_precision(cycle, family)
+    which = next((q for q in ("s_R_vehicle", "s_R", "s_r") if getattr(d, q) is not None), None)
+    if which is None:
+        raise VehvalError(f"no packaged precision for {family} {d.procedure}: U_meas of "
+                          f"{label or cycle} cannot be formed")
+    s = float(getattr(d, which))
+    s_r = float(d.s_r) if d.s_r is not None else s
+    u_meas = measurement_uncertainty(measured, u_result=u_stated, s_r=s_r, s_R=s,
+                                     different_source=True)
+    return (normalised_error(model, measured, u_model, u_meas, label=label),
+            {"s_r": s_r, "s_R": s, "which": which, "procedure": d.procedure,
+             "u_stated": u_stated, "note": note, "provenance": d.provenance})

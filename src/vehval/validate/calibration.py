@@ -46,9 +46,10 @@ from vehval.errors import ConfigError
 from vehval.jsonsafe import clean
 from vehval.sim.simulate import simulate
 from vehval.test import Test
+from vehval.uncertainty import InsufficientDataError, normalised_error, set_verdict
 from vehval.validate.conditions import full_name as _full_name
 from vehval.validate.conditions import vehicle_variant as variant
-from vehval.validate.ladder import errors_of
+from vehval.validate.ladder import LadderEntry, errors_of, judge_fuel
 from vehval.validate.objective import (
     DEFAULT_SIGNALS,
     Target,
@@ -61,8 +62,8 @@ from vehval.validate.validation import validate_test
 from vehval.vehicle import BLOCKS, Vehicle, load_vehicle
 
 __all__ = ["HOLDOUT_TOL_POINTS", "MODES", "PENALTY", "CalibrationResult", "calibrate",
-           "default_bounds", "holdout_worse", "start_values", "vehicle_with_values",
-           "write_vehicle_yaml"]
+           "check_start", "default_bounds", "holdout_worse", "start_limits", "start_values",
+           "vehicle_with_values", "write_vehicle_yaml"]
 
 PENALTY = 1e6  # objective of an invalid parameter combination
 MODES = ("traces", "batch")
@@ -102,11 +103,44 @@ def default_bounds(vehicle: Vehicle, name: str, start: float, rel: float = 0.5) 
     return max(start - span, lo), min(start + span, hi)
 
 
-def start_values(start: Any) -> dict[str, float]:
+#: A given start value lies within this factor of the vehicle's own value in magnitude: a
+#: start refines the model of this car (1e300 W is no controller threshold of any car)
+START_FACTOR = 10.0
+#: [SI] largest magnitude of a start when the vehicle's value is 0
+START_MAX_ABS = 1e9
+
+
+def start_limits(vehicle: Vehicle, name: str) -> tuple[float, float]:
+    """Closed range a given start value of parameter ``name`` must lie in: the parameter's
+    own constraints (the vehicle model's), within ``START_FACTOR`` x the magnitude of the
+    vehicle's value (``START_MAX_ABS`` when that value is 0)."""
+    cap = START_FACTOR * abs(_value_of(vehicle, name)) or START_MAX_ABS
+    lo, hi = _field_limits(vehicle, name)
+    return max(lo, -cap), min(hi, cap)
+
+
+def check_start(vehicle: Vehicle, given: dict[str, float], names: Sequence[str]) -> None:
+    """Refuse, naming the parameter and its range, a given start value of a tuned parameter
+    outside :func:`start_limits` (a start is written into the calibrated vehicle when the
+    search finds nothing better)."""
+    for n in names:
+        if n not in given:
+            continue
+        lo, hi = start_limits(vehicle, n)
+        if not lo <= given[n] <= hi:
+            raise ConfigError(f"calibration start of '{n}' {given[n]:.6g} is outside its "
+                              f"bounds {lo:.6g} to {hi:.6g} (the model's limits, within "
+                              f"{START_FACTOR:g} x the vehicle's value): give a start inside")
+
+
+def start_values(start: Any, names: Sequence[str] = ()) -> dict[str, float]:
     """Start values from a dict (dotted or controller keys) or an analysis result.
 
     An analysis result is anything with ``to_dict()`` (or a dict) holding a ``controller``
-    mapping of estimated controller parameters in vehicle-file keys.
+    mapping of estimated controller parameters in vehicle-file keys. A number that is not
+    finite (NaN, Infinity) is refused naming its key, and so is any other value (text) of a
+    parameter in ``names`` (dotted: the tuned ones); other text entries (notes) and ``null``
+    are not start values.
     """
     if start is None:
         return {}
@@ -119,8 +153,12 @@ def start_values(start: Any) -> dict[str, float]:
     for k, v in src.items():
         if isinstance(v, dict) and "value" in v:  # {"value": x, ...} entries
             v = v["value"]
-        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
-            out[_full_name(k)] = float(v)
+        number = isinstance(v, (int, float)) and not isinstance(v, bool)
+        if v is None or not (number or _full_name(k) in names):
+            continue
+        if not number or not math.isfinite(v):
+            raise ConfigError(f"calibration start of '{k}': {v!r} is not a finite number")
+        out[_full_name(k)] = float(v)
     return out
 
 
@@ -202,6 +240,23 @@ class CalibrationResult:
         """Write the calibrated vehicle YAML atomically; it loads with ``load_vehicle``."""
         return write_vehicle_yaml(self.calibrated_vehicle(), path, "vehval calibrate")
 
+    def holdout_verdict(self) -> tuple[dict[str, Any] | None, str]:
+        """Set verdict (:func:`vehval.uncertainty.set_verdict`) of the held-out tests after
+        calibration, from their fuel En; (None, reason) with fewer than 3."""
+        judged, s_rs = [], []
+        for tid in self.holdout:
+            a = self.after.get(tid, {})
+            if self.in_sample(tid) or a.get("en") is None:
+                continue
+            judged.append(normalised_error(a["fuel_sim_kg"], a["fuel_test_kg"], 0.0,
+                                           a["u_meas_kg"], label=tid))
+            s_rs.append(a["s_r"] or 0.0)
+        try:
+            s_r = math.sqrt(sum(x * x for x in s_rs) / len(s_rs)) if s_rs else 0.0
+            return set_verdict(judged, s_r=s_r).to_dict(), ""
+        except InsufficientDataError as exc:
+            return None, str(exc)
+
     def rows(self) -> list[list[Any]]:
         """[test, role, fuel err before %, after %, SOC err before %, after %, engine agreement
         before %, after %, sample ("in-sample" or "held-out")]."""
@@ -245,7 +300,9 @@ class CalibrationResult:
             "stats": self.sample_stats(), "stats_in_sample": self.sample_stats(in_sample=True),
             "prior_calibration_tests": self.prior,
             "provenance": {n: self.provenance(n) for n in self.parameters},
-            "history": self.history, "tables": self.tables()})
+            "history": self.history, "tables": self.tables(),
+            "set_verdict_holdout": self.holdout_verdict()[0],
+            "set_verdict_holdout_note": self.holdout_verdict()[1]})
 
 
 def _sample_note(held: dict[str, Any], ins: dict[str, Any]) -> str:
@@ -401,7 +458,8 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         raise ConfigError("calibration needs at least one parameter (e.g. controller.engine_on_power_w)")
     if len(set(names)) != len(names):
         raise ConfigError(f"calibration parameters repeated: {', '.join(names)}")
-    given = start_values(start)
+    given = start_values(start, names)
+    check_start(veh0, given, names)
     x0 = {n: given.get(n, _value_of(veh0, n)) for n in names}
     notes = []
     if given:
@@ -477,7 +535,13 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
 
 
 def _errors(v) -> dict[str, float]:
+    """The ladder's errors of one validation, the signed ones, and the normalised error of
+    the fuel mass (``en``, ``u_meas_kg``, ``s_r``; U_model = 0: the tuned values carry no
+    stated range)."""
     e = errors_of(v.comparison)
+    entry = LadderEntry(v.comparison.test_id, v.comparison.cycle, "", dict(e), True)
+    judge_fuel(entry, v.comparison, None, "hybrid")
+    e["en"], e["u_meas_kg"], e["s_r"] = entry.en, entry.u_meas_kg, entry.s_r  # type: ignore[assignment]  # None: no fuel
     e["fuel_signed_pct"] = v.comparison.fuel_error * 100.0
     e["soc_final_signed_pct"] = v.comparison.soc_final_error * 100.0
     return e

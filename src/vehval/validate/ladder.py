@@ -14,6 +14,17 @@ Error definitions (documented in docs/validation.md):
   (a relative error of ΔSOC itself would blow up). The ΔSOC mismatch in SOC points
   (100 · |ΔSOC_sim − ΔSOC_test|) is reported alongside and may be bounded too.
 
+**Verdict by the normalised error.** Each test's fuel mass gets
+``En = (m_sim - m_test) / sqrt(U_model^2 + U_meas^2)`` (:func:`vehval.uncertainty.
+normalised_error`, k = 2): U_meas combines the results stage's propagated U of the measured
+fuel with the repeatability s_r of the test's procedure (packaged defaults,
+:func:`vehval.uncertainty.defaults.cycle_precision`; the model is judged against tests of
+the car it models); U_model is the vehicle's parameter ranges propagated to the cycle
+(:mod:`vehval.sim.model_uncertainty`, given per test by the caller as a share). The verdict
+of a test is ``consistent`` (|En| <= 1) or ``inconsistent``; ``passed`` is the secondary
+check against the fixed tolerances, kept as it was. Several held-out tests get a set verdict
+(:func:`vehval.uncertainty.set_verdict`).
+
 A test the vehicle file was calibrated on (its provenance,
 :func:`vehval.calibration.provenance.calibration_tests`) is marked in-sample: its verdict is
 a fit, not a prediction; the summary counts held-out tests and in-sample ones apart.
@@ -30,6 +41,9 @@ import numpy as np
 
 from vehval.errors import ConfigError
 from vehval.jsonsafe import clean
+from vehval.uncertainty import InsufficientDataError, normalised_error, set_verdict
+from vehval.uncertainty.defaults import cycle_precision
+from vehval.uncertainty.verdict import COVERAGE_K, measurement_uncertainty
 from vehval.validate.compare import Comparison
 
 RUNGS = ("steady", "low_transient", "high_transient", "other")
@@ -115,6 +129,15 @@ class LadderEntry:
     passed: bool
     failures: list[str] = field(default_factory=list)
     in_sample: bool = False  # the vehicle file was calibrated on this test
+    #: normalised error of the fuel mass (see the module docstring) and its parts
+    en: float | None = None
+    u_model_kg: float | None = None
+    u_meas_kg: float | None = None
+    s_r: float | None = None
+    uninformative: bool | None = None
+    consistent: bool | None = None
+    verdict: str = "no En"   # consistent / inconsistent / no En (no fuel on one side)
+    en_note: str = ""
 
 
 def verdict(comp: Comparison, tol: Tolerances) -> tuple[bool, list[str], dict[str, float]]:
@@ -147,6 +170,25 @@ class LadderResult:
     tolerances: Tolerances
     #: test id -> parameters the vehicle file was calibrated on it
     calibrated: dict[str, list[str]] = field(default_factory=dict)
+    #: bias, coverage and verdict of the held-out tests with an En (None: fewer than 3)
+    set_verdict: dict[str, Any] | None = None
+    set_verdict_note: str = ""
+
+    def en_summary(self) -> str:
+        """``held-out: 3/4 consistent (|En| <= 1); set: consistent with the data``."""
+        held = [e for e in self.entries if not e.in_sample and e.en is not None]
+        text = (f"held-out: {sum(bool(e.consistent) for e in held)}/{len(held)} consistent "
+                "(|En| <= 1)")
+        sv = self.set_verdict
+        if sv is not None:
+            lo, hi = sv["mean_error_ci_pct"]
+            clo, chi = sv["coverage_ci"]
+            text += (f"; set verdict (n = {sv['n']}): {sv['verdict']}; mean fuel error "
+                     f"{sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}], coverage "
+                     f"[{100 * clo:.0f}, {100 * chi:.0f}] % (target 95 %)")
+        else:
+            text += f"; no set verdict ({self.set_verdict_note})"
+        return text
 
     def sample_counts(self) -> dict[str, int]:
         """Tests and passes, held-out and in-sample apart."""
@@ -204,17 +246,63 @@ class LadderResult:
                          f"{t.engine_on_agreement_min_pct} % (None = not checked); "
                          f"{self.summary()}"}]
 
+    def en_table(self) -> dict:
+        """The verdict by the normalised error of the fuel mass, one row per test."""
+        rows = [[e.test_id, e.cycle, e.errors["fuel_sim_kg"], e.errors["fuel_test_kg"],
+                 e.u_model_kg, e.u_meas_kg, e.s_r, e.en, e.verdict,
+                 "in-sample" if e.in_sample else "held-out", e.en_note] for e in self.entries]
+        return {"title": "Verdict by the normalised error (fuel mass)",
+                "columns": ["test", "cycle", "fuel sim [kg]", "fuel test [kg]",
+                            "U_model [kg]", "U_meas [kg]", "s_r [-]", "En", "verdict",
+                            "sample", "note"],
+                "rows": rows,
+                "note": "En = (m_sim - m_test) / sqrt(U_model² + U_meas²), k = 2; |En| ≤ 1 "
+                        "is consistent; the fixed tolerances of the ladder above are the "
+                        f"secondary check. {self.en_summary()}"}
+
     def to_dict(self) -> dict[str, Any]:
         return clean({"passed": self.passed, "tolerances": asdict(self.tolerances),
                        "rung_passed": self.rung_passed(),
                        "highest_rung_passed": self.highest_rung_passed(),
                        **self.sample_counts(), "calibration_tests": self.calibrated,
-                       "entries": [asdict(e) for e in self.entries], "tables": self.tables()})
+                       "entries": [asdict(e) for e in self.entries], "tables": self.tables(),
+                       "set_verdict": self.set_verdict,
+                       "set_verdict_note": self.set_verdict_note})
+
+
+def judge_fuel(entry: LadderEntry, comp: Comparison, u_model_rel: float | None,
+               family: str = "all") -> Any:
+    """Set the En fields of ``entry`` from the fuel masses of ``comp``; the
+    :class:`vehval.uncertainty.Comparison` (None when a fuel mass is missing)."""
+    meas, model = entry.errors["fuel_test_kg"], entry.errors["fuel_sim_kg"]
+    if not (np.isfinite(meas) and meas > 0 and np.isfinite(model)):
+        entry.en_note = "no fuel mass on one side"
+        return None
+    prec, note = cycle_precision(comp.cycle, family)
+    s_r = prec.s_r or 0.0
+    u_rel = comp.uncertainty_rel.get("fuel_mass_kg")
+    u_meas = measurement_uncertainty(meas, u_result=COVERAGE_K * (u_rel or 0.0) * meas,
+                                     s_r=s_r)
+    u_model = (u_model_rel or 0.0) * abs(model)
+    c = normalised_error(model, meas, u_model, u_meas, label=entry.test_id)
+    notes = [note] if note else []
+    if u_rel is None:
+        notes.append("no results-stage uncertainty of the measured fuel")
+    if u_model_rel is None:
+        notes.append("no model uncertainty (U_model = 0)")
+    entry.en = None if not np.isfinite(c.en) else c.en
+    entry.u_model_kg, entry.u_meas_kg, entry.s_r = u_model, u_meas, s_r
+    entry.uninformative, entry.consistent = c.uninformative, c.consistent
+    entry.verdict = "consistent" if c.consistent else "inconsistent"
+    entry.en_note = "; ".join(notes)
+    return c
 
 
 def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | None = None,
            rungs: dict[str, str] | None = None,
-           calibrated: dict[str, list[str]] | None = None) -> LadderResult:
+           calibrated: dict[str, list[str]] | None = None,
+           u_model_rel: dict[str, float | None] | None = None,
+           family: str = "all") -> LadderResult:
     """Place comparisons on the ladder and judge each against the tolerances.
 
     Parameters
@@ -228,15 +316,29 @@ def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | No
     calibrated : dict, optional
         test id -> parameters the vehicle file was calibrated on it
         (:func:`vehval.calibration.provenance.calibration_tests`): those tests are in-sample.
+    u_model_rel : dict, optional
+        test id -> relative expanded model uncertainty U_model / figure [-] (missing: 0).
+    family : str
+        Powertrain family of the packaged precision (``hybrid``, ``conventional``, ``all``).
     """
     tol = tolerances if isinstance(tolerances, Tolerances) else Tolerances.from_mapping(tolerances)
-    entries = []
+    entries, held = [], []
     for c in comparisons:
         rung = (rungs or {}).get(c.test_id) or rung_of(c.cycle)
         if rung not in RUNGS:
             raise ConfigError(f"test '{c.test_id}': unknown rung '{rung}' (use {', '.join(RUNGS)})")
         ok, fails, err = verdict(c, tol)
-        entries.append(LadderEntry(c.test_id, c.cycle, rung, err, ok, fails,
-                                   in_sample=c.test_id in (calibrated or {})))
+        e = LadderEntry(c.test_id, c.cycle, rung, err, ok, fails,
+                        in_sample=c.test_id in (calibrated or {}))
+        judged = judge_fuel(e, c, (u_model_rel or {}).get(c.test_id), family)
+        if judged is not None and not e.in_sample:
+            held.append((judged, e.s_r or 0.0))
+        entries.append(e)
     entries.sort(key=lambda e: (RUNGS.index(e.rung), e.cycle, e.test_id))
-    return LadderResult(entries, tol, dict(calibrated or {}))
+    res = LadderResult(entries, tol, dict(calibrated or {}))
+    try:
+        s_r = math.sqrt(sum(s * s for _, s in held) / len(held)) if held else 0.0
+        res.set_verdict = set_verdict([c for c, _ in held], s_r=s_r).to_dict()
+    except InsufficientDataError as exc:
+        res.set_verdict_note = str(exc)
+    return res

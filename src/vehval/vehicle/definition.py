@@ -85,9 +85,12 @@ class Vehicle(BaseModel):
         ``__`` may stand for ``.`` (``controller__soc_target``) so paths can be keyword names.
         """
         new = apply_overrides(self, overrides, BLOCKS)
-        if new is not self and "engine" in {k.replace("__", ".").split(".")[0]
-                                            for k in overrides or ()}:
-            new.__dict__.pop("best_line", None)  # cached from the engine block
+        if new is not self:
+            keys = {k.replace("__", ".") for k in overrides or ()}
+            if keys & _BEST_LINE_KEYS:
+                new.__dict__.pop("best_line", None)  # cached from the engine's maps
+            elif "best_line" in self.__dict__:   # the same maps: the same line (no recompute)
+                new.__dict__["best_line"] = self.__dict__["best_line"]
         return new
 
     def signal_limits(self) -> dict[str, tuple[float, float]]:
@@ -122,6 +125,13 @@ class Vehicle(BaseModel):
     def best_line(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Engine best-efficiency line: power [W], speed [rad/s], torque [N·m]."""
         return best_efficiency_line(self.engine)
+
+
+#: engine parameters the best-efficiency line is computed from
+#: (:func:`vehval.vehicle.maps.best_efficiency_line`)
+_BEST_LINE_KEYS = {f"engine.{k}" for k in (
+    "speed_rpm", "torque_nm", "fuel_rate_g_per_s", "max_torque_nm", "idle_speed_rpm",
+    "max_speed_rpm", "max_power_w")}
 
 
 ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]] = {
