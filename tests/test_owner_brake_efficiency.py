@@ -63,11 +63,16 @@ def scan(root: Path = PKG) -> list[str]:  # noqa: C901 - one branch per rule abo
         if rel in (OWNER, BAND_HOME):
             continue
         tree = ast.parse(path.read_text(encoding="utf-8"))
-        # names bound to the band's ends: lo, hi = BRAKE_EFFICIENCY_RANGE
-        ends = {e.id for n in ast.walk(tree) if isinstance(n, ast.Assign)
-                and _name(n.value) == "BRAKE_EFFICIENCY_RANGE"
-                for t in n.targets if isinstance(t, ast.Tuple)
-                for e in t.elts if isinstance(e, ast.Name)}
+        # per function, the names bound to the band's ends: lo, hi = BRAKE_EFFICIENCY_RANGE
+        ends: dict[int, set[str]] = {}
+        for fn in ast.walk(tree):
+            if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                names = {e.id for n in ast.walk(fn) if isinstance(n, ast.Assign)
+                         and _name(n.value) == "BRAKE_EFFICIENCY_RANGE"
+                         for t in n.targets if isinstance(t, ast.Tuple)
+                         for e in t.elts if isinstance(e, ast.Name)}
+                for n in ast.walk(fn):
+                    ends.setdefault(id(n), set()).update(names)
         for node in ast.walk(tree):
             line = getattr(node, "lineno", 0)
             if isinstance(node, ast.FunctionDef) and FUNC.search(node.name):
@@ -87,8 +92,9 @@ def scan(root: Path = PKG) -> list[str]:  # noqa: C901 - one branch per rule abo
                     e.value for e in node.elts) == band:  # type: ignore[attr-defined]
                 out.append(f"{rel}:{line}: the efficiency band written again "
                            "(vehval.constants.BRAKE_EFFICIENCY_RANGE)")
+            here = ends.get(id(node), set())
             if rel != MEASURED and isinstance(node, ast.Compare) and len(node.ops) == 2 \
-                    and _name(node.left) in ends and _name(node.comparators[-1]) in ends:
+                    and _name(node.left) in here and _name(node.comparators[-1]) in here:
                 out.append(f"{rel}:{line}: the efficiency band compared by hand "
                            "(use vehval.vehicle.maps.brake_efficiency_plausible)")
     return out
