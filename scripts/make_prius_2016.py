@@ -46,11 +46,11 @@ sys.path.insert(0, str(REPO / "src"))
 
 from vehval.epa import apply_selector, read_test_car_list
 from vehval.vehicle import load_vehicle
+from vehval.vehicle.maps import peak_brake_efficiency_of_map
 from vehval.vehicle.scaling import (
     efficiency_floor_losses,
     fit_loss_surface,
     machine_scale,
-    peak_efficiency,
     scale_engine_map,
     scale_machine_map,
 )
@@ -149,7 +149,7 @@ def _engine(e: dict, rated_power_w: float, displacement_l: float,
     from vehval.fuels import table_fuel
 
     lhv = float(table_fuel(str(e["fuel"])).lhv_j_per_kg)   # the 2004 file names its fuel
-    eff_old = peak_efficiency(spd, trq, e["fuel_rate_g_per_s"], tmax, lhv)
+    eff_old = peak_brake_efficiency_of_map(spd, trq, e["fuel_rate_g_per_s"], tmax, lhv)[0]
     k_n = ENGINE_SPEED_RATED_RPM / e["max_speed_rpm"]
     k_t = ENGINE_TORQUE_MAX_NM / max(e["max_torque_nm"])
     _, _, fuel_s, _ = scale_engine_map(spd, trq, e["fuel_rate_g_per_s"], tmax, k_n, k_t,

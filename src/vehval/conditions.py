@@ -137,3 +137,48 @@ class TestConditions:
     def provenance(self) -> dict[str, str]:
         """Condition -> source."""
         return {k: r.source for k, r in self.values.items()}
+
+
+# ------------------------------------------------------------------------- cold start
+#: A start is cold when the engine coolant at the start is less than this above the test
+#: cell temperature [K].
+COLD_START_BAND_K = 10.0
+#: Cell temperature assumed when none is measured [degC]: the top of the FTP cell range
+#: (40 CFR 86.130, 20-30 degC), so that a start called cold is cold in any FTP cell.
+COLD_START_CELL_C = 30.0
+
+
+def cold_start(coolant_start_c: float, cell_c: float | None = None) -> tuple[bool | None, str]:
+    """Whether a test starts with a cold engine, from measured data, and why.
+
+    The one rule: **cold when the engine coolant at the start is less than**
+    :data:`COLD_START_BAND_K` **above the cell temperature** (:data:`COLD_START_CELL_C`
+    when the cell is not measured: coolant below 40 degC). A lab defends it from the
+    regulation's own definition: a cold start follows a 12-36 h soak in the cell (40 CFR
+    86.132), after which the coolant is at the cell temperature; a coolant still 10 K or more
+    above the cell has not soaked (a hot start, or one of a few hours' soak, which the
+    warm-up fuel of a cold start would overstate). A coolant far *below* the cell (a car
+    brought in cold) is cold too; an absolute threshold alone (below 40 degC) would call a
+    35 degC start in a -7 degC cell cold, a test the cold-temperature FTP does not know.
+
+    Parameters
+    ----------
+    coolant_start_c : float
+        Engine coolant temperature at the start [degC] (NaN: unknown).
+    cell_c : float, optional
+        Mean test cell temperature [degC] (None or NaN: not measured).
+
+    Returns
+    -------
+    (cold, why) : (bool or None, str)
+        None when the coolant is not measured.
+    """
+    if coolant_start_c is None or not math.isfinite(coolant_start_c):
+        return None, "no engine coolant temperature in the test"
+    measured = cell_c is not None and math.isfinite(cell_c)
+    cell = float(cell_c) if cell_c is not None and measured else COLD_START_CELL_C
+    cold = coolant_start_c < cell + COLD_START_BAND_K
+    where = (f"cell {cell:.1f} °C" if measured
+             else f"no cell temperature: {COLD_START_CELL_C:g} °C, the top of the FTP range")
+    return cold, (f"coolant {coolant_start_c:.0f} °C at the start, {where} (cold below "
+                  f"{COLD_START_BAND_K:g} K above the cell)")

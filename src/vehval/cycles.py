@@ -393,6 +393,66 @@ def _load_package(name: str) -> Cycle:
                  description=meta.get("description", ""), source=meta.get("source", ""))
 
 
+# ---------------------------------------------------------------- regulatory parts
+#: A regulatory part of a cycle: (part name, start, end) in cycle time [s].
+Part = tuple[str, float, float]
+
+
+@lru_cache(maxsize=1)
+def _parts_table() -> dict[str, tuple[str, tuple[Part, ...]]]:
+    """``data/cycles/parts.yaml``: cycle -> (rule, parts), read once."""
+    import yaml
+
+    raw = yaml.safe_load((_data_dir() / "parts.yaml").read_text(encoding="utf-8"))
+    return {name: (str(e["rule"]), tuple((str(p), float(a), float(b)) for p, a, b in e["parts"]))
+            for name, e in raw.items()}
+
+
+def _parts_key(name: str) -> str:
+    """Package cycle of ``name`` (alias, case, ``_x2`` repeats and ``_measured`` removed)."""
+    base = _norm(re.sub(r"(_x\d+)?(_measured)?$", "", name.strip().lower()))
+    return ALIASES.get(base, base)
+
+
+def cycles_with_parts() -> list[str]:
+    """Package cycles whose regulatory parts (emission bags) the part table defines."""
+    return list(_parts_table())
+
+
+def cycle_parts(name: str) -> list[Part]:
+    """Regulatory parts of a package cycle, in time order: [(part, start, end)] [s].
+
+    The one table of phase (bag) boundaries, ``vehval/data/cycles/parts.yaml``, kept beside
+    the traces; [] for a cycle without standard parts. ``name`` may be an alias or carry
+    a repeat / origin suffix (``us06_x2``, ``udds_measured``).
+
+    >>> cycle_parts("us06")
+    [('city', 0.0, 130.0), ('highway', 130.0, 495.0), ('city', 495.0, 600.0)]
+    """
+    entry = _parts_table().get(_parts_key(name))
+    return list(entry[1]) if entry else []
+
+
+def part_rule(name: str) -> str:
+    """Where the parts of cycle ``name`` come from (regulation and boundaries); "" if none."""
+    entry = _parts_table().get(_parts_key(name))
+    return entry[0] if entry else ""
+
+
+def part_boundary_s(name: str, part: str, end: bool = True) -> float:
+    """End (or start) [s] of the first segment of ``part`` in cycle ``name``.
+
+    Raises
+    ------
+    KeyError
+        If the table has no such cycle or part.
+    """
+    for p, a, b in cycle_parts(name):
+        if p == part:
+            return b if end else a
+    raise KeyError(f"cycle {name!r} has no part {part!r} in data/cycles/parts.yaml")
+
+
 def load_cycle(name_or_path: str | Path | Cycle) -> Cycle:
     """Load a drive cycle by package name, alias, steady-run spec or file path.
 

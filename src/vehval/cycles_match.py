@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.cycles import part_boundary_s
 from vehval.errors import VehvalError
 
 __all__ = ["identify_cycle", "identify_scaled", "run_distance_ratios", "describe", "MAX_RMS_MPS", "MIN_COVERAGE", "MIN_EXPLAINED",
@@ -74,7 +75,7 @@ MOVING_MPS = 0.5
 #: Cycles that may be split by a soak: name -> split time [s] in the cycle. The FTP-75 runs
 #: bag 3 (the first 505 s of the UDDS again) after a 10 min hot soak (40 CFR 86.137); the
 #: package trace leaves the soak out, a measured file usually keeps it.
-SPLIT_AT_S = {"ftp75": 1369.0}
+SPLIT_AT_S = {"ftp75": part_boundary_s("ftp75", "bag2")}
 #: Longest soak accepted between the two parts of a split cycle [s].
 MAX_SOAK_S = 1500.0
 #: Steady-speed plateaus: speed band [m/s] around the plateau median, shortest hold [s],

@@ -27,7 +27,6 @@ Raw tests are imported with the template (``-t``, else the directory's ``templat
 
 from __future__ import annotations
 
-import fnmatch
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Sequence
@@ -46,10 +45,6 @@ if TYPE_CHECKING:  # the stages' result types (the stages are imported when they
 
 #: One policy for time stamps that go backwards or repeat: sort/drop them with a note.
 REPAIR_TIME = True
-#: Extensions read as data when a directory's template has no ``match`` globs.
-RAW_EXT = {".txt", ".csv", ".tsv", ".dat", ".mf4", ".mdf", ".parquet"}
-#: File names in a test directory that are never data.
-NOT_DATA = {"clean.parquet", "validated.parquet", "template.yaml", "truth.json", "readme.txt"}
 
 
 @dataclass
@@ -383,15 +378,12 @@ def _template_for(path: Path | None, template: Any) -> Any:
 
 
 def _dir_files(d: Path, template: Any) -> list[Path]:
-    files = sorted(p for p in d.iterdir() if p.is_file())
-    globs = [f.match for f in template.files if f.match]
-    if globs and len(globs) == len(template.files):
-        out = [p for p in files if any(fnmatch.fnmatch(p.name, g) for g in globs)]
-    else:
-        out = [p for p in files if p.suffix.lower() in RAW_EXT and p.name.lower() not in NOT_DATA]
+    from vehval.io.folder import data_files, match_globs
+
+    out = data_files(sorted(p for p in d.iterdir() if p.is_file()), template)
     if not out:
         raise InputFileError(f"{d}: no data file matches the template "
-                             f"({', '.join(globs) or 'any data file'})")
+                             f"({', '.join(match_globs(template)) or 'any data file'})")
     return out
 
 

@@ -320,9 +320,10 @@ def test_an_implausible_fitted_map_is_named(specs):
     efficiency no spark-ignition engine reaches (fuel in the wrong unit, another car's list
     row) was written and used without a word. Its best brake efficiency is now stated and
     flagged outside 20-45 %."""
-    from vehval.epa.specs_fit import best_brake_efficiency, efficiency_note
+    from vehval.epa.specs_fit import efficiency_note
+    from vehval.vehicle.maps import peak_brake_efficiency
 
-    eff, rpm, nm = best_brake_efficiency(vehicle_from_specs(specs, 0.43, 1.0))
+    eff, rpm, nm = peak_brake_efficiency(vehicle_from_specs(specs, 0.43, 1.0).engine)
     assert 0.30 < eff < 0.42 and rpm >= 700 and nm > 0
     assert efficiency_note(vehicle_from_specs(specs, 0.43, 1.0)) == ""
     note = efficiency_note(vehicle_from_specs(specs, 0.59, 0.5))

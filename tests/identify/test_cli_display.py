@@ -255,7 +255,7 @@ def test_peak_efficiency_of_a_map_where_the_engine_runs():
     with no fuelled point there has none (nan, refused by identify)."""
     from types import SimpleNamespace
 
-    from vehval.cli.commands_identify import peak_efficiency
+    from vehval.vehicle.maps import peak_brake_efficiency as peak_efficiency
 
     eng = SimpleNamespace(speed_rpm=[600.0, 1000.0, 2000.0], torque_nm=[0.0, 50.0, 100.0],
                           fuel_rate_g_per_s=[[0.0, 0.01, 0.02], [0.1, 0.6, 1.2],

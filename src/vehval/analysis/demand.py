@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from vehval.analysis.inputs import Finding
+from vehval.constants import RPM_RAD_PER_S
 
 
 @dataclass
@@ -296,7 +297,7 @@ def transition_windows(on: np.ndarray, eng_spd: np.ndarray | None, dt: float, *,
     """
     on = np.asarray(on, bool)
     idx = np.nonzero(on[1:] != on[:-1])[0] + 1
-    rpm = None if eng_spd is None else np.asarray(eng_spd, float) * 60.0 / (2.0 * np.pi)
+    rpm = None if eng_spd is None else np.asarray(eng_spd, float) / RPM_RAD_PER_S
     kmax = max(round(max_back_s / dt), 0)
     out = []
     for k in idx:

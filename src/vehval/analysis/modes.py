@@ -8,126 +8,19 @@ step then gets one operating mode; consecutive steps of one mode form the timeli
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
-RPM = 2.0 * np.pi / 60.0  # [rad/s per rpm]
+from vehval.equations.engine_state import (  # noqa: F401 - the engine state's owner, re-exported
+    EngineState,
+    debounce,
+    detect_engine_on,
+    hysteresis,
+    run_lengths,
+)
 
 #: Operating modes, in the order used by tables and figures.
 MODES = ("stopped", "ev_drive", "coast", "engine_idle", "engine_drive", "engine_charging",
          "engine_assist", "regen_braking", "friction_braking", "unknown")
-
-
-@dataclass
-class EngineState:
-    """Detected engine state on the analysis grid.
-
-    Attributes
-    ----------
-    on : ndarray of bool
-        Engine on (spinning / fuelled) at each step.
-    valid : ndarray of bool
-        Steps where the detector had data.
-    method : str
-        What the state was read from, with the thresholds.
-    """
-
-    on: np.ndarray
-    valid: np.ndarray
-    method: str
-
-
-def run_lengths(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Run-length encoding: (start index, length, value) of each run of equal values."""
-    x = np.asarray(x)
-    if x.size == 0:
-        return np.zeros(0, int), np.zeros(0, int), x[:0]
-    change = np.nonzero(x[1:] != x[:-1])[0] + 1
-    starts = np.concatenate([[0], change])
-    lengths = np.diff(np.concatenate([starts, [x.size]]))
-    return starts, lengths, x[starts]
-
-
-def hysteresis(x: np.ndarray, on_above: float, off_below: float, initial: bool | None = None
-               ) -> tuple[np.ndarray, np.ndarray]:
-    """Two-threshold switch: on once ``x > on_above``, off once ``x < off_below``.
-
-    NaN samples hold the previous state and are flagged invalid.
-
-    Returns
-    -------
-    state : ndarray of bool
-    valid : ndarray of bool
-    """
-    x = np.asarray(x, float)
-    valid = np.isfinite(x)
-    state = np.zeros(x.size, bool)
-    cur = bool(initial) if initial is not None else bool(valid.any() and x[valid][0] > 0.5 * (on_above + off_below))
-    for i, xi in enumerate(x):
-        if xi == xi:
-            if cur and xi < off_below:
-                cur = False
-            elif not cur and xi > on_above:
-                cur = True
-        state[i] = cur
-    return state, valid
-
-
-def debounce(state: np.ndarray, min_steps: int) -> np.ndarray:
-    """Remove runs shorter than ``min_steps`` (merged into their neighbours), shortest first."""
-    s = np.asarray(state, bool).copy()
-    if min_steps <= 1 or s.size == 0:
-        return s
-    while True:
-        starts, lengths, _vals = run_lengths(s)
-        inner = [(ln, st) for st, ln in zip(starts, lengths) if ln < min_steps]
-        if len(starts) <= 1 or not inner:
-            return s
-        ln, st = min(inner)
-        s[st:st + ln] = ~s[st]
-
-
-def detect_engine_on(t: np.ndarray, eng_spd: np.ndarray, fuel_rate: np.ndarray | None = None, *,
-                     on_rpm: float = 400.0, off_rpm: float = 250.0,
-                     fuel_on_kg_s: float = 5.0e-5, fuel_off_kg_s: float = 2.0e-5,
-                     debounce_s: float = 0.5) -> EngineState:
-    """Engine on/off from engine speed (preferred) or fuel rate, with hysteresis and debounce.
-
-    Parameters
-    ----------
-    t : ndarray
-        Uniform time grid [s].
-    eng_spd : ndarray
-        Engine speed [rad/s] (NaN where unknown).
-    fuel_rate : ndarray, optional
-        Fuel mass rate [kg/s], used when the engine speed is missing.
-    on_rpm, off_rpm : float
-        Hysteresis thresholds on engine speed [rpm]: well below idle (about 1000 rpm) and
-        well above sensor noise, so spin-up and spin-down count as half-way.
-    fuel_on_kg_s, fuel_off_kg_s : float
-        Hysteresis thresholds on fuel rate [kg/s] (idle burns about 1e-4 kg/s).
-    debounce_s : float
-        Runs shorter than this [s] are merged into their neighbours.
-
-    Returns
-    -------
-    EngineState
-    """
-    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    k = max(1, int(np.ceil(debounce_s / dt - 1e-9)))
-    spd = np.asarray(eng_spd, float)
-    if np.any(np.isfinite(spd)):
-        state, valid = hysteresis(spd, on_rpm * RPM, off_rpm * RPM)
-        method = (f"engine speed > {on_rpm:g} rpm on, < {off_rpm:g} rpm off, "
-                  f"runs < {k * dt:g} s removed")
-    elif fuel_rate is not None and np.any(np.isfinite(fuel_rate)):
-        state, valid = hysteresis(np.asarray(fuel_rate, float), fuel_on_kg_s, fuel_off_kg_s)
-        method = (f"fuel rate > {fuel_on_kg_s * 1e3:g} g/s on, < {fuel_off_kg_s * 1e3:g} g/s off, "
-                  f"runs < {k * dt:g} s removed")
-    else:
-        return EngineState(np.zeros(t.size, bool), np.zeros(t.size, bool), "no engine speed or fuel rate")
-    return EngineState(debounce(state, k), valid, method)
 
 
 def classify_modes(v: np.ndarray, p_whl: np.ndarray, eng_on: np.ndarray,

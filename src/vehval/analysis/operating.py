@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from vehval.analysis.modes import MODES
+from vehval.constants import RPM_RAD_PER_S
 
 
 def operating_points(eng_spd: np.ndarray, eng_trq: np.ndarray, eng_on: np.ndarray, dt: float,
@@ -43,7 +44,7 @@ def operating_points(eng_spd: np.ndarray, eng_trq: np.ndarray, eng_on: np.ndarra
         return out
     w, tq = eng_spd[ok], eng_trq[ok]
     p = w * tq
-    out["points"] = {"speed_rpm": (w * 60 / (2 * np.pi))[:: max(1, ok.sum() // 2000)].round(1).tolist(),
+    out["points"] = {"speed_rpm": (w / RPM_RAD_PER_S)[:: max(1, ok.sum() // 2000)].round(1).tolist(),
                      "torque_nm": tq[:: max(1, ok.sum() // 2000)].round(2).tolist()}
     if vehicle is None:
         out["why"] = "no vehicle: best-efficiency line unknown"
@@ -71,7 +72,7 @@ def operating_points(eng_spd: np.ndarray, eng_trq: np.ndarray, eng_on: np.ndarra
                                "p95_abs": float(np.quantile(np.abs(dist), 0.95))},
         "departure_causes": {c: float(np.mean(cause == c)) for c in
                              ("on_line", "battery_limit", "transient", "low_power", "other")},
-        "best_line": {"speed_rpm": (ws * 60 / (2 * np.pi)).round(1).tolist(), "torque_nm": ts.round(2).tolist()},
+        "best_line": {"speed_rpm": (ws / RPM_RAD_PER_S).round(1).tolist(), "torque_nm": ts.round(2).tolist()},
     })
     return out
 

@@ -20,18 +20,17 @@ Discovery rule (documented in ``docs/catalog.md``):
 
 from __future__ import annotations
 
-import fnmatch
 import glob
 import hashlib
 import json
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from vehval.errors import InputFileError
-from vehval.io.paths import inside, non_data_kind, sanitize_id, special_kind
+from vehval.io.folder import data_files, is_data_file, template_patterns
+from vehval.io.paths import inside, sanitize_id, special_kind
 
 _GLOB_CHARS = set("*?[")
 
@@ -48,18 +47,6 @@ class TestSpec:
     input_hash: str = ""
 
 
-def template_patterns(template: Any) -> list[str | None]:
-    """The ``match`` glob of every ``files`` entry of a template (None when absent)."""
-    entries = getattr(template, "files", None) or []
-    return [getattr(e, "match", None) for e in entries]
-
-
-#: Extensions of data files (a template without ``match`` takes only these).
-DATA_EXTENSIONS = frozenset({".txt", ".csv", ".tsv", ".tab", ".dat", ".asc", ".mf4", ".mdf",
-                             ".mf3", ".parquet", ".pq"})
-#: Names of documentation files shipped beside data (never a test of their own).
-_DOC_NAMES = re.compile(r"^(readme|source|license|licence|notes?|changelog|copying|authors)"
-                        r"([._-].*)?$", re.I)
 
 
 def _visible(p: Path) -> bool:
@@ -100,33 +87,25 @@ def _allowed(p: Path, root: Path, exclude: list[Path], skipped: Skipped | None =
     return why is None
 
 
-def _looks_like_data(p: Path) -> bool:
-    return (p.suffix.lower() in DATA_EXTENSIONS and not _DOC_NAMES.match(p.name)
-            and non_data_kind(p) is None)
-
-
-def _matching_files(directory: Path, patterns: list[str | None], root: Path | None = None,
+def _matching_files(directory: Path, template: Any, root: Path | None = None,
                     exclude: Sequence[Path] = (), skipped: Skipped | None = None) -> list[Path]:
     root = root or directory
     files = sorted(p for p in directory.iterdir()
                    if _allowed(p, root, list(exclude), skipped) and p.is_file())
-    pats = [p for p in patterns if p]
-    if not pats:  # single entry without match: every data file (no PDF, README, SOURCE.txt)
-        return [f for f in files if _looks_like_data(f)]
-    return [f for f in files if any(fnmatch.fnmatch(f.name, pat) for pat in pats)]
+    return data_files(files, template)
 
 
 def folder_inputs(directory: Path, template: Any, root: Path,
                   exclude: Sequence[str | Path] = ()) -> list[Path]:
     """The files of ``directory`` that would make it a test (the template's patterns)."""
-    return _matching_files(directory, template_patterns(template), root, [Path(e) for e in exclude])
+    return _matching_files(directory, template, root, [Path(e) for e in exclude])
 
 
-def _test_folder(p: Path, patterns: list[str | None], root: Path, excl: list[Path],
+def _test_folder(p: Path, template: Any, root: Path, excl: list[Path],
                  skipped: Skipped | None) -> list[Path] | None:
     """The matching files of test folder ``p``; None (reported) when it cannot be read."""
     try:
-        return _matching_files(p, patterns, root, excl, skipped)
+        return _matching_files(p, template, root, excl, skipped)
     except OSError as exc:
         if skipped is not None:
             skipped.append((p, f"cannot be read ({exc.strerror or exc})"))
@@ -171,10 +150,10 @@ def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - o
             if not _allowed(p, p.parent, excl, skipped):
                 continue
             if p.is_dir():
-                files = _test_folder(p, patterns, p, excl, skipped)
+                files = _test_folder(p, template, p, excl, skipped)
                 if files is not None:
                     found.append((p.name, files))
-            elif p.is_file() and (not single or any(patterns) or _looks_like_data(p)):
+            elif p.is_file() and (not single or any(patterns) or is_data_file(p)):
                 found.append((p.stem, [p]))
     else:
         root = Path(target_s)
@@ -185,11 +164,11 @@ def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - o
             if not _allowed(p, root, excl, skipped):
                 continue
             if p.is_dir():
-                files = _test_folder(p, patterns, root, excl, skipped)
+                files = _test_folder(p, template, root, excl, skipped)
                 if files is not None:
                     found.append((p.name, files))
         if single:
-            for f in _matching_files(root, patterns, root, excl):
+            for f in _matching_files(root, template, root, excl):
                 found.append((f.stem, [f]))
     if not found:
         rule = ("a subdirectory per test or one file per test" if single

@@ -545,7 +545,6 @@ def vehicle_cmd(
     from vehval.epa.specs import model_fuel_lhv, specs_from_tests, vehicle_from_specs
     from vehval.epa.specs_fit import (
         all_splits,
-        best_brake_efficiency,
         calibrate_specs,
         cold_note,
         dyno_run,
@@ -554,6 +553,7 @@ def vehicle_cmd(
     )
     from vehval.errors import ConfigError
     from vehval.io.paths import check_outputs
+    from vehval.vehicle.maps import peak_brake_efficiency
 
     check_outputs(outfile=output, inputs=[*paths, *calibrate, *predict, template])
     rows = select_tests(read_lists(paths), make, model, year)
@@ -604,7 +604,7 @@ def vehicle_cmd(
                    "figures (docs/validation.md); give dyno tests with --calibrate")
     if fit is not None:
         idle = "-" if fit.idle_fuel_g_per_s is None else f"{fit.idle_fuel_g_per_s:.3f}"
-        brake = best_brake_efficiency(veh)
+        brake = peak_brake_efficiency(veh.engine)
         typer.echo(f"fitted on {', '.join(fit.tests)}: indicated efficiency "
                    f"{100 * fit.indicated_efficiency:.1f} %, friction scale "
                    f"{fit.friction_scale:.3f}, "

@@ -4,14 +4,13 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 
 import typer
 
 from vehval.cli.app import app
 from vehval.cli.options import bounded, output_file
-from vehval.constants import BRAKE_EFFICIENCY_RANGE
+from vehval.constants import BRAKE_EFFICIENCY_RANGE, RPM_RAD_PER_S
 from vehval.errors import ConfigError
 
 
@@ -247,7 +246,7 @@ def _check_power_torque(declared: dict) -> None:
     if not all(k in declared for k in keys):
         return
     p_kw, n_rpm, t_nm = (float(declared[k][0]) for k in keys)
-    t_rated = p_kw * 1e3 / (n_rpm * math.pi / 30.0)
+    t_rated = p_kw * 1e3 / (n_rpm * RPM_RAD_PER_S)
     if t_rated > (1 + POWER_TOL) * t_nm:
         raise ConfigError(
             f"identify: a rated power of {p_kw:g} kW at {n_rpm:g} rpm needs {t_rated:.0f} N·m "
@@ -328,8 +327,6 @@ def _drag_note(drag) -> str:
     return drag.note.replace(si, _drag_text(drag.dyno_loss_a_n, drag.dyno_loss_b_n_per_mps))
 
 
-#: [-] peak brake efficiency of road engines (the band of :mod:`vehval.constants`)
-ETA_PLAUSIBLE = BRAKE_EFFICIENCY_RANGE
 _UNIT_HINT = ("check the fuel flow's unit and the test fuel's heating value (template "
               "constants) and the fuel channel's mapping")
 
@@ -337,8 +334,10 @@ _UNIT_HINT = ("check the fuel flow's unit and the test fuel's heating value (tem
 def _check_fuel_map(idf, files) -> None:
     """A fuel map that explains the fuel worse than its mean, or burns less fuel than the
     work it gives (brake efficiency above 100 %): a unit or mapping mistake, refused."""
+    from vehval.vehicle.maps import peak_brake_efficiency
+
     fm = idf.fuel_map
-    eta = peak_efficiency(idf.vehicle.engine)[0]
+    eta = peak_brake_efficiency(idf.vehicle.engine)[0]
     tests = ", ".join(str(f) for f in files)
     if not fm.r2_5s >= 0.0:
         raise ConfigError(
@@ -366,36 +365,20 @@ def _cold_warnings(traces) -> list[str]:
 
 def _fuel_map_warnings(idf) -> list[str]:
     """A peak brake efficiency outside the range of road engines, in one line."""
-    eta, rpm, nm = peak_efficiency(idf.vehicle.engine)
-    lo, hi = ETA_PLAUSIBLE
-    if lo <= eta <= hi:
+    from vehval.vehicle.maps import brake_efficiency_plausible, peak_brake_efficiency
+
+    eta, rpm, nm = peak_brake_efficiency(idf.vehicle.engine)
+    if brake_efficiency_plausible(eta):
         return []
+    lo, hi = BRAKE_EFFICIENCY_RANGE
     return [f"the identified fuel map peaks at {100 * eta:.1f} % brake efficiency ({rpm:.0f} "
             f"rpm, {nm:.0f} N·m), outside the {100 * lo:.0f}-{100 * hi:.0f} % of road "
             f"engines: {_UNIT_HINT}"]
 
 
-def peak_efficiency(engine) -> tuple[float, float, float]:
-    """Highest brake efficiency [-] of an engine's fuel map where the model runs it fired
-    (from the idle speed up, torque above zero and within the full load), with its speed
-    [rpm] and torque [N·m]."""
-    import numpy as np
-
-    spd = np.asarray(engine.speed_rpm, dtype=float)
-    trq = np.asarray(engine.torque_nm, dtype=float)
-    fuel = np.asarray(engine.fuel_rate_g_per_s, dtype=float) * 1e-3
-    tmax = np.asarray(engine.max_torque_nm, dtype=float)   # full load at each map speed
-    power = spd[:, None] * np.pi / 30.0 * trq[None, :]
-    ok = ((spd[:, None] >= engine.idle_speed_rpm) & (trq[None, :] > 0)
-          & (trq[None, :] <= tmax[:, None]) & (fuel > 0))
-    eta = np.where(ok, power / np.where(ok, fuel, 1.0) / engine.fuel_lhv_j_per_kg, -np.inf)
-    i, j = np.unravel_index(int(np.argmax(eta)), eta.shape)
-    if not np.isfinite(eta[i, j]):
-        return float("nan"), float("nan"), float("nan")     # no fuelled point: no efficiency
-    return float(eta[i, j]), float(spd[i]), float(trq[j])
-
-
 def _print_identification(idf, output: Path, report: Path | None) -> None:
+    from vehval.vehicle.maps import peak_brake_efficiency
+
     rl = idf.road_load
     v, ci = rl.values, rl.ci95
     typer.echo(f"wrote {output}")
@@ -417,8 +400,8 @@ def _print_identification(idf, output: Path, report: Path | None) -> None:
     fm = idf.fuel_map
     typer.echo(f"fuel map: R^2 {fm.r2:.3f} (5 s means {fm.r2_5s:.3f}), idle "
                f"{fm.idle_fuel_kg_s * 1e3:.3f} g/s, fuel cut above "
-               f"{fm.fuel_cut_speed_rad_s * 30 / 3.141592653589793:.0f} rpm")
-    eta, rpm, nm = peak_efficiency(idf.vehicle.engine)
+               f"{fm.fuel_cut_speed_rad_s / RPM_RAD_PER_S:.0f} rpm")
+    eta, rpm, nm = peak_brake_efficiency(idf.vehicle.engine)
     typer.echo(f"fuel map: peak brake efficiency {100 * eta:.1f} % at {rpm:.0f} rpm, {nm:.0f} N·m "
                "(between idle and full load)")
     if idf.drag is not None:

@@ -26,9 +26,10 @@ from dataclasses import dataclass
 from functools import cache
 
 from vehval.constants import LB_KG
-from vehval.epa.procedures import FTP75, FTP_WEIGHT_COLD, FTP_WEIGHT_HOT, US06, procedure_key
+from vehval.epa.procedures import FTP75, US06, procedure_key
 from vehval.epa.reader import HP_W, EpaTest
 from vehval.fuels import combine_mpg
+from vehval.results.composites import FTP_WEIGHTS, weighted_harmonic
 
 #: largest accepted |recombined / listed - 1| [-]
 TOLERANCE = 0.025
@@ -123,7 +124,7 @@ def recombine(test: EpaTest) -> float | None:
         # no bag 4 listed: bag 2 stands for it (same driving), as the lab combines them
         hot = (_harmonic(d, {3: b[3], 4: b[4]}) if 4 in b else
                combine_mpg([d[3], d[2]], [b[3], b[2]]))
-        return 1.0 / (FTP_WEIGHT_COLD / cold + FTP_WEIGHT_HOT / hot)
+        return float(weighted_harmonic(FTP_WEIGHTS, (cold, hot)))
     return None
 
 

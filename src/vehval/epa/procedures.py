@@ -21,18 +21,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from vehval.cycles import part_boundary_s
 from vehval.epa.reader import EpaTest
 
-#: UDDS time at which bag 1 (cold transient) ends and bag 2 starts [s]
-UDDS_BAG1_END_S = 505.0
-#: US06 city / highway split points [s]
-US06_CITY_END_S = 130.0
-US06_HWY_END_S = 495.0
+#: UDDS time at which bag 1 (cold transient) ends and bag 2 starts [s] (the cycles' part table)
+UDDS_BAG1_END_S = part_boundary_s("udds", "bag1")
+#: US06 city / highway split points [s] (the cycles' part table)
+US06_CITY_END_S = part_boundary_s("us06", "city")
+US06_HWY_END_S = part_boundary_s("us06", "highway")
 #: engine-off soak between the cold and hot UDDS of the FTP-75 [s]
 FTP_SOAK_S = 600.0
-#: FTP-75 composite weights of the cold and hot UDDS (40 CFR 600.113)
-FTP_WEIGHT_COLD = 0.43
-FTP_WEIGHT_HOT = 0.57
 
 
 @dataclass(frozen=True)
@@ -54,7 +52,7 @@ class Procedure:
     name: str
     runs: tuple[str, ...]
     bags: tuple[Bag, ...]
-    composite: str  # "ftp" (0.43/0.57 weighting) or "distance" (fuel over distance)
+    composite: str  # "ftp" (results.composites.FTP_WEIGHTS) or "distance" (fuel over distance)
 
 
 FTP75 = Procedure(

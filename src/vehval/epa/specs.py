@@ -42,7 +42,12 @@ from vehval.constants import MPH_M_PER_S as MPH
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.epa import engine_model as em
 from vehval.epa.consistency import impossible_values
-from vehval.epa.procedures import is_gasoline, procedure_key, road_load_without_b
+from vehval.epa.procedures import (
+    UDDS_BAG1_END_S,
+    is_gasoline,
+    procedure_key,
+    road_load_without_b,
+)
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
 from vehval.vehicle.conventional import ConventionalVehicle
@@ -402,7 +407,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
         warm_src = (f"from the list's FTP rows of the configuration: bag 3 / bag 1 fuel "
                     f"economy {s.cold_bag_ratio:.4f} (the cold UDDS transient phase burns "
                     f"{100 * (s.cold_bag_ratio - 1):.1f} % more than the hot one), placed as "
-                    f"x (1 + f exp(-t / {WARMUP_TIME_CONSTANT_S:g} s)) over bag 1 (505 s): "
+                    f"x (1 + f exp(-t / {WARMUP_TIME_CONSTANT_S:g} s)) over bag 1 ({UDDS_BAG1_END_S:g} s): "
                     f"f = {warm:.4f}")
     est = _EST
     rl = road_load_without_b(s.target_a_n, s.target_b_n_per_mps,
@@ -527,7 +532,7 @@ def _lhv() -> float:
 
 
 def warmup_fraction(bag_ratio: float, tau: float = WARMUP_TIME_CONSTANT_S,
-                    bag_s: float = 505.0) -> float:
+                    bag_s: float = UDDS_BAG1_END_S) -> float:
     """Warm-up fraction f whose extra fuel f exp(-t / tau) over a bag of ``bag_s`` seconds
     equals the cold bag's excess ``bag_ratio - 1`` (fuel rate taken as even over the bag)."""
     mean_decay = tau / bag_s * (1.0 - math.exp(-bag_s / tau))

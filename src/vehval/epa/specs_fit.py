@@ -34,18 +34,17 @@ from typing import Any, Sequence
 import numpy as np
 
 from vehval.calibration.provenance import Provenance
-from vehval.constants import BRAKE_EFFICIENCY_RANGE as _BRAKE_EFFICIENCY_RANGE
-from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.constants import BRAKE_EFFICIENCY_RANGE
 from vehval.cycles import Cycle
 from vehval.epa.specs import (
     ENRICHMENT,
     INDICATED_EFFICIENCY,
     Specs,
-    model_fuel_lhv,
     vehicle_from_specs,
 )
 from vehval.errors import ConfigError, SignalError
 from vehval.sim.simulate import simulate
+from vehval.vehicle.maps import brake_efficiency_plausible, peak_brake_efficiency
 
 SOAK_S = 300.0  # standstill [s] taken as a soak between runs
 WARM_S = 600.0  # a cold-started engine idles warm after this [s]
@@ -206,7 +205,7 @@ class SpecsFit:
                                   idle_source=self.idle_source, enrichment=self.enrichment)
 
     def to_dict(self) -> dict[str, Any]:
-        eff = best_brake_efficiency(self.model())
+        eff = peak_brake_efficiency(self.model().engine)
         return {"tests": self.tests, "indicated_efficiency": self.indicated_efficiency,
                 "best_brake_efficiency": eff[0],
                 "plausibility_note": efficiency_note(self.model()),
@@ -216,30 +215,12 @@ class SpecsFit:
                 "dt_s": self.dt, "specs": self.specs.to_dict()}
 
 
-#: plausible best brake efficiency of a car's engine [-] (owned by :mod:`vehval.constants`)
-BRAKE_EFFICIENCY_RANGE = _BRAKE_EFFICIENCY_RANGE
-
-
-def best_brake_efficiency(vehicle: Any) -> tuple[float, float, float]:
-    """Best brake efficiency of the vehicle's engine map at or above idle speed and within
-    full load: (efficiency [-], speed [rpm], torque [N·m])."""
-    e = vehicle.engine
-    speed, torque = np.asarray(e.speed_rpm, float), np.asarray(e.torque_nm, float)
-    fuel, tmax = np.asarray(e.fuel_rate_g_per_s, float), np.asarray(e.max_torque_nm, float)
-    power = np.outer(speed * RPM, torque)
-    ok = ((fuel > 0) & (power > 0) & (torque[None, :] <= tmax[:, None] + 1e-9)
-          & (speed[:, None] >= e.idle_speed_rpm))
-    eff = np.where(ok, power / np.where(fuel > 0, fuel * 1e-3, 1.0) / model_fuel_lhv(), 0.0)
-    i, j = np.unravel_index(int(np.argmax(eff)), eff.shape)
-    return float(eff[i, j]), float(speed[i]), float(torque[j])
-
-
 def efficiency_note(vehicle: Any) -> str:
     """'' when the map's best brake efficiency is plausible, else what is wrong with it."""
-    eff, rpm, nm = best_brake_efficiency(vehicle)
-    lo, hi = BRAKE_EFFICIENCY_RANGE
-    if lo <= eff <= hi:
+    eff, rpm, nm = peak_brake_efficiency(vehicle.engine)
+    if brake_efficiency_plausible(eff):
         return ""
+    lo, hi = BRAKE_EFFICIENCY_RANGE
     return (f"the fitted fuel map's best brake efficiency is {100 * eff:.1f} % ({rpm:.0f} rpm, "
             f"{nm:.0f} N·m), outside the {100 * lo:.0f}-{100 * hi:.0f} % of real "
             "spark-ignition engines: the tests' fuel (its unit, density or fuel) or the list "
@@ -348,6 +329,6 @@ def cold_note(run: DynoRun) -> str:
             "run cold")
 
 
-__all__ = ["BRAKE_EFFICIENCY_RANGE", "DynoRun", "SpecsFit", "all_splits", "best_brake_efficiency",
+__all__ = ["DynoRun", "SpecsFit", "all_splits",
            "calibrate_specs", "cold_note", "dyno_run", "efficiency_note",
            "measured_idle", "predict_runs", "simulated_fuel_kg"]

@@ -48,8 +48,6 @@ from vehval.epa.consistency import (
 )
 from vehval.epa.procedures import (
     CERTIFICATION_CYCLES,
-    FTP_WEIGHT_COLD,
-    FTP_WEIGHT_HOT,
     Procedure,
     fuel_family,
     plan_for,
@@ -67,6 +65,7 @@ from vehval.fuels import (
     mpg_from_volume_per_distance,
     resolve_fuel,
 )
+from vehval.results.composites import FTP_WEIGHTS, weighted_reciprocal_sum
 from vehval.sim.simulate import BALANCE_TOL as BALANCE_TOL  # charge balance [-]
 from vehval.sim.simulate import (
     Grid,
@@ -363,7 +362,7 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
         hot_b = 4 if not math.isnan(test.bags[3]) else 2
         cold = (bag_dist[1] + bag_dist[2]) / (bag_fuel[1] + bag_fuel[2])
         hot = (bag_dist[3] + bag_dist[hot_b]) / (bag_fuel[3] + bag_fuel[hot_b])
-        fuel_per_m = FTP_WEIGHT_COLD / cold + FTP_WEIGHT_HOT / hot
+        fuel_per_m = weighted_reciprocal_sum(FTP_WEIGHTS, (cold, hot))
         overall = mpg_from_volume_per_distance(fuel_volume_m3(fuel_per_m * corr, rho))
     else:
         overall = summ["fuel_economy_soc_corrected_mpg"]

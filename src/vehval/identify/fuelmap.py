@@ -37,6 +37,7 @@ import numpy as np
 from scipy.optimize import lsq_linear
 from scipy.signal import lfilter
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.identify.traces import IdentificationError, Trace, smooth
 
 STANDING_MPS = 0.05
@@ -76,7 +77,7 @@ class FuelMapFit:
     def to_dict(self) -> dict:
         return {"willans": self.willans, "idle_fuel_g_per_s": 1e3 * self.idle_fuel_kg_s,
                 "overrun_fuel_g_per_s": 1e3 * self.overrun_fuel_kg_s,
-                "fuel_cut_speed_rpm": self.fuel_cut_speed_rad_s * 30 / np.pi,
+                "fuel_cut_speed_rpm": self.fuel_cut_speed_rad_s / RPM_RAD_PER_S,
                 "meter_delay_s": self.delay_s, "meter_tau_s": self.tau_s, "r2": self.r2,
                 "r2_5s_means": self.r2_5s, "total_error_rel": self.total_error_rel,
                 "n_fired": self.n_fired, "power_range_w": list(self.power_range_w),

@@ -12,11 +12,12 @@ from pathlib import Path
 import numpy as np
 import plotly.graph_objects as go
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.identify.warmup import start_label
 from vehval.report.identify_page import write_identification_page, write_prediction_page
 
 MAX_POINTS = 4000
-RPM = 30.0 / np.pi
+RPM = 1.0 / RPM_RAD_PER_S  # [rpm] per [rad/s]
 
 
 def _thin(n: int) -> slice:

@@ -38,6 +38,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.errors import ConfigError
 
 SPEC_KEYS = {
@@ -292,5 +293,5 @@ def full_load_curve(p_w: float, n_rated: float, n_max: float, t_peak: float):
     for n in rpm:
         ramp = min(1.0, 0.45 + 0.55 * max(n - 600.0, 0.0) / max(n_knee - 600.0, 1.0))
         p = p_w if n <= n_rated else p_w * (1 - 0.1 * (n - n_rated) / max(n_max - n_rated, 1.0))
-        out.append(round(min(t_peak * ramp, p / (n * math.pi / 30)), 1))
+        out.append(round(min(t_peak * ramp, p / (n * RPM_RAD_PER_S)), 1))
     return rpm, out

@@ -29,13 +29,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from vehval.constants import RPM_RAD_PER_S
+
 SPEED_BIN_RPM = 100.0
 POWER_BIN_W = 2000.0
 MIN_CELL_S = 1.0
 EXTRAP_REL = 0.25
 POOR_COVERAGE = 0.2   # uncovered share above which predict warns
 Z95 = 1.96
-RPM = np.pi / 30.0
+RPM = RPM_RAD_PER_S  # [rad/s] per [rpm]
 
 
 def coverage_grid(w: np.ndarray, p: np.ndarray, dt: float) -> dict:

@@ -13,9 +13,10 @@ fitted by ``f int h exp(-s / tau) ds`` (least squares on a 1 s grid; f linear fo
 a logarithmic grid from 20 s to 3000 s). The fit quality is R² of E(t); the measured and
 fitted excess per phase is kept as evidence.
 
-Which test starts cold is decided in one place, :func:`cold_start_state`: the engine coolant
-at the start is below :data:`COLD_COOLANT_C` (a soaked engine is at the cell temperature, a
-hot start after a 10-minute soak near its working temperature).
+Which test starts cold is decided by the one rule of :func:`vehval.conditions.cold_start`
+(:func:`cold_start_state` applies it to a trace): the engine coolant at the start at most
+10 K above the cell (a soaked engine is at the cell temperature, a hot start after a
+10-minute soak near its working temperature).
 """
 
 from __future__ import annotations
@@ -24,10 +25,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from vehval.conditions import COLD_START_BAND_K, COLD_START_CELL_C, cold_start
 from vehval.identify.traces import IdentificationError, Trace
 
-#: [°C] a test whose engine coolant starts below this is a cold start
-COLD_COOLANT_C = 40.0
+#: [°C] the coolant start above which a test is warm whatever its cell (the one rule,
+#: :func:`vehval.conditions.cold_start`, without a measured cell: cell + band)
+COLD_COOLANT_C = COLD_START_CELL_C + COLD_START_BAND_K
 #: [s] time constants tried (logarithmic grid)
 TAU_GRID_S = np.geomspace(20.0, 3000.0, 121)
 _GRID_S = 1.0  # [s] resolution of the cumulative curves
@@ -36,12 +39,7 @@ _GRID_S = 1.0  # [s] resolution of the cumulative curves
 def cold_start_state(trace: Trace) -> tuple[bool | None, str]:
     """Whether ``trace`` starts with a cold engine (None: unknown, no coolant temperature)
     and why."""
-    c = trace.coolant_start_c
-    if not np.isfinite(c):
-        return None, "no engine coolant temperature in the test"
-    if c < COLD_COOLANT_C:
-        return True, f"coolant {c:.0f} °C at the start (< {COLD_COOLANT_C:.0f} °C)"
-    return False, f"coolant {c:.0f} °C at the start (>= {COLD_COOLANT_C:.0f} °C)"
+    return cold_start(trace.coolant_start_c, trace.amb_temp_c)
 
 
 def start_label(pred: dict) -> str:

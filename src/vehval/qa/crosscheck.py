@@ -40,7 +40,9 @@ from typing import Any, Callable
 
 import numpy as np
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.display import percent
+from vehval.equations.engine_state import engine_running
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.qa.unit_hints import (
     UnitHint,
@@ -66,7 +68,7 @@ ENERGY_PER_DISTANCE_BAND = (500.0, 15000.0)
 #: rotating inertia adds a few %).
 MASS_GAIN_BAND = (0.85, 1.2)
 #: Median running engine speed [rad/s] (500..4500 rpm).
-ENGINE_SPEED_BAND = (500 * math.pi / 30, 4500 * math.pi / 30)
+ENGINE_SPEED_BAND = (500 * RPM_RAD_PER_S, 4500 * RPM_RAD_PER_S)
 #: Median ambient temperature [degC] and the coolant's maximum [degC].
 AMBIENT_TEMP_BAND = (-45.0, 60.0)
 COOLANT_MAX_BAND = (-45.0, 135.0)
@@ -451,7 +453,8 @@ def _engine_running_s(test: Test) -> float:
     if t.size < 2:
         return 0.0
     dt = np.diff(t, append=t[-1])
-    on = np.isfinite(v) & (v > ENGINE_SPEED_BAND[0] * 0.8) & (v < 1000.0)
+    # running by the one engine-on rule; above 1000 "rad/s" the speed is in another unit
+    on = np.isfinite(v) & engine_running(t, v) & (v < 1000.0)
     return float(dt[on].sum())
 
 

@@ -36,11 +36,12 @@ from typing import Any
 
 import numpy as np
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.nomenclature import preference_rank
 from vehval.qa.findings import Finding, Kind, Severity, untrusted_mask
 from vehval.test import Signal, Test
 
-RPM = 2.0 * np.pi / 60.0
+RPM = RPM_RAD_PER_S  # [rad/s] per rpm
 
 
 @dataclass

@@ -23,6 +23,7 @@ from numpy.lib.stride_tricks import sliding_window_view
 
 from vehval.align import CORRELATED_BASES
 from vehval.display import percent
+from vehval.equations.engine_state import engine_running
 from vehval.errors import SignalError
 from vehval.nomenclature import registry
 from vehval.qa.findings import Finding, Kind, Severity, delta_units, merge_runs, message_units, runs
@@ -213,17 +214,13 @@ def _typical_change(v: np.ndarray, lag: int, i0: int, j1: int) -> float | None:
     return float(np.median(d[ok]))
 
 
-#: Engine speed below which the engine counts as stopped [rad/s] (about 100 rpm).
-ENGINE_STOPPED_RAD_S = 10.0
-
-
 def _engine_running_span(test: Test, t0: float, t1: float, min_s: float,
                          min_samples: int) -> tuple[float, float] | None:
     """The part of [t0, t1] [s] over which an engine quantity is judged against its partners.
 
     ``(t0, t1)`` when no engine speed is measured or the engine runs at every sample of the
-    span; else the longest stretch of consecutive samples at which a measured engine speed
-    is at least ``ENGINE_STOPPED_RAD_S``, or None when no such stretch lasts ``min_s`` and
+    span; else the longest stretch of consecutive samples at which the engine runs by the
+    one engine-on rule (:mod:`vehval.equations.engine_state`), or None when no such stretch lasts ``min_s`` and
     ``min_samples`` (a hybrid's engine stopped, or only spinning down or cranking at the
     span's ends: its throttle holds whatever the pedal does).
     """
@@ -236,7 +233,7 @@ def _engine_running_span(test: Test, t0: float, t1: float, min_s: float,
         ts, seg = other.time[sel], other.values[sel]
         if seg.size < 2:
             continue
-        run = np.abs(seg) >= ENGINE_STOPPED_RAD_S
+        run = engine_running(ts, np.abs(seg))
         if run.all():
             return t0, t1
         for i0, i1 in runs(run):

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from vehval.align import estimate_pair
-from vehval.constants import MILE_M
+from vehval.constants import MILE_M, RPM_RAD_PER_S
 from vehval.errors import SignalError
 from vehval.jsonsafe import finite_or_none
 from vehval.nomenclature import preference_rank, registry
@@ -29,7 +29,7 @@ from vehval.test import Signal, Test
 
 #: Unit factors a wrong unit typically produces (slope of other vs ref).
 UNIT_FACTORS: dict[str, float] = {
-    "rpm vs rad/s": 2 * np.pi / 60, "mph vs m/s": 0.44704, "km/h vs m/s": 1 / 3.6,
+    "rpm vs rad/s": RPM_RAD_PER_S, "mph vs m/s": 0.44704, "km/h vs m/s": 1 / 3.6,
     "kilo (x1000)": 1000.0, "g vs kg": 1e-3, "lb vs kg": 0.45359237, "lbf vs N": 4.4482216,
     "percent vs fraction": 100.0, "mph vs km/h": MILE_M / 1000.0, "degree vs rad": np.pi / 180,
     "lbf·ft vs N·m": 1.3558179,

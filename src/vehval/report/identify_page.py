@@ -7,17 +7,17 @@ The identify package hands plain data (numbers, names, plotly figures) to
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any, Sequence
 
+from vehval.constants import RPM_RAD_PER_S
 from vehval.display import format_keyed
 from vehval.io.atomic import write_text_atomic
 from vehval.report.document import Block, bullets, figure, h1, h2, para, render_document, table
 from vehval.report.figures import FigSpec
 from vehval.report.plugins import normalise_figure
 
-RPM = 30.0 / math.pi  # [rpm] per [rad/s]
+RPM = 1.0 / RPM_RAD_PER_S  # [rpm] per [rad/s]
 
 
 def _figures(figs: Sequence[Any]) -> list[Block]:

@@ -12,13 +12,13 @@ from typing import Any
 import numpy as np
 import plotly.graph_objects as go
 
+from vehval.constants import RPM_RAD_PER_S
+from vehval.equations.engine_state import engine_running
 from vehval.fuels import resolve_fuel
 from vehval.test import Test
 
-RPM = 2.0 * np.pi / 60.0  # [rad/s] per rpm
+RPM = RPM_RAD_PER_S  # [rad/s] per rpm
 MAX_POINTS = 4000
-#: Engine speed above which the engine counts as running [rad/s] (~480 rpm: above cranking).
-ENGINE_RUNNING_RAD_S = 50.0
 
 
 class PlotSkipped(Exception):
@@ -130,8 +130,8 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
     except Exception:  # noqa: BLE001 - the line is optional decoration (older vehicle models)
         pass
     try:
-        _, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
-        on = np.isfinite(w) & np.isfinite(tq) & (w > ENGINE_RUNNING_RAD_S)
+        tt, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
+        on = np.isfinite(w) & np.isfinite(tq) & engine_running(tt, w)
         x, y = _thin(w[on] / RPM, tq[on])
         fig.add_trace(go.Scatter(x=x, y=y, mode="markers", name=f"engine running ({names[0]})",
                                  marker={"size": 4, "color": "#d9480f", "opacity": 0.5}))
@@ -223,19 +223,21 @@ def regen_current_histogram(test: Test) -> go.Figure:
 
 
 def engine_power_histogram(test: Test) -> go.Figure:
-    """Distribution of engine power [kW] while the engine runs (speed above
-    :data:`ENGINE_RUNNING_RAD_S`)."""
+    """Distribution of engine power [kW] while the engine runs (by its speed, the rule of
+    :mod:`vehval.equations.engine_state`; every sample without a speed)."""
     p = pick(test, "eng_pwr_out")
     if p is not None:
         pw, name = p.values, p.name
         try:
-            _, (_, w), _ = common(test, ("eng_pwr_out", "eng_spd_out"))
+            tt, (_, w), _ = common(test, ("eng_pwr_out", "eng_spd_out"))
+            running = engine_running(tt, w) & np.isfinite(w)
         except PlotSkipped:
-            w = np.full_like(pw, np.inf)
+            running = np.ones(pw.shape, bool)
     else:
-        _, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
+        tt, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
         pw, name = w * tq, f"{names[0]} × {names[1]}"
-    on = np.isfinite(pw) & (w > ENGINE_RUNNING_RAD_S)
+        running = engine_running(tt, w) & np.isfinite(w)
+    on = np.isfinite(pw) & running
     if not on.any():
         raise PlotSkipped("engine never on")
     fig = go.Figure(go.Histogram(x=pw[on] / 1e3, nbinsx=50, name=name, marker={"color": "#d9480f"}))

@@ -19,18 +19,49 @@ from typing import Any
 
 import numpy as np
 
+from vehval.cycles import part_boundary_s, part_rule
 from vehval.results.phases import CycleMatch, Phase
 from vehval.test import Signal
 
 __all__ = ["FTP_WEIGHTS", "HOT_BAG3_SUBSTITUTE", "SOAK_S", "Composite", "SoakCheck",
-           "check_soak", "composites_for"]
+           "check_soak", "composites_for", "weighted_harmonic", "weighted_per_distance",
+           "weighted_reciprocal_sum"]
 
-#: FTP-75 weights of the cold-start (bags 1+2) and hot-start (bags 3+2) halves.
+#: FTP-75 weights of the cold-start (bags 1+2) and hot-start (bags 3+2, or 3+4) halves [-]
+#: (40 CFR 600.113-12(g)(2)). The one place they are written: results, the EPA procedures,
+#: the list checks and the predictions weigh through the functions below.
 FTP_WEIGHTS = (0.43, 0.57)
-FTP_RULE = ("40 CFR 600.113-12(g)(2): FTP fuel economy = 1 / (0.43 / FE(bags 1+2) + "
-            "0.57 / FE(bags 3+2)); the same weights apply to CO2 per distance")
-FTP_4BAG_RULE = ("40 CFR 86.144-94 / SAE J1711 four-bag FTP: 1 / (0.43 / FE(bags 1+2) + "
-                 "0.57 / FE(bags 3+4)), bag 4 the hot-start stabilised phase")
+_W = f"1 / ({FTP_WEIGHTS[0]:g} / FE(bags 1+2) + {FTP_WEIGHTS[1]:g} / FE(bags 3+"
+FTP_RULE = (f"40 CFR 600.113-12(g)(2): FTP fuel economy = {_W}2)); the same weights apply "
+            "to CO2 per distance")
+FTP_4BAG_RULE = (f"40 CFR 86.144-94 / SAE J1711 four-bag FTP: {_W}4)), bag 4 the hot-start "
+                 "stabilised phase")
+
+
+def weighted_per_distance(terms: Any) -> Any:
+    """A composite's amount per distance: ``sum_k w_k a_k / d_k``.
+
+    ``terms`` holds (weight [-], amount of group k (fuel [kg], CO2 [kg]...), distance of
+    group k [m]); amounts and distances may be arrays (one value per draw). This is the
+    regulations' harmonic weighting of fuel economy, written on fuel per distance.
+    """
+    total: Any = 0.0
+    for w, amount, distance in terms:
+        total = total + w * amount / distance
+    return total
+
+
+def weighted_reciprocal_sum(weights: Any, figures: Any) -> Any:
+    """``sum_k w_k / x_k``: the amount per distance of a composite whose groups have the
+    figures ``x_k`` in distance per amount (m/kg, mile/gal)."""
+    return sum(w / x for w, x in zip(weights, figures))
+
+
+def weighted_harmonic(weights: Any, figures: Any) -> Any:
+    """The composite figure ``1 / sum_k w_k / x_k`` of group figures ``x_k`` in distance per
+    amount (the FTP-75 fuel economy from its cold and hot UDDS economies with
+    :data:`FTP_WEIGHTS`)."""
+    return 1.0 / weighted_reciprocal_sum(weights, figures)
 #: Name of the stand-in for bag 3 when a cold-start UDDS has none.
 HOT_BAG3_SUBSTITUTE = "hot-start bag 1"
 #: FTP hot soak between bag 2 and bag 3: nominal, lowest and highest accepted [s].
@@ -47,8 +78,7 @@ _ENGINE_OFF_SHARE = 0.9
 _LAST_RUN_RULES = {
     "hwfet": "40 CFR 600.111-08(b): the HWFET is run twice, the first run prepares the "
              "vehicle and the second is the test run; the result is the last run",
-    "us06": "40 CFR 86.164-08 / 600.114-12: US06 city part (0-130 s, 496-600 s) and "
-            "highway part (130-496 s); with two runs the first prepares and the result is "
+    "us06": part_rule("us06") + "; with two runs the first prepares and the result is "
             "the last run",
     "sc03": "40 CFR 86.160-00: SC03 result of the test run; with two runs the first "
             "prepares and the result is the last run",
@@ -275,7 +305,7 @@ def _udds(labelled: list[Phase], by_part: dict[str, str], cold_start: bool | Non
         return out
     if hot_bag1:
         sub = ("bag 3 taken from the bag 1 of a hot-start UDDS run of the same vehicle "
-               "(the FTP-75 bag 3 repeats the first 505 s hot)")
+               f"(the FTP-75 bag 3 repeats the first {part_boundary_s('udds', 'bag1'):g} s hot)")
         g3 = ["__hot_bag1__", b2]
     else:
         sub = ("no hot-start run given: bag 3 (hot transient) taken as the stabilised "

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.conditions import cold_start
 from vehval.display import format_delta
 from vehval.fuels import (
     Fuel,
@@ -28,7 +29,7 @@ from vehval.fuels import (
     resolve_fuel,
 )
 from vehval.qa.findings import Finding, Kind, Severity
-from vehval.results.composites import Composite, composites_for
+from vehval.results.composites import Composite, composites_for, weighted_per_distance
 from vehval.results.drive_quality import RMSSE_TOLERANCE_MPS, drive_quality, iwr_reading
 from vehval.results.gate import headline
 from vehval.results.phase_check import check_phases
@@ -70,8 +71,6 @@ COMPOSITE_QUANTITIES = {"fuel_economy_mpg": "mile/US gal",
                         "fuel_consumption_l_per_100km": "L/100 km",
                         "fuel_per_distance_kg_per_m": "kg/m", "co2_g_per_km": "g/km",
                         "fuel_energy_per_distance_j_per_m": "J/m"}
-#: Coolant within this many kelvin of the cell temperature at the start: a cold start.
-COLD_START_BAND_K = 10.0
 #: Cell temperature [degC] at or above which a test runs with the A/C on (the hot-ambient
 #: tests: SC03 at 35 degC, hot UDDS/FTP with A/C max); below it the A/C is off.
 AC_HOT_CELL_C = 30.0
@@ -215,11 +214,8 @@ def _conditions(test: Test, kept: list[str] | None) -> dict[str, Any]:
         v = cool.values[np.isfinite(cool.values)]
         if v.size:
             c0 = float(np.median(v[: max(1, min(v.size, 20))]))
-            cold = abs(c0 - out["cell_temp_c"]) <= COLD_START_BAND_K
+            cold, out["start_basis"] = cold_start(c0, out["cell_temp_c"])
             out["start"] = "cold" if cold else "hot"
-            out["start_basis"] = (f"coolant {c0:.1f} degC at the start, cell "
-                                  f"{out['cell_temp_c']:.1f} degC (cold when within "
-                                  f"{COLD_START_BAND_K:g} K)")
     out["ac"], out["ac_basis"] = _ac(test.meta.cycle or "", out["cell_temp_c"])
     return out
 
@@ -432,8 +428,7 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
         out = {f"{sc}|{k}": v[:, i] for k, v in q.items() for i, sc in enumerate(scopes)}
         idx = {sc: i for i, sc in enumerate(scopes)}
         for comp in composites:
-            fpd = np.zeros(n)
-            cpd = np.zeros(n)
+            fuel_terms, co2_terms = [], []
             for w, names in comp.groups:
                 fm = np.zeros(n)
                 dd = np.zeros(n)
@@ -450,8 +445,10 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                     fm += mass[:, i]
                     dd += dist[:, i]
                     cc += q["co2_kg"][:, i]
-                fpd += w * fm / dd
-                cpd += w * cc / dd
+                fuel_terms.append((w, fm, dd))
+                co2_terms.append((w, cc, dd))
+            fpd = np.zeros(n) + weighted_per_distance(fuel_terms)
+            cpd = np.zeros(n) + weighted_per_distance(co2_terms)
             pre = f"{comp.name}|"
             out[pre + "fuel_per_distance_kg_per_m"] = fpd
             vpd = fuel_volume_m3(fpd, rho[:, 0]) if rho is not None else np.full(n, np.nan)

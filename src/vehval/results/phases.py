@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.cycles import cycle_parts, cycles_with_parts, part_boundary_s, part_rule
 from vehval.test import Signal
 
 __all__ = [
@@ -28,27 +29,12 @@ __all__ = [
     "reference_speed",
 ]
 
-#: Regulatory parts of each package cycle: (part, start, end) in cycle time [s].
+#: Regulatory parts of each package cycle: (part, start, end) in cycle time [s], and where
+#: the boundaries come from. The one table is ``vehval/data/cycles/parts.yaml`` (read by
+#: :func:`vehval.cycles.cycle_parts`); these are views of it.
 CYCLE_PARTS: dict[str, list[tuple[str, float, float]]] = {
-    "udds": [("bag1", 0.0, 505.0), ("bag2", 505.0, 1369.0)],
-    "ftp75": [("bag1", 0.0, 505.0), ("bag2", 505.0, 1369.0), ("bag3", 1369.0, 1874.0)],
-    "hwfet": [("hwfet", 0.0, 765.0)],
-    "us06": [("city", 0.0, 130.0), ("highway", 130.0, 496.0), ("city", 496.0, 600.0)],
-    "sc03": [("sc03", 0.0, 600.0)],
-    "nedc": [("ece", 0.0, 780.0), ("eudc", 780.0, 1180.0)],
-    "wltc3b": [("low", 0.0, 589.0), ("medium", 589.0, 1022.0), ("high", 1022.0, 1477.0),
-               ("extra_high", 1477.0, 1800.0)],
-}
-#: Where the part boundaries come from.
-PART_RULES: dict[str, str] = {
-    "udds": "40 CFR 86.137 / 86.144: UDDS bag 1 (transient) 0-505 s, bag 2 (stabilised) 505-1369 s",
-    "ftp75": "40 CFR 86.137: FTP-75 bag 1 0-505 s, bag 2 505-1369 s, 10 min hot soak, bag 3 = first 505 s again",
-    "hwfet": "40 CFR 600 Appendix I: one HWFET run of 765 s (a test holds a preparation run and the test run)",
-    "us06": "40 CFR 86.164 / 600.114: US06 city part 0-130 s and 496-600 s, highway part 130-496 s",
-    "sc03": "40 CFR 86.160: one SC03 run of 600 s",
-    "nedc": "UN ECE R83/R101: urban part (4 x ECE-15) 0-780 s, extra-urban part (EUDC) 780-1180 s",
-    "wltc3b": "UN GTR 15: WLTC class 3b low 0-589 s, medium 589-1022 s, high 1022-1477 s, extra high 1477-1800 s",
-}
+    c: cycle_parts(c) for c in cycles_with_parts()}
+PART_RULES: dict[str, str] = {c: part_rule(c) for c in cycles_with_parts()}
 #: Largest distance [-] of a phase-channel sample from an integer still read as that phase.
 _PHASE_TOL = 0.05
 
@@ -160,7 +146,7 @@ def match_cycle(speed: Signal | None, cycle_name: str | None,
     dur = load_cycle(base).duration_s
     windows = []
     if det.get("split_by_soak") and len(det.get("windows_s", [])) == 2:
-        split = 1369.0
+        split = part_boundary_s(base, "bag2")  # where the soak splits the FTP-75
         off = float(det["offsets_s"][0]) + shift
         tail_start = float(det["windows_s"][1][0]) + shift
         windows.append([(0.0, split, off), (split, dur, tail_start - (split + 1.0))])

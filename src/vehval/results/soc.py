@@ -1,4 +1,9 @@
-"""Battery state-of-charge correction of hybrid results per SAE J1711 (2010).
+"""The SAE J1711 NEC correction: battery state-of-charge correction of measured hybrid
+results per SAE J1711 (2010).
+
+Not the simulator's energy-balance correction (:func:`vehval.sim.simulate.energy_balance_fuel_kg`),
+which converts any net battery energy of a model run to fuel through the run's engine
+efficiency; this one judges a measured test by the standard's tolerance.
 
 The net energy change (NEC) of the battery over a test biases its fuel consumption: energy
 taken from the battery was not paid for in fuel. J1711 accepts a result uncorrected when

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from vehval.errors import ConfigError, InputFileError, VehvalError
+from vehval.io import folder as data_folder
 from vehval.serve import security as sec
 from vehval.serve.series import series
 from vehval.serve.yamlcomments import carry_comments
@@ -30,10 +31,6 @@ from vehval.serve.yamlcomments import carry_comments
 #: The template file of a test folder, and the folder QA writes into.
 TEMPLATE_NAME = "template.yaml"
 QA_DIR = "qa"
-#: Files of a folder that are never raw data.
-NOT_DATA = {"clean.parquet", "validated.parquet", "template.yaml", "template_final.yaml",
-            "truth.json", "readme.txt", "findings.json", "results.json"}
-RAW_EXT = {".txt", ".csv", ".tsv", ".dat", ".mf4", ".mdf", ".parquet", ".pq"}
 #: Finding kinds shown as unit hints beside a channel.
 UNIT_KINDS = ("unit", "unit_suspect")
 #: Most data files of one test folder read (by name); a folder holding more is not one test.
@@ -49,12 +46,7 @@ def pick_data(listing: sec.Listing, template: Any = None) -> tuple[list[Path], l
     """Raw data files of a listed test folder (the template's ``match`` globs when it has
     them), at most :data:`MAX_DATA_FILES`; and the listing's left-out entries plus the count
     of data files beyond the bound (``[{"name", "why"}]``)."""
-    files = listing.files
-    globs = [f.match for f in template.files if f.match] if template is not None else []
-    if globs and len(globs) == len(template.files):
-        data = [p for p in files if any(fnmatch.fnmatch(p.name, g) for g in globs)]
-    else:
-        data = [p for p in files if p.suffix.lower() in RAW_EXT and p.name.lower() not in NOT_DATA]
+    data = data_folder.data_files(listing.files, template)
     left = list(listing.left_out)
     if len(data) > MAX_DATA_FILES:
         left.append({"name": f"({len(data) - MAX_DATA_FILES:,} more data files)",

@@ -105,7 +105,7 @@ def fixed_loss_audit(vehicle: Vehicle | str, cycle: str, dt: float = 0.2,
     items = _items(veh, res)
     rows = [{f"body.{k}": getattr(veh.body, k) * f for k in _BODY} for f in LOAD_SCALES]
     sweep = simulate_batch(veh, cycle, rows, dt=dt, workers=workers, soc_initial=soc0)
-    # SOC-corrected fuel energy (J1711 energy method, the summary's corrected fuel mass)
+    # SOC-corrected fuel energy (the simulator's energy-balance correction, summary's fuel mass)
     lhv = veh.engine.fuel_lhv_j_per_kg
     fuel_j = [float(r["fuel_mass_soc_corrected_kg"]) * lhv for r in sweep]
     x = np.asarray(LOAD_SCALES, float)

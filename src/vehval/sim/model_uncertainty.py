@@ -2,7 +2,7 @@
 
 Each parameter with an ``uncertainty`` in the vehicle file (:func:`vehval.sim.sensitivity.
 uncertain_parameters`) is a source of model uncertainty. Its effect on the SOC-corrected
-fuel economy of a cycle (SAE J1711 energy method, from the initial SOC of the charge-balanced
+fuel economy of a cycle (the simulator's energy-balance correction, from the initial SOC of the charge-balanced
 base run, as in :func:`vehval.sim.sensitivity.sensitivity`) is propagated in one of two ways;
 the result is the expanded uncertainty ``U`` (k = 2) of the predicted figure.
 

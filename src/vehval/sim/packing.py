@@ -9,6 +9,7 @@ import numpy as np
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.sim.layout import PARAMS
 from vehval.vehicle import Vehicle
+from vehval.vehicle.maps import best_line_efficiency
 
 MAP_NAMES = ("eng_spd", "eng_trq", "eng_fuel", "eng_tmax", "opt_pwr", "opt_spd",
              "mot_spd", "mot_trq", "mot_loss", "gen_spd", "gen_trq", "gen_loss",
@@ -21,17 +22,6 @@ class Packed:
 
     prm: np.ndarray
     maps: tuple[np.ndarray, ...]
-
-
-def best_engine_efficiency(veh: Vehicle) -> float:
-    """Highest efficiency [-] on the engine's best-efficiency line (from the fuel map)."""
-    from vehval.vehicle.maps import bilinear
-
-    p, w, t = veh.best_line
-    a = veh.engine.arrays()
-    fuel = bilinear(a["spd"], a["trq"], a["fuel"], w, t)
-    ok = (p > 0) & (fuel > 0)
-    return float(np.max(p[ok] / (fuel[ok] * veh.engine.fuel_lhv_j_per_kg)))
 
 
 #: layout name -> (vehicle block, key, factor to SI): the parameters read from the file
@@ -121,7 +111,8 @@ def param_vector(veh: Vehicle, soc_initial: float, cold_start: bool = False) -> 
     val.update({
         "soc_init": soc_initial,
         "op_system": 1.0 if c.operating_point == "system" else 0.0,
-        "eq_factor": 1.0 / (best_engine_efficiency(veh) * c.soc_correction_path_efficiency),
+        "eq_factor": 1.0 / (best_line_efficiency(veh.engine, veh.best_line)
+                           * c.soc_correction_path_efficiency),
         "cold_start": 1.0 if cold_start else 0.0,
     })
     return np.array([float(val[k]) for k in PARAMS])

@@ -3,8 +3,8 @@
 Each parameter with an ``uncertainty`` in the vehicle file (see
 :class:`vehval.vehicle.base.Block`) is set to the low and the high end of its range, one at
 a time, on every cycle. Per cycle the initial SOC of the charge-balanced base run is used
-for every variant and the result is the SOC-corrected fuel economy (SAE J1711 energy
-method, see :func:`vehval.sim.simulate.summarise`): the variants then differ from the
+for every variant and the result is the SOC-corrected fuel economy (the simulator's
+energy-balance correction, :func:`vehval.sim.simulate.energy_balance_fuel_kg`): the variants then differ from the
 base only by the parameter, not by a re-balanced SOC. Variants of scalar parameters run
 in one parallel compiled call per cycle; curves and maps run one by one.
 

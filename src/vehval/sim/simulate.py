@@ -35,6 +35,7 @@ from vehval.sim.layout import SIGNALS, SUMMARY
 from vehval.sim.packing import pack
 from vehval.test import Signal, Test, TestMeta
 from vehval.vehicle import Vehicle, load_vehicle
+from vehval.vehicle.maps import best_line_efficiency
 
 __all__ = ["ARCHITECTURES", "BALANCE_MAX_ITER", "BALANCE_TOL", "CHARGE_BALANCE_TOL",
            "Architecture", "Grid", "SimResult", "architecture", "balanced_plan",
@@ -90,14 +91,31 @@ def run_once(veh: Vehicle, t: np.ndarray, vt: np.ndarray, dt: float, soc0: float
     return run_cycle(veh, make_grid(veh, t, vt, dt, cold_start), soc0, record)
 
 
+def energy_balance_fuel_kg(fuel_kg: float, battery_j: float, lhv_j_per_kg: float,
+                           engine_efficiency: float, path_efficiency: float) -> float:
+    """The simulator's SOC correction, the **energy-balance correction** [kg].
+
+    The net battery energy ``battery_j`` (chemical, positive when discharged) is converted
+    to the fuel the engine would have burned to supply it through the path:
+    ``m + ΔE / (LHV · η_eng · η_path)``, never below zero. It applies to every run, however
+    small ``ΔE``, with the run's own engine efficiency: a model's energy bookkeeping.
+
+    It is not the results stage's **SAE J1711 NEC correction**
+    (:func:`vehval.results.soc.soc_correction`) of a measured test, which leaves a result
+    within 1 % net energy change uncorrected and otherwise corrects with a stated
+    charge-balance factor or a regression over several tests. The summary keys
+    ``*_soc_corrected_*`` of a simulation hold this energy-balance correction.
+    """
+    return max(fuel_kg + battery_j / (lhv_j_per_kg * engine_efficiency * path_efficiency), 0.0)
+
+
 def summarise(veh: Vehicle, ys: np.ndarray, soc0: float) -> dict[str, Any]:
     """Summary dict from the accumulator vector of :func:`vehval.sim.kernel.run`.
 
-    The SOC-corrected fuel economy follows the energy method of SAE J1711 (see
-    docs/simulation.md): the net battery energy ``ΔE`` (chemical, positive when
-    discharged) is converted to the fuel the engine would have burned to supply it,
-    ``Δm = ΔE / (LHV · η_eng · η_path)``, with ``η_eng`` the cycle-average engine
-    efficiency and ``η_path`` the engine-to-battery path efficiency of the vehicle file.
+    The SOC-corrected fuel economy is the energy-balance correction
+    (:func:`energy_balance_fuel_kg`, docs/simulation.md), with ``η_eng`` the cycle-average
+    engine efficiency (the best-line efficiency when the engine did not run) and ``η_path``
+    the engine-to-battery path efficiency of the vehicle file.
     """
     s = {k: float(v) for k, v in zip(SUMMARY, ys)}
     e = veh.engine
@@ -112,12 +130,11 @@ def summarise(veh: Vehicle, ys: np.ndarray, soc0: float) -> dict[str, Any]:
         return fuel_consumption_l_per_100km(fuel_volume_m3(mass_kg, rho), dist)
 
     eta_eng = s["eng_out_energy_j"] / s["fuel_energy_j"] if s["fuel_energy_j"] > 0 else 0.0
-    if eta_eng <= 0.0:  # no engine use: best map efficiency
-        p, w, tq = veh.best_line
-        eta_eng = 0.35
+    if eta_eng <= 0.0:  # no engine use: the best efficiency on the engine's line
+        eta_eng = best_line_efficiency(veh.engine, veh.best_line)
     d_e = s["ess_chem_energy_j"]
-    fuel_corr = max(fuel + d_e / (lhv * eta_eng * veh.controller.soc_correction_path_efficiency),
-                    0.0)
+    fuel_corr = energy_balance_fuel_kg(fuel, d_e, lhv, eta_eng,
+                                       veh.controller.soc_correction_path_efficiency)
     sinks = (s["eng_loss_j"] + s["mot_loss_j"] + s["gen_loss_j"] + s["boost_loss_j"]
              + s["aux_energy_j"] + s["ess_loss_j"] + s["fd_loss_j"] + s["brake_energy_j"]
              + s["road_energy_j"] + s["lock_loss_j"] + s["ke_end_j"] - s["ke_start_j"])

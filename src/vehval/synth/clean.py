@@ -11,15 +11,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from vehval.cycles import cycle_parts
 from vehval.synth.sensors import rng_for
 
 #: Clean signals synthesised by the virtual dyno (not simulated), with their SI unit.
 SYNTHESISED = {"amb_temp": "degC", "amb_rh": "dimensionless", "eng_temp_coolant": "degC",
                "test_phase": "dimensionless"}
 
-#: Phase (emission bag) boundaries [s] of cycles whose phases are standard.
-PHASE_BOUNDS_S = {"udds": [505.0], "ftp75": [505.0, 1372.0], "ftp": [505.0, 1372.0],
-                  "us06": [130.0], "wltc3b": [589.0, 1022.0, 1477.0]}
 
 PAD_S = 15.0  # clean-grid padding on each side of the simulation [s]
 
@@ -43,9 +41,18 @@ def hold_extend(sim_time: np.ndarray, values: np.ndarray, grid: np.ndarray) -> n
 
 
 def test_phase(grid: np.ndarray, cycle_name: str, duration_s: float) -> np.ndarray:
-    """Phase number: 0 in the padding, 1, 2... between the cycle's standard phase bounds."""
-    bounds = [b for b in PHASE_BOUNDS_S.get(cycle_name.lower(), []) if b < duration_s]
-    phase = 1.0 + np.searchsorted(np.asarray(bounds, dtype=float), grid, side="right")
+    """Phase number: 0 in the padding, 1, 2... over the cycle's regulatory parts.
+
+    The parts are those of the one table (:func:`vehval.cycles.cycle_parts`); a part met
+    twice keeps its number (the US06 city part is phase 1 before and after the highway
+    part, as a lab's bag 1); a cycle without standard parts is phase 1 throughout.
+    """
+    parts = cycle_parts(cycle_name)
+    numbers = {p: i for i, p in enumerate(dict.fromkeys(p for p, _, _ in parts), start=1)}
+    phase = np.ones(np.shape(grid))
+    for part, start, _ in parts:
+        if start < duration_s:
+            phase[grid >= start] = numbers[part]
     return np.where((grid < 0.0) | (grid > duration_s), 0.0, phase).astype(float)
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import lfilter
 
-from vehval.constants import MPH_M_PER_S
+from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S
 from vehval.io.atomic import atomic_dir, write_text_atomic
 from vehval.vehicle.conventional import DRIVEN_AXLE_LOSS_SHARE
 
@@ -29,7 +29,7 @@ FUEL_TAU_S = 1.0
 FORCE_DELAY_S = 0.2
 NOISE = {"Dyno_Speed": 0.005, "Dyno_Tractive_Effort": 5.0, "Engine_Speed": 2.0,
          "Fuel_Flow_Bench_Modal": 0.003}
-RPM = 30.0 / np.pi
+RPM = 1.0 / RPM_RAD_PER_S  # [rpm] per [rad/s]
 
 
 def _delay(x: np.ndarray, n: int) -> np.ndarray:

@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vehval.constants import RPM_RAD_PER_S
+from vehval.equations.engine_state import ENGINE_ON_RPM
 from vehval.errors import SignalError
 from vehval.fuels import resolve_fuel
 from vehval.jsonsafe import clean
@@ -43,14 +45,14 @@ if TYPE_CHECKING:
 COMPONENT_SIGNALS: dict[str, tuple[str, str, float]] = {
     "veh_spd": ("vehicle speed", "km/h", 3.6),
     "whl_trq_out": ("wheel torque", "N·m", 1.0),
-    "eng_spd_out": ("engine speed", "rpm", 30.0 / math.pi),
+    "eng_spd_out": ("engine speed", "rpm", 1.0 / RPM_RAD_PER_S),
     "eng_trq_out": ("engine torque", "N·m", 1.0),
     "eng_pwr_out": ("engine power", "kW", 1e-3),
     "fuel_rate": ("fuel rate", "g/s", 1e3),
-    "gen_spd_out": ("generator speed", "rpm", 30.0 / math.pi),
+    "gen_spd_out": ("generator speed", "rpm", 1.0 / RPM_RAD_PER_S),
     "gen_trq_out": ("generator torque", "N·m", 1.0),
     "gen_pwr_out": ("generator mech. power", "kW", 1e-3),
-    "mot_spd_out": ("motor speed", "rpm", 30.0 / math.pi),
+    "mot_spd_out": ("motor speed", "rpm", 1.0 / RPM_RAD_PER_S),
     "mot_trq_out": ("motor torque", "N·m", 1.0),
     "mot_pwr_out": ("motor mech. power", "kW", 1e-3),
     "ess_volt": ("battery voltage", "V", 1.0),
@@ -308,7 +310,7 @@ class Comparison:
 def compare(test: Test, sim: Test, *, dt: float | None = None, window_s: float = 2.0,  # noqa: PLR0913 - keyword options of the comparison, each with a default
             fuel: Any = None, fuel_density_kg_per_m3: float | None = None,
             fuel_lhv_j_per_kg: float | None = None,
-            on_speed_rpm: float = 400.0, bases: tuple[str, ...] | None = None,
+            on_speed_rpm: float = ENGINE_ON_RPM, bases: tuple[str, ...] | None = None,
             uncertainty_rel: dict[str, float] | None = None,
             uncertainty_basis: str = "") -> Comparison:
     """Compare a measured test with a simulation on the test's clock.

@@ -24,11 +24,13 @@ from typing import Any
 
 import numpy as np
 
+from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.equations.engine_state import ENGINE_ON_RPM
 from vehval.sim.simulate import time_grid
 from vehval.test import Test
 from vehval.validate.conditions import Conditions, simulation_conditions
 from vehval.validate.metrics import integrate, rmse
-from vehval.validate.quantities import RPM, engine_on, engine_on_method, on_grid
+from vehval.validate.quantities import engine_on, engine_on_method, on_grid
 
 DEFAULT_WEIGHTS = {"fuel": 1.0, "soc": 1.0, "engine_on": 0.5, "signals": 0.25, "starts": 0.25}
 DEFAULT_SCALES = {"fuel": 0.01, "soc": 0.01, "engine_on": 0.05, "starts": 0.1}
@@ -49,7 +51,7 @@ class Target:
     on_method: str | None
     signals: dict[str, np.ndarray] = field(default_factory=dict)
     signal_std: dict[str, float] = field(default_factory=dict)
-    on_speed_rpm: float = 400.0
+    on_speed_rpm: float = ENGINE_ON_RPM
 
 
 def _first_last(v: np.ndarray | None) -> tuple[float, float]:
@@ -60,7 +62,7 @@ def _first_last(v: np.ndarray | None) -> tuple[float, float]:
 
 
 def make_target(test: Test, vehicle: Any, dt: float, *, signals: tuple[str, ...] = DEFAULT_SIGNALS,
-                use_constants: bool = True, on_speed_rpm: float = 400.0,
+                use_constants: bool = True, on_speed_rpm: float = ENGINE_ON_RPM,
                 smooth_hz: float | None = None) -> Target:
     """Reduce ``test`` once for the calibration (conditions, grid, measured quantities).
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.equations.engine_state import ENGINE_OFF_RPM, ENGINE_ON_RPM, detect_engine_on
 from vehval.fuels import economy
 from vehval.test import Signal, Test
 from vehval.validate.metrics import energies, integrate, on_off_events
@@ -63,21 +63,29 @@ def _at(sig: Signal, grid: np.ndarray) -> np.ndarray:
 
 
 def engine_on(test: Test, origin: str, grid: np.ndarray, method: str,
-              on_speed_rpm: float = 400.0) -> np.ndarray | None:
+              on_speed_rpm: float = ENGINE_ON_RPM) -> np.ndarray | None:
     """Engine on flag (1/0, NaN where unknown) on ``grid`` [s].
 
-    ``method='flag'`` uses ``eng_on``; ``'speed'`` says the engine is on when
-    ``eng_spd_out`` exceeds ``on_speed_rpm`` [rpm]; ``'fuel'`` when ``fuel_rate`` > 0.05 g/s.
+    ``method='flag'`` uses ``eng_on``; ``'speed'`` and ``'fuel'`` read ``eng_spd_out`` or
+    ``fuel_rate`` by the one rule of :mod:`vehval.equations.engine_state` (on above
+    ``on_speed_rpm`` [rpm], off below the off threshold, with its debounce).
     """
     if method == "flag":
         v = on_grid(test, "eng_on", origin, grid)
         return None if v is None else np.where(np.isfinite(v), (v > 0.5).astype(float), np.nan)
     if method == "speed":
         v = on_grid(test, "eng_spd_out", origin, grid)
-        return None if v is None else np.where(np.isfinite(v), (v > on_speed_rpm * RPM).astype(float), np.nan)
+        if v is None:
+            return None
+        st = detect_engine_on(grid, v, on_rpm=on_speed_rpm,
+                              off_rpm=min(ENGINE_OFF_RPM, on_speed_rpm))
+        return np.where(np.isfinite(v), st.on.astype(float), np.nan)
     if method == "fuel":
         v = on_grid(test, "fuel_rate", origin, grid)
-        return None if v is None else np.where(np.isfinite(v), (v > 0.05e-3).astype(float), np.nan)
+        if v is None:
+            return None
+        st = detect_engine_on(grid, np.full(grid.size, np.nan), fuel_rate=v)
+        return np.where(np.isfinite(v), st.on.astype(float), np.nan)
     raise ValueError(f"unknown engine-on method '{method}' (flag, speed or fuel)")
 
 
@@ -100,7 +108,8 @@ def _first_last(v: np.ndarray | None) -> tuple[float, float]:
 
 
 def totals(test: Test, origin: str, grid: np.ndarray, *,
-           fuel: Any = None, on_method: str | None = None, on_speed_rpm: float = 400.0) -> dict[str, Any]:
+           fuel: Any = None, on_method: str | None = None,
+           on_speed_rpm: float = ENGINE_ON_RPM) -> dict[str, Any]:
     """Whole-test quantities of one side (``origin`` test or simu) over ``grid`` [s].
 
     ``fuel`` (a resolved fuel, :func:`vehval.fuels.resolve_fuel`) gives the fuel energy,

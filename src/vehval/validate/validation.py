@@ -10,6 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from vehval.equations.engine_state import ENGINE_ON_RPM
 from vehval.jsonsafe import clean
 from vehval.sim.simulate import SimResult, simulate
 from vehval.test import Test
@@ -68,7 +69,7 @@ class Validation:
 
 def validate_test(test: Test, vehicle: Vehicle | str, *, dt: float = 0.1,
                   overrides: dict[str, Any] | None = None, window_s: float = 2.0,
-                  use_constants: bool = True, on_speed_rpm: float = 400.0,
+                  use_constants: bool = True, on_speed_rpm: float = ENGINE_ON_RPM,
                   smooth_hz: float | None = None,
                   results: Any = None) -> Validation:
     """Simulate ``vehicle`` on the conditions of ``test`` and compare the two.

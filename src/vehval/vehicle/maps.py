@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from vehval.constants import BRAKE_EFFICIENCY_RANGE
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.errors import ConfigError
 
@@ -108,3 +109,75 @@ def best_efficiency_line(p: EngineParams, n_power: int = 121, n_speed: int = 400
     best[0] = w_lo
     best = np.maximum.accumulate(best)
     return power, best, power / best
+
+
+# ------------------------------------------------------------------ brake efficiency
+def peak_brake_efficiency_of_map(speed_rpm, torque_nm, fuel_g_per_s, max_torque_nm,
+                                 lhv_j_per_kg: float, idle_speed_rpm: float | None = None
+                                 ) -> tuple[float, float, float]:
+    """Peak brake efficiency of a fuel map where the engine runs fired.
+
+    The one rule: brake power / fuel power over the map's grid points with torque above
+    zero and within the full-load curve (1e-9 N·m tolerance), a positive fuel rate and, when
+    ``idle_speed_rpm`` is given, a speed at or above idle.
+
+    Parameters
+    ----------
+    speed_rpm, torque_nm : sequence of float
+        Map breakpoints [rpm], [N·m].
+    fuel_g_per_s : 2-D sequence
+        Fuel rate over speed x torque [g/s].
+    max_torque_nm : sequence of float
+        Full-load torque at each map speed [N·m].
+    lhv_j_per_kg : float
+        Fuel lower heating value [J/kg].
+    idle_speed_rpm : float, optional
+        Lowest speed counted [rpm].
+
+    Returns
+    -------
+    (efficiency [-], speed [rpm], torque [N·m]); NaNs when no point is fired.
+    """
+    spd = np.asarray(speed_rpm, float)
+    trq = np.asarray(torque_nm, float)
+    fuel = np.asarray(fuel_g_per_s, float) * 1e-3
+    tmax = np.asarray(max_torque_nm, float)
+    power = spd[:, None] * RPM * trq[None, :]
+    ok = (trq[None, :] > 0) & (trq[None, :] <= tmax[:, None] + 1e-9) & (fuel > 0)
+    if idle_speed_rpm is not None:
+        ok &= spd[:, None] >= idle_speed_rpm
+    eta = np.where(ok, power / np.where(ok, fuel, 1.0) / lhv_j_per_kg, -np.inf)
+    i, j = np.unravel_index(int(np.argmax(eta)), eta.shape)
+    if not np.isfinite(eta[i, j]):
+        return float("nan"), float("nan"), float("nan")
+    return float(eta[i, j]), float(spd[i]), float(trq[j])
+
+
+def peak_brake_efficiency(engine: EngineParams) -> tuple[float, float, float]:
+    """Peak brake efficiency of an engine's fuel map from its idle speed up (the rule of
+    :func:`peak_brake_efficiency_of_map`): (efficiency [-], speed [rpm], torque [N·m])."""
+    return peak_brake_efficiency_of_map(engine.speed_rpm, engine.torque_nm,
+                                        engine.fuel_rate_g_per_s, engine.max_torque_nm,
+                                        engine.fuel_lhv_j_per_kg, engine.idle_speed_rpm)
+
+
+def best_line_efficiency(engine: EngineParams, line=None) -> float:
+    """Highest brake efficiency [-] on the engine's best-efficiency line (the map
+    interpolated bilinearly along :func:`best_efficiency_line`, or ``line`` = (power [W],
+    speed [rad/s], torque [N·m]) when already computed). The efficiency the simulator's
+    controller and charge correction count on; NaN when the line burns no fuel."""
+    p, w, t = best_efficiency_line(engine) if line is None else line
+    a = engine.arrays()
+    fuel = bilinear(a["spd"], a["trq"], a["fuel"], w, t)
+    ok = (p > 0) & (fuel > 0)
+    if not ok.any():
+        return float("nan")
+    return float(np.max(p[ok] / (fuel[ok] * engine.fuel_lhv_j_per_kg)))
+
+
+def brake_efficiency_plausible(eta: float) -> bool:
+    """Whether a peak brake efficiency [-] lies in the band of road engines,
+    :data:`vehval.constants.BRAKE_EFFICIENCY_RANGE` (a value outside, or NaN, points at a
+    unit or mapping mistake in the fuel or at a map that does not describe the car)."""
+    lo, hi = BRAKE_EFFICIENCY_RANGE
+    return bool(lo <= eta <= hi)

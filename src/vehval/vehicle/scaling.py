@@ -140,18 +140,6 @@ def scale_engine_map(speed_rpm, torque_nm, fuel_g_per_s, max_torque_nm, k_speed:
             [float(x) * k_torque for x in max_torque_nm])
 
 
-def peak_efficiency(speed_rpm, torque_nm, fuel_g_per_s, max_torque_nm, lhv_j_per_kg: float):
-    """Peak brake efficiency [-] of an engine map over its points inside the full-load curve."""
-    spd = np.asarray(speed_rpm, float)
-    trq = np.asarray(torque_nm, float)
-    fuel = np.asarray(fuel_g_per_s, float)
-    p = spd[:, None] * RPM_RAD_PER_S * trq[None, :]
-    inside = trq[None, :] <= np.asarray(max_torque_nm, float)[:, None] + 1e-9
-    with np.errstate(divide="ignore", invalid="ignore"):
-        eff = np.where(inside & (fuel > 0), p / (fuel * 1e-3 * lhv_j_per_kg), 0.0)
-    return float(eff.max())
-
-
 def scale_battery(ref: BatteryParams, *, n_cells: int, n_modules: int, capacity_ah: float,
                   nominal_voltage_v: float | None = None,
                   chemistry: Literal["nimh", "li_ion"] | None = None,
