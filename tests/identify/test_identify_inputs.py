@@ -206,6 +206,9 @@ def test_predict_cli_table_json_and_report(tmp_path, capsys):
     text = rep.read_text()
     assert "engine speed, model" in text
     assert "<th>A/C</th>" in text and "off (auto: not an SC03 test" in text
+    # the normalised error of each row, as the JSON gives it, and what En means
+    assert "<th>En</th>" in text and f"{rows[0]['en']:+.2f}" in text
+    assert "normalised error" in text
 
 
 @pytest.mark.parametrize("command", ["validate", "analyze"])

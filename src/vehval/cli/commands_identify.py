@@ -488,11 +488,11 @@ def predict_cmd(
     from vehval.identify.conditions import conditions_warnings
     for line in poor_coverage(preds) + conditions_warnings(preds, veh.identification):
         typer.echo(f"vehval: warning: {line}", err=True)
-    if report is not None:
-        from vehval.identify.report import write_prediction_report
-        write_prediction_report(veh.name, preds, report)
     from vehval.identify.verdicts import judge_rows
     verdict, notes = judge_rows(preds)
+    if report is not None:
+        from vehval.identify.report import write_prediction_report
+        write_prediction_report(veh.name, preds, report, verdict_lines=_verdict_lines(verdict, notes))
     rows = [_public(p, veh) for p in preds]
     for r in rows:   # the set's verdict with every row (the JSON stays a list of rows)
         r["set_verdict"] = verdict

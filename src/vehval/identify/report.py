@@ -114,18 +114,23 @@ def prediction_data(preds: list[dict]) -> list[dict]:
         phases = [{"name": ph.get("results_name", f"phase {ph['phase']}"),
                    "measured_g": ph["measured_g"], "u_g": ph.get("results_fuel_U_g"),
                    "predicted_g": ph["predicted_g"], "error_rel": ph["error_rel"],
-                   "in_sample": bool(ph.get("in_sample"))}
+                   "in_sample": bool(ph.get("in_sample")), "en": ph.get("en"),
+                   "uninformative": ph.get("uninformative")}
                   for ph in p["phases"]]
         out.append({**{k: p.get(k) for k in ("test", "cycle", "amb_temp_c", "ac_on", "ac_reason",
                                               "cold_reason", "fuel_measured_g",
-                                              "fuel_predicted_g", "error_rel", "in_sample")},
+                                              "fuel_predicted_g", "error_rel", "in_sample",
+                                              "en", "uninformative")},
                     "ac_reason": p.get("ac_reason", ""), "cold_reason": p.get("cold_reason", ""),
                     "start": start_label(p), "phases": phases})
     return out
 
 
-def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Path) -> Path:
-    """Write the prediction table and the engine speed / fuel rate overlays of ``preds``
-    (from ``predict_trace``) to ``path`` (one self-contained HTML file)."""
+def write_prediction_report(vehicle_name: str, preds: list[dict], path: str | Path,
+                            verdict_lines: list[str] | None = None) -> Path:
+    """Write the prediction table (with each figure's normalised error En when
+    :func:`vehval.identify.verdicts.judge_rows` has judged ``preds``), the set verdict's
+    lines and the engine speed / fuel rate overlays of ``preds`` (from ``predict_trace``) to
+    ``path`` (one self-contained HTML file)."""
     return write_prediction_page(path, vehicle_name, prediction_data(preds),
-                                 [trace_figure(p) for p in preds])
+                                 [trace_figure(p) for p in preds], verdict_lines or [])

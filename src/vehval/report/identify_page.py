@@ -113,8 +113,16 @@ def write_identification_page(path: str | Path, d: dict, figs: Sequence[Any]) ->
     return Path(path)
 
 
+def _en(p: dict) -> str:
+    """The normalised error of a row as the table shows it ('' when not judged)."""
+    en = p.get("en")
+    if en is None:
+        return ""
+    return f"{en:+.2f}" + (" (uninformative)" if p.get("uninformative") else "")
+
+
 def write_prediction_page(path: str | Path, vehicle: str, predictions: Sequence[dict],
-                          figs: Sequence[Any]) -> Path:
+                          figs: Sequence[Any], verdict_lines: Sequence[str] = ()) -> Path:
     """Write the prediction page: one table row per test and per phase, then the figures.
 
     Parameters
@@ -126,10 +134,13 @@ def write_prediction_page(path: str | Path, vehicle: str, predictions: Sequence[
     predictions : sequence of dict
         ``test``, ``cycle``, ``amb_temp_c`` [°C], ``ac_on``, ``ac_reason``, ``start`` (start
         label), ``cold_reason``, ``fuel_measured_g``, ``fuel_predicted_g`` [g], ``error_rel``
-        [-], ``in_sample``, ``phases`` (``name``, ``measured_g``, ``u_g`` or None,
-        ``predicted_g``, ``error_rel``, ``in_sample``).
+        [-], ``in_sample``, ``en`` (normalised error, or None), ``uninformative``, ``phases``
+        (``name``, ``measured_g``, ``u_g`` or None, ``predicted_g``, ``error_rel``,
+        ``in_sample``, ``en``, ``uninformative``).
     figs : sequence
         One plotly figure per prediction.
+    verdict_lines : sequence of str
+        The set verdict and its notes, as the command prints them.
     """
     rows = []
     for p in predictions:
@@ -137,17 +148,21 @@ def write_prediction_page(path: str | Path, vehicle: str, predictions: Sequence[
         rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", ac,
                      f"{p['start']} ({p.get('cold_reason', '')})", "test",
                      f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
-                     f"{100 * p['error_rel']:+.2f}" + _in_sample(p)])
+                     f"{100 * p['error_rel']:+.2f}" + _in_sample(p), _en(p)])
         for ph in p["phases"]:
             u = ph.get("u_g")
             rows.append(["", "", "", "", "", ph["name"],
                          f"{ph['measured_g']:.1f}" + (f" ± {u:.1f}" if u else ""),
                          f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"
-                         + _in_sample(ph)])
+                         + _in_sample(ph), _en(ph)])
     blocks = [h1(f"Predictions of {vehicle}"),
               para("An error marked in sample is of a test (or phase) the model was fitted "
                    "on: no check of the model."),
+              para("En is the normalised error (predicted - measured) / sqrt(U_model² + "
+                   "U_meas²): |En| <= 1 is consistent with the data (docs/validation.md)."),
               table(["test", "cycle", "cell °C", "A/C", "start", "scope", "measured g (U, k = 2)",
-                     "predicted g", "error %"], rows)] + _figures(figs)
+                     "predicted g", "error %", "En"], rows)]
+    blocks += [para(line.strip()) for line in verdict_lines if line.strip()]
+    blocks += _figures(figs)
     write_text_atomic(path, render_document(blocks, title="vehval predictions", css="simple.css"))
     return Path(path)
