@@ -77,7 +77,7 @@ def test_batch_records_en_and_the_set_verdict(three_tests, tmp_path, capsys):
     capsys.readouterr()
     assert main(["catalog", "summary", "--db", str(out / "catalog.duckdb")]) == 0
     text = capsys.readouterr().out
-    assert f"set verdict prius_2004 (fuel mass, n = 3): {sv['verdict']}" in text
+    assert f"set verdict (prius_2004, fuel mass, n = 3): {sv['verdict']}" in text
 
 
 def test_set_verdict_needs_three_validated_tests():

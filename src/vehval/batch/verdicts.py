@@ -71,18 +71,15 @@ def batch_set_verdicts(results: Iterable[dict]) -> list[dict[str, Any]]:
 
 
 def verdict_line(row: dict) -> str:
-    """One screen line: ``set verdict prius_2004 (fuel, n = 3): consistent with the data;
-    mean error -0.40 % [-1.20, +0.40], coverage 3/3 [29, 100] %``."""
+    """One screen line: ``set verdict (prius_2004, fuel mass, n = 3): consistent with the
+    data; mean error -0.40 % [-1.20, +0.40] ...`` (:func:`vehval.uncertainty.verdict_text`)."""
+    from vehval.uncertainty import verdict_text
+
     sv = row.get("set_verdict")
-    head = f"set verdict {row.get('vehicle') or '?'} (fuel mass"
+    what = f"{row.get('vehicle') or '?'}, fuel mass"
     if sv is None:
-        return f"{head}): none ({row.get('note')})"
-    lo, hi = sv["mean_error_ci_pct"]
-    clo, chi = sv["coverage_ci"]
-    return (f"{head}, n = {sv['n']}): {sv['verdict']}; mean error {sv['mean_error_pct']:+.2f} % "
-            f"[{lo:+.2f}, {hi:+.2f}], the scatter explains {sv['bias_limit_pct']:.2f} %; "
-            f"|En| <= 1 for {sv['n_consistent']}/{sv['n']} (coverage {100 * clo:.0f}-"
-            f"{100 * chi:.0f} %, target 95 %)")
+        return f"set verdict ({what}): none ({row.get('note')})"
+    return verdict_text(sv, what)
 
 
 def stored_set_verdicts(catalog: Any, run_id: str | None = None) -> list[dict]:

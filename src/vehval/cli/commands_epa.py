@@ -350,12 +350,9 @@ def _set_verdict_line(sv: dict | None, note: str, what: str) -> list[str]:
     """One set verdict on screen (and, for a set judged against s_R, the bias against s_r)."""
     if sv is None:
         return [f"set verdict ({what}): none ({note})"]
-    lo, hi = sv["mean_error_ci_pct"]
-    clo, chi = sv["coverage_ci"]
-    out = [f"set verdict ({what}, n = {sv['n']}): {sv['verdict']}; "
-           f"mean error {sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}] (scatter "
-           f"explains {sv['bias_limit_pct']:.2f} %); |En| <= 1 for {sv['n_consistent']}/"
-           f"{sv['n']} (coverage [{100 * clo:.0f}, {100 * chi:.0f}] %, target 95 %)"]
+    from vehval.uncertainty import verdict_text
+
+    out = [verdict_text(sv, what)]
     if sv.get("different_source"):
         out.append(f"  against s_r alone (one lab's repeats) the scatter explains "
                    f"{sv['bias_limit_s_r_pct']:.2f} %: the mean error is "

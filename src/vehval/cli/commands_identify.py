@@ -49,12 +49,9 @@ def _verdict_lines(verdict: dict | None, notes: list[str]) -> list[str]:
     """The set verdict of the held-out tests and the notes behind En."""
     out = [f"note: {n}" for n in notes]
     if verdict is not None:
-        lo, hi = verdict["mean_error_ci_pct"]
-        clo, chi = verdict["coverage_ci"]
-        out.append(f"set verdict (held-out tests, n = {verdict['n']}): {verdict['verdict']}; "
-                   f"mean error {verdict['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}]; "
-                   f"|En| <= 1 for {verdict['n_consistent']}/{verdict['n']} (coverage "
-                   f"[{100 * clo:.0f}, {100 * chi:.0f}] %, target 95 %)")
+        from vehval.uncertainty import verdict_text
+
+        out.append(verdict_text(verdict, "held-out tests"))
         out += [f"  {n}" for n in verdict["notes"]]
     return out
 

@@ -166,12 +166,9 @@ def table(result: dict) -> str:
             + f" ({result['elapsed_s']:.0f} s)")
     sv = result.get("set_verdict")
     if sv is not None:
-        lo, hi = sv["mean_error_ci_pct"]
-        clo, chi = sv["coverage_ci"]
-        lines.append(f"set verdict (held-out predictions, n = {sv['n']}): {sv['verdict']}; mean "
-                     f"error {sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}]; |En| <= 1 for "
-                     f"{sv['n_consistent']}/{sv['n']} (coverage [{100 * clo:.0f}, "
-                     f"{100 * chi:.0f}] %, target 95 %)")
+        from vehval.uncertainty import verdict_text
+
+        lines.append(verdict_text(sv, "held-out predictions"))
     elif result.get("set_verdict_note"):
         lines.append(result["set_verdict_note"])
     return "\n".join(lines)

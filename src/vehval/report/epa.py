@@ -47,13 +47,10 @@ def verdict_text(val: EpaValidation) -> str:
 def _verdict_sentence(sv: dict | None, note: str, what: str) -> str:
     if sv is None:
         return f"Set verdict: none ({note})." if note else ""
-    lo, hi = sv["mean_error_ci_pct"]
-    clo, chi = sv["coverage_ci"]
-    return (f"Set verdict ({what}, n = {sv['n']}): {sv['verdict']}; "
-            f"mean error {sv['mean_error_pct']:+.2f} % (95 % interval {lo:+.2f} to "
-            f"{hi:+.2f} %; the scatter explains {sv['bias_limit_pct']:.2f} %); |En| ≤ 1 for "
-            f"{sv['n_consistent']} of {sv['n']} (coverage {100 * clo:.0f}-{100 * chi:.0f} %, "
-            "target 95 %).")
+    from vehval.uncertainty import verdict_text
+
+    text = verdict_text(sv, what)
+    return text[0].upper() + text[1:] + "."
 
 
 def scatter_plot(val: EpaValidation, size: int = 420) -> dict | None:

@@ -30,9 +30,10 @@ from vehval.uncertainty.verdict import (
     measurement_uncertainty,
     normalised_error,
     set_verdict,
+    verdict_text,
 )
 
 __all__ = ["COVERAGE_K", "MIN_PAIRS", "UNINFORMATIVE_FRACTION", "Comparison",
            "InsufficientDataError", "LabPair", "Precision", "SetVerdict", "chi2_interval",
            "clopper_pearson", "judge_published", "measurement_uncertainty", "normalised_error",
-           "repeatability", "reproducibility", "set_verdict"]
+           "repeatability", "reproducibility", "set_verdict", "verdict_text"]

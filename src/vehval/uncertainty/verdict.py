@@ -287,6 +287,19 @@ def set_verdict(comparisons: Sequence[Comparison], *, s_r: float, s_R: float | N
                       excludes_zero and abs(mean) > limit_r)
 
 
+def verdict_text(sv: dict[str, Any], what: str = "") -> str:
+    """One line of a set verdict (``SetVerdict.to_dict()``), as every command and page says
+    it: ``set verdict (WHAT, n = N): VERDICT; mean error +x.xx % [lo, hi] (the scatter
+    explains y.yy %); |En| <= 1 for k/N (coverage [a, b] %, target 95 %)``."""
+    lo, hi = sv["mean_error_ci_pct"]
+    clo, chi = sv["coverage_ci"]
+    head = f"{what}, n = {sv['n']}" if what else f"n = {sv['n']}"
+    return (f"set verdict ({head}): {sv['verdict']}; mean error {sv['mean_error_pct']:+.2f} % "
+            f"[{lo:+.2f}, {hi:+.2f}] (the scatter explains {sv['bias_limit_pct']:.2f} %); "
+            f"|En| <= 1 for {sv['n_consistent']}/{sv['n']} (coverage [{100 * clo:.0f}, "
+            f"{100 * chi:.0f}] %, target {100 * TARGET_COVERAGE:.0f} %)")
+
+
 def judge_published(model: float, measured: float, *, u_model: float, cycle: str,
                     family: str, u_stated: float = 0.0, label: str = ""
                     ) -> tuple[Comparison, dict[str, Any]]:

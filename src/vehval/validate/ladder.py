@@ -181,11 +181,9 @@ class LadderResult:
                 "(|En| <= 1)")
         sv = self.set_verdict
         if sv is not None:
-            lo, hi = sv["mean_error_ci_pct"]
-            clo, chi = sv["coverage_ci"]
-            text += (f"; set verdict (n = {sv['n']}): {sv['verdict']}; mean fuel error "
-                     f"{sv['mean_error_pct']:+.2f} % [{lo:+.2f}, {hi:+.2f}], coverage "
-                     f"[{100 * clo:.0f}, {100 * chi:.0f}] % (target 95 %)")
+            from vehval.uncertainty import verdict_text
+
+            text += "; " + verdict_text(sv)
         else:
             text += f"; no set verdict ({self.set_verdict_note})"
         return text
