@@ -401,9 +401,9 @@ Part = tuple[str, float, float]
 @lru_cache(maxsize=1)
 def _parts_table() -> dict[str, tuple[str, tuple[Part, ...]]]:
     """``data/cycles/parts.yaml``: cycle -> (rule, parts), read once."""
-    import yaml
+    from vehval.safe_yaml import read_yaml
 
-    raw = yaml.safe_load((_data_dir() / "parts.yaml").read_text(encoding="utf-8"))
+    raw = read_yaml(_data_dir() / "parts.yaml")
     return {name: (str(e["rule"]), tuple((str(p), float(a), float(b)) for p, a, b in e["parts"]))
             for name, e in raw.items()}
 
