@@ -21,7 +21,7 @@ SRC = ROOT / "src"
 DOC = ROOT / "docs" / "architecture.md"
 sys.path.insert(0, str(SRC))
 
-from vehval import layers  # noqa: E402  (the worktree's package, not an installed one)
+from vehval import layers  # noqa: E402  (this checkout's package, not an installed one)
 
 
 def _summary(unit: str) -> str:

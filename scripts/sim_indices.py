@@ -18,7 +18,7 @@ SRC = ROOT / "src"
 OUT = SRC / "vehval" / "sim" / "indices.py"
 sys.path.insert(0, str(SRC))
 
-from vehval.sim import layout  # noqa: E402  (the worktree's package, not an installed one)
+from vehval.sim import layout  # noqa: E402  (this checkout's package, not an installed one)
 
 #: (prefix, layout tuple name, what it indexes), in the order of the generated module.
 GROUPS = (
