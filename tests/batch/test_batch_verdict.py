@@ -78,6 +78,11 @@ def test_batch_records_en_and_the_set_verdict(three_tests, tmp_path, capsys):
     assert main(["catalog", "summary", "--db", str(out / "catalog.duckdb")]) == 0
     text = capsys.readouterr().out
     assert f"set verdict (prius_2004, fuel mass, n = 3): {sv['verdict']}" in text
+    # the batch's index page: En per test and the set verdict under the tests table
+    page = (out / "index.html").read_text(encoding="utf-8")
+    assert "En (fuel, model)" in page
+    assert f"set verdict (prius_2004, fuel mass, n = 3): {sv['verdict']}" in page
+    assert all(f"{r[1]:+.2f}" in page for r in rows)
 
 
 def test_set_verdict_needs_three_validated_tests():

@@ -29,10 +29,13 @@ def index_data(catalog: Catalog, run_id: str) -> dict:
         "SELECT test_id, scope, kind, fuel_economy_mpg, fuel_economy_u_mpg FROM phase_results "
         "WHERE run_id = ? AND fuel_economy_mpg IS NOT NULL AND kind IN ('phase', 'test') "
         "ORDER BY test_id", [run_id])
+    from vehval.batch.verdicts import stored_set_verdicts, verdict_line
+
     return {"run": {"run_id": run_id, "started": started, "vehval_version": version,
                     "n_ok": n_ok, "n_failed": n_failed, "n_skipped": n_skipped},
             "tests": tests, "variability": catalog.summary(),
-            "results": results_variability(catalog), "phase_rows": [tuple(r) for r in phase_rows]}
+            "results": results_variability(catalog), "phase_rows": [tuple(r) for r in phase_rows],
+            "verdict_lines": [verdict_line(v) for v in stored_set_verdicts(catalog, run_id)]}
 
 
 def render_index(catalog: Catalog, run_id: str) -> str:

@@ -23,7 +23,8 @@ COLUMNS = [("headline_mpg", "headline [mpg]", 1.0, "{:.2f}"),
            ("fuel_economy_mpg", "whole test [mpg]", 1.0, "{:.2f}"),
            ("soc_change", "ΔSOC [%]", 100.0, "{:+.2f}"),
            ("ess_energy_j", "battery energy [kWh]", 1 / 3.6e6, "{:+.3f}"),
-           ("eng_energy_j", "engine energy [kWh]", 1 / 3.6e6, "{:.3f}")]
+           ("eng_energy_j", "engine energy [kWh]", 1 / 3.6e6, "{:.3f}"),
+           ("fuel_en", "En (fuel, model)", 1.0, "{:+.2f}")]
 
 
 def _columns() -> list[tuple[str, str, float, str]]:
@@ -155,7 +156,8 @@ def _soc_figure(tests: Sequence[dict]) -> list[Block]:
 
 
 def render_index_page(run: dict, tests: Sequence[dict], variability: Sequence[dict],
-                      results: Sequence[dict], phase_rows: Sequence[tuple]) -> str:
+                      results: Sequence[dict], phase_rows: Sequence[tuple],
+                      verdict_lines: Sequence[str] = ()) -> str:
     """HTML of the index page of one batch run.
 
     Parameters
@@ -171,12 +173,16 @@ def render_index_page(run: dict, tests: Sequence[dict], variability: Sequence[di
         ``results_variability()`` rows.
     phase_rows : sequence of tuple
         ``(test_id, scope, kind, fuel_economy_mpg, fuel_economy_u_mpg)`` of the run.
+    verdict_lines : sequence of str
+        The run's set verdicts of the model against its tests (one line each), shown under
+        the tests table; En per test is the table's last column.
     """
     blocks = [h1(f"vehval batch {run['run_id']}"),
               para(f"started {run['started']} · vehval {run['vehval_version']} · ",
                    (f"{run['n_ok']} ok", "ok"), " · ", (f"{run['n_failed']} failed", "failed"),
                    " · ", (f"{run['n_skipped']} unchanged (skipped)", "skipped")),
               h2("Tests"), _tests_table(tests)]
+    blocks += [para(line) for line in verdict_lines]
     blocks += _variability(variability) + _results(results)
     blocks += _phase_figure(phase_rows) + _soc_figure(tests)
     return render_document(blocks, title=f"vehval batch {run['run_id']}", css="batch.css")
