@@ -39,7 +39,7 @@ from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -850,6 +850,29 @@ def table(rows: list[dict]) -> str:
     return "\n".join(out)
 
 
+def run_by_class(todo: list, jobs: int, run: Callable[[Any], dict]) -> list[dict]:
+    """Run ``todo`` with ``run``, one class a worker (cases sharing a prepared input run in
+    order within their class); every outcome other than a clean error or a handled case is
+    printed to stderr as it comes."""
+    by_class: dict[str, list] = {}
+    for c in todo:
+        by_class.setdefault(c.cls, []).append(c)
+
+    def run_class(cs: list) -> list[dict]:
+        rows = []
+        for c in cs:
+            r = run(c)
+            rows.append(r)
+            if r["outcome"] not in ("clean error", "handled"):
+                print(f"{r['outcome']:15s} {r['class']}: {r['case']}: {r['message']}",
+                      file=sys.stderr, flush=True)
+        return rows
+
+    with ThreadPoolExecutor(max_workers=max(jobs, 1)) as pool:
+        results = list(pool.map(run_class, by_class.values()))
+    return [r for rs in results for r in rs]
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--json", type=Path, help="write every case and its outcome here")
@@ -858,25 +881,7 @@ def main() -> int:
                     help="run only this class (repeatable)")
     opts = ap.parse_args()
     with tempfile.TemporaryDirectory(prefix="vehval-attack2-") as tmp:
-        todo = list(cases(Path(tmp), opts.classes))
-        # cases sharing a prepared input run in order within their class: one class a worker
-        by_class: dict[str, list[Case]] = {}
-        for c in todo:
-            by_class.setdefault(c.cls, []).append(c)
-
-        def run_class(cs: list[Case]) -> list[dict]:
-            rows = []
-            for c in cs:
-                r = run_case(c)
-                rows.append(r)
-                if r["outcome"] not in ("clean error", "handled"):
-                    print(f"{r['outcome']:15s} {r['class']}: {r['case']}: {r['message']}",
-                          file=sys.stderr, flush=True)
-            return rows
-
-        with ThreadPoolExecutor(max_workers=max(opts.jobs, 1)) as pool:
-            results = list(pool.map(run_class, by_class.values()))
-    rows = [r for rs in results for r in rs]
+        rows = run_by_class(list(cases(Path(tmp), opts.classes)), opts.jobs, run_case)
     print("\n" + table(rows))
     if opts.json:
         opts.json.write_text(json.dumps(rows, indent=1, default=str))

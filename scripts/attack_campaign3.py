@@ -43,7 +43,6 @@ import sys
 import tempfile
 import threading
 from collections import Counter
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable, Iterator
 
@@ -67,7 +66,7 @@ from attack3_inputs import (  # noqa: E402
     synth,
     write_list,
 )
-from attack_campaign2 import EPA_HEADER, _text, base_test, epa_row  # noqa: E402
+from attack_campaign2 import EPA_HEADER, _text, base_test, epa_row, run_by_class  # noqa: E402
 
 # ----------------------------------------------------------------------------------------
 # outputs
@@ -543,30 +542,15 @@ def table(rows: list[dict]) -> str:
 
 
 def run_all(todo: list[Case], jobs: int) -> list[dict]:
-    """Run the cases, one class per worker (cases of a class share inputs and servers)."""
-    by_class: dict[str, list[Case]] = {}
-    for c in todo:
-        by_class.setdefault(c.cls, []).append(c)
-
-    def run_class(cs: list[Case]) -> list[dict]:
-        rows = []
-        for c in cs:
-            r = run_case(c)
-            rows.append(r)
-            if r["outcome"] not in ("clean error", "handled"):
-                print(f"{r['outcome']:15s} {r['class']}: {r['case']}: {r['message']}",
-                      file=sys.stderr, flush=True)
-        return rows
-
+    """Run the cases, one class per worker (cases of a class share inputs and servers), then
+    stop the servers the cases started."""
     try:
-        with ThreadPoolExecutor(max_workers=max(jobs, 1)) as pool:
-            results = list(pool.map(run_class, by_class.values()))
+        return run_by_class(todo, jobs, run_case)
     finally:
         from attack3_web import stop_workbenches
 
         stop_workbenches()
         stop_servers()
-    return [r for rs in results for r in rs]
 
 
 def main() -> int:
