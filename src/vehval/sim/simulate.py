@@ -33,6 +33,8 @@ from vehval.sim.grid import Grid, check_dt, cycle_grid, make_grid, time_grid
 from vehval.sim.kernel import run
 from vehval.sim.layout import SIGNALS, SUMMARY
 from vehval.sim.packing import pack
+from vehval.sim.parallel import par_maps, par_param_vector, summarise_parallel
+from vehval.sim.parallel_kernel import PAR_SIGNALS, PAR_SUMMARY, run_parallel
 from vehval.test import Signal, Test, TestMeta
 from vehval.vehicle import Vehicle, load_vehicle
 from vehval.vehicle.maps import best_line_efficiency
@@ -287,6 +289,16 @@ def _run_conventional(veh: Any, grid: Grid, soc0: float,
     return out, ys
 
 
+def _run_parallel(veh: Any, grid: Grid, soc0: float,
+                  record: bool) -> tuple[np.ndarray, np.ndarray]:
+    out = np.zeros((grid.t.size if record else 1, len(PAR_SIGNALS)))
+    compile_notice("parallel_kernel", "run_parallel", "parallel-hybrid simulation kernel")
+    ys = run_parallel(grid.vt, grid.lo, grid.hi, grid.dt,
+                      par_param_vector(veh, soc0, grid.cold_start), *par_maps(veh),  # type: ignore[call-arg]  # numba Dispatcher stub
+                      out, record)
+    return out, ys
+
+
 def _power_split_cold_model(veh: Vehicle) -> bool:
     return veh.engine.warmup_fuel_fraction > 0.0 or veh.controller.cold_start_engine_on_s > 0.0
 
@@ -302,6 +314,12 @@ ARCHITECTURES: dict[str, Architecture] = {
         signals=CONV_SIGNALS, summary_keys=CONV_SUMMARY, run=_run_conventional,
         summarise=lambda v, ys, s0: summarise_conventional(v, ys),
         cold_start_model=lambda v: v.engine.warmup_fuel_fraction > 0.0),
+    "parallel_hybrid": Architecture(
+        name="parallel_hybrid", label="forward-looking parallel-hybrid simulation",
+        signals=PAR_SIGNALS, summary_keys=PAR_SUMMARY, run=_run_parallel,
+        summarise=summarise_parallel,
+        cold_start_model=lambda v: v.engine.warmup_fuel_fraction > 0.0,
+        soc_final=PAR_SUMMARY.index("soc_final")),
 }
 
 

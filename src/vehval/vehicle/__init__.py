@@ -2,12 +2,14 @@
 
 A vehicle file is data that QA, analysis, identification, the report and the simulator all
 read; this package sits below all of them (it imports only units, errors and numpy/pydantic).
-The ``architecture:`` key of the file selects the model: ``power_split`` (default) or
-``conventional``.
+The ``architecture:`` key of the file selects the model: ``power_split`` (default),
+``conventional`` or ``parallel_hybrid``.
 """
 
 from vehval.vehicle.conventional import CONVENTIONAL_BLOCKS, ConventionalVehicle
 from vehval.vehicle.definition import ARCHITECTURES, BLOCKS, Vehicle, list_vehicles, load_vehicle
+from vehval.vehicle.parallel import PARALLEL_BLOCKS, ParallelHybridVehicle
 
-__all__ = ["ARCHITECTURES", "BLOCKS", "CONVENTIONAL_BLOCKS", "ConventionalVehicle", "Vehicle",
+__all__ = ["ARCHITECTURES", "BLOCKS", "CONVENTIONAL_BLOCKS", "ConventionalVehicle", "PARALLEL_BLOCKS",
+           "ParallelHybridVehicle", "Vehicle",
            "list_vehicles", "load_vehicle"]

@@ -33,6 +33,7 @@ from vehval.vehicle.components import (
 from vehval.vehicle.control import ControllerParams, DriverParams
 from vehval.vehicle.conventional import ConventionalVehicle
 from vehval.vehicle.maps import best_efficiency_line
+from vehval.vehicle.parallel import ParallelHybridVehicle
 from vehval.vehicle.variant import resolve_variant
 
 BLOCKS = ("body", "engine", "mg1", "mg2", "battery", "boost", "planetary", "driveline",
@@ -134,8 +135,23 @@ _BEST_LINE_KEYS = {f"engine.{k}" for k in (
     "max_speed_rpm", "max_power_w")}
 
 
-ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]] = {
-    "power_split": Vehicle, "conventional": ConventionalVehicle}
+ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle] | type[ParallelHybridVehicle]] = {
+    "power_split": Vehicle, "conventional": ConventionalVehicle,
+    "parallel_hybrid": ParallelHybridVehicle}
+
+
+def _foreign_block(data: dict, arch: str, model: type[BaseModel]) -> str | None:
+    """The first top-level key of ``data`` that belongs to another architecture, not ``arch``
+    (a file mixing architectures), as a one-line message; None when there is none."""
+    own = set(model.model_fields)
+    for key in data:
+        if key in own:
+            continue
+        for other, cls in ARCHITECTURES.items():
+            if other != arch and key in cls.model_fields:
+                return (f"key '{key}': a block of architecture {other!r} in a vehicle of "
+                        f"architecture {arch!r} (remove it, or set architecture: {other})")
+    return None
 
 
 def _vehicles_dir() -> Path:
@@ -156,6 +172,9 @@ def _validate(data: Any, where: str):
     if model is None:
         raise ConfigError(f"{where}: key 'architecture': unknown architecture {arch!r} "
                           f"(known: {', '.join(ARCHITECTURES)})")
+    foreign = _foreign_block(data, arch, model)
+    if foreign:
+        raise ConfigError(f"{where}: invalid vehicle: {foreign}")
     try:
         veh = model.model_validate(copy.deepcopy(data))
     except ValidationError as exc:
@@ -190,7 +209,7 @@ def _read_base(name: str, here: Path) -> tuple[Any, str]:
     return read_yaml(path), str(path)
 
 
-def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
+def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle | ParallelHybridVehicle):
     """Load a vehicle by name (shipped file) or from a YAML path.
 
     Raises
@@ -199,7 +218,7 @@ def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
         Unknown name, unreadable file, or any invalid / missing / unknown key (the message
         names the key and the file).
     """
-    if isinstance(name_or_path, (Vehicle, ConventionalVehicle)):
+    if isinstance(name_or_path, (Vehicle, ConventionalVehicle, ParallelHybridVehicle)):
         return name_or_path
     path = _find(str(name_or_path))
     data = read_yaml(path)
