@@ -29,8 +29,11 @@ import numpy as np
 from vehval.numba_cache import njit
 from vehval.sim.components.battery import current_from_power, terminal_voltage
 from vehval.sim.components.body import road_load
-from vehval.sim.components.electric_machine import electrical_power, torque_for_power, \
-    torque_limit
+from vehval.sim.components.electric_machine import (
+    electrical_power,
+    torque_for_power,
+    torque_limit,
+)
 from vehval.sim.components.engine import fuel_rate, max_torque, warmup_factor
 from vehval.sim.conventional_kernel import STANDSTILL_MPS, coupling_pump_speed, select_gear
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
@@ -43,6 +46,8 @@ __all__ = ["PAR_PARAMS", "PAR_SIGNALS", "PAR_SUMMARY", "engine_on_rule", "motor_
 
 #: motor-rule modes (the ``mode`` returned by :func:`motor_torque_rule`)
 MODE_NONE, MODE_ASSIST, MODE_REGEN, MODE_CHARGE = 0, 1, 2, 3
+#: [s] cranking time: the restart energy is drawn at ``restart_j / CRANK_S`` [W]
+CRANK_S = 0.5
 
 
 @njit(cache=True)
@@ -124,6 +129,8 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
     cap = prm[HP_BATT_CAP_C]
     v = vt[0]; gear = 1; t_shift = shift_time; w = idle; on = True; i_drv = 0.0
     soc = prm[HP_SOC_INIT]
+    crank_j = 0.0  # [J] cranking energy the battery still owes
+    p_crank = prm[HP_RESTART_J] / CRANK_S
     ys[HY_KE_START_J] = 0.5 * m_eq * v * v
     ys[HY_SOC_MIN_SEEN] = soc; ys[HY_SOC_MAX_SEEN] = soc
     if record:
@@ -166,7 +173,7 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
             w_start = max(w_g, idle) if not auto else idle
             ke = 0.5 * j_sh * w_start * w_start
             e_bat = max(prm[HP_RESTART_J], ke)
-            p_restart = e_bat / dt
+            crank_j += e_bat
             ys[HY_RESTART_LOSS_J] += e_bat - ke
             ys[HY_SHAFT_KE_CHANGE_J] += ke
             ys[HY_ENGINE_STARTS] += 1.0
@@ -177,6 +184,9 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
             ys[HY_ENG_LOSS_J] += ke  # the stopping engine's friction takes the shaft energy
             w = 0.0
         on = new_on
+        if crank_j > 0.0:
+            p_restart = min(crank_j, p_crank * dt) / dt
+            crank_j -= p_restart * dt
         # ---------------- shaft speed and what the clutch / coupling passes
         if on:
             if auto:
@@ -267,8 +277,9 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
         ys[HY_AUX_MECH_ENERGY_J] += t_acc * w_a * dt
         ys[HY_AUX_ELEC_ENERGY_J] += prm[HP_ELEC_ACC] * dt
         ys[HY_SHAFT_KE_CHANGE_J] += t_inertia * w_a * dt
-        ys[HY_CLUTCH_LOSS_J] += t_sh * (w_a - w_g_a) * dt
-        ys[HY_GEARBOX_LOSS_J] += (t_sh * w_g_a - f_pt * v_a) * dt
+        w_in = w_a if coupled else w_g_a  # gearbox input speed (the shaft's when coupled)
+        ys[HY_CLUTCH_LOSS_J] += t_sh * (w_a - w_in) * dt
+        ys[HY_GEARBOX_LOSS_J] += (t_sh * w_in - f_pt * v_a) * dt
         ys[HY_WHEEL_ENERGY_J] += f_pt * v_a * dt
         ys[HY_BRAKE_ENERGY_J] += f_brk * v_a * dt
         ys[HY_ROAD_ENERGY_J] += fl * v_a * dt
@@ -323,6 +334,7 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
             out[j, HS_DRV_FRC_DEMAND] = f_dem
             out[j, HS_DRV_PWR_DEMAND] = p_dem
     ys[HY_KE_END_J] = 0.5 * m_eq * v * v
+    ys[HY_RESTART_LOSS_J] -= crank_j  # cranking energy not yet drawn at the end
     ys[HY_SOC_FINAL] = soc
     ys[HY_DURATION_S] = (n - 1) * dt
     return ys
