@@ -1,0 +1,118 @@
+"""Control analysis of a parallel hybrid (engine and motor on one shaft): when the motor
+assists, when it regenerates, when the engine stops.
+
+Input: plain arrays on one time base (SI): vehicle speed [m/s], shaft (engine) speed
+[rad/s], motor torque [N·m] (+ assist), shaft torque demand [N·m] (wheel torque over the
+overall ratio of the engaged gear), SOC or battery current. The rules come back as
+thresholds with their support (how many samples they explain, and how many contradict
+them), the way ``vehval analyze`` states the power-split car's engine rule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+#: [N·m] motor torque beyond which a sample counts as assist (+) or regen (-)
+ACTIVE_NM = 2.0
+#: [rad/s] shaft speed below which the engine counts as stopped (about 300 rpm)
+ENGINE_STOPPED_RADPS = 31.4
+#: relative tolerance of a gear's overall ratio when gears are read from speeds [-]
+GEAR_TOLERANCE = 0.04
+
+
+@dataclass
+class Rule:
+    """One threshold rule: ``quantity`` ``op`` ``threshold`` (unit) explains ``support`` of
+    the ``n`` samples it covers; ``contradicted`` samples break it."""
+
+    name: str
+    quantity: str
+    op: str
+    threshold: float
+    unit: str
+    support: float
+    n: int
+    contradicted: int
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def gears_from_speeds(shaft_radps: np.ndarray, wheel_radps: np.ndarray,
+                      overall_ratios: np.ndarray, tol: float = GEAR_TOLERANCE) -> np.ndarray:
+    """Engaged gear (1-based) per sample from the shaft / wheel speed ratio; 0 where no gear's
+    overall ratio is within ``tol`` (shifts, clutch slip, standstill)."""
+    w = np.asarray(wheel_radps, float)
+    ratio = np.divide(np.asarray(shaft_radps, float), w, out=np.zeros_like(w), where=w > 1.0)
+    r = np.asarray(overall_ratios, float)
+    err = np.abs(ratio[:, None] / r[None, :] - 1.0)
+    best = np.argmin(err, axis=1)
+    ok = err[np.arange(len(w)), best] <= tol
+    return np.where(ok, best + 1, 0)
+
+
+def _best_split(x: np.ndarray, on: np.ndarray) -> tuple[float, float, int]:
+    """Threshold on ``x`` that best separates ``on`` (above) from off (below): (threshold,
+    share of samples classified right, samples misclassified)."""
+    if x.size == 0:
+        return float("nan"), float("nan"), 0
+    cand = np.unique(np.quantile(x, np.linspace(0.01, 0.99, 99)))
+    best = (float("nan"), -1.0, 0)
+    for c in cand:
+        right = np.mean((x > c) == on)
+        if right > best[1]:
+            best = (float(c), float(right), int(np.sum((x > c) != on)))
+    return best
+
+
+def assist_regen_rules(t_dem: np.ndarray, t_mot: np.ndarray, v: np.ndarray,
+                       gear: np.ndarray, engine_on: np.ndarray) -> dict:
+    """Assist and regen rules of a log (engine running, a gear engaged).
+
+    Returns ``assist_threshold`` / ``regen_threshold`` (shaft torque demand [N·m] as
+    :class:`Rule`), ``regen_min_speed`` [m/s], ``assist_gears`` (share of samples with
+    assist per gear) and the assist torque statistics (median, 99th percentile [N·m]).
+    """
+    sel = engine_on & (gear > 0)
+    td, tm, vv, g = t_dem[sel], t_mot[sel], v[sel], gear[sel]
+    assist = tm > ACTIVE_NM
+    regen = tm < -ACTIVE_NM
+    thr_a, sup_a, bad_a = _best_split(td, assist)
+    thr_r, sup_r, bad_r = _best_split(-td, regen)
+    spd_r = float(np.min(vv[regen])) if regen.any() else float("nan")
+    per_gear = {int(k): float(np.mean(assist[g == k])) for k in np.unique(g)}
+    return {
+        "assist_threshold": Rule("assist", "shaft torque demand", ">", thr_a, "N·m", sup_a,
+                                 int(td.size), bad_a).as_dict(),
+        "regen_threshold": Rule("regen", "shaft torque demand", "<", -thr_r, "N·m", sup_r,
+                                int(td.size), bad_r).as_dict(),
+        "regen_min_speed_mps": spd_r,
+        "assist_share_by_gear": per_gear,
+        "assist_torque_median_nm": float(np.median(tm[assist])) if assist.any() else 0.0,
+        "assist_torque_p99_nm": float(np.quantile(tm[assist], 0.99)) if assist.any() else 0.0,
+        "regen_torque_min_nm": float(np.min(tm[regen])) if regen.any() else 0.0,
+    }
+
+
+def engine_stop_rule(t: np.ndarray, v: np.ndarray, shaft_radps: np.ndarray,
+                     accel: np.ndarray) -> dict:
+    """Idle-stop conditions: every engine stop event (running -> stopped) with the speed
+    [m/s] and acceleration [m/s²] at the stop, and the rule ``stop below v_max while
+    decelerating`` with its support (the share of stops it explains)."""
+    on = shaft_radps > ENGINE_STOPPED_RADPS
+    idx = np.flatnonzero(on[:-1] & ~on[1:]) + 1
+    starts = np.flatnonzero(~on[:-1] & on[1:]) + 1
+    events = [{"t_s": float(t[i]), "speed_mps": float(v[i]), "accel_mps2": float(accel[i])}
+              for i in idx]
+    decel = [e for e in events if e["accel_mps2"] <= 0.05]
+    vmax = max((e["speed_mps"] for e in decel), default=float("nan"))
+    return {
+        "stops": events,
+        "restarts": [{"t_s": float(t[i]), "speed_mps": float(v[i])} for i in starts],
+        "rule": Rule("engine stop", "vehicle speed while decelerating", "<", vmax, "m/s",
+                     len(decel) / len(events) if events else float("nan"), len(events),
+                     len(events) - len(decel)).as_dict(),
+        "engine_off_share": float(np.mean(~on)),
+    }
