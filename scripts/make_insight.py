@@ -173,6 +173,7 @@ def battery(d: Path) -> dict:
             "nominal_voltage_v": f"{src}: 120 cells x 1.2 V",
             "soc_min": f"{ADV}, PTC_INSIGHT.m: cs_lo_soc",
             "soc_max": f"{ADV}, PTC_INSIGHT.m: cs_hi_soc",
+            "chemistry": f"{src}: spiral-wound NiMH",
         },
     }
 
