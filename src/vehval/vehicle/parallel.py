@@ -35,8 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.vehicle.base import Block, apply_overrides
-from vehval.vehicle.components import BatteryParams, BodyParams, DrivelineParams, EngineParams, \
-    MachineParams
+from vehval.vehicle.components import BatteryParams, BodyParams, DrivelineParams, EngineParams, MachineParams
 from vehval.vehicle.control import DriverParams
 from vehval.vehicle.conventional import ConverterParams, GearboxParams
 
