@@ -487,10 +487,35 @@ def semantic_errors(t: Template) -> list[str]:
         except SignalError as exc:
             errors.append(f"selection: {exc}")
     errors.extend(_results_errors(t, seen))
+    errors.extend(_architecture_errors(t, seen))
     from vehval.io.road_load import road_load_errors
 
     errors.extend(road_load_errors(t.constants))   # signs and magnitudes of a target road load
     return errors
+
+
+def _architecture_errors(t: Template, mapped: dict[str, str]) -> list[str]:
+    """A hybrid's template must map a battery signal (current or power): one line naming
+    what is missing. Unknown or unreadable vehicles are left to the commands that load them."""
+    if not t.vehicle:
+        return []
+    from vehval.errors import VehvalError
+    from vehval.vehicle import load_vehicle
+    from vehval.vehicle.definition import BATTERY_SIGNALS, HYBRID_ARCHITECTURES
+
+    try:
+        arch = getattr(load_vehicle(t.vehicle), "architecture", "power_split")
+    except VehvalError:
+        return []
+    if arch not in HYBRID_ARCHITECTURES:
+        return []
+    reg = registry()
+    bases = {reg.parse(n).base for n in mapped}
+    if bases & set(BATTERY_SIGNALS):
+        return []
+    return [f"files: vehicle '{t.vehicle}' ({arch}) is a hybrid but no channel is mapped to a "
+            f"battery signal ({' or '.join(b + '_<origin>' for b in BATTERY_SIGNALS)}): map "
+            "the battery current (positive discharging) or power"]
 
 
 def _results_errors(t: Template, mapped: dict[str, str]) -> list[str]:

@@ -140,6 +140,13 @@ ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle] | type[Parall
     "parallel_hybrid": ParallelHybridVehicle}
 
 
+#: architectures with a traction battery: their tests need a battery signal (the hybrid
+#: checks of QA, the SOC correction and the battery energy rest on it)
+HYBRID_ARCHITECTURES = ("power_split", "parallel_hybrid")
+#: base names of which a hybrid's test needs at least one (battery current or power)
+BATTERY_SIGNALS = ("ess_curr", "ess_pwr")
+
+
 def _foreign_block(data: dict, arch: str, model: type[BaseModel]) -> str | None:
     """The first top-level key of ``data`` that belongs to another architecture, not ``arch``
     (a file mixing architectures), as a one-line message; None when there is none."""
