@@ -116,3 +116,49 @@ def engine_stop_rule(t: np.ndarray, v: np.ndarray, shaft_radps: np.ndarray,
                      len(events) - len(decel)).as_dict(),
         "engine_off_share": float(np.mean(~on)),
     }
+
+
+def test_arrays(test, names: tuple[str, ...] = ("veh_spd", "eng_spd_out", "whl_trq_out",
+                                                "mot_trq_out", "ess_curr", "ess_volt")
+                ) -> dict[str, np.ndarray]:
+    """The signals a parallel hybrid's analysis reads, measured first then calculated
+    (:meth:`vehval.test.Test.best`), on the vehicle speed's time base (key ``t`` [s]).
+
+    Raises :class:`~vehval.errors.SignalError` naming the first missing quantity."""
+    from vehval.errors import SignalError
+
+    spd = test.best("veh_spd")
+    if spd is None:
+        raise SignalError("the parallel-hybrid analysis needs the vehicle speed (veh_spd)")
+    out = {"t": spd.time}
+    for base in names:
+        sig = test.best(base)
+        if sig is None:
+            raise SignalError(f"the parallel-hybrid analysis needs '{base}' (measured or "
+                              "calculated); the test has none")
+        out[base] = sig.at(spd.time)
+    return out
+
+
+def analyze_parallel(test, veh) -> dict:
+    """Control analysis of a parallel-hybrid test with its vehicle file (gear ratios, wheel
+    radius): the assist / regen rules and the engine-stop rule (as :func:`assist_regen_rules`
+    and :func:`engine_stop_rule` return them), under ``assist_regen`` and ``engine_stop``."""
+    a = test_arrays(test, ("veh_spd", "eng_spd_out", "whl_trq_out", "mot_trq_out"))
+    r = veh.driveline.wheel_radius_m
+    ratios = veh.overall_ratios()
+    v, w = a["veh_spd"], a["eng_spd_out"]
+    gear = gears_from_speeds(w, v / r, ratios)
+    ok = gear > 0
+    t_dem = np.where(ok, a["whl_trq_out"] / np.r_[np.nan, ratios][gear], np.nan)
+    dt = np.gradient(a["t"])
+    acc = np.gradient(v) / np.where(dt > 0, dt, np.nan)
+    n = max(int(round(1.0 / max(float(np.nanmedian(dt)), 1e-3))), 1)
+    acc = np.convolve(np.nan_to_num(acc), np.ones(n) / n, mode="same")  # 1 s mean
+    return {
+        "architecture": "parallel_hybrid",
+        "gear_share": {int(g): float(np.mean(gear == g)) for g in range(len(ratios) + 1)},
+        "assist_regen": assist_regen_rules(t_dem[ok], a["mot_trq_out"][ok], v[ok], gear[ok],
+                                           (w > ENGINE_STOPPED_RADPS)[ok]),
+        "engine_stop": engine_stop_rule(a["t"], v, w, acc),
+    }

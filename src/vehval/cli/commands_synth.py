@@ -47,6 +47,9 @@ def synth_cmd(
     if veh.architecture == "conventional":
         _synth_conventional(veh, cycle, seed, faults, out, control, param, as_json)
         return
+    if veh.architecture == "parallel_hybrid":
+        _synth_parallel(veh, vehicle, cycle, seed, faults, out, control, param, as_json)
+        return
 
     if out.is_dir() and any(out.iterdir()) and not is_virtual_test_dir(out) and not force:
         raise VehvalError(f"output directory '{out}' is not empty and holds no virtual test: "
@@ -72,6 +75,28 @@ def synth_cmd(
                f"offsets {truth['offsets_s']}")
     typer.echo(f"import it with: vehval import {' '.join(str(p) for p in res.files)} "
                f"-t {res.template_path}")
+
+
+def _synth_parallel(veh, vehicle, cycle, seed, faults, out, control, param, as_json) -> None:
+    """Parallel hybrid: the 10 Hz log channels with noise and the controller's rules as the
+    answer key (no fault mix)."""
+    from vehval.cycles import load_cycle
+    from vehval.synth.parallel import make_parallel_test
+
+    if faults not in ("default", "none"):
+        raise ConfigError("--faults: fault files apply to power-split virtual tests only")
+    over = {**{f"controller.{k}": v for k, v in (_pairs(control, "--control") or {}).items()},
+            **(_pairs(param, "--param") or {})}
+    veh = veh.with_overrides(over or None)
+    truth = make_parallel_test(veh, load_cycle(cycle), seed, out, vehicle_ref=str(vehicle))
+    if as_json:
+        typer.echo(json.dumps({"files": truth["files"], "template": truth["template"],
+                               "truth": str(out / "truth.json")}, indent=1))
+        return
+    typer.echo(f"virtual parallel-hybrid test '{truth['test_id']}' (VIRTUAL: synthetic, not a "
+               f"measurement) in {out}")
+    typer.echo(f"analyze it with: vehval analyze {' '.join(truth['files'])} -t "
+               f"{truth['template']} -o OUTDIR")
 
 
 def _synth_conventional(veh, cycle, seed, faults, out, control, param, as_json) -> None:
