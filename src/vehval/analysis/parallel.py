@@ -58,7 +58,7 @@ def _best_split(x: np.ndarray, on: np.ndarray) -> tuple[float, float, int]:
     share of samples classified right, samples misclassified)."""
     if x.size == 0:
         return float("nan"), float("nan"), 0
-    cand = np.unique(np.quantile(x, np.linspace(0.01, 0.99, 99)))
+    cand = np.unique(np.quantile(x, np.linspace(0.002, 0.998, 500)))
     best = (float("nan"), -1.0, 0)
     for c in cand:
         right = np.mean((x > c) == on)
@@ -79,13 +79,16 @@ def assist_regen_rules(t_dem: np.ndarray, t_mot: np.ndarray, v: np.ndarray,
     td, tm, vv, g = t_dem[sel], t_mot[sel], v[sel], gear[sel]
     assist = tm > ACTIVE_NM
     regen = tm < -ACTIVE_NM
-    thr_a, sup_a, bad_a = _best_split(td, assist)
+    per_gear = {int(k): float(np.mean(assist[g == k])) for k in np.unique(g)}
+    # the threshold is read in the gears that assist at all (a gear without assist, e.g.
+    # 1st in the Insight, is its own rule: assist_share_by_gear)
+    ga = np.isin(g, [k for k, share in per_gear.items() if share > 0])
+    thr_a, sup_a, bad_a = _best_split(td[ga], assist[ga])
     thr_r, sup_r, bad_r = _best_split(-td, regen)
     spd_r = float(np.min(vv[regen])) if regen.any() else float("nan")
-    per_gear = {int(k): float(np.mean(assist[g == k])) for k in np.unique(g)}
     return {
         "assist_threshold": Rule("assist", "shaft torque demand", ">", thr_a, "N·m", sup_a,
-                                 int(td.size), bad_a).as_dict(),
+                                 int(ga.sum()), bad_a).as_dict(),
         "regen_threshold": Rule("regen", "shaft torque demand", "<", -thr_r, "N·m", sup_r,
                                 int(td.size), bad_r).as_dict(),
         "regen_min_speed_mps": spd_r,
@@ -142,7 +145,7 @@ def test_arrays(test, names: tuple[str, ...] = ("veh_spd", "eng_spd_out", "whl_t
 
 def analyze_parallel(test, veh) -> dict:
     """Control analysis of a parallel-hybrid test with its vehicle file (gear ratios, wheel
-    radius): the assist / regen rules and the engine-stop rule (as :func:`assist_regen_rules`
+    radius, gearbox efficiency: the shaft torque demand is the wheel torque through them): the assist / regen rules and the engine-stop rule (as :func:`assist_regen_rules`
     and :func:`engine_stop_rule` return them), under ``assist_regen`` and ``engine_stop``."""
     a = test_arrays(test, ("veh_spd", "eng_spd_out", "whl_trq_out", "mot_trq_out"))
     r = veh.driveline.wheel_radius_m
@@ -150,7 +153,10 @@ def analyze_parallel(test, veh) -> dict:
     v, w = a["veh_spd"], a["eng_spd_out"]
     gear = gears_from_speeds(w, v / r, ratios)
     ok = gear > 0
-    t_dem = np.where(ok, a["whl_trq_out"] / np.r_[np.nan, ratios][gear], np.nan)
+    eff = veh.gearbox.efficiency * veh.driveline.final_drive_efficiency
+    t_wh = a["whl_trq_out"]
+    t_dem = np.where(ok, np.where(t_wh >= 0, t_wh / eff, t_wh * eff)
+                     / np.r_[np.nan, ratios][gear], np.nan)  # at the shaft, as the model's
     dt = np.gradient(a["t"])
     acc = np.gradient(v) / np.where(dt > 0, dt, np.nan)
     n = max(int(round(1.0 / max(float(np.nanmedian(dt)), 1e-3))), 1)

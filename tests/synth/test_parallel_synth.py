@@ -1,0 +1,73 @@
+"""Virtual parallel-hybrid tests: synth writes the answer key, analyze and validate find it."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from helpers.cli import run_cli
+from vehval.analysis.parallel import analyze_parallel
+from vehval.cycles import load_cycle
+from vehval.io.importer import import_test
+from vehval.synth.parallel import make_parallel_test
+from vehval.validate.parallel import parallel_figures, simulate_on_test
+from vehval.vehicle import load_vehicle
+
+
+@pytest.fixture(scope="module")
+def virtual(tmp_path_factory):
+    veh = load_vehicle("insight_2000").with_overrides(
+        {"controller.assist_threshold_nm": 40.0, "controller.engine_stop_speed_mps": 5.0})
+    out = tmp_path_factory.mktemp("par") / "v"
+    truth = make_parallel_test(veh, load_cycle("udds"), 11, out, vehicle_ref="insight_2000")
+    return veh, truth, import_test(truth["files"], truth["template"])
+
+
+def test_analysis_recovers_the_known_rules(virtual):
+    veh, truth, test = virtual
+    r = analyze_parallel(test, veh)
+    ar = r["assist_regen"]
+    assert ar["assist_threshold"]["threshold"] == pytest.approx(40.0, abs=2.0)
+    assert ar["assist_threshold"]["support"] > 0.95
+    assert ar["assist_share_by_gear"][1] == 0.0
+    # no regen below the known speed (here the engine stops first, at 5 m/s)
+    assert truth["rules"]["regen_min_speed_mps"] - 0.1 <= ar["regen_min_speed_mps"] < 5.3
+    stop = r["engine_stop"]["rule"]
+    assert stop["support"] == 1.0 and stop["threshold"] == pytest.approx(5.0, abs=0.3)
+
+
+def test_validation_of_the_generating_model_agrees(virtual):
+    veh, truth, test = virtual
+    sim = simulate_on_test(veh, test, soc0=veh.controller.soc_target)
+    f = parallel_figures(veh, sim)["all"]
+    assert f["engine_on_agreement_pct"] > 99.0
+    assert f["battery_out_model_wh"] == pytest.approx(f["battery_out_test_wh"], rel=0.05)
+    assert f["battery_in_model_wh"] == pytest.approx(f["battery_in_test_wh"], rel=0.05)
+    assert f["motor_torque_rms_nm"] < 4.0  # assist steps of 6 N·m toggle a step apart
+    assert np.nanmax(list(f["engine_speed_rms_rpm_by_gear"].values())) < 60.0
+
+
+def test_validation_sees_a_wrong_model(virtual):
+    veh, truth, test = virtual
+    wrong = veh.with_overrides({"controller.assist_threshold_nm": 20.0})
+    f = parallel_figures(wrong, simulate_on_test(wrong, test, soc0=0.69))["all"]
+    assert f["battery_out_model_wh"] > 1.3 * f["battery_out_test_wh"]
+
+
+def test_synth_and_analyze_cli(tmp_path, capsys):
+    out = tmp_path / "syn"
+    rc, so, se = run_cli(["synth", "--vehicle", "insight_2000", "--cycle", "udds", "-o", out,
+                          "--control", "assist_threshold_nm=35"], capsys)
+    assert rc == 0, se
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["rules"]["assist_threshold_nm"] == 35.0
+    data = sorted(out.glob("*_10hz.txt"))
+    rc, so, se = run_cli(["analyze", *data, "-t", out / "template.yaml", "-o", tmp_path / "an",
+                          "--no-qa"], capsys)
+    assert rc == 0, se
+    ctl = json.loads((tmp_path / "an" / "control.json").read_text())
+    assert ctl["architecture"] == "parallel_hybrid"
+    assert ctl["assist_regen"]["assist_threshold"]["threshold"] == pytest.approx(35.0, abs=2.0)
+    assert "assist when shaft torque demand" in so
