@@ -2,14 +2,16 @@
 
     python scripts/insight_validation.py [--log FILE] [--json OUT]
 
-Runs ``insight_2000`` over the log's own speed trace (dt 0.1 s, from the log's 69 % SOC) and
+Imports the log with its template (tests/io/templates/insight_2000_10hz.yaml), runs
+``insight_2000`` over the log's own speed trace (dt 0.1 s, from the log's 69 % SOC) and
 prints, per HWFET and over both: engine on/off agreement [%], engine speed error RMS [rpm]
 per gear (gear read from the log's speed ratio), battery terminal energy [Wh] model vs test,
 motor torque error RMS [N·m]; each with the model's uncertainty: half the spread of the
 figure over one-at-a-time swings of the least-known inputs (road load ±15 %, test mass
 ±5 %, battery resistances ±30 %, wheel radius 0.275 / 0.279 m), combined root-sum-square.
-Then the control analysis of the log (:mod:`vehval.analysis.parallel`). Nothing is fitted on
-the log: every model figure is out of sample.
+Then the control analysis of the log (:mod:`vehval.analysis.parallel`) and a second set of
+figures with the assist threshold read from HWFET 1 alone (in-sample on HWFET 1, held out on
+HWFET 2).
 """
 
 from __future__ import annotations
@@ -25,14 +27,16 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
-from vehval.analysis.parallel import assist_regen_rules, engine_stop_rule, gears_from_speeds  # noqa: E402
-from vehval.sim.simulate import architecture, make_grid, run_cycle  # noqa: E402
+from vehval.analysis.parallel import analyze_parallel  # noqa: E402
+from vehval.io.importer import import_test  # noqa: E402
+from vehval.validate.parallel import parallel_figures, simulate_on_test  # noqa: E402
 from vehval.vehicle import load_vehicle  # noqa: E402
 
-MPH = 0.44704
-RPM = np.pi / 30
+TEMPLATE = ROOT / "tests" / "io" / "templates" / "insight_2000_10hz.yaml"
+SOC0 = 0.69       # [-] the log's initial SOC (its file name)
 SPLIT_S = 765.0   # [s] the stop between the two HWFETs
 END_S = 1532.0    # [s] the end-of-test artefact after this (engine off, voltage drifting)
+RADIUS_M = 0.279  # [m] rolling radius on this dyno, to read the log's gears (NOTES)
 SWINGS = {
     "road load ±15 %": [{"body.road_load_a_n": f * 73.32, "body.road_load_c_n_per_mps2":
                          f * 0.285} for f in (0.85, 1.15)],
@@ -49,17 +53,8 @@ def log_path(arg: str | None) -> Path:
     return base / "real" / "advisor_insight_hwfet_10hz" / "Hwy2x_Insight_test_data_69soc_hot.txt"
 
 
-def read_log(path: Path) -> dict[str, np.ndarray]:
-    data = np.genfromtxt(path, delimiter="\t", names=True)
-    keep = data["time_s"] <= END_S
-    d = {k: np.asarray(data[k][keep], float) for k in data.dtype.names}
-    return {"t": d["time_s"], "v": np.maximum(d["speed_mph"] - 0.09, 0.0) * MPH,
-            "volt": d["batt_volts"], "amp": d["batt_amps"], "w": d["eng_rpm"] * RPM,
-            "t_axle": d["axle_torque_nm"], "t_mot": d["derived_em_trq_nm"]}
-
-
 def variant(veh, sw):
-    if sw == "r0.7" or sw == "r1.3":
+    if sw in ("r0.7", "r1.3"):
         f = 0.7 if sw == "r0.7" else 1.3
         b = veh.battery
         return veh.with_overrides({
@@ -68,49 +63,10 @@ def variant(veh, sw):
     return veh.with_overrides(sw)
 
 
-def simulate_on_log(veh, log) -> dict[str, np.ndarray]:
-    grid = make_grid(veh, log["t"], log["v"], 0.1)
-    out, _ = run_cycle(veh, grid, 0.69, True)
-    col = architecture(veh).column
-    return {k: out[:, col[k]] for k in ("eng_on", "eng_spd_out", "mot_trq_out", "ess_pwr",
-                                        "gb_gear", "veh_spd", "ess_volt", "ess_curr")}
-
-
-def figures(veh, log, sim) -> dict:
-    t = log["t"]
-    on_log = log["w"] > 31.4
-    on_sim = sim["eng_on"] > 0.5
-    gear = gears_from_speeds(log["w"], log["v"] / 0.279, veh.overall_ratios())
-    out: dict = {}
-    for name, sel in (("hwfet_1", t < SPLIT_S), ("hwfet_2", t >= SPLIT_S), ("both", t >= 0)):
-        p_log = log["volt"] * log["amp"]
-        both_on = sel & on_log & on_sim
-        rpm_gear = {}
-        for g in range(1, 6):
-            m = both_on & (gear == g)
-            if m.sum() >= 20:
-                rpm_gear[g] = float(np.sqrt(np.mean((sim["eng_spd_out"][m] - log["w"][m]) ** 2))
-                                    / RPM)
-        mm = sel & on_log & on_sim
-        out[name] = {
-            "engine_on_agreement_pct": float(100 * np.mean(on_log[sel] == on_sim[sel])),
-            "engine_speed_rms_rpm_by_gear": rpm_gear,
-            "engine_speed_rms_rpm": float(np.sqrt(np.mean((sim["eng_spd_out"][mm]
-                                                           - log["w"][mm]) ** 2)) / RPM),
-            "battery_energy_test_wh": float(np.sum(p_log[sel]) * 0.1 / 3600),
-            "battery_energy_model_wh": float(np.sum(sim["ess_pwr"][sel]) * 0.1 / 3600),
-            "battery_out_test_wh": float(np.sum(np.maximum(p_log[sel], 0)) * 0.1 / 3600),
-            "battery_out_model_wh": float(np.sum(np.maximum(sim["ess_pwr"][sel], 0)) * 0.1
-                                          / 3600),
-            "battery_in_test_wh": float(np.sum(np.minimum(p_log[sel], 0)) * -0.1 / 3600),
-            "battery_in_model_wh": float(np.sum(np.minimum(sim["ess_pwr"][sel], 0)) * -0.1
-                                         / 3600),
-            "motor_torque_rms_nm": float(np.sqrt(np.mean((sim["mot_trq_out"][mm]
-                                                          - log["t_mot"][mm]) ** 2))),
-            "gear_agreement_pct": float(100 * np.mean(sim["gb_gear"][sel & (gear > 0)]
-                                                      == gear[sel & (gear > 0)])),
-        }
-    return out
+def figures(veh, test) -> dict:
+    d = simulate_on_test(veh, test, soc0=SOC0, end_s=END_S)
+    f = parallel_figures(veh, d, (SPLIT_S,), radius_m=RADIUS_M)
+    return {"hwfet_1": f["part_1"], "hwfet_2": f["part_2"], "both": f["all"]}
 
 
 def _leaves(d, prefix=""):
@@ -121,36 +77,20 @@ def _leaves(d, prefix=""):
             yield f"{prefix}{k}", v
 
 
-def uncertainty(veh, log, base: dict) -> dict[str, float]:
+def uncertainty(veh, test, base: dict) -> dict[str, float]:
     """Model uncertainty of every figure: RSS over the swings of half their spread."""
     flat0 = dict(_leaves(base))
     acc = {k: 0.0 for k in flat0}
     for sws in SWINGS.values():
         vals = {k: [v] for k, v in flat0.items()}
         for sw in sws:
-            v2 = variant(veh, sw)
-            f2 = dict(_leaves(figures(v2, log, simulate_on_log(v2, log))))
+            f2 = dict(_leaves(figures(variant(veh, sw), test)))
             for k in vals:
                 if k in f2:
                     vals[k].append(f2[k])
         for k, xs in vals.items():
             acc[k] += (0.5 * (max(xs) - min(xs))) ** 2
     return {k: float(np.sqrt(x)) for k, x in acc.items()}
-
-
-def control(veh, log, sel=None) -> dict:
-    if sel is not None:
-        log = {k: x[sel] for k, x in log.items()}
-    gear = gears_from_speeds(log["w"], log["v"] / 0.279, veh.overall_ratios())
-    ratios = np.r_[np.nan, veh.overall_ratios()]
-    t_dem = np.where(gear > 0, log["t_axle"] / ratios[gear], np.nan)
-    ok = gear > 0
-    acc = np.gradient(log["v"], log["t"])
-    acc = np.convolve(acc, np.ones(10) / 10, mode="same")
-    rules = assist_regen_rules(t_dem[ok], log["t_mot"][ok], log["v"][ok], gear[ok],
-                               (log["w"] > 31.4)[ok])
-    rules["engine_stop"] = engine_stop_rule(log["t"], log["v"], log["w"], acc)
-    return rules
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -163,17 +103,22 @@ def main(argv: list[str] | None = None) -> int:
         print(f"insight_validation: no log at {path} (give --log)", file=sys.stderr)
         return 2
     veh = load_vehicle("insight_2000")
-    log = read_log(path)
-    base = figures(veh, log, simulate_on_log(veh, log))
-    res = {"figures": base, "uncertainty": uncertainty(veh, log, base),
-           "control": control(veh, log)}
+    test = import_test(path, TEMPLATE)
+    base = figures(veh, test)
+    res = {"figures": base, "uncertainty": uncertainty(veh, test, base),
+           "control": analyze_parallel(test, veh)}
     # calibrated on HWFET 1 only: the assist threshold of the log's first half; judge HWFET 2
-    c1 = control(veh, log, log["t"] < SPLIT_S)
-    cal = {"controller.assist_threshold_nm": round(c1["assist_threshold"]["threshold"], 1)}
+    first = import_test(path, TEMPLATE)
+    for sig in first:
+        keep = sig.time < SPLIT_S
+        sig.time, sig.values = sig.time[keep], sig.values[keep]
+    c1 = analyze_parallel(first, veh)
+    cal = {"controller.assist_threshold_nm":
+           round(c1["assist_regen"]["assist_threshold"]["threshold"], 1)}
     vc = veh.with_overrides(cal)
-    fc = figures(vc, log, simulate_on_log(vc, log))
+    fc = figures(vc, test)
     res["calibrated_on_hwfet_1"] = {"overrides": cal, "figures": fc,
-                                    "uncertainty": uncertainty(vc, log, fc),
+                                    "uncertainty": uncertainty(vc, test, fc),
                                     "note": "hwfet_1 and both are in-sample; hwfet_2 is not"}
     text = json.dumps(res, indent=1, default=float)
     if a.json:
