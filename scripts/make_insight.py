@@ -261,7 +261,7 @@ def controller(d: Path) -> dict:
         "charge_soc_band": 0.1, "engine_stop_speed_mps": scalar(p, "cs_electric_decel_spd"),
         "engine_stop_soc_min": scalar(p, "cs_lo_soc"), "restart_energy_j": 2000.0,
         "electrical_aux_power_w": scalar(d / "ACC_INSIGHT.m", "acc_elec_pwr"),
-        "fuel_cut_min_speed_rpm": 1000.0,
+        "fuel_cut_min_speed_rpm": 1000.0, "soc_correction_path_efficiency": 0.85,
         "sources": {
             "soc_target": "the test's initial SOC (69 %, the log's file name)",
             "assist_threshold_nm": f"{src}: cs_dl_assist_trq_threshold",
@@ -283,6 +283,9 @@ def controller(d: Path) -> dict:
             "electrical_aux_power_w": f"{ADV}, ACC_INSIGHT.m: acc_elec_pwr (NREL tests)",
             "fuel_cut_min_speed_rpm": "engineering estimate: about idle speed (decel fuel "
                                       "cut, cs_decel_fc_off)",
+            "soc_correction_path_efficiency": "engineering estimate of the engine-to-battery "
+                                              "path (motor generating, battery charge) used by "
+                                              "the SOC correction",
         },
     }
 

@@ -92,14 +92,28 @@ def summarise_parallel(veh: ParallelHybridVehicle, ys: np.ndarray, soc0: float) 
 
     Keys: every ``PAR_SUMMARY`` entry plus ``soc_initial``, ``soc_delta``,
     ``ess_net_energy_j`` (chemical, + discharged), ``fuel_economy_mpg``,
-    ``fuel_consumption_l_per_100km``, ``engine_mean_efficiency``, ``engine_on_fraction``,
+    ``fuel_consumption_l_per_100km``, their ``*_soc_corrected_*`` forms and
+    ``fuel_mass_soc_corrected_kg`` (the simulator's energy-balance correction,
+    :func:`vehval.sim.simulate.energy_balance_fuel_kg`), ``engine_mean_efficiency``
+    (the best-line efficiency when the engine did not run), ``engine_on_fraction``,
     ``engine_starts``, ``trace_n_miss``, ``gear_shifts`` (int), ``energy_balance_residual_j``
     and ``energy_balance_rel`` (fuel + battery chemical energy against every loss, the
     accessories, the shaft's and the car's kinetic energy change).
     """
+    from vehval.sim.simulate import energy_balance_fuel_kg  # the one SOC correction
+    from vehval.vehicle.maps import best_efficiency_line, best_line_efficiency
+
     s = {k: float(v) for k, v in zip(PAR_SUMMARY, ys)}
     dist, fuel = s["distance_m"], s["fuel_mass_kg"]
-    vol = fuel_volume_m3(fuel, veh.engine.fuel_density_kg_per_m3)
+    rho = veh.engine.fuel_density_kg_per_m3
+    vol = fuel_volume_m3(fuel, rho)
+    eta = s["eng_out_energy_j"] / s["fuel_energy_j"] if s["fuel_energy_j"] > 0 else 0.0
+    if eta <= 0.0:  # no engine use: the engine's best efficiency
+        eta = best_line_efficiency(veh.engine, best_efficiency_line(veh.engine))
+    fuel_corr = energy_balance_fuel_kg(fuel, s["ess_chem_energy_j"],
+                                       veh.engine.fuel_lhv_j_per_kg, eta,
+                                       veh.controller.soc_correction_path_efficiency)
+    vol_corr = fuel_volume_m3(fuel_corr, rho)
     sinks = (s["eng_loss_j"] + s["mot_loss_j"] + s["ess_loss_j"] + s["aux_mech_energy_j"]
              + s["aux_elec_energy_j"] + s["restart_loss_j"] + s["shaft_ke_change_j"]
              + s["clutch_loss_j"] + s["gearbox_loss_j"] + s["brake_energy_j"]
@@ -113,8 +127,11 @@ def summarise_parallel(veh: ParallelHybridVehicle, ys: np.ndarray, soc0: float) 
         "ess_net_energy_j": s["ess_chem_energy_j"],
         "fuel_economy_mpg": fuel_economy_mpg(dist, vol, empty=float("inf")),
         "fuel_consumption_l_per_100km": fuel_consumption_l_per_100km(vol, dist),
-        "engine_mean_efficiency": (s["eng_out_energy_j"] / s["fuel_energy_j"]
-                                   if s["fuel_energy_j"] > 0 else 0.0),
+        "engine_mean_efficiency": float(eta),
+        "fuel_mass_soc_corrected_kg": fuel_corr,
+        "fuel_economy_soc_corrected_mpg": fuel_economy_mpg(dist, vol_corr, empty=float("inf")),
+        "fuel_consumption_soc_corrected_l_per_100km": fuel_consumption_l_per_100km(vol_corr,
+                                                                                   dist),
         "engine_on_fraction": s["eng_on_time_s"] / dur if dur > 0 else 0.0,
         "engine_starts": round(s["engine_starts"]),
         "trace_n_miss": round(s["trace_n_miss"]),

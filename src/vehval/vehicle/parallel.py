@@ -62,6 +62,9 @@ class ParallelControlParams(Block):
     engine_stop_speed_mps: float = Field(ge=0)
     engine_stop_soc_min: float = Field(ge=0, lt=1)
     restart_energy_j: float = Field(ge=0, le=1e5)
+    soc_correction_path_efficiency: float = Field(default=0.85, gt=0, le=1)
+    """Engine-to-battery path efficiency [-] of the simulator's energy-balance SOC
+    correction (motor generating, battery charge)."""
     fuel_cut_min_speed_rpm: float = Field(ge=0, le=30_000)
     """Overrun (engine torque <= 0) above this shaft speed cuts the fuel [rpm]."""
     electrical_aux_power_w: float = Field(ge=0, le=1e5)
