@@ -124,3 +124,18 @@ def test_engine_stop_found_in_a_virtual_test(insight):
     out = engine_stop_rule(t, v, f["eng_spd_out_simu"].to_numpy(), f["veh_acc_simu"].to_numpy())
     assert out["stops"] and out["rule"]["support"] == 1.0
     assert out["rule"]["threshold"] <= insight.controller.engine_stop_speed_mps + 0.2
+
+
+def test_shipped_insight_is_what_the_script_makes_of_the_reference_data():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from helpers.data import SHARED_DATA
+
+    ref = SHARED_DATA / "reference" / "advisor_insight"
+    if not (ref / "FC_INSIGHT.m").exists():
+        pytest.skip(f"ADVISOR Insight reference data not found at {ref}")
+    script = Path(__file__).resolve().parents[2] / "scripts" / "make_insight.py"
+    rc = subprocess.run([sys.executable, str(script), "--ref", str(ref), "--check"]).returncode
+    assert rc == 0, "insight_2000.yaml is stale: run python scripts/make_insight.py"
