@@ -14,10 +14,10 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from vehval.equations.engine_state import engine_running
+
 #: [N·m] motor torque beyond which a sample counts as assist (+) or regen (-)
 ACTIVE_NM = 2.0
-#: [rad/s] shaft speed below which the engine counts as stopped (about 300 rpm)
-ENGINE_STOPPED_RADPS = 31.4
 #: relative tolerance of a gear's overall ratio when gears are read from speeds [-]
 GEAR_TOLERANCE = 0.04
 
@@ -104,7 +104,7 @@ def engine_stop_rule(t: np.ndarray, v: np.ndarray, shaft_radps: np.ndarray,
     """Idle-stop conditions: every engine stop event (running -> stopped) with the speed
     [m/s] and acceleration [m/s²] at the stop, and the rule ``stop below v_max while
     decelerating`` with its support (the share of stops it explains)."""
-    on = shaft_radps > ENGINE_STOPPED_RADPS
+    on = engine_running(t, shaft_radps)  # the package's one engine-on rule
     idx = np.flatnonzero(on[:-1] & ~on[1:]) + 1
     starts = np.flatnonzero(~on[:-1] & on[1:]) + 1
     events = [{"t_s": float(t[i]), "speed_mps": float(v[i]), "accel_mps2": float(accel[i])}
@@ -165,6 +165,6 @@ def analyze_parallel(test, veh) -> dict:
         "architecture": "parallel_hybrid",
         "gear_share": {int(g): float(np.mean(gear == g)) for g in range(len(ratios) + 1)},
         "assist_regen": assist_regen_rules(t_dem[ok], a["mot_trq_out"][ok], v[ok], gear[ok],
-                                           (w > ENGINE_STOPPED_RADPS)[ok]),
+                                           engine_running(a["t"], w)[ok]),
         "engine_stop": engine_stop_rule(a["t"], v, w, acc),
     }

@@ -10,6 +10,8 @@ balance.
 
 from __future__ import annotations
 
+from typing import Callable
+
 import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S as RPM
@@ -87,7 +89,8 @@ def par_maps(veh: ParallelHybridVehicle) -> tuple[np.ndarray, ...]:
     return (e["spd"], e["trq"], e["fuel"], e["tmax"], m["spd"], m["trq"], m["loss"], *bat, *gb)
 
 
-def summarise_parallel(veh: ParallelHybridVehicle, ys: np.ndarray, soc0: float) -> dict:
+def summarise_parallel(veh: ParallelHybridVehicle, ys: np.ndarray, soc0: float,
+                       soc_correction: Callable[..., float]) -> dict:
     """Summary dict from the accumulator vector of the parallel-hybrid loop.
 
     Keys: every ``PAR_SUMMARY`` entry plus ``soc_initial``, ``soc_delta``,
@@ -100,7 +103,6 @@ def summarise_parallel(veh: ParallelHybridVehicle, ys: np.ndarray, soc0: float) 
     and ``energy_balance_rel`` (fuel + battery chemical energy against every loss, the
     accessories, the shaft's and the car's kinetic energy change).
     """
-    from vehval.sim.simulate import energy_balance_fuel_kg  # the one SOC correction
     from vehval.vehicle.maps import best_efficiency_line, best_line_efficiency
 
     s = {k: float(v) for k, v in zip(PAR_SUMMARY, ys)}
@@ -110,9 +112,9 @@ def summarise_parallel(veh: ParallelHybridVehicle, ys: np.ndarray, soc0: float) 
     eta = s["eng_out_energy_j"] / s["fuel_energy_j"] if s["fuel_energy_j"] > 0 else 0.0
     if eta <= 0.0:  # no engine use: the engine's best efficiency
         eta = best_line_efficiency(veh.engine, best_efficiency_line(veh.engine))
-    fuel_corr = energy_balance_fuel_kg(fuel, s["ess_chem_energy_j"],
-                                       veh.engine.fuel_lhv_j_per_kg, eta,
-                                       veh.controller.soc_correction_path_efficiency)
+    fuel_corr = soc_correction(fuel, s["ess_chem_energy_j"],
+                                veh.engine.fuel_lhv_j_per_kg, eta,
+                                veh.controller.soc_correction_path_efficiency)
     vol_corr = fuel_volume_m3(fuel_corr, rho)
     sinks = (s["eng_loss_j"] + s["mot_loss_j"] + s["ess_loss_j"] + s["aux_mech_energy_j"]
              + s["aux_elec_energy_j"] + s["restart_loss_j"] + s["shaft_ke_change_j"]

@@ -317,7 +317,7 @@ ARCHITECTURES: dict[str, Architecture] = {
     "parallel_hybrid": Architecture(
         name="parallel_hybrid", label="forward-looking parallel-hybrid simulation",
         signals=PAR_SIGNALS, summary_keys=PAR_SUMMARY, run=_run_parallel,
-        summarise=summarise_parallel,
+        summarise=lambda v, ys, s0: summarise_parallel(v, ys, s0, energy_balance_fuel_kg),
         cold_start_model=lambda v: v.engine.warmup_fuel_fraction > 0.0,
         soc_final=PAR_SUMMARY.index("soc_final")),
 }

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from vehval.analysis.parallel import ENGINE_STOPPED_RADPS, gears_from_speeds, test_arrays
+from vehval.analysis.parallel import gears_from_speeds, test_arrays
 from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.equations.engine_state import engine_running
 
 #: [m/s] measured speeds below this are standstill for the model's target (0.22 mph)
 STANDING_MPS = 0.1
@@ -57,7 +58,7 @@ def _rms(x: np.ndarray) -> float:
 
 def _part(veh, d: dict[str, np.ndarray], sel: np.ndarray, gear: np.ndarray) -> dict:
     dt = float(d["t"][1] - d["t"][0])
-    on_t = d["eng_spd_out"] > ENGINE_STOPPED_RADPS
+    on_t = engine_running(d["t"], d["eng_spd_out"])
     on_m = d["sim_eng_on"] > 0.5
     both = sel & on_t & on_m
     err = d["sim_eng_spd_out"] - d["eng_spd_out"]
