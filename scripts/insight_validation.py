@@ -93,6 +93,28 @@ def uncertainty(veh, test, base: dict) -> dict[str, float]:
     return {k: float(np.sqrt(x)) for k, x in acc.items()}
 
 
+def normalised_errors(figs: dict, unc: dict) -> dict:
+    """En of the battery energies per part: the model's U (the swings' half spread, read
+    as k = 2) against the test's from the sensor class defaults of the battery current and
+    voltage (vehval.uncertainty.sensors: gain limits in RSS, the current's offset limit
+    over the part's duration at 155 V)."""
+    from vehval.uncertainty.sensors import channel_accuracy
+    from vehval.uncertainty.verdict import normalised_error
+
+    ci, cv = channel_accuracy("ess_curr_test", None), channel_accuracy("ess_volt_test", None)
+    gain = (ci.gain_limit ** 2 + cv.gain_limit ** 2) ** 0.5
+    out: dict = {}
+    for part, f in figs.items():
+        off_wh = ci.offset_limit * 155.0 * f["duration_s"] / 3600.0
+        out[part] = {}
+        for q in ("battery_out", "battery_in", "battery_energy"):
+            meas, model = f[f"{q}_test_wh"], f[f"{q}_model_wh"]
+            u_meas = ((gain * abs(meas)) ** 2 + off_wh ** 2) ** 0.5
+            c = normalised_error(model, meas, unc[f"{part}.{q}_model_wh"], u_meas, label=q)
+            out[part][q] = {"en": c.en, "u_test_wh": u_meas}
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--log")
@@ -105,7 +127,8 @@ def main(argv: list[str] | None = None) -> int:
     veh = load_vehicle("insight_2000")
     test = import_test(path, TEMPLATE)
     base = figures(veh, test)
-    res = {"figures": base, "uncertainty": uncertainty(veh, test, base),
+    unc = uncertainty(veh, test, base)
+    res = {"figures": base, "uncertainty": unc, "en": normalised_errors(base, unc),
            "control": analyze_parallel(test, veh)}
     # calibrated on HWFET 1 only: the assist threshold of the log's first half; judge HWFET 2
     first = import_test(path, TEMPLATE)
@@ -117,8 +140,9 @@ def main(argv: list[str] | None = None) -> int:
            round(c1["assist_regen"]["assist_threshold"]["threshold"], 1)}
     vc = veh.with_overrides(cal)
     fc = figures(vc, test)
-    res["calibrated_on_hwfet_1"] = {"overrides": cal, "figures": fc,
-                                    "uncertainty": uncertainty(vc, test, fc),
+    uc = uncertainty(vc, test, fc)
+    res["calibrated_on_hwfet_1"] = {"overrides": cal, "figures": fc, "uncertainty": uc,
+                                    "en": normalised_errors(fc, uc),
                                     "note": "hwfet_1 and both are in-sample; hwfet_2 is not"}
     text = json.dumps(res, indent=1, default=float)
     if a.json:
