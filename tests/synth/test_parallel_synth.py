@@ -70,3 +70,15 @@ def test_synth_and_analyze_cli(tmp_path, capsys):
     assert ctl["architecture"] == "parallel_hybrid"
     assert ctl["assist_regen"]["assist_threshold"]["threshold"] == pytest.approx(35.0, abs=2.0)
     assert "assist when shaft torque demand" in so
+
+
+def test_qa_uses_the_parallel_hybrid_equations(virtual, tmp_path, capsys):
+    veh, truth, test = virtual
+    rc, so, se = run_cli(["qa", *truth["files"], "-t", truth["template"], "-o", tmp_path / "qa"],
+                         capsys)
+    assert rc == 0, se
+    f = json.loads((tmp_path / "qa" / "findings.json").read_text())
+    assert f["calculations"]["set"] == "parallel_hybrid"
+    assert "mot_spd_out_calc" in f["calculations"]["computed"]
+    check = next(c for c in f["checks"] if c["check"] == "electrical power balance")
+    assert check["r2"] > 0.8 and check["slope"] > 0  # the current's sign is right

@@ -241,8 +241,10 @@ class CalcResult:
 
 
 def choose_calc_set(test: Test, vehicle: Any = None) -> str:
-    """``power_split`` when the vehicle or the signals show a planetary hybrid, else
-    ``conventional``."""
+    """``parallel_hybrid`` for a vehicle of that architecture; ``power_split`` when the
+    vehicle or the signals show a planetary hybrid; else ``conventional``."""
+    if getattr(vehicle, "architecture", None) == "parallel_hybrid":
+        return "parallel_hybrid"
     if vehicle is not None and vehicle_value(vehicle, "planetary.ring_teeth") is not None:
         return "power_split"
     for sig in test:
