@@ -105,6 +105,158 @@ def _limit_motor(t_m, w, prm, mS, mT, mL, p_dis, p_chg):
 
 
 @njit(cache=True)
+def _start_stop(ys, on, new_on, w, w_g, idle, auto, j_sh, restart_j, crank_j):
+    """A restart: the motor cranks the shaft to its running speed (``restart_j`` [J] owed by
+    the battery, at least the shaft's kinetic energy); a stop: the engine's friction takes
+    the shaft's kinetic energy. Returns the shaft speed [rad/s] and the cranking energy
+    still owed [J]."""
+    if new_on and not on:
+        w_start = max(w_g, idle) if not auto else idle
+        ke = 0.5 * j_sh * w_start * w_start
+        e_bat = max(restart_j, ke)
+        ys[HY_RESTART_LOSS_J] += e_bat - ke
+        ys[HY_SHAFT_KE_CHANGE_J] += ke
+        ys[HY_ENGINE_STARTS] += 1.0
+        return w_start, crank_j + e_bat
+    if on and not new_on:
+        ke = 0.5 * j_sh * w * w
+        ys[HY_SHAFT_KE_CHANGE_J] -= ke
+        ys[HY_ENG_LOSS_J] += ke
+        return 0.0, crank_j
+    return w, crank_j
+
+
+@njit(cache=True)
+def _shaft(prm, on, auto, v0, w, w_g, t_in, idle, lock_v, standstill, t_shift, shift_time,
+           a_eng):
+    """Shaft speed at the end of the step and its mean [rad/s], whether the shaft drives the
+    wheels (clutch closed / coupling locked), and the torque the clutch or coupling passes
+    [N·m]: (coupled, w1, w_a, t_req). ``w_g`` gearbox input speed, ``t_in`` the demand at
+    the gearbox input, ``lock_v`` the gear's lock-up speed (automatic)."""
+    if not on:
+        return False, 0.0, 0.0, 0.0
+    if auto:
+        coupled = v0 >= lock_v and w_g >= idle
+        w_tgt = w_g if coupled else max(coupling_pump_speed(w_g, max(t_in, 0.0),
+                                                            prm[HP_TC_K]), idle)
+    else:
+        coupled = w_g >= idle and not standstill
+        w_tgt = w_g if coupled else idle
+    if coupled and t_shift >= shift_time:
+        w1 = w_tgt
+    else:
+        w1 = w + a_eng * (w_tgt - w)
+    w_a = 0.5 * (w + w1)
+    if standstill or (not auto and t_shift < shift_time):
+        t_req = 0.0  # clutch open: standing, or a manual shift under way
+    elif coupled:
+        t_req = t_in
+    elif auto:
+        t_req = min(prm[HP_TC_K] * w_a * (w_a - w_g), max(t_in, 0.0))
+    else:
+        t_req = max(t_in, 0.0)  # the slipping launch clutch passes the demand
+    return coupled, w1, w_a, t_req
+
+
+@njit(cache=True)
+def _engine(prm, eS, eT, eF, eTm, on, standstill, t_req, t_m, t_acc, t_inertia, w, w1, w_a,
+            j_sh, dt, t_mid):
+    """Engine torque [N·m] within full load and motoring drag, fuel [kg/s] (cut on
+    overrun); standing with the clutch open, the shaft speed takes what a limit leaves.
+    Returns (t_e, t_inertia, w1, w_a, fuel, cut)."""
+    if not on:
+        return 0.0, t_inertia, w1, w_a, 0.0, False
+    t_e = t_req - t_m + t_acc + t_inertia
+    t_full = max_torque(eS, eTm, w_a)
+    if t_e > t_full:
+        t_e = t_full
+    if t_e < -prm[HP_ENG_DRAG]:
+        t_e = -prm[HP_ENG_DRAG]
+    if standstill and t_e != t_req - t_m + t_acc + t_inertia:
+        t_inertia = t_e + t_m - t_acc
+        w1 = max(w + t_inertia * dt / j_sh, 0.0)
+        t_inertia = j_sh * (w1 - w) / dt
+        w_a = 0.5 * (w + w1)
+        t_e = t_acc + t_inertia - t_m
+    cut = False
+    fuel = 0.0
+    if t_e <= 0.0 and w_a >= prm[HP_FUEL_CUT_SPD] and not standstill:
+        cut = True
+    else:
+        fuel = fuel_rate(eS, eT, eF, w_a, t_e)
+    fuel *= warmup_factor(prm[HP_WARM_FRAC], prm[HP_WARM_TAU], t_mid)
+    return t_e, t_inertia, w1, w_a, fuel, cut
+
+
+@njit(cache=True)
+def _book(ys, dt, lhv, elec_acc, fuel, p_e, p_el, t_m, w_a, ocv, cur, r, vb, t_acc, t_inertia,
+          t_sh, w_in, f_pt, v_a, f_brk, fl, on, mode, w1, soc):
+    """Energy bookkeeping of one step (mid-step speeds) into the summary vector ``ys``."""
+    ys[HY_FUEL_MASS_KG] += fuel * dt
+    ys[HY_FUEL_ENERGY_J] += fuel * lhv * dt
+    ys[HY_ENG_OUT_ENERGY_J] += p_e * dt
+    ys[HY_ENG_LOSS_J] += (fuel * lhv - p_e) * dt
+    ys[HY_MOT_LOSS_J] += (p_el - t_m * w_a) * dt
+    ys[HY_ESS_CHEM_ENERGY_J] += ocv * cur * dt
+    ys[HY_ESS_LOSS_J] += cur * cur * r * dt
+    if cur >= 0.0:
+        ys[HY_ESS_OUT_ENERGY_J] += vb * cur * dt
+    else:
+        ys[HY_ESS_IN_ENERGY_J] -= vb * cur * dt
+    ys[HY_AUX_MECH_ENERGY_J] += t_acc * w_a * dt
+    ys[HY_AUX_ELEC_ENERGY_J] += elec_acc * dt
+    ys[HY_SHAFT_KE_CHANGE_J] += t_inertia * w_a * dt
+    ys[HY_CLUTCH_LOSS_J] += t_sh * (w_a - w_in) * dt
+    ys[HY_GEARBOX_LOSS_J] += (t_sh * w_in - f_pt * v_a) * dt
+    ys[HY_WHEEL_ENERGY_J] += f_pt * v_a * dt
+    ys[HY_BRAKE_ENERGY_J] += f_brk * v_a * dt
+    ys[HY_ROAD_ENERGY_J] += fl * v_a * dt
+    ys[HY_DISTANCE_M] += v_a * dt
+    if on:
+        ys[HY_ENG_ON_TIME_S] += dt
+    if mode == MODE_ASSIST and t_m > 0.0:
+        ys[HY_ASSIST_TIME_S] += dt
+        ys[HY_ASSIST_ENERGY_J] += t_m * w_a * dt
+    elif mode == MODE_REGEN and t_m < 0.0:
+        ys[HY_REGEN_TIME_S] += dt
+        ys[HY_REGEN_ENERGY_J] -= t_m * w_a * dt
+    ys[HY_ENG_SPD_MAX] = max(ys[HY_ENG_SPD_MAX], w1)
+    ys[HY_SOC_MIN_SEEN] = min(ys[HY_SOC_MIN_SEEN], soc)
+    ys[HY_SOC_MAX_SEEN] = max(ys[HY_SOC_MAX_SEEN], soc)
+
+
+@njit(cache=True)
+def _record(out, j, dt, v0, v1, vnext, f_pt, f_brk, fl, rw, w1, t_e, p_e, on, cut, fuel, t_m,
+            p_el, vb, cur, p_bt, soc, gear, w_g_a, f_dem, p_dem):
+    """Row ``j`` of the recorded signals (``PAR_SIGNALS`` columns, SI)."""
+    out[j, HS_VEH_SPD] = v1
+    out[j, HS_VEH_SPD_TARGET] = vnext
+    out[j, HS_VEH_ACC] = (v1 - v0) / dt
+    out[j, HS_VEH_FRC_IN] = f_pt - f_brk
+    out[j, HS_VEH_FRC_LOSS] = fl
+    out[j, HS_WHL_TRQ_OUT] = f_pt * rw
+    out[j, HS_WHL_SPD] = v1 / rw
+    out[j, HS_ENG_SPD_OUT] = w1
+    out[j, HS_ENG_TRQ_OUT] = t_e
+    out[j, HS_ENG_PWR_OUT] = p_e
+    out[j, HS_ENG_ON] = 1.0 if on else 0.0
+    out[j, HS_ENG_FUEL_CUT] = 1.0 if cut else 0.0
+    out[j, HS_FUEL_RATE] = fuel
+    out[j, HS_MOT_SPD_OUT] = w1
+    out[j, HS_MOT_TRQ_OUT] = t_m
+    out[j, HS_MOT_PWR_IN] = p_el
+    out[j, HS_ESS_VOLT] = vb
+    out[j, HS_ESS_CURR] = cur
+    out[j, HS_ESS_PWR] = p_bt
+    out[j, HS_ESS_SOC] = soc
+    out[j, HS_GB_GEAR] = gear
+    out[j, HS_GB_SPD_IN] = w_g_a
+    out[j, HS_BRK_FRC] = f_brk
+    out[j, HS_DRV_FRC_DEMAND] = f_dem
+    out[j, HS_DRV_PWR_DEMAND] = p_dem
+
+
+@njit(cache=True)
 def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS, bV, bRd, bRc,
                  bPd, bPc, ratios, up0, up1, dn0, dn1, lock_v, out, record):
     """Simulate one cycle; returns the summary vector (``PAR_SUMMARY`` order).
@@ -169,76 +321,23 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
         new_on = engine_on_rule(on, f_dem, v0, standstill, soc, prm[HP_STOP_SPD],
                                 prm[HP_STOP_SOC])
         p_restart = 0.0
-        if new_on and not on:
-            w_start = max(w_g, idle) if not auto else idle
-            ke = 0.5 * j_sh * w_start * w_start
-            e_bat = max(prm[HP_RESTART_J], ke)
-            crank_j += e_bat
-            ys[HY_RESTART_LOSS_J] += e_bat - ke
-            ys[HY_SHAFT_KE_CHANGE_J] += ke
-            ys[HY_ENGINE_STARTS] += 1.0
-            w = w_start
-        elif on and not new_on:
-            ke = 0.5 * j_sh * w * w
-            ys[HY_SHAFT_KE_CHANGE_J] -= ke
-            ys[HY_ENG_LOSS_J] += ke  # the stopping engine's friction takes the shaft energy
-            w = 0.0
+        w, crank_j = _start_stop(ys, on, new_on, w, w_g, idle, auto, j_sh, prm[HP_RESTART_J],
+                                 crank_j)
         on = new_on
         if crank_j > 0.0:
             p_restart = min(crank_j, p_crank * dt) / dt
             crank_j -= p_restart * dt
         # ---------------- shaft speed and what the clutch / coupling passes
-        if on:
-            if auto:
-                coupled = v0 >= lock_v[gear - 1] and w_g >= idle
-                w_tgt = w_g if coupled else max(coupling_pump_speed(w_g, max(t_in, 0.0),
-                                                                    prm[HP_TC_K]), idle)
-            else:
-                coupled = w_g >= idle and not standstill
-                w_tgt = w_g if coupled else idle
-            if coupled and t_shift >= shift_time:
-                w1 = w_tgt
-            else:
-                w1 = w + a_eng * (w_tgt - w)
-            w_a = 0.5 * (w + w1)
-            if standstill or (not auto and t_shift < shift_time):
-                t_req = 0.0  # clutch open: standing, or a manual shift under way
-            elif coupled:
-                t_req = t_in
-            elif auto:
-                t_req = min(prm[HP_TC_K] * w_a * (w_a - w_g), max(t_in, 0.0))
-            else:
-                t_req = max(t_in, 0.0)  # the slipping launch clutch passes the demand
-        else:
-            coupled = False
-            w1 = 0.0; w_a = 0.0; t_req = 0.0
+        coupled, w1, w_a, t_req = _shaft(prm, on, auto, v0, w, w_g, t_in, idle, lock_v[gear - 1],
+                                         standstill, t_shift, shift_time, a_eng)
         # ---------------- motor and engine torque
         t_m, mode = motor_torque_rule(prm, t_req, gear, v0, soc, coupled and on)
         t_m = _limit_motor(t_m, w_a, prm, mS, mT, mL, p_dis, p_chg)
         t_inertia = j_sh * (w1 - w) / dt if on else 0.0
         t_acc = prm[HP_MECH_ACC] / max(w_a, idle) if on else 0.0
-        cut = False
-        fuel = 0.0
-        t_e = 0.0
-        if on:
-            t_e = t_req - t_m + t_acc + t_inertia
-            t_full = max_torque(eS, eTm, w_a)
-            if t_e > t_full:
-                t_e = t_full
-            if t_e < -prm[HP_ENG_DRAG]:
-                t_e = -prm[HP_ENG_DRAG]
-            if standstill and t_e != t_req - t_m + t_acc + t_inertia:
-                # clutch open, the engine at a limit: the shaft takes what is left
-                t_inertia = t_e + t_m - t_acc
-                w1 = max(w + t_inertia * dt / j_sh, 0.0)
-                t_inertia = j_sh * (w1 - w) / dt
-                w_a = 0.5 * (w + w1)
-                t_e = t_acc + t_inertia - t_m
-            if t_e <= 0.0 and w_a >= prm[HP_FUEL_CUT_SPD] and not standstill:
-                cut = True
-            else:
-                fuel = fuel_rate(eS, eT, eF, w_a, t_e)
-            fuel *= warmup_factor(prm[HP_WARM_FRAC], prm[HP_WARM_TAU], (i + 0.5) * dt)
+        t_e, t_inertia, w1, w_a, fuel, cut = _engine(prm, eS, eT, eF, eTm, on, standstill,
+                                                     t_req, t_m, t_acc, t_inertia, w, w1, w_a,
+                                                     j_sh, dt, (i + 0.5) * dt)
         t_sh = t_e + t_m - t_acc - t_inertia if on and not standstill else 0.0
         p_el = electrical_power(mS, mT, mL, w_a, t_m) if on else 0.0
         # ---------------- battery
@@ -263,38 +362,9 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
         # ---------------- energy bookkeeping (mid-step speeds)
         w_g_a = ratio * v_a / rw
         p_e = t_e * w_a
-        ys[HY_FUEL_MASS_KG] += fuel * dt
-        ys[HY_FUEL_ENERGY_J] += fuel * lhv * dt
-        ys[HY_ENG_OUT_ENERGY_J] += p_e * dt
-        ys[HY_ENG_LOSS_J] += (fuel * lhv - p_e) * dt
-        ys[HY_MOT_LOSS_J] += (p_el - t_m * w_a) * dt
-        ys[HY_ESS_CHEM_ENERGY_J] += ocv * cur * dt
-        ys[HY_ESS_LOSS_J] += cur * cur * r * dt
-        if cur >= 0.0:
-            ys[HY_ESS_OUT_ENERGY_J] += vb * cur * dt
-        else:
-            ys[HY_ESS_IN_ENERGY_J] -= vb * cur * dt
-        ys[HY_AUX_MECH_ENERGY_J] += t_acc * w_a * dt
-        ys[HY_AUX_ELEC_ENERGY_J] += prm[HP_ELEC_ACC] * dt
-        ys[HY_SHAFT_KE_CHANGE_J] += t_inertia * w_a * dt
         w_in = w_a if coupled else w_g_a  # gearbox input speed (the shaft's when coupled)
-        ys[HY_CLUTCH_LOSS_J] += t_sh * (w_a - w_in) * dt
-        ys[HY_GEARBOX_LOSS_J] += (t_sh * w_in - f_pt * v_a) * dt
-        ys[HY_WHEEL_ENERGY_J] += f_pt * v_a * dt
-        ys[HY_BRAKE_ENERGY_J] += f_brk * v_a * dt
-        ys[HY_ROAD_ENERGY_J] += fl * v_a * dt
-        ys[HY_DISTANCE_M] += v_a * dt
-        if on:
-            ys[HY_ENG_ON_TIME_S] += dt
-        if mode == MODE_ASSIST and t_m > 0.0:
-            ys[HY_ASSIST_TIME_S] += dt
-            ys[HY_ASSIST_ENERGY_J] += t_m * w_a * dt
-        elif mode == MODE_REGEN and t_m < 0.0:
-            ys[HY_REGEN_TIME_S] += dt
-            ys[HY_REGEN_ENERGY_J] -= t_m * w_a * dt
-        ys[HY_ENG_SPD_MAX] = max(ys[HY_ENG_SPD_MAX], w1)
-        ys[HY_SOC_MIN_SEEN] = min(ys[HY_SOC_MIN_SEEN], soc)
-        ys[HY_SOC_MAX_SEEN] = max(ys[HY_SOC_MAX_SEEN], soc)
+        _book(ys, dt, lhv, prm[HP_ELEC_ACC], fuel, p_e, p_el, t_m, w_a, ocv, cur, r, vb, t_acc,
+              t_inertia, t_sh, w_in, f_pt, v_a, f_brk, fl, on, mode, w1, soc)
         # ---------------- driver memory (conditional integration)
         f_real = f_pt - f_brk
         if abs(f_real - f_dem) <= max(100.0, 0.05 * abs(f_dem)):
@@ -307,32 +377,8 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
         v = v1
         w = w1
         if record:
-            j = i + 1
-            out[j, HS_VEH_SPD] = v1
-            out[j, HS_VEH_SPD_TARGET] = vnext
-            out[j, HS_VEH_ACC] = (v1 - v0) / dt
-            out[j, HS_VEH_FRC_IN] = f_pt - f_brk
-            out[j, HS_VEH_FRC_LOSS] = fl
-            out[j, HS_WHL_TRQ_OUT] = f_pt * rw
-            out[j, HS_WHL_SPD] = v1 / rw
-            out[j, HS_ENG_SPD_OUT] = w1
-            out[j, HS_ENG_TRQ_OUT] = t_e
-            out[j, HS_ENG_PWR_OUT] = p_e
-            out[j, HS_ENG_ON] = 1.0 if on else 0.0
-            out[j, HS_ENG_FUEL_CUT] = 1.0 if cut else 0.0
-            out[j, HS_FUEL_RATE] = fuel
-            out[j, HS_MOT_SPD_OUT] = w1
-            out[j, HS_MOT_TRQ_OUT] = t_m
-            out[j, HS_MOT_PWR_IN] = p_el
-            out[j, HS_ESS_VOLT] = vb
-            out[j, HS_ESS_CURR] = cur
-            out[j, HS_ESS_PWR] = p_bt
-            out[j, HS_ESS_SOC] = soc
-            out[j, HS_GB_GEAR] = gear
-            out[j, HS_GB_SPD_IN] = w_g_a
-            out[j, HS_BRK_FRC] = f_brk
-            out[j, HS_DRV_FRC_DEMAND] = f_dem
-            out[j, HS_DRV_PWR_DEMAND] = p_dem
+            _record(out, i + 1, dt, v0, v1, vnext, f_pt, f_brk, fl, rw, w1, t_e, p_e, on, cut,
+                    fuel, t_m, p_el, vb, cur, p_bt, soc, gear, w_g_a, f_dem, p_dem)
     ys[HY_KE_END_J] = 0.5 * m_eq * v * v
     ys[HY_RESTART_LOSS_J] -= crank_j  # cranking energy not yet drawn at the end
     ys[HY_SOC_FINAL] = soc
