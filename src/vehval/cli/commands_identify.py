@@ -37,10 +37,12 @@ def identify_cmd(
 ) -> None:
     """Identify a conventional car (road load, gears, converter, shifts, driveline drag, fuel map,
     with --cold-test the warm-up fuel and with --ac-test the A/C load) from dyno tests."""
-    if architecture != "conventional":
+    from vehval.architectures import having, require
+
+    if architecture not in having("identify"):
         raise ConfigError(f"--architecture {architecture}: identification from dyno data exists "
-                          "for 'conventional' cars only")
-    from vehval.identify.build import identify_conventional, write_vehicle
+                          f"for {', '.join(repr(a) for a in having('identify'))} cars only")
+    from vehval.identify.build import write_vehicle
     from vehval.identify.checks import check_declared, check_identification, identification_warnings
     from vehval.identify.loading import load_traces, refuse_one_test_of_several_files
     from vehval.identify.spec import load_spec
@@ -78,14 +80,13 @@ def identify_cmd(
     cold_trace = load_traces([cold_test], template)[0] if cold_test is not None else None
     from vehval.cli.progress import bar
     with bar("identify: fitting the car (road load, gears, fuel map)", as_json=as_json):
-        idf = identify_conventional(traces, name or output.stem, ac_trace=ac_trace,
+        idf = require(architecture, "identify")(traces, name or output.stem, ac_trace=ac_trace,
                                     cold_trace=cold_trace, declared=declared)
     check_identification(idf, declared, template, files)
     from vehval.io.atomic import atomic_files
     preds = None
     if report is not None:
-        from vehval.identify.predict import predict_trace
-        preds = [predict_trace(idf.vehicle, t) for t in traces]
+        preds = [require(architecture, "predict")(idf.vehicle, t) for t in traces]
     # the vehicle file and the report are one unit: a run killed at any point leaves both
     # old or (once the next run completes its commit) both new, and no temporary behind
     with atomic_files([output] if report is None else [output, report]) as staged:

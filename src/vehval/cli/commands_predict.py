@@ -83,14 +83,15 @@ def predict_cmd(
 ) -> None:
     """Drive each test's measured speed with the model; fuel measured vs predicted, per phase."""
     from vehval.identify.loading import load_traces
-    from vehval.identify.predict import predict_trace
     from vehval.vehicle import load_vehicle
     if report is not None:
         from vehval.io.paths import check_outputs, vehicle_path
         check_outputs(outfile=report, inputs=[*files, template, vehicle_path(vehicle)],
                       option="--report")
     veh = load_vehicle(vehicle)
-    if veh.architecture != "conventional":
+    from vehval.architectures import require, stages
+
+    if stages(veh).predict is None:
         raise ConfigError(f"{vehicle}: predict compares fuel of conventional cars; this vehicle "
                           f"is '{veh.architecture}' (use vehval validate)")
     from vehval.identify.predict import check_same_car, poor_coverage, public_row
@@ -103,7 +104,7 @@ def predict_cmd(
         progress.add(len(traces))
         preds = []
         for t in traces:
-            preds.append(predict_trace(veh, t, ac=ac))
+            preds.append(require(veh, "predict")(veh, t, ac=ac))
             progress.advance()
     from vehval.identify.conditions import conditions_warnings
     for line in poor_coverage(preds) + conditions_warnings(preds, veh.identification):
