@@ -107,9 +107,10 @@ class Stages:
         :class:`~vehval.workflow.TestRun` (``to_dict()``, ``payload(figures)``).
     validate_suite : bool
         Whether ``vehval validate`` ranks its tests on the tolerance ladder (the simulation
-        on the test's conditions); else ``validate_hint`` says what to use.
-    validate_hint : str
-        What to use instead of ``vehval validate``.
+        on the test's conditions); else ``hint`` says what to use.
+    hint : str
+        What to use instead of a stage the architecture does not have (and of ``vehval
+        validate`` without ``validate_suite``), in every refusal.
     calibrate : callable
         ``(veh, load, **options)`` -> :class:`vehval.validate.calibrate_stage.CalibrationStage`.
     analyze : callable or None
@@ -124,7 +125,7 @@ class Stages:
     synth: Callable[..., Any]
     validate: Callable[..., Any]
     validate_suite: bool
-    validate_hint: str
+    hint: str
     calibrate: Callable[..., Any]
     analyze: Callable[..., Any] | None = None
     identify: Callable[..., Any] | None = None
@@ -143,12 +144,14 @@ REGISTRY: dict[str, Stages] = {
     "power_split": Stages(
         name="power_split", label="power-split hybrid", family="hybrid",
         synth=_synth_power_split, validate=_validate_power_split, validate_suite=True,
-        validate_hint="", calibrate=_calibrate_power_split, analyze=_analyze_power_split),
+        hint="for a hybrid use vehval validate (the simulation on the test's conditions) "
+             "or vehval calibrate",
+        calibrate=_calibrate_power_split, analyze=_analyze_power_split),
     "conventional": Stages(
         name="conventional", label="conventional car", family="conventional",
         synth=_synth_conventional, validate=_validate_conventional, validate_suite=False,
-        validate_hint="for a conventional car use vehval predict (fuel per phase) or vehval "
-                      "calibrate",
+        hint="for a conventional car use vehval predict (fuel per phase) or vehval "
+             "calibrate",
         calibrate=_calibrate_conventional, identify=_identify_conventional,
         predict=_predict_conventional),
 }
@@ -192,6 +195,8 @@ def require(vehicle: Any, stage: str) -> Callable[..., Any]:
     if fn is None:
         name = name_of(vehicle)
         who = f"vehicle '{vehicle.name}' is '{name}': " if hasattr(vehicle, "name") else ""
+        hint = stages(vehicle).hint
         raise ConfigError(f"{who}{STAGE_TEXT[stage]} is not available for '{name}' (it is "
-                          f"for: {', '.join(repr(n) for n in having(stage))})")
+                          f"for: {', '.join(repr(n) for n in having(stage))})"
+                          + (f"; {hint}" if hint else ""))
     return fn

@@ -564,7 +564,7 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     if not stages(veh).validate_suite:   # one line, before any test is simulated
         raise ConfigError(f"vehicle '{veh.name}' is '{stages(veh).name}': vehval validate "
                           "ranks simulations on the tests' conditions, not written for it; "
-                          f"{stages(veh).validate_hint}")
+                          f"{stages(veh).hint}")
     progress.add(len(runs))
     vals = []
     for one in runs:
