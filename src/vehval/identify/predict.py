@@ -213,3 +213,29 @@ def _results_stage(trace: Trace) -> dict:
             "results_name": name, "results_fuel_g": 1e3 * val,
             "results_fuel_U_g": None if u is None else 1e3 * u}
     return out
+
+
+def public_row(r: dict, vehicle=None) -> dict:
+    """A prediction row without its arrays, with the fuel economy of the measured and the
+    predicted fuel over the test's own distance (the test's fuel, else the vehicle's)."""
+    out = {k: v for k, v in r.items() if k not in ("sim", "trace")}
+    trace = r.get("trace")
+    if trace is None:
+        return out
+    import numpy as np
+
+    from vehval.fuels import fuel_consumption_l_per_100km, fuel_economy_mpg, fuel_volume_m3
+
+    sel = trace.phase > 0 if np.any(trace.phase > 0) else np.ones(trace.phase.size, dtype=bool)
+    dist = float(np.sum(trace.v[sel]) * trace.dt)
+    dens = trace.test_fuel.density_kg_per_m3 if trace.test_fuel is not None else None
+    if dens is None and vehicle is not None:
+        dens = getattr(vehicle.engine, "fuel_density_kg_per_m3", None)
+    out["distance_m"] = dist
+    for which in ("measured", "predicted"):
+        vol = fuel_volume_m3(out[f"fuel_{which}_g"] / 1e3, dens) if dens else None
+        out[f"fuel_economy_{which}_mpg"] = (float(fuel_economy_mpg(dist, vol))
+                                            if vol else None)
+        out[f"fuel_consumption_{which}_l_per_100km"] = (
+            float(fuel_consumption_l_per_100km(vol, dist)) if vol else None)
+    return out
