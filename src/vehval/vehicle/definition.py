@@ -140,6 +140,24 @@ ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]
     "power_split": Vehicle, "conventional": ConventionalVehicle,
     "battery_electric": BatteryElectricVehicle}
 
+#: Signal categories (signals.yaml) a powertrain of each architecture does not have: a
+#: template of that architecture may not map them and QA runs no check on them. The one
+#: table of which signals an architecture lacks.
+ABSENT_CATEGORIES: dict[str, tuple[str, ...]] = {
+    "battery_electric": ("engine", "fuel", "generator", "planetary", "converter", "gearbox"),
+    "conventional": ("generator", "planetary"),
+}
+#: What a template of each architecture must map: alternatives of signal base names (one
+#: alternative complete is enough).
+REQUIRED_SIGNALS: dict[str, tuple[tuple[str, ...], ...]] = {
+    "battery_electric": (("ess_volt", "ess_curr"), ("ess_pwr",)),
+}
+
+
+def absent_categories(architecture: str | None) -> tuple[str, ...]:
+    """Signal categories a car of ``architecture`` does not have (empty when unknown)."""
+    return ABSENT_CATEGORIES.get(architecture or "", ())
+
 
 def _foreign_key(data: dict, arch: str, model) -> str | None:
     """The first top-level key of ``data`` that belongs to another architecture only (an
