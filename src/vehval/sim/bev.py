@@ -9,6 +9,8 @@ efficiency, consumption per distance, MPGe, regenerated energy, SOC and the ener
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S as RPM
@@ -68,7 +70,7 @@ def summarise_bev(veh: BatteryElectricVehicle, ys: np.ndarray, soc0: float) -> d
     battery loss, motor loss, accessories, reduction loss, brakes, road load and the kinetic
     energy change).
     """
-    s = {k: float(v) for k, v in zip(BEV_SUMMARY, ys)}
+    s: dict[str, Any] = {k: float(v) for k, v in zip(BEV_SUMMARY, ys)}
     dist = s["distance_m"]
     dc = s["ess_dc_energy_j"]
     ac = ac_energy_j(dc, veh.charger.efficiency)

@@ -21,6 +21,7 @@ from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.errors import ConfigError
 from vehval.safe_yaml import read_yaml
 from vehval.vehicle.base import apply_overrides
+from vehval.vehicle.bev import BatteryElectricVehicle
 from vehval.vehicle.components import (
     BatteryParams,
     BodyParams,
@@ -31,7 +32,6 @@ from vehval.vehicle.components import (
     PlanetaryParams,
 )
 from vehval.vehicle.control import ControllerParams, DriverParams
-from vehval.vehicle.bev import BatteryElectricVehicle
 from vehval.vehicle.conventional import ConventionalVehicle
 from vehval.vehicle.maps import best_efficiency_line
 from vehval.vehicle.variant import resolve_variant
