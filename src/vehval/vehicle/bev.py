@@ -152,19 +152,24 @@ class BatteryElectricVehicle(BaseModel):
 
 def generic_motor_block(max_power_w: float, max_torque_nm: float, max_speed_rpm: float,
                         inertia_kg_m2: float, sources: dict[str, str],
+                        loss_scale: float = 1.0, loss_scale_source: str = "",
                         n_speed: int = 21, n_torque: int = 41) -> dict:
     """A ``motor`` block (dict, vehicle-file form) with the generic loss map.
 
     The loss map is the 2004 Prius MG2 + inverter surface (:data:`PRIUS_MG2_SURFACE`)
     scaled to ``max_speed_rpm`` and ``max_power_w``, tabulated on a grid of ``n_speed``
     speeds (0..max) and ``n_torque`` torques (-max..max). ``sources`` gives the sources of
-    the four ratings; the grid and map sources are added here.
+    the four ratings; the grid and map sources are added here. ``loss_scale`` multiplies
+    the scaled losses (a newer machine and inverter than the 2004 one), its source
+    ``loss_scale_source``.
     """
     spd = np.linspace(0.0, max_speed_rpm, n_speed)
     trq = np.linspace(-max_torque_nm, max_torque_nm, n_torque)
     s_w = max_speed_rpm / PRIUS_MG2_MAX_SPEED_RPM
     s_p = max_power_w / PRIUS_MG2_MAX_POWER_W
-    loss = loss_table(lambda w, t: scaled_losses(PRIUS_MG2_SURFACE, w, t, s_w, s_p), spd, trq)
+    loss = loss_table(lambda w, t: loss_scale * scaled_losses(PRIUS_MG2_SURFACE, w, t, s_w, s_p),
+                      spd, trq)
+    scale_text = "" if loss_scale == 1.0 else f"; losses x {loss_scale:.4g}: {loss_scale_source}"
     return {
         "speed_rpm": [round(float(x), 3) for x in spd],
         "torque_nm": [round(float(x), 3) for x in trq],
@@ -173,5 +178,6 @@ def generic_motor_block(max_power_w: float, max_torque_nm: float, max_speed_rpm:
         "sources": {**sources,
                     "speed_rpm": f"grid 0..max_speed_rpm, {n_speed} points",
                     "torque_nm": f"grid -max_torque_nm..max_torque_nm, {n_torque} points",
-                    "loss_w": PRIUS_MG2_SOURCE + f" (speed x {s_w:.4g}, power x {s_p:.4g})"},
+                    "loss_w": PRIUS_MG2_SOURCE + f" (speed x {s_w:.4g}, power x {s_p:.4g})"
+                    + scale_text},
     }
