@@ -248,6 +248,11 @@ def validate_cmd(
     if outdir is not None:
         check_outputs(outdir=outdir, inputs=[*paths, vehicle_path(vehicle)],
                       writes=["report.html", "epa_validation.json", "epa_validation.csv"])
+    from vehval.epa.bev import is_bev_vehicle, validate_bev, validation_text
+    if is_bev_vehicle(vehicle):  # electricity rows, judged in their own unit
+        doc = validate_bev(vehicle, _selected(paths, tests, dt), dt)
+        typer.echo(jsonsafe.dumps(doc) if as_json else validation_text(doc), nl=not as_json)
+        return
     with bar("epa validate: simulating tests", as_json=as_json):
         every: list = []
         val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every,
@@ -555,6 +560,14 @@ def vehicle_cmd(
     check_outputs(outfile=output, inputs=[*paths, *calibrate, *predict, template])
     rows = select_tests(read_lists(paths), make, model, year)
     rows = _narrow(rows, vehicle_id, config)
+    from vehval.epa.bev import is_bev_row, vehicle_from_rows
+    if rows and all(is_bev_row(r) for r in rows):  # electricity: a BEV from the row
+        bev = vehicle_from_rows(rows)
+        write_vehicle_yaml(bev, output, "vehval epa vehicle")
+        typer.echo(jsonsafe.dumps({"vehicle": bev.name, "architecture": bev.architecture})
+                   if as_json else f"battery-electric {bev.name} from {rows[0].source} and "
+                   f"generic maps\nwrote {output}", nl=not as_json)
+        return
     specs = specs_from_tests(rows)
     check_roles(calibrate, predict)
     files = [*calibrate, *predict]

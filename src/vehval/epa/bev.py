@@ -210,3 +210,71 @@ def mpge_of(value: float, unit: str) -> float:
 __all__ = ["CD_CYCLES", "MPGE_THRESHOLD", "RowJudgement", "bev_from_row", "is_bev_row",
            "judge_row", "kwh_per_100mi_from_mpge", "listed_figure", "mpge_of", "row_conditions",
            "simulate_row", "wheel_radius_from_nv"]
+
+
+#: Expanded relative uncertainty (k = 2) of a simulated list figure [-]: twice the standard
+#: deviation of the held-out relative errors of vehicles built from a row alone (2016 list
+#: judged with the loss scale fitted on 2019: 14.5 %; docs/validation.md).
+MODEL_U_REL = 2 * 0.145
+
+
+def is_bev_vehicle(vehicle: Any) -> bool:
+    """Whether a vehicle (name, path or model) is battery-electric."""
+    from vehval.vehicle import load_vehicle
+
+    return getattr(load_vehicle(vehicle), "architecture", "") == "battery_electric"
+
+
+def validate_bev(vehicle: Any, tests: list[EpaTest], dt: float = 1.0,
+                 u_model_rel: float = MODEL_U_REL) -> dict[str, Any]:
+    """Judge list rows on electricity with one battery-electric vehicle, each row on its own
+    test conditions (:func:`row_conditions`): rows, relative-error statistics, skipped rows.
+    """
+    from vehval.vehicle import load_vehicle
+
+    veh = load_vehicle(vehicle)
+    judged, skipped = [], []
+    for t in tests:
+        if not is_bev_row(t):
+            skipped.append({"row": t.source, "reason": "not a battery-electric "
+                            "charge-depleting UDDS or Highway row"})
+            continue
+        try:
+            judged.append(judge_row(veh, t, u_model_rel, dt).to_dict())
+        except ConfigError as exc:
+            skipped.append({"row": t.source, "reason": str(exc)})
+    errs = [j["error"] for j in judged]
+    stats = {"n": len(errs)}
+    if errs:
+        stats.update({"mean_error": sum(errs) / len(errs),
+                      "mean_abs_error": sum(abs(e) for e in errs) / len(errs),
+                      "n_consistent": sum(abs(j["en"]) <= 1 for j in judged)})
+    return {"vehicle": veh.name, "u_model_rel": u_model_rel, "rows": judged, "stats": stats,
+            "skipped": skipped}
+
+
+def validation_text(doc: dict[str, Any]) -> str:
+    """Screen text of :func:`validate_bev`."""
+    lines = [f"{'row':22s} {'cycle':6s} {'listed':>8} {'sim':>8} unit       {'err %':>6} "
+             f"{'En':>6}"]
+    for j in doc["rows"]:
+        lines.append(f"{j['row'][:22]:22s} {j['cycle']:6s} {j['listed']:8.1f} "
+                     f"{j['simulated']:8.1f} {j['unit']:10s} {100 * j['error']:+6.1f} "
+                     f"{j['en']:+6.2f}")
+    for s in doc["skipped"]:
+        lines.append(f"skipped {s['row']}: {s['reason']}")
+    st = doc["stats"]
+    if st["n"]:
+        lines.append(f"{st['n']} rows: mean error {100 * st['mean_error']:+.1f} %, mean "
+                     f"|error| {100 * st['mean_abs_error']:.1f} %, {st['n_consistent']} with "
+                     f"|En| <= 1 (U_model {100 * doc['u_model_rel']:.0f} %, k = 2)")
+    return "\n".join(lines)
+
+
+def vehicle_from_rows(rows: list[EpaTest]) -> BatteryElectricVehicle:
+    """`epa vehicle` for electricity rows: the vehicle of the first battery-electric row
+    (rows of one test vehicle share weight, road load and ratios)."""
+    bev = [t for t in rows if is_bev_row(t)]
+    if not bev:
+        raise ConfigError("no battery-electric charge-depleting row among the selected rows")
+    return bev_from_row(bev[0])
