@@ -24,11 +24,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 sys.path.insert(0, str(ROOT / "scripts"))
 
-from make_bev_vehicles import CARS, vehicle  # noqa: E402
+from make_bev_vehicles import vehicle  # noqa: E402
 
 from vehval.epa import read_lists  # noqa: E402
-from vehval.errors import ConfigError  # noqa: E402
 from vehval.epa.bev import bev_from_row, is_bev_row, judge_row, simulate_row  # noqa: E402
+from vehval.errors import ConfigError  # noqa: E402
 from vehval.vehicle.bev import BatteryElectricVehicle  # noqa: E402
 
 YEARS = {2016: "16tstcar.csv", 2019: "19tstcar.csv"}

@@ -11,7 +11,7 @@ import yaml
 
 from vehval.cycles import load_cycle
 from vehval.errors import ConfigError
-from vehval.fuels.electricity import (
+from vehval.fuels.quantities import (
     KWH_PER_GALLON_EQUIVALENT,
     kwh_per_100mi_from_mpge,
     mpge,

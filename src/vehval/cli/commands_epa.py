@@ -216,6 +216,20 @@ def _selected(paths: list[Path], selector: str, dt: float, every: list | None = 
     return selected
 
 
+def _validate_bev(paths: list[Path], vehicle: str, tests: str, dt: float,
+                  as_json: bool) -> bool:
+    """`epa validate` of a battery-electric vehicle: electricity rows judged in their own
+    unit (vehval.epa.bev); False for any other vehicle."""
+    from vehval import jsonsafe
+    from vehval.epa.bev import is_bev_vehicle, validate_bev, validation_text
+
+    if not is_bev_vehicle(vehicle):
+        return False
+    doc = validate_bev(vehicle, _selected(paths, tests, dt), dt)
+    typer.echo(jsonsafe.dumps(doc) if as_json else validation_text(doc), nl=not as_json)
+    return True
+
+
 @epa_app.command("validate")
 def validate_cmd(
     paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
@@ -248,10 +262,7 @@ def validate_cmd(
     if outdir is not None:
         check_outputs(outdir=outdir, inputs=[*paths, vehicle_path(vehicle)],
                       writes=["report.html", "epa_validation.json", "epa_validation.csv"])
-    from vehval.epa.bev import is_bev_vehicle, validate_bev, validation_text
-    if is_bev_vehicle(vehicle):  # electricity rows, judged in their own unit
-        doc = validate_bev(vehicle, _selected(paths, tests, dt), dt)
-        typer.echo(jsonsafe.dumps(doc) if as_json else validation_text(doc), nl=not as_json)
+    if _validate_bev(paths, vehicle, tests, dt, as_json):
         return
     with bar("epa validate: simulating tests", as_json=as_json):
         every: list = []

@@ -26,7 +26,7 @@ from pydantic import ValidationError
 from vehval.constants import MPH_M_PER_S
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
-from vehval.fuels.electricity import kwh_per_100mi_from_mpge
+from vehval.fuels.quantities import mpge_from_kwh_per_100mi
 from vehval.vehicle.bev import BatteryElectricVehicle
 from vehval.vehicle.bev_generic import bev_vehicle_data
 
@@ -202,13 +202,13 @@ def judge_row(veh: BatteryElectricVehicle, t: EpaTest, u_model_rel: float, dt: f
                         in_sample)
 
 
-def mpge_of(value: float, unit: str) -> float:
+def as_mpge(value: float, unit: str) -> float:
     """A listed or simulated figure as MPGe (kWh/100 mi converted)."""
-    return value if unit == "MPGe" else 100.0 * 33.705 / value if value > 0 else math.nan
+    return value if unit == "MPGe" else mpge_from_kwh_per_100mi(value)
 
 
 __all__ = ["CD_CYCLES", "MPGE_THRESHOLD", "RowJudgement", "bev_from_row", "is_bev_row",
-           "judge_row", "kwh_per_100mi_from_mpge", "listed_figure", "mpge_of", "row_conditions",
+           "judge_row", "as_mpge", "listed_figure", "row_conditions",
            "simulate_row", "wheel_radius_from_nv"]
 
 

@@ -9,7 +9,7 @@ module adds no second integral. From it and the phase distance:
   J1634 wall meter), else DC energy / charger efficiency (wall -> battery);
 - consumption: DC and AC Wh/mi, AC kWh/100 mi and kWh/100 km;
 - MPGe: distance over AC energy at 33.705 kWh per gallon equivalent
-  (:mod:`vehval.fuels.electricity`, the one owner of these conversions).
+  (:mod:`vehval.fuels.quantities`, the one owner of these conversions).
 
 The figures are the charge-depleting cycle energies a J1634 single-cycle or multi-cycle
 test sums per phase; a plug-in hybrid's charge-depleting phases take the same figures
@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from vehval.fuels.electricity import (
+from vehval.fuels.quantities import (
     ac_energy_j,
     kwh_per_100km,
     kwh_per_100mi,
@@ -49,7 +49,7 @@ def j1634_scope(dc_energy_j: float, distance_m: float, charger_efficiency: float
     measured_ac_j : float, optional
         AC recharge energy measured at the wall [J].
     u_dc_j : float, optional
-        Expanded uncertainty (k = 2) of the DC energy [J]; gives ``U_*`` of the AC figures.
+        Expanded uncertainty (k = 2) of the DC energy [J]; gives ``U_rel_dc_energy``.
     """
     ac = measured_ac_j if measured_ac_j is not None else ac_energy_j(dc_energy_j,
                                                                      charger_efficiency)
@@ -67,9 +67,7 @@ def j1634_scope(dc_energy_j: float, distance_m: float, charger_efficiency: float
     }
     if u_dc_j is not None and math.isfinite(u_dc_j) and dc_energy_j > 0:
         rel = u_dc_j / dc_energy_j
-        out["U_rel_dc_energy"] = rel
-        if measured_ac_j is None:
-            out["U_mpge"] = out["mpge"] * rel
+        out["U_rel_dc_energy"] = rel  # also that of every AC figure from it
     return out
 
 

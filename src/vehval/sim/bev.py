@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.fuels.electricity import ac_energy_j, kwh_per_100km, kwh_per_100mi, mpge, wh_per_mile
+from vehval.fuels.quantities import ac_energy_j, kwh_per_100km, kwh_per_100mi, mpge, wh_per_mile
 from vehval.sim.layout import BEV_PARAMS, BEV_SUMMARY
 from vehval.sim.packing import CHASSIS_FROM_FILE
 from vehval.vehicle.bev import BatteryElectricVehicle

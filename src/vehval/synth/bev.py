@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from vehval.constants import MPH_M_PER_S
-from vehval.fuels.electricity import ac_energy_j, kwh_per_100km, mpge, wh_per_mile
+from vehval.fuels.quantities import ac_energy_j, kwh_per_100km, mpge, wh_per_mile
 from vehval.io.atomic import atomic_dir, write_text_atomic
 
 NOISE = {"Dyno_Speed": 0.005, "Dyno_Tractive_Effort": 5.0, "HV_Battery_Voltage": 0.2,
