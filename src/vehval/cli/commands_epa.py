@@ -216,6 +216,26 @@ def _selected(paths: list[Path], selector: str, dt: float, every: list | None = 
     return selected
 
 
+def _none_runnable(val, tests: str) -> None:
+    """Refuse a selection of which the simulator can run no test (InputFileError)."""
+    from collections import Counter
+
+    from vehval.errors import InputFileError
+
+    by_reason: dict[str, Counter] = {}
+    for sk in val.skipped:
+        by_reason.setdefault(sk["reason"], Counter())[sk["description"]] += 1
+    kinds = "; ".join(", ".join(f"{n} {d}" for d, n in c.items()) + f": {why}"
+                      for why, c in by_reason.items())
+    runnable = {"ftp75", "hwfet", "us06"}
+    hint = ("select FTP-75, HWFET or US06 tests, e.g. add procedure=ftp75"
+            if any(sk["procedure"] not in runnable for sk in val.skipped) else
+            "select tests the list states on gasoline with their weight and road load")
+    raise InputFileError(
+        f"the selector '{tests}' matches {len(val.skipped)} test(s), none of which the "
+        f"simulator can run ({kinds}); {hint}")
+
+
 def _validate_bev(paths: list[Path], vehicle: str, tests: str, dt: float,
                   as_json: bool) -> bool:
     """`epa validate` of a battery-electric vehicle: electricity rows judged in their own
@@ -269,22 +289,7 @@ def validate_cmd(
         val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every,
                              model_uncertainty=model_u.replace("-", "_"), draws=draws)
     if not val.predictions:
-        from collections import Counter
-
-        from vehval.errors import InputFileError
-
-        by_reason: dict[str, Counter] = {}
-        for sk in val.skipped:
-            by_reason.setdefault(sk["reason"], Counter())[sk["description"]] += 1
-        kinds = "; ".join(", ".join(f"{n} {d}" for d, n in c.items()) + f": {why}"
-                          for why, c in by_reason.items())
-        runnable = {"ftp75", "hwfet", "us06"}
-        hint = ("select FTP-75, HWFET or US06 tests, e.g. add procedure=ftp75"
-                if any(sk["procedure"] not in runnable for sk in val.skipped) else
-                "select tests the list states on gasoline with their weight and road load")
-        raise InputFileError(
-            f"the selector '{tests}' matches {len(val.skipped)} test(s), none of which the "
-            f"simulator can run ({kinds}); {hint}")
+        _none_runnable(val, tests)
     written = []
     if outdir is not None:
         from vehval.report.epa import write_epa_report
