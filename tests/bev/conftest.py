@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from tests.helpers.bev import bev_data
+from helpers.bev import bev_data
 
 
 @pytest.fixture()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import yaml
 
-from tests.helpers.bev import bev_data
+from helpers.bev import bev_data
 from vehval.errors import ConfigError
 from vehval.sim.simulate import ARCHITECTURES, simulate
 from vehval.vehicle import BatteryElectricVehicle, load_vehicle
