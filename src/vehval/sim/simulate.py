@@ -164,7 +164,7 @@ def summarise(veh: Vehicle, ys: np.ndarray, soc0: float) -> dict[str, Any]:
     return s
 
 
-def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float = 0.1,
+def simulate(vehicle: Any, cycle: Cycle | str | Path, dt: float = 0.1,
              soc_initial: float | None = None, charge_balance: bool = False,
              cold_start: bool = False, **overrides: Any) -> SimResult:
     """Simulate ``vehicle`` over ``cycle``.
