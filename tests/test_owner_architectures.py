@@ -94,14 +94,18 @@ def test_the_registry_covers_every_simulated_architecture():
     for name, entry in REGISTRY.items():
         assert entry.name == name
         assert entry.family and entry.label and entry.hint
-        assert callable(entry.synth) and callable(entry.validate) and callable(entry.calibrate)
+        # every simulated car has a virtual test; validation and calibration where written
+        assert callable(entry.synth)
+        for stage in ("validate", "calibrate"):
+            fn = getattr(entry, stage)
+            assert fn is None or callable(fn), (name, stage)
 
 
 def test_a_stage_an_architecture_lacks_is_refused_naming_who_has_it():
     from vehval.architectures import REGISTRY, having, require
     from vehval.errors import ConfigError
 
-    for stage in ("analyze", "identify", "predict"):
+    for stage in ("analyze", "identify", "predict", "validate", "calibrate"):
         for name, entry in REGISTRY.items():
             if getattr(entry, stage) is None:
                 with pytest.raises(ConfigError) as exc:

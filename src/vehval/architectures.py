@@ -57,6 +57,12 @@ def _validate_conventional(run: Any, *, overrides: dict | None, **_: Any) -> Any
     return predict_comparison(run.vehicle, run.test, overrides)
 
 
+def _synth_battery_electric(*args: Any, **kw: Any) -> Any:
+    from vehval.synth.front import battery_electric_test
+
+    return battery_electric_test(*args, **kw)
+
+
 def _calibrate_power_split(*args: Any, **kw: Any) -> Any:
     from vehval.validate.calibrate_stage import calibrate_power_split
 
@@ -122,11 +128,11 @@ class Stages:
     name: str
     label: str
     family: str
-    synth: Callable[..., Any]
-    validate: Callable[..., Any]
-    validate_suite: bool
     hint: str
-    calibrate: Callable[..., Any]
+    validate_suite: bool = False
+    synth: Callable[..., Any] | None = None
+    validate: Callable[..., Any] | None = None
+    calibrate: Callable[..., Any] | None = None
     analyze: Callable[..., Any] | None = None
     identify: Callable[..., Any] | None = None
     predict: Callable[..., Any] | None = None
@@ -154,6 +160,11 @@ REGISTRY: dict[str, Stages] = {
              "calibrate",
         calibrate=_calibrate_conventional, identify=_identify_conventional,
         predict=_predict_conventional),
+    "battery_electric": Stages(
+        name="battery_electric", label="battery-electric car", family="electric",
+        synth=_synth_battery_electric,
+        hint="for a battery-electric car use vehval results (SAE J1634 energy and MPGe) or "
+             "vehval epa validate on the list's electricity rows"),
 }
 
 #: Text of each stage in a refusal.

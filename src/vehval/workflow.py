@@ -327,9 +327,9 @@ class TestRun:
         if self.vehicle is None:
             raise ConfigError("validation needs a vehicle model: pass --vehicle or set "
                               "'vehicle:' in the template")
-        from vehval.architectures import stages
+        from vehval.architectures import require
 
-        self._validation = ValidationOutcome(stages(self.vehicle).validate(
+        self._validation = ValidationOutcome(require(self.vehicle, "validate")(
             self, dt=dt, window_s=window_s, smooth_hz=smooth_hz, overrides=overrides))
         return self._validation
 

@@ -103,6 +103,23 @@ def _narrow(rows: list, vehicle_id: str | None, config: str | None) -> list:
     return rows
 
 
+def _bev_from_rows(rows: list, output: Path, as_json: bool) -> bool:
+    """Electricity rows: write a battery-electric vehicle from the row and generic maps
+    (vehval.epa.bev); False for any other rows."""
+    from vehval import jsonsafe
+    from vehval.calibration.provenance import write_vehicle_yaml
+    from vehval.epa.bev import is_bev_row, vehicle_from_rows
+
+    if not (rows and all(is_bev_row(r) for r in rows)):
+        return False
+    bev = vehicle_from_rows(rows)
+    write_vehicle_yaml(bev, output, "vehval epa vehicle")
+    typer.echo(jsonsafe.dumps({"vehicle": bev.name, "architecture": bev.architecture})
+               if as_json else f"battery-electric {bev.name} from {rows[0].source} and "
+               f"generic maps\nwrote {output}", nl=not as_json)
+    return True
+
+
 @epa_app.command("vehicle")
 def vehicle_cmd(
     paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
@@ -147,8 +164,10 @@ def vehicle_cmd(
     from vehval.workflow import TestRun
 
     check_outputs(outfile=output, inputs=[*paths, *calibrate, *predict, template])
-    specs = specs_from_tests(_narrow(select_tests(read_lists(paths), make, model, year),
-                                     vehicle_id, config))
+    rows = _narrow(select_tests(read_lists(paths), make, model, year), vehicle_id, config)
+    if _bev_from_rows(rows, output, as_json):
+        return
+    specs = specs_from_tests(rows)
     check_roles(calibrate, predict)
     files = [*calibrate, *predict]
     if files and template is None:

@@ -19,6 +19,20 @@ from vehval.cli.epa_common import (
 from vehval.cli.options import bounded, output_dir
 
 
+def _validate_bev(paths: list[Path], vehicle: str, tests: str, dt: float,
+                  as_json: bool) -> bool:
+    """`epa validate` of a battery-electric vehicle: electricity rows judged in their own
+    unit (vehval.epa.bev); False for any other vehicle."""
+    from vehval import jsonsafe
+    from vehval.epa.bev import is_bev_vehicle, validate_bev, validation_text
+
+    if not is_bev_vehicle(vehicle):
+        return False
+    doc = validate_bev(vehicle, _selected(paths, tests, dt), dt)
+    typer.echo(jsonsafe.dumps(doc) if as_json else validation_text(doc), nl=not as_json)
+    return True
+
+
 @epa_app.command("validate")
 def validate_cmd(
     paths: list[Path] = typer.Argument(..., help=_PATHS_HELP),
@@ -45,33 +59,20 @@ def validate_cmd(
     figures a set verdict (docs/validation.md)."""
     from vehval import jsonsafe
     from vehval.cli.progress import bar
-    from vehval.epa.validation import validate_tests
+    from vehval.epa.validation import none_runnable, validate_tests
     from vehval.io.paths import check_outputs, vehicle_path
     from vehval.report.epa import share_text
     if outdir is not None:
         check_outputs(outdir=outdir, inputs=[*paths, vehicle_path(vehicle)],
                       writes=["report.html", "epa_validation.json", "epa_validation.csv"])
+    if _validate_bev(paths, vehicle, tests, dt, as_json):
+        return
     with bar("epa validate: simulating tests", as_json=as_json):
         every: list = []
         val = validate_tests(vehicle, _selected(paths, tests, dt, every), dt=dt, reference=every,
                              model_uncertainty=model_u.replace("-", "_"), draws=draws)
     if not val.predictions:
-        from collections import Counter
-
-        from vehval.errors import InputFileError
-
-        by_reason: dict[str, Counter] = {}
-        for sk in val.skipped:
-            by_reason.setdefault(sk["reason"], Counter())[sk["description"]] += 1
-        kinds = "; ".join(", ".join(f"{n} {d}" for d, n in c.items()) + f": {why}"
-                          for why, c in by_reason.items())
-        runnable = {"ftp75", "hwfet", "us06"}
-        hint = ("select FTP-75, HWFET or US06 tests, e.g. add procedure=ftp75"
-                if any(sk["procedure"] not in runnable for sk in val.skipped) else
-                "select tests the list states on gasoline with their weight and road load")
-        raise InputFileError(
-            f"the selector '{tests}' matches {len(val.skipped)} test(s), none of which the "
-            f"simulator can run ({kinds}); {hint}")
+        none_runnable(val, tests)
     written = []
     if outdir is not None:
         from vehval.report.epa import write_epa_report

@@ -35,14 +35,14 @@ def synth_cmd(
 ) -> None:
     """Simulate VEHICLE on CYCLE and write it as a virtual dyno test: a D3 facility file, an
     OBD logger file, an import template and truth.json (every injected offset and fault)."""
-    from vehval.architectures import stages
+    from vehval.architectures import require
     from vehval.io.paths import check_outputs, vehicle_path
     from vehval.vehicle import load_vehicle
 
     check_outputs(outdir=out, inputs=[vehicle_path(vehicle), vehicle_path(cycle),
                                       vehicle_path(faults)])
     veh = load_vehicle(vehicle)
-    made = stages(veh).synth(veh, vehicle, cycle, seed, faults, out, _pairs(control, "--control"),
+    made = require(veh, "synth")(veh, vehicle, cycle, seed, faults, out, _pairs(control, "--control"),
                              _pairs(param, "--param"), force)
     if as_json:
         typer.echo(json.dumps(made.document, indent=1))

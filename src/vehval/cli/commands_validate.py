@@ -134,7 +134,7 @@ def calibrate_cmd(
 ) -> None:
     """Tune vehicle parameters on several tests and check them on held-out tests: writes
     calibration.json and vehicle_calibrated.yaml (tuned values with their provenance)."""
-    from vehval.architectures import stages
+    from vehval.architectures import require
     from vehval.cli.progress import bar
     from vehval.io.atomic import atomic_dir
     from vehval.jsonsafe import dumps
@@ -154,7 +154,7 @@ def calibrate_cmd(
     opts = {"params": params, "start": start, "template": template, "dt": dt,
             "popsize": popsize, "maxiter": maxiter, "seed": seed, "mode": mode,
             "smooth_hz": smooth_hz}
-    cal = stages(veh).calibrate(veh, load, opts, lambda label: bar(label, as_json=as_json))
+    cal = require(veh, "calibrate")(veh, load, opts, lambda label: bar(label, as_json=as_json))
     with atomic_dir(output) as stage:
         cal.write(stage)
     if as_json:

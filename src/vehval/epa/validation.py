@@ -574,3 +574,24 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     judge(res, veh, tests if reference is None else reference, method=model_uncertainty,
           draws=draws)
     return res
+
+
+def none_runnable(val: EpaValidation, tests: str) -> None:
+    """Refuse a selection of which the simulator can run no test (InputFileError naming the
+    selector, what it matched and why each kind cannot run)."""
+    from collections import Counter
+
+    from vehval.errors import InputFileError
+
+    by_reason: dict[str, Counter] = {}
+    for sk in val.skipped:
+        by_reason.setdefault(sk["reason"], Counter())[sk["description"]] += 1
+    kinds = "; ".join(", ".join(f"{n} {d}" for d, n in c.items()) + f": {why}"
+                      for why, c in by_reason.items())
+    runnable = {"ftp75", "hwfet", "us06"}
+    hint = ("select FTP-75, HWFET or US06 tests, e.g. add procedure=ftp75"
+            if any(sk["procedure"] not in runnable for sk in val.skipped) else
+            "select tests the list states on gasoline with their weight and road load")
+    raise InputFileError(
+        f"the selector '{tests}' matches {len(val.skipped)} test(s), none of which the "
+        f"simulator can run ({kinds}); {hint}")

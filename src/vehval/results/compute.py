@@ -132,6 +132,8 @@ class TestResults:
     #: Scope -> withheld entry (:func:`vehval.results.gate.apply_gate`).
     withheld: dict[str, dict] = field(default_factory=dict)
     forced: bool = False
+    #: SAE J1634 figures of a battery-electric test (:mod:`vehval.results.j1634`), else None.
+    j1634: dict[str, Any] | None = None
 
     def value(self, scope: str, quantity: str) -> float | None:
         """A result value [SI] of a scope (``test``, a phase name or a composite name)."""
@@ -177,6 +179,7 @@ class TestResults:
             "units": {**QUANTITIES, **COMPOSITE_QUANTITIES},
             "findings": [f.to_dict() for f in self.findings],
             "notes": list(self.notes),
+            **({"j1634": self.j1634} if self.j1634 is not None else {}),
         })
 
 
@@ -548,5 +551,19 @@ def results_from_template(test: Test, template: Any, **kw: Any) -> TestResults:
     fuel = resolve_fuel(template=template, test=test)
     kw.setdefault("soc_factor", getattr(template.constants, "soc_correction_fuel_j_per_battery_j",
                                         None))
-    return compute_results(test, fuel=fuel, accuracy=template.accuracy,
-                           phase_channel=template.phase_channel, **kw)
+    res = compute_results(test, fuel=fuel, accuracy=template.accuracy,
+                          phase_channel=template.phase_channel, **kw)
+    if getattr(template, "architecture", None) == "battery_electric":
+        from vehval.results.j1634 import j1634_results
+        res.j1634 = j1634_results(res, _charger_efficiency(template))
+    return res
+
+
+def _charger_efficiency(template: Any) -> float | None:
+    """The charger efficiency of the template's battery-electric vehicle file, if any."""
+    if not getattr(template, "vehicle", None):
+        return None
+    from vehval.vehicle import load_vehicle
+    veh = load_vehicle(template.vehicle)
+    charger = getattr(veh, "charger", None)
+    return None if charger is None else float(charger.efficiency)

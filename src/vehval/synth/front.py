@@ -77,3 +77,27 @@ def conventional_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str
         f"measurement) in {out}",
         f"identify it with: vehval identify {' '.join(truth['files'])} -t "
         f"{truth['template']} --architecture conventional -o VEHICLE.yaml"])
+
+
+def battery_electric_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str,
+                          out: Path, control: dict, param: dict, force: bool) -> VirtualTest:
+    """A battery-electric car on ``cycle``: dyno speed and force, battery volts and amps with
+    noise, and the SAE J1634 answer key, written into ``out`` (no fault mix, no controller)."""
+    from vehval.cycles import load_cycle
+    from vehval.synth.bev import make_bev_test
+
+    if control:
+        raise ConfigError("--control: a battery-electric vehicle has no supervisory controller")
+    if faults not in ("default", "none"):
+        raise ConfigError("--faults: fault files apply to power-split virtual tests only")
+    if param:
+        raise ConfigError("--param: vehicle overrides apply to hybrid and conventional "
+                          "virtual tests; edit the battery-electric vehicle file instead")
+    truth = make_bev_test(veh, load_cycle(cycle), seed, out)
+    doc = {"files": truth["files"], "template": truth["template"],
+           "truth": str(out / "truth.json")}
+    return VirtualTest(doc, [
+        f"virtual battery-electric test '{truth['test_id']}' (VIRTUAL: synthetic, not a "
+        f"measurement) in {out}",
+        f"its SAE J1634 figures: vehval results {' '.join(truth['files'])} -t "
+        f"{truth['template']}"])

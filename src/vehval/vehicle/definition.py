@@ -21,6 +21,7 @@ from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.errors import ConfigError
 from vehval.safe_yaml import read_yaml
 from vehval.vehicle.base import apply_overrides
+from vehval.vehicle.bev import BatteryElectricVehicle
 from vehval.vehicle.components import (
     BatteryParams,
     BodyParams,
@@ -134,8 +135,42 @@ _BEST_LINE_KEYS = {f"engine.{k}" for k in (
     "max_speed_rpm", "max_power_w")}
 
 
-ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]] = {
-    "power_split": Vehicle, "conventional": ConventionalVehicle}
+ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]
+                   | type[BatteryElectricVehicle]] = {
+    "power_split": Vehicle, "conventional": ConventionalVehicle,
+    "battery_electric": BatteryElectricVehicle}
+
+#: Signal categories (signals.yaml) a powertrain of each architecture does not have: a
+#: template of that architecture may not map them and QA runs no check on them. The one
+#: table of which signals an architecture lacks.
+ABSENT_CATEGORIES: dict[str, tuple[str, ...]] = {
+    "battery_electric": ("engine", "fuel", "generator", "planetary", "converter", "gearbox"),
+    "conventional": ("generator", "planetary"),
+}
+#: What a template of each architecture must map: alternatives of signal base names (one
+#: alternative complete is enough).
+REQUIRED_SIGNALS: dict[str, tuple[tuple[str, ...], ...]] = {
+    "battery_electric": (("ess_volt", "ess_curr"), ("ess_pwr",)),
+}
+
+
+def absent_categories(architecture: str | None) -> tuple[str, ...]:
+    """Signal categories a car of ``architecture`` does not have (empty when unknown)."""
+    return ABSENT_CATEGORIES.get(architecture or "", ())
+
+
+def _foreign_key(data: dict, arch: str, model) -> str | None:
+    """The first top-level key of ``data`` that belongs to another architecture only (an
+    engine block in a battery-electric file...), or None."""
+    own = set(model.model_fields)
+    for key in data:
+        if key in own:
+            continue
+        for other, m in ARCHITECTURES.items():
+            if other != arch and key in m.model_fields:
+                return f"key '{key}' belongs to a {other} vehicle, not a {arch} one: " \
+                       f"remove it or change 'architecture'"
+    return None
 
 
 def _vehicles_dir() -> Path:
@@ -156,6 +191,9 @@ def _validate(data: Any, where: str):
     if model is None:
         raise ConfigError(f"{where}: key 'architecture': unknown architecture {arch!r} "
                           f"(known: {', '.join(ARCHITECTURES)})")
+    foreign = _foreign_key(data, arch, model)
+    if foreign:
+        raise ConfigError(f"{where}: mixed architectures: {foreign}")
     try:
         veh = model.model_validate(copy.deepcopy(data))
     except ValidationError as exc:
@@ -190,7 +228,8 @@ def _read_base(name: str, here: Path) -> tuple[Any, str]:
     return read_yaml(path), str(path)
 
 
-def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
+def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle
+                 | BatteryElectricVehicle):
     """Load a vehicle by name (shipped file) or from a YAML path.
 
     Raises
@@ -199,7 +238,7 @@ def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle):
         Unknown name, unreadable file, or any invalid / missing / unknown key (the message
         names the key and the file).
     """
-    if isinstance(name_or_path, (Vehicle, ConventionalVehicle)):
+    if isinstance(name_or_path, (Vehicle, ConventionalVehicle, BatteryElectricVehicle)):
         return name_or_path
     path = _find(str(name_or_path))
     data = read_yaml(path)
