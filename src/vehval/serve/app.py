@@ -167,17 +167,21 @@ class Workbench:
         self.token = token or sec.new_secret()
         self.csrf = sec.new_secret()
         self.extra_hosts = extra_hosts
-        self._benches: dict[Path, Bench] = {}
+        self._benches: dict[tuple[Path, str | None], Bench] = {}
         self._lock = threading.Lock()
 
-    def bench(self, rel: str | None) -> Bench:
+    def bench(self, rel: str | None, test: str | None = None) -> Bench:
+        """The bench of folder ``rel`` (of its test ``test`` in a folder of many tests)."""
         folder = sec.inside_workspace(self.root, rel)
         if not folder.is_dir():
             raise InputFileError(f"{rel}: not a folder of the workspace")
+        if test is not None and test not in folder_tests(self.root, folder):
+            raise InputFileError(f"{rel}: no test '{test[:80]}' in the folder (open one the "
+                                 "home page lists)")
         with self._lock:
-            if folder not in self._benches:
-                self._benches[folder] = Bench(folder, self.root)
-            return self._benches[folder]
+            if (folder, test) not in self._benches:
+                self._benches[(folder, test)] = Bench(folder, self.root, test)
+            return self._benches[(folder, test)]
 
     def tests(self, limit: int = MAX_TESTS) -> tuple[list[dict], list[dict]]:
         """Folders holding raw data files or a template (3 levels deep at most), and what the
@@ -207,7 +211,13 @@ class Workbench:
                      for x in gone]
             has_tpl = any(p.name == TEMPLATE_NAME for p in listing.files)
             if data or has_tpl:
-                out.append({"dir": rel, "files": [p.name for p in data], "template": has_tpl, "qa": _qa_done(self.root, d)})
+                many = folder_tests(self.root, d, listing) if has_tpl else {}
+                for tid, name in many.items():
+                    out.append({"dir": rel, "test": tid, "files": [name], "template": True,
+                                "qa": _qa_done(self.root, d / QA_DIR / tid)})
+                if not many:
+                    out.append({"dir": rel, "test": None, "files": [p.name for p in data],
+                                "template": has_tpl, "qa": _qa_done(self.root, d / QA_DIR)})
             if depth >= 3:
                 continue
             for sub in listing.dirs:
@@ -218,12 +228,33 @@ class Workbench:
         return out, sec.bounded_left_out(left, 100)
 
 
-def _qa_done(root: Path, folder: Path) -> bool:
-    """True when the folder holds ``qa/findings.json`` (inside the workspace)."""
+def _qa_done(root: Path, qa: Path) -> bool:
+    """True when the QA folder ``qa`` holds ``findings.json`` (inside the workspace)."""
     try:
-        return sec.regular_file(root, folder / QA_DIR / "findings.json", "findings") is not None
+        return sec.regular_file(root, qa / "findings.json", "findings") is not None
     except VehvalError:
         return False
+
+
+def folder_tests(root: Path, folder: Path, listing: sec.Listing | None = None) -> dict[str, str]:
+    """``{test id: file name}`` of a folder of many tests (its saved template takes one file
+    per test: :func:`vehval.batch.discover.file_tests`); ``{}`` for a folder of one test or
+    without a readable template."""
+    from vehval.batch.discover import file_tests
+    from vehval.io.template import template_from_data
+    from vehval.safe_yaml import load_yaml
+
+    try:
+        path = sec.regular_file(root, folder / TEMPLATE_NAME, TEMPLATE_NAME)
+        if path is None:
+            return {}
+        tmpl = template_from_data(load_yaml(path.read_text(encoding="utf-8"), TEMPLATE_NAME),
+                                  TEMPLATE_NAME)
+        data, _ = pick_data(listing or sec.list_folder(root, folder), tmpl)
+    except VehvalError:
+        return {}
+    ordered = sorted(data, key=lambda p: p.name)
+    return {spec.test_id: p.name for p, spec in zip(ordered, file_tests(ordered, tmpl))}
 
 
 # --------------------------------------------------------------------------- pages
@@ -250,10 +281,15 @@ async def test_page(request: Request) -> Response:
     wb: Workbench = request.app.state.workbench
     try:
         q = prm.parse_query(prm.DirQuery, request.query_params.multi_items())
-        wb.bench(q.dir)
+        wb.bench(q.dir, q.test)
+        many = folder_tests(wb.root, sec.inside_workspace(wb.root, q.dir)) if q.test is None else {}
     except VehvalError as exc:
         return _page("error.html", request, message=str(exc))
-    return _page("test.html", request, dir=q.dir)
+    if many:
+        return _page("error.html", request, message=(
+            f"{q.dir}: {len(many)} tests under one template (one data file each): open one "
+            "of them from the home page's list"))
+    return _page("test.html", request, dir=q.dir, test=q.test)
 
 
 async def catalog_page(request: Request) -> Response:
@@ -306,32 +342,32 @@ async def files(request: Request) -> Response:
 # --------------------------------------------------------------------------- API
 def api_test(wb: Workbench, q: prm.DirQuery, body: None) -> dict:
     """The test page's model (GET: reads only)."""
-    return {"dir": q.dir, **wb.bench(q.dir).overview()}
+    return {"dir": q.dir, **wb.bench(q.dir, q.test).overview()}
 
 
 def api_channel(wb: Workbench, q: prm.ChannelQuery, body: None) -> dict:
-    return wb.bench(q.dir).channel(q.file, q.raw, q.t0, q.t1, q.n)
+    return wb.bench(q.dir, q.test).channel(q.file, q.raw, q.t0, q.t1, q.n)
 
 
 def api_signal(wb: Workbench, q: prm.SignalQuery, body: None) -> dict:
     """One signal of the last QA run (409 before QA ran: a GET never runs it)."""
-    return wb.bench(q.dir).signal(q.name, q.t0, q.t1, q.n)
+    return wb.bench(q.dir, q.test).signal(q.name, q.t0, q.t1, q.n)
 
 
 def api_save(wb: Workbench, q: prm.DirQuery, body: prm.TemplateEdits) -> dict:
-    b = wb.bench(q.dir)
+    b = wb.bench(q.dir, q.test)
     b.save_edits(body.edits())
     b.rerun()
     return api_test(wb, q, None)
 
 
 def api_run(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
-    wb.bench(q.dir).rerun()
+    wb.bench(q.dir, q.test).rerun()
     return api_test(wb, q, None)
 
 
 def api_selection(wb: Workbench, q: prm.DirQuery, body: prm.Decision) -> dict:
-    b = wb.bench(q.dir)
+    b = wb.bench(q.dir, q.test)
     b.decide(body.signal, body.action, body.reason)
     b.rerun()
     return api_test(wb, q, None)
@@ -340,7 +376,7 @@ def api_selection(wb: Workbench, q: prm.DirQuery, body: prm.Decision) -> dict:
 def api_model(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
     from vehval.serve.model_view import model_overlay
 
-    return model_overlay(wb.bench(q.dir))
+    return model_overlay(wb.bench(q.dir, q.test))
 
 
 def _report_of(wb: Workbench, base: Path, test_id: Any) -> str | None:

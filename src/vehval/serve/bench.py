@@ -82,11 +82,15 @@ class Bench:
         The test folder (inside the workspace, resolved).
     root : Path, optional
         The workspace (resolved; default: the folder): nothing outside it is read.
+    test : str, optional
+        One test of a folder of many (a data file of its own under a one-entry template, the
+        batch rule: :func:`vehval.batch.discover.file_tests`); its QA goes to ``qa/TEST/``.
     """
 
-    def __init__(self, folder: Path, root: Path | None = None) -> None:
+    def __init__(self, folder: Path, root: Path | None = None, test: str | None = None) -> None:
         self.folder = folder
         self.root = root or folder
+        self.test = test
         self.lock = threading.RLock()
         self._raw: dict[str, tuple[float, Any]] = {}
         self.run: Any = None
@@ -119,8 +123,30 @@ class Bench:
         return _placeholder_text(tmpl)
 
     def _label(self) -> str:
-        return sec.relative(self.root, self.folder) if self.folder != self.root else \
+        where = sec.relative(self.root, self.folder) if self.folder != self.root else \
             "the workspace folder"
+        return f"{where} (test {self.test})" if self.test else where
+
+    def test_files(self, tmpl: Any, listing: sec.Listing | None = None) -> tuple[list[Path], list[dict]]:
+        """The data files of this test (all the folder's, or the one of :attr:`test`) and what
+        the listing left out."""
+        from vehval.batch.discover import file_tests
+
+        listing = listing or sec.list_folder(self.root, self.folder)
+        files, left = pick_data(listing, tmpl)
+        if self.test is None:
+            return files, left
+        ordered = sorted(files, key=lambda p: p.name)
+        for path, spec in zip(ordered, file_tests(ordered, tmpl)):
+            if spec.test_id == self.test:
+                return [path], left
+        raise InputFileError(f"{self._label()}: no such test in the folder (its template "
+                             "takes one file per test: open one listed on the home page)")
+
+    @property
+    def qa_path(self) -> Path:
+        """Where QA writes: ``qa/`` of the folder, ``qa/TEST/`` for one test of many."""
+        return self.folder / QA_DIR / self.test if self.test else self.folder / QA_DIR
 
     def template(self) -> Any:
         """The template model (saved or proposed), validated as ``vehval`` loads it."""
@@ -217,14 +243,14 @@ class Bench:
                 from vehval.io.template import load_template
 
                 tmpl = load_template(self.template_path)
-                files, _ = data_files(self.folder, tmpl, self.root)
+                files, _ = self.test_files(tmpl)
                 if not files:
                     raise InputFileError(f"{self._label()}: no raw data file the template "
                                          "matches in the folder")
                 run = TestRun.load(files, tmpl)
                 qa = run.qa()
                 results = run.results().results
-                with atomic_dir(self.folder / QA_DIR) as stage:
+                with atomic_dir(self.qa_path) as stage:
                     write_text_atomic(stage / "findings.json", json.dumps(qa.document, indent=1))
                     write_text_atomic(stage / "results.json", json.dumps(results.to_dict(), indent=1))
                     write_test(qa.result.validated, stage / "validated.parquet")
@@ -243,11 +269,12 @@ class Bench:
 
     def _qa_dir(self) -> Path:
         """``qa/`` of the folder: absent or a folder of its own (never a link, a file...)."""
-        d = self.folder / QA_DIR
-        if os.path.lexists(d) and (os.path.islink(d) or not d.is_dir()):
-            raise InputFileError(f"{QA_DIR}: a symlink or a file, not the test's own folder: "
-                                 "refused: remove it so QA can write its outputs there")
-        return d
+        for d in (self.folder / QA_DIR, self.qa_path):
+            if os.path.lexists(d) and (os.path.islink(d) or not d.is_dir()):
+                raise InputFileError(f"{sec.relative(self.folder, d)}: a symlink or a file, not "
+                                     "the test's own folder: refused: remove it so QA can "
+                                     "write its outputs there")
+        return self.qa_path
 
     def _load_outputs(self) -> None:
         """The last QA outputs of the folder (``qa/``), when present (never through a link
@@ -273,7 +300,7 @@ class Bench:
         left = listing.left_out
         try:
             tmpl = self.template()
-            files, left = pick_data(listing, tmpl if saved else None)
+            files, left = self.test_files(tmpl, listing) if saved else pick_data(listing, None)
         except sec.OutsideWorkspace:
             raise
         except VehvalError as exc:

@@ -44,9 +44,11 @@ class _Query(BaseModel):
 
 
 class DirQuery(_Query):
-    """``dir``: a test folder, relative to the workspace (default: the workspace)."""
+    """``dir``: a test folder, relative to the workspace (default: the workspace); ``test``:
+    one test of a folder of many (its id, the data file's name without extension)."""
 
     dir: str = "."
+    test: str | None = Field(None, min_length=1, max_length=200)
 
 
 class _Window(DirQuery):
