@@ -373,10 +373,19 @@ def api_selection(wb: Workbench, q: prm.DirQuery, body: prm.Decision) -> dict:
     return api_test(wb, q, None)
 
 
-def api_model(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
-    from vehval.serve.model_view import model_overlay
+def api_model(wb: Workbench, q: prm.DirQuery, body: prm.NoBody | None) -> dict:
+    """Model and test: GET the vehicle it will simulate and the kept result; POST runs it."""
+    from vehval.serve import flow
 
-    return model_overlay(wb.bench(q.dir, q.test))
+    b = wb.bench(q.dir, q.test)
+    return flow.kept(b) if body is None else flow.run_model(b)
+
+
+def api_report(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
+    """Build the test's static report (``vehval report``'s code) and name it."""
+    from vehval.serve import flow
+
+    return flow.build_report(wb.bench(q.dir, q.test))
 
 
 def _report_of(wb: Workbench, base: Path, test_id: Any) -> str | None:
@@ -436,6 +445,8 @@ def create_app(workspace: str | Path, *, token: str | None = None,
         Route("/api/selection", _api(api_selection, prm.DirQuery, prm.Decision),
               methods=["POST"]),
         Route("/api/model", _api(api_model, prm.DirQuery, prm.NoBody), methods=["POST"]),
+        Route("/api/model", _api(api_model, prm.DirQuery)),
+        Route("/api/report", _api(api_report, prm.DirQuery, prm.NoBody), methods=["POST"]),
         Route("/api/catalog", _api(api_catalog, prm.CatalogQuery)),
         Route("/api/catalog/trace", _api(api_trace, prm.TraceQuery)),
     ]
