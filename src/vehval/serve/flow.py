@@ -137,7 +137,8 @@ def kept(bench: Any) -> dict:
 
 
 def run_model(bench: Any) -> dict:
-    """``POST /api/model``: run model and test for ``bench`` and keep the result."""
+    """``POST /api/model``: run model and test for ``bench`` and keep the result (returned:
+    ``vehicle``, ``vehicle_text``, ``tables``, ``traces``, ``notes``, ``architecture``...)."""
     from vehval.io.atomic import write_text_atomic
     from vehval.jsonsafe import clean
 
@@ -150,8 +151,7 @@ def run_model(bench: Any) -> dict:
         path = _state_file(bench)
         path.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomic(path, json.dumps({"inputs": digest, "result": result}))
-    return {"vehicle_text": p["vehicle_text"], "architecture": p["architecture"],
-            "result": result, "stale": False}
+    return {**result, "architecture": p["architecture"]}
 
 
 def simulate(architecture: str, bench: Any, p: dict) -> dict:

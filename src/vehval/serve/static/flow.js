@@ -116,7 +116,7 @@
     const out = document.getElementById("model-out");
     out.textContent = "simulating...";
     modelLoaded = true;
-    try { showModel(await api("/api/model", {})); }
+    try { const r = await api("/api/model", {}); showModel({vehicle_text: r.vehicle_text, result: r}); }
     catch (e) { out.textContent = ""; showError(e.message); }
   });
 
