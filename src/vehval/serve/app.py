@@ -77,7 +77,7 @@ class _Guard(BaseHTTPMiddleware):
         given = request.query_params.get("token")
         if given is not None:
             if not sec.same(given, wb.token):
-                return _forbidden("wrong token: open the URL `vehval serve` printed")
+                return _forbidden("wrong token: open the URL `vehval serve` printed", request)
             if request.method == "GET":  # the token leaves the URL for a cookie
                 query = urlencode([(k, v) for k, v in request.query_params.multi_items()
                                    if k != "token"])
@@ -88,7 +88,7 @@ class _Guard(BaseHTTPMiddleware):
                 return resp
         elif not (sec.same(request.cookies.get(sec.TOKEN_COOKIE), wb.token)
                   or sec.same(request.headers.get(sec.TOKEN_HEADER), wb.token)):
-            return _forbidden("token required: open the URL `vehval serve` printed")
+            return _forbidden("token required: open the URL `vehval serve` printed", request)
         if request.url.path.startswith("/api/") and \
                 request.headers.get("sec-fetch-site") in FOREIGN_SITES:
             return _forbidden("request refused: made by a page of another origin")
@@ -108,8 +108,20 @@ class _Guard(BaseHTTPMiddleware):
         return response
 
 
-def _forbidden(message: str) -> Response:
-    return JSONResponse({"error": message}, status_code=403)
+def _forbidden(message: str, request: Request | None = None) -> Response:
+    """403: JSON ``{"error"}`` for the API and clients asking for JSON; for a browser
+    opening a page, an HTML page saying what to do."""
+    if request is None or request.url.path.startswith("/api/") or \
+            "text/html" not in request.headers.get("accept", ""):
+        return JSONResponse({"error": message}, status_code=403)
+    from html import escape
+
+    body = (f"<!doctype html><html lang=en><head><meta charset=utf-8><title>vehval workbench: "
+            f"access refused</title></head><body><h1>vehval workbench: access refused</h1>"
+            f"<p id=error>{escape(message)}.</p><p>Open the workbench with the URL "
+            "<code>vehval serve</code> printed in its terminal (it holds the token, valid "
+            "until that server stops); after a restart, use the new URL.</p></body></html>")
+    return HTMLResponse(body, status_code=403)
 
 
 async def _body(request: Request) -> bytes:

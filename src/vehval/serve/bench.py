@@ -316,14 +316,18 @@ class Bench:
             out_files.append(self._file_view(i, entry, path, hints))
         from vehval.fuels import known_fuels
 
+        selection = _with_user_drops((self.state.findings or {}).get("selection") or {},
+                                     tmpl.selection.drop)
+        summary = (self.state.findings or {}).get("summary")
+        if isinstance(summary, dict):   # the user's drops count (removed before QA saw them)
+            summary = {**summary, "dropped": len(selection["dropped"])}
         return {"saved": saved, "files": out_files, "left_out": left,
                 "fuel": tmpl.fuel if isinstance(tmpl.fuel, str) or tmpl.fuel is None else "explicit",
                 "fuels": list(known_fuels()), "findings": findings,
-                "selection": _with_user_drops((self.state.findings or {}).get("selection") or {},
-                                              tmpl.selection.drop),
+                "selection": selection,
                 "user_selection": tmpl.selection.model_dump(),
                 "headline": headline(self.state.results),
-                "summary": (self.state.findings or {}).get("summary"),
+                "summary": summary,
                 "error": self.state.error, "notes": self.state.notes}
 
     def _file_view(self, i: int, entry: Any, path: Path | None, hints: dict) -> dict:

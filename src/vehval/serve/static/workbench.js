@@ -132,6 +132,7 @@
       for (const f of m.files) {
         files.append(el("h2", {text: (f.file || "(no file matches " + (f.match || "") + ")") + " "},
                         "source ", el("input", {class: "src", value: f.source, "data-file": f.index, size: 8})));
+        for (const n of f.notes || []) files.append(el("div", {class: "note file-note", text: "read with a repair: " + n}));
         const tb = el("tbody");
         for (const c of f.channels) {
           const hints = el("div", {class: "hints"});
