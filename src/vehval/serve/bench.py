@@ -33,6 +33,9 @@ TEMPLATE_NAME = "template.yaml"
 QA_DIR = "qa"
 #: Finding kinds shown as unit hints beside a channel.
 UNIT_KINDS = ("unit", "unit_suspect")
+#: Template constants of the tested car the page edits (test mass [kg], road load A [N],
+#: B [N/(m/s)], C [N/(m/s)²]).
+CAR_CONSTANTS = ("test_mass_kg", "road_load_a_n", "road_load_b_n_per_mps", "road_load_c_n_per_mps2")
 #: Most data files of one test folder read (by name); a folder holding more is not one test.
 MAX_DATA_FILES = 64
 
@@ -192,11 +195,24 @@ class Bench:
                 _edit_channel(files, ch)
             for idx, src in (edits.get("sources") or {}).items():
                 _entry(files, idx)["source"] = str(src)
-            if "fuel" in edits:
-                if edits["fuel"]:
-                    data["fuel"] = str(edits["fuel"])
+            for key in ("fuel", "vehicle", "vehicle_name"):
+                if key in edits:
+                    if edits[key] and str(edits[key]).strip():
+                        data[key] = str(edits[key]).strip()
+                    else:
+                        data.pop(key, None)
+            if edits.get("vehicle"):
+                _check_vehicle(data["vehicle"])
+            consts = data.get("constants") or {}
+            for key, value in (edits.get("constants") or {}).items():
+                if value is None:
+                    consts.pop(key, None)
                 else:
-                    data.pop("fuel", None)
+                    consts[key] = value
+            if consts:
+                data["constants"] = consts
+            else:
+                data.pop("constants", None)
             self._write(old, data)
 
     def decide(self, signal: str, action: str, reason: str = "") -> None:
@@ -322,6 +338,8 @@ class Bench:
         if isinstance(summary, dict):   # the user's drops count (removed before QA saw them)
             summary = {**summary, "dropped": len(selection["dropped"])}
         return {"saved": saved, "files": out_files, "left_out": left,
+                "vehicle": tmpl.vehicle, "vehicle_name": tmpl.vehicle_name,
+                "constants": {k: getattr(tmpl.constants, k, None) for k in CAR_CONSTANTS},
                 "fuel": tmpl.fuel if isinstance(tmpl.fuel, str) or tmpl.fuel is None else "explicit",
                 "fuels": list(known_fuels()), "findings": findings,
                 "selection": selection,
@@ -452,6 +470,16 @@ def _placeholder_text(tmpl: Any) -> str:
     with tempfile.TemporaryDirectory() as d:
         p = tmpl.save(Path(d) / TEMPLATE_NAME, placeholders=True)
         return p.read_text(encoding="utf-8")
+
+
+def _check_vehicle(name: str) -> None:
+    """The vehicle a template names loads as the command line loads it (one line when not)."""
+    from vehval.vehicle import load_vehicle
+
+    try:
+        load_vehicle(name)
+    except VehvalError as exc:
+        raise ConfigError(f"{TEMPLATE_NAME}: vehicle: {str(exc).splitlines()[0]}") from None
 
 
 def _validate(data: Any) -> Any:

@@ -120,5 +120,38 @@
     catch (e) { out.textContent = ""; showError(e.message); }
   });
 
-  window.addEventListener("DOMContentLoaded", () => setTimeout(openTab, 0));
+  // ---------------------------------------------------------------- the car of the template
+  const CONSTS = ["test_mass_kg", "road_load_a_n", "road_load_b_n_per_mps", "road_load_c_n_per_mps2"];
+  let car = null;
+  async function loadCar() {
+    const m = await api("/api/test");
+    car = {vehicle: m.vehicle || "", vehicle_name: m.vehicle_name || "", constants: m.constants || {}};
+    document.getElementById("car-vehicle").value = car.vehicle;
+    document.getElementById("car-vehicle_name").value = car.vehicle_name;
+    for (const k of CONSTS) { const v = car.constants[k]; document.getElementById("car-" + k).value = (v === null || v === undefined) ? "" : String(v); }
+  }
+  document.getElementById("car-save").addEventListener("click", async () => {
+    const note = document.getElementById("car-note");
+    const body = {constants: {}};
+    for (const k of ["vehicle", "vehicle_name"]) {
+      const v = document.getElementById("car-" + k).value.trim();
+      if (v !== car[k]) body[k] = v;
+    }
+    for (const k of CONSTS) {
+      const text = document.getElementById("car-" + k).value.trim();
+      const old = car.constants[k];
+      if (text === "") { if (old !== null && old !== undefined) body.constants[k] = null; continue; }
+      const v = Number(text);
+      if (!Number.isFinite(v)) { showError(k + ": '" + text + "' is not a number"); return; }
+      if (v !== old) body.constants[k] = v;
+    }
+    note.textContent = "saving...";
+    try {
+      await api("/api/template", body);
+      note.textContent = "saved"; showError("");
+      location.reload();
+    } catch (e) { note.textContent = ""; showError(e.message); }
+  });
+
+  window.addEventListener("DOMContentLoaded", () => { setTimeout(openTab, 0); loadCar().catch(e => showError(e.message)); });
 })();
