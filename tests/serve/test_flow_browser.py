@@ -5,7 +5,6 @@ from the other tests and predicts the opened one (kept over a reload, which keep
 from __future__ import annotations
 
 import shutil
-import urllib.request
 from pathlib import Path
 
 import pytest

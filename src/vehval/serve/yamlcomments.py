@@ -67,7 +67,7 @@ def _placeholder_of(line: str, top_keys: set[str]) -> bool:
     """A comment line ``# KEY: ...`` (no indentation) standing for a top-level key the new
     text now has: the placeholder of ``template init`` is stale once the key is written."""
     m = re.match(r"^#\s*([A-Za-z_][A-Za-z0-9_]*):", line)
-    return bool(m) and m.group(1) in top_keys
+    return m is not None and m.group(1) in top_keys
 
 
 def carry_comments(old: str, new: str) -> str:
