@@ -103,3 +103,24 @@ def test_wrong_token_answers_a_page_for_a_browser_and_json_for_the_api(workspace
     assert r.status_code == 403 and r.json()["error"].startswith("wrong token")
     r = c.get("/", headers={"Accept": "application/json"})
     assert r.status_code == 403 and "token required" in r.json()["error"]
+
+
+def test_unitless_csv_review(tmp_path):
+    """An OBD log without units: no "high" with a blank unit, the command line's "to do"
+    lines, and every missing unit named by one save."""
+    d = tmp_path / "ws" / "obd"
+    d.mkdir(parents=True)
+    rows = "\n".join(f"{i},{20 + i % 7},{800 + 10 * i},{25 + i % 3},{12.0 + 0.01 * i}"
+                     for i in range(200))
+    (d / "log.csv").write_text("t_idx,eng2vsp,RPM,bt1,Bty_Curr\n" + rows + "\n", encoding="utf-8")
+    c = _client(tmp_path / "ws")
+    m = c.get("/api/test", params={"dir": "obd"}).json()
+    chans = {ch["raw"]: ch for ch in m["files"][0]["channels"]}
+    for ch in chans.values():
+        assert not (ch["confidence"] == "high" and not (ch["unit"] or ch["header_unit"])), ch
+    assert chans["eng2vsp"]["confidence"] == "unit missing"
+    assert any("eng2vsp" in t for t in m["todo"]) and all(t.startswith("to do: ") for t in m["todo"])
+    r = c.post("/api/template", params={"dir": "obd"}, json={"fuel": "gasoline_e0"}).json()
+    err = r["error"] or ""
+    for raw in ("eng2vsp", "bt1", "Bty_Curr"):
+        assert f"'{raw}'" in err, err

@@ -338,6 +338,7 @@ class Bench:
         if isinstance(summary, dict):   # the user's drops count (removed before QA saw them)
             summary = {**summary, "dropped": len(selection["dropped"])}
         return {"saved": saved, "files": out_files, "left_out": left,
+                "todo": self._todo(tmpl, files, saved),
                 "vehicle": tmpl.vehicle, "vehicle_name": tmpl.vehicle_name,
                 "constants": {k: getattr(tmpl.constants, k, None) for k in CAR_CONSTANTS},
                 "fuel": tmpl.fuel if isinstance(tmpl.fuel, str) or tmpl.fuel is None else "explicit",
@@ -347,6 +348,19 @@ class Bench:
                 "headline": headline(self.state.results),
                 "summary": summary,
                 "error": self.state.error, "notes": self.state.notes}
+
+    def _todo(self, tmpl: Any, files: list[Path], saved: bool) -> list[str]:
+        """What is still to do on the template, as the command line says it: the "to do"
+        lines of ``vehval template init`` for a proposal, the errors and warnings of
+        ``vehval template check`` for a saved template."""
+        from vehval.io.propose import check_template, propose_template
+
+        if not files:
+            return []
+        if not saved:
+            return [f"to do: {t}" for t in propose_template(files)[0].todo]
+        rep = check_template(tmpl, files)
+        return [f"error: {e}" for e in rep.errors] + [f"warning: {w}" for w in rep.warnings]
 
     def _file_view(self, i: int, entry: Any, path: Path | None, hints: dict) -> dict:
         from vehval.io.propose import match_channel, unit_known
@@ -374,9 +388,8 @@ class Bench:
                     base = reg.parse(spec.name).base
                 except VehvalError:
                     base = None
-            confidence = ("unmapped" if spec is None or spec.delete
-                          else "high" if proposed is not None and proposed == base and unit_known(hunit)
-                          else "medium" if proposed is not None and proposed == base else "edited")
+            confidence = _confidence(spec, proposed, base, hunit if unit_known(hunit) else None,
+                                     si)
             chans.append({"raw": raw_name, "header_unit": hunit, "in_file": raw_name in header,
                           "in_template": spec is not None,
                           "name": spec.name if spec else None, "unit": spec.unit if spec else None,
@@ -432,6 +445,21 @@ class Bench:
             if self.run is None:
                 raise ConfigError(self.state.error or "the test could not be run")
         return self.run
+
+
+def _confidence(spec: Any, proposed: str | None, base: str | None, header_unit: str | None,
+                si: str | None) -> str:
+    """How sure the mapping of one channel is: ``unmapped``, ``unit missing`` (neither the
+    template nor the file gives a unit: a fraction is read 0..1, anything else fails),
+    ``high`` (the proposed name and a unit from the file header), ``medium`` (the proposed
+    name, the unit from the template) or ``edited``."""
+    if spec is None or spec.delete:
+        return "unmapped"
+    if not spec.unit and not header_unit:
+        return "unit missing"
+    if proposed is not None and proposed == base:
+        return "high" if header_unit else "medium"
+    return "edited"
 
 
 def headline(results: dict | None) -> dict | None:

@@ -125,6 +125,12 @@
   let car = null;
   async function loadCar() {
     const m = await api("/api/test");
+    const todo = m.todo || [];
+    document.getElementById("todo").hidden = !todo.length;
+    document.getElementById("todo").open = todo.length > 0 && todo.length <= 40;
+    document.getElementById("todo-head").textContent = todo.length + " thing(s) to do on the template (as the command line lists them)";
+    const ul = document.getElementById("todo-list"); ul.textContent = "";
+    for (const t of todo) ul.append(el("li", {class: "todo", text: t}));
     car = {vehicle: m.vehicle || "", vehicle_name: m.vehicle_name || "", constants: m.constants || {}};
     document.getElementById("car-vehicle").value = car.vehicle;
     document.getElementById("car-vehicle_name").value = car.vehicle_name;
