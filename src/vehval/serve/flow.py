@@ -167,11 +167,16 @@ def simulate(architecture: str, bench: Any, p: dict) -> dict:
 
 # --------------------------------------------------------------------------- power split
 def _power_split(bench: Any, p: dict) -> dict:
+    from vehval.display import to_display
     from vehval.serve.model_view import model_overlay
 
     out = model_overlay(bench)
     findings = (bench.state.findings or {}).get("findings") or []
     for tr in out["traces"]:
+        for side in ("measured", "simulated"):   # SI -> display units (SOC in %)
+            y, unit = to_display(np.asarray(tr[side]["y"], float), tr["unit"], signal=tr["base"])
+            tr[side]["y"] = [float(v) if np.isfinite(v) else None for v in y]
+        tr["unit"] = unit
         _mask_flagged(tr["measured"], tr["measured"]["name"], findings)
     fuel_qa = fuel_findings(findings)
     for t in out["tables"]:
@@ -185,7 +190,7 @@ def _mask_flagged(s: dict, name: str, findings: list[dict]) -> None:
     """Blank (None) the samples of trace ``s`` inside the spans QA flagged (warning or error)
     on signal ``name``; ``s["masked"]`` counts them."""
     t = np.asarray(s["t"], float)
-    y = list(s["y"])
+    y = [None if not np.isfinite(v) else float(v) for v in np.asarray(s["y"], float)]
     n = 0
     for f in findings:
         if f.get("signal") != name or f.get("severity") not in ("warning", "error"):

@@ -86,17 +86,21 @@ def carry_comments(old: str, new: str) -> str:
         ``new`` where each block of comment (and blank) lines of ``old`` precedes the line it
         preceded in ``old`` (found by exact text, else by its key at the same indentation,
         in order); blocks whose line is gone go where it was, at the end when nothing is left.
-        A top-level ``# KEY: ...`` placeholder comment is dropped once ``new`` sets KEY, and
+        A top-level ``# KEY: ...`` placeholder comment (with the comment lines following it,
+        up to a blank or a YAML line) is dropped once ``new`` sets KEY, and
         a number keeps its literal when its value did not change.
     """
     top_keys = {m.group(2) for ln in new.splitlines() if (m := _KEY.match(ln)) and not m.group(1)}
     anchors: list[tuple[str, str | None, list[str]]] = []
     pending: list[str] = []
+    dropping = False   # inside a stale placeholder block (up to a blank or a YAML line)
     for line in old.splitlines():
         if _is_comment(line):
-            if not _placeholder_of(line, top_keys):
+            dropping = (dropping and bool(line.strip())) or _placeholder_of(line, top_keys)
+            if not dropping:
                 pending.append(line)
         else:
+            dropping = False
             anchors.append((line, _key(line), pending))
             pending = []
     trailing = pending
