@@ -62,6 +62,42 @@ def test_cruze_folder_opens_as_tests_with_report_and_model(browser, cruze_ws):  
         _wait(page, "document.getElementById('model-out').dataset.kept === '1'")
         assert not page.is_hidden("#tab-model")
         assert "#tab=model" in page.url
+        # the reader's repair of 61410004's header is shown as a note
+        page.goto(s.origin + "/test?dir=cruze&test=61410004_Test_Data")
+        _wait(page, "document.querySelector('.file-note')")
+        assert "'fp'" in page.text_content(".file-note")
         assert not s.foreign() and not s.errors, (s.foreign(), s.errors)
+    finally:
+        s.close()
+
+
+def test_unitless_obd_log_review(browser, real_data, tmp_path):  # noqa: F811
+    """The Prius c OBD log (no units): "unit missing" rows, the to-do lines of the command
+    line, and one save naming every channel without a unit."""
+    src = real_data / "obd_2014_toyota_prius_c" / "output0.csv"
+    if not src.is_file():
+        pytest.skip(f"{src.name} not in the shared data")
+    d = tmp_path / "ws" / "priusc"
+    d.mkdir(parents=True)
+    shutil.copy(src, d / src.name)
+    s = Visit(browser, d.parent)
+    try:
+        page = s.page
+        page.goto(s.server.url)
+        page.click('#tests a[href*="priusc"]')
+        _wait(page, "document.querySelectorAll('#todo-list li').length > 0 && document.querySelector('td.conf-unit')")
+        n_todo = page.locator("#todo-list li").count()
+        assert n_todo >= 20
+        speed = page.locator('tr[data-raw="eng2vsp"] td.conf-unit')
+        assert speed.text_content() == "unit missing"
+        assert page.locator("td.conf-high").count() == 0      # no unit in the file: never high
+        shot(page, "unitless_review")
+        page.click("#save")
+        _wait(page, "document.getElementById('error').textContent || document.getElementById('headline').textContent.includes('error')")
+        _wait(page, "document.body.dataset.busy === '0'")
+        shown = (page.text_content("#error") or "") + (page.text_content("#headline") or "")
+        for raw in ("'B+'", "'Bty_Curr'", "'eng2vsp'", "'bt1'"):
+            assert raw in shown, shown
+        assert not s.foreign(), s.foreign()
     finally:
         s.close()

@@ -102,7 +102,7 @@
       r.traces.forEach((tr, i) => {
         const ax = i === 0 ? "" : String(i + 1);
         for (const [s, dash] of [[tr.measured, "solid"], [tr.simulated, "dot"]]) {
-          data.push({type: "scattergl", mode: "lines", x: s.t, y: s.y, name: s.name, xaxis: "x", yaxis: "y" + ax, line: {width: 1, dash}, connectgaps: false});
+          data.push({type: "scatter", mode: "lines", x: s.t, y: s.y, name: s.name, xaxis: "x", yaxis: "y" + ax, line: {width: 1, dash}, connectgaps: false});
         }
         layout["yaxis" + ax] = {title: {text: tr.base + " [" + tr.unit + "]"}};
       });
