@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from .browsing import Visit, _wait
 from .shots import shot
-from .test_browser import Visit, _wait, browser  # noqa: F401 - the fixture
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("serve_browser")]
 
@@ -28,7 +28,7 @@ def cruze_ws(cruze_data, tmp_path) -> Path:
     return d.parent
 
 
-def test_cruze_folder_opens_as_tests_with_report_and_model(browser, cruze_ws):  # noqa: F811
+def test_cruze_folder_opens_as_tests_with_report_and_model(browser, cruze_ws):
     s = Visit(browser, cruze_ws)
     try:
         page = s.page
@@ -71,7 +71,7 @@ def test_cruze_folder_opens_as_tests_with_report_and_model(browser, cruze_ws):  
         s.close()
 
 
-def test_unitless_obd_log_review(browser, real_data, tmp_path):  # noqa: F811
+def test_unitless_obd_log_review(browser, real_data, tmp_path):
     """The Prius c OBD log (no units): "unit missing" rows, the to-do lines of the command
     line, and one save naming every channel without a unit."""
     src = real_data / "obd_2014_toyota_prius_c" / "output0.csv"
