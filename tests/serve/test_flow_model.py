@@ -83,3 +83,23 @@ def test_samples_qa_flagged_are_masked():
                 {"signal": "ess_soc_test", "severity": "info", "start_s": 3.0, "end_s": 3.0}]
     flow._mask_flagged(s, "ess_soc_test", findings)
     assert s["y"] == [50.0, None, None, 60.0] and s["masked"] == 2
+
+
+def test_state_folder_linked_out_is_refused(car_ws, tmp_path):
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    link = car_ws / flow.STATE_DIR
+    kept = car_ws / "kept-state"
+    if link.exists():
+        link.rename(kept)
+    link.symlink_to(outside, target_is_directory=True)
+    try:
+        c = _client(car_ws)
+        for r in (c.get("/api/model", params={"dir": "car"}),
+                  c.post("/api/model", params={"dir": "car"}, json={})):
+            assert r.status_code == 400 and "symlink" in r.json()["error"], r.text
+        assert not list(outside.iterdir())
+    finally:
+        link.unlink()
+        if kept.exists():
+            kept.rename(link)

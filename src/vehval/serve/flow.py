@@ -48,7 +48,7 @@ def build_report(bench: Any) -> dict:
     with bench.lock:
         run = bench._ensure_run()
         qa = run.qa()
-        path = bench.qa_path / "report.html"
+        path = bench._qa_dir() / "report.html"   # never through a link out of the folder
         write_report(path, test=qa.validated, qa=bench.state.findings, template=run.template,
                      results=bench.state.results,
                      title=f"{bench._label()}: QA and results")
@@ -112,8 +112,16 @@ def _other_tests(bench: Any, tmpl: Any) -> list[Path]:
 
 
 def _state_file(bench: Any) -> Path:
+    """The kept result's file in the state folder (refused when the folder or its ``model/``
+    is a symlink or a file: nothing is read or written through a link)."""
+    import os
+
     rel = sec.relative(bench.root, bench.folder)
     key = hashlib.sha256(f"{rel}\0{bench.test or ''}".encode()).hexdigest()[:24]
+    for d in (bench.root / STATE_DIR, bench.root / STATE_DIR / "model"):
+        if os.path.lexists(d) and (os.path.islink(d) or not d.is_dir()):
+            raise InputFileError(f"{sec.relative(bench.root, d)}: a symlink or a file, not the "
+                                 "workbench's own state folder: refused: remove it")
     return bench.root / STATE_DIR / "model" / f"{key}.json"
 
 
@@ -231,9 +239,15 @@ def _conventional(bench: Any, p: dict) -> dict:
     trace = load_traces(files, tmpl_path)[0]
     notes: list[str] = []
     if p["identify_from"]:
+        from vehval.identify.warmup import cold_start_state
+
         traces = load_traces(p["identify_from"], tmpl_path)
         idf = identify_conventional(traces, "identified_" + (bench.test or "car"))
         veh = idf.vehicle
+        cold = [t.test_id for t in traces if cold_start_state(t)[0]]
+        if cold:
+            notes.append(f"identification tests starting cold: {', '.join(cold)}: the warm "
+                         "fuel map takes in their warm-up fuel (vehval identify warns the same)")
     else:
         veh = load_vehicle(p["vehicle"])
         check_same_car(veh, trace)
