@@ -24,7 +24,8 @@ MAX_CLI_LINES = 250
 
 
 def _scanned() -> list[Path]:
-    return sorted((PKG / "cli").glob("*.py")) + [PKG / "workflow.py"]
+    return (sorted((PKG / "cli").glob("*.py")) + [PKG / "workflow.py"]
+            + sorted((PKG / "serve").glob("*.py")))
 
 
 def architecture_tests(source: str, names: tuple[str, ...] = NAMES) -> list[int]:
