@@ -28,6 +28,7 @@ from vehval.fuels import (
     mpg_from_volume_per_distance,
     resolve_fuel,
 )
+from vehval.integrals import battery_power, window_integral
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.results.composites import Composite, composites_for, weighted_per_distance
 from vehval.results.drive_quality import RMSSE_TOLERANCE_MPS, drive_quality, iwr_reading
@@ -83,16 +84,9 @@ class _Integrator:
     def __init__(self, time: np.ndarray, values: np.ndarray) -> None:
         ok = np.isfinite(time) & np.isfinite(values)
         self.t, self.v = time[ok], values[ok]
-        if self.t.size < 2:
-            self.c = np.zeros(self.t.size)
-            return
-        self.c = np.concatenate([[0.0], np.cumsum(0.5 * (self.v[1:] + self.v[:-1]) * np.diff(self.t))])
 
     def integral(self, segments: list[tuple[float, float]]) -> float:
-        if self.t.size < 2:
-            return float("nan")
-        return float(sum(np.interp(b, self.t, self.c) - np.interp(a, self.t, self.c)
-                         for a, b in segments))
+        return window_integral(self.t, self.v, segments)
 
     def covered(self, segments: list[tuple[float, float]]) -> float:
         if self.t.size < 2:
@@ -363,8 +357,8 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
     b_p = base(pwr)
     b_vi = None
     if volt is not None and curr is not None:
-        vi = Signal(name="ess_pwr_calc", time=curr.time, values=curr.values * volt.at(curr.time),
-                    unit="W")
+        vi = Signal(name="ess_pwr_calc", time=curr.time,
+                    values=battery_power(volt.at(curr.time), curr.values), unit="W")
         volt_on_curr = Signal(name="ess_volt_calc", time=curr.time, values=volt.at(curr.time), unit="V")
         b_vi = (base(vi), base(volt_on_curr), base(curr))
     hot = hot_start_bag1
