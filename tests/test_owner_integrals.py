@@ -5,6 +5,9 @@ The scan reads the package with ``ast`` (no import) and fails with the file and 
 * a call of ``trapezoid`` / ``trapz`` / ``cumulative_trapezoid`` / ``cumtrapz`` (numpy or scipy);
 * a trapezoid written by hand: a product that holds ``x[1:]``, ``x[:-1]`` and ``diff(...)``
   (``0.5 * (v[1:] + v[:-1]) * np.diff(t)``);
+* a zero-order-hold sum written by hand: ``np.sum(x[sel]) * dt`` or ``x[sel].sum() * dt``
+  (the sum of an expression, not of a bare mask name, which counts samples, times a step
+  named ``dt`` / ``step``);
 * battery power written by hand: a product of a voltage (a name holding ``volt`` or ``ocv``)
   and a current (a name holding ``curr``).
 
@@ -15,6 +18,7 @@ cannot call Python); they use other names and are not matched.
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +28,7 @@ from vehval.integrals import (
     battery_energy,
     battery_power,
     cumulative,
+    held_sum,
     integral,
     window_integral,
 )
@@ -31,6 +36,7 @@ from vehval.integrals import (
 PKG = Path(__file__).resolve().parents[1] / "src" / "vehval"
 OWNER = Path("integrals.py")
 CALLS = {"trapezoid", "trapz", "cumulative_trapezoid", "cumtrapz"}
+STEP = re.compile(r"^(dt|dt_s|step|step_s)$")
 
 
 def _leaves(node: ast.AST) -> list[ast.AST]:
@@ -43,6 +49,34 @@ def _leaves(node: ast.AST) -> list[ast.AST]:
 def _hand_trapezoid(node: ast.BinOp) -> bool:
     text = ast.unparse(node)
     return "[1:]" in text and "[:-1]" in text and "diff(" in text
+
+
+def _summed(node: ast.AST) -> ast.AST | None:
+    """What ``np.sum(x)`` / ``x.sum()`` (no axis) sums, else None."""
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) \
+            and node.func.attr == "sum" and not node.keywords:
+        if node.args and len(node.args) == 1:
+            return node.args[0]
+        if not node.args:
+            return node.func.value
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "float" \
+            and node.args:
+        return _summed(node.args[0])
+    return None
+
+
+def _hand_held_sum(node: ast.BinOp) -> bool:
+    leaves = _leaves(node)
+    step = any(STEP.match(ast.unparse(x)) for x in leaves)
+    summed = [_summed(x) for x in leaves]
+    return step and any(x is not None and not _mask(x) for x in summed)
+
+
+def _mask(node: ast.AST) -> bool:
+    """A bare name or its negation (``sel``, ``~keep``): summing it counts samples."""
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Invert):
+        node = node.operand
+    return isinstance(node, ast.Name)
 
 
 def _hand_battery_power(node: ast.BinOp) -> bool:
@@ -68,6 +102,8 @@ def scan(root: Path = PKG) -> list[str]:
             elif isinstance(node, ast.BinOp) and isinstance(node.op, ast.Mult):
                 if _hand_trapezoid(node):
                     out.add(f"{rel}:{node.lineno}: trapezoid by hand (use vehval.integrals)")
+                elif _hand_held_sum(node):
+                    out.add(f"{rel}:{node.lineno}: held sum by hand (use vehval.integrals.held_sum)")
                 elif _hand_battery_power(node):
                     out.add(f"{rel}:{node.lineno}: voltage x current by hand "
                             "(use vehval.integrals.battery_power)")
@@ -85,9 +121,12 @@ def test_scan_sees_each_kind_of_copy(tmp_path):
         "y = float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)))\n"
         "p = ess_volt.values * ess_curr.values\n"
         "q = np.interp(soc, b.soc, b.ocv_v) * out[:, col['ess_curr']]\n"
-        "ok = speed * dt\n", encoding="utf-8")
+        "f = float(np.sum(fuel[keep]) * dt)\n"
+        "g = fuel_meas[sel].sum() * dt * 1e3\n"
+        "ok = speed * dt\n"
+        "duration = sel.sum() * dt + np.sum(~keep) * dt\n", encoding="utf-8")
     found = scan(tmp_path)
-    assert [f.split(":")[1] for f in found] == ["2", "3", "4", "5"], found
+    assert [f.split(":")[1] for f in found] == ["2", "3", "4", "5", "6", "7"], found
 
 
 def test_integral_bridges_gaps_and_needs_two_samples():
@@ -123,3 +162,10 @@ def test_battery_power_is_positive_discharging():
     volt, curr = np.full(3, 200.0), np.array([10.0, 10.0, -10.0])  # discharge, then charge
     assert battery_power(volt, curr).tolist() == [2000.0, 2000.0, -2000.0]
     assert battery_energy(t, volt, curr) == pytest.approx(2000.0 + 0.0)
+
+
+def test_held_sum_is_the_window_integral_of_a_held_step():
+    t, v = np.arange(6.0), np.array([1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+    assert held_sum(v, 0.5) == pytest.approx(10.5)
+    assert held_sum(v, 0.5, t >= 3) == pytest.approx(7.5)
+    assert held_sum(v, 0.5, t >= 3) == window_integral(t, v, [(3.0, None)], step_s=0.5)

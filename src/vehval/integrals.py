@@ -10,10 +10,11 @@ Rules
   :func:`window_integral`): a sample whose time or value is not finite is dropped, and the gap
   it leaves is bridged linearly by its finite neighbours (a dropout is not a zero). Fewer than
   two finite samples give NaN: the amount is unknown, not zero.
-* **Zero-order hold** (:func:`window_integral` with ``step_s``): a simulator's output holds
-  each step's value over ``[t, t + step)``, and the simulator accounts its own totals that
-  way, so a window of its output sums the samples with ``a <= t < b`` times the step. A
-  trapezoid there would disagree with the simulator's totals by half a step at each end.
+* **Zero-order hold** (:func:`held_sum`, :func:`window_integral` with ``step_s``): a
+  simulator's output on its uniform grid holds each step's value over ``[t, t + step)``,
+  and the simulator accounts its own totals that way, so a window of its output sums the
+  samples with ``a <= t < b`` times the step. A trapezoid there would disagree with the
+  simulator's totals by half a step at each end.
 * **Battery** (:func:`battery_power`, :func:`battery_energy`): power is voltage x current
   with the nomenclature's sign, current positive discharging, so power is positive
   discharging and the energy is net, positive discharged [J].
@@ -84,13 +85,23 @@ def window_integral(time_s: ArrayLike, values: ArrayLike, windows: Iterable[Wind
         t, v = np.asarray(time_s, float), np.asarray(values, float)
         total = 0.0
         for a, b in wins:
-            total += float(np.sum(v[(t >= a) & (t < b)])) * step_s
+            total += held_sum(v, step_s, (t >= a) & (t < b))
         return total
     t, v = _finite(time_s, values)
     if t.size < 2:
         return float("nan")
     c = np.concatenate([[0.0], np.cumsum(_steps(t, v))])
     return float(sum(np.interp(b, t, c) - np.interp(a, t, c) for a, b in wins))
+
+
+def held_sum(values: ArrayLike, step_s: float, where: ArrayLike | None = None) -> float:
+    """Zero-order-hold integral of samples on a uniform grid of step ``step_s`` [s]:
+    ``sum(values[where]) * step_s`` [unit·s] (all samples without ``where``, a boolean mask).
+    """
+    v = np.asarray(values, float)
+    if where is not None:
+        v = v[np.asarray(where, bool)]
+    return float(np.sum(v)) * step_s
 
 
 def battery_power(volt_v: ArrayLike, curr_a: ArrayLike) -> np.ndarray:
