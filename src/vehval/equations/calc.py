@@ -251,6 +251,70 @@ def choose_calc_set(test: Test, vehicle: Any = None) -> str:
     return "conventional"
 
 
+def _why_not(output: str, names: Any, calc: CalculationFile, pvals: dict, pmissing: dict,
+             measured: dict, calc_vals: dict, calc_deps: dict) -> list[str]:
+    """Why the relation giving ``output`` could not be computed, one reason per input."""
+    reasons = []
+    for nm in sorted(names):
+        if nm == "t":
+            continue
+        if nm in calc.parameters and nm not in pvals:
+            reasons.append(f"parameter {nm} missing ({pmissing.get(nm, '')})")
+        elif nm not in calc.parameters and nm not in measured and nm not in calc_vals:
+            reasons.append(f"signal {nm} missing (no measured {nm}_test and not computable)")
+        elif nm in calc_vals and nm not in measured and output in calc_deps.get(nm, ()):
+            reasons.append(f"{nm}_calc is itself derived from {output} (circular)")
+    return reasons
+
+
+def _balance_checks(calc: CalculationFile, pvals: dict, measured: dict, calc_vals: dict,
+                    measured_on_grid: Any, grid: np.ndarray, result: CalcResult) -> None:
+    """Balance checks: both sides from measured (preferred) or calculated signals, on ``grid``."""
+    for chk in calc.checks:
+        sides, used, ok = [], {}, True
+        for text in (chk.lhs, chk.rhs):
+            ex = parse_expression(text, f"{calc.name}: check {chk.name}")
+            var = {}
+            for nm in sorted(ex.names):
+                if nm in pvals:
+                    var[nm] = pvals[nm]
+                elif nm in measured:
+                    var[nm] = measured_on_grid(nm)
+                    used[nm] = measured[nm].name
+                elif nm in calc_vals:
+                    var[nm] = calc_vals[nm]
+                    used[nm] = f"{nm}_calc"
+                elif nm != "t":
+                    ok = False
+            if not ok:
+                break
+            sides.append(ex.evaluate(var, grid))
+        if ok and chk.blame in measured and grid.size:
+            result.checks[chk.name] = {"lhs": sides[0], "rhs": sides[1], "inputs": used,
+                                       "blame": measured[chk.blame].name, "r2_min": chk.r2_min,
+                                       "text": f"{chk.lhs} ≈ {chk.rhs}"}
+
+
+def _measured(test: Test, exclude: set[str] | frozenset[str]) -> dict[str, Signal]:
+    """Base name -> the measured signal of it the one selection rule picks, in test order."""
+    reg = registry()
+    measured: dict[str, Signal] = {}
+    usable = [n for n in test.names if n not in exclude]
+    bases: dict[str, None] = {}  # in the test's order
+    for name in usable:
+        try:
+            p = reg.parse(name)
+        except SignalError:
+            continue
+        if p.origin == "test":
+            bases[p.base] = None
+    for base in bases:
+        sig = test.best(base, ("test",), kept=usable)  # the one selection rule
+        if sig is not None:
+            measured[base] = sig
+    return measured
+
+
 def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,  # noqa: C901, PLR0912, PLR0915 - one block per family of powertrain equations
             constants: dict[str, float] | None = None, *, dt: float | None = None,
             exclude: set[str] | frozenset[str] = frozenset(), add: bool = True) -> CalcResult:
@@ -280,21 +344,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
     constants = dict(test.meta.constants if constants is None else constants)
     fuel = resolve_fuel(test=test, constants=constants, vehicle=vehicle)
     pvals, porigin, pmissing = resolve_parameters(calc, constants, vehicle, fuel)
-    reg = registry()
-    measured: dict[str, Signal] = {}
-    usable = [n for n in test.names if n not in exclude]
-    bases: dict[str, None] = {}  # in the test's order
-    for name in usable:
-        try:
-            p = reg.parse(name)
-        except SignalError:
-            continue
-        if p.origin == "test":
-            bases[p.base] = None
-    for base in bases:
-        sig = test.best(base, ("test",), kept=usable)  # the one selection rule
-        if sig is not None:
-            measured[base] = sig
+    measured = _measured(test, exclude)
     if dt is None:
         periods = [s.sample_period for s in measured.values() if np.isfinite(s.sample_period)]
         dt = max(0.01, min(periods)) if periods else 0.1
@@ -362,44 +412,13 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
     for rel, ex in exprs:
         if rel.output in done:
             continue
-        reasons = []
-        for nm in sorted(ex.names):
-            if nm == "t":
-                continue
-            if nm in calc.parameters and nm not in pvals:
-                reasons.append(f"parameter {nm} missing ({pmissing.get(nm, '')})")
-            elif nm not in calc.parameters and nm not in measured and nm not in calc_vals:
-                reasons.append(f"signal {nm} missing (no measured {nm}_test and not computable)")
-            elif nm in calc_vals and nm not in measured and rel.output in calc_deps.get(nm, ()):
-                reasons.append(f"{nm}_calc is itself derived from {rel.output} (circular)")
+        reasons = _why_not(rel.output, ex.names, calc, pvals, pmissing, measured, calc_vals,
+                           calc_deps)
         if not reasons:
             reasons.append("inputs available but the result is NaN everywhere "
                            "(inputs do not overlap in time)")
         result.not_computed.setdefault(f"{rel.output}_calc", []).append(f"{rel.expr}: " + "; ".join(reasons))
-    # balance checks: both sides from measured (preferred) or calculated signals
-    for chk in calc.checks:
-        sides, used, ok = [], {}, True
-        for text in (chk.lhs, chk.rhs):
-            ex = parse_expression(text, f"{calc.name}: check {chk.name}")
-            var = {}
-            for nm in sorted(ex.names):
-                if nm in pvals:
-                    var[nm] = pvals[nm]
-                elif nm in measured:
-                    var[nm] = measured_on_grid(nm)
-                    used[nm] = measured[nm].name
-                elif nm in calc_vals:
-                    var[nm] = calc_vals[nm]
-                    used[nm] = f"{nm}_calc"
-                elif nm != "t":
-                    ok = False
-            if not ok:
-                break
-            sides.append(ex.evaluate(var, grid))
-        if ok and chk.blame in measured and grid.size:
-            result.checks[chk.name] = {"lhs": sides[0], "rhs": sides[1], "inputs": used,
-                                       "blame": measured[chk.blame].name, "r2_min": chk.r2_min,
-                                       "text": f"{chk.lhs} ≈ {chk.rhs}"}
+    _balance_checks(calc, pvals, measured, calc_vals, measured_on_grid, grid, result)
     if add:
         for name in result.computed:
             sig = Signal.standard(name, grid, calc_vals[name[:-5]], source="calc",

@@ -28,6 +28,7 @@ from vehval.identify.conditions import outside_conditions
 from vehval.identify.traces import Trace
 from vehval.identify.uncertainty import POOR_COVERAGE, interval_parts
 from vehval.identify.warmup import cold_start_state
+from vehval.integrals import held_sum
 from vehval.sim.simulate import simulate
 
 AC_AUTO_TEMP_C = 30.0  # [°C] test cells at or above this run with the A/C on ("auto")
@@ -102,7 +103,7 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     phases = []
     for p in np.unique(phase[phase > 0]):
         sel = phase == p
-        mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
+        mg, pg = held_sum(fuel_meas, dt, sel) * 1e3, held_sum(fuel_sim, dt, sel) * 1e3
         row = {"phase": int(p), "measured_g": mg, "predicted_g": pg,
                "error_rel": pg / mg - 1 if mg > 0 else float("nan")}
         row.update(stage.get(int(p), {}))
@@ -110,7 +111,7 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     # the test proper: its phases when the file numbers them (phase 0 between runs is a
     # soak, often with the engine off, which the model cannot know), else everything
     sel = phase > 0 if np.any(phase > 0) else np.ones(phase.size, dtype=bool)
-    mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
+    mg, pg = held_sum(fuel_meas, dt, sel) * 1e3, held_sum(fuel_sim, dt, sel) * 1e3
     ident = getattr(vehicle, "identification", None) or {}
     sels: dict = {int(r["phase"]): (phase == r["phase"], [1.0]) for r in phases}
     tot = sum(r["predicted_g"] for r in phases) or 1.0

@@ -50,7 +50,7 @@ def motor_torque_limit(w, tmax, pmax):
 
 @njit(cache=True)
 def run_bev(vt, band_lo, band_hi, dt, prm, mS, mT, mL, bSoc, bOcv, bRd, bRc, bPd, bPc, out,
-            record):
+            record):  # long: one compiled time loop (numba)
     """Simulate one cycle; returns the summary vector (``BEV_SUMMARY`` order).
 
     ``vt`` target speed [m/s] on a uniform grid of step ``dt`` [s]; ``band_lo/hi`` its EPA

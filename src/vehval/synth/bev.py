@@ -19,6 +19,7 @@ import numpy as np
 
 from vehval.constants import MPH_M_PER_S
 from vehval.fuels.quantities import ac_energy_j, kwh_per_100km, mpge, wh_per_mile
+from vehval.integrals import battery_power, integral
 from vehval.io.atomic import atomic_dir, write_text_atomic
 
 NOISE = {"Dyno_Speed": 0.005, "Dyno_Tractive_Effort": 5.0, "HV_Battery_Voltage": 0.2,
@@ -36,7 +37,7 @@ def _trapz(y: np.ndarray, t: np.ndarray, mask: np.ndarray) -> float:
     lo, hi = idx[0], idx[-1] + 1
     if hi < t.size:
         hi += 1  # the interval up to the next phase's first sample belongs to this phase
-    return float(np.trapezoid(y[lo:hi], t[lo:hi]))
+    return integral(t[lo:hi], y[lo:hi])
 
 
 def j1634_key(t: np.ndarray, speed: np.ndarray, volt: np.ndarray, curr: np.ndarray,
@@ -46,7 +47,7 @@ def j1634_key(t: np.ndarray, speed: np.ndarray, volt: np.ndarray, curr: np.ndarr
     ``t`` [s], ``speed`` [m/s], ``volt`` [V], ``curr`` [A, positive discharging],
     ``phase`` (1, 2...); DC energy = ∫ V I dt, AC energy = DC / charger efficiency.
     """
-    p = volt * curr
+    p = battery_power(volt, curr)
     out = {}
     scopes = {f"phase {int(k)}": phase == k for k in np.unique(phase) if k > 0}
     scopes["test"] = np.ones(t.size, bool)

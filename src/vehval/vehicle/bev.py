@@ -29,6 +29,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
 
 from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.integrals import integral
 from vehval.vehicle.base import Block, apply_overrides
 from vehval.vehicle.components import BatteryParams, BodyParams, DrivelineParams, MachineParams
 from vehval.vehicle.control import DriverParams
@@ -130,7 +131,7 @@ class BatteryElectricVehicle(BaseModel):
         b = self.battery
         s = np.linspace(b.soc_min, b.soc_max, 201)
         ocv = np.interp(s, b.soc, b.ocv_v)
-        return float(np.trapezoid(ocv, s) * b.capacity_c)
+        return integral(s, ocv) * b.capacity_c
 
     def signal_limits(self) -> dict[str, tuple[float, float]]:
         """Physical limits per signal base name, SI units (for QA range checks)."""
