@@ -216,6 +216,11 @@ __all__ = ["CD_CYCLES", "MPGE_THRESHOLD", "RowJudgement", "bev_from_row", "is_be
 #: deviation of the held-out relative errors of vehicles built from a row alone (2016 list
 #: judged with the loss scale fitted on 2019: 14.5 %; docs/validation.md).
 MODEL_U_REL = 2 * 0.145
+#: Where :data:`MODEL_U_REL` comes from, as notes state it.
+MODEL_U_SOURCE = ("declared bound: twice the standard deviation (14.5 %) of the held-out "
+                  "relative errors of battery-electric vehicles built from a list row alone "
+                  "(docs/validation.md); the parameter ranges of a battery-electric vehicle "
+                  "file are not propagated (vehval.sim.model_uncertainty runs fuel figures)")
 
 
 def is_bev_vehicle(vehicle: Any) -> bool:
