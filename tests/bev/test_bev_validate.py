@@ -81,3 +81,37 @@ def test_suite_validate_refuses_a_bev_in_one_line(virtual):
         validate_runs([_run(virtual)], Tolerances.from_mapping({}))
     msg = str(exc.value)
     assert "\n" not in msg and "battery_electric" in msg and "vehval results" in msg
+
+
+def test_results_take_the_charger_of_the_vehicle_given(virtual):
+    """`--vehicle` (the run's vehicle) gives the charger efficiency of the J1634 figures;
+    the template alone names none (assumed 0.88)."""
+    import yaml
+
+    from helpers.bev import bev_data
+    from vehval.workflow import TestRun
+
+    truth, _, root = virtual
+    data = bev_data()
+    data["charger"]["efficiency"] = 0.8
+    vfile = root / "charger_080.yaml"
+    vfile.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    alone = TestRun.load(truth["files"], truth["template"]).results().results.j1634
+    given = _run(virtual, vfile).results().results.j1634
+    assert alone["charger_efficiency_assumed"] and alone["charger_efficiency"] == 0.88
+    assert given["charger_efficiency"] == 0.8 and not given["charger_efficiency_assumed"]
+    dc = given["scopes"]["test"]["dc_energy_kwh"]
+    assert given["scopes"]["test"]["ac_energy_kwh"] == pytest.approx(dc / 0.8)
+
+
+def test_measured_wall_energy_constant_feeds_the_test_scope(virtual, tmp_path):
+    from vehval.workflow import TestRun
+
+    truth = virtual[0]
+    text = open(truth["template"], encoding="utf-8").read().replace(
+        "constants:\n", "constants:\n  ac_recharge_energy_j: 5.4e6\n")
+    tpl = tmp_path / "template.yaml"
+    tpl.write_text(text, encoding="utf-8")
+    j = TestRun.load(truth["files"], tpl).results().results.j1634["scopes"]["test"]
+    assert j["ac_basis"] == "measured wall energy"
+    assert j["ac_energy_kwh"] == pytest.approx(1.5)
