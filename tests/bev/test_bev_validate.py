@@ -115,3 +115,14 @@ def test_measured_wall_energy_constant_feeds_the_test_scope(virtual, tmp_path):
     j = TestRun.load(truth["files"], tpl).results().results.j1634["scopes"]["test"]
     assert j["ac_basis"] == "measured wall energy"
     assert j["ac_energy_kwh"] == pytest.approx(1.5)
+
+
+def test_qa_runs_no_engine_fuel_or_hybrid_relation_on_a_bev(virtual):
+    """QA's calculations consult the architecture table: nothing engine or fuel is tried."""
+    run = _run(virtual)
+    calc = run.qa().result.calculations.to_dict()
+    assert calc["architecture"] == "battery_electric" and calc["set"] == "conventional"
+    tried = list(calc["computed"]) + list(calc["not_computed"])
+    assert not [n for n in tried if n.startswith(("eng_", "fuel_"))], tried
+    assert "eng_pwr_out_calc" in calc["not_applicable"]
+    assert "ess_pwr_calc" in calc["computed"]          # the battery relations still run
