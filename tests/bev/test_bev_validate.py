@@ -61,6 +61,9 @@ def test_virtual_bev_through_import_qa_results_validate_report(virtual):
     paths = run.report(virtual[2] / "report", excel=False).paths
     html = paths["report"].read_text(encoding="utf-8")
     assert "SAE J1634 figures, model vs test" in html
+    # the energy flow in J1634 terms, no engine or fuel plots
+    assert "SAE J1634 energy per phase" in html and "regenerative share" in html
+    assert "Engine map" not in html and "Willans" not in html
 
 
 def test_validation_sees_a_wrong_model(virtual):
