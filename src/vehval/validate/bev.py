@@ -104,7 +104,8 @@ class BevValidation:
         """The report's validation section: ``{tables, figures, notes}``."""
         from vehval.validate.compare import overlay_figures
 
-        return {"tables": self.tables(), "figures": overlay_figures(self) if figures else [],
+        figs = overlay_figures(self) if figures else []  # type: ignore[arg-type]  # reads .overlays only
+        return {"tables": self.tables(), "figures": figs,
                 "notes": list(self.notes)}
 
 
