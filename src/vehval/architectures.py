@@ -63,6 +63,17 @@ def _synth_battery_electric(*args: Any, **kw: Any) -> Any:
     return battery_electric_test(*args, **kw)
 
 
+def _validate_battery_electric(run: Any, *, dt: float, smooth_hz: float | None,
+                               overrides: dict | None, **_: Any) -> Any:
+    """The simulation on the test's speed trace, mass and road load against its traces, DC
+    energy and SAE J1634 figures; U_model the declared bound of list-row validation."""
+    from vehval.epa.bev import MODEL_U_REL, MODEL_U_SOURCE
+    from vehval.validate.bev import validate_bev_test
+
+    return validate_bev_test(run, dt=dt, smooth_hz=smooth_hz, overrides=overrides,
+                             u_model_rel=MODEL_U_REL, u_model_source=MODEL_U_SOURCE)
+
+
 def _calibrate_power_split(*args: Any, **kw: Any) -> Any:
     from vehval.validate.calibrate_stage import calibrate_power_split
 
@@ -162,9 +173,11 @@ REGISTRY: dict[str, Stages] = {
         predict=_predict_conventional),
     "battery_electric": Stages(
         name="battery_electric", label="battery-electric car", family="electric",
-        synth=_synth_battery_electric,
-        hint="for a battery-electric car use vehval results (SAE J1634 energy and MPGe) or "
-             "vehval epa validate on the list's electricity rows"),
+        synth=_synth_battery_electric, validate=_validate_battery_electric,
+        validate_suite=False,
+        hint="for a battery-electric car use vehval results (SAE J1634 energy and MPGe), "
+             "vehval epa validate on the list's electricity rows, or the validate step of "
+             "vehval.workflow.TestRun (traces, DC energy and J1634 figures per test)"),
 }
 
 #: Text of each stage in a refusal.

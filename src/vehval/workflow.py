@@ -288,7 +288,7 @@ class TestRun:
                 or self._results.results.forced != force):
             test = self.validated
             if self.template is not None:
-                res = results_from_template(test, self.template, **opts)
+                res = results_from_template(test, self.template, self.vehicle, **opts)
             else:
                 res = compute_results(test, **opts)
             apply_gate(res, self._qa.result.findings if self._qa is not None else (), force=force)

@@ -23,7 +23,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from vehval.constants import MPH_M_PER_S
+from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError
 from vehval.fuels.quantities import mpge_from_kwh_per_100mi
@@ -37,13 +37,13 @@ CD_CYCLES = {81: "udds", 84: "hwfet"}
 MPGE_THRESHOLD = 60.0
 #: Generic peak-torque basis: peak power [W] / this speed [rad/s] (base speed of a BEV
 #: traction motor, about 3,300 rpm: Leaf 2019 3,283 rpm, i3 4,800 rpm).
-BASE_SPEED_RAD_S = 3300.0 * math.pi / 30.0
+BASE_SPEED_RAD_S = 3300.0 * RPM_RAD_PER_S
 _EST = "engineering estimate (generic, vehval.epa.bev)"
 #: Pack energy [kWh] of a row without a sheet (the lists give none); it sets the pack's
 #: resistance and SOC change, a second-order effect on consumption.
 GENERIC_BATTERY_KWH = 30.0
-#: Plausible rolling radius of a car's wheel [m] (13 in to 22 in wheels).
-WHEEL_RADIUS_M = (0.2, 0.45)
+#: Plausible rolling radius of a car's wheel [mm] (13 in to 22 in wheels).
+WHEEL_RADIUS_MM = (200, 450)
 #: Rolling radius [m] of a row whose ratios disagree (a 16-17 in wheel).
 GENERIC_WHEEL_RADIUS_M = 0.31
 
@@ -66,26 +66,26 @@ def listed_figure(t: EpaTest) -> tuple[float, str]:
 
 def wheel_radius_from_nv(axle_ratio: float, n_v: float) -> float:
     """Wheel radius [m] from the axle ratio and N/V (motor rpm per mph)."""
-    return axle_ratio * MPH_M_PER_S * 60.0 / (2.0 * math.pi * n_v)
+    return axle_ratio * MPH_M_PER_S / (RPM_RAD_PER_S * n_v)
 
 
 def reduction_of_row(t: EpaTest) -> tuple[float, float, tuple[str, str]]:
     """Reduction ratio [-], wheel radius [m] and how each was found, from a row.
 
     Only motor speed per vehicle speed (the N/V ratio) matters to the energy. The axle
-    ratio and N/V give the radius when it is plausible (:data:`WHEEL_RADIUS_M`); else the
+    ratio and N/V give the radius when it is plausible (:data:`WHEEL_RADIUS_MM`); else the
     row's two figures disagree: an axle ratio of a single reduction (5-15) is kept with the
     generic radius, otherwise (a final-drive-only ratio) N/V sets the ratio at the generic
     radius.
     """
     r = wheel_radius_from_nv(t.axle_ratio, t.n_v_ratio)
-    if WHEEL_RADIUS_M[0] <= r <= WHEEL_RADIUS_M[1]:
+    if WHEEL_RADIUS_MM[0] <= 1e3 * r <= WHEEL_RADIUS_MM[1]:
         return t.axle_ratio, r, ("axle ratio", "computed from the axle ratio and N/V")
     gen = f"{_EST}: {GENERIC_WHEEL_RADIUS_M} m rolling radius (the row's axle ratio and N/V " \
           f"imply {r:.3f} m)"
     if 5.0 <= t.axle_ratio <= 15.0:
         return t.axle_ratio, GENERIC_WHEEL_RADIUS_M, ("axle ratio", gen)
-    ratio = t.n_v_ratio * 2.0 * math.pi * GENERIC_WHEEL_RADIUS_M / (MPH_M_PER_S * 60.0)
+    ratio = t.n_v_ratio * RPM_RAD_PER_S * GENERIC_WHEEL_RADIUS_M / MPH_M_PER_S
     if not 3.0 <= ratio <= 20.0:
         raise ConfigError(f"{t.source}: axle ratio {t.axle_ratio:g} and N/V {t.n_v_ratio:g} "
                           "describe no single-reduction electric drive (implied radius "
@@ -100,7 +100,7 @@ def row_conditions(t: EpaTest) -> dict[str, Any]:
                            "body.road_load_c_n_per_mps2": t.target_c_n_per_mps2}
     if math.isfinite(t.n_v_ratio) and t.n_v_ratio > 0 and math.isfinite(t.axle_ratio):
         r = wheel_radius_from_nv(t.axle_ratio, t.n_v_ratio)
-        if WHEEL_RADIUS_M[0] <= r <= WHEEL_RADIUS_M[1]:  # else the vehicle's own radius
+        if WHEEL_RADIUS_MM[0] <= 1e3 * r <= WHEEL_RADIUS_MM[1]:  # else the vehicle's own radius
             out["driveline.wheel_radius_m"] = r
     return out
 
@@ -216,6 +216,11 @@ __all__ = ["CD_CYCLES", "MPGE_THRESHOLD", "RowJudgement", "bev_from_row", "is_be
 #: deviation of the held-out relative errors of vehicles built from a row alone (2016 list
 #: judged with the loss scale fitted on 2019: 14.5 %; docs/validation.md).
 MODEL_U_REL = 2 * 0.145
+#: Where :data:`MODEL_U_REL` comes from, as notes state it.
+MODEL_U_SOURCE = ("declared bound: twice the standard deviation (14.5 %) of the held-out "
+                  "relative errors of battery-electric vehicles built from a list row alone "
+                  "(docs/validation.md); the parameter ranges of a battery-electric vehicle "
+                  "file are not propagated (vehval.sim.model_uncertainty runs fuel figures)")
 
 
 def is_bev_vehicle(vehicle: Any) -> bool:

@@ -232,17 +232,24 @@ class CalcResult:
     parameters: dict[str, dict] = field(default_factory=dict)
     calc_set: str = ""
     checks: dict[str, dict] = field(default_factory=dict)   # name -> lhs, rhs, inputs, blame
+    #: relations and checks not run: they involve a signal the architecture does not have
+    not_applicable: list[str] = field(default_factory=list)
+    architecture: str | None = None
 
     def to_dict(self) -> dict:
-        return {"set": self.calc_set, "computed": self.computed,
+        return {"set": self.calc_set, "architecture": self.architecture,
+                "computed": self.computed, "not_applicable": self.not_applicable,
                 "not_computed": self.not_computed, "parameters": self.parameters,
                 "checks": {k: {"expr": v["text"], "inputs": v["inputs"], "blame": v["blame"]}
                            for k, v in self.checks.items()}}
 
 
-def choose_calc_set(test: Test, vehicle: Any = None) -> str:
+def choose_calc_set(test: Test, vehicle: Any = None, architecture: str | None = None) -> str:
     """``power_split`` when the vehicle or the signals show a planetary hybrid, else
-    ``conventional``."""
+    ``conventional``; a stated ``architecture`` other than ``power_split`` is
+    ``conventional`` (the relations its signals lack are then not run)."""
+    if architecture is not None and architecture != "power_split":
+        return "conventional"
     if vehicle is not None and vehicle_value(vehicle, "planetary.ring_teeth") is not None:
         return "power_split"
     for sig in test:
@@ -268,9 +275,17 @@ def _why_not(output: str, names: Any, calc: CalculationFile, pvals: dict, pmissi
 
 
 def _balance_checks(calc: CalculationFile, pvals: dict, measured: dict, calc_vals: dict,
-                    measured_on_grid: Any, grid: np.ndarray, result: CalcResult) -> None:
-    """Balance checks: both sides from measured (preferred) or calculated signals, on ``grid``."""
+                    measured_on_grid: Any, grid: np.ndarray, result: CalcResult,
+                    architecture: str | None = None) -> None:
+    """Balance checks: both sides from measured (preferred) or calculated signals, on ``grid``;
+    a check on a signal ``architecture`` does not have is listed as not applicable."""
+    from vehval.vehicle.definition import has_signal
+
     for chk in calc.checks:
+        if not all(has_signal(n, architecture) for text in (chk.lhs, chk.rhs)
+                   for n in parse_expression(text, f"{calc.name}: check {chk.name}").names):
+            result.not_applicable.append(f"check {chk.name}")
+            continue
         sides, used, ok = [], {}, True
         for text in (chk.lhs, chk.rhs):
             ex = parse_expression(text, f"{calc.name}: check {chk.name}")
@@ -315,9 +330,10 @@ def _measured(test: Test, exclude: set[str] | frozenset[str]) -> dict[str, Signa
     return measured
 
 
-def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,  # noqa: C901, PLR0912, PLR0915 - one block per family of powertrain equations
+def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,  # noqa: C901, PLR0912, PLR0915 - one block per family of powertrain equations  # long: the relation loop with its not-computed reasons, kept in one place
             constants: dict[str, float] | None = None, *, dt: float | None = None,
-            exclude: set[str] | frozenset[str] = frozenset(), add: bool = True) -> CalcResult:
+            exclude: set[str] | frozenset[str] = frozenset(), add: bool = True,
+            architecture: str | None = None) -> CalcResult:
     """Compute every ``*_calc`` signal the test's inputs allow.
 
     Parameters
@@ -336,9 +352,16 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
         Measured signals not to use as inputs (e.g. dropped by QA).
     add : bool
         Add the computed signals to ``test``.
+    architecture : str, optional
+        The tested car's architecture (default the vehicle's): relations and checks that
+        involve a signal it does not have (:func:`vehval.vehicle.definition.has_signal`: no
+        engine or fuel on a battery-electric car) are not run, listed in ``not_applicable``.
     """
+    from vehval.vehicle.definition import architecture_of, has_signal
+
+    architecture = architecture or architecture_of(vehicle)
     if calc is None:
-        calc = choose_calc_set(test, vehicle)
+        calc = choose_calc_set(test, vehicle, architecture)
     if isinstance(calc, str):
         calc = load_calculations(calc)
     constants = dict(test.meta.constants if constants is None else constants)
@@ -354,7 +377,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
         grid = t0 + dt * np.arange(int(np.floor((t1 - t0) / dt + 1e-9)) + 1)
     else:
         grid = np.zeros(0)
-    result = CalcResult(grid=grid, calc_set=calc.name,
+    result = CalcResult(grid=grid, calc_set=calc.name, architecture=architecture,
                         parameters={k: {"value": v, "from": porigin[k]} for k, v in pvals.items()}
                         | {k: {"value": None, "missing": r} for k, r in pmissing.items()})
     cache: dict[str, np.ndarray] = {}
@@ -366,7 +389,13 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
             cache[base] = measured[base].at(grid)
         return cache[base]
 
-    exprs = [(rel, parse_expression(rel.expr, f"{calc.name}: {rel.output}")) for rel in calc.relations]
+    exprs = []
+    for rel in calc.relations:
+        ex = parse_expression(rel.expr, f"{calc.name}: {rel.output}")
+        if all(has_signal(n, architecture) for n in {rel.output, *ex.names}):
+            exprs.append((rel, ex))
+        else:
+            result.not_applicable.append(f"{rel.output}_calc")
     done: set[str] = set()
     changed = True
     while changed and grid.size:
@@ -418,7 +447,8 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
             reasons.append("inputs available but the result is NaN everywhere "
                            "(inputs do not overlap in time)")
         result.not_computed.setdefault(f"{rel.output}_calc", []).append(f"{rel.expr}: " + "; ".join(reasons))
-    _balance_checks(calc, pvals, measured, calc_vals, measured_on_grid, grid, result)
+    _balance_checks(calc, pvals, measured, calc_vals, measured_on_grid, grid, result,
+                    architecture)
     if add:
         for name in result.computed:
             sig = Signal.standard(name, grid, calc_vals[name[:-5]], source="calc",

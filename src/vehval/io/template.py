@@ -199,6 +199,10 @@ class Constants(_Strict):
     final_drive_ratio: PositiveFloat | None = None
     inertia_fraction: float | None = None
     soc_correction_fuel_j_per_battery_j: PositiveFloat | None = None
+    #: AC energy measured at the wall recharging the battery after a battery-electric test
+    #: [J] (SAE J1634 recharge energy): the whole test's AC figures use it instead of DC
+    #: energy / charger efficiency.
+    ac_recharge_energy_j: PositiveFloat | None = None
 
 
 class Selection(_Strict):

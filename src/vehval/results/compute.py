@@ -222,25 +222,34 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                        findings=findings, notes=notes, inputs=roles)
 
 
-def results_from_template(test: Test, template: Any, **kw: Any) -> TestResults:
+def results_from_template(test: Test, template: Any, vehicle: Any = None,
+                          **kw: Any) -> TestResults:
     """:func:`compute_results` with the template's fuel (:func:`vehval.fuels.resolve_fuel`),
-    ``accuracy`` and ``phase_channel``."""
+    ``accuracy`` and ``phase_channel``; the SAE J1634 figures of a battery-electric test
+    (the template's or ``vehicle``'s architecture) with the charger efficiency of ``vehicle``
+    (the command line's ``--vehicle``), else of the template's ``vehicle:``, and the measured
+    wall energy ``constants.ac_recharge_energy_j`` when the template states one."""
     fuel = resolve_fuel(template=template, test=test)
     kw.setdefault("soc_factor", getattr(template.constants, "soc_correction_fuel_j_per_battery_j",
                                         None))
     res = compute_results(test, fuel=fuel, accuracy=template.accuracy,
                           phase_channel=template.phase_channel, **kw)
-    if getattr(template, "architecture", None) == "battery_electric":
+    arch = getattr(template, "architecture", None) or getattr(vehicle, "architecture", None)
+    if arch == "battery_electric":
         from vehval.results.j1634 import j1634_results
-        res.j1634 = j1634_results(res, _charger_efficiency(template))
+        res.j1634 = j1634_results(res, _charger_efficiency(template, vehicle),
+                                  getattr(template.constants, "ac_recharge_energy_j", None))
     return res
 
 
-def _charger_efficiency(template: Any) -> float | None:
-    """The charger efficiency of the template's battery-electric vehicle file, if any."""
-    if not getattr(template, "vehicle", None):
-        return None
-    from vehval.vehicle import load_vehicle
-    veh = load_vehicle(template.vehicle)
+def _charger_efficiency(template: Any, vehicle: Any = None) -> float | None:
+    """The charger efficiency of ``vehicle`` (loaded), else of the template's vehicle file,
+    if it is battery-electric."""
+    veh = vehicle
+    if veh is None:
+        if not getattr(template, "vehicle", None):
+            return None
+        from vehval.vehicle import load_vehicle
+        veh = load_vehicle(template.vehicle)
     charger = getattr(veh, "charger", None)
     return None if charger is None else float(charger.efficiency)

@@ -114,14 +114,9 @@ def _forbidden(message: str, request: Request | None = None) -> Response:
     if request is None or request.url.path.startswith("/api/") or \
             "text/html" not in request.headers.get("accept", ""):
         return JSONResponse({"error": message}, status_code=403)
-    from html import escape
-
-    body = (f"<!doctype html><html lang=en><head><meta charset=utf-8><title>vehval workbench: "
-            f"access refused</title></head><body><h1>vehval workbench: access refused</h1>"
-            f"<p id=error>{escape(message)}.</p><p>Open the workbench with the URL "
-            "<code>vehval serve</code> printed in its terminal (it holds the token, valid "
-            "until that server stops); after a restart, use the new URL.</p></body></html>")
-    return HTMLResponse(body, status_code=403)
+    # no token: the page carries no CSRF value and names no workspace
+    return HTMLResponse(_jinja().get_template("refused.html").render(message=message),
+                        status_code=403)
 
 
 async def _body(request: Request) -> bytes:

@@ -159,6 +159,22 @@ def absent_categories(architecture: str | None) -> tuple[str, ...]:
     return ABSENT_CATEGORIES.get(architecture or "", ())
 
 
+def architecture_of(vehicle: Any = None, template: Any = None) -> str | None:
+    """The tested car's architecture: the vehicle file's, else the template's
+    ``architecture:``, else None (unknown)."""
+    arch = getattr(vehicle, "architecture", None) or getattr(template, "architecture", None)
+    return str(arch) if arch else None
+
+
+def has_signal(base: str, architecture: str | None) -> bool:
+    """Whether a car of ``architecture`` can have the signal ``base`` (False when its
+    category is one the architecture lacks; True for an unknown signal or architecture)."""
+    from vehval.nomenclature import registry
+
+    reg = registry()
+    return base not in reg or reg[base].category not in absent_categories(architecture)
+
+
 def _foreign_key(data: dict, arch: str, model) -> str | None:
     """The first top-level key of ``data`` that belongs to another architecture only (an
     engine block in a battery-electric file...), or None."""
