@@ -193,7 +193,7 @@ def conventional_dir(tmp_path_factory) -> Path:
 
 
 def test_identification_traces_follow_the_rule_and_qa_final_template(conventional_dir, tmp_path):
-    from vehval.identify.traces import load_traces
+    from vehval.identify.loading import load_traces
     from vehval.io.template import load_template
     from vehval.workflow import TestRun
 

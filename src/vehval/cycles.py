@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 
 from vehval.errors import InputFileError, UnitError, VehvalError
+from vehval.integrals import integral
 from vehval.units import conversion, split_header
 
 #: Alternative spellings -> package cycle name. Keys are normalised with :func:`_norm`.
@@ -146,8 +147,7 @@ class Cycle:
     @property
     def distance_m(self) -> float:
         """Distance driven, trapezoidal integration of the speed [m]."""
-        t, v = self.time_s, self.speed_mps
-        return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)))
+        return integral(self.time_s, self.speed_mps)
 
     @property
     def max_speed_mps(self) -> float:

@@ -39,6 +39,7 @@ import numpy as np
 
 from vehval.cycles import part_boundary_s
 from vehval.errors import VehvalError
+from vehval.integrals import integral
 
 __all__ = ["identify_cycle", "identify_scaled", "run_distance_ratios", "describe", "MAX_RMS_MPS", "MIN_COVERAGE", "MIN_EXPLAINED",
            "MOVING_MPS", "SPLIT_AT_S"]
@@ -523,8 +524,8 @@ def run_distance_ratios(time_s: Any, speed_mps: Any, details: dict, shift_s: flo
             if inside.sum() < 2:
                 continue
             tt = tt[inside]
-            meas += float(np.trapezoid(np.interp(tt + off, t, v), tt))
-            ref += float(np.trapezoid(np.interp(tt, cyc.time_s, cyc.speed_mps), tt))
+            meas += integral(tt, np.interp(tt + off, t, v))
+            ref += integral(tt, np.interp(tt, cyc.time_s, cyc.speed_mps))
         out.append((meas, ref))
     return out
 

@@ -26,7 +26,7 @@ SRC = Path(__file__).resolve().parents[1]
 LAYERS: dict[str, int] = {
     "vehval": 0, "errors": 0, "constants": 0, "units": 0, "nomenclature": 0, "safe_yaml": 0,
     "jsonsafe": 0, "conditions": 0, "protocols": 0, "numba_cache": 0, "progress": 0,
-    "fuels": 0, "display": 0, "uncertainty": 0, "layers": 0,
+    "fuels": 0, "display": 0, "uncertainty": 0, "layers": 0, "integrals": 0,
     "test": 1, "cycles": 1, "cycles_match": 1, "vehicle": 1,
     "io": 2, "align": 2,
     "equations": 3, "sim": 3, "calibration": 3,
@@ -35,7 +35,7 @@ LAYERS: dict[str, int] = {
     "analysis": 6,
     "validate": 7, "epa": 7,
     "report": 8, "catalog": 8,
-    "workflow": 9, "batch": 9, "identify": 9,
+    "workflow": 9, "batch": 9, "identify": 9, "architectures": 9,
     "cli": 10, "serve": 10, "__main__": 10,
 }
 
@@ -50,7 +50,7 @@ FLOOR_NAMES: dict[int, str] = {
     6: "analysis",
     7: "validation; EPA test car lists",
     8: "reports, the catalog",
-    9: "workflows: one test, a batch, identification",
+    9: "workflows: one test, a batch, identification, the stages of each architecture",
     10: "the command line and the workbench",
 }
 
@@ -72,6 +72,9 @@ SAME_LAYER: frozenset[tuple[str, str]] = frozenset({
     ("cycles_match", "cycles"),
     # floor 9: a batch and an identification run the one-test workflow
     ("batch", "workflow"), ("identify", "workflow"),
+    # floor 9: the workflow chooses each stage by architecture in the stage registry, whose
+    # conventional entries are identification's
+    ("workflow", "architectures"), ("architectures", "identify"),
     # floor 10: ``python -m vehval`` is the command line; ``vehval serve`` starts the workbench
     ("__main__", "cli"), ("cli", "serve"),
 })

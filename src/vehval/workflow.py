@@ -87,18 +87,34 @@ class AnalysisOutcome:
 
 @dataclass
 class ValidationOutcome:
-    """The ``validate`` step: simulation on the test's conditions compared with the test."""
+    """The ``validate`` step: the model against the test, as the vehicle's architecture
+    compares them (:mod:`vehval.architectures`): the simulation on the test's conditions
+    (:class:`~vehval.validate.validation.Validation`, :attr:`validation`) or the fuel
+    prediction of a conventional car (:class:`~vehval.identify.comparison.PredictionComparison`)."""
 
-    validation: Validation
+    comparison: Any
+
+    @property
+    def validation(self) -> Validation:
+        """The simulation on the test's conditions; ConfigError when the architecture
+        compares otherwise (its :attr:`comparison` is then the fuel prediction)."""
+        from vehval.validate.validation import Validation
+
+        if not isinstance(self.comparison, Validation):
+            raise ConfigError(f"vehicle '{self.comparison.vehicle.name}' is "
+                              f"'{self.comparison.vehicle.architecture}': its validation is "
+                              "the fuel prediction per phase (no simulation on the test's "
+                              "conditions to overlay or rank)")
+        return self.comparison
 
     @property
     def document(self) -> dict:
         """The per-test validation summary (``validation.json`` of a batch test)."""
-        return self.validation.to_dict()
+        return self.comparison.to_dict()
 
     def payload(self, figures: bool = True) -> dict:
         """The report's validation section: ``{tables, figures, notes}``."""
-        return self.validation.payload(figures=figures)
+        return self.comparison.payload(figures=figures)
 
 
 @dataclass
@@ -272,7 +288,7 @@ class TestRun:
                 or self._results.results.forced != force):
             test = self.validated
             if self.template is not None:
-                res = results_from_template(test, self.template, **opts)
+                res = results_from_template(test, self.template, self.vehicle, **opts)
             else:
                 res = compute_results(test, **opts)
             apply_gate(res, self._qa.result.findings if self._qa is not None else (), force=force)
@@ -288,7 +304,7 @@ class TestRun:
     def analyze(self) -> AnalysisOutcome:
         """Control-strategy analysis (engine on/off rule, SOC regulation, modes, braking)."""
         if self._analysis is None:
-            from vehval.analysis import analyze
+            from vehval.architectures import require
 
             notes: list[str] = []
             excluded: list = []
@@ -300,8 +316,7 @@ class TestRun:
                 excluded = mask_flagged_samples(work, self.qa().result.findings)
             else:
                 work = self.test
-            _require_power_split(self.vehicle, "the control-strategy analysis")
-            result = analyze(work, self.vehicle)
+            result = require(self.vehicle, "analyze")(work, self.vehicle)
             result.findings[:0] = [f.to_dict() for f in excluded]
             self._analysis = AnalysisOutcome(result, notes)
         return self._analysis
@@ -312,16 +327,10 @@ class TestRun:
         if self.vehicle is None:
             raise ConfigError("validation needs a vehicle model: pass --vehicle or set "
                               "'vehicle:' in the template")
-        from vehval.validate import validate_test
+        from vehval.architectures import require
 
-        _require_power_split(self.vehicle, "validation")
-        if self._results is None and self.template is not None:
-            self.results()  # the verdicts use the template's declared accuracies
-        res = self._results.results if self._results is not None else None
-        self._validation = ValidationOutcome(validate_test(
-            self.validated, self.vehicle,  # type: ignore[arg-type]  # power split checked
-            dt=dt, window_s=window_s, smooth_hz=smooth_hz,
-            overrides=overrides, results=res))
+        self._validation = ValidationOutcome(require(self.vehicle, "validate")(
+            self, dt=dt, window_s=window_s, smooth_hz=smooth_hz, overrides=overrides))
         return self._validation
 
     def report(self, outdir: str | Path, *, control: Any = None, validation: Any = None,
@@ -359,15 +368,6 @@ class TestRun:
 
 
 # ---------------------------------------------------------------------- grouping of paths
-def _require_power_split(vehicle: Any, what: str) -> None:
-    """One clear line when a step written for the power-split model gets another one."""
-    arch = getattr(vehicle, "architecture", "power_split")
-    if vehicle is not None and arch != "power_split":
-        raise ConfigError(f"vehicle '{vehicle.name}' is '{arch}': {what} is written for the "
-                          "power-split model; for a conventional car use vehval predict "
-                          "(fuel per phase) or vehval calibrate")
-
-
 def _template_for(path: Path | None, template: Any) -> Any:
     if template is not None:
         return load_template_arg(template)
@@ -421,6 +421,25 @@ def runs_from_args(files: Sequence[Path], groups: Sequence[str] = (), template: 
             seen[tid] = 1
             run.test.meta.test_id = tid
     return out
+
+
+def calibration_runs(files: Sequence[Path], groups: Sequence[str], holdout: Sequence[str],
+                     template: Any, vehicle: Any, *, per_file: bool,
+                     use_qa: bool) -> tuple[list[TestRun], list[TestRun]]:
+    """The tuning and held-out runs of a calibration: with ``per_file`` every file and every
+    ``--test A,B`` group is one test read without a vehicle; else the command line's grouping
+    (:func:`runs_from_args`) with ``vehicle``. Each ``holdout`` entry is one test
+    (comma-separated files or a directory)."""
+    def paths(text: str) -> list[Path]:
+        return [Path(x.strip()) for x in text.split(",") if x.strip()]
+
+    if per_file:
+        tune = [TestRun.load(g, template, use_qa=use_qa)
+                for g in [[f] for f in files] + [paths(g) for g in groups]]
+        return tune, [TestRun.load(paths(h), template, use_qa=use_qa) for h in holdout]
+    tune = runs_from_args(files, groups, template, vehicle, use_qa=use_qa)
+    return tune, [TestRun.from_paths(paths(h), template, vehicle, use_qa=use_qa)
+                  for h in holdout]
 
 
 # ---------------------------------------------------------------------- several tests
@@ -502,12 +521,12 @@ def fuel_normalised_error(veh: Any, comp: Any, u_model_rel: float | None,
     """
     import math
 
+    from vehval.architectures import stages
     from vehval.calibration.provenance import calibration_tests
-    from vehval.sim.simulate import architecture
     from vehval.validate.ladder import ladder
 
     lad = ladder([comp], calibrated=calibration_tests(veh), u_model_rel={comp.test_id: u_model_rel},
-                 family="hybrid" if architecture(veh).has_battery else "conventional")
+                 family=stages(veh).family)
     e = lad.entries[0]
     model, meas = e.errors["fuel_sim_kg"], e.errors["fuel_test_kg"]
     err = (100.0 * (model / meas - 1.0) if math.isfinite(model) and math.isfinite(meas)
@@ -540,6 +559,12 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     if veh is None:
         raise ConfigError("validation needs a vehicle model: pass --vehicle or set 'vehicle:' "
                           "in the template")
+    from vehval.architectures import stages
+
+    if not stages(veh).validate_suite:   # one line, before any test is simulated
+        raise ConfigError(f"vehicle '{veh.name}' is '{stages(veh).name}': vehval validate "
+                          "ranks simulations on the tests' conditions, not written for it; "
+                          f"{stages(veh).hint}")
     progress.add(len(runs))
     vals = []
     for one in runs:
@@ -548,11 +573,9 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     comps = [v.validation.comparison for v in vals]
     u_cyc, u_notes = model_uncertainty_by_cycle(veh, [c.cycle for c in comps],
                                                 model_uncertainty, draws)
-    from vehval.sim.simulate import architecture
-
     lad = ladder(comps, tolerances, calibrated=calibration_tests(veh),
                  u_model_rel={c.test_id: u_cyc.get(c.cycle) for c in comps},
-                 family="hybrid" if architecture(veh).has_battery else "conventional")
+                 family=stages(veh).family)
     payload: dict[str, Any] = {
         "title": "Validation", "intro": f"{veh.name} simulated on each test's own speed trace, "
         "initial SOC, mass and road load", "tables": [], "figures": [], "notes": []}

@@ -71,13 +71,14 @@ def test_bag_battery_energy_matches_the_kernel(prius_2016):
     """Battery chemical energy integrated from the recorded signals equals the kernel's own
     account of OCV x current (to 1e-4 of the fuel energy)."""
     from vehval.epa import validation as v
+    from vehval.integrals import window_integral
     from vehval.sim.simulate import architecture, run_plan
 
     arch = architecture(prius_2016)
     grids = v._grids(prius_2016, FTP75, 1.0)
     for g, (out, ys) in zip(grids, run_plan(prius_2016, grids, 0.6)):
-        e = v._window_sum(g.t, v._chemical_power(prius_2016, out, arch.column), ((0.0, None),),
-                          1.0)
+        e = window_integral(g.t, v._chemical_power(prius_2016, out, arch.column), ((0.0, None),),
+                            step_s=1.0)
         ref = ys[arch.summary_keys.index("ess_chem_energy_j")]
         assert abs(e - ref) < 1e-4 * ys[arch.summary_keys.index("fuel_energy_j")]
         assert abs(ref) > 1e4  # the battery does work in the run

@@ -14,6 +14,7 @@ import pytest
 
 from vehval.cli import main
 
+from .browsing import browser  # noqa: F401 - the Chromium fixture of the browser tests
 from .helpers import _relabel_fuel
 
 

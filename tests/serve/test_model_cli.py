@@ -41,6 +41,9 @@ def test_model_overlay_with_verdicts(synth_dir, tmp_path):
     assert {"veh_spd", "eng_spd_out", "ess_soc"} <= bases
     spd = next(t for t in m["traces"] if t["base"] == "veh_spd")
     assert spd["simulated"]["name"].endswith("_simu") and spd["measured"]["name"].endswith("_test")
+    assert spd["unit"] in ("mph", "km/h")                                 # display units
+    soc = next(t for t in m["traces"] if t["base"] == "ess_soc")
+    assert soc["unit"] == "%" and 20 < max(y for y in soc["measured"]["y"] if y is not None) <= 100
     titles = [t["title"] for t in m["tables"]]
     assert any("summary" in t for t in titles)
     # the fuel mass's normalised error beside the summary's % difference, in grams

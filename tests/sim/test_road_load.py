@@ -131,7 +131,7 @@ def test_cli_default_step_is_epa_validates(capsys):
     import inspect
 
     from vehval.cli import main
-    from vehval.cli.commands_epa import validate_cmd
+    from vehval.cli.commands_epa_validate import validate_cmd
 
     validate_dt = inspect.signature(validate_cmd).parameters["dt"].default.default
     assert main(["sensitivity", "--road-load", "--cycles", "ece15", "--json"]) == 0

@@ -42,6 +42,7 @@ import numpy as np
 
 from vehval.analysis.inputs import Finding
 from vehval.constants import RPM_RAD_PER_S
+from vehval.integrals import cumulative
 
 
 @dataclass
@@ -63,11 +64,6 @@ class SocEstimate:
     method: str
     info: dict = field(default_factory=dict)
     findings: list[Finding] = field(default_factory=list)
-
-
-def _cumtrapz(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Cumulative trapezoidal integral of ``x`` over ``t`` (starts at 0)."""
-    return np.concatenate([[0.0], np.cumsum(0.5 * (x[1:] + x[:-1]) * np.diff(t))])
 
 
 def _fill_gaps(t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, int]:
@@ -136,7 +132,7 @@ def estimate_soc(t: np.ndarray, soc_meas: np.ndarray, curr: np.ndarray | None = 
     if curr is None or np.isfinite(curr).sum() < 0.9 * t.size:
         return measured
     i_f, n_filled = _fill_gaps(t, np.asarray(curr, float))
-    q = _cumtrapz(t, i_f)
+    q = cumulative(t, i_f)
     tt = t - t[0]
     y = soc_meas[ok]
     a = np.stack([np.ones(ok.sum()), tt[ok], -q[ok]], axis=1)
@@ -206,7 +202,7 @@ def power_sign_check(t: np.ndarray, soc: np.ndarray, ess_pwr: np.ndarray,
     ok = np.isfinite(soc)
     if ok.sum() < 30 or np.isfinite(p).sum() < 0.9 * p.size or np.ptp(soc[ok]) < min_swing:
         return p, []
-    e = _cumtrapz(t, np.where(np.isfinite(p), p, 0.0))
+    e = cumulative(t, np.where(np.isfinite(p), p, 0.0))
     tt = t - t[0]
     a = np.stack([np.ones(ok.sum()), tt[ok], e[ok]], axis=1)
     coef, *_ = np.linalg.lstsq(a, soc[ok], rcond=None)

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.integrals import battery_power
 from vehval.nomenclature import registry
 from vehval.test import Signal, Test
 
@@ -233,7 +234,7 @@ def prepare_inputs(test: Test, vehicle: Any = None, constants: dict | None = Non
     brk = grab("brk_frc", "friction brake force")
     pwr = grab("ess_pwr", "battery power")
     if not np.any(np.isfinite(pwr)) and np.any(np.isfinite(curr)) and np.any(np.isfinite(volt)):
-        pwr = curr * volt
+        pwr = battery_power(volt, curr)
         sources["battery power"] = f"{sources['battery current']} x {sources['battery voltage']}"
 
     # delivered wheel power, most direct first (the driver's demand is not measured: the

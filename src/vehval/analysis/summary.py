@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -143,36 +143,10 @@ def _battery_limits(soc: np.ndarray, vehicle: Any) -> tuple:
     return pd - vehicle.controller.battery_discharge_margin_w, pd, pc
 
 
-def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  # noqa: PLR0915 - the analysis steps in order, each one a few lines
-            dt: float | None = None) -> AnalysisResult:
-    """Control-strategy analysis of a test.
-
-    Parameters
-    ----------
-    test : Test
-        Imported (ideally QA-validated) test; ``_test`` then ``_calc`` signals are used.
-    vehicle : Vehicle or str, optional
-        Gives the fixed controller parameters (hold times, SOC regulation and conditions,
-        auxiliary load, battery limits and capacity), the fuel map for the best-efficiency
-        line and default constants.
-    constants : dict, optional
-        Constants overriding the test's (mass, road load, wheel radius).
-    dt : float, optional
-        Analysis grid step [s] (default: the speed signal's period, at least 0.1 s).
-
-    Returns
-    -------
-    AnalysisResult
-    """
-    if isinstance(vehicle, str):
-        from vehval.vehicle import load_vehicle
-        vehicle = load_vehicle(vehicle)
-    inp = prepare_inputs(test, vehicle, constants, dt)
-    findings: list[Finding] = list(inp.findings)
-    es = detect_engine_on(inp.t, inp.eng_spd, inp.fuel_rate)
-    aux = float(vehicle.body.aux_power_w) if vehicle is not None else 0.0
-    base = base_params(vehicle)
-    # state of charge (coulomb counting anchored to the logged SOC) and battery power sign
+def _state_of_charge(test: Test, inp: Any, vehicle: Any, base: dict,
+                     findings: list[Finding]) -> tuple[Any, float | None]:
+    """State of charge (coulomb counting anchored to the logged SOC) and the logged SOC's
+    resolution [-]; a warning when that resolution blurs the SOC-regulation demand."""
     soc_sig = pick_signal(test, "ess_soc")
     res_step = quantisation_step(soc_sig.values) if soc_sig is not None else None
     curr, curr_label = inp.ess_curr, inp.sources.get("battery current", "battery current")
@@ -185,34 +159,37 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  
                       vehicle.battery.capacity_ah if vehicle is not None else None,
                       curr_label=curr_label, resolution=res_step)
     findings.extend(se.findings)
-    soc = se.soc
     if (res_step and res_step >= 0.002 and se.method.startswith("measured") and soc_sig is not None
             and base["soc_gain_w"] > 0):
         findings.append(Finding("warning", soc_sig.name, (
             f"logged SOC resolution {res_step:.3g} and no usable battery current: the SOC-"
             f"regulation demand is known only to ±{0.5 * res_step * base['soc_gain_w']:.0f} W")))
-    ess_pwr, f_sign = power_sign_check(inp.t, soc, inp.ess_pwr)
-    findings.extend(f_sign)
-    pdis_av, pd_lim, pc_lim = _battery_limits(soc, vehicle)
-    eng_pwr = inp.eng_spd * inp.eng_trq
-    codes = classify_modes(inp.v, inp.p_whl, es.on, ess_pwr, eng_pwr)
-    _starts, _lengths, vals = run_lengths(es.on)
-    engine = {"method": es.method, "on_share": float(np.mean(es.on[es.valid])) if es.valid.any() else None,
-              "starts": int(np.sum(vals[1:])) if vals.size else 0,
-              "valid_share": float(np.mean(es.valid))}
-    soc_reg = fit_soc_regulation(soc, ess_pwr, es.on & es.valid, inp.p_whl, inp.dt)
-    soc_reg["engine_on_share_by_soc"] = _on_by_soc(soc, es.on, es.valid)
-    soc_reg["soc_source"] = se.method
-    soc_reg["soc_resolution"] = res_step
-    controller, uncertainty, rule = {}, {}, {}
+    return se, res_step
+
+
+class _RuleFit(NamedTuple):
+    """The engine on/off rule of a hybrid (empty parts when it was not estimated)."""
+
+    agreement: float | None
+    controller: dict
+    uncertainty: dict
+    rule: dict
+    events: list
+    demand: dict
+    replay_inputs: dict
+
+
+def _engine_rule(test: Test, inp: Any, vehicle: Any, es: Any, soc: np.ndarray,
+                 ess_pwr: np.ndarray, base: dict, aux: float, limits: tuple[Any, Any],
+                 findings: list[Finding]) -> _RuleFit:
+    """Fit and replay the engine on/off rule of a hybrid (its estimated controller
+    parameters and their uncertainty); the event table of every car. ``limits`` are the
+    available and the limiting discharge power [W] of :func:`_battery_limits`."""
+    pdis_av, pd_lim = limits
+    controller: dict = {}
+    uncertainty: dict = {}
     agree = None
-    if soc_reg.get("fitted") and "soc_target" in soc_reg and soc_reg.get("r2", 0) > 0.3:
-        soc_reg["battery_side_gain_w"] = soc_reg.pop("soc_gain_w")
-        controller["soc_target"] = round(soc_reg["soc_target"], 4)
-        uncertainty["soc_target"] = {"method": "robust linear fit of battery power against SOC "
-                                     "in steady engine-on propulsion (zero crossing; biased by "
-                                     "the auxiliary load and losses)", "r2": soc_reg["r2"]}
-    events: list = []
+    rule: dict = {}
     n_switch = int(np.sum(es.on[1:] != es.on[:-1]))
     demand_info: dict = {}
     replay_inputs: dict = {}
@@ -269,6 +246,67 @@ def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  
                                 f"(found {n_switch} switch(es))"))
         events = event_table(inp.t, es.on, es.valid, inp.v, inp.p_whl, soc, ess_pwr,
                              base, aux, 0.0)
+    return _RuleFit(agree, controller, uncertainty, rule, events, demand_info, replay_inputs)
+
+
+def analyze(test: Test, vehicle: Any = None, constants: dict | None = None, *,  # noqa: PLR0915 - the analysis steps in order, each one a few lines
+            dt: float | None = None) -> AnalysisResult:
+    """Control-strategy analysis of a test.
+
+    Parameters
+    ----------
+    test : Test
+        Imported (ideally QA-validated) test; ``_test`` then ``_calc`` signals are used.
+    vehicle : Vehicle or str, optional
+        Gives the fixed controller parameters (hold times, SOC regulation and conditions,
+        auxiliary load, battery limits and capacity), the fuel map for the best-efficiency
+        line and default constants.
+    constants : dict, optional
+        Constants overriding the test's (mass, road load, wheel radius).
+    dt : float, optional
+        Analysis grid step [s] (default: the speed signal's period, at least 0.1 s).
+
+    Returns
+    -------
+    AnalysisResult
+    """
+    if isinstance(vehicle, str):
+        from vehval.vehicle import load_vehicle
+        vehicle = load_vehicle(vehicle)
+    inp = prepare_inputs(test, vehicle, constants, dt)
+    findings: list[Finding] = list(inp.findings)
+    es = detect_engine_on(inp.t, inp.eng_spd, inp.fuel_rate)
+    aux = float(vehicle.body.aux_power_w) if vehicle is not None else 0.0
+    base = base_params(vehicle)
+    se, res_step = _state_of_charge(test, inp, vehicle, base, findings)
+    soc = se.soc
+    ess_pwr, f_sign = power_sign_check(inp.t, soc, inp.ess_pwr)
+    findings.extend(f_sign)
+    pdis_av, pd_lim, pc_lim = _battery_limits(soc, vehicle)
+    eng_pwr = inp.eng_spd * inp.eng_trq
+    codes = classify_modes(inp.v, inp.p_whl, es.on, ess_pwr, eng_pwr)
+    _starts, _lengths, vals = run_lengths(es.on)
+    engine = {"method": es.method, "on_share": float(np.mean(es.on[es.valid])) if es.valid.any() else None,
+              "starts": int(np.sum(vals[1:])) if vals.size else 0,
+              "valid_share": float(np.mean(es.valid))}
+    soc_reg = fit_soc_regulation(soc, ess_pwr, es.on & es.valid, inp.p_whl, inp.dt)
+    soc_reg["engine_on_share_by_soc"] = _on_by_soc(soc, es.on, es.valid)
+    soc_reg["soc_source"] = se.method
+    soc_reg["soc_resolution"] = res_step
+    controller: dict = {}
+    uncertainty: dict = {}
+    if soc_reg.get("fitted") and "soc_target" in soc_reg and soc_reg.get("r2", 0) > 0.3:
+        soc_reg["battery_side_gain_w"] = soc_reg.pop("soc_gain_w")
+        controller["soc_target"] = round(soc_reg["soc_target"], 4)
+        uncertainty["soc_target"] = {"method": "robust linear fit of battery power against SOC "
+                                     "in steady engine-on propulsion (zero crossing; biased by "
+                                     "the auxiliary load and losses)", "r2": soc_reg["r2"]}
+    fit = _engine_rule(test, inp, vehicle, es, soc, ess_pwr, base, aux, (pdis_av, pd_lim),
+                       findings)
+    controller.update(fit.controller)
+    uncertainty.update(fit.uncertainty)
+    agree, rule, events = fit.agreement, fit.rule, fit.events
+    demand_info, replay_inputs = fit.demand, fit.replay_inputs
     regen_mask = codes == MODES.index("regen_braking")
     op = operating_points(inp.eng_spd, inp.eng_trq, es.on, inp.dt, vehicle, ess_pwr, pd_lim, pc_lim)
     op["power_by_mode"] = power_histogram_by_mode(eng_pwr, codes, es.on)

@@ -311,6 +311,34 @@ def lag_grids(dt: float, lag_range_s: tuple[float, float] = (-0.3, 1.0),
     return out[0], out[1]
 
 
+def _coarse_seeds(prob: _Problem, p_hi: float, v_grid: np.ndarray, n_starts: int) -> list[np.ndarray]:
+    """Start points of the coordinate ascents [parameter vectors].
+
+    A joint coarse scan of the two on-thresholds (power up to ``p_hi`` [W], speed over
+    ``v_grid`` [m/s]; offs at a fixed hysteresis); the best ``n_starts`` distinct points
+    start one ascent each (a low power threshold and a speed threshold can explain the same
+    starts: one local optimum is not enough).
+    """
+    start = prob.vec.copy()
+    coarse = []
+    for on in np.arange(2000.0, p_hi + 2000.0, 2000.0):
+        for vs in v_grid:
+            vec = start.copy()
+            vec[IDX["engine_on_power_w"]], vec[IDX["engine_off_power_w"]] = on, on - 3000.0
+            vec[IDX["engine_on_speed_mps"]], vec[IDX["engine_off_speed_mps"]] = vs, vs - 2.0
+            coarse.append((prob.score(vec), on, vs, vec))
+    coarse.sort(key=lambda c: -c[0])
+    seeds: list[np.ndarray] = []
+    picked: list[tuple[float, float]] = []
+    for _, on, vs, vec in coarse:
+        if all(abs(on - o) >= 4000.0 or abs(vs - w) >= 2.5 for o, w in picked):
+            picked.append((on, vs))
+            seeds.append(vec)
+        if len(seeds) >= n_starts:
+            break
+    return seeds
+
+
 def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray,  # noqa: PLR0913 - six aligned signals plus the fit's search options
              soc: np.ndarray, dt: float, base: dict, *, aux_w: float = 0.0,
              pdis_av: np.ndarray | None = None, tol: float = 0.002, rounds: int = 3,
@@ -376,26 +404,7 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
     gaps = np.arange(0.0, 12000.0 + 1.0, 1000.0)
     v_grid = np.arange(5.0, np.ceil(v_max) + 2.0, 1.0)
     v_gaps = np.arange(0.0, 6.01, 1.0)
-    # joint coarse scan of the two on-thresholds (offs at a fixed hysteresis); the best few
-    # distinct points start one coordinate ascent each (a low power threshold and a speed
-    # threshold can explain the same starts: one local optimum is not enough)
-    start = prob.vec.copy()
-    coarse = []
-    for on in np.arange(2000.0, p_hi + 2000.0, 2000.0):
-        for vs in v_grid:
-            vec = start.copy()
-            vec[IDX["engine_on_power_w"]], vec[IDX["engine_off_power_w"]] = on, on - 3000.0
-            vec[IDX["engine_on_speed_mps"]], vec[IDX["engine_off_speed_mps"]] = vs, vs - 2.0
-            coarse.append((prob.score(vec), on, vs, vec))
-    coarse.sort(key=lambda c: -c[0])
-    seeds: list[np.ndarray] = []
-    picked: list[tuple[float, float]] = []
-    for _, on, vs, vec in coarse:
-        if all(abs(on - o) >= 4000.0 or abs(vs - w) >= 2.5 for o, w in picked):
-            picked.append((on, vs))
-            seeds.append(vec)
-        if len(seeds) >= n_starts:
-            break
+    seeds = _coarse_seeds(prob, p_hi, v_grid, n_starts)
     t_step = max(dt, 0.5)
     rmax_on = float(runs["on"].max()) + 2.0 if runs["on"].size else 20.0
     rmax_off = float(runs["off"].max()) + 2.0 if runs["off"].size else 20.0

@@ -175,6 +175,11 @@ def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - o
                 else "one subdirectory per test")
         raise InputFileError(f"no tests found in '{target_s}': expected {rule} "
                              f"(template file patterns: {', '.join(p or '*' for p in patterns) or 'none'})")
+    return _with_ids(found)
+
+
+def _with_ids(found: Sequence[tuple[str, list[Path]]]) -> list[TestSpec]:
+    """Tests from ``(name, files)`` in order: ids sanitised and made unique (``name-2``)."""
     specs: list[TestSpec] = []
     seen: set[str] = set()
     for name, files in found:
@@ -185,6 +190,24 @@ def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - o
         seen.add(tid)
         specs.append(TestSpec(tid, [f.resolve() for f in files]))
     return specs
+
+
+def file_tests(files: Sequence[Path], template: Any) -> list[TestSpec]:
+    """The tests of one folder whose every data file is a test of its own (the batch rule for
+    the files directly inside ``DIR``): ``[]`` unless the template has exactly one ``files``
+    entry and more than one of ``files`` (sorted by name) is data for it.
+
+    Parameters
+    ----------
+    files : paths
+        The regular files of the folder (already screened: no links out, no FIFOs).
+    template : Template
+        The import template (its one ``files`` entry and ``match`` glob).
+    """
+    if len(template_patterns(template)) != 1:
+        return []
+    data = data_files(sorted(files, key=lambda p: p.name), template)
+    return _with_ids([(f.stem, [f]) for f in data]) if len(data) > 1 else []
 
 
 def file_sha256(path: Path, chunk: int = 1 << 20) -> str:

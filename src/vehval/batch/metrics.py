@@ -13,6 +13,7 @@ from typing import Any, Collection, Mapping
 import numpy as np
 
 from vehval.fuels import economy, resolve_fuel
+from vehval.integrals import battery_power, integral
 from vehval.test import Signal, Test
 
 
@@ -29,15 +30,18 @@ def _finite(sig: Signal) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _integral(t: np.ndarray, v: np.ndarray) -> float | None:
-    if t.size < 2:
-        return None
-    return float(np.sum(0.5 * (v[1:] + v[:-1]) * np.diff(t)))
+    """:func:`vehval.integrals.integral`, None (not NaN) when it cannot be formed."""
+    x = integral(t, v)
+    return x if math.isfinite(x) else None
 
 
 def _product(a: Signal, b: Signal) -> tuple[np.ndarray, np.ndarray]:
+    """Effort x flow on ``a``'s time base (voltage x current by :func:`battery_power`)."""
     t, va = _finite(a)
     vb = b.at(t)
     ok = np.isfinite(vb)
+    if a.name.startswith("ess_volt"):
+        return t[ok], battery_power(va[ok], vb[ok])
     return t[ok], va[ok] * vb[ok]
 
 

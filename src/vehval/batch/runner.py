@@ -252,6 +252,35 @@ def _client(workers: int, scheduler: str | None, dashboard: bool = False):
     return local_cluster(workers, dashboard=dashboard)
 
 
+def _checked_options(workers: int | None, scheduler: str | None, test_timeout_s: float | None,
+                     steps: list[str] | tuple[str, ...],
+                     report: bool) -> tuple[int | None, float | None, list[str]]:
+    """Workers, time limit [s] and steps of a batch, checked before anything is written."""
+    if not scheduler:
+        workers = check_workers(workers)
+    else:                       # before anything is written: a server that is not Dask's
+        from vehval.batch.scheduler import check_scheduler
+        check_scheduler(scheduler)
+    test_timeout_s = check_test_timeout(test_timeout_s)
+    steps = [s.strip() for s in steps if s and s.strip()]
+    if len(set(steps)) != len(steps):
+        raise ConfigError(f"a step is repeated in --steps: {','.join(steps)}")
+    check_steps(steps, report)
+    return workers, test_timeout_s, steps
+
+
+def _own_outputs(target: str | Path, out: Path, tmpl: Any) -> tuple[list[Path], list[tuple[str, str]]]:
+    """The batch's own outputs (never tests, even with OUTDIR inside or equal to DIR) and
+    the notes of checking that OUTDIR is no test."""
+    own = [out / "tests", out / ASSETS_DIR, out / CATALOG_NAME, out / f"{CATALOG_NAME}.wal",
+           out / INDEX_NAME]
+    notes: list[tuple[str, str]] = []
+    if not (Path(target).is_dir() and inside(target, out)):
+        own.append(out)
+        _check_outdir_not_a_test(target, out, tmpl, own, notes)
+    return own, notes
+
+
 def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
               vehicle: str | None = None, steps: list[str] | tuple[str, ...] = ("qa",),
               workers: int | None = None, scheduler: str | None = None, report: bool = True,
@@ -302,16 +331,8 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     BatchSummary
         Counts, results, and the input entries skipped with their reasons.
     """
-    if not scheduler:
-        workers = check_workers(workers)
-    else:                       # before anything is written: a server that is not Dask's
-        from vehval.batch.scheduler import check_scheduler
-        check_scheduler(scheduler)
-    test_timeout_s = check_test_timeout(test_timeout_s)
-    steps = [s.strip() for s in steps if s and s.strip()]
-    if len(set(steps)) != len(steps):
-        raise ConfigError(f"a step is repeated in --steps: {','.join(steps)}")
-    check_steps(steps, report)
+    workers, test_timeout_s, steps = _checked_options(workers, scheduler, test_timeout_s,
+                                                      steps, report)
     tmpl, settings = _load_settings(template, vehicle)
     if "validate" in steps and not settings["vehicle"]:
         raise ConfigError("step 'validate' needs a vehicle model: pass --vehicle or set "
@@ -321,13 +342,7 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     settings.update(steps=steps, report=bool(report), cycle=cycle, vehval_version=__version__)
     digest = settings_hash(settings)
     out = Path(outdir).resolve()
-    # the batch's own outputs are never tests, even with OUTDIR inside (or equal to) DIR
-    own = [out / "tests", out / ASSETS_DIR, out / CATALOG_NAME, out / f"{CATALOG_NAME}.wal",
-           out / INDEX_NAME]
-    notes: list[tuple[str, str]] = []
-    if not (Path(target).is_dir() and inside(target, out)):
-        own.append(out)
-        _check_outdir_not_a_test(target, out, tmpl, own, notes)
+    own, notes = _own_outputs(target, out, tmpl)
     skipped: list[tuple[Path, str]] = []
     specs = [hash_spec(s, digest)
              for s in discover_tests(target, tmpl, exclude=own, skipped=skipped)]

@@ -21,12 +21,15 @@ from vehval.errors import VehvalError
 
 def _register() -> None:
     # Imported on first use: each module registers its commands on `app` (vehval.cli.app).
+    # the order of registration is the order of `vehval --help`
+    # isort: off
     from vehval.cli import (
         commands_analyze,  # noqa: F401
         commands_batch,  # noqa: F401
         commands_cycles,  # noqa: F401
         commands_epa,  # noqa: F401
         commands_identify,  # noqa: F401
+        commands_predict,  # noqa: F401
         commands_import,  # noqa: F401
         commands_precision,  # noqa: F401
         commands_qa,  # noqa: F401
@@ -38,6 +41,7 @@ def _register() -> None:
         commands_synth,  # noqa: F401
         commands_validate,  # noqa: F401
     )
+    # isort: on
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import typer
 
-from vehval.cli.commands_epa import epa_app
+from vehval.cli.epa_common import epa_app
 from vehval.cli.options import bounded
 
 

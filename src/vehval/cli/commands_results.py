@@ -136,7 +136,8 @@ def echo_results(res) -> None:
     for note in res.notes:
         if note.startswith("FTP-75:"):
             typer.echo(f"  ! {note}")
-    typer.echo(f"  uncertainty: {_method_text(res)}, k = 2; SOC: {res.soc['status']}")
+    typer.echo(_j1634_text(res)
+               + f"  uncertainty: {_method_text(res)}, k = 2; SOC: {res.soc['status']}")
     if res.withheld:
         typer.echo(f"  {len(res.withheld)} figure(s) "
                    + ("stated despite QA errors (--force)" if res.forced else
@@ -205,3 +206,19 @@ def results_cmd(
         typer.echo(f"  {f.severity.value:7s} {f.kind.value:14s} {f.message}")
     typer.echo(f"wrote {outdir}/: {', '.join(written)}")
     withheld_exit(doc)
+
+
+def _j1634_text(res) -> str:
+    """SAE J1634 figures of a battery-electric test (kWh/100 mi AC and MPGe per scope), one
+    line each, newline-terminated; '' for any other test."""
+    j = getattr(res, "j1634", None)
+    if not j:
+        return ""
+    basis = (f"charger efficiency {j['charger_efficiency']:g}"
+             + (" (assumed)" if j["charger_efficiency_assumed"] else ""))
+    lines = [f"  SAE J1634 (AC energy: {basis}):"]
+    for scope, f in j["scopes"].items():
+        lines.append(f"    {scope:16s} DC {f['dc_energy_kwh']:.3f} kWh  AC "
+                     f"{f['ac_kwh_per_100mi']:.1f} kWh/100 mi  {f['mpge']:.1f} MPGe")
+    return "\n".join(lines) + "\n"
+

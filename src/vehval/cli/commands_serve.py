@@ -20,7 +20,7 @@ def serve_cmd(
 ) -> None:
     """Start the workbench: template review, QA triage, catalog browser, model vs test.
 
-    Prints a URL with a one-time token; only files inside WORKSPACE are read or written.
+    Prints a URL with its token (valid until the server stops); only files inside WORKSPACE are read or written.
     """
     from vehval.errors import ConfigError
     from vehval.io.paths import check_input_dir

@@ -110,7 +110,9 @@ def simulate_cmd(
     typer.echo(f"  fuel                {s['fuel_mass_kg'] * 1000:.1f} g")
     typer.echo(f"  fuel economy        "
                f"{fuel_text(s['fuel_economy_mpg'], s['fuel_consumption_l_per_100km'])}")
-    if s.get("architecture") == "conventional":
+    from vehval.architectures import stages
+
+    if not stages(s.get("architecture")).has_battery:
         typer.echo(f"  gear shifts         {s['gear_shifts']:8d}")
         typer.echo(f"  fuel cut            {s['fuel_cut_time_s']:8.1f} s, idle "
                    f"{s['idle_time_s']:.1f} s, converter open {s['unlocked_time_s']:.1f} s")

@@ -7,7 +7,6 @@ Test grouping (see :mod:`vehval.workflow`): each directory is one test, each
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
@@ -30,12 +29,6 @@ def _cycle(cycle: str | None, rung: str | None = None) -> str:
     """``udds, high_transient``; ``no cycle identified`` instead of an empty name."""
     name = cycle or "no cycle identified"
     return f"{name}, {rung}" if rung and cycle else name
-
-
-def _params(text: str | None) -> list[str]:
-    if not text:
-        return []
-    return [p.strip() for p in text.split(",") if p.strip()]
 
 
 def _tolerances(fuel_tol: float, soc_tol: float, soc_points: float | None):
@@ -141,124 +134,32 @@ def calibrate_cmd(
 ) -> None:
     """Tune vehicle parameters on several tests and check them on held-out tests: writes
     calibration.json and vehicle_calibrated.yaml (tuned values with their provenance)."""
+    from vehval.architectures import require
+    from vehval.cli.progress import bar
     from vehval.io.atomic import atomic_dir
     from vehval.jsonsafe import dumps
-    from vehval.validate.calibration import calibrate
     from vehval.vehicle import load_vehicle
-    from vehval.workflow import TestRun, runs_from_args
+    from vehval.workflow import calibration_runs
 
     if not files and not test_group:
         raise ConfigError("no tuning test given: name test directories or files, or use --test A,B")
     check_outputs(outdir=output, inputs=[*(files or []), template, vehicle_path(vehicle), start],
                   writes=["calibration.json", "vehicle_calibrated.yaml"])
     veh = load_vehicle(vehicle)
-    if veh.architecture == "conventional":
-        _calibrate_conventional(veh, files, test_group, holdout, template, params, output,
-                                as_json)
-        return
-    names = _params(params)
-    start_values = None
-    if start is not None:       # checked before any test is read: finite, inside the bounds
-        from vehval.safe_yaml import read_json
-        from vehval.validate.calibration import check_start
-        from vehval.validate.calibration import start_values as parse_start
-        from vehval.validate.conditions import full_name
-        start_values = read_json(start)
-        full = [full_name(n) for n in names]
-        check_start(veh, parse_start(start_values, full), full)
-    tests = [r.validated for r in runs_from_args(files or [], test_group, template, veh,
-                                                 use_qa=not no_qa)]
-    hold = [TestRun.from_paths([Path(x.strip()) for x in h.split(",") if x.strip()], template, veh,
-                               use_qa=not no_qa).validated for h in holdout]
-    from vehval import progress
-    from vehval.cli.progress import bar
-    with bar("calibrate: generations (at most)", as_json=as_json):
-        progress.add(maxiter)
-        res = calibrate(tests, veh, names, start=start_values, holdout_tests=hold, dt=dt,
-                        popsize=popsize, maxiter=maxiter, seed=seed, mode=mode,
-                        smooth_hz=smooth_hz, progress=lambda _i, _j: progress.advance())
-    doc = res.to_dict()
+
+    def load(per_file: bool, use_qa: bool) -> tuple[list, list]:
+        return calibration_runs(files or [], test_group, holdout, template, veh,
+                                per_file=per_file, use_qa=use_qa and not no_qa)
+
+    opts = {"params": params, "start": start, "template": template, "dt": dt,
+            "popsize": popsize, "maxiter": maxiter, "seed": seed, "mode": mode,
+            "smooth_hz": smooth_hz}
+    cal = require(veh, "calibrate")(veh, load, opts, lambda label: bar(label, as_json=as_json))
     with atomic_dir(output) as stage:
-        (stage / "calibration.json").write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
-        res.write_vehicle(stage / "vehicle_calibrated.yaml")
+        cal.write(stage)
     if as_json:
-        typer.echo(dumps(doc), nl=False)
+        typer.echo(dumps(cal.document), nl=False)
         return
-    for note in res.notes:
-        typer.echo(f"note: {note}")
-    for n in res.parameters:
-        typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}")
-    for row in res.rows():
-        typer.echo(f"{row[0]} ({_cycle(row[1])}): fuel error {_pct(row[2], 2, '')} -> "
-                   f"{_pct(row[3], 2)}, SOC error {_pct(row[4], 2, '')} -> {_pct(row[5], 2)}")
-    for tid in res.holdout:
-        en = res.after.get(tid, {}).get("en")
-        if en is not None:
-            typer.echo(f"{tid} (held out): fuel En after calibration {en:+.2f} "
-                       f"({'consistent' if abs(en) <= 1 else 'inconsistent'}; U_model = 0)")
-    sv, why = res.holdout_verdict()
-    if res.holdout:
-        typer.echo("held-out set verdict: " + (f"{sv['verdict']} (n = {sv['n']}, mean fuel "
-                   f"error {sv['mean_error_pct']:+.2f} %)" if sv else f"none ({why})"))
-    typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
-               f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
-    typer.echo(res.tables()[1]["note"])
-    typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")
-
-
-def _calibrate_conventional(veh, files, test_group, holdout, template, params, output,
-                            as_json) -> None:
-    """Conventional car: every file (or --test group) is one test; fuel is the objective."""
-    from vehval.identify.calibrate import DEFAULT_PARAMS, calibrate_conventional
-    from vehval.identify.traces import trace_from_test
-    from vehval.io.atomic import atomic_dir
-    from vehval.jsonsafe import dumps
-    from vehval.workflow import TestRun
-
-    if template is None:
-        raise ConfigError("calibrate: give the import template with -t for a conventional car")
-    groups = [[f] for f in (files or [])] + [[Path(x.strip()) for x in g.split(",") if x.strip()]
-                                            for g in test_group]
-    hybrid_default = "controller.engine_on_power_w"
-    names = (list(DEFAULT_PARAMS) if params.startswith(hybrid_default)
-             else [p.strip() for p in params.split(",") if p.strip()])
-    tune = [trace_from_test(TestRun.load(g, template, use_qa=False).test) for g in groups]
-    hold = [trace_from_test(TestRun.load([Path(x.strip()) for x in h.split(",") if x.strip()],
-                                         template, use_qa=False).test) for h in holdout]
-    from vehval.cli.progress import bar
-    with bar("calibrate: tuning the fuel model", as_json=as_json):
-        res = calibrate_conventional(veh, tune, names, hold)
-    doc = res.to_dict()
-    with atomic_dir(output) as stage:
-        (stage / "calibration.json").write_text(dumps(doc) + "\n", encoding="utf-8")
-        res.write_vehicle(stage / "vehicle_calibrated.yaml")
-    if as_json:
-        typer.echo(dumps(doc), nl=False)
-        return
-    from vehval.identify.calibrate import _bounds
-    for n in res.parameters:
-        lo, hi = _bounds(n, res.start[n])
-        edge = next((f"{name} bound {b:.6g}" for name, b in (("lower", lo), ("upper", hi))
-                     if abs(res.best[n] - b) <= 1e-3 * max(hi - lo, 1e-12)), None)
-        typer.echo(f"{n}: {res.start[n]:.6g} -> {res.best[n]:.6g}"
-                   + (f"  (at its {edge}: not identified, the fuel data push it beyond its "
-                      "range)" if edge else ""))
-    for row in res.tests:
-        typer.echo(f"{row['test']} ({row['role']}{', in sample' if row['role'] == 'tune' else ''})"
-                   f": fuel error {100 * row['error_rel_before']:+.2f}"
-                   f" -> {100 * row['error_rel_after']:+.2f} %")
-    # the summary line of the power-split calibration: held-out and in-sample apart
-    from vehval.validate.calibration import _sample_note
-    stats: dict[str, dict] = {}
-    for role in ("holdout", "tune"):
-        rows = [r for r in res.tests if r["role"] == role]
-        b, a = (100 * sum(abs(r[k]) for r in rows) / len(rows) if rows else None
-                for k in ("error_rel_before", "error_rel_after"))
-        stats[role] = {"n_tests": len(rows), "fuel_pct_before": b, "fuel_pct_after": a}
-    hb, ha = stats["holdout"]["fuel_pct_before"], stats["holdout"]["fuel_pct_after"]
-    worse = hb is not None and ha is not None and ha > hb
-    typer.echo(_sample_note(stats["holdout"], stats["tune"])
-               + ("; the held-out tests got worse: the tuning overfits its tests" if worse else ""))
-    typer.echo(f"objective {res.objective_start:.4g} -> {res.objective_best:.4g} "
-               f"({res.n_simulations} simulations, {res.elapsed_s:.1f} s)")
+    for line in cal.lines:
+        typer.echo(line)
     typer.echo(f"wrote {output / 'calibration.json'} and {output / 'vehicle_calibrated.yaml'}")

@@ -324,7 +324,7 @@ def gear_ratios(specs: Specs) -> tuple[list[float], float]:
     return [top * spread ** ((n - 1 - i) / (n - 1)) for i in range(n)], top_overall
 
 
-def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFFICIENCY,
+def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFFICIENCY,  # long: one vehicle document, each value beside its source
                        friction_scale: float = 1.0, cold_start: bool = True,
                        note: str = "", idle_fuel_g_per_s: float | None = None,
                        idle_source: str = "",

@@ -43,6 +43,7 @@ from vehval.epa.specs import (
     vehicle_from_specs,
 )
 from vehval.errors import ConfigError, SignalError
+from vehval.integrals import held_sum
 from vehval.sim.simulate import simulate
 from vehval.vehicle.maps import brake_efficiency_plausible, peak_brake_efficiency
 
@@ -140,8 +141,8 @@ def dyno_run(test: Any, test_id: str | None = None, dt: float = 1.0,
     cold = len(runs) > 1
     # warm idle: standstill with the engine running, after the first WARM_S of a cold test
     idle = keep & ~moving & (f > 0) & ((t - t0 >= WARM_S) if cold else True)
-    return DynoRun(test_id=tid, runs=runs, fuel_kg=float(np.sum(f[keep]) * dt),
-                   distance_m=float(np.sum(v[keep]) * dt), cold=cold,
+    return DynoRun(test_id=tid, runs=runs, fuel_kg=held_sum(f, dt, keep),
+                   distance_m=held_sum(v, dt, keep), cold=cold,
                    soak_s=float(np.sum(~keep) * dt),
                    idle_fuel_kg_s=float(np.median(f[idle])) if idle.sum() >= 10 else math.nan,
                    fuel_note=note)

@@ -65,6 +65,7 @@ from vehval.fuels import (
     mpg_from_volume_per_distance,
     resolve_fuel,
 )
+from vehval.integrals import battery_power, window_integral
 from vehval.results.composites import FTP_WEIGHTS, weighted_reciprocal_sum
 from vehval.sim.simulate import BALANCE_TOL as BALANCE_TOL  # charge balance [-]
 from vehval.sim.simulate import (
@@ -309,15 +310,7 @@ def _grids(veh: Vehicle, proc: Procedure, dt: float) -> list[Grid]:
 def _chemical_power(veh: Vehicle, out: np.ndarray, col: dict[str, int]) -> np.ndarray:
     """Battery chemical power OCV(SOC) x current [W] of recorded signals (> 0 discharging)."""
     b = veh.battery
-    return np.interp(out[:, col["ess_soc"]], b.soc, b.ocv_v) * out[:, col["ess_curr"]]
-
-
-def _window_sum(t: np.ndarray, y: np.ndarray, windows, dt: float) -> float:
-    total = 0.0
-    for a, b in windows:
-        mask = (t >= a) & (t < (b if b is not None else np.inf))
-        total += float(np.sum(y[mask])) * dt
-    return total
+    return battery_power(np.interp(out[:, col["ess_soc"]], b.soc, b.ocv_v), out[:, col["ess_curr"]])
 
 
 def _mpg(distance_m: float, fuel_kg: float, rho: float) -> float:
@@ -345,10 +338,11 @@ def predict_test(vehicle: Vehicle, test: EpaTest, proc: Procedure,
     for bag in proc.bags:
         out = runs[bag.run][0]
         t = grids[bag.run].t
-        bag_fuel[bag.number] = _window_sum(t, out[:, col["fuel_rate"]], bag.windows, dt)
-        bag_dist[bag.number] = _window_sum(t, out[:, col["veh_spd"]], bag.windows, dt)
-        bag_batt[bag.number] = 0.0 if conventional else _window_sum(
-            t, _chemical_power(veh, out, col), bag.windows, dt)
+        # the simulator holds each step's value over the step: a bag is the held sum
+        bag_fuel[bag.number] = window_integral(t, out[:, col["fuel_rate"]], bag.windows, step_s=dt)
+        bag_dist[bag.number] = window_integral(t, out[:, col["veh_spd"]], bag.windows, step_s=dt)
+        bag_batt[bag.number] = 0.0 if conventional else window_integral(
+            t, _chemical_power(veh, out, col), bag.windows, step_s=dt)
     bags = {k: _mpg(bag_dist[k], bag_fuel[k], rho) for k in bag_fuel}
     # whole-test figures from the run summaries (fuel, battery energy, closure)
     summ = plan_summary(veh, runs, soc0)
@@ -574,3 +568,24 @@ def validate_tests(vehicle: Vehicle | str | Path, tests: list[EpaTest],
     judge(res, veh, tests if reference is None else reference, method=model_uncertainty,
           draws=draws)
     return res
+
+
+def none_runnable(val: EpaValidation, tests: str) -> None:
+    """Refuse a selection of which the simulator can run no test (InputFileError naming the
+    selector, what it matched and why each kind cannot run)."""
+    from collections import Counter
+
+    from vehval.errors import InputFileError
+
+    by_reason: dict[str, Counter] = {}
+    for sk in val.skipped:
+        by_reason.setdefault(sk["reason"], Counter())[sk["description"]] += 1
+    kinds = "; ".join(", ".join(f"{n} {d}" for d, n in c.items()) + f": {why}"
+                      for why, c in by_reason.items())
+    runnable = {"ftp75", "hwfet", "us06"}
+    hint = ("select FTP-75, HWFET or US06 tests, e.g. add procedure=ftp75"
+            if any(sk["procedure"] not in runnable for sk in val.skipped) else
+            "select tests the list states on gasoline with their weight and road load")
+    raise InputFileError(
+        f"the selector '{tests}' matches {len(val.skipped)} test(s), none of which the "
+        f"simulator can run ({kinds}); {hint}")

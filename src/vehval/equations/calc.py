@@ -232,19 +232,27 @@ class CalcResult:
     parameters: dict[str, dict] = field(default_factory=dict)
     calc_set: str = ""
     checks: dict[str, dict] = field(default_factory=dict)   # name -> lhs, rhs, inputs, blame
+    #: relations and checks not run: they involve a signal the architecture does not have
+    not_applicable: list[str] = field(default_factory=list)
+    architecture: str | None = None
 
     def to_dict(self) -> dict:
-        return {"set": self.calc_set, "computed": self.computed,
+        return {"set": self.calc_set, "architecture": self.architecture,
+                "computed": self.computed, "not_applicable": self.not_applicable,
                 "not_computed": self.not_computed, "parameters": self.parameters,
                 "checks": {k: {"expr": v["text"], "inputs": v["inputs"], "blame": v["blame"]}
                            for k, v in self.checks.items()}}
 
 
-def choose_calc_set(test: Test, vehicle: Any = None) -> str:
-    """``parallel_hybrid`` for a vehicle of that architecture; ``power_split`` when the
-    vehicle or the signals show a planetary hybrid; else ``conventional``."""
-    if getattr(vehicle, "architecture", None) == "parallel_hybrid":
-        return "parallel_hybrid"
+def choose_calc_set(test: Test, vehicle: Any = None, architecture: str | None = None) -> str:
+    """The relation set of a stated ``architecture`` (its entry of
+    :data:`vehval.vehicle.definition.CALC_SETS`: ``parallel_hybrid``, or ``conventional``
+    for a car whose missing signals' relations are then not run); else ``power_split`` when
+    the vehicle or the signals show a planetary hybrid, else ``conventional``."""
+    from vehval.vehicle.definition import CALC_SETS
+
+    if architecture is not None and architecture in CALC_SETS:
+        return CALC_SETS[architecture]
     if vehicle is not None and vehicle_value(vehicle, "planetary.ring_teeth") is not None:
         return "power_split"
     for sig in test:
@@ -253,9 +261,82 @@ def choose_calc_set(test: Test, vehicle: Any = None) -> str:
     return "conventional"
 
 
-def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,  # noqa: C901, PLR0912, PLR0915 - one block per family of powertrain equations
+def _why_not(output: str, names: Any, calc: CalculationFile, pvals: dict, pmissing: dict,
+             measured: dict, calc_vals: dict, calc_deps: dict) -> list[str]:
+    """Why the relation giving ``output`` could not be computed, one reason per input."""
+    reasons = []
+    for nm in sorted(names):
+        if nm == "t":
+            continue
+        if nm in calc.parameters and nm not in pvals:
+            reasons.append(f"parameter {nm} missing ({pmissing.get(nm, '')})")
+        elif nm not in calc.parameters and nm not in measured and nm not in calc_vals:
+            reasons.append(f"signal {nm} missing (no measured {nm}_test and not computable)")
+        elif nm in calc_vals and nm not in measured and output in calc_deps.get(nm, ()):
+            reasons.append(f"{nm}_calc is itself derived from {output} (circular)")
+    return reasons
+
+
+def _balance_checks(calc: CalculationFile, pvals: dict, measured: dict, calc_vals: dict,
+                    measured_on_grid: Any, grid: np.ndarray, result: CalcResult,
+                    architecture: str | None = None) -> None:
+    """Balance checks: both sides from measured (preferred) or calculated signals, on ``grid``;
+    a check on a signal ``architecture`` does not have is listed as not applicable."""
+    from vehval.vehicle.definition import has_signal
+
+    for chk in calc.checks:
+        if not all(has_signal(n, architecture) for text in (chk.lhs, chk.rhs)
+                   for n in parse_expression(text, f"{calc.name}: check {chk.name}").names):
+            result.not_applicable.append(f"check {chk.name}")
+            continue
+        sides, used, ok = [], {}, True
+        for text in (chk.lhs, chk.rhs):
+            ex = parse_expression(text, f"{calc.name}: check {chk.name}")
+            var = {}
+            for nm in sorted(ex.names):
+                if nm in pvals:
+                    var[nm] = pvals[nm]
+                elif nm in measured:
+                    var[nm] = measured_on_grid(nm)
+                    used[nm] = measured[nm].name
+                elif nm in calc_vals:
+                    var[nm] = calc_vals[nm]
+                    used[nm] = f"{nm}_calc"
+                elif nm != "t":
+                    ok = False
+            if not ok:
+                break
+            sides.append(ex.evaluate(var, grid))
+        if ok and chk.blame in measured and grid.size:
+            result.checks[chk.name] = {"lhs": sides[0], "rhs": sides[1], "inputs": used,
+                                       "blame": measured[chk.blame].name, "r2_min": chk.r2_min,
+                                       "text": f"{chk.lhs} ≈ {chk.rhs}"}
+
+
+def _measured(test: Test, exclude: set[str] | frozenset[str]) -> dict[str, Signal]:
+    """Base name -> the measured signal of it the one selection rule picks, in test order."""
+    reg = registry()
+    measured: dict[str, Signal] = {}
+    usable = [n for n in test.names if n not in exclude]
+    bases: dict[str, None] = {}  # in the test's order
+    for name in usable:
+        try:
+            p = reg.parse(name)
+        except SignalError:
+            continue
+        if p.origin == "test":
+            bases[p.base] = None
+    for base in bases:
+        sig = test.best(base, ("test",), kept=usable)  # the one selection rule
+        if sig is not None:
+            measured[base] = sig
+    return measured
+
+
+def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None = None,  # noqa: C901, PLR0912, PLR0915 - one block per family of powertrain equations  # long: the relation loop with its not-computed reasons, kept in one place
             constants: dict[str, float] | None = None, *, dt: float | None = None,
-            exclude: set[str] | frozenset[str] = frozenset(), add: bool = True) -> CalcResult:
+            exclude: set[str] | frozenset[str] = frozenset(), add: bool = True,
+            architecture: str | None = None) -> CalcResult:
     """Compute every ``*_calc`` signal the test's inputs allow.
 
     Parameters
@@ -274,29 +355,22 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
         Measured signals not to use as inputs (e.g. dropped by QA).
     add : bool
         Add the computed signals to ``test``.
+    architecture : str, optional
+        The tested car's architecture (default the vehicle's): relations and checks that
+        involve a signal it does not have (:func:`vehval.vehicle.definition.has_signal`: no
+        engine or fuel on a battery-electric car) are not run, listed in ``not_applicable``.
     """
+    from vehval.vehicle.definition import architecture_of, has_signal
+
+    architecture = architecture or architecture_of(vehicle)
     if calc is None:
-        calc = choose_calc_set(test, vehicle)
+        calc = choose_calc_set(test, vehicle, architecture)
     if isinstance(calc, str):
         calc = load_calculations(calc)
     constants = dict(test.meta.constants if constants is None else constants)
     fuel = resolve_fuel(test=test, constants=constants, vehicle=vehicle)
     pvals, porigin, pmissing = resolve_parameters(calc, constants, vehicle, fuel)
-    reg = registry()
-    measured: dict[str, Signal] = {}
-    usable = [n for n in test.names if n not in exclude]
-    bases: dict[str, None] = {}  # in the test's order
-    for name in usable:
-        try:
-            p = reg.parse(name)
-        except SignalError:
-            continue
-        if p.origin == "test":
-            bases[p.base] = None
-    for base in bases:
-        sig = test.best(base, ("test",), kept=usable)  # the one selection rule
-        if sig is not None:
-            measured[base] = sig
+    measured = _measured(test, exclude)
     if dt is None:
         periods = [s.sample_period for s in measured.values() if np.isfinite(s.sample_period)]
         dt = max(0.01, min(periods)) if periods else 0.1
@@ -306,7 +380,7 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
         grid = t0 + dt * np.arange(int(np.floor((t1 - t0) / dt + 1e-9)) + 1)
     else:
         grid = np.zeros(0)
-    result = CalcResult(grid=grid, calc_set=calc.name,
+    result = CalcResult(grid=grid, calc_set=calc.name, architecture=architecture,
                         parameters={k: {"value": v, "from": porigin[k]} for k, v in pvals.items()}
                         | {k: {"value": None, "missing": r} for k, r in pmissing.items()})
     cache: dict[str, np.ndarray] = {}
@@ -318,7 +392,13 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
             cache[base] = measured[base].at(grid)
         return cache[base]
 
-    exprs = [(rel, parse_expression(rel.expr, f"{calc.name}: {rel.output}")) for rel in calc.relations]
+    exprs = []
+    for rel in calc.relations:
+        ex = parse_expression(rel.expr, f"{calc.name}: {rel.output}")
+        if all(has_signal(n, architecture) for n in {rel.output, *ex.names}):
+            exprs.append((rel, ex))
+        else:
+            result.not_applicable.append(f"{rel.output}_calc")
     done: set[str] = set()
     changed = True
     while changed and grid.size:
@@ -364,44 +444,14 @@ def compute(test: Test, vehicle: Any = None, calc: CalculationFile | str | None 
     for rel, ex in exprs:
         if rel.output in done:
             continue
-        reasons = []
-        for nm in sorted(ex.names):
-            if nm == "t":
-                continue
-            if nm in calc.parameters and nm not in pvals:
-                reasons.append(f"parameter {nm} missing ({pmissing.get(nm, '')})")
-            elif nm not in calc.parameters and nm not in measured and nm not in calc_vals:
-                reasons.append(f"signal {nm} missing (no measured {nm}_test and not computable)")
-            elif nm in calc_vals and nm not in measured and rel.output in calc_deps.get(nm, ()):
-                reasons.append(f"{nm}_calc is itself derived from {rel.output} (circular)")
+        reasons = _why_not(rel.output, ex.names, calc, pvals, pmissing, measured, calc_vals,
+                           calc_deps)
         if not reasons:
             reasons.append("inputs available but the result is NaN everywhere "
                            "(inputs do not overlap in time)")
         result.not_computed.setdefault(f"{rel.output}_calc", []).append(f"{rel.expr}: " + "; ".join(reasons))
-    # balance checks: both sides from measured (preferred) or calculated signals
-    for chk in calc.checks:
-        sides, used, ok = [], {}, True
-        for text in (chk.lhs, chk.rhs):
-            ex = parse_expression(text, f"{calc.name}: check {chk.name}")
-            var = {}
-            for nm in sorted(ex.names):
-                if nm in pvals:
-                    var[nm] = pvals[nm]
-                elif nm in measured:
-                    var[nm] = measured_on_grid(nm)
-                    used[nm] = measured[nm].name
-                elif nm in calc_vals:
-                    var[nm] = calc_vals[nm]
-                    used[nm] = f"{nm}_calc"
-                elif nm != "t":
-                    ok = False
-            if not ok:
-                break
-            sides.append(ex.evaluate(var, grid))
-        if ok and chk.blame in measured and grid.size:
-            result.checks[chk.name] = {"lhs": sides[0], "rhs": sides[1], "inputs": used,
-                                       "blame": measured[chk.blame].name, "r2_min": chk.r2_min,
-                                       "text": f"{chk.lhs} ≈ {chk.rhs}"}
+    _balance_checks(calc, pvals, measured, calc_vals, measured_on_grid, grid, result,
+                    architecture)
     if add:
         for name in result.computed:
             sig = Signal.standard(name, grid, calc_vals[name[:-5]], source="calc",

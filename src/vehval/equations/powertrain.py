@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from vehval.integrals import cumulative
+
 
 def wheel_speed_from_vehicle(veh_spd: ArrayLike, wheel_radius_m: float) -> np.ndarray:
     """Wheel speed [rad/s] from vehicle speed ``veh_spd`` [m/s] and radius [m]."""
@@ -123,12 +125,9 @@ def deriv(time: ArrayLike, x: ArrayLike) -> np.ndarray:
 
 
 def cumint(time: ArrayLike, x: ArrayLike) -> np.ndarray:
-    """Cumulative trapezoidal integral [unit·s] from the first sample (NaN counted as 0)."""
-    t, v = np.asarray(time, float), np.nan_to_num(np.asarray(x, float))
-    out = np.zeros(v.shape)
-    if v.size > 1:
-        out[1:] = np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))
-    return out
+    """Cumulative trapezoidal integral [unit·s] from the first sample, gaps bridged
+    (:func:`vehval.integrals.cumulative`)."""
+    return cumulative(time, x)
 
 
 def smooth(time: ArrayLike, x: ArrayLike, window_s: float) -> np.ndarray:

@@ -6,11 +6,11 @@ tests with the model; :mod:`.report` shows the fits. Above the simulator in the 
 """
 
 from vehval.identify.build import Identification, identify_conventional, write_vehicle
+from vehval.identify.loading import load_traces
 from vehval.identify.predict import predict_trace
 from vehval.identify.traces import (
            IdentificationError,
            Trace,
-           load_traces,
            trace_from_test,
 )
 

@@ -116,6 +116,103 @@ def _engine_fuel(trace: Trace, a: Assumptions) -> tuple[dict, dict]:
              "fuel_lhv_j_per_kg": "template constant (test fuel)"})
 
 
+def _gear_ratio_check(traces: list[Trace], gears: list[np.ndarray], locks: list[np.ndarray],
+                      ratios: np.ndarray, rw: float) -> list[dict]:
+    """Per gear: the identified ratio against the median of the locked samples [-]."""
+    check = []
+    for k, r in enumerate(ratios):
+        rr = np.concatenate([t.w_eng[(g == k + 1) & lk] * rw / t.v[(g == k + 1) & lk]
+                             for t, g, lk in zip(traces, gears, locks)])
+        check.append({"gear": k + 1, "identified": float(r),
+                      "data_median": float(np.median(rr)) if rr.size else None,
+                      "rel_diff": float(np.median(rr) / r - 1) if rr.size else None,
+                      "locked_samples": int(rr.size)})
+    return check
+
+
+def _body(rl: RoadLoadFit, tests: str, q: str) -> dict:
+    """The ``body`` section: identified mass and road load with their 95 % intervals."""
+    rv, ci = rl.values, rl.ci95
+    return {
+        "mass_kg": rv["mass_kg"], "road_load_a_n": rv["road_load_a_n"],
+        "road_load_b_n_per_mps": rv["road_load_b_n_per_mps"],
+        "road_load_c_n_per_mps2": max(rv["road_load_c_n_per_mps2"], 0.0),
+        "aux_power_w": 0.0,
+        "sources": {
+            "mass_kg": f"identified (effective inertia) from {tests}: ±{ci['mass_kg']:.1f} kg (95 %), {q}",
+            "road_load_a_n": f"identified from {tests}: ±{ci['road_load_a_n']:.1f} N (95 %), {q}",
+            "road_load_b_n_per_mps": f"identified from {tests}: ±{ci['road_load_b_n_per_mps']:.2f} (95 %), {q}",
+            "road_load_c_n_per_mps2": f"identified from {tests}: ±{ci['road_load_c_n_per_mps2']:.3f} (95 %), {q}",
+            "aux_power_w": "engine-driven accessories are in engine_control.accessory_power_w",
+        }}
+
+
+def _engine_control(fm: FuelMapFit, a: Assumptions, tests: str, fq: str) -> dict:
+    """The ``engine_control`` section: idle, fuel cut and overrun from the fuel model."""
+    return {
+        "idle_fuel_rate_g_per_s": fm.idle_fuel_kg_s * 1e3,
+        "fuel_cut_min_speed_rpm": fm.fuel_cut_speed_rad_s / RPM,
+        "overrun_fuel_rate_g_per_s": fm.overrun_fuel_kg_s * 1e3,
+        "accessory_power_w": a.accessory_power_w,
+        "ac_power_w": 0.0,
+        "sources": {
+            "ac_power_w": "no A/C test given: no A/C model",
+            "idle_fuel_rate_g_per_s": f"identified (standing state of the fuel model) from {tests}: {fq}",
+            "fuel_cut_min_speed_rpm": f"identified (best R² over 1.05-2 x idle) from {tests}",
+            "overrun_fuel_rate_g_per_s": f"identified (overrun state of the fuel model) from {tests}",
+            "accessory_power_w": a.source("accessory_power_w"),
+        }}
+
+
+def _driveline_and_driver(rw: float, a: Assumptions) -> dict:
+    """The ``driveline`` and ``driver`` sections (engineering choices and the EPA tolerances)."""
+    return {
+        "driveline": {
+            "final_drive_ratio": 1.0, "final_drive_efficiency": 1.0, "wheel_radius_m": rw,
+            "wheel_inertia_kg_m2": 0.0, "brake_max_force_n": 15000.0,
+            "sources": {
+                "final_drive_ratio": "1: the identified gear ratios are engine-to-wheel ratios (the data cannot separate the final drive)",
+                "final_drive_efficiency": "1: losses are in gearbox.efficiency",
+                "wheel_radius_m": a.source("wheel_radius_m"),
+                "wheel_inertia_kg_m2": "0: rotating inertia is in the identified effective mass",
+                "brake_max_force_n": "engineering estimate: about 0.9 g at the test mass",
+            }},
+        "driver": {
+            "response_time_s": 0.5, "ki_n_per_m": 50.0, "integrator_limit_n": 1500.0,
+            "max_force_n": 12000.0, "tolerance_speed_mph": 2.0, "tolerance_time_s": 1.0,
+            "sources": {
+                "response_time_s": "engineering choice: speed errors corrected within about 0.5 s",
+                "ki_n_per_m": "engineering choice", "integrator_limit_n": "engineering choice",
+                "max_force_n": "engineering bound above the powertrain's tractive force",
+                "tolerance_speed_mph": "EPA 40 CFR 86.115-78: ±2 mph",
+                "tolerance_time_s": "EPA 40 CFR 86.115-78: within ±1 s",
+            }},
+    }
+
+
+def _add_warmup(result: Identification, cold_trace: Trace, traces: list[Trace]) -> None:
+    """The warm-up fuel of a cold start (:mod:`vehval.identify.warmup`) into the vehicle."""
+    wf = result.warmup = fit_warmup(cold_trace, hot_partner(cold_trace, traces))
+    eng = result.vehicle.engine
+    eng.warmup_fuel_fraction = wf.fraction
+    eng.warmup_time_constant_s = wf.time_constant_s
+    eng.sources["warmup_fuel_fraction"] = eng.sources["warmup_time_constant_s"] = (
+        wf.provenance())
+    result.vehicle.identification = _jsonable(result.summary())
+
+
+def _add_ac(result: Identification, ac_trace: Trace) -> None:
+    """The A/C load of a test run with the A/C on into the vehicle."""
+    ac = result.ac = fit_ac_load(result.vehicle, ac_trace)
+    ctl = result.vehicle.engine_control
+    ctl.ac_power_w = ac["ac_power_w"]
+    ctl.sources["ac_power_w"] = (
+        f"identified from {ac['test']} (A/C on), phases {', '.join(map(str, ac['phases']))}: "
+        f"constant compressor power with which the model driving that test burns the "
+        f"measured {ac['fuel_measured_g']:.1f} g (without it {ac['fuel_model_without_ac_g']:.1f} g)")
+    result.vehicle.identification = _jsonable(result.summary())
+
+
 def identify_conventional(traces: list[Trace], name: str = "identified_car",
                           assumptions: Assumptions | None = None,
                           ac_trace: Trace | None = None,
@@ -165,16 +262,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     pw = fm.points["p"]
     a.floor_full_load(float(np.percentile(pw / np.maximum(fm.points["w"], 1.0), 99.5)))
     spd, trq, table, tmax = _fuel_table(fm, a)
-    check = []
-    for k, r in enumerate(gf.ratios):
-        rr = np.concatenate([t.w_eng[(g == k + 1) & lk] * rw / t.v[(g == k + 1) & lk]
-                             for t, g, lk in zip(traces, gears, locks)])
-        check.append({"gear": k + 1, "identified": float(r),
-                      "data_median": float(np.median(rr)) if rr.size else None,
-                      "rel_diff": float(np.median(rr) / r - 1) if rr.size else None,
-                      "locked_samples": int(rr.size)})
-    rv = rl.values
-    ci = rl.ci95
+    check = _gear_ratio_check(traces, gears, locks, gf.ratios, rw)
     q = f"R² {rl.r2:.4f}, RMSE {rl.rmse_n:.0f} N, force lag {rl.lag_s:+.2f} s"
     fq = (f"R² {fm.r2:.3f} (10 Hz), {fm.r2_5s:.3f} (5 s means); meter delay {fm.delay_s:.1f} s,"
           f" lag {fm.tau_s:.1f} s")
@@ -184,18 +272,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     veh = {
         "architecture": "conventional", "name": name,
         "description": f"identified by vehval from {tests}",
-        "body": {
-            "mass_kg": rv["mass_kg"], "road_load_a_n": rv["road_load_a_n"],
-            "road_load_b_n_per_mps": rv["road_load_b_n_per_mps"],
-            "road_load_c_n_per_mps2": max(rv["road_load_c_n_per_mps2"], 0.0),
-            "aux_power_w": 0.0,
-            "sources": {
-                "mass_kg": f"identified (effective inertia) from {tests}: ±{ci['mass_kg']:.1f} kg (95 %), {q}",
-                "road_load_a_n": f"identified from {tests}: ±{ci['road_load_a_n']:.1f} N (95 %), {q}",
-                "road_load_b_n_per_mps": f"identified from {tests}: ±{ci['road_load_b_n_per_mps']:.2f} (95 %), {q}",
-                "road_load_c_n_per_mps2": f"identified from {tests}: ±{ci['road_load_c_n_per_mps2']:.3f} (95 %), {q}",
-                "aux_power_w": "engine-driven accessories are in engine_control.accessory_power_w",
-            }},
+        "body": _body(rl, tests, q),
         "engine": {
             "speed_rpm": spd, "torque_nm": trq, "fuel_rate_g_per_s": table,
             "max_torque_nm": tmax, "max_power_w": a.max_power_w,
@@ -215,19 +292,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                 "inertia_kg_m2": a.source("engine_inertia_kg_m2"),
                 **fuel_sources,
             }},
-        "engine_control": {
-            "idle_fuel_rate_g_per_s": fm.idle_fuel_kg_s * 1e3,
-            "fuel_cut_min_speed_rpm": fm.fuel_cut_speed_rad_s / RPM,
-            "overrun_fuel_rate_g_per_s": fm.overrun_fuel_kg_s * 1e3,
-            "accessory_power_w": a.accessory_power_w,
-            "ac_power_w": 0.0,
-            "sources": {
-                "ac_power_w": "no A/C test given: no A/C model",
-                "idle_fuel_rate_g_per_s": f"identified (standing state of the fuel model) from {tests}: {fq}",
-                "fuel_cut_min_speed_rpm": f"identified (best R² over 1.05-2 x idle) from {tests}",
-                "overrun_fuel_rate_g_per_s": f"identified (overrun state of the fuel model) from {tests}",
-                "accessory_power_w": a.source("accessory_power_w"),
-            }},
+        "engine_control": _engine_control(fm, a, tests, fq),
         "gearbox": {
             "ratios": [float(r) for r in gf.ratios], "efficiency": a.gearbox_efficiency,
             "upshift_speed_mps": uz, "upshift_speed_full_load_mps": uf,
@@ -252,26 +317,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                 "capacity_nm_s2_per_rad2": f"identified: median of T / (w_e (w_e - w_t)) over {n_k} open-converter samples in {tests}",
                 "lockup_speed_mps": f"per gear, speed above which the converter is locked (fewest misclassified samples) in {tests} ({v_cap:.0f} = never locked): " + ", ".join(f"{k + 1}: {h}" for k, h in enumerate(lock_how)) + " (assumed: the identified gears' median lock-up engine speed)",
             }},
-        "driveline": {
-            "final_drive_ratio": 1.0, "final_drive_efficiency": 1.0, "wheel_radius_m": rw,
-            "wheel_inertia_kg_m2": 0.0, "brake_max_force_n": 15000.0,
-            "sources": {
-                "final_drive_ratio": "1: the identified gear ratios are engine-to-wheel ratios (the data cannot separate the final drive)",
-                "final_drive_efficiency": "1: losses are in gearbox.efficiency",
-                "wheel_radius_m": a.source("wheel_radius_m"),
-                "wheel_inertia_kg_m2": "0: rotating inertia is in the identified effective mass",
-                "brake_max_force_n": "engineering estimate: about 0.9 g at the test mass",
-            }},
-        "driver": {
-            "response_time_s": 0.5, "ki_n_per_m": 50.0, "integrator_limit_n": 1500.0,
-            "max_force_n": 12000.0, "tolerance_speed_mph": 2.0, "tolerance_time_s": 1.0,
-            "sources": {
-                "response_time_s": "engineering choice: speed errors corrected within about 0.5 s",
-                "ki_n_per_m": "engineering choice", "integrator_limit_n": "engineering choice",
-                "max_force_n": "engineering bound above the powertrain's tractive force",
-                "tolerance_speed_mph": "EPA 40 CFR 86.115-78: ±2 mph",
-                "tolerance_time_s": "EPA 40 CFR 86.115-78: within ±1 s",
-            }},
+        **_driveline_and_driver(rw, a),
     }
     result = Identification(road_load=rl, gears=gf, fuel_map=fm, traces=traces,
                             gear_ratio_check=check, shifts=events, drag=drag, assumptions=a,
@@ -281,22 +327,9 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
     if cold_trace is not None:
-        wf = result.warmup = fit_warmup(cold_trace, hot_partner(cold_trace, traces))
-        eng = result.vehicle.engine
-        eng.warmup_fuel_fraction = wf.fraction
-        eng.warmup_time_constant_s = wf.time_constant_s
-        eng.sources["warmup_fuel_fraction"] = eng.sources["warmup_time_constant_s"] = (
-            wf.provenance())
-        result.vehicle.identification = _jsonable(result.summary())
+        _add_warmup(result, cold_trace, traces)
     if ac_trace is not None:
-        ac = result.ac = fit_ac_load(result.vehicle, ac_trace)
-        ctl = result.vehicle.engine_control
-        ctl.ac_power_w = ac["ac_power_w"]
-        ctl.sources["ac_power_w"] = (
-            f"identified from {ac['test']} (A/C on), phases {', '.join(map(str, ac['phases']))}: "
-            f"constant compressor power with which the model driving that test burns the "
-            f"measured {ac['fuel_measured_g']:.1f} g (without it {ac['fuel_model_without_ac_g']:.1f} g)")
-        result.vehicle.identification = _jsonable(result.summary())
+        _add_ac(result, ac_trace)
     return result
 
 

@@ -28,6 +28,7 @@ from vehval.identify.conditions import outside_conditions
 from vehval.identify.traces import Trace
 from vehval.identify.uncertainty import POOR_COVERAGE, interval_parts
 from vehval.identify.warmup import cold_start_state
+from vehval.integrals import held_sum
 from vehval.sim.simulate import simulate
 
 AC_AUTO_TEMP_C = 30.0  # [°C] test cells at or above this run with the A/C on ("auto")
@@ -102,7 +103,7 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     phases = []
     for p in np.unique(phase[phase > 0]):
         sel = phase == p
-        mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
+        mg, pg = held_sum(fuel_meas, dt, sel) * 1e3, held_sum(fuel_sim, dt, sel) * 1e3
         row = {"phase": int(p), "measured_g": mg, "predicted_g": pg,
                "error_rel": pg / mg - 1 if mg > 0 else float("nan")}
         row.update(stage.get(int(p), {}))
@@ -110,7 +111,7 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     # the test proper: its phases when the file numbers them (phase 0 between runs is a
     # soak, often with the engine off, which the model cannot know), else everything
     sel = phase > 0 if np.any(phase > 0) else np.ones(phase.size, dtype=bool)
-    mg, pg = float(fuel_meas[sel].sum() * dt * 1e3), float(fuel_sim[sel].sum() * dt * 1e3)
+    mg, pg = held_sum(fuel_meas, dt, sel) * 1e3, held_sum(fuel_sim, dt, sel) * 1e3
     ident = getattr(vehicle, "identification", None) or {}
     sels: dict = {int(r["phase"]): (phase == r["phase"], [1.0]) for r in phases}
     tot = sum(r["predicted_g"] for r in phases) or 1.0
@@ -212,4 +213,30 @@ def _results_stage(trace: Trace) -> dict:
         out[int(key) if key != "test" else key] = {
             "results_name": name, "results_fuel_g": 1e3 * val,
             "results_fuel_U_g": None if u is None else 1e3 * u}
+    return out
+
+
+def public_row(r: dict, vehicle=None) -> dict:
+    """A prediction row without its arrays, with the fuel economy of the measured and the
+    predicted fuel over the test's own distance (the test's fuel, else the vehicle's)."""
+    out = {k: v for k, v in r.items() if k not in ("sim", "trace")}
+    trace = r.get("trace")
+    if trace is None:
+        return out
+    import numpy as np
+
+    from vehval.fuels import fuel_consumption_l_per_100km, fuel_economy_mpg, fuel_volume_m3
+
+    sel = trace.phase > 0 if np.any(trace.phase > 0) else np.ones(trace.phase.size, dtype=bool)
+    dist = float(np.sum(trace.v[sel]) * trace.dt)
+    dens = trace.test_fuel.density_kg_per_m3 if trace.test_fuel is not None else None
+    if dens is None and vehicle is not None:
+        dens = getattr(vehicle.engine, "fuel_density_kg_per_m3", None)
+    out["distance_m"] = dist
+    for which in ("measured", "predicted"):
+        vol = fuel_volume_m3(out[f"fuel_{which}_g"] / 1e3, dens) if dens else None
+        out[f"fuel_economy_{which}_mpg"] = (float(fuel_economy_mpg(dist, vol))
+                                            if vol else None)
+        out[f"fuel_consumption_{which}_l_per_100km"] = (
+            float(fuel_consumption_l_per_100km(vol, dist)) if vol else None)
     return out

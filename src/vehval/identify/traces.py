@@ -8,9 +8,7 @@ that cannot identify a conventional car (a hybrid, no engine speed, no fuel rate
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -152,24 +150,3 @@ def _start_value(sig, t0: float, span_s: float = 5.0) -> float:
     vals = np.asarray(sig.values, float)[(sig.time >= t0) & (sig.time < t0 + span_s)]
     vals = vals[np.isfinite(vals)]
     return float(np.median(vals)) if vals.size else float("nan")
-
-
-def load_traces(files: Sequence[str | Path], template, dt: float = 0.1) -> list[Trace]:
-    """Load every file as one test with ``template`` (the workflow's
-    :meth:`~vehval.workflow.TestRun.load`, its time-repair policy included) and return
-    their traces. Identification reads the imported signals as they are (no QA run): the
-    fuel and force channels it needs must not be dropped for a QA finding; each quantity's
-    signal is the one :meth:`vehval.test.Test.best` chooses (with QA's
-    ``template_final.yaml`` as the template, the signals QA dropped are not imported). The results
-    stage (:func:`vehval.results.compute_results`) runs on each test: predictions are
-    compared with its per-phase fuel and uncertainty."""
-    from vehval.results import compute_results
-    from vehval.workflow import TestRun
-    out = []
-    for f in files:
-        run = TestRun.load([f], template, use_qa=False)
-        test = run.test
-        tr = trace_from_test(test, dt, run.vehicle)
-        tr.results = compute_results(test)
-        out.append(tr)
-    return out

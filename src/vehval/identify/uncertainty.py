@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S
+from vehval.integrals import held_sum
 
 SPEED_BIN_RPM = 100.0
 POWER_BIN_W = 2000.0
@@ -87,14 +88,14 @@ def interval_parts(identification: dict, sim, dt: float, selections: dict) -> di
     n_block = unc["block_s"] / dt
     out = {}
     for name, (sel, weights) in selections.items():
-        total = float(fuel[sel].sum() * dt)
+        total = held_sum(fuel, dt, sel)
         if total <= 0:
             continue
         g = x[sel].sum(axis=0) * dt
         var = (float(np.count_nonzero(sel)) / n_block * unc["block_var_kg2"]
                + float(g @ cov @ g)
                + (unc["phase_error_rms"] * total) ** 2 * float(np.sum(np.square(weights))))
-        share = float(fuel[sel & uncovered].sum() * dt / total)
+        share = held_sum(fuel, dt, sel & uncovered) / total
         out[name] = {"uncovered_share": share,
                      "pi95_rel": float(Z95 * np.sqrt(var) / total + EXTRAP_REL * share)}
     return out

@@ -166,6 +166,30 @@ def repair_first_header(token: str, path: Path, notes: list[str]) -> str:
     return token
 
 
+def _skip_blank_lines(raw: bytes) -> tuple[int, int]:
+    """Byte offset of the first non-blank line and the number of blank lines before it."""
+    start, skipped = 0, 0
+    while True:
+        nl = raw.find(b"\n", start)
+        line = raw[start:nl if nl >= 0 else len(raw)]
+        if line.strip() or nl < 0:
+            return start, skipped
+        start, skipped = nl + 1, skipped + 1
+
+
+def _sample_lines(raw: bytes, start: int, path: Path, notes: list[str]) -> list[str]:
+    """The first few non-empty lines from ``start`` (the header first), decoded, for sniffing."""
+    sample_end = start
+    for _ in range(8):
+        nl = raw.find(b"\n", sample_end)
+        if nl < 0:
+            sample_end = len(raw)
+            break
+        sample_end = nl + 1
+    sample = [_decode_line(ln.rstrip(b"\r"), path, notes) for ln in raw[start:sample_end].split(b"\n")]
+    return [s for s in sample if s != ""] or [""]
+
+
 def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None = None,
                    decimal: str | None = None, encoding: str | None = None) -> RawTable:
     """Read a delimited text file with one header row (optionally a unit row below it).
@@ -206,26 +230,10 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     if b"\n" not in raw and b"\r" in raw:
         raw = raw.replace(b"\r", b"\n")
         notes.append("old Mac line ends (CR only) read as line ends")
-    # leading blank lines
-    start, skipped = 0, 0
-    while True:
-        nl = raw.find(b"\n", start)
-        line = raw[start:nl if nl >= 0 else len(raw)]
-        if line.strip() or nl < 0:
-            break
-        start, skipped = nl + 1, skipped + 1
+    start, skipped = _skip_blank_lines(raw)
     if not raw[start:].strip():
         raise InputFileError(f"{path}: file is empty (no header line)")
-    # first few lines for sniffing
-    sample_end = start
-    for _ in range(8):
-        nl = raw.find(b"\n", sample_end)
-        if nl < 0:
-            sample_end = len(raw)
-            break
-        sample_end = nl + 1
-    sample = [_decode_line(ln.rstrip(b"\r"), path, notes) for ln in raw[start:sample_end].split(b"\n")]
-    sample = [s for s in sample if s != ""] or [""]
+    sample = _sample_lines(raw, start, path, notes)
     header_line = sample[0]
     delim = delimiter or sniff_delimiter(sample)
     ncols = header_line.count(delim) + 1

@@ -199,6 +199,31 @@ def _shared_time(raw: RawTable, spec: FileSpec, idx: int, path: Path, repair: bo
     return t, order, col
 
 
+def _check_units(raw: RawTable, spec: FileSpec, idx: int) -> None:
+    """Every kept channel has a unit (template or file header) unless it is dimensionless:
+    one error naming all that have none (fixed in one round, not one per run)."""
+    reg = registry()
+    lacking = []
+    for key, ch in spec.channels.items():
+        col = find_channel(raw, key)
+        if col is None or ch.delete or ch.name is None or ch.unit is not None \
+                or raw.unit_of(col) is not None:
+            continue
+        si = reg.spec_of(ch.name).unit
+        if not is_dimensionless(si):
+            lacking.append((key, ch.name, si))
+    if len(lacking) == 1:
+        key, name, si = lacking[0]
+        raise ConfigError(
+            f"{raw.path.name}: channel '{key}' -> {name}: no unit in the file header or the "
+            f"template: set files[{idx}].channels.{key}.unit (SI unit is {si})")
+    if lacking:
+        raise ConfigError(
+            f"{raw.path.name}: {len(lacking)} channels have no unit in the file header or the "
+            f"template: set files[{idx}].channels.NAME.unit for each: "
+            + ", ".join(f"'{k}' -> {n} (SI {si})" for k, n, si in lacking))
+
+
 def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Test,
                  repair: bool) -> None:
     reg = registry()
@@ -209,6 +234,7 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
     density = fuel.density_kg_per_m3 if fuel is not None else None
     t_shared, order, time_col = _shared_time(raw, spec, idx, path, repair, notes)
     shared_repair = [n.removeprefix("warning: ") for n in notes if TIME_REPAIRED in n]
+    _check_units(raw, spec, idx)
     mapped: set[str] = set()
     missing: list[str] = []
     for key, ch in spec.channels.items():

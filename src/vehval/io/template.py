@@ -199,6 +199,10 @@ class Constants(_Strict):
     final_drive_ratio: PositiveFloat | None = None
     inertia_fraction: float | None = None
     soc_correction_fuel_j_per_battery_j: PositiveFloat | None = None
+    #: AC energy measured at the wall recharging the battery after a battery-electric test
+    #: [J] (SAE J1634 recharge energy): the whole test's AC figures use it instead of DC
+    #: energy / charger efficiency.
+    ac_recharge_energy_j: PositiveFloat | None = None
 
 
 class Selection(_Strict):
@@ -284,10 +288,15 @@ class Template(_Strict):
     phase_channel : str, optional
         Standard name of the signal holding the test phase (bag) number; default
         ``test_phase_test`` when the template maps it.
+    architecture : str, optional
+        Powertrain architecture of the tested car (``power_split``, ``conventional``,
+        ``battery_electric``): a ``battery_electric`` template maps no engine or fuel
+        channel, declares no fuel and maps the battery voltage and current (or power).
     """
 
     template_version: Literal[1] = 1
     vehicle: str | None = None
+    architecture: str | None = None
     vehicle_name: str | None = Field(default=None, max_length=MAX_TEXT)
     cycle: str | None = None
     synthetic: bool = False
@@ -327,7 +336,7 @@ class Template(_Strict):
         """YAML text of the template (defaults left out, one flow mapping per channel)."""
         data = self.model_dump(mode="json", exclude_defaults=True)
         out: dict[str, Any] = {"template_version": 1}
-        for key in ("vehicle", "vehicle_name", "cycle", "synthetic", "description", "fuel", "phase_channel",
+        for key in ("vehicle", "vehicle_name", "architecture", "cycle", "synthetic", "description", "fuel", "phase_channel",
                     "constants", "accuracy", "files", "selection"):
             if key in data:
                 out[key] = data[key]
@@ -495,27 +504,33 @@ def semantic_errors(t: Template) -> list[str]:
 
 
 def _architecture_errors(t: Template, mapped: dict[str, str]) -> list[str]:
-    """A hybrid's template must map a battery signal (current or power): one line naming
-    what is missing. Unknown or unreadable vehicles are left to the commands that load them."""
-    if not t.vehicle:
-        return []
-    from vehval.errors import VehvalError
-    from vehval.vehicle import load_vehicle
-    from vehval.vehicle.definition import BATTERY_SIGNALS, HYBRID_ARCHITECTURES
+    """A template of a stated architecture: no channel of a category the car lacks, no
+    fuel on a battery-electric car, its required signals mapped."""
+    from vehval.vehicle.definition import ARCHITECTURES, REQUIRED_SIGNALS, absent_categories
 
-    try:
-        arch = getattr(load_vehicle(t.vehicle), "architecture", "power_split")
-    except VehvalError:
+    arch = t.architecture
+    if arch is None:
         return []
-    if arch not in HYBRID_ARCHITECTURES:
-        return []
+    if arch not in ARCHITECTURES:
+        return [f"architecture: unknown architecture '{arch}' (known: "
+                f"{', '.join(ARCHITECTURES)})"]
     reg = registry()
+    errors = []
+    absent = absent_categories(arch)
+    for name, where in mapped.items():
+        cat = reg.spec_of(name).category
+        if cat in absent:
+            errors.append(f"{where}.name: '{name}' is a{'n' if cat[0] in 'aeiou' else ''} "
+                          f"{cat} signal, which a {arch} car does not have: remove the "
+                          "channel or correct 'architecture'")
+    if arch == "battery_electric" and t.fuel is not None:
+        errors.append("fuel: a battery_electric car burns no fuel: remove 'fuel'")
     bases = {reg.parse(n).base for n in mapped}
-    if bases & set(BATTERY_SIGNALS):
-        return []
-    return [f"files: vehicle '{t.vehicle}' ({arch}) is a hybrid but no channel is mapped to a "
-            f"battery signal ({' or '.join(b + '_<origin>' for b in BATTERY_SIGNALS)}): map "
-            "the battery current (positive discharging) or power"]
+    needs = REQUIRED_SIGNALS.get(arch, ())
+    if needs and not any(set(alt) <= bases for alt in needs):
+        errors.append(f"architecture {arch}: the template maps no battery signals; map "
+                      + " or ".join(" and ".join(f"'{b}'" for b in alt) for alt in needs))
+    return errors
 
 
 def _results_errors(t: Template, mapped: dict[str, str]) -> list[str]:

@@ -43,6 +43,7 @@ import numpy as np
 from vehval.constants import RPM_RAD_PER_S
 from vehval.display import percent
 from vehval.equations.engine_state import engine_running
+from vehval.integrals import integral as _integral
 from vehval.qa.findings import Finding, Kind, Severity
 from vehval.qa.unit_hints import (
     UnitHint,
@@ -112,13 +113,6 @@ def _values_at(sig: Signal, t: np.ndarray) -> np.ndarray:
     if sig.time.shape == t.shape and np.array_equal(sig.time, t):
         return np.asarray(sig.values, float)
     return sig.at(t)
-
-
-def _integral(t: np.ndarray, y: np.ndarray) -> float:
-    ok = np.isfinite(t) & np.isfinite(y)
-    if ok.sum() < 2:
-        return float("nan")
-    return float(np.trapezoid(y[ok], t[ok]))
 
 
 def _judge(test: Test, sig: Signal, stat: Callable[[np.ndarray], float],

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from vehval.constants import BRAKE_EFFICIENCY_RANGE
+from vehval.integrals import held_sum
 from vehval.qa.findings import Finding, Kind, Severity, merge_runs, message_units, runs
 from vehval.qa.unit_hints import fix_text, hint_sentence, probable_units
 from vehval.test import Signal, Test, is_hybrid
@@ -135,7 +136,7 @@ def efficiency_gate(test: Test, template: Any = None, vehicle: Any = None,
     for a, b in exclude or ():
         sel &= ~((t >= a - WINDOW_S) & (t <= b + WINDOW_S))
     dt = float(np.median(np.diff(t)))
-    work = float(p[sel].sum()) * dt
+    work = held_sum(p, dt, sel)
     if top <= 0 or sel.sum() * dt < MIN_HIGH_LOAD_S or work < MIN_WORK_J:
         return []
     lo, hi = BRAKE_EFFICIENCY_RANGE
@@ -143,7 +144,7 @@ def efficiency_gate(test: Test, template: Any = None, vehicle: Any = None,
         lo, hi = lo * DRIVELINE_EFFICIENCY_RANGE[0], hi * DRIVELINE_EFFICIENCY_RANGE[1]
 
     def eff(vals: np.ndarray) -> float:
-        e = float(_smooth(np.maximum(vals, 0.0), n)[sel].sum()) * dt * float(lhv)
+        e = held_sum(_smooth(np.maximum(vals, 0.0), n), dt, sel) * float(lhv)
         return work / e if e > 0 else float("inf")
 
     s0 = eff(np.asarray(fuel.values, float))

@@ -9,6 +9,8 @@ checks (spikes, stuck segments) and their corroboration by partner signals are i
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from vehval.display import percent
@@ -65,6 +67,62 @@ def _repaired_time_base(sig: Signal, t_start: float, t_end: float) -> list[Findi
     return out
 
 
+def _sampling_findings(sig: Signal, opts: Level1Options) -> list[Finding]:
+    """Time base of a signal: time going backwards or repeating, gaps, irregular sampling."""
+    out: list[Finding] = []
+    t = sig.time
+    t_start, t_end = float(t[0]), float(t[-1])
+    if t.size <= 2:
+        return out
+    dt = np.diff(t)
+    med = float(np.median(dt))
+    bad = dt <= 0
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        out.append(Finding(sig.name, Kind.RATE_IRREGULAR, float(t[i]), float(t[i + 1]),
+                           Severity.ERROR, f"time of {sig.name} goes backwards or repeats "
+                           f"{int(bad.sum())} times (first at {t[i]:.3f} s)",
+                           {"count": int(bad.sum())}))
+    if med > 0:
+        gaps = runs(dt > opts.gap_factor * med)
+        emit_runs(out, sig, [(i0, i1 + 1) for i0, i1 in gaps], Kind.TIME_GAP, Severity.WARNING,
+                   lambda i0, i1: (f"{sig.name} has no samples from {t[i0]:.1f} s to "
+                                   f"{t[i1]:.1f} s (nominal period {med:.3g} s)"),
+                   lambda i0, i1: {"gap_s": float(t[i1] - t[i0]), "period_s": med}, opts)
+        jitter = float(np.std(dt[dt > 0]) / med) if (dt > 0).any() else 0.0
+        if jitter > opts.jitter_info:
+            out.append(Finding(sig.name, Kind.RATE_IRREGULAR, t_start, t_end, Severity.INFO,
+                               f"{sig.name} is sampled irregularly: period {med:.3g} s with "
+                               f"{percent(jitter, 0)} jitter", {"period_s": med,
+                                                                "jitter_fraction": jitter}))
+    return out
+
+
+def _sign_findings(sig: Signal, fin: np.ndarray, sigma: float,
+                   shown: Callable[[float], str]) -> list[Finding]:
+    """Negative stretches of a signal that cannot be negative (beyond the noise ``sigma``:
+    a warning; within it: information)."""
+    v, t = sig.values, sig.time
+    vf = v[fin]
+    vmax = float(np.max(np.abs(vf)))
+    eps = max(1e-12, 1e-6 * vmax)
+    neg = fin & (v < -eps)
+    if neg.any():
+        vmin = float(np.min(vf))
+        beyond = -vmin > max(5 * sigma, 0.05 * vmax)
+        sev = Severity.WARNING if beyond else Severity.INFO
+        rs = merge_runs(runs(neg), t, 2.0)
+        frac = float(neg.sum() / fin.sum())
+        i0, i1 = rs[0][0], rs[-1][1]
+        return [Finding(sig.name, Kind.NEGATIVE, float(t[i0]), float(t[i1]), sev,
+                        f"{sig.name} is negative in {len(rs)} stretch(es) "
+                        f"({percent(frac)} of samples, down to {shown(vmin)})"
+                        + ("; beyond the sensor noise" if beyond else "; within noise"),
+                        {"value": vmin, "limit_min": 0.0, "fraction": frac,
+                         "noise_sigma": sigma, "runs": len(rs)})]
+    return []
+
+
 def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C901, PLR0912, PLR0915 - the level-1 checks of a signal in turn
                  opts: Level1Options | None = None, range_cache: dict | None = None,
                  test_span: tuple[float, float] | None = None) -> list[Finding]:
@@ -108,28 +166,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
 
     # time base ------------------------------------------------------------------------
     out.extend(_repaired_time_base(sig, t_start, t_end))
-    if t.size > 2:
-        dt = np.diff(t)
-        med = float(np.median(dt))
-        bad = dt <= 0
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            out.append(Finding(sig.name, Kind.RATE_IRREGULAR, float(t[i]), float(t[i + 1]),
-                               Severity.ERROR, f"time of {sig.name} goes backwards or repeats "
-                               f"{int(bad.sum())} times (first at {t[i]:.3f} s)",
-                               {"count": int(bad.sum())}))
-        if med > 0:
-            gaps = runs(dt > opts.gap_factor * med)
-            emit_runs(out, sig, [(i0, i1 + 1) for i0, i1 in gaps], Kind.TIME_GAP, Severity.WARNING,
-                       lambda i0, i1: (f"{sig.name} has no samples from {t[i0]:.1f} s to "
-                                       f"{t[i1]:.1f} s (nominal period {med:.3g} s)"),
-                       lambda i0, i1: {"gap_s": float(t[i1] - t[i0]), "period_s": med}, opts)
-            jitter = float(np.std(dt[dt > 0]) / med) if (dt > 0).any() else 0.0
-            if jitter > opts.jitter_info:
-                out.append(Finding(sig.name, Kind.RATE_IRREGULAR, t_start, t_end, Severity.INFO,
-                                   f"{sig.name} is sampled irregularly: period {med:.3g} s with "
-                                   f"{percent(jitter, 0)} jitter", {"period_s": med,
-                                                                    "jitter_fraction": jitter}))
+    out.extend(_sampling_findings(sig, opts))
 
     # missing samples ----------------------------------------------------------------------
     if not fin.any():
@@ -202,22 +239,7 @@ def check_signal(test: Test, sig: Signal, limits: dict | None = None,  # noqa: C
 
     # impossible sign ---------------------------------------------------------------------
     if base in NON_NEGATIVE:
-        vmax = float(np.max(np.abs(vf)))
-        eps = max(1e-12, 1e-6 * vmax)
-        neg = fin & (v < -eps)
-        if neg.any():
-            vmin = float(np.min(vf))
-            beyond = -vmin > max(5 * sigma, 0.05 * vmax)
-            sev = Severity.WARNING if beyond else Severity.INFO
-            rs = merge_runs(runs(neg), t, 2.0)
-            frac = float(neg.sum() / fin.sum())
-            i0, i1 = rs[0][0], rs[-1][1]
-            out.append(Finding(sig.name, Kind.NEGATIVE, float(t[i0]), float(t[i1]), sev,
-                               f"{sig.name} is negative in {len(rs)} stretch(es) "
-                               f"({percent(frac)} of samples, down to {shown(vmin)})"
-                               + ("; beyond the sensor noise" if beyond else "; within noise"),
-                               {"value": vmin, "limit_min": 0.0, "fraction": frac,
-                                "noise_sigma": sigma, "runs": len(rs)}))
+        out.extend(_sign_findings(sig, fin, sigma, shown))
 
     out.extend(stuck_findings(test, sig, opts, range_cache))
     return out

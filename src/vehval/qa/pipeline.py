@@ -138,7 +138,7 @@ def _vehicle_limits(vehicle: Any) -> dict | None:
 
 
 def _validated_test(work: Test, selection, calc, vehicle, calc_set, constants, bad: set[str],
-                    notes: list[str]) -> Test:
+                    notes: list[str], architecture: str | None = None) -> Test:
     """The kept measured signals plus calculations that rest only on kept signals.
 
     A calculation that used a signal the selection dropped (e.g. a battery current found
@@ -156,7 +156,8 @@ def _validated_test(work: Test, selection, calc, vehicle, calc_set, constants, b
             if sig.name.endswith("_calc"):
                 validated.add(sig)
         return validated
-    redo = compute(validated, vehicle, calc_set, constants)  # only kept signals are in it
+    redo = compute(validated, vehicle, calc_set, constants,  # only kept signals are in it
+                   architecture=architecture)
     lost = sorted(set(calc.computed) - set(redo.computed))
     notes.append(
         f"calculations recomputed without the dropped signals ({', '.join(sorted(dropped))}) "
@@ -227,7 +228,11 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,  # noqa: PLR09
     findings += f2
     # inputs not to trust in the calculations
     bad = {f.signal for f in findings if f.severity == Severity.ERROR} | set(user_drop)
-    calc = compute(work, vehicle, calc_set, constants, exclude=bad)
+    # the tested car's architecture: no engine, fuel or hybrid relation on a battery-electric car
+    from vehval.vehicle.definition import architecture_of
+
+    arch = architecture_of(vehicle, template)
+    calc = compute(work, vehicle, calc_set, constants, exclude=bad, architecture=arch)
     corroborate_spikes_with_calc(work, findings, calc.computed)
     table3, f3 = run_level3(work, calc, level3, findings, declared)
     checks, fc = run_checks(work, calc)
@@ -240,7 +245,8 @@ def run_qa(test: Test, vehicle: Any = None, template: Any = None,  # noqa: PLR09
     findings += run_plausibility(work, table3, template, vehicle)
     pvals = {k: v["value"] for k, v in calc.parameters.items() if v.get("value") is not None}
     selection = select_signals(work, findings, table2, table3, user_keep, user_drop, pvals)
-    validated = _validated_test(work, selection, calc, vehicle, calc_set, constants, bad, notes)
+    validated = _validated_test(work, selection, calc, vehicle, calc_set, constants, bad, notes,
+                                arch)
     validated.meta.notes = list(validated.meta.notes) + [
         f"QA: kept {len(selection.kept)} measured signals, dropped {len(selection.dropped)}, "
         f"computed {len(calc.computed)}"]

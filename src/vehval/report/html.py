@@ -100,6 +100,19 @@ def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S
     return sec
 
 
+def _energy_section(test: Test, veh: Any, vnote: str | None, template: Any,
+                    results: Any) -> S.Section:
+    """The engineering plots, or for a battery-electric car (vehicle file, else template)
+    its SAE J1634 energy section (:mod:`vehval.report.energy_bev`)."""
+    from vehval.vehicle.definition import architecture_of
+
+    if architecture_of(veh, template) == "battery_electric":
+        from vehval.report.energy_bev import bev_energy_section
+
+        return bev_energy_section(test, as_dict(results) if results is not None else None)
+    return engineering_section(test, veh, vnote)
+
+
 def with_dropped(test: Test, raw: Test | None, qa: dict) -> Test:
     """The validated test plus the signals of ``raw`` that selection dropped, aligned.
 
@@ -142,7 +155,8 @@ def build_sections(test: Test, qa: Any = None, *, template: Any = None, vehicle:
     secs = [S.summary_section(test, q, template, title), S.import_section(test),
             S.alignment_section(qt, q), S.findings_section(qt, q, limits),
             S.table2_section(qt, q), S.calculations_section(q), S.table3_section(qt, q),
-            S.selection_section(q), S.signals_section(test), engineering_section(test, veh, vnote)]
+            S.selection_section(q), S.signals_section(test),
+            _energy_section(test, veh, vnote, template, results)]
     if results is not None:
         from vehval.report.results_view import results_section
         secs.insert(0, results_section(as_dict(results)))

@@ -15,6 +15,7 @@ import plotly.graph_objects as go
 from vehval.constants import RPM_RAD_PER_S
 from vehval.equations.engine_state import engine_running
 from vehval.fuels import resolve_fuel
+from vehval.integrals import integral
 from vehval.test import Test
 
 RPM = RPM_RAD_PER_S  # [rad/s] per rpm
@@ -302,12 +303,17 @@ def _energy(test: Test, base: str, origins: tuple[str, ...], sign: int = 0, scal
     s = pick(test, base, origins)
     if s is None or s.time.size < 2:
         return None
-    v = np.where(np.isfinite(s.values), s.values, 0.0) * scale
+    v = np.asarray(s.values, float) * scale
     if sign > 0:
         v = np.maximum(v, 0.0)
     elif sign < 0:
         v = np.maximum(-v, 0.0)
-    return float(np.trapezoid(v, s.time))
+    return _known(integral(s.time, v))
+
+
+def _known(x: float) -> float | None:
+    """``x``, or None when the integral could not be formed (fewer than two finite samples)."""
+    return x if np.isfinite(x) else None
 
 
 def energy_flows(test: Test, origin: str = "test", lhv_j_per_kg: float | None = None) -> dict[str, float]:
@@ -328,8 +334,7 @@ def energy_flows(test: Test, origin: str = "test", lhv_j_per_kg: float | None = 
     if eng is None:
         w, tq = pick(test, "eng_spd_out", origins), pick(test, "eng_trq_out", origins)
         if w is not None and tq is not None:
-            p = np.nan_to_num(w.values * tq.at(w.time))
-            eng = float(np.trapezoid(np.maximum(p, 0.0), w.time))
+            eng = _known(integral(w.time, np.maximum(w.values * tq.at(w.time), 0.0)))
     for key, val in (("fuel", fuel), ("engine", eng),
                      ("battery_out", _energy(test, "ess_pwr", origins, sign=+1)),
                      ("battery_in", _energy(test, "ess_pwr", origins, sign=-1))):
@@ -339,18 +344,18 @@ def energy_flows(test: Test, origin: str = "test", lhv_j_per_kg: float | None = 
     if wheel is None:
         f, v = pick(test, "veh_frc_in", origins), pick(test, "veh_spd", origins)
         if f is not None and v is not None:
-            p, tw = np.nan_to_num(f.values * v.at(f.time)), f.time
+            p, tw = f.values * v.at(f.time), f.time
         else:
             p = tw = None
     else:
-        p, tw = np.nan_to_num(wheel.values), wheel.time
+        p, tw = np.asarray(wheel.values, float), wheel.time
     if p is not None and tw.size > 1:
-        out["wheel_out"] = float(np.trapezoid(np.maximum(p, 0.0), tw))
-        out["braking"] = float(np.trapezoid(np.maximum(-p, 0.0), tw))
+        out["wheel_out"] = integral(tw, np.maximum(p, 0.0))
+        out["braking"] = integral(tw, np.maximum(-p, 0.0))
     fl, v = pick(test, "veh_frc_loss", origins), pick(test, "veh_spd", origins)
     if fl is not None and v is not None and fl.time.size > 1:
-        out["road_load"] = float(np.trapezoid(np.nan_to_num(fl.values * v.at(fl.time)), fl.time))
-    return out
+        out["road_load"] = integral(fl.time, fl.values * v.at(fl.time))
+    return {k: x for k, x in out.items() if np.isfinite(x)}
 
 
 def sankey_figure(flows: dict[str, float], title: str = "Energy flow over the test") -> go.Figure:

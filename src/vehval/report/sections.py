@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from vehval.constants import MILE_M
+from vehval.integrals import integral
 from vehval.nomenclature import registry
 from vehval.report import qa_view as qv
 from vehval.report.figures import PALETTE, FigSpec, scatter_fit_figure, time_traces_figure
@@ -88,7 +89,7 @@ def duration_and_distance(test: Test) -> tuple[float, float | None]:
         if base == "veh_dist" and ok.any():
             dist = float(np.nanmax(s.values) - np.nanmin(s.values))
         elif ok.sum() > 1:
-            dist = float(np.trapezoid(np.where(ok, s.values, 0.0), s.time))
+            dist = integral(s.time, s.values)
         if dist is not None:
             break
     return t1 - t0, dist

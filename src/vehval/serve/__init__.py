@@ -2,8 +2,8 @@
 
 Template review (channels, units, plots, QA hints, save and rerun), QA triage (findings
 linked to plots, keep or drop a signal with a reason), a catalog browser over batch outputs
-and the model overlaid on a test. Starlette serves it on 127.0.0.1 with a one-time token
-(docs/workbench.md). Everything is imported lazily by the CLI: ``vehval --help`` never loads
+and the model overlaid on a test. Starlette serves it on 127.0.0.1 with a token valid while
+it runs (docs/workbench.md). Everything is imported lazily by the CLI: ``vehval --help`` never loads
 the server.
 """
 

@@ -77,7 +77,7 @@ class _Guard(BaseHTTPMiddleware):
         given = request.query_params.get("token")
         if given is not None:
             if not sec.same(given, wb.token):
-                return _forbidden("wrong token: open the URL `vehval serve` printed")
+                return _forbidden("wrong token: open the URL `vehval serve` printed", request)
             if request.method == "GET":  # the token leaves the URL for a cookie
                 query = urlencode([(k, v) for k, v in request.query_params.multi_items()
                                    if k != "token"])
@@ -88,7 +88,7 @@ class _Guard(BaseHTTPMiddleware):
                 return resp
         elif not (sec.same(request.cookies.get(sec.TOKEN_COOKIE), wb.token)
                   or sec.same(request.headers.get(sec.TOKEN_HEADER), wb.token)):
-            return _forbidden("token required: open the URL `vehval serve` printed")
+            return _forbidden("token required: open the URL `vehval serve` printed", request)
         if request.url.path.startswith("/api/") and \
                 request.headers.get("sec-fetch-site") in FOREIGN_SITES:
             return _forbidden("request refused: made by a page of another origin")
@@ -108,8 +108,15 @@ class _Guard(BaseHTTPMiddleware):
         return response
 
 
-def _forbidden(message: str) -> Response:
-    return JSONResponse({"error": message}, status_code=403)
+def _forbidden(message: str, request: Request | None = None) -> Response:
+    """403: JSON ``{"error"}`` for the API and clients asking for JSON; for a browser
+    opening a page, an HTML page saying what to do."""
+    if request is None or request.url.path.startswith("/api/") or \
+            "text/html" not in request.headers.get("accept", ""):
+        return JSONResponse({"error": message}, status_code=403)
+    # no token: the page carries no CSRF value and names no workspace
+    return HTMLResponse(_jinja().get_template("refused.html").render(message=message),
+                        status_code=403)
 
 
 async def _body(request: Request) -> bytes:
@@ -167,17 +174,21 @@ class Workbench:
         self.token = token or sec.new_secret()
         self.csrf = sec.new_secret()
         self.extra_hosts = extra_hosts
-        self._benches: dict[Path, Bench] = {}
+        self._benches: dict[tuple[Path, str | None], Bench] = {}
         self._lock = threading.Lock()
 
-    def bench(self, rel: str | None) -> Bench:
+    def bench(self, rel: str | None, test: str | None = None) -> Bench:
+        """The bench of folder ``rel`` (of its test ``test`` in a folder of many tests)."""
         folder = sec.inside_workspace(self.root, rel)
         if not folder.is_dir():
             raise InputFileError(f"{rel}: not a folder of the workspace")
+        if test is not None and test not in folder_tests(self.root, folder):
+            raise InputFileError(f"{rel}: no test '{test[:80]}' in the folder (open one the "
+                                 "home page lists)")
         with self._lock:
-            if folder not in self._benches:
-                self._benches[folder] = Bench(folder, self.root)
-            return self._benches[folder]
+            if (folder, test) not in self._benches:
+                self._benches[(folder, test)] = Bench(folder, self.root, test)
+            return self._benches[(folder, test)]
 
     def tests(self, limit: int = MAX_TESTS) -> tuple[list[dict], list[dict]]:
         """Folders holding raw data files or a template (3 levels deep at most), and what the
@@ -207,7 +218,13 @@ class Workbench:
                      for x in gone]
             has_tpl = any(p.name == TEMPLATE_NAME for p in listing.files)
             if data or has_tpl:
-                out.append({"dir": rel, "files": [p.name for p in data], "template": has_tpl, "qa": _qa_done(self.root, d)})
+                many = folder_tests(self.root, d, listing) if has_tpl else {}
+                for tid, name in many.items():
+                    out.append({"dir": rel, "test": tid, "files": [name], "template": True,
+                                "qa": _qa_done(self.root, d / QA_DIR / tid)})
+                if not many:
+                    out.append({"dir": rel, "test": None, "files": [p.name for p in data],
+                                "template": has_tpl, "qa": _qa_done(self.root, d / QA_DIR)})
             if depth >= 3:
                 continue
             for sub in listing.dirs:
@@ -218,12 +235,33 @@ class Workbench:
         return out, sec.bounded_left_out(left, 100)
 
 
-def _qa_done(root: Path, folder: Path) -> bool:
-    """True when the folder holds ``qa/findings.json`` (inside the workspace)."""
+def _qa_done(root: Path, qa: Path) -> bool:
+    """True when the QA folder ``qa`` holds ``findings.json`` (inside the workspace)."""
     try:
-        return sec.regular_file(root, folder / QA_DIR / "findings.json", "findings") is not None
+        return sec.regular_file(root, qa / "findings.json", "findings") is not None
     except VehvalError:
         return False
+
+
+def folder_tests(root: Path, folder: Path, listing: sec.Listing | None = None) -> dict[str, str]:
+    """``{test id: file name}`` of a folder of many tests (its saved template takes one file
+    per test: :func:`vehval.batch.discover.file_tests`); ``{}`` for a folder of one test or
+    without a readable template."""
+    from vehval.batch.discover import file_tests
+    from vehval.io.template import template_from_data
+    from vehval.safe_yaml import load_yaml
+
+    try:
+        path = sec.regular_file(root, folder / TEMPLATE_NAME, TEMPLATE_NAME)
+        if path is None:
+            return {}
+        tmpl = template_from_data(load_yaml(path.read_text(encoding="utf-8"), TEMPLATE_NAME),
+                                  TEMPLATE_NAME)
+        data, _ = pick_data(listing or sec.list_folder(root, folder), tmpl)
+    except VehvalError:
+        return {}
+    ordered = sorted(data, key=lambda p: p.name)
+    return {spec.test_id: p.name for p, spec in zip(ordered, file_tests(ordered, tmpl))}
 
 
 # --------------------------------------------------------------------------- pages
@@ -250,10 +288,15 @@ async def test_page(request: Request) -> Response:
     wb: Workbench = request.app.state.workbench
     try:
         q = prm.parse_query(prm.DirQuery, request.query_params.multi_items())
-        wb.bench(q.dir)
+        wb.bench(q.dir, q.test)
+        many = folder_tests(wb.root, sec.inside_workspace(wb.root, q.dir)) if q.test is None else {}
     except VehvalError as exc:
         return _page("error.html", request, message=str(exc))
-    return _page("test.html", request, dir=q.dir)
+    if many:
+        return _page("error.html", request, message=(
+            f"{q.dir}: {len(many)} tests under one template (one data file each): open one "
+            "of them from the home page's list"))
+    return _page("test.html", request, dir=q.dir, test=q.test)
 
 
 async def catalog_page(request: Request) -> Response:
@@ -306,41 +349,50 @@ async def files(request: Request) -> Response:
 # --------------------------------------------------------------------------- API
 def api_test(wb: Workbench, q: prm.DirQuery, body: None) -> dict:
     """The test page's model (GET: reads only)."""
-    return {"dir": q.dir, **wb.bench(q.dir).overview()}
+    return {"dir": q.dir, **wb.bench(q.dir, q.test).overview()}
 
 
 def api_channel(wb: Workbench, q: prm.ChannelQuery, body: None) -> dict:
-    return wb.bench(q.dir).channel(q.file, q.raw, q.t0, q.t1, q.n)
+    return wb.bench(q.dir, q.test).channel(q.file, q.raw, q.t0, q.t1, q.n)
 
 
 def api_signal(wb: Workbench, q: prm.SignalQuery, body: None) -> dict:
     """One signal of the last QA run (409 before QA ran: a GET never runs it)."""
-    return wb.bench(q.dir).signal(q.name, q.t0, q.t1, q.n)
+    return wb.bench(q.dir, q.test).signal(q.name, q.t0, q.t1, q.n)
 
 
 def api_save(wb: Workbench, q: prm.DirQuery, body: prm.TemplateEdits) -> dict:
-    b = wb.bench(q.dir)
+    b = wb.bench(q.dir, q.test)
     b.save_edits(body.edits())
     b.rerun()
     return api_test(wb, q, None)
 
 
 def api_run(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
-    wb.bench(q.dir).rerun()
+    wb.bench(q.dir, q.test).rerun()
     return api_test(wb, q, None)
 
 
 def api_selection(wb: Workbench, q: prm.DirQuery, body: prm.Decision) -> dict:
-    b = wb.bench(q.dir)
+    b = wb.bench(q.dir, q.test)
     b.decide(body.signal, body.action, body.reason)
     b.rerun()
     return api_test(wb, q, None)
 
 
-def api_model(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
-    from vehval.serve.model_view import model_overlay
+def api_model(wb: Workbench, q: prm.DirQuery, body: prm.NoBody | None) -> dict:
+    """Model and test: GET the vehicle it will simulate and the kept result; POST runs it."""
+    from vehval.serve import flow
 
-    return model_overlay(wb.bench(q.dir))
+    b = wb.bench(q.dir, q.test)
+    return flow.kept(b) if body is None else flow.run_model(b)
+
+
+def api_report(wb: Workbench, q: prm.DirQuery, body: prm.NoBody) -> dict:
+    """Build the test's static report (``vehval report``'s code) and name it."""
+    from vehval.serve import flow
+
+    return flow.build_report(wb.bench(q.dir, q.test))
 
 
 def _report_of(wb: Workbench, base: Path, test_id: Any) -> str | None:
@@ -400,6 +452,8 @@ def create_app(workspace: str | Path, *, token: str | None = None,
         Route("/api/selection", _api(api_selection, prm.DirQuery, prm.Decision),
               methods=["POST"]),
         Route("/api/model", _api(api_model, prm.DirQuery, prm.NoBody), methods=["POST"]),
+        Route("/api/model", _api(api_model, prm.DirQuery)),
+        Route("/api/report", _api(api_report, prm.DirQuery, prm.NoBody), methods=["POST"]),
         Route("/api/catalog", _api(api_catalog, prm.CatalogQuery)),
         Route("/api/catalog/trace", _api(api_trace, prm.TraceQuery)),
     ]

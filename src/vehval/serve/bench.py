@@ -33,6 +33,9 @@ TEMPLATE_NAME = "template.yaml"
 QA_DIR = "qa"
 #: Finding kinds shown as unit hints beside a channel.
 UNIT_KINDS = ("unit", "unit_suspect")
+#: Template constants of the tested car the page edits (test mass [kg], road load A [N],
+#: B [N/(m/s)], C [N/(m/s)²]).
+CAR_CONSTANTS = ("test_mass_kg", "road_load_a_n", "road_load_b_n_per_mps", "road_load_c_n_per_mps2")
 #: Most data files of one test folder read (by name); a folder holding more is not one test.
 MAX_DATA_FILES = 64
 
@@ -82,11 +85,15 @@ class Bench:
         The test folder (inside the workspace, resolved).
     root : Path, optional
         The workspace (resolved; default: the folder): nothing outside it is read.
+    test : str, optional
+        One test of a folder of many (a data file of its own under a one-entry template, the
+        batch rule: :func:`vehval.batch.discover.file_tests`); its QA goes to ``qa/TEST/``.
     """
 
-    def __init__(self, folder: Path, root: Path | None = None) -> None:
+    def __init__(self, folder: Path, root: Path | None = None, test: str | None = None) -> None:
         self.folder = folder
         self.root = root or folder
+        self.test = test
         self.lock = threading.RLock()
         self._raw: dict[str, tuple[float, Any]] = {}
         self.run: Any = None
@@ -119,8 +126,30 @@ class Bench:
         return _placeholder_text(tmpl)
 
     def _label(self) -> str:
-        return sec.relative(self.root, self.folder) if self.folder != self.root else \
+        where = sec.relative(self.root, self.folder) if self.folder != self.root else \
             "the workspace folder"
+        return f"{where} (test {self.test})" if self.test else where
+
+    def test_files(self, tmpl: Any, listing: sec.Listing | None = None) -> tuple[list[Path], list[dict]]:
+        """The data files of this test (all the folder's, or the one of :attr:`test`) and what
+        the listing left out."""
+        from vehval.batch.discover import file_tests
+
+        listing = listing or sec.list_folder(self.root, self.folder)
+        files, left = pick_data(listing, tmpl)
+        if self.test is None:
+            return files, left
+        ordered = sorted(files, key=lambda p: p.name)
+        for path, spec in zip(ordered, file_tests(ordered, tmpl)):
+            if spec.test_id == self.test:
+                return [path], left
+        raise InputFileError(f"{self._label()}: no such test in the folder (its template "
+                             "takes one file per test: open one listed on the home page)")
+
+    @property
+    def qa_path(self) -> Path:
+        """Where QA writes: ``qa/`` of the folder, ``qa/TEST/`` for one test of many."""
+        return self.folder / QA_DIR / self.test if self.test else self.folder / QA_DIR
 
     def template(self) -> Any:
         """The template model (saved or proposed), validated as ``vehval`` loads it."""
@@ -166,11 +195,24 @@ class Bench:
                 _edit_channel(files, ch)
             for idx, src in (edits.get("sources") or {}).items():
                 _entry(files, idx)["source"] = str(src)
-            if "fuel" in edits:
-                if edits["fuel"]:
-                    data["fuel"] = str(edits["fuel"])
+            for key in ("fuel", "vehicle", "vehicle_name"):
+                if key in edits:
+                    if edits[key] and str(edits[key]).strip():
+                        data[key] = str(edits[key]).strip()
+                    else:
+                        data.pop(key, None)
+            if edits.get("vehicle"):
+                _check_vehicle(data["vehicle"])
+            consts = data.get("constants") or {}
+            for key, value in (edits.get("constants") or {}).items():
+                if value is None:
+                    consts.pop(key, None)
                 else:
-                    data.pop("fuel", None)
+                    consts[key] = value
+            if consts:
+                data["constants"] = consts
+            else:
+                data.pop("constants", None)
             self._write(old, data)
 
     def decide(self, signal: str, action: str, reason: str = "") -> None:
@@ -217,14 +259,14 @@ class Bench:
                 from vehval.io.template import load_template
 
                 tmpl = load_template(self.template_path)
-                files, _ = data_files(self.folder, tmpl, self.root)
+                files, _ = self.test_files(tmpl)
                 if not files:
                     raise InputFileError(f"{self._label()}: no raw data file the template "
                                          "matches in the folder")
                 run = TestRun.load(files, tmpl)
                 qa = run.qa()
                 results = run.results().results
-                with atomic_dir(self.folder / QA_DIR) as stage:
+                with atomic_dir(self.qa_path) as stage:
                     write_text_atomic(stage / "findings.json", json.dumps(qa.document, indent=1))
                     write_text_atomic(stage / "results.json", json.dumps(results.to_dict(), indent=1))
                     write_test(qa.result.validated, stage / "validated.parquet")
@@ -243,11 +285,12 @@ class Bench:
 
     def _qa_dir(self) -> Path:
         """``qa/`` of the folder: absent or a folder of its own (never a link, a file...)."""
-        d = self.folder / QA_DIR
-        if os.path.lexists(d) and (os.path.islink(d) or not d.is_dir()):
-            raise InputFileError(f"{QA_DIR}: a symlink or a file, not the test's own folder: "
-                                 "refused: remove it so QA can write its outputs there")
-        return d
+        for d in (self.folder / QA_DIR, self.qa_path):
+            if os.path.lexists(d) and (os.path.islink(d) or not d.is_dir()):
+                raise InputFileError(f"{sec.relative(self.folder, d)}: a symlink or a file, not "
+                                     "the test's own folder: refused: remove it so QA can "
+                                     "write its outputs there")
+        return self.qa_path
 
     def _load_outputs(self) -> None:
         """The last QA outputs of the folder (``qa/``), when present (never through a link
@@ -273,7 +316,7 @@ class Bench:
         left = listing.left_out
         try:
             tmpl = self.template()
-            files, left = pick_data(listing, tmpl if saved else None)
+            files, left = self.test_files(tmpl, listing) if saved else pick_data(listing, None)
         except sec.OutsideWorkspace:
             raise
         except VehvalError as exc:
@@ -289,15 +332,35 @@ class Bench:
             out_files.append(self._file_view(i, entry, path, hints))
         from vehval.fuels import known_fuels
 
+        selection = _with_user_drops((self.state.findings or {}).get("selection") or {},
+                                     tmpl.selection.drop)
+        summary = (self.state.findings or {}).get("summary")
+        if isinstance(summary, dict):   # the user's drops count (removed before QA saw them)
+            summary = {**summary, "dropped": len(selection["dropped"])}
         return {"saved": saved, "files": out_files, "left_out": left,
+                "todo": self._todo(tmpl, files, saved),
+                "vehicle": tmpl.vehicle, "vehicle_name": tmpl.vehicle_name,
+                "constants": {k: getattr(tmpl.constants, k, None) for k in CAR_CONSTANTS},
                 "fuel": tmpl.fuel if isinstance(tmpl.fuel, str) or tmpl.fuel is None else "explicit",
                 "fuels": list(known_fuels()), "findings": findings,
-                "selection": _with_user_drops((self.state.findings or {}).get("selection") or {},
-                                              tmpl.selection.drop),
+                "selection": selection,
                 "user_selection": tmpl.selection.model_dump(),
                 "headline": headline(self.state.results),
-                "summary": (self.state.findings or {}).get("summary"),
+                "summary": summary,
                 "error": self.state.error, "notes": self.state.notes}
+
+    def _todo(self, tmpl: Any, files: list[Path], saved: bool) -> list[str]:
+        """What is still to do on the template, as the command line says it: the "to do"
+        lines of ``vehval template init`` for a proposal, the errors and warnings of
+        ``vehval template check`` for a saved template."""
+        from vehval.io.propose import check_template, propose_template
+
+        if not files:
+            return []
+        if not saved:
+            return [f"to do: {t}" for t in propose_template(files)[0].todo]
+        rep = check_template(tmpl, files)
+        return [f"error: {e}" for e in rep.errors] + [f"warning: {w}" for w in rep.warnings]
 
     def _file_view(self, i: int, entry: Any, path: Path | None, hints: dict) -> dict:
         from vehval.io.propose import match_channel, unit_known
@@ -325,9 +388,8 @@ class Bench:
                     base = reg.parse(spec.name).base
                 except VehvalError:
                     base = None
-            confidence = ("unmapped" if spec is None or spec.delete
-                          else "high" if proposed is not None and proposed == base and unit_known(hunit)
-                          else "medium" if proposed is not None and proposed == base else "edited")
+            confidence = _confidence(spec, proposed, base, hunit if unit_known(hunit) else None,
+                                     si)
             chans.append({"raw": raw_name, "header_unit": hunit, "in_file": raw_name in header,
                           "in_template": spec is not None,
                           "name": spec.name if spec else None, "unit": spec.unit if spec else None,
@@ -385,6 +447,21 @@ class Bench:
         return self.run
 
 
+def _confidence(spec: Any, proposed: str | None, base: str | None, header_unit: str | None,
+                si: str | None) -> str:
+    """How sure the mapping of one channel is: ``unmapped``, ``unit missing`` (neither the
+    template nor the file gives a unit: a fraction is read 0..1, anything else fails),
+    ``high`` (the proposed name and a unit from the file header), ``medium`` (the proposed
+    name, the unit from the template) or ``edited``."""
+    if spec is None or spec.delete:
+        return "unmapped"
+    if not spec.unit and not header_unit:
+        return "unit missing"
+    if proposed is not None and proposed == base:
+        return "high" if header_unit else "medium"
+    return "edited"
+
+
 def headline(results: dict | None) -> dict | None:
     """The headline figure of ``results.json``: its ``headline`` when it has one, else the
     first regulatory composite, else the whole test (with ``withheld`` when withheld)."""
@@ -421,6 +498,16 @@ def _placeholder_text(tmpl: Any) -> str:
     with tempfile.TemporaryDirectory() as d:
         p = tmpl.save(Path(d) / TEMPLATE_NAME, placeholders=True)
         return p.read_text(encoding="utf-8")
+
+
+def _check_vehicle(name: str) -> None:
+    """The vehicle a template names loads as the command line loads it (one line when not)."""
+    from vehval.vehicle import load_vehicle
+
+    try:
+        load_vehicle(name)
+    except VehvalError as exc:
+        raise ConfigError(f"{TEMPLATE_NAME}: vehicle: {str(exc).splitlines()[0]}") from None
 
 
 def _validate(data: Any) -> Any:

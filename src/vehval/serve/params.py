@@ -44,9 +44,11 @@ class _Query(BaseModel):
 
 
 class DirQuery(_Query):
-    """``dir``: a test folder, relative to the workspace (default: the workspace)."""
+    """``dir``: a test folder, relative to the workspace (default: the workspace); ``test``:
+    one test of a folder of many (its id, the data file's name without extension)."""
 
     dir: str = "."
+    test: str | None = Field(None, min_length=1, max_length=200)
 
 
 class _Window(DirQuery):
@@ -124,12 +126,19 @@ class ChannelEdit(_Body):
 
 
 class TemplateEdits(_Body):
-    """``POST /api/template``: channel edits, file source tags (``{file index: tag}``) and the
-    fuel (``""`` or ``null`` leaves it out of the template; absent: unchanged)."""
+    """``POST /api/template``: channel edits, file source tags (``{file index: tag}``), the
+    fuel, ``vehicle`` and ``vehicle_name`` (``""`` or ``null`` leaves each out of the template;
+    absent: unchanged) and ``constants`` (test mass, road-load A, B, C)."""
 
     channels: list[ChannelEdit] = Field(default_factory=list, max_length=10_000)
     sources: dict[str, str] = Field(default_factory=dict, max_length=10_000)
     fuel: str | None = None
+    #: the vehicle model (a shipped name or a vehicle file) and the tested car's name
+    vehicle: str | None = None
+    vehicle_name: str | None = None
+    #: test mass and road-load constants (``{key: value or null}``; null removes the key)
+    constants: dict[Literal["test_mass_kg", "road_load_a_n", "road_load_b_n_per_mps",
+                            "road_load_c_n_per_mps2"], float | None] = Field(default_factory=dict)
 
     def edits(self) -> dict:
         """The edits as :meth:`vehval.serve.bench.Bench.save_edits` takes them (only the

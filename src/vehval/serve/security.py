@@ -1,6 +1,8 @@
 """What keeps the workbench private: token, CSRF, host check, content policy, workspace paths.
 
-* **token**: a random one-time token printed in the URL (as Jupyter does). The first request
+* **token**: a random token printed in the URL (as Jupyter does), valid while the server
+  runs: not one-time (the printed URL opens any number of sessions until the server stops,
+  so keep it private; a new server makes a new token). The first request
   with ``?token=`` sets an HTTP-only, same-site cookie; every other request needs the cookie
   (or the ``X-Vehval-Token`` header): no token -> 403.
 * **CSRF**: a second random value is written into each page (``<meta name="vehval-csrf">``);

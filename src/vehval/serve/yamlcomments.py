@@ -40,6 +40,36 @@ def _inline_comment(line: str) -> str:
     return ""
 
 
+def _number(text: str) -> float | None:
+    try:
+        return float(text.replace("_", ""))
+    except ValueError:
+        return None
+
+
+def _keep_number(old_line: str, new_line: str) -> str:
+    """``new_line`` with ``old_line``'s number literal when both give the key the same number
+    (``1727`` stays ``1727``, ``42.8e6`` stays ``42.8e6``, not ``1727.0``, ``42800000.0``)."""
+    m_old, m_new = _KEY.match(old_line), _KEY.match(new_line)
+    if not (m_old and m_new):
+        return new_line
+    old_val = old_line[m_old.end():]
+    comment = _inline_comment(old_val)
+    old_val = old_val[: len(old_val) - len(comment)].strip() if comment else old_val.strip()
+    new_val = new_line[m_new.end():].strip()
+    a, b = _number(old_val), _number(new_val)
+    if a is None or b is None or a != b or old_val == new_val:
+        return new_line
+    return new_line[: m_new.end()] + old_val
+
+
+def _placeholder_of(line: str, top_keys: set[str]) -> bool:
+    """A comment line ``# KEY: ...`` (no indentation) standing for a top-level key the new
+    text now has: the placeholder of ``template init`` is stale once the key is written."""
+    m = re.match(r"^#\s*([A-Za-z_][A-Za-z0-9_]*):", line)
+    return m is not None and m.group(1) in top_keys
+
+
 def carry_comments(old: str, new: str) -> str:
     """``new`` with the comment lines of ``old`` put back.
 
@@ -56,13 +86,21 @@ def carry_comments(old: str, new: str) -> str:
         ``new`` where each block of comment (and blank) lines of ``old`` precedes the line it
         preceded in ``old`` (found by exact text, else by its key at the same indentation,
         in order); blocks whose line is gone go where it was, at the end when nothing is left.
+        A top-level ``# KEY: ...`` placeholder comment (with the comment lines following it,
+        up to a blank or a YAML line) is dropped once ``new`` sets KEY, and
+        a number keeps its literal when its value did not change.
     """
+    top_keys = {m.group(2) for ln in new.splitlines() if (m := _KEY.match(ln)) and not m.group(1)}
     anchors: list[tuple[str, str | None, list[str]]] = []
     pending: list[str] = []
+    dropping = False   # inside a stale placeholder block (up to a blank or a YAML line)
     for line in old.splitlines():
         if _is_comment(line):
-            pending.append(line)
+            dropping = (dropping and bool(line.strip())) or _placeholder_of(line, top_keys)
+            if not dropping:
+                pending.append(line)
         else:
+            dropping = False
             anchors.append((line, _key(line), pending))
             pending = []
     trailing = pending
@@ -90,6 +128,8 @@ def carry_comments(old: str, new: str) -> str:
                     anchors[j] = (anchors[j][0], anchors[j][1], [])
             used[i] = True
             out.extend(anchors[i][2])
+            if anchors[i][0] != line:
+                line = _keep_number(anchors[i][0], line)
             if anchors[i][0] != line and not _inline_comment(line):
                 line += _inline_comment(anchors[i][0])
             pos = i + 1

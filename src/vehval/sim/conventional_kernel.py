@@ -60,7 +60,7 @@ def select_gear(gear, v, load, up0, up1, dn0, dn1):
 
 @njit(cache=True)
 def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0, up1, dn0,
-                     dn1, lock_v, out, record):
+                     dn1, lock_v, out, record):  # long: one compiled time loop (numba)
     """Simulate one cycle; returns the summary vector (``CONV_SUMMARY`` order).
 
     ``vt`` target speed [m/s] on a uniform grid of step ``dt`` [s]; ``band_lo/hi`` its EPA

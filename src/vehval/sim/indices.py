@@ -9,7 +9,9 @@ the recorded signals (:data:`~vehval.sim.layout.SIGNALS`), ``Y_<NAME>`` the summ
 (:data:`~vehval.sim.layout.STATE`); ``N_P``, ``N_S``, ``N_Y``, ``N_X`` are their lengths.
 ``CP_``, ``CS_``, ``CY_`` (and ``N_CP``, ``N_CS``, ``N_CY``) are the same for the
 conventional loop (``CONV_PARAMS``, ``CONV_SIGNALS``, ``CONV_SUMMARY``); ``HP_``, ``HS_``,
-``HY_`` for the parallel-hybrid loop (``PAR_PARAMS``, ``PAR_SIGNALS``, ``PAR_SUMMARY``). numba reads
+``HY_`` for the parallel-hybrid loop (``PAR_PARAMS``, ``PAR_SIGNALS``, ``PAR_SUMMARY``);
+``BP_``, ``BS_``, ``BY_`` for the battery-electric loop (``BEV_PARAMS``, ``BEV_SIGNALS``,
+``BEV_SUMMARY``). numba reads
 module globals as compile-time constants, so the kernels index with literals; the compiled
 cache follows a change here through :mod:`vehval.numba_cache`. The module holds nothing but
 these integers, so ``from vehval.sim.indices import *`` brings exactly them.
@@ -460,3 +462,79 @@ HY_TRACE_MAX_MISS_MPS = 32
 HY_TRACE_N_MISS = 33
 HY_DURATION_S = 34
 N_HY = 35
+
+# the parameter vector of the battery-electric loop (layout.BEV_PARAMS)
+BP_MASS = 0
+BP_RL_A = 1
+BP_RL_B = 2
+BP_RL_C = 3
+BP_R_WHEEL = 4
+BP_FD_RATIO = 5
+BP_FD_EFF = 6
+BP_J_WHEEL = 7
+BP_BRK_MAX = 8
+BP_AUX_W = 9
+BP_J_MOT = 10
+BP_MOT_TMAX = 11
+BP_MOT_PMAX = 12
+BP_MOT_MAX_SPD = 13
+BP_BATT_CAP_C = 14
+BP_SOC_INIT = 15
+BP_SOC_MIN = 16
+BP_SOC_MAX = 17
+BP_REGEN_PMAX = 18
+BP_REGEN_FADE_LO = 19
+BP_REGEN_FADE_HI = 20
+BP_REGEN_SHARE = 21
+BP_DRV_TAU = 22
+BP_DRV_KI = 23
+BP_DRV_INT_LIM = 24
+BP_DRV_FMAX = 25
+N_BP = 26
+
+# the recorded signals (columns) of the battery-electric loop (layout.BEV_SIGNALS)
+BS_VEH_SPD = 0
+BS_VEH_SPD_TARGET = 1
+BS_VEH_ACC = 2
+BS_VEH_FRC_IN = 3
+BS_VEH_FRC_LOSS = 4
+BS_WHL_TRQ_OUT = 5
+BS_WHL_SPD = 6
+BS_MOT_SPD_OUT = 7
+BS_MOT_TRQ_OUT = 8
+BS_MOT_PWR_IN = 9
+BS_ESS_VOLT = 10
+BS_ESS_CURR = 11
+BS_ESS_PWR = 12
+BS_ESS_SOC = 13
+BS_ESS_PWR_LIM_DIS = 14
+BS_ESS_PWR_LIM_CHG = 15
+BS_BRK_FRC = 16
+BS_DRV_FRC_DEMAND = 17
+BS_DRV_PWR_DEMAND = 18
+N_BS = 19
+
+# the summary accumulators of the battery-electric loop (layout.BEV_SUMMARY)
+BY_ESS_CHEM_ENERGY_J = 0
+BY_ESS_DC_ENERGY_J = 1
+BY_ESS_DC_DISCHARGE_J = 2
+BY_ESS_DC_CHARGE_J = 3
+BY_ESS_LOSS_J = 4
+BY_MOT_LOSS_J = 5
+BY_MOT_OUT_ENERGY_J = 6
+BY_REGEN_MECH_ENERGY_J = 7
+BY_AUX_ENERGY_J = 8
+BY_FD_LOSS_J = 9
+BY_BRAKE_ENERGY_J = 10
+BY_ROAD_ENERGY_J = 11
+BY_WHEEL_ENERGY_J = 12
+BY_KE_START_J = 13
+BY_KE_END_J = 14
+BY_UNMET_ENERGY_J = 15
+BY_DISTANCE_M = 16
+BY_SOC_FINAL = 17
+BY_SOC_MIN_SEEN = 18
+BY_TRACE_MAX_MISS_MPS = 19
+BY_TRACE_N_MISS = 20
+BY_DURATION_S = 21
+N_BY = 22

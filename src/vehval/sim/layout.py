@@ -6,7 +6,8 @@ the accumulator vector (energies [J], masses [kg], counts, extrema); ``STATE`` t
 of the loop's state vector, which every phase of a step reads and writes (SI; flags and
 states as 0/1 and small integers). ``CONV_PARAMS``, ``CONV_SIGNALS``, ``CONV_SUMMARY``: the
 same three for the conventional loop; ``PAR_PARAMS``, ``PAR_SIGNALS``, ``PAR_SUMMARY`` for
-the parallel-hybrid loop.
+the parallel-hybrid loop; ``BEV_PARAMS``, ``BEV_SIGNALS``, ``BEV_SUMMARY`` for the
+battery-electric loop.
 """
 
 from __future__ import annotations
@@ -109,6 +110,27 @@ PAR_SUMMARY = (
     "assist_time_s", "regen_time_s", "assist_energy_j", "regen_energy_j", "ess_out_energy_j",
     "ess_in_energy_j", "soc_final", "soc_min_seen", "soc_max_seen", "gear_shifts",
     "eng_spd_max", "trace_max_miss_mps", "trace_n_miss", "duration_s",
+)
+# the battery-electric loop (:mod:`vehval.sim.bev_kernel`): parameters, recorded signals,
+# summary accumulators
+BEV_PARAMS = (
+    "mass", "rl_a", "rl_b", "rl_c", "r_wheel", "fd_ratio", "fd_eff", "j_wheel", "brk_max",
+    "aux_w", "j_mot", "mot_tmax", "mot_pmax", "mot_max_spd", "batt_cap_c", "soc_init",
+    "soc_min", "soc_max", "regen_pmax", "regen_fade_lo", "regen_fade_hi", "regen_share",
+    "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax",
+)
+BEV_SIGNALS = (
+    "veh_spd", "veh_spd_target", "veh_acc", "veh_frc_in", "veh_frc_loss", "whl_trq_out",
+    "whl_spd", "mot_spd_out", "mot_trq_out", "mot_pwr_in", "ess_volt", "ess_curr", "ess_pwr",
+    "ess_soc", "ess_pwr_lim_dis", "ess_pwr_lim_chg", "brk_frc", "drv_frc_demand",
+    "drv_pwr_demand",
+)
+BEV_SUMMARY = (
+    "ess_chem_energy_j", "ess_dc_energy_j", "ess_dc_discharge_j", "ess_dc_charge_j",
+    "ess_loss_j", "mot_loss_j", "mot_out_energy_j", "regen_mech_energy_j", "aux_energy_j",
+    "fd_loss_j", "brake_energy_j", "road_energy_j", "wheel_energy_j", "ke_start_j", "ke_end_j",
+    "unmet_energy_j", "distance_m", "soc_final", "soc_min_seen", "trace_max_miss_mps",
+    "trace_n_miss", "duration_s",
 )
 
 P = {n: i for i, n in enumerate(PARAMS)}

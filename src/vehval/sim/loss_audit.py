@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S as RPM
+from vehval.integrals import held_sum
 from vehval.sim.batch import simulate_batch
 from vehval.sim.simulate import simulate
 from vehval.vehicle import Vehicle, load_vehicle
@@ -55,7 +56,7 @@ def _items(veh: Vehicle, res) -> list[dict[str, Any]]:
     t_eng = np.asarray(sig["eng_trq_out_simu"].values, float)
     fuel = np.asarray(sig["fuel_rate_simu"].values, float)
     motoring = (t_eng < 0) & (fuel <= 0)
-    e_motoring = float(np.sum(-t_eng[motoring] * w_eng[motoring]) * dt)
+    e_motoring = held_sum(-t_eng * w_eng, dt, motoring)
     rows: list[dict[str, Any]] = [
         {"key": "accessories", "energy_j": float(s["aux_energy_j"]),
          "what": "electrical accessory load x cycle time", "source": _src(veh, "body.aux_power_w")},
@@ -70,8 +71,7 @@ def _items(veh: Vehicle, res) -> list[dict[str, Any]]:
     ]
     for mach, sname in (("mg1", "gen_spd_out_simu"), ("mg2", "mot_spd_out_simu")):
         w = np.asarray(sig[sname].values, float)
-        rows.append({"key": f"{mach}_no_load", "energy_j": float(np.sum(no_load_loss_w(veh, mach, w))
-                                                                  * dt),
+        rows.append({"key": f"{mach}_no_load", "energy_j": held_sum(no_load_loss_w(veh, mach, w), dt),
                      "what": f"{mach.upper()} + inverter loss at zero torque over the cycle's "
                              "speeds (spin, standby)", "source": _src(veh, f"{mach}.loss_w")})
     rows.append({"key": "battery_self_discharge", "energy_j": 0.0,

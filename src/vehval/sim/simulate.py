@@ -27,11 +27,13 @@ from vehval.cycles import Cycle, load_cycle
 from vehval.errors import ConfigError
 from vehval.fuels import fuel_consumption_l_per_100km, fuel_economy_mpg, fuel_volume_m3
 from vehval.numba_cache import compile_notice
+from vehval.sim.bev import bev_maps, bev_param_vector, summarise_bev
+from vehval.sim.bev_kernel import run_bev
 from vehval.sim.conventional import conv_maps, conv_param_vector, summarise_conventional
 from vehval.sim.conventional_kernel import CONV_SIGNALS, CONV_SUMMARY, run_conventional
 from vehval.sim.grid import Grid, check_dt, cycle_grid, make_grid, time_grid
 from vehval.sim.kernel import run
-from vehval.sim.layout import SIGNALS, SUMMARY
+from vehval.sim.layout import BEV_SIGNALS, BEV_SUMMARY, SIGNALS, SUMMARY
 from vehval.sim.packing import pack
 from vehval.sim.parallel import par_maps, par_param_vector, summarise_parallel
 from vehval.sim.parallel_kernel import PAR_SIGNALS, PAR_SUMMARY, run_parallel
@@ -164,7 +166,7 @@ def summarise(veh: Vehicle, ys: np.ndarray, soc0: float) -> dict[str, Any]:
     return s
 
 
-def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float = 0.1,
+def simulate(vehicle: Any, cycle: Cycle | str | Path, dt: float = 0.1,
              soc_initial: float | None = None, charge_balance: bool = False,
              cold_start: bool = False, **overrides: Any) -> SimResult:
     """Simulate ``vehicle`` over ``cycle``.
@@ -201,10 +203,14 @@ def simulate(vehicle: Vehicle | str | Path, cycle: Cycle | str | Path, dt: float
     soc0 = float("nan")
     if arch.has_battery:
         bt = veh.battery
-        soc0 = veh.controller.soc_target if soc_initial is None else float(soc_initial)
+        soc0 = arch.start_soc(veh) if soc_initial is None else float(soc_initial)
         if not (bt.soc_min <= soc0 <= bt.soc_max):
             raise ConfigError(f"soc_initial = {soc0:g} is outside the battery window "
                               f"[{bt.soc_min:g}, {bt.soc_max:g}] of {veh.file or veh.name}")
+        if charge_balance and not arch.charge_sustaining:
+            raise ConfigError(f"{veh.file or veh.name}: charge balance applies to a "
+                              f"charge-sustaining hybrid; a {arch.name} vehicle runs "
+                              "charge-depleting (drop --charge-balance)")
         if charge_balance:
             soc0, _, iters = balanced_plan(veh, [grid], soc0, record=False)
     out, ys = arch.run(veh, grid, soc0, True)
@@ -249,6 +255,12 @@ class Architecture:
         ``cold_start_model(vehicle) -> bool``: whether a cold start differs from a hot one.
     soc_final : int or None
         Summary index of the final SOC [-]; None for a powertrain without a battery.
+    charge_sustaining : bool
+        Whether the battery is charge-sustaining (a hybrid: charge balance applies); a
+        battery-electric car runs charge-depleting.
+    initial_soc : callable or None
+        ``initial_soc(vehicle) -> SOC [-]`` a run starts from by default; None: the
+        controller's SOC target (a hybrid).
     """
 
     name: str
@@ -259,6 +271,14 @@ class Architecture:
     summarise: Callable[[Any, np.ndarray, float], dict[str, Any]]
     cold_start_model: Callable[[Any], bool]
     soc_final: int | None = None
+    charge_sustaining: bool = True
+    initial_soc: Callable[[Any], float] | None = None
+
+    def start_soc(self, veh: Any) -> float:
+        """The SOC [-] a run of ``veh`` starts from by default."""
+        if self.initial_soc is not None:
+            return float(self.initial_soc(veh))
+        return float(veh.controller.soc_target)
 
     @property
     def has_battery(self) -> bool:
@@ -299,6 +319,15 @@ def _run_parallel(veh: Any, grid: Grid, soc0: float,
     return out, ys
 
 
+def _run_bev(veh: Any, grid: Grid, soc0: float,
+             record: bool) -> tuple[np.ndarray, np.ndarray]:
+    out = np.zeros((grid.t.size if record else 1, len(BEV_SIGNALS)))
+    compile_notice("bev_kernel", "run_bev", "battery-electric simulation kernel")
+    ys = run_bev(grid.vt, grid.lo, grid.hi, grid.dt, bev_param_vector(veh, soc0),  # type: ignore[call-arg]  # numba Dispatcher stub
+                 *bev_maps(veh), out, record)
+    return out, ys
+
+
 def _power_split_cold_model(veh: Vehicle) -> bool:
     return veh.engine.warmup_fuel_fraction > 0.0 or veh.controller.cold_start_engine_on_s > 0.0
 
@@ -320,6 +349,11 @@ ARCHITECTURES: dict[str, Architecture] = {
         summarise=lambda v, ys, s0: summarise_parallel(v, ys, s0, energy_balance_fuel_kg),
         cold_start_model=lambda v: v.engine.warmup_fuel_fraction > 0.0,
         soc_final=PAR_SUMMARY.index("soc_final")),
+    "battery_electric": Architecture(
+        name="battery_electric", label="forward-looking battery-electric simulation",
+        signals=BEV_SIGNALS, summary_keys=BEV_SUMMARY, run=_run_bev, summarise=summarise_bev,
+        cold_start_model=lambda v: False, soc_final=BEV_SUMMARY.index("soc_final"),
+        charge_sustaining=False, initial_soc=lambda v: v.charger.soc_initial),
 }
 
 
@@ -427,13 +461,16 @@ def balanced_plan(veh: Any, grids: list[Grid], soc0: float | None = None,
     arch = architecture(veh)
     if not arch.has_battery:
         return float("nan"), run_plan(veh, grids, record=record), []
+    if not arch.charge_sustaining:  # charge-depleting: nothing to balance, one plain run
+        start = arch.start_soc(veh) if soc0 is None else float(soc0)
+        return start, run_plan(veh, grids, start, record=record), []
     k = arch.soc_final
 
     def err(x: float):
         runs = run_plan(veh, grids, x, record)
         return float(runs[-1][1][k]) - x, runs
 
-    start = veh.controller.soc_target if soc0 is None else float(soc0)
+    start = arch.start_soc(veh) if soc0 is None else float(soc0)
     bt = veh.battery
     return charge_balance(err, start, bt.soc_min + 0.02, bt.soc_max - 0.02)
 

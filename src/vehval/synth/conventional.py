@@ -21,6 +21,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S
+from vehval.integrals import held_sum
 from vehval.io.atomic import atomic_dir, write_text_atomic
 from vehval.vehicle.conventional import DRIVEN_AXLE_LOSS_SHARE
 
@@ -98,7 +99,7 @@ def make_conventional_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
              "synthetic": True, "vehicle": veh.name, "cycle": cyc.name, "seed": int(seed),
              "fuel_delay_s": FUEL_DELAY_S, "fuel_tau_s": FUEL_TAU_S,
              "force_delay_s": FORCE_DELAY_S, "noise": NOISE,
-             "fuel_g": float(fuel.sum() * dt), "parameters": veh.parameters(),
+             "fuel_g": held_sum(fuel, dt), "parameters": veh.parameters(),
              "gear_ratios": [float(r) for r in veh.overall_ratios()]}
     outdir = Path(outdir)
     with atomic_dir(outdir) as stage:

@@ -391,6 +391,36 @@ class _Problem:
         return js
 
 
+def _start_and_bounds(veh0: Vehicle, names: list[str], start: Any,
+                      bounds: dict[str, tuple[float, float]] | None,
+                      rel_bounds: float) -> tuple[dict[str, float], dict[str, tuple[float, float]],
+                                                  list[str]]:
+    """Start value and bounds of each tuned parameter (SI), and the notes on both: the
+    given start values used or ignored, and a start outside its bounds clipped."""
+    given = start_values(start, names)
+    check_start(veh0, given, names)
+    x0 = {n: given.get(n, _value_of(veh0, n)) for n in names}
+    notes = []
+    if given:
+        used = [n for n in names if n in given]
+        notes.append("start values from the given start: " + (", ".join(
+            f"{n} = {given[n]:.6g}" for n in used) or "none of the tuned parameters"))
+        ignored = sorted(set(given) - set(names))
+        if ignored:
+            notes.append("given but not tuned (the vehicle's values are kept): " + ", ".join(ignored))
+    bnds = {}
+    for n in names:
+        b = (bounds or {}).get(n) or (bounds or {}).get(n.split(".", 1)[1]) if bounds else None
+        low, high = (float(b[0]), float(b[1])) if b else default_bounds(veh0, n, x0[n], rel_bounds)
+        if not low < high:
+            raise ConfigError(f"calibration bounds of '{n}': lower {low:g} must be below upper {high:g}")
+        bnds[n] = (low, high)
+        if not low <= x0[n] <= high:
+            notes.append(f"start value of {n} ({x0[n]:.6g}) outside the bounds: clipped")
+        x0[n] = min(max(x0[n], low), high)
+    return x0, bnds, notes
+
+
 def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequence[str], *,
               start: Any = None, bounds: dict[str, tuple[float, float]] | None = None,
               weights: dict[str, float] | None = None, scales: dict[str, float] | None = None,
@@ -458,27 +488,7 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         raise ConfigError("calibration needs at least one parameter (e.g. controller.engine_on_power_w)")
     if len(set(names)) != len(names):
         raise ConfigError(f"calibration parameters repeated: {', '.join(names)}")
-    given = start_values(start, names)
-    check_start(veh0, given, names)
-    x0 = {n: given.get(n, _value_of(veh0, n)) for n in names}
-    notes = []
-    if given:
-        used = [n for n in names if n in given]
-        notes.append("start values from the given start: " + (", ".join(
-            f"{n} = {given[n]:.6g}" for n in used) or "none of the tuned parameters"))
-        ignored = sorted(set(given) - set(names))
-        if ignored:
-            notes.append("given but not tuned (the vehicle's values are kept): " + ", ".join(ignored))
-    bnds = {}
-    for n in names:
-        b = (bounds or {}).get(n) or (bounds or {}).get(n.split(".", 1)[1]) if bounds else None
-        low, high = (float(b[0]), float(b[1])) if b else default_bounds(veh0, n, x0[n], rel_bounds)
-        if not low < high:
-            raise ConfigError(f"calibration bounds of '{n}': lower {low:g} must be below upper {high:g}")
-        bnds[n] = (low, high)
-        if not low <= x0[n] <= high:
-            notes.append(f"start value of {n} ({x0[n]:.6g}) outside the bounds: clipped")
-        x0[n] = min(max(x0[n], low), high)
+    x0, bnds, notes = _start_and_bounds(veh0, names, start, bounds, rel_bounds)
     ids = [t.meta.test_id or f"test{i + 1}" for i, t in enumerate(tests)]
     hold_ids = [t.meta.test_id or f"holdout{i + 1}" for i, t in enumerate(holdout_tests)]
     targets = [make_target(t, veh0, dt, signals=signals, smooth_hz=smooth_hz) for t in tests]
@@ -488,9 +498,7 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
     xstart = np.array([x0[n] for n in names])
     j0 = prob(xstart)
     history = [j0]
-
-    lo = np.array([bnds[n][0] for n in names])
-    hi = np.array([bnds[n][1] for n in names])
+    lo, hi = (np.array([bnds[n][k] for n in names]) for k in (0, 1))
 
     def cb() -> None:
         history.append(prob.best[0])

@@ -13,6 +13,7 @@ import numpy as np
 
 from vehval.equations.engine_state import ENGINE_OFF_RPM, ENGINE_ON_RPM, detect_engine_on
 from vehval.fuels import economy
+from vehval.integrals import battery_power
 from vehval.test import Signal, Test
 from vehval.validate.metrics import energies, integrate, on_off_events
 
@@ -49,6 +50,8 @@ def on_grid(test: Test, base: str, origin: str, grid: np.ndarray) -> np.ndarray 
     if pair:
         a, b = (pick_signal(test, n, origin) for n in pair)
         if a is not None and b is not None:
+            if base == "ess_pwr":
+                return battery_power(_at(a, grid), _at(b, grid))
             return _at(a, grid) * _at(b, grid)
     return None
 

@@ -21,6 +21,7 @@ from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.errors import ConfigError
 from vehval.safe_yaml import read_yaml
 from vehval.vehicle.base import apply_overrides
+from vehval.vehicle.bev import BatteryElectricVehicle
 from vehval.vehicle.components import (
     BatteryParams,
     BodyParams,
@@ -135,29 +136,66 @@ _BEST_LINE_KEYS = {f"engine.{k}" for k in (
     "max_speed_rpm", "max_power_w")}
 
 
-ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle] | type[ParallelHybridVehicle]] = {
+ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]
+                   | type[ParallelHybridVehicle] | type[BatteryElectricVehicle]] = {
     "power_split": Vehicle, "conventional": ConventionalVehicle,
-    "parallel_hybrid": ParallelHybridVehicle}
+    "parallel_hybrid": ParallelHybridVehicle, "battery_electric": BatteryElectricVehicle}
+
+#: Signal categories (signals.yaml) a powertrain of each architecture does not have: a
+#: template of that architecture may not map them and QA runs no check on them. The one
+#: table of which signals an architecture lacks.
+ABSENT_CATEGORIES: dict[str, tuple[str, ...]] = {
+    "battery_electric": ("engine", "fuel", "generator", "planetary", "converter", "gearbox"),
+    "conventional": ("generator", "planetary"),
+    "parallel_hybrid": ("generator", "planetary"),
+}
+#: What a template of each architecture must map: alternatives of signal base names (one
+#: alternative complete is enough).
+REQUIRED_SIGNALS: dict[str, tuple[tuple[str, ...], ...]] = {
+    "battery_electric": (("ess_volt", "ess_curr"), ("ess_pwr",)),
+    "parallel_hybrid": (("ess_curr",), ("ess_pwr",)),
+}
+
+#: The relation set (``data/calculations/<name>.yaml``) QA runs on a test of each stated
+#: architecture; one not listed (``power_split``) is chosen from the vehicle and signals.
+CALC_SETS: dict[str, str] = {
+    "conventional": "conventional", "battery_electric": "conventional",
+    "parallel_hybrid": "parallel_hybrid",
+}
 
 
-#: architectures with a traction battery: their tests need a battery signal (the hybrid
-#: checks of QA, the SOC correction and the battery energy rest on it)
-HYBRID_ARCHITECTURES = ("power_split", "parallel_hybrid")
-#: base names of which a hybrid's test needs at least one (battery current or power)
-BATTERY_SIGNALS = ("ess_curr", "ess_pwr")
+def absent_categories(architecture: str | None) -> tuple[str, ...]:
+    """Signal categories a car of ``architecture`` does not have (empty when unknown)."""
+    return ABSENT_CATEGORIES.get(architecture or "", ())
 
 
-def _foreign_block(data: dict, arch: str, model: type[BaseModel]) -> str | None:
-    """The first top-level key of ``data`` that belongs to another architecture, not ``arch``
-    (a file mixing architectures), as a one-line message; None when there is none."""
+def architecture_of(vehicle: Any = None, template: Any = None) -> str | None:
+    """The tested car's architecture: the vehicle file's, else the template's
+    ``architecture:``, else None (unknown)."""
+    arch = getattr(vehicle, "architecture", None) or getattr(template, "architecture", None)
+    return str(arch) if arch else None
+
+
+def has_signal(base: str, architecture: str | None) -> bool:
+    """Whether a car of ``architecture`` can have the signal ``base`` (False when its
+    category is one the architecture lacks; True for an unknown signal or architecture)."""
+    from vehval.nomenclature import registry
+
+    reg = registry()
+    return base not in reg or reg[base].category not in absent_categories(architecture)
+
+
+def _foreign_key(data: dict, arch: str, model) -> str | None:
+    """The first top-level key of ``data`` that belongs to another architecture only (an
+    engine block in a battery-electric file...), or None."""
     own = set(model.model_fields)
     for key in data:
         if key in own:
             continue
-        for other, cls in ARCHITECTURES.items():
-            if other != arch and key in cls.model_fields:
-                return (f"key '{key}': a block of architecture {other!r} in a vehicle of "
-                        f"architecture {arch!r} (remove it, or set architecture: {other})")
+        for other, m in ARCHITECTURES.items():
+            if other != arch and key in m.model_fields:
+                return f"key '{key}' belongs to a {other} vehicle, not a {arch} one: " \
+                       f"remove it or change 'architecture'"
     return None
 
 
@@ -179,9 +217,9 @@ def _validate(data: Any, where: str):
     if model is None:
         raise ConfigError(f"{where}: key 'architecture': unknown architecture {arch!r} "
                           f"(known: {', '.join(ARCHITECTURES)})")
-    foreign = _foreign_block(data, arch, model)
+    foreign = _foreign_key(data, arch, model)
     if foreign:
-        raise ConfigError(f"{where}: invalid vehicle: {foreign}")
+        raise ConfigError(f"{where}: mixed architectures: {foreign}")
     try:
         veh = model.model_validate(copy.deepcopy(data))
     except ValidationError as exc:
@@ -216,7 +254,8 @@ def _read_base(name: str, here: Path) -> tuple[Any, str]:
     return read_yaml(path), str(path)
 
 
-def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle | ParallelHybridVehicle):
+def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle
+                 | ParallelHybridVehicle | BatteryElectricVehicle):
     """Load a vehicle by name (shipped file) or from a YAML path.
 
     Raises
@@ -225,7 +264,8 @@ def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle | Para
         Unknown name, unreadable file, or any invalid / missing / unknown key (the message
         names the key and the file).
     """
-    if isinstance(name_or_path, (Vehicle, ConventionalVehicle, ParallelHybridVehicle)):
+    if isinstance(name_or_path, (Vehicle, ConventionalVehicle, ParallelHybridVehicle,
+                                BatteryElectricVehicle)):
         return name_or_path
     path = _find(str(name_or_path))
     data = read_yaml(path)

@@ -34,6 +34,8 @@
       opts.method = "POST"; opts.body = JSON.stringify(body);
       opts.headers["Content-Type"] = "application/json"; opts.headers["X-CSRF-Token"] = csrf;
     }
+    const one = document.body.dataset.test;   // one test of a folder of many
+    if (one && params && params.dir !== undefined && params.test === undefined) params = Object.assign({test: one}, params);
     const r = await fetch(path + "?" + qs(params || {}), opts);
     let data;
     try { data = await r.json(); } catch (e) { data = {error: "HTTP " + r.status}; }
@@ -130,6 +132,7 @@
       for (const f of m.files) {
         files.append(el("h2", {text: (f.file || "(no file matches " + (f.match || "") + ")") + " "},
                         "source ", el("input", {class: "src", value: f.source, "data-file": f.index, size: 8})));
+        for (const n of f.notes || []) files.append(el("div", {class: "note file-note", text: "read with a repair: " + n}));
         const tb = el("tbody");
         for (const c of f.channels) {
           const hints = el("div", {class: "hints"});
@@ -263,28 +266,7 @@
       busy(api("/api/template", {dir}, edits));
     });
     document.getElementById("rerun").addEventListener("click", () => runQA());
-    document.getElementById("run-model").addEventListener("click", async () => {
-      const out = document.getElementById("model-out");
-      out.textContent = "simulating...";
-      try {
-        const r = await api("/api/model", {dir}, {});
-        out.textContent = "";
-        await plotlyReady;
-        for (const t of r.tables) {
-          out.append(el("h3", {text: t.title}));
-          out.append(el("table", {class: "data model-table"}, el("thead", {}, el("tr", {}, ...t.columns.map(c => el("th", {text: c})))),
-            el("tbody", {}, ...t.rows.map(row => el("tr", {}, ...(Array.isArray(row) ? row : t.columns.map(c => row[c])).map(v => el("td", {text: fmt(v)})))))));
-          if (t.note) out.append(el("p", {class: "note", text: t.note}));
-        }
-        for (const tr of r.traces) {
-          const div = el("div", {class: "plot model-plot"});
-          out.append(div);
-          await Plotly.newPlot(div, [trace(tr.measured, tr.measured.name), trace(tr.simulated, tr.simulated.name)],
-                               {title: {text: tr.base + " [" + tr.unit + "]"}, margin: {t: 30, r: 10, b: 40, l: 60}, xaxis: {title: {text: "time [s]"}}}, {responsive: true, displaylogo: false});
-        }
-        for (const n of r.notes || []) out.append(el("p", {text: n}));
-      } catch (e) { out.textContent = ""; showError(e.message); }
-    });
+    // model and test, the report and the tab in the URL: flow.js
     busy(api("/api/test", {dir}).then(m => (m.saved && !m.summary && !m.error) ? api("/api/run", {dir}, {}) : m));
   }
 

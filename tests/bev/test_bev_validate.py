@@ -1,0 +1,131 @@
+"""A battery-electric test validated: the model against the test's traces, DC energy and
+SAE J1634 figures, through import, QA, results, validate and the report."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from vehval.cycles import load_cycle
+from vehval.errors import ConfigError
+from vehval.vehicle import load_vehicle
+
+
+@pytest.fixture(scope="module")
+def virtual(tmp_path_factory):
+    """A virtual UDDS test of the test BEV and its vehicle file."""
+    import yaml
+
+    from helpers.bev import bev_data
+    from vehval.synth.bev import make_bev_test
+
+    root = tmp_path_factory.mktemp("bev_validate")
+    vfile = root / "test_bev.yaml"
+    vfile.write_text(yaml.safe_dump(bev_data(), sort_keys=False), encoding="utf-8")
+    truth = make_bev_test(load_vehicle(vfile), load_cycle("udds"), 5, root / "virt")
+    return truth, vfile, root
+
+
+def _run(virtual, vehicle=None):
+    from vehval.workflow import TestRun
+
+    truth, vfile, _ = virtual
+    return TestRun.load(truth["files"], truth["template"], vehicle or vfile)
+
+
+def test_virtual_bev_through_import_qa_results_validate_report(virtual):
+    """The generating model validates within its noise: traces, energy per phase, J1634."""
+    run = _run(virtual)
+    assert not [f for f in run.qa().result.findings if f.severity.name == "ERROR"]
+    out = run.validate()
+    doc = json.loads(json.dumps(out.document))
+    assert doc["architecture"] == "battery_electric"
+    assert doc["traces"]["veh_spd"]["rmse"] < 0.2          # m/s
+    assert doc["traces"]["ess_curr"]["rmse"] < 2.0         # A (0.2 A noise, driver lag)
+    assert doc["traces"]["ess_volt"]["rmse"] < 1.0         # V
+    scopes = [r["scope"] for r in doc["energy"]]
+    assert scopes == ["bag1", "bag2", "test"]
+    for r in doc["energy"]:
+        assert abs(r["error_pct"]) < 1.5 and abs(r["en"]) < 1.0, r
+        assert r["U_meas"] > 0 and r["U_model"] > 0
+    key = virtual[0]["j1634"]["test"]
+    mpge = next(r for r in doc["j1634"] if r["scope"] == "test" and r["figure"] == "mpge")
+    assert mpge["test"] == pytest.approx(key["mpge"], rel=0.005)
+    assert mpge["model"] == pytest.approx(key["mpge"], rel=0.015)
+    assert any("U_model" in n and "declared bound" in n for n in doc["notes"])
+    payload = out.payload()
+    assert [t["title"].split(",")[0] for t in payload["tables"]] == [
+        "Traces", "DC battery energy", "SAE J1634 figures"]
+    assert payload["figures"]                               # overlays of speed and battery
+    paths = run.report(virtual[2] / "report", excel=False).paths
+    html = paths["report"].read_text(encoding="utf-8")
+    assert "SAE J1634 figures, model vs test" in html
+    # the energy flow in J1634 terms, no engine or fuel plots
+    assert "SAE J1634 energy per phase" in html and "regenerative share" in html
+    assert "Engine map" not in html and "Willans" not in html
+
+
+def test_validation_sees_a_wrong_model(virtual):
+    """A model with twice the accessory load is inconsistent on the DC energy: the check
+    can fail."""
+    run = _run(virtual)
+    doc = run.validate(overrides={"body.aux_power_w": 3000.0}).document
+    test_row = next(r for r in doc["energy"] if r["scope"] == "test")
+    assert test_row["error_pct"] > 20.0
+    assert doc["overrides"]["body.aux_power_w"] == 3000.0
+
+
+def test_suite_validate_refuses_a_bev_in_one_line(virtual):
+    from vehval.validate.ladder import Tolerances
+    from vehval.workflow import validate_runs
+
+    with pytest.raises(ConfigError) as exc:
+        validate_runs([_run(virtual)], Tolerances.from_mapping({}))
+    msg = str(exc.value)
+    assert "\n" not in msg and "battery_electric" in msg and "vehval results" in msg
+
+
+def test_results_take_the_charger_of_the_vehicle_given(virtual):
+    """`--vehicle` (the run's vehicle) gives the charger efficiency of the J1634 figures;
+    the template alone names none (assumed 0.88)."""
+    import yaml
+
+    from helpers.bev import bev_data
+    from vehval.workflow import TestRun
+
+    truth, _, root = virtual
+    data = bev_data()
+    data["charger"]["efficiency"] = 0.8
+    vfile = root / "charger_080.yaml"
+    vfile.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    alone = TestRun.load(truth["files"], truth["template"]).results().results.j1634
+    given = _run(virtual, vfile).results().results.j1634
+    assert alone["charger_efficiency_assumed"] and alone["charger_efficiency"] == 0.88
+    assert given["charger_efficiency"] == 0.8 and not given["charger_efficiency_assumed"]
+    dc = given["scopes"]["test"]["dc_energy_kwh"]
+    assert given["scopes"]["test"]["ac_energy_kwh"] == pytest.approx(dc / 0.8)
+
+
+def test_measured_wall_energy_constant_feeds_the_test_scope(virtual, tmp_path):
+    from vehval.workflow import TestRun
+
+    truth = virtual[0]
+    text = open(truth["template"], encoding="utf-8").read().replace(
+        "constants:\n", "constants:\n  ac_recharge_energy_j: 5.4e6\n")
+    tpl = tmp_path / "template.yaml"
+    tpl.write_text(text, encoding="utf-8")
+    j = TestRun.load(truth["files"], tpl).results().results.j1634["scopes"]["test"]
+    assert j["ac_basis"] == "measured wall energy"
+    assert j["ac_energy_kwh"] == pytest.approx(1.5)
+
+
+def test_qa_runs_no_engine_fuel_or_hybrid_relation_on_a_bev(virtual):
+    """QA's calculations consult the architecture table: nothing engine or fuel is tried."""
+    run = _run(virtual)
+    calc = run.qa().result.calculations.to_dict()
+    assert calc["architecture"] == "battery_electric" and calc["set"] == "conventional"
+    tried = list(calc["computed"]) + list(calc["not_computed"])
+    assert not [n for n in tried if n.startswith(("eng_", "fuel_"))], tried
+    assert "eng_pwr_out_calc" in calc["not_applicable"]
+    assert "ess_pwr_calc" in calc["computed"]          # the battery relations still run
