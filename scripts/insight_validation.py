@@ -129,7 +129,7 @@ def main(argv: list[str] | None = None) -> int:
     base = figures(veh, test)
     unc = uncertainty(veh, test, base)
     res = {"figures": base, "uncertainty": unc, "en": normalised_errors(base, unc),
-           "control": analyze_parallel(test, veh)}
+           "control": analyze_parallel(test, veh).to_dict()}
     # calibrated on HWFET 1 only: the assist threshold of the log's first half; judge HWFET 2
     first = import_test(path, TEMPLATE)
     for sig in first:

@@ -10,7 +10,7 @@ them), the way ``vehval analyze`` states the power-split car's engine rule.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -143,7 +143,42 @@ def test_arrays(test, names: tuple[str, ...] = ("veh_spd", "eng_spd_out", "whl_t
     return out
 
 
-def analyze_parallel(test, veh) -> dict:
+@dataclass
+class ParallelAnalysis:
+    """The control analysis of one parallel-hybrid test (``vehval analyze``'s control.json).
+
+    ``document`` holds ``architecture``, ``gear_share``, ``assist_regen`` and
+    ``engine_stop`` (indexable as ``analysis["assist_regen"]``); ``findings`` the notes the
+    flow adds (samples QA excluded), as dicts.
+    """
+
+    document: dict
+    findings: list = field(default_factory=list)
+
+    def __getitem__(self, key: str):
+        return self.document[key]
+
+    def to_dict(self) -> dict:
+        """control.json: the document and the findings."""
+        return {**self.document, "findings": list(self.findings)}
+
+    def summary_lines(self) -> list[str]:
+        """The analysis on screen: its kind, then the assist / regen and engine-stop rules."""
+        ar, st = self.document["assist_regen"], self.document["engine_stop"]["rule"]
+        lines = ["parallel hybrid, assist / regen / engine stop"]
+        for key in ("assist_threshold", "regen_threshold"):
+            r = ar[key]
+            lines.append(f"  {r['name']} when {r['quantity']} {r['op']} {r['threshold']:.1f} "
+                         f"N·m (explains {r['support']:.1%} of {r['n']} samples)")
+        lines.append(f"  no regen below {ar['regen_min_speed_mps']:.2f} m/s; assist share by "
+                     "gear " + ", ".join(f"{g}: {s:.0%}"
+                                         for g, s in ar["assist_share_by_gear"].items()))
+        lines.append(f"  engine stops below {st['threshold']:.2f} m/s while decelerating "
+                     f"({st['n'] - st['contradicted']} of {st['n']} stops)")
+        return lines
+
+
+def analyze_parallel(test, veh) -> ParallelAnalysis:
     """Control analysis of a parallel-hybrid test with its vehicle file (gear ratios, wheel
     radius, gearbox efficiency: the shaft torque demand is the wheel torque through them): the assist / regen rules and the engine-stop rule (as :func:`assist_regen_rules`
     and :func:`engine_stop_rule` return them), under ``assist_regen`` and ``engine_stop``."""
@@ -161,10 +196,10 @@ def analyze_parallel(test, veh) -> dict:
     acc = np.gradient(v) / np.where(dt > 0, dt, np.nan)
     n = max(int(round(1.0 / max(float(np.nanmedian(dt)), 1e-3))), 1)
     acc = np.convolve(np.nan_to_num(acc), np.ones(n) / n, mode="same")  # 1 s mean
-    return {
+    return ParallelAnalysis({
         "architecture": "parallel_hybrid",
         "gear_share": {int(g): float(np.mean(gear == g)) for g in range(len(ratios) + 1)},
         "assist_regen": assist_regen_rules(t_dem[ok], a["mot_trq_out"][ok], v[ok], gear[ok],
                                            engine_running(a["t"], w)[ok]),
         "engine_stop": engine_stop_rule(a["t"], v, w, acc),
-    }
+    })

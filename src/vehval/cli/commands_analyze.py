@@ -31,9 +31,6 @@ def analyze_cmd(
     check_outputs(outdir=outdir, writes=["control.json"],
                   inputs=[*files, template, vehicle_path(vehicle)])
     run = TestRun.load(files, template, vehicle, use_qa=qa)
-    if getattr(run.vehicle, "architecture", None) == "parallel_hybrid":
-        _analyze_parallel(run, outdir, as_json)
-        return
     outcome = run.analyze()
     for note in outcome.notes:
         typer.echo(f"note: {note}", err=True)
@@ -43,6 +40,13 @@ def analyze_cmd(
     write_text_atomic(outdir / "control.json", text)
     if as_json:
         typer.echo(text, nl=False)
+        return
+    lines = getattr(result, "summary_lines", None)
+    if lines is not None:  # an analysis that states its own summary (a parallel hybrid)
+        first, *rest = lines()
+        typer.echo(f"wrote {outdir / 'control.json'}: {first}")
+        for line in rest:
+            typer.echo(line)
         return
     from vehval.analysis.summary import judged_conventional
 
@@ -79,30 +83,6 @@ def analyze_cmd(
                 f"<= {fmt(high)}" if high is not None and low is None else
                 "not identifiable")
         typer.echo(f"  {name}: bound only ({side}): {_why(b, fmt)}")
-
-
-def _analyze_parallel(run, outdir: Path, as_json: bool) -> None:
-    """A parallel hybrid: the assist / regen rules and the engine-stop rule -> control.json."""
-    from vehval.analysis.parallel import analyze_parallel
-    from vehval.io.atomic import write_text_atomic
-
-    result = analyze_parallel(run.test, run.vehicle)
-    text = json.dumps(result, indent=1) + "\n"
-    outdir.mkdir(parents=True, exist_ok=True)
-    write_text_atomic(outdir / "control.json", text)
-    if as_json:
-        typer.echo(text, nl=False)
-        return
-    ar, st = result["assist_regen"], result["engine_stop"]["rule"]
-    typer.echo(f"wrote {outdir / 'control.json'}: parallel hybrid, assist / regen / engine stop")
-    for key in ("assist_threshold", "regen_threshold"):
-        r = ar[key]
-        typer.echo(f"  {r['name']} when {r['quantity']} {r['op']} {r['threshold']:.1f} N·m "
-                   f"(explains {r['support']:.1%} of {r['n']} samples)")
-    typer.echo(f"  no regen below {ar['regen_min_speed_mps']:.2f} m/s; assist share by gear "
-               + ", ".join(f"{g}: {s:.0%}" for g, s in ar["assist_share_by_gear"].items()))
-    typer.echo(f"  engine stops below {st['threshold']:.2f} m/s while decelerating "
-               f"({st['n'] - st['contradicted']} of {st['n']} stops)")
 
 
 def _shown(key: str) -> tuple[str, Callable[..., str]]:

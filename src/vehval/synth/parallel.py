@@ -60,6 +60,7 @@ def make_parallel_test(veh, cyc, seed: int, outdir: str | Path,
     template = (
         "template_version: 1\n"
         f"vehicle: {vehicle_ref or veh.name}\n"
+        "architecture: parallel_hybrid\n"
         "synthetic: true\n"
         f"description: \"VIRTUAL parallel-hybrid test of {veh.name} on {cyc.name} (seed "
         f"{seed}): synthetic, not a measurement\"\n"

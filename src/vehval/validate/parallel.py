@@ -9,11 +9,17 @@ given times (e.g. the two HWFETs of a back-to-back run).
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from typing import Any
+
 import numpy as np
+import pandas as pd
 
 from vehval.analysis.parallel import gears_from_speeds, test_arrays
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.equations.engine_state import engine_running
+from vehval.integrals import battery_power
+from vehval.jsonsafe import clean
 
 #: [m/s] measured speeds below this are standstill for the model's target (0.22 mph)
 STANDING_MPS = 0.1
@@ -64,7 +70,7 @@ def _part(veh, d: dict[str, np.ndarray], sel: np.ndarray, gear: np.ndarray) -> d
     err = d["sim_eng_spd_out"] - d["eng_spd_out"]
     by_gear = {g: _rms(err[both & (gear == g)]) / RPM
                for g in range(1, len(veh.overall_ratios()) + 1) if (both & (gear == g)).sum() >= 20}
-    p_t = d["ess_volt"] * d["ess_curr"]
+    p_t = battery_power(d["ess_volt"], d["ess_curr"])
     p_m = d["sim_ess_pwr"]
     wh = dt / 3600.0
     geared = sel & (gear > 0)
@@ -101,3 +107,104 @@ def parallel_figures(veh, d: dict[str, np.ndarray], cuts_s: tuple[float, ...] = 
         for i in range(len(edges) - 1):
             out[f"part_{i + 1}"] = _part(veh, d, (t >= edges[i]) & (t < edges[i + 1]), gear)
     return out
+
+
+#: Figures of a part shown in the report table: key -> (label, unit)
+TABLE_FIGURES = {
+    "engine_on_agreement_pct": ("engine on/off agreement", "%"),
+    "engine_speed_rms_rpm": ("engine speed error RMS (engine on in both)", "rpm"),
+    "battery_energy_model_wh": ("battery terminal energy, model", "Wh"),
+    "battery_energy_test_wh": ("battery terminal energy, test", "Wh"),
+    "battery_out_model_wh": ("battery energy out, model", "Wh"),
+    "battery_out_test_wh": ("battery energy out, test", "Wh"),
+    "battery_in_model_wh": ("battery energy in, model", "Wh"),
+    "battery_in_test_wh": ("battery energy in, test", "Wh"),
+    "motor_torque_rms_nm": ("motor torque error RMS (engine on in both)", "N·m"),
+    "gear_agreement_pct": ("gear agreement", "%"),
+}
+#: Traces overlaid in the report: test key of :func:`simulate_on_test` -> base name
+OVERLAY_TRACES = ("veh_spd", "eng_spd_out", "mot_trq_out")
+
+
+@dataclass
+class ParallelValidation:
+    """One parallel-hybrid test validated on its traces.
+
+    Attributes
+    ----------
+    test_id : str
+    vehicle : ParallelHybridVehicle
+        The model as run (template mass and road load, caller overrides applied).
+    overrides : dict
+        Dotted parameters applied.
+    soc_initial : float
+        SOC [-] the model started from (the test's measured SOC, else the controller's
+        target).
+    figures : dict
+        :func:`parallel_figures` of the whole test (``all``).
+    overlays : DataFrame
+        ``time`` and ``<base>_test`` / ``<base>_simu`` (SI) of the traces overlaid.
+    notes : list of str
+    """
+
+    test_id: str
+    vehicle: Any
+    overrides: dict[str, Any]
+    soc_initial: float
+    figures: dict[str, dict]
+    overlays: pd.DataFrame
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (``validation.json`` of a parallel-hybrid test)."""
+        return clean({
+            "architecture": "parallel_hybrid", "test_id": self.test_id,
+            "vehicle": self.vehicle.name, "vehicle_file": self.vehicle.file,
+            "overrides": dict(self.overrides), "soc_initial": self.soc_initial,
+            "figures": self.figures, "notes": list(self.notes)})
+
+    def tables(self) -> list[dict[str, Any]]:
+        """Report table: each figure of the whole test."""
+        f = self.figures["all"]
+        rows = [[label, unit, f[k]] for k, (label, unit) in TABLE_FIGURES.items() if k in f]
+        rows += [[f"engine speed error RMS, gear {g}", "rpm", x]
+                 for g, x in f.get("engine_speed_rms_rpm_by_gear", {}).items()]
+        return [{"title": f"Traces, model vs test ({self.test_id})",
+                 "columns": ["figure", "unit", "value"], "rows": rows}]
+
+    def payload(self, figures: bool = True) -> dict[str, Any]:
+        """The report's validation section: ``{tables, figures, notes}``."""
+        from vehval.validate.compare import overlay_figures
+
+        figs = overlay_figures(self) if figures else []  # type: ignore[arg-type]  # reads .overlays only
+        return {"tables": self.tables(), "figures": figs, "notes": list(self.notes)}
+
+
+def validate_parallel_test(run: Any, *, dt: float = 0.1, overrides: dict | None = None,
+                           **_: Any) -> ParallelValidation:
+    """Simulate the run's parallel hybrid over its test's speed trace (QA's validated test)
+    from the test's SOC and compare the traces (:func:`parallel_figures`).
+
+    ``dt`` [s] is the simulation step; ``overrides`` dotted vehicle parameters applied after
+    the template's mass and road load."""
+    from vehval.conditions import TestConditions
+    from vehval.validate.conditions import CONSTANT_OVERRIDES, initial_soc
+
+    test = run.validated
+    notes: list[str] = []
+    cond = TestConditions.resolve(test, None, run.vehicle)
+    applied = {path: cond[key] for key, path in CONSTANT_OVERRIDES.items()
+               if (cond.source(key) or "").startswith("template")}
+    applied.update(overrides or {})
+    veh = run.vehicle.with_overrides(applied) if applied else run.vehicle
+    soc0 = initial_soc(test)
+    if soc0 is None:
+        soc0 = float(veh.controller.soc_target)
+        notes.append(f"no measured SOC: the model starts from the controller's target "
+                     f"{soc0:.0%}")
+    d = simulate_on_test(veh, test, soc0=soc0, dt=dt)
+    overlays = pd.DataFrame({"time": d["t"], **{f"{b}_test": d[b] for b in OVERLAY_TRACES},
+                             **{f"{b}_simu": d[f"sim_{b}"] for b in OVERLAY_TRACES}})
+    return ParallelValidation(test_id=str(test.meta.test_id), vehicle=veh, overrides=applied,
+                              soc_initial=soc0, figures=parallel_figures(veh, d),
+                              overlays=overlays, notes=notes)
