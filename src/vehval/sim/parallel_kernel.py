@@ -258,7 +258,7 @@ def _record(out, j, dt, v0, v1, vnext, f_pt, f_brk, fl, rw, w1, t_e, p_e, on, cu
 
 @njit(cache=True)
 def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS, bV, bRd, bRc,
-                 bPd, bPc, ratios, up0, up1, dn0, dn1, lock_v, out, record):
+                 bPd, bPc, ratios, up0, up1, dn0, dn1, lock_v, out, record):  # long: one compiled time loop (numba)
     """Simulate one cycle; returns the summary vector (``PAR_SUMMARY`` order).
 
     ``vt`` target speed [m/s] on a uniform grid of step ``dt`` [s]; ``band_lo/hi`` its EPA
