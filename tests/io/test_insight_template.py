@@ -40,6 +40,7 @@ def test_conventional_template_needs_no_battery_signal(tmp_path):
     for k in ("batt_amps", "batt_volts", "derived_em_trq_nm"):
         del chans[k]
     data["vehicle"] = "cruze_diesel_2014"
+    data["architecture"] = "conventional"
     assert load_template(_write(tmp_path, data)).vehicle == "cruze_diesel_2014"
 
 
