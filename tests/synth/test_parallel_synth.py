@@ -82,3 +82,31 @@ def test_qa_uses_the_parallel_hybrid_equations(virtual, tmp_path, capsys):
     assert "mot_spd_out_calc" in f["calculations"]["computed"]
     check = next(c for c in f["checks"] if c["check"] == "electrical power balance")
     assert check["r2"] > 0.8 and check["slope"] > 0  # the current's sign is right
+
+
+def test_the_flow_validates_and_analyzes_a_parallel_hybrid_through_the_registry(virtual):
+    from vehval.architectures import stages
+    from vehval.workflow import TestRun
+
+    veh, truth, _ = virtual
+    assert stages(veh).family == "hybrid"
+    run = TestRun.load(truth["files"], truth["template"], veh)
+    outcome = run.validate()
+    doc = outcome.document
+    assert doc["architecture"] == "parallel_hybrid" and doc["soc_initial"] == 0.69
+    f = doc["figures"]["all"]
+    assert f["engine_on_agreement_pct"] > 98.0
+    assert f["battery_out_model_wh"] == pytest.approx(f["battery_out_test_wh"], rel=0.1)
+    pay = outcome.payload(figures=True)
+    assert pay["tables"][0]["rows"] and pay["figures"]
+    assert any("no measured SOC" in n for n in pay["notes"])
+    ana = run.analyze().result.to_dict()
+    assert ana["architecture"] == "parallel_hybrid" and isinstance(ana["findings"], list)
+
+
+def test_a_stated_parallel_hybrid_gets_its_relation_set_without_a_vehicle(virtual):
+    from vehval.equations.calc import choose_calc_set
+
+    _, _, test = virtual
+    assert choose_calc_set(test, None, "parallel_hybrid") == "parallel_hybrid"
+    assert choose_calc_set(test, None, "battery_electric") == "conventional"
