@@ -136,8 +136,7 @@ def main(argv: list[str] | None = None) -> int:
         keep = sig.time < SPLIT_S
         sig.time, sig.values = sig.time[keep], sig.values[keep]
     c1 = analyze_parallel(first, veh)
-    cal = {"controller.assist_threshold_nm":
-           round(c1["assist_regen"]["assist_threshold"]["threshold"], 1)}
+    cal = {f"controller.{k}": v for k, v in c1["strategy"].items()}
     vc = veh.with_overrides(cal)
     fc = figures(vc, test)
     uc = uncertainty(vc, test, fc)

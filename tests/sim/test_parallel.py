@@ -139,3 +139,23 @@ def test_shipped_insight_is_what_the_script_makes_of_the_reference_data():
     script = Path(__file__).resolve().parents[2] / "scripts" / "make_insight.py"
     rc = subprocess.run([sys.executable, str(script), "--ref", str(ref), "--check"]).returncode
     assert rc == 0, "insight_2000.yaml is stale: run python scripts/make_insight.py"
+
+
+def test_an_idle_motor_with_its_inverter_off_draws_nothing(insight, udds):
+    off = simulate(insight.with_overrides({"controller.motor_off_when_idle": True,
+                                           "controller.electrical_aux_power_w": 0.0}),
+                   "udds", dt=0.1)
+    s = off.summary
+    assert abs(s["energy_balance_rel"]) < 1e-9
+    t = off.test
+    on = t["eng_on_simu"].values > 0.5
+    idle = on & (t["mot_trq_out_simu"].values == 0.0)
+    assert idle.sum() > 1000
+    assert np.all(t["mot_pwr_in_simu"].values[idle] == 0.0)
+    assert np.median(t["ess_pwr_simu"].values[idle]) == 0.0  # (restarts crank from it)
+    # the default (ADVISOR's maps) draws the machine's zero-torque loss whenever it turns
+    d = udds.test
+    idle_d = (d["eng_on_simu"].values > 0.5) & (d["mot_trq_out_simu"].values == 0.0)
+    aux = insight.controller.electrical_aux_power_w
+    assert np.median(d["mot_pwr_in_simu"].values[idle_d]) > 50.0
+    assert np.median(d["ess_pwr_simu"].values[idle_d]) > aux + 50.0

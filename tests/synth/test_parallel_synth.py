@@ -110,3 +110,21 @@ def test_a_stated_parallel_hybrid_gets_its_relation_set_without_a_vehicle(virtua
     _, _, test = virtual
     assert choose_calc_set(test, None, "parallel_hybrid") == "parallel_hybrid"
     assert choose_calc_set(test, None, "battery_electric") == "conventional"
+
+
+def test_the_strategy_read_from_a_log_states_its_rules(virtual, tmp_path):
+    veh, truth, test = virtual
+    s = analyze_parallel(test, veh)["strategy"]
+    assert s["assist_threshold_nm"] == pytest.approx(40.0, abs=2.0)
+    assert s["assist_min_gear"] == 2 and s["engine_stop_speed_mps"] == pytest.approx(5.0, abs=0.3)
+    assert s["regen_threshold_nm"] <= 0.0 and s["motor_off_when_idle"] is True
+    # a car whose inverter is off at idle: the idle draw read is its accessory load
+    quiet = veh.with_overrides({"controller.motor_off_when_idle": True,
+                                "controller.electrical_aux_power_w": 150.0})
+    t2 = make_parallel_test(quiet, load_cycle("hwfet"), 3, tmp_path / "q",
+                            vehicle_ref="insight_2000")
+    r2 = analyze_parallel(import_test(t2["files"], t2["template"]), quiet)
+    assert r2["idle_battery_power"]["median_w"] == pytest.approx(150.0, abs=15.0)
+    assert r2["strategy"]["electrical_aux_power_w"] == pytest.approx(150.0, abs=15.0)
+    # applied to the model, the read strategy is a valid vehicle
+    veh.with_overrides({f"controller.{k}": v for k, v in r2["strategy"].items()})

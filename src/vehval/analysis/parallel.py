@@ -175,6 +175,13 @@ class ParallelAnalysis:
                                          for g, s in ar["assist_share_by_gear"].items()))
         lines.append(f"  engine stops below {st['threshold']:.2f} m/s while decelerating "
                      f"({st['n'] - st['contradicted']} of {st['n']} stops)")
+        idle = self.document.get("idle_battery_power", {}).get("median_w")
+        if idle is not None:
+            lines.append(f"  battery power while the motor idles: median {idle:.0f} W")
+        strategy = self.document.get("strategy") or {}
+        if strategy:
+            lines.append("  the log's strategy as controller parameters: "
+                         + ", ".join(f"{k}={v}" for k, v in strategy.items()))
         return lines
 
 
@@ -196,10 +203,62 @@ def analyze_parallel(test, veh) -> ParallelAnalysis:
     acc = np.gradient(v) / np.where(dt > 0, dt, np.nan)
     n = max(int(round(1.0 / max(float(np.nanmedian(dt)), 1e-3))), 1)
     acc = np.convolve(np.nan_to_num(acc), np.ones(n) / n, mode="same")  # 1 s mean
-    return ParallelAnalysis({
+    doc = {
         "architecture": "parallel_hybrid",
         "gear_share": {int(g): float(np.mean(gear == g)) for g in range(len(ratios) + 1)},
         "assist_regen": assist_regen_rules(t_dem[ok], a["mot_trq_out"][ok], v[ok], gear[ok],
                                            engine_running(a["t"], w)[ok]),
         "engine_stop": engine_stop_rule(a["t"], v, w, acc),
-    })
+    }
+    doc["idle_battery_power"] = idle_battery_power(test, a["t"], t_dem,
+                                                   engine_running(a["t"], w) & ok,
+                                                   doc["assist_regen"])
+    doc["strategy"] = strategy_from_rules(doc)
+    return ParallelAnalysis(doc)
+
+
+def idle_battery_power(test, t: np.ndarray, t_dem: np.ndarray, running: np.ndarray,
+                       rules: dict) -> dict:
+    """Battery terminal power [W] while the motor idles by the log's own rules: engine
+    running, a gear engaged, shaft torque demand between the regen and the assist
+    threshold. ``median_w`` (None without battery voltage and current) over ``n`` samples:
+    the accessories' net draw on the pack (a car that covers them by a small charge
+    torque reads about 0)."""
+    from vehval.integrals import battery_power
+
+    volt, curr = test.best("ess_volt"), test.best("ess_curr")
+    if volt is None or curr is None:
+        return {"median_w": None, "n": 0, "why": "no battery voltage and current"}
+    lo, hi = rules["regen_threshold"]["threshold"], rules["assist_threshold"]["threshold"]
+    with np.errstate(invalid="ignore"):
+        sel = running & (t_dem > lo) & (t_dem < hi)
+    p = battery_power(volt.at(t), curr.at(t))[sel]
+    p = p[np.isfinite(p)]
+    return {"median_w": float(np.median(p)) if p.size else None, "n": int(p.size)}
+
+
+def strategy_from_rules(doc: dict) -> dict:
+    """Controller parameters (``controller.<key>`` of a ``parallel_hybrid`` vehicle file)
+    that state the log's own rules: the assist and regen thresholds [N·m of shaft torque
+    demand], the lowest gear that assists, the lowest regen speed [m/s], the engine-stop
+    speed [m/s] and, when the battery was measured, an inverter off while the motor idles
+    with the accessories' net draw [W] the log shows then (never below 0). A rule the log
+    does not show (no stop, no regen) is left out: the vehicle file's value stays."""
+    ar, stop = doc["assist_regen"], doc["engine_stop"]["rule"]
+    out: dict = {}
+    if np.isfinite(ar["assist_threshold"]["threshold"]):
+        out["assist_threshold_nm"] = round(max(ar["assist_threshold"]["threshold"], 0.0), 1)
+    gears = [g for g, share in ar["assist_share_by_gear"].items() if share > 0.0]
+    if gears:
+        out["assist_min_gear"] = int(min(gears))
+    if np.isfinite(ar["regen_threshold"]["threshold"]):
+        out["regen_threshold_nm"] = round(min(ar["regen_threshold"]["threshold"], 0.0), 1)
+    if np.isfinite(ar["regen_min_speed_mps"]):
+        out["regen_min_speed_mps"] = round(ar["regen_min_speed_mps"], 2)
+    if stop["n"] and np.isfinite(stop["threshold"]):
+        out["engine_stop_speed_mps"] = round(stop["threshold"], 2)
+    idle = doc["idle_battery_power"]["median_w"]
+    if idle is not None:
+        out["motor_off_when_idle"] = True
+        out["electrical_aux_power_w"] = round(max(idle, 0.0), 1)
+    return out

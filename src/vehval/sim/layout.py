@@ -93,7 +93,7 @@ PAR_PARAMS = (
     "mot_tmax", "mot_pmax", "batt_cap_c", "soc_lo", "soc_hi", "soc_target",
     "assist_thr", "assist_min", "assist_slope", "assist_max", "assist_gear", "assist_soc",
     "regen_thr", "regen_frac", "regen_spd", "regen_soc", "charge_trq", "charge_band",
-    "stop_spd", "stop_soc", "restart_j",
+    "stop_spd", "stop_soc", "restart_j", "mot_idle_off",
     "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax", "warm_frac", "warm_tau", "soc_init",
 )
 PAR_SIGNALS = (

@@ -51,6 +51,7 @@ PAR_FROM_FILE: dict[str, tuple[str, str, float]] = {
     "stop_spd": ("controller", "engine_stop_speed_mps", 1.0),
     "stop_soc": ("controller", "engine_stop_soc_min", 1.0),
     "restart_j": ("controller", "restart_energy_j", 1.0),
+    "mot_idle_off": ("controller", "motor_off_when_idle", 1.0),
     "drv_tau": ("driver", "response_time_s", 1.0), "drv_ki": ("driver", "ki_n_per_m", 1.0),
     "drv_int_lim": ("driver", "integrator_limit_n", 1.0),
     "drv_fmax": ("driver", "max_force_n", 1.0),

@@ -339,7 +339,9 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
                                                      t_req, t_m, t_acc, t_inertia, w, w1, w_a,
                                                      j_sh, dt, (i + 0.5) * dt)
         t_sh = t_e + t_m - t_acc - t_inertia if on and not standstill else 0.0
-        p_el = electrical_power(mS, mT, mL, w_a, t_m) if on else 0.0
+        # a motor commanded to no torque draws nothing when the inverter switches off
+        idle_off = t_m == 0.0 and prm[HP_MOT_IDLE_OFF] > 0.5
+        p_el = electrical_power(mS, mT, mL, w_a, t_m) if on and not idle_off else 0.0
         # ---------------- battery
         p_bt = p_el + prm[HP_ELEC_ACC] + p_restart
         r = interp1(bS, bRd, soc) if p_bt >= 0.0 else interp1(bS, bRc, soc)

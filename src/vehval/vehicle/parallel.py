@@ -70,6 +70,11 @@ class ParallelControlParams(Block):
     electrical_aux_power_w: float = Field(ge=0, le=1e5)
     """Accessory load on the high-voltage battery [W] (the 12 V DC/DC); ``body.aux_power_w``
     is the mechanical load on the engine shaft."""
+    motor_off_when_idle: bool = False
+    """The inverter draws nothing while the strategy commands no motor torque (the
+    machine's zero-torque loss then comes from the shaft as drag, within the engine's
+    friction); False (ADVISOR's maps): the motor's loss map at zero torque is drawn from the
+    battery whenever the engine turns."""
 
     @model_validator(mode="after")
     def _consistent(self):
