@@ -11,6 +11,7 @@ them), the way ``vehval analyze`` states the power-split car's engine rule.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -203,7 +204,7 @@ def analyze_parallel(test, veh) -> ParallelAnalysis:
     acc = np.gradient(v) / np.where(dt > 0, dt, np.nan)
     n = max(int(round(1.0 / max(float(np.nanmedian(dt)), 1e-3))), 1)
     acc = np.convolve(np.nan_to_num(acc), np.ones(n) / n, mode="same")  # 1 s mean
-    doc = {
+    doc: dict[str, Any] = {
         "architecture": "parallel_hybrid",
         "gear_share": {int(g): float(np.mean(gear == g)) for g in range(len(ratios) + 1)},
         "assist_regen": assist_regen_rules(t_dem[ok], a["mot_trq_out"][ok], v[ok], gear[ok],
