@@ -10,8 +10,9 @@ motor torque error RMS [N·m]; each with the model's uncertainty: half the sprea
 figure over one-at-a-time swings of the least-known inputs (road load ±15 %, test mass
 ±5 %, battery resistances ±30 %, wheel radius 0.275 / 0.279 m), combined root-sum-square.
 Then the control analysis of the log (:mod:`vehval.analysis.parallel`) and a second set of
-figures with the assist threshold read from HWFET 1 alone (in-sample on HWFET 1, held out on
-HWFET 2).
+figures with the strategy read from HWFET 1 alone (its ``strategy``: assist and regen
+thresholds, lowest assisting gear, regen and engine-stop speeds, the idle motor's draw;
+in-sample on HWFET 1, held out on HWFET 2).
 """
 
 from __future__ import annotations
@@ -130,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     unc = uncertainty(veh, test, base)
     res = {"figures": base, "uncertainty": unc, "en": normalised_errors(base, unc),
            "control": analyze_parallel(test, veh).to_dict()}
-    # calibrated on HWFET 1 only: the assist threshold of the log's first half; judge HWFET 2
+    # the strategy read from HWFET 1 only (the log's first half); judged on HWFET 2
     first = import_test(path, TEMPLATE)
     for sig in first:
         keep = sig.time < SPLIT_S
