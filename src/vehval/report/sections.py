@@ -505,43 +505,14 @@ def signals_section(test: Test) -> Section:
 
 
 def headline_banner(results: dict | None) -> dict | None:
-    """What the report shows first: the headline figure of ``results.json``, or why it is
-    withheld (signals, reason, fix), or that it is stated despite QA errors (``--force``).
+    """What the report shows first (:meth:`vehval.results.headline.Headline.banner`): the
+    headline figure of ``results.json`` with U and every caveat, or why it is withheld
+    (signals, reason, fix), or that it is stated despite QA errors (``--force``).
 
     Returns ``{"kind": "headline" | "withheld" | "forced", "title", "lines"}`` or None when
     there are no results.
     """
-    if not results:
-        return None
-    h = results.get("headline") or {}
-    name = str(h.get("name") or "test")
-    shown = "whole test" if name == "test" else name
-    held = h.get("withheld")
-    mpg, u = h.get("fuel_economy_mpg"), h.get("fuel_economy_u_mpg")
-    lp = h.get("fuel_consumption_l_per_100km")
-    figure = ("fuel economy n/a" if mpg is None else
-              f"{mpg:.2f} ± {u or 0:.2f} mpg" + (f" ({lp:.2f} L/100 km)" if lp is not None else ""))
-    from vehval.display import system
+    from vehval.results.headline import headline_of
 
-    if mpg is not None and lp is not None and system() == "metric":   # L/100 km first
-        figure = f"{lp:.2f} L/100 km ({mpg:.2f} ± {u or 0:.2f} mpg)"
-    rule = str(h.get("rule") or "")
-    n = int(results.get("withheld_count") or 0)
-    if held and not h.get("forced"):
-        return {"kind": "withheld", "title": f"Headline {shown}: withheld",
-                "lines": [f"Signals: {', '.join(held.get('signals') or [])}",
-                          f"Reason: {held.get('reason', '')}", f"Fix: {held.get('fix', '')}",
-                          f"{n} figure(s) withheld in this report; `--force` states them "
-                          "under a banner."]}
-    if results.get("forced") and n:
-        lines = [f"{n} figure(s) computed from signals with QA errors are stated anyway "
-                 "(--force); do not use them as test results."]
-        if held:
-            lines += [f"Reason: {held.get('reason', '')}", f"Fix: {held.get('fix', '')}"]
-        return {"kind": "forced", "title": f"Stated despite QA errors: {shown} {figure}",
-                "lines": lines}
-    lines = [rule] if rule else []
-    lines += [f"Caveat: {c}" for c in h.get("caveats") or []]
-    if n:
-        lines.append(f"{n} other figure(s) withheld for QA errors: see the results section.")
-    return {"kind": "headline", "title": f"{shown}: {figure}", "lines": lines}
+    h = headline_of(results)
+    return None if h is None else h.banner()

@@ -29,7 +29,7 @@ from vehval.fuels import (
     resolve_fuel,
 )
 from vehval.qa.findings import Finding, Kind, Severity
-from vehval.results.composites import Composite, composites_for, weighted_per_distance
+from vehval.results.composites import Composite, composites_for, substitute_direction, weighted_per_distance
 from vehval.results.drive_quality import RMSSE_TOLERANCE_MPS, drive_quality, iwr_reading
 from vehval.results.gate import headline
 from vehval.results.phase_check import check_phases
@@ -483,6 +483,15 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
         values.setdefault(scope, {})[qty] = v if math.isfinite(v) else None
         if key in unc:
             uncertainty.setdefault(scope, {})[qty] = _round_unc(unc[key])
+
+    def economy(fpd: float) -> float | None:
+        """Fuel per distance [kg/m] -> fuel economy [mpg] with the nominal fuel density."""
+        if fuel_obj is None or not fuel_obj.density_kg_per_m3:
+            return None
+        return float(mpg_from_volume_per_distance(fuel_volume_m3(fpd,
+                                                                 fuel_obj.density_kg_per_m3)))
+
+    notes.extend(substitute_direction(composites, values, hot, economy))
 
     # -------- drive quality
     dq: dict[str, dict | None] = {}

@@ -91,6 +91,8 @@ class Bench:
         self._raw: dict[str, tuple[float, Any]] = {}
         self.run: Any = None
         self.state = BenchState()
+        #: the last model comparison's normalised error of the fuel mass (for the headline)
+        self.model_verdict: dict | None = None
         self._load_outputs()
 
     # ------------------------------------------------------------------ template
@@ -237,6 +239,7 @@ class Bench:
                                         results=self.state.results)
                 return self.state
             self.run = run
+            self.model_verdict = None
             self.state = BenchState(findings=qa.document, results=results.to_dict(),
                                     notes=list(qa.document.get("notes") or []))
             return self.state
@@ -295,7 +298,7 @@ class Bench:
                 "selection": _with_user_drops((self.state.findings or {}).get("selection") or {},
                                               tmpl.selection.drop),
                 "user_selection": tmpl.selection.model_dump(),
-                "headline": headline(self.state.results),
+                "headline": headline(self.state.results, self.model_verdict),
                 "summary": (self.state.findings or {}).get("summary"),
                 "error": self.state.error, "notes": self.state.notes}
 
@@ -385,25 +388,13 @@ class Bench:
         return self.run
 
 
-def headline(results: dict | None) -> dict | None:
-    """The headline figure of ``results.json``: its ``headline`` when it has one, else the
-    first regulatory composite, else the whole test (with ``withheld`` when withheld)."""
-    if not results:
-        return None
-    if isinstance(results.get("headline"), dict):
-        return dict(results["headline"])
-    for comp in results.get("composites") or []:
-        v = comp.get("values") or {}
-        if v.get("fuel_economy_mpg") is not None:
-            return {"name": comp.get("name"), "fuel_economy_mpg": v.get("fuel_economy_mpg"),
-                    "fuel_consumption_l_per_100km": v.get("fuel_consumption_l_per_100km"),
-                    "withheld": comp.get("withheld")}
-    v = (results.get("test_total") or {}).get("values") or {}
-    why = None if v.get("fuel_economy_mpg") is not None else \
-        "; ".join(str(n) for n in results.get("notes") or []) or "no fuel economy"
-    return {"name": "test", "fuel_economy_mpg": v.get("fuel_economy_mpg"),
-            "fuel_consumption_l_per_100km": v.get("fuel_consumption_l_per_100km"),
-            "withheld": why}
+def headline(results: dict | None, model: dict | None = None) -> dict | None:
+    """The page's headline of ``results.json`` (:func:`vehval.results.headline.headline_of`:
+    figure with U, rule, every caveat, J1711 status, the model's verdict when it ran)."""
+    from vehval.results.headline import headline_of
+
+    h = headline_of(results, model=model)
+    return None if h is None else h.to_dict()
 
 
 def _with_user_drops(selection: dict, user_drop: dict[str, str]) -> dict:

@@ -39,6 +39,7 @@ def model_overlay(bench: Any, n: int = 2000) -> dict:
                        "measured": {"name": m.name, **series(m.time, m.values, None, None, n)},
                        "simulated": {"name": s.name, **series(s.time, s.values, None, None, n)}})
     ne = _normalised_error(run.vehicle, val.comparison)
+    bench.model_verdict = ne
     tables = val.comparison.tables()
     tables.insert(1 if tables else 0, en_table(ne))   # beside the summary's % differences
     return {"vehicle": val.sim.vehicle.name, "tables": tables, "normalised_error": ne,

@@ -97,18 +97,24 @@
     }
 
     function headline(h) {
+      // the results layer's headline (vehval.results.headline): figure with U, rule, caveats
       const box = document.getElementById("headline");
       box.textContent = "";
       if (!h) { box.append("No result yet: save the template or rerun QA."); return; }
-      if (h.fuel_economy_mpg !== null && h.fuel_economy_mpg !== undefined && !h.withheld) {
-        box.append(el("b", {text: (h.name || "test") + ": "}),
-                   el("span", {id: "headline-mpg", text: h.fuel_economy_mpg.toFixed(1)}), " mpg",
-                   h.fuel_consumption_l_per_100km ? " (" + h.fuel_consumption_l_per_100km.toFixed(2) + " L/100 km)" : "");
+      const title = el("b", {text: (h.shown || h.name || "test") + ": "});
+      if (h.kind === "headline" || h.kind === "forced") {
+        box.append(title, el("span", {id: "headline-figure", text: h.figure}),
+                   el("span", {id: "headline-mpg", hidden: true, text: h.fuel_economy_mpg.toFixed(2)}));
       } else {
-        box.append(el("b", {text: (h.name || "test") + ": "}),
-                   el("span", {class: "withheld", id: "headline-withheld",
-                               text: "withheld: " + withheldText(h.withheld)}));
+        box.append(title, el("span", {class: "withheld", id: "headline-withheld",
+                                      text: "withheld: " + withheldText(h.withheld)}));
       }
+      const lines = el("ul", {id: "headline-lines", class: "headline-lines"});
+      for (const line of (h.banner && h.banner.lines) || []) {
+        lines.append(el("li", {class: line.startsWith("Caveat") ? "caveat" : "", text: line}));
+      }
+      if (h.j1711) box.append(" ", el("span", {id: "headline-j1711", class: "j1711", text: "SAE J1711: " + h.j1711.replace(/_/g, " ")}));
+      if (lines.childNodes.length) box.append(lines);
     }
 
     function render(m) {
