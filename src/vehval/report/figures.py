@@ -206,7 +206,8 @@ def time_traces_figure(panels: Sequence[dict], *, n_buckets: int = DEFAULT_BUCKE
     ----------
     panels : sequence of dict
         Each panel: ``ylabel`` (str), ``traces`` (list of dicts with ``name``, ``t`` [s],
-        ``y``, optional ``color``, ``dash``, ``width``), optional ``band`` ``(lo, hi)`` drawn
+        ``y``, optional ``color``, ``dash``, ``width``, ``unit`` (the display unit, kept as
+        the trace's ``meta.unit``)), optional ``band`` ``(lo, hi)`` drawn
         as a shaded plausible range, optional ``spans`` list of ``(t0, t1)`` [s] shaded red.
     n_buckets : int
         Min/max decimation buckets per trace.
@@ -250,6 +251,7 @@ def time_traces_figure(panels: Sequence[dict], *, n_buckets: int = DEFAULT_BUCKE
                 "line": {"color": tr.get("color", PALETTE[j % len(PALETTE)]),
                          "width": tr.get("width", 1.3), "dash": tr.get("dash", "solid")},
                 "legend": f"legend{ax}", "hovertemplate": "%{y:.4g}",
+                **({"meta": {"unit": tr["unit"]}} if "unit" in tr else {}),
             })
         layout[f"legend{ax}"] = {"x": 1.0, "xanchor": "right", "y": top, "yanchor": "bottom" if i == 0 else "top",
                                  "orientation": "h", "bgcolor": "rgba(255,255,255,0.75)",

@@ -318,6 +318,17 @@ def api_signal(wb: Workbench, q: prm.SignalQuery, body: None) -> dict:
     return wb.bench(q.dir).signal(q.name, q.t0, q.t1, q.n)
 
 
+def api_finding(wb: Workbench, q: prm.FindingQuery, body: None) -> dict:
+    """The figure of one finding (a plotly spec the page draws; 409 before QA ran)."""
+    import json
+
+    from vehval.report.figures import figure_json
+
+    out = wb.bench(q.dir).finding_figure(q.i)
+    out["figure"] = json.loads(figure_json(out["figure"]))
+    return out
+
+
 def api_save(wb: Workbench, q: prm.DirQuery, body: prm.TemplateEdits) -> dict:
     b = wb.bench(q.dir)
     b.save_edits(body.edits())
@@ -395,6 +406,7 @@ def create_app(workspace: str | Path, *, token: str | None = None,
         Route("/api/test", _api(api_test, prm.DirQuery)),
         Route("/api/channel", _api(api_channel, prm.ChannelQuery)),
         Route("/api/signal", _api(api_signal, prm.SignalQuery)),
+        Route("/api/finding", _api(api_finding, prm.FindingQuery)),
         Route("/api/template", _api(api_save, prm.DirQuery, prm.TemplateEdits), methods=["POST"]),
         Route("/api/run", _api(api_run, prm.DirQuery, prm.NoBody), methods=["POST"]),
         Route("/api/selection", _api(api_selection, prm.DirQuery, prm.Decision),

@@ -281,7 +281,9 @@ class Bench:
             raise
         except VehvalError as exc:
             return {"error": str(exc), "files": [], "saved": saved, "left_out": left}
-        findings = (self.state.findings or {}).get("findings") or []
+        from vehval.results.all_findings import stage_findings
+
+        findings = stage_findings(self.state.findings, self.state.results)
         hints: dict[str, list[dict]] = {}
         for f in findings:
             if f.get("kind") in UNIT_KINDS:
@@ -366,12 +368,7 @@ class Bench:
         QANotRun
             QA has not run on the test since the workbench started (a view never runs it).
         """
-        run = self.run
-        if run is None:
-            last = f" (the last run stopped: {self.state.error})" if self.state.error else ""
-            raise QANotRun(f"{self._label()}: QA has not run on this test since the workbench "
-                           f"started{last}: run it first (the page's Rerun QA, POST /api/run), "
-                           "then ask again")
+        run = self._run_or_409()
         test = run.qa().validated
         sig = test[name] if name in test else None
         if sig is None and name in run.test:
@@ -379,6 +376,37 @@ class Bench:
         if sig is None:
             raise InputFileError(f"{name}: no such signal in the test")
         return {"name": name, "unit": sig.unit, **series(sig.time, sig.values, t0, t1, n)}
+
+    def finding_figure(self, index: int) -> dict:
+        """The figure of the page's finding number ``index`` (:func:`stage_findings` order),
+        made for its kind in display units (:mod:`vehval.report.finding_figures`).
+
+        Raises
+        ------
+        QANotRun
+            QA has not run on the test since the workbench started.
+        """
+        from vehval.report.finding_figures import finding_figure
+        from vehval.results.all_findings import stage_findings
+
+        run = self._run_or_409()
+        found = stage_findings(self.state.findings, self.state.results)
+        if not 0 <= index < len(found):
+            raise InputFileError(f"finding {index}: the test has {len(found)} finding(s)")
+        qa = run.qa()
+        fig = finding_figure(qa.validated, found[index], results=self.state.results,
+                             calc=qa.result.calculations, vehicle=run.vehicle,
+                             imported=run.test)
+        return {"index": index, "kind": found[index].get("kind"), "figure": fig}
+
+    def _run_or_409(self) -> Any:
+        run = self.run
+        if run is None:
+            last = f" (the last run stopped: {self.state.error})" if self.state.error else ""
+            raise QANotRun(f"{self._label()}: QA has not run on this test since the workbench "
+                           f"started{last}: run it first (the page's Rerun QA, POST /api/run), "
+                           "then ask again")
+        return run
 
     def _ensure_run(self) -> Any:
         if self.run is None:

@@ -81,6 +81,12 @@ class SignalQuery(_Window):
     name: str = Field(min_length=1)
 
 
+class FindingQuery(DirQuery):
+    """``/api/finding``: the figure of the test's finding number ``i`` (page order)."""
+
+    i: int = Field(ge=0, le=100_000)
+
+
 class CatalogQuery(_Query):
     """``/api/catalog``: a catalog (``db``) and the filters of its tests."""
 

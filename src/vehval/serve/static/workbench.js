@@ -181,15 +181,17 @@
       const n = (k, word) => `${k} ${word}${k === 1 ? "" : "s"}`;
       document.getElementById("summary").textContent = s ? `${n(s.total, "finding")} (${n(s.by_severity.error, "error")}, ${n(s.by_severity.warning, "warning")}, ${s.by_severity.info} info); kept ${s.kept}, dropped ${s.dropped}, computed ${s.computed}` : "QA has not run.";
       const tb = document.querySelector("#findings tbody");
+      const fp = document.getElementById("findplot");
+      if (fp && fp.closest("#findings")) { if (window.Plotly) Plotly.purge(fp); fp.textContent = ""; document.getElementById("findplot-home").append(fp); }
       tb.textContent = "";
-      for (const f of m.findings || []) {
-        const tr = el("tr", {class: "finding"},
-          el("td", {class: "sev-" + f.severity, text: f.severity}), el("td", {text: f.kind}),
+      (m.findings || []).forEach((f, i) => {
+        const tr = el("tr", {class: "finding", "data-index": i, "data-stage": f.stage || "qa"},
+          el("td", {class: "sev-" + f.severity, text: f.severity}), el("td", {text: f.stage || "qa"}), el("td", {text: f.kind}),
           el("td", {text: f.signal}), el("td", {text: f.start_s === null ? "" : fmt(f.start_s, 1) + " – " + fmt(f.end_s, 1)}),
           el("td", {text: f.message}), el("td", {text: f.fix || ""}));
-        tr.addEventListener("click", () => { openFinding(f).catch(e => showError(e.message)); tb.querySelectorAll("tr.sel").forEach(r => r.classList.remove("sel")); tr.classList.add("sel"); });
+        tr.addEventListener("click", () => { openFinding(f, i, tr).catch(e => showError(e.message)); tb.querySelectorAll("tr.sel").forEach(r => r.classList.remove("sel")); tr.classList.add("sel"); });
         tb.append(tr);
-      }
+      });
       const sel = m.selection || {kept: {}, dropped: {}};
       const user = m.user_selection || {keep: [], drop: {}};
       const st = document.querySelector("#selection tbody");
@@ -213,19 +215,23 @@
       }
     }
 
-    async function openFinding(f) {
-      const names = [f.signal, ...(f.related || [])].filter((x, i, a) => x && a.indexOf(x) === i);
-      let t0 = f.start_s, t1 = f.end_s;
-      if (t0 !== null && t1 !== null) { const pad = Math.max(5, 0.2 * (t1 - t0)); t0 -= pad; t1 += pad; }
-      else { t0 = null; t1 = null; }
-      const fetchers = names.map(n => async (a, b) => {
-        try {
-          const s = await signal({dir, name: n, t0: a, t1: b, n: N});
-          return Object.assign(trace(s, n + " [" + s.unit + "]"), {exact: s.exact});
-        } catch (e) { return {type: "scatter", x: [], y: [], name: n + " (not available)", exact: true}; }
-      });
+    // the finding's figure (built by the server for its kind) in a row under the finding
+    async function openFinding(f, i, tr) {
       const div = document.getElementById("findplot");
-      await plotWith(div, fetchers, {title: {text: f.kind + ": " + f.signal}}, t0, t1);
+      let row = document.getElementById("findplot-row");
+      if (!row) {
+        row = el("tr", {id: "findplot-row"}, el("td", {colSpan: 7}));
+      }
+      row.firstChild.append(div);
+      tr.after(row);
+      div.dataset.finding = "";
+      let r;
+      try { r = await api("/api/finding", {dir, i}); } catch (e) {
+        if (e.status !== 409) throw e;
+        await runQA();
+        r = await api("/api/finding", {dir, i});
+      }
+      await window.vehvalFigures.draw(div, r.figure);
       div.dataset.finding = f.kind + ":" + f.signal;
     }
 
