@@ -42,6 +42,27 @@ def browser():
         b.close()
 
 
+#: Screenshots of each view go to docs/workbench/ when VEHVAL_SCREENSHOTS=1 (`make
+#: screenshots`); `make test` leaves the docs alone.
+SHOTS = Path(__file__).resolve().parents[2] / "docs" / "workbench"
+
+
+def shot(page, name: str) -> None:
+    """A screenshot of the view as ``docs/workbench/<name>.png`` when asked for."""
+    import os
+
+    if os.environ.get("VEHVAL_SCREENSHOTS") == "1":
+        SHOTS.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(SHOTS / f"{name}.png"), full_page=False)
+
+
+def one_unit_per_axis(page, div_id: str) -> dict:
+    """y axis -> units of the traces drawn on it, from the drawn figure; asserts one each."""
+    units = page.evaluate(f"window.vehvalFigures.axisUnits(document.getElementById('{div_id}'))")
+    assert units and all(len(v) == 1 for v in units.values()), units
+    return units
+
+
 class Visit:
     """A workbench server and a page recording its requests and console errors."""
 
@@ -160,10 +181,21 @@ def test_catalog_in_chromium(browser, batch_ws):
         page.click("text=out/catalog.duckdb")
         _wait(page, "document.body.dataset.rows === '2'")
         with open_catalog(batch_ws / "out" / "catalog.duckdb", read_only=True) as cat:
-            _, rows = cat.query("SELECT test_id, fuel_economy_mpg FROM latest_tests ORDER BY 1")
-        for test_id, mpg in rows:
-            cell = page.locator(f'tr[data-test="{test_id}"] td[data-col="fuel_economy_mpg"]')
-            assert cell.text_content() == str(mpg)  # the catalog's number, as stored
+            _, rows = cat.query("SELECT test_id, headline_name, headline_mpg, headline_u_mpg "
+                                "FROM latest_tests ORDER BY 1")
+        for test_id, name, mpg, u in rows:
+            cell = page.locator(f'tr[data-test="{test_id}"] td[data-col="headline"]')
+            # the catalog's headline with its U (k = 2), in display units
+            shown = "whole test" if name == "test" else name
+            text = cell.text_content() or ""
+            assert text.startswith(f"{shown}: {mpg:.2f} ± {u:.2f} mpg ("), (text, name, mpg, u)
+        heads = page.locator("#catalog th").all_text_contents()
+        assert "distance [mi]" in heads and not any("_m" in h or "_kg" in h for h in heads)
+        # the table fits a 1280 px window
+        page.set_viewport_size({"width": 1280, "height": 900})
+        width = page.evaluate("document.getElementById('catalog').getBoundingClientRect().right")
+        assert width <= 1280, width
+        shot(page, "catalog")
         page.select_option('select[data-filter="cycle"]', "japan1015")
         _wait(page, "document.body.dataset.rows === '1'")
         page.select_option('select[data-filter="cycle"]', "")
@@ -174,6 +206,8 @@ def test_catalog_in_chromium(browser, batch_ws):
         page.click("#overlay")
         _wait(page, "document.getElementById('overlayplot').dataset.traces === '2'")
         assert page.locator("#overlayplot .scatterlayer .trace").count() == 2
+        assert one_unit_per_axis(page, "overlayplot") == {"yaxis": ["mph"]}
+        shot(page, "catalog_overlay")
         # a test's report (shared plotly.js of the batch) opens from the workbench
         href = page.locator('tr[data-test="udds"] a').get_attribute("href")
         page.goto(s.origin + href)

@@ -103,6 +103,24 @@ def _vehicle(name: str | None, digest: str):
     return load_vehicle(name)
 
 
+#: The validated signals a test keeps for the catalog's overlays (``tests/ID/overlay.parquet``):
+#: the best signal of each base, in SI; overlays work wherever the raw files are.
+OVERLAY_FILE = "overlay.parquet"
+OVERLAY_BASES = ("veh_spd", "fuel_rate", "eng_spd_out", "ess_soc", "test_phase")
+
+
+def write_overlay(test: Any, path: Path) -> Path | None:
+    """The overlay signals of a validated ``test`` (:data:`OVERLAY_BASES`) to ``path``
+    (None when the test holds none of them)."""
+    from vehval.io.parquet import write_test
+    from vehval.test import Test
+
+    sigs = [s for b in OVERLAY_BASES if (s := test.best(b, ("test", "calc"))) is not None]
+    if not sigs:
+        return None
+    return write_test(Test(sigs, meta=test.meta), path)
+
+
 def _compact_findings(qa_dict: dict, results: dict | None = None) -> list[dict]:
     """Every finding of QA and of the results stage (:func:`stage_findings`), compact."""
     from vehval.results.all_findings import stage_findings
@@ -225,6 +243,7 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
         outputs[step] = out
         write_text_atomic(stage / STEP_OUTPUT[step], dump_json(out))
     qa_dict = outputs.get("qa") or {}
+    write_overlay(run.validated, stage / OVERLAY_FILE)
     res_doc = res.to_dict()
     write_text_atomic(stage / "results.json", dump_json(res_doc))
     result["results"] = results_summary(res)

@@ -332,3 +332,25 @@ def scatter_fit_figure(x: np.ndarray, y: np.ndarray, *, xlabel: str, ylabel: str
               "xaxis": {"title": {"text": xlabel}}, "yaxis": {"title": {"text": ylabel}},
               "legend": {"x": 0.01, "y": 0.99, "bgcolor": "rgba(255,255,255,0.7)"}}
     return {"data": data, "layout": layout}
+
+
+def one_axis_figure(traces: Sequence[dict], *, unit: str, ylabel: str,
+                    xlabel: str = "time [s]", n_buckets: int = DEFAULT_BUCKETS) -> dict:
+    """Traces of one quantity in one display unit on one axis (an overlay of tests).
+
+    ``traces``: dicts with ``name``, ``t`` [s], ``y`` (already in ``unit``), optional
+    ``color``, ``dash``; each keeps ``meta.unit`` (one unit per axis, checked by the tests).
+    """
+    data = []
+    for j, tr in enumerate(traces):
+        t, y = decimate_minmax(tr["t"], tr["y"], n_buckets)
+        data.append({"type": "scatter", "mode": "lines", "name": tr["name"], "x": t, "y": y,
+                     "line": {"color": tr.get("color", PALETTE[j % len(PALETTE)]), "width": 1.3,
+                              "dash": tr.get("dash", "solid")},
+                     "hovertemplate": "%{y:.4g}", "meta": {"unit": unit}})
+    layout = {"height": 380, "margin": {"l": 70, "r": 20, "t": 40, "b": 45},
+              "hovermode": "x unified", "showlegend": True,
+              "xaxis": {"title": {"text": xlabel}},
+              "yaxis": {"title": {"text": f"{ylabel} [{unit}]" if unit else ylabel}},
+              "meta": {"units": [unit]}}
+    return {"data": data, "layout": layout}

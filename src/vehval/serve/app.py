@@ -386,6 +386,21 @@ def api_trace(wb: Workbench, q: prm.TraceQuery, body: None) -> dict:
     return test_traces(wb.root, db, q.test, q.q, q.n, per_phase=q.axis == "phase")
 
 
+def api_overlay(wb: Workbench, q: prm.OverlayQuery, body: None) -> dict:
+    """The overlay figure of catalog tests (a spec the page draws; a test without the
+    quantity's signal is named in ``missing``)."""
+    import json
+
+    from vehval.report.figures import figure_json
+    from vehval.serve.catalog_view import overlay_figure
+
+    db = sec.inside_workspace(wb.root, q.db)
+    sec.regular_file(wb.root, db, q.db)
+    out = overlay_figure(wb.root, db, q.ids(), q.q, q.n, per_phase=q.axis == "phase")
+    out["figure"] = json.loads(figure_json(out["figure"]))
+    return out
+
+
 def create_app(workspace: str | Path, *, token: str | None = None,
                extra_hosts: frozenset[str] = frozenset()) -> Starlette:
     """The workbench application over ``workspace``.
@@ -414,6 +429,7 @@ def create_app(workspace: str | Path, *, token: str | None = None,
         Route("/api/model", _api(api_model, prm.DirQuery, prm.NoBody), methods=["POST"]),
         Route("/api/catalog", _api(api_catalog, prm.CatalogQuery)),
         Route("/api/catalog/trace", _api(api_trace, prm.TraceQuery)),
+        Route("/api/catalog/overlay", _api(api_overlay, prm.OverlayQuery)),
     ]
     app = Starlette(routes=routes, middleware=[Middleware(_Guard)])
     app.state.workbench = Workbench(Path(workspace), token, extra_hosts)

@@ -108,6 +108,25 @@ class TraceQuery(_Query):
     axis: Literal["time", "phase"] = "time"
 
 
+class OverlayQuery(_Query):
+    """``/api/catalog/overlay``: one quantity ``q`` of the catalog tests ``tests`` (comma
+    separated test ids) on one axis."""
+
+    db: str = Field(min_length=1)
+    tests: str = Field(min_length=1)
+    q: str = "speed"
+    n: int = Field(MAX_POINTS, ge=10, le=MAX_N)
+    axis: Literal["time", "phase"] = "time"
+
+    def ids(self) -> list[str]:
+        """The test ids (at most 50, duplicates once)."""
+        out: list[str] = []
+        for t in self.tests.split(","):
+            if t.strip() and t.strip() not in out:
+                out.append(t.strip())
+        return out[:50]
+
+
 # ------------------------------------------------------------------ bodies
 class _Body(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True, allow_inf_nan=False,

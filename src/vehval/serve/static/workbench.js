@@ -317,13 +317,16 @@
         });
         const head = document.querySelector("#catalog thead"), body = document.querySelector("#catalog tbody");
         head.textContent = ""; body.textContent = "";
-        head.append(el("tr", {}, el("th", {text: "overlay"}), ...r.columns.map(c => el("th", {text: c})), el("th", {text: "report"})));
-        for (const row of rows) {
+        // the server's view: display units and names, the headline with U
+        const cols = r.view.columns;
+        head.append(el("tr", {}, el("th", {text: "overlay"}), ...cols.map(c => el("th", {"data-col": c.key, text: c.label})), el("th", {text: "report"})));
+        rows.forEach((row, i) => {
+          const cells = r.view.rows[i];
           body.append(el("tr", {"data-test": row.test_id},
             el("td", {}, el("input", {type: "checkbox", class: "pick", value: row.test_id})),
-            ...r.columns.map(c => el("td", {"data-col": c, text: typeof row[c] === "number" ? String(row[c]) : (row[c] === null ? "" : String(row[c]))})),
+            ...cols.map(c => el("td", {"data-col": c.key, class: "col-" + c.key, title: c.key === "error" ? cells[c.key] : null, text: cells[c.key]})),
             el("td", {}, row.report ? el("a", {href: "/files/" + row.report.split("/").map(encodeURIComponent).join("/"), target: "_blank", text: "report"}) : "")));
-        }
+        });
         document.body.dataset.rows = String(rows.length);
         showError(null);
       } catch (e) { showError(e.message); }
@@ -334,16 +337,12 @@
       const q = document.getElementById("quantity").value;
       try {
         const axis = document.getElementById("axis").value;
-        const per = await Promise.all(picks.map(async id => {
-          const s = await api("/api/catalog/trace", {db, test: id, q, n: N, axis});
-          if (axis !== "phase") return [Object.assign(trace(s, id), {label: s.label})];
-          return s.phases.map(p => Object.assign(trace(p, id + " phase " + p.phase), {label: s.label + " per phase"}));
-        }));
-        const traces = per.flat();
+        const r = await api("/api/catalog/overlay", {db, tests: picks.join(","), q, n: N, axis});
         const div = document.getElementById("overlayplot");
-        await plotlyReady;
-        await Plotly.react(div, traces, {title: {text: traces.length ? traces[0].label : ""}, margin: {t: 30, r: 10, b: 40, l: 60}, xaxis: {title: {text: "time [s]"}}}, {responsive: true, displaylogo: false});
-        div.dataset.traces = String(traces.length);
+        await window.vehvalFigures.draw(div, r.figure);
+        const note = document.getElementById("overlay-missing");
+        note.hidden = !(r.missing && r.missing.length);
+        note.textContent = (r.missing || []).join("; ");
       } catch (e) { showError(e.message); }
     });
     load();
