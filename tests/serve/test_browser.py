@@ -144,6 +144,11 @@ def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
         mpg = float(page.text_content("#headline-mpg"))
         expected = expected_mpg(synth_dir, 740.0)  # gasoline_e0: 740 kg/m³
         assert mpg == pytest.approx(expected, rel=0.03)
+        # the report's headline: U (k = 2), the rule, and the virtual Prius's J1711 status
+        assert " ± " in (page.text_content("#headline-figure") or "")
+        assert "SAE J1711" in (page.text_content("#headline-j1711") or "")
+        assert "SAE J1711" in (page.text_content("#headline-lines") or "")
+        shot(page, "template_review")
         assert page.locator(f'tr[data-raw="{FUEL_COLUMN}"] .hint').count() == 0
         saved = yaml.safe_load((workspace / "virtual" / "template.yaml").read_text(encoding="utf-8"))
         init["fuel"] = "gasoline_e0"
@@ -153,6 +158,11 @@ def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
         page.click("button[data-tab=triage]")
         page.locator("#findings tr.finding").first.click()
         _wait(page, "document.getElementById('findplot').dataset.finding")
+        # the plot lies under its finding, one unit per axis
+        assert page.evaluate("document.getElementById('findplot').closest('tr')"
+                             ".previousElementSibling.classList.contains('sel')")
+        one_unit_per_axis(page, "findplot")
+        shot(page, "triage")
         sel = page.locator('#selection tr[data-signal="dyno_frc_test"]')
         sel.locator("input.drop-reason").fill("load cell drifting this week")
         n = _runs(page)

@@ -340,10 +340,14 @@ def one_axis_figure(traces: Sequence[dict], *, unit: str, ylabel: str,
 
     ``traces``: dicts with ``name``, ``t`` [s], ``y`` (already in ``unit``), optional
     ``color``, ``dash``; each keeps ``meta.unit`` (one unit per axis, checked by the tests).
+    ``n_buckets``: min/max decimation beyond twice that many samples (0: as given, for
+    traces a caller already cut to a window).
     """
     data = []
     for j, tr in enumerate(traces):
-        t, y = decimate_minmax(tr["t"], tr["y"], n_buckets)
+        t, y = np.asarray(tr["t"], float), np.asarray(tr["y"], float)
+        if n_buckets and t.size > 2 * n_buckets:
+            t, y = decimate_minmax(t, y, n_buckets)
         data.append({"type": "scatter", "mode": "lines", "name": tr["name"], "x": t, "y": y,
                      "line": {"color": tr.get("color", PALETTE[j % len(PALETTE)]), "width": 1.3,
                               "dash": tr.get("dash", "solid")},

@@ -25,7 +25,7 @@ import numpy as np
 from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.io import folder as data_folder
 from vehval.serve import security as sec
-from vehval.serve.series import series
+from vehval.serve.series import series, series_figure
 from vehval.serve.yamlcomments import carry_comments
 
 #: The template file of a test folder, and the folder QA writes into.
@@ -358,7 +358,9 @@ class Bench:
         else:
             t = np.arange(y.size, dtype=float)
         unit = dict(zip(raw.names, raw.units)).get(raw_name)
-        return {"file": file, "raw": raw_name, "unit": unit, **series(t, y, t0, t1, n)}
+        s = series(t, y, t0, t1, n)
+        return {"file": file, "raw": raw_name, "unit": unit, **s,
+                "figure": series_figure(s, raw_name, unit or "", f"{raw_name} as in {file}")}
 
     def signal(self, name: str, t0: float | None, t1: float | None, n: int) -> dict:
         """Samples of one imported signal [SI], on the test's aligned time, for triage.
@@ -375,7 +377,14 @@ class Bench:
             sig = run.test[name]
         if sig is None:
             raise InputFileError(f"{name}: no such signal in the test")
-        return {"name": name, "unit": sig.unit, **series(sig.time, sig.values, t0, t1, n)}
+        from vehval.display import to_display
+
+        shown, label = to_display(np.asarray(sig.values, float), sig.unit, signal=name)
+        s = series(sig.time, shown, t0, t1, n)
+        # t, y in SI as before; the figure in the display unit
+        return {"name": name, "unit": sig.unit, "display_unit": label,
+                **series(sig.time, sig.values, t0, t1, n),
+                "figure": series_figure(s, name, label, name)}
 
     def finding_figure(self, index: int) -> dict:
         """The figure of the page's finding number ``index`` (:func:`stage_findings` order),

@@ -36,5 +36,29 @@
     return out;
   }
 
-  window.vehvalFigures = {draw, axisUnits};
+  // a figure whose spec the server rebuilds exactly for the window zoomed into
+  // (fetchSpec: (t0, t1) -> promise of a spec; null, null: the whole trace)
+  async function zoomable(div, fetchSpec) {
+    const show = async (t0, t1) => {
+      const spec = await fetchSpec(t0, t1);
+      if (t0 !== null) spec.layout = Object.assign({}, spec.layout, {xaxis: Object.assign({}, spec.layout.xaxis, {range: [t0, t1]})});
+      await draw(div, spec);
+      div.dataset.exact = spec.layout.meta && spec.layout.meta.exact ? "1" : "0";
+    };
+    div._show = show;
+    div._drawing = true;
+    try { await show(null, null); } finally { div._drawing = false; }
+    if (div.dataset.zoomBound) return;
+    div.dataset.zoomBound = "1";
+    div.on("plotly_relayout", ev => {
+      const r = ev["xaxis.range"] || (ev["xaxis.range[0]"] !== undefined ? [ev["xaxis.range[0]"], ev["xaxis.range[1]"]] : null);
+      if (div._drawing) return;
+      if (!ev["xaxis.autorange"] && !r) return;
+      div._drawing = true;
+      const p = ev["xaxis.autorange"] ? div._show(null, null) : div._show(r[0], r[1]);
+      p.catch(e => console.warn(e.message)).finally(() => { div._drawing = false; });
+    });
+  }
+
+  window.vehvalFigures = {draw, axisUnits, zoomable};
 })();

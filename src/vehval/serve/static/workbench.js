@@ -4,14 +4,6 @@
   const csrf = document.querySelector('meta[name="vehval-csrf"]').content;
   const page = document.body.dataset.page;
   const N = 4000;  // points per trace (min/max decimated beyond, exact when zoomed in)
-  // plotly.js loads asynchronously: the tables show before it is parsed
-  const plotlyReady = new Promise(resolve => {
-    if (window.Plotly) { resolve(); return; }
-    const tag = document.getElementById("plotly-js");
-    tag.addEventListener("load", () => resolve());
-    const poll = setInterval(() => { if (window.Plotly) { clearInterval(poll); resolve(); } }, 50);
-  });
-
   function el(tag, attrs, ...kids) {
     const e = document.createElement(tag);
     for (const [k, v] of Object.entries(attrs || {})) {
@@ -41,43 +33,6 @@
     return data;
   }
   function fmt(x, d) { return (x === null || x === undefined) ? "" : (typeof x === "number" ? x.toFixed(d === undefined ? 3 : d) : String(x)); }
-  function trace(s, name) { return {type: "scatter", mode: "lines", x: s.t, y: s.y, name: name, line: {width: 1}}; }
-
-  // a plot whose traces reload exactly when zoomed in (fetchers: window -> promise of traces)
-  function zoomPlot(div, fetchers, layout) {
-    const draw = async (t0, t1) => {
-      await plotlyReady;
-      const traces = await Promise.all(fetchers.map(f => f(t0, t1)));
-      const lay = Object.assign({margin: {t: 30, r: 10, b: 40, l: 60}, showlegend: true,
-                                 xaxis: {title: {text: "time [s]"}}}, layout || {});
-      if (t0 !== null) lay.xaxis = Object.assign({}, lay.xaxis, {range: [t0, t1]});
-      await Plotly.react(div, traces, lay, {responsive: true, displaylogo: false});
-      div.dataset.exact = traces.every(t => t.exact) ? "1" : "0";
-      div.dataset.points = String(traces.reduce((n, t) => n + t.x.length, 0));
-    };
-    div._fetchers = fetchers; div._draw = draw;
-    return draw;
-  }
-  function bindZoom(div) {
-    if (div.dataset.zoomBound) return;
-    div.dataset.zoomBound = "1";
-    div.on("plotly_relayout", ev => {
-      const r = ev["xaxis.range"] || (ev["xaxis.range[0]"] !== undefined ? [ev["xaxis.range[0]"], ev["xaxis.range[1]"]] : null);
-      if (div._drawing) return;
-      if (ev["xaxis.autorange"]) div._draw(null, null).catch(e => showError(e.message));
-      else if (r) {
-        div._drawing = true;
-        div._draw(r[0], r[1]).catch(e => showError(e.message)).finally(() => { div._drawing = false; });
-      }
-    });
-  }
-  async function plotWith(div, fetchers, layout, t0, t1) {
-    const draw = zoomPlot(div, fetchers, layout);
-    div._drawing = true;
-    try { await draw(t0 === undefined ? null : t0, t1 === undefined ? null : t1); } finally { div._drawing = false; }
-    bindZoom(div);
-  }
-
   // ------------------------------------------------------------------ test page
   function testPage() {
     const dir = document.body.dataset.dir;
@@ -166,13 +121,7 @@
 
     async function plotChannel(file, raw) {
       const div = document.getElementById("chplot");
-      let unit = "";
-      const fetcher = async (t0, t1) => {
-        const s = await api("/api/channel", {dir, file, raw, t0, t1, n: N});
-        unit = s.unit || "";
-        return Object.assign(trace(s, raw + (unit ? " [" + unit + "]" : "")), {exact: s.exact});
-      };
-      await plotWith(div, [fetcher], {title: {text: raw + " as in " + file}, yaxis: {title: {text: unit}}});
+      await window.vehvalFigures.zoomable(div, async (t0, t1) => (await api("/api/channel", {dir, file, raw, t0, t1, n: N})).figure);
       div.dataset.channel = raw;
     }
 
@@ -281,19 +230,15 @@
       try {
         const r = await api("/api/model", {dir}, {});
         out.textContent = "";
-        await plotlyReady;
         for (const t of r.tables) {
           out.append(el("h3", {text: t.title}));
           out.append(el("table", {class: "data model-table"}, el("thead", {}, el("tr", {}, ...t.columns.map(c => el("th", {text: c})))),
             el("tbody", {}, ...t.rows.map(row => el("tr", {}, ...(Array.isArray(row) ? row : t.columns.map(c => row[c])).map(v => el("td", {text: fmt(v)})))))));
           if (t.note) out.append(el("p", {class: "note", text: t.note}));
         }
-        for (const tr of r.traces) {
-          const div = el("div", {class: "plot model-plot"});
-          out.append(div);
-          await Plotly.newPlot(div, [trace(tr.measured, tr.measured.name), trace(tr.simulated, tr.simulated.name)],
-                               {title: {text: tr.base + " [" + tr.unit + "]"}, margin: {t: 30, r: 10, b: 40, l: 60}, xaxis: {title: {text: "time [s]"}}}, {responsive: true, displaylogo: false});
-        }
+        const div = el("div", {class: "plot model-plot", id: "model-plot"});
+        out.append(div);
+        await window.vehvalFigures.draw(div, r.figure);
         for (const n of r.notes || []) out.append(el("p", {text: n}));
       } catch (e) { out.textContent = ""; showError(e.message); }
     });
