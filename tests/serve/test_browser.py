@@ -116,6 +116,7 @@ def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
         page = s.page
         page.goto(s.server.url)
         assert "token" not in page.url  # the token went into a cookie
+        shot(page, "home")
         page.click("text=virtual")
         _wait_run(page, 0)  # the page runs QA on open (template saved, no result yet)
         summary = page.text_content("#summary") or ""

@@ -128,7 +128,8 @@
     function renderTriage(m) {
       const s = m.summary;
       const n = (k, word) => `${k} ${word}${k === 1 ? "" : "s"}`;
-      document.getElementById("summary").textContent = s ? `${n(s.total, "finding")} (${n(s.by_severity.error, "error")}, ${n(s.by_severity.warning, "warning")}, ${s.by_severity.info} info); kept ${s.kept}, dropped ${s.dropped}, computed ${s.computed}` : "QA has not run.";
+      const later = (m.findings || []).filter(f => f.stage === "results").length;
+      document.getElementById("summary").textContent = s ? `${n(s.total, "finding")} (${n(s.by_severity.error, "error")}, ${n(s.by_severity.warning, "warning")}, ${s.by_severity.info} info); kept ${s.kept}, dropped ${s.dropped}, computed ${s.computed}` + (later ? `; and ${n(later, "finding")} of the results stage` : "") : "QA has not run.";
       const tb = document.querySelector("#findings tbody");
       const fp = document.getElementById("findplot");
       if (fp && fp.closest("#findings")) { if (window.Plotly) Plotly.purge(fp); fp.textContent = ""; document.getElementById("findplot-home").append(fp); }
