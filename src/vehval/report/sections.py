@@ -262,14 +262,15 @@ def alignment_section(test: Test, qa: dict) -> Section:
         else:
             before_t, after_t = other.time, other.time + off
             after_name = f"{other.name} with the estimated {off:+.3f} s (not applied)"
-        panels: list[dict[str, Any]] = [{"ylabel": label(test, ref.name),
-                   "traces": [{"name": f"{ref.name} (reference)", "t": ref.time, "y": ref.values, "color": PALETTE[0]}]},
-                  {"ylabel": label(test, other.name),
-                   "traces": [{"name": f"{other.name} before", "t": before_t, "y": other.values,
+        (ref_label, kr), (oth_label, ko) = display_label(test, ref.name), display_label(test, other.name)
+        panels: list[dict[str, Any]] = [{"ylabel": ref_label,
+                   "traces": [{"name": f"{ref.name} (reference)", "t": ref.time, "y": ref.values * kr, "color": PALETTE[0]}]},
+                  {"ylabel": oth_label,
+                   "traces": [{"name": f"{other.name} before", "t": before_t, "y": other.values * ko,
                                "color": PALETTE[1], "dash": "dot"},
-                              {"name": after_name, "t": after_t, "y": other.values, "color": PALETTE[2]}]}]
-        if ref.unit == other.unit:  # same quantity: overlay all three in one panel
-            panels = [{"ylabel": label(test, ref.name), "traces": panels[0]["traces"] + panels[1]["traces"]}]
+                              {"name": after_name, "t": after_t, "y": other.values * ko, "color": PALETTE[2]}]}]
+        if ref.unit == other.unit and kr == ko:  # same quantity: overlay all three in one panel
+            panels = [{"ylabel": ref_label, "traces": panels[0]["traces"] + panels[1]["traces"]}]
         fig = time_traces_figure(panels, row_height=300 if len(panels) == 1 else 200)
         sec.figures.append(FigSpec(f"Source '{src}': {other.name} against {ref.name}, "
                                    f"offset {off:+.3f} s" + ("" if applied else " (not applied)"),
@@ -421,8 +422,11 @@ def table2_section(test: Test, qa: dict) -> Section:
         a, b = names[:2]
         x, y = _pair_data(test, a, b)
         slope, icpt, r2 = qv.fit_of(r)
-        fig = scatter_fit_figure(x, y, xlabel=label(test, a), ylabel=label(test, b), slope=slope,
-                                 intercept=icpt, r2=r2)
+        (xlab, kx), (ylab, ky) = display_label(test, a), display_label(test, b)
+        # the fit in display units: y' = (slope ky / kx) x' + intercept ky
+        fig = scatter_fit_figure(x * kx, y * ky, xlabel=xlab, ylabel=ylab,
+                                 slope=None if slope is None else slope * ky / kx,
+                                 intercept=None if icpt is None else icpt * ky, r2=r2)
         sec.figures.append(FigSpec(f"{b} vs {a}", fig))
     return sec
 
