@@ -190,9 +190,9 @@ def _u_l_per_100km(doc: dict, scope: str) -> float | None:
     if scope == "test":
         blocks.append(doc.get("test_total") or {})
     for b in blocks:
-        u = ((b.get("uncertainty") or {}).get("fuel_consumption_l_per_100km") or {}).get("U")
-        if _num(u) is not None:
-            return float(u)
+        u = _num(((b.get("uncertainty") or {}).get("fuel_consumption_l_per_100km") or {}).get("U"))
+        if u is not None:
+            return u
     return None
 
 
