@@ -11,7 +11,7 @@ import pytest
 
 from helpers.data import CRUZE, CRUZE_TEMPLATE
 
-from .test_browser import Visit, _wait, browser, one_unit_per_axis, shot  # noqa: F401
+from .browser_page import Visit, _wait, one_unit_per_axis, shot
 
 pytestmark = [pytest.mark.browser, pytest.mark.realdata, pytest.mark.xdist_group("serve_browser")]
 
@@ -34,7 +34,7 @@ def _open(page, server, tid: str) -> None:
     _wait(page, "document.body.dataset.busy === '0' && Number(document.body.dataset.runs) > 0")
 
 
-def test_cold_udds_headline_and_wltp_results_finding(browser, tmp_path):  # noqa: F811
+def test_cold_udds_headline_and_wltp_results_finding(browser, tmp_path):
     ws = _cruze_ws(tmp_path, "61410028", "61410004")
     s = Visit(browser, ws)
     try:
