@@ -67,17 +67,20 @@ def write_duckdb(path: Path, records: Sequence[dict[str, Any]], baseline: dict[s
         try:
             con.execute("CREATE TABLE fleet_rows ("
                         + ", ".join(f'"{c}" {_sql_type(c)}' for c in cols) + ")")
-            con.executemany(f"INSERT INTO fleet_rows VALUES ({', '.join('?' * len(cols))})",
-                            [[r.get(c) for c in cols] for r in records])
+            rows = [[r.get(c) for c in cols] for r in records]
+            if rows:
+                con.executemany(f"INSERT INTO fleet_rows VALUES ({', '.join('?' * len(cols))})",
+                                rows)
             con.execute("CREATE TABLE baseline (scheme VARCHAR, procedure VARCHAR, n BIGINT, "
                         "model_median_abs_error DOUBLE, baseline_median_abs_error DOUBLE, "
                         "model_share_within_5pct DOUBLE, baseline_share_within_5pct DOUBLE, "
                         "model_better BOOLEAN)")
-            con.executemany("INSERT INTO baseline VALUES (?, ?, ?, ?, ?, ?, ?, ?)", [
-                [scheme, proc, d["model"]["n"], d["model"]["median_abs_error"],
-                 d["baseline"]["median_abs_error"], d["model"]["share_within_5pct"],
-                 d["baseline"]["share_within_5pct"], d["model_better"]]
-                for scheme, procs in baseline.items() for proc, d in procs.items()])
+            base = [[scheme, proc, d["model"]["n"], d["model"]["median_abs_error"],
+                     d["baseline"]["median_abs_error"], d["model"]["share_within_5pct"],
+                     d["baseline"]["share_within_5pct"], d["model_better"]]
+                    for scheme, procs in baseline.items() for proc, d in procs.items()]
+            if base:
+                con.executemany("INSERT INTO baseline VALUES (?, ?, ?, ?, ?, ?, ?, ?)", base)
         finally:
             con.close()
 
