@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from helpers.epa_lists import HEADER, camry_rows, row, write_list
+from helpers.epa_lists import HEADER, camry_rows, write_list
 from vehval.batch.fleet import run_fleet
 from vehval.cli import main
 from vehval.epa.fleet import ROW_COLUMNS, plan_fleet, predict_jobs, read_fleet

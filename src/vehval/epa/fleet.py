@@ -221,11 +221,11 @@ def plan_fleet(tests: Iterable[EpaTest], dt: float = FLEET_DT_S) -> FleetPlan:
     for key, rows in cars.items():
         mark = hybrid_mark(rows)
         if mark:
-            fam = {t.source: fuel_family(t.fuel) for t in rows}
             plan.not_run.extend(
                 not_run(t, "electric" if "ELECTRIC" in t.fuel.upper() else "hybrid",
                         f"{t.make} {t.model}: {mark}: a hybrid or plug-in hybrid "
-                        f"({fam[t.source]} test); the model from specs is a conventional car")
+                        f"({fuel_family(t.fuel)} test); the model from specs is a "
+                        "conventional car")
                 for t in rows)
             continue
         by_fuel: dict[str, list[EpaTest]] = defaultdict(list)
@@ -273,7 +273,7 @@ def predict_car(job: CarJob) -> list[dict[str, Any]]:
     from vehval.epa.validation import predict_test
 
     try:
-        veh = vehicle_from_specs(job.specs)
+        veh: Any = vehicle_from_specs(job.specs)
     except VehvalError as exc:
         return [{**base_record(t), "status": "failed", "reason_code": "specs_not_usable",
                  "reason": f"{t.source}: {exc}"} for t in job.tests]

@@ -122,14 +122,14 @@ def cross_validate(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
         if len(items) < MIN_ROWS:
             continue
         rows = [r for r, _ in items]
-        x = np.array([f for _, f in items])
+        xa = np.array([f for _, f in items])
         y = np.log([r["measured_mpg"] for r in rows])
         folds = np.array(_folds(rows))
         for k in range(N_FOLDS):
             test = folds == k
             if not test.any() or (~test).sum() < MIN_ROWS:
                 continue
-            pred = np.exp(predict_ridge(fit_ridge(x[~test], y[~test]), x[test]))
+            pred = np.exp(predict_ridge(fit_ridge(xa[~test], y[~test]), xa[test]))
             for r, p in zip([r for r, t in zip(rows, test) if t], pred):
                 r["baseline_mpg"] = float(p)
                 r["baseline_error"] = float(p) / r["measured_mpg"] - 1.0

@@ -100,15 +100,15 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     per_list: dict[str, Counter] = defaultdict(Counter)
     for r in records:
         per_list[r["list"]][r["status"]] += 1
-    out = {
+    lists = {k: {"n_rows": sum(c.values()), "n_run": c["run"], "n_not_run": c["not_run"],
+                 "n_failed": c["failed"]} for k, c in sorted(per_list.items())}
+    out: dict[str, Any] = {
         "n_rows": len(records), "n_run": status["run"], "n_not_run": status["not_run"],
         "n_failed": status["failed"], "n_judged": len(rows),
         "n_cars": len({r["car"] for r in records if r["status"] == "run"}),
         "not_run_by_reason": dict(Counter(r["reason_code"] for r in records
                                           if r["status"] != "run").most_common()),
-        "per_list": {k: {"n_rows": sum(c.values()), "n_run": c["run"],
-                         "n_not_run": c["not_run"], "n_failed": c["failed"]}
-                     for k, c in sorted(per_list.items())},
+        "per_list": lists,
         "errors": per_procedure(rows),
         "per_technology": per_technology(rows),
         "hwfet_ftp_bias": hwfet_ftp_bias(rows),
@@ -117,7 +117,7 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     out["notes"] = [f"{k}: no runnable row (rows not run: "
                     + ", ".join(f"{c} {n}" for c, n in Counter(
                         r["reason_code"] for r in records if r["list"] == k).most_common())
-                    + ")" for k, v in out["per_list"].items() if not v["n_run"]]
+                    + ")" for k, v in lists.items() if not v["n_run"]]
     return out
 
 

@@ -80,7 +80,7 @@ def _car(tests: list[EpaTest], vehicle_id: str, config: str | None) -> CarJob:
     return plan.jobs[0]
 
 
-def _ratio_set(job: CarJob, t: EpaTest, t1: EpaTest, specs1: Any, **engine: float
+def _ratio_set(job: CarJob, t: EpaTest, t1: EpaTest, specs1: Any, **engine: Any
                ) -> tuple[float, float]:
     """(as listed, changed) predicted mpg of row ``t`` with the engine values ``engine``."""
     from vehval.epa.specs import vehicle_from_specs
@@ -89,8 +89,10 @@ def _ratio_set(job: CarJob, t: EpaTest, t1: EpaTest, specs1: Any, **engine: floa
     proc, why = plan_for(t, job.fuel)
     if proc is None:
         raise ConfigError(why)
-    a = predict_test(vehicle_from_specs(job.specs, **engine), t, proc, job.dt).overall_mpg
-    b = predict_test(vehicle_from_specs(specs1, **engine), t1, proc, job.dt).overall_mpg
+    veh0: Any = vehicle_from_specs(job.specs, **engine)
+    veh1: Any = vehicle_from_specs(specs1, **engine)
+    a = predict_test(veh0, t, proc, job.dt).overall_mpg
+    b = predict_test(veh1, t1, proc, job.dt).overall_mpg
     return float(a), float(b)
 
 
@@ -122,8 +124,8 @@ def whatif(tests: list[EpaTest], vehicle_id: str, *, config: str | None = None,
     if not (0.5 < axle1 < 10.0):
         raise ConfigError(f"--axle {axle}: axle ratio {axle1:g} outside 0.5-10")
     specs1 = replace(s, axle_ratio=axle1, n_v_ratio=s.n_v_ratio * axle1 / s.axle_ratio)
-    rows = [t for t in job.tests if procedure is None or
-            plan_for(t, job.fuel)[0] is not None and plan_for(t, job.fuel)[0].key == procedure]
+    keys = {t.source: getattr(plan_for(t, job.fuel)[0], "key", "") for t in job.tests}
+    rows = [t for t in job.tests if procedure is None or keys[t.source] == procedure]
     if not rows:
         raise ConfigError(f"--procedure {procedure}: no runnable row of {vehicle_id} on it")
     out = []
@@ -144,11 +146,11 @@ def whatif(tests: list[EpaTest], vehicle_id: str, *, config: str | None = None,
             var += (h / math.sqrt(3.0)) ** 2
         u_change = K * math.sqrt(var)
         answer = t.fe * b / a
-        prec = precision_default(plan_for(t, job.fuel)[0].key, "conventional")  # type: ignore[union-attr]
+        prec = precision_default(keys[t.source], "conventional")
         u_meas = measurement_uncertainty(answer, s_r=prec.s_r or 0.0)
         u = math.hypot(u_meas, u_change * answer)
         out.append({"row_id": t.source, "test_number": t.test_number,
-                    "procedure": plan_for(t, job.fuel)[0].key,  # type: ignore[union-attr]
+                    "procedure": keys[t.source],
                     "measured_mpg": t.fe, "model_mpg": a, "model_changed_mpg": b,
                     "change": b / a - 1.0, "answer_mpg": answer,
                     "interval_mpg": [answer - u, answer + u], "u_change_rel": u_change,

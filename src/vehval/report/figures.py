@@ -10,7 +10,7 @@ from __future__ import annotations
 import base64
 import json
 from dataclasses import dataclass, field
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -350,8 +350,8 @@ def histogram_figure(groups: dict[str, Sequence[float]], *, xlabel: str,
     return {"data": data, "layout": layout}
 
 
-def scatter_groups_figure(groups: dict[str, tuple[Sequence[float], Sequence[float],
-                                                  Sequence[str]]],
+def scatter_groups_figure(groups: Mapping[str, tuple[Sequence[float], Sequence[float],
+                                                     Sequence[str]]],
                           *, xlabel: str, ylabel: str, hlines: Sequence[float] = ()) -> dict:
     """Markers per group (name -> (x, y, hover text)) with dotted horizontal lines at
     ``hlines`` (e.g. the tolerance band)."""
