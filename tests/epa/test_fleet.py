@@ -248,3 +248,24 @@ def test_real_list_every_row_accounted_for(shared_data):
     assert all(r["reason"] and r["reason_code"] for r in plan.not_run)
     derived = {t.source for t in tests if t.analytically_derived}
     assert derived and not derived & {t.source for j in plan.jobs for t in j.tests}
+
+
+def test_an_interrupted_run_keeps_the_cars_it_finished(mixed_list, tmp_path, monkeypatch):
+    import vehval.epa.fleet as fleet
+
+    real, calls = fleet.predict_car, []
+
+    def second_interrupts(job):
+        calls.append(job.key)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(job)
+
+    monkeypatch.setattr(fleet, "predict_car", second_interrupts)
+    with pytest.raises(KeyboardInterrupt):
+        run_fleet([mixed_list], tmp_path / "o", workers=1)
+    assert not (tmp_path / "o" / "fleet.json").exists()
+    monkeypatch.setattr(fleet, "predict_car", real)
+    s = run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    assert s["run"]["n_cars_cached"] == 1 and s["run"]["n_rows_simulated"] == 2
+    assert s["n_run"] == 4

@@ -2,9 +2,10 @@
 
 ``OUTDIR`` receives:
 
-* ``cars/<digest>.json``: each car's row records as the car lands (the digest hashes the
-  car's specs, rows, step and the vehval version); a rerun loads every car whose file
-  exists and runs only the others (``force`` runs all);
+* ``cars/*.json``: each car's row records, stored as the cars land (every
+  :data:`FLUSH_CARS` cars, and when the run ends or is interrupted), under the car's digest
+  (a hash of its specs, rows, step and the vehval version); a rerun loads every car stored
+  and runs only the others (``force`` runs all);
 * ``fleet.duckdb``: table ``fleet_rows`` (one row per list row: run, not run or failed, with
   its error and the baseline's) and table ``baseline`` (model against the ridge regression
   per procedure and scheme);
@@ -47,13 +48,43 @@ def _sql_type(col: str) -> str:
             else "VARCHAR" if col in _TEXT else "DOUBLE")
 
 
-def _cached(out: Path, job: CarJob) -> list[dict[str, Any]] | None:
-    path = out / CARS_DIR / f"{job.digest}.json"
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    return data.get("records") if data.get("key") == job.key else None
+#: cars buffered before their records are written to the store (one file per flush: a
+#: file per car would cost more in file-system work than the car's simulation)
+FLUSH_CARS = 100
+
+
+def _load_store(out: Path) -> dict[str, dict[str, Any]]:
+    """Every car stored under ``OUTDIR/cars``: digest -> {key, records} (unreadable files
+    are skipped: their cars run again)."""
+    done: dict[str, dict[str, Any]] = {}
+    for path in sorted((out / CARS_DIR).glob("*.json")):
+        try:
+            done.update(json.loads(path.read_text(encoding="utf-8")).get("cars", {}))
+        except (OSError, ValueError, AttributeError):
+            continue
+    return done
+
+
+class _Store:
+    """Buffered writer of landed cars into ``OUTDIR/cars/<run>-<n>.json``."""
+
+    def __init__(self, out: Path) -> None:
+        import secrets
+
+        self.dir, self.tag, self.n = out / CARS_DIR, secrets.token_hex(4), 0
+        self.buf: dict[str, dict[str, Any]] = {}
+
+    def add(self, job: CarJob, recs: list[dict[str, Any]]) -> None:
+        self.buf[job.digest] = {"key": job.key, "records": recs}
+        if len(self.buf) >= FLUSH_CARS:
+            self.flush()
+
+    def flush(self) -> None:
+        if self.buf:
+            self.n += 1
+            write_text_atomic(self.dir / f"{self.tag}-{self.n:05d}.json",
+                              dumps({"cars": self.buf}, indent=None))
+            self.buf = {}
 
 
 def write_duckdb(path: Path, records: Sequence[dict[str, Any]], baseline: dict[str, Any]) -> None:
@@ -139,25 +170,30 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
     records = list(plan.not_run)
     todo: list[CarJob] = []
     n_cached = 0
+    done = {} if force else _load_store(out)
     for job in plan.jobs:
-        cached = None if force else _cached(out, job)
-        if cached is None:
+        cached = done.get(job.digest)
+        if cached is None or cached.get("key") != job.key:
             todo.append(job)
         else:
-            records.extend(cached)
+            records.extend(cached["records"])
             n_cached += 1
     t0 = time.perf_counter()
     with progress_bar("[bold]fleet", disable=not progress, transient=False) as pbar:
         task = pbar.add_task("fleet", total=plan.n_to_run,
                              completed=plan.n_to_run - sum(len(j.tests) for j in todo))
 
+        store = _Store(out)
+
         def land(job: CarJob, recs: list[dict[str, Any]]) -> None:
-            write_text_atomic(out / CARS_DIR / f"{job.digest}.json",
-                              dumps({"key": job.key, "records": recs}, indent=None))
+            store.add(job, recs)
             records.extend(recs)
             pbar.update(task, advance=len(recs))
 
-        used = _execute(todo, out, workers or 0, scheduler, land)
+        try:
+            used = _execute(todo, out, workers or 0, scheduler, land)
+        finally:  # an interrupted run keeps the cars it finished
+            store.flush()
     elapsed = time.perf_counter() - t0
     n_new = sum(len(j.tests) for j in todo)
     baseline = cross_validate(records)
