@@ -269,3 +269,27 @@ def test_an_interrupted_run_keeps_the_cars_it_finished(mixed_list, tmp_path, mon
     s = run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
     assert s["run"]["n_cars_cached"] == 1 and s["run"]["n_rows_simulated"] == 2
     assert s["n_run"] == 4
+
+
+def test_e85_rows_run_on_e85(tmp_path):
+    """A flex-fuel car: its E85 rows run on E85 (energy per gallon about 72 % of
+    certification gasoline's), its gasoline rows on gasoline; a diesel row is named."""
+    gas = _car("F1")
+    e85 = _car("F1")
+    for r in e85:
+        r["Test Number"] += "E"
+        r.update({"Test Fuel Type Cd": "19",
+                  "Test Fuel Type Description": "E85 (85% Ethanol 15% EPA Unleaded Gasoline)",
+                  "RND_ADJ_FE": str(round(float(r["RND_ADJ_FE"]) * 0.72, 1))})
+    path = write_list(tmp_path / "19tstcar.csv", gas + e85, header=FLEET_HEADER)
+    tests, _ = read_fleet([path])
+    plan = plan_fleet(tests)
+    assert not plan.not_run and sorted(j.fuel for j in plan.jobs) == ["e85", "gasoline"]
+    recs = predict_jobs(plan.jobs)
+    hw = {r["fuel_family"]: r["predicted_mpg"] for r in recs if r["procedure"] == "hwfet"}
+    assert hw["e85"] / hw["gasoline"] == pytest.approx((29.17 * 781.7) / (42.60 * 740.0),
+                                                       rel=0.03)
+    e85_specs = next(j.specs for j in plan.jobs if j.fuel == "e85")
+    from vehval.epa.specs import vehicle_from_specs
+
+    assert vehicle_from_specs(e85_specs).engine.fuel == "ethanol_e85"

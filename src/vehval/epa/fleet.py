@@ -29,6 +29,7 @@ from typing import Any, Callable, Iterable, Sequence
 
 from vehval.epa.procedures import RUNNABLE, UNRUNNABLE, fuel_family, plan_for, procedure_key
 from vehval.epa.reader import EpaTest, find_list_files, read_test_car_list
+from vehval.epa.specs import SPARK_FUELS
 from vehval.errors import VehvalError
 
 #: reason code -> what it means (every row not run carries one, with a line naming the row)
@@ -45,8 +46,6 @@ REASONS = {
     "specs_not_usable": "the car's specification is missing, impossible or ambiguous",
     "model_error": "the simulation of this row failed",
 }
-#: fuels run, each on its own engine fuel (gasoline: certification gasoline)
-RUN_FUELS = ("gasoline",)
 #: rated power per litre from which a gasoline engine is counted turbocharged [W/L]: the lists
 #: have no aspiration column; naturally aspirated car engines make 45-75 kW/L, downsized
 #: turbo engines 80-140 kW/L (engineering threshold)
@@ -178,9 +177,10 @@ def _row_reason(t: EpaTest, fam: str) -> tuple[str, str] | None:
     """Why a row of a conventional car is not run ((code, line) or None: runnable)."""
     if fam == "other" and "ELECTRIC" in t.fuel.upper():
         return "electric", f"test fuel '{t.fuel}': an electric test"
-    if fam not in RUN_FUELS:
-        what = {"diesel": "diesel", "e85": "E85"}.get(fam, f"'{t.fuel}'")
-        return "fuel_not_modelled", f"test fuel {what}: no engine model for this fuel"
+    if fam not in SPARK_FUELS:  # the fuel families run, each on its own engine fuel
+        what = ("diesel: no compression-ignition engine model from specs" if fam == "diesel"
+                else f"'{t.fuel}': no engine model for this fuel")
+        return "fuel_not_modelled", f"test fuel {what}"
     key = procedure_key(t)
     if key in UNRUNNABLE or key not in RUNNABLE:
         return "procedure_not_modelled", (UNRUNNABLE.get(key) or f"procedure code "
@@ -239,7 +239,7 @@ def plan_fleet(tests: Iterable[EpaTest], dt: float = FLEET_DT_S) -> FleetPlan:
         for fam, run in by_fuel.items():
             spec_rows = [t for t in rows if fuel_family(t.fuel) == fam]
             try:
-                specs = specs_from_tests(spec_rows)
+                specs = specs_from_tests(spec_rows, fam)
             except VehvalError as exc:
                 code = _spec_reason(exc, spec_rows)
                 plan.not_run.extend(not_run(t, code, str(exc)) for t in run)
