@@ -116,7 +116,7 @@ def write_duckdb(path: Path, records: Sequence[dict[str, Any]], baseline: dict[s
             con.close()
 
 
-def _execute(jobs: list[CarJob], out: Path, workers: int, scheduler: str | None,
+def _execute(jobs: list[CarJob], workers: int, scheduler: str | None,
              land: Callable[[CarJob, list[dict[str, Any]]], None]) -> int:
     """Run ``jobs`` (loop, local cluster or ``scheduler``); returns the workers used."""
     if not jobs:
@@ -191,7 +191,7 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
             pbar.update(task, advance=len(recs))
 
         try:
-            used = _execute(todo, out, workers or 0, scheduler, land)
+            used = _execute(todo, workers or 0, scheduler, land)
         finally:  # an interrupted run keeps the cars it finished
             store.flush()
     elapsed = time.perf_counter() - t0
