@@ -293,3 +293,12 @@ def test_e85_rows_run_on_e85(tmp_path):
     from vehval.epa.specs import vehicle_from_specs
 
     assert vehicle_from_specs(e85_specs).engine.fuel == "ethanol_e85"
+
+
+def test_a_changed_model_runs_the_stored_cars_again(mixed_list, tmp_path, monkeypatch):
+    import vehval.epa.fleet as fleet
+
+    run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    monkeypatch.setattr(fleet, "model_fingerprint", lambda: "another model")
+    s = run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    assert s["run"]["n_cars_cached"] == 0 and s["run"]["n_rows_simulated"] == 4

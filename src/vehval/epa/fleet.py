@@ -19,6 +19,7 @@ Every row ends as one flat record (:data:`ROW_COLUMNS`, SI units, fuel economy i
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -128,6 +129,28 @@ def not_run(t: EpaTest, code: str, why: str) -> dict[str, Any]:
             "reason": f"{t.source}: {why}"}
 
 
+#: what a stored car's prediction depends on besides its rows: the sources of the model from
+#: specs, the simulator and the vehicle files, and the package data they read (relative to
+#: the vehval package)
+MODEL_SOURCES = ("epa/*.py", "sim/*.py", "sim/**/*.py", "vehicle/*.py", "data/epa/**/*",
+                 "data/fuels.yaml", "data/cycles/**/*")
+
+
+@functools.lru_cache(maxsize=1)
+def model_fingerprint() -> str:
+    """Hash of the vehval version and of every file of :data:`MODEL_SOURCES`: a stored car
+    is reused only by the same model (a changed coefficient file or kernel runs it again)."""
+    from vehval import __version__
+
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256(__version__.encode())
+    files = sorted({p for pat in MODEL_SOURCES for p in root.glob(pat) if p.is_file()})
+    for p in files:
+        h.update(str(p.relative_to(root)).encode())
+        h.update(p.read_bytes())
+    return h.hexdigest()[:16]
+
+
 @dataclass
 class CarJob:
     """The rows of one car on one fuel to predict, with the car's specification."""
@@ -140,12 +163,11 @@ class CarJob:
 
     @property
     def digest(self) -> str:
-        """Hash of what the job's results depend on: specs, rows, step, model version."""
-        from vehval import __version__
-
+        """Hash of what the job's results depend on: specs, rows, step and the model
+        (:func:`model_fingerprint`)."""
         payload = json.dumps({"specs": self.specs.to_dict(), "dt": self.dt, "fuel": self.fuel,
                               "rows": [t.to_dict() for t in self.tests],
-                              "vehval": __version__}, sort_keys=True, default=str)
+                              "model": model_fingerprint()}, sort_keys=True, default=str)
         return hashlib.sha256(payload.encode()).hexdigest()[:20]
 
 
