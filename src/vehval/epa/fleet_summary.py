@@ -52,8 +52,9 @@ def per_technology(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
     for col, name in GROUPINGS.items():
         by: dict[str, list[dict[str, Any]]] = defaultdict(list)
         for r in rows:
-            by[str(r.get(col) or "unknown")].append(r)
-        out[name] = {g: per_procedure(rs) for g, rs in sorted(by.items())}
+            by[str(r.get(col) or "unknown")].append(r)  # cylinders 0: not listed
+        order = sorted(by, key=lambda g: (not g.isdigit(), int(g) if g.isdigit() else 0, g))
+        out[name] = {g: per_procedure(by[g]) for g in order}
     return out
 
 
