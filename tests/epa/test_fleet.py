@@ -302,3 +302,20 @@ def test_a_changed_model_runs_the_stored_cars_again(mixed_list, tmp_path, monkey
     monkeypatch.setattr(fleet, "model_fingerprint", lambda: "another model")
     s = run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
     assert s["run"]["n_cars_cached"] == 0 and s["run"]["n_rows_simulated"] == 4
+
+
+def test_duckdb_keeps_missing_values_null(mixed_list, tmp_path):
+    import duckdb
+
+    run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    con = duckdb.connect(str(tmp_path / "o" / "fleet.duckdb"), read_only=True)
+    try:
+        nan, null, miss = con.execute(
+            "SELECT count(*) FILTER (WHERE isnan(predicted_mpg)), "
+            "count(*) FILTER (WHERE predicted_mpg IS NULL), "
+            "max(trace_n_miss) FROM fleet_rows").fetchone()
+        zero_fe = con.execute("SELECT measured_mpg FROM fleet_rows WHERE vehicle_id = 'Z1'"
+                              ).fetchone()[0]
+    finally:
+        con.close()
+    assert nan == 0 and null > 0 and miss is not None and zero_fe is None

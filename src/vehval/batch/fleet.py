@@ -98,10 +98,16 @@ def write_duckdb(path: Path, records: Sequence[dict[str, Any]], baseline: dict[s
         try:
             con.execute("CREATE TABLE fleet_rows ("
                         + ", ".join(f'"{c}" {_sql_type(c)}' for c in cols) + ")")
-            rows = [[r.get(c) for c in cols] for r in records]
-            if rows:
-                con.executemany(f"INSERT INTO fleet_rows VALUES ({', '.join('?' * len(cols))})",
-                                rows)
+            if records:  # one bulk insert (executemany costs ~10 ms a row)
+                import pandas as pd
+
+                frame = pd.DataFrame([[r.get(c) for c in cols] for r in records], columns=cols,
+                                     dtype=object)  # None stays NULL (not NaN)
+                con.register("fleet_frame", frame)
+                con.execute("INSERT INTO fleet_rows SELECT "
+                            + ", ".join(f'CAST("{c}" AS {_sql_type(c)})' for c in cols)
+                            + " FROM fleet_frame")
+                con.unregister("fleet_frame")
             con.execute("CREATE TABLE baseline (scheme VARCHAR, procedure VARCHAR, n BIGINT, "
                         "model_median_abs_error DOUBLE, baseline_median_abs_error DOUBLE, "
                         "model_share_within_5pct DOUBLE, baseline_share_within_5pct DOUBLE, "
