@@ -319,3 +319,16 @@ def test_duckdb_keeps_missing_values_null(mixed_list, tmp_path):
     finally:
         con.close()
     assert nan == 0 and null > 0 and miss is not None and zero_fe is None
+
+
+def test_a_scheduler_that_does_not_answer_is_one_line(mixed_list, tmp_path, capsys):
+    import socket
+
+    with socket.socket() as s:  # a free port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    assert main(["epa", "fleet", str(mixed_list), "-o", str(tmp_path / "o"),
+                 "--scheduler", f"tcp://127.0.0.1:{port}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--scheduler" in err[0]
+    assert not (tmp_path / "o" / "fleet.json").exists()
