@@ -44,6 +44,7 @@ from vehval.epa import engine_model as em
 from vehval.epa.consistency import impossible_values
 from vehval.epa.procedures import (
     UDDS_BAG1_END_S,
+    fuel_family,
     is_gasoline,
     procedure_key,
     road_load_without_b,
@@ -100,6 +101,9 @@ class Specs:
         Rated power [W].
     cold_bag_ratio : float
         FTP bag 3 / bag 1 fuel economy of the configuration's FTP rows [-] (NaN: none).
+    fuel : str
+        Fuel family of the rows the car is built for (``gasoline``, ``e85``: a key of
+        :data:`SPARK_FUELS`).
     rows : list of str
         ``test (file:line)`` of the rows used.
     """
@@ -120,6 +124,7 @@ class Specs:
     displacement_l: float
     rated_power_w: float
     cold_bag_ratio: float = math.nan
+    fuel: str = "gasoline"  # fuel family of the rows: a key of SPARK_FUELS
     rows: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -192,6 +197,11 @@ def _is_gasoline(t: EpaTest) -> bool:
     return is_gasoline(t.fuel)
 
 
+#: fuel family of the list's tests -> fuel-table name of the spark-ignition engine built for
+#: them (a flex-fuel car's E85 rows run on E85, its gasoline rows on certification gasoline)
+SPARK_FUELS = {"gasoline": "gasoline_e0", "e85": "ethanol_e85"}
+
+
 def _spec_rows(tests: list[EpaTest]) -> list[EpaTest]:
     """The rows that state the configuration: all but the cold CO tests, whose road-load
     coefficients are the warm ones raised for -7 degC (about +10 %) and whose fuel is the
@@ -200,27 +210,40 @@ def _spec_rows(tests: list[EpaTest]) -> list[EpaTest]:
     return warm or tests
 
 
-def _check_car(tests: list[EpaTest]) -> None:
-    """Refuse what the spark-ignition conventional model cannot describe: a hybrid or
-    plug-in by its model name, a configuration tested on no gasoline (diesel, E85,
-    electricity), a transmission other than a geared automatic."""
-    t0 = tests[0]
-    name = t0.model.upper()
+def hybrid_mark(tests: list[EpaTest]) -> str:
+    """What marks the rows of one car as a hybrid or plug-in hybrid ('' when nothing does):
+    a hybrid word in the model name (:data:`HYBRID_WORDS`, or HYBRID anywhere) or a
+    charge-depleting test among the rows."""
+    name = tests[0].model.upper()
     words = set(name.replace("(", " ").replace(")", " ").replace(",", " ").split())
     mark = "HYBRID" if "HYBRID" in name else next(iter(sorted(words & set(HYBRID_WORDS))), "")
+    if mark:
+        return f"'{mark}' in the model name"
     plug = next((t for t in tests if procedure_key(t) in ("cd_udds", "cd_hwfet")), None)
-    if mark or plug is not None:
-        why = (f"'{mark}' in the model name" if mark or plug is None else
-               f"charge-depleting test {plug.label} in the list")
+    return "" if plug is None else f"charge-depleting test {plug.label} in the list"
+
+
+def _check_car(tests: list[EpaTest], fuel: str = "gasoline") -> None:
+    """Refuse what the spark-ignition conventional model cannot describe: a hybrid or
+    plug-in by its model name, a configuration tested on no ``fuel`` (a fuel family of
+    :data:`SPARK_FUELS`), a transmission other than a geared automatic."""
+    t0 = tests[0]
+    why = hybrid_mark(tests)
+    if why:
         raise ConfigError(f"{t0.make} {t0.model}: {why}: a hybrid or plug-in hybrid is not "
                           "modelled from specs (the model is a conventional car); use a "
                           "hybrid vehicle file with `vehval epa validate`")
-    if not any(_is_gasoline(t) for t in tests):
+    if fuel not in SPARK_FUELS:
+        raise ConfigError(f"{t0.make} {t0.model} ({t0.vehicle_id}): fuel '{fuel}': the model "
+                          "from specs is a spark-ignition engine on "
+                          f"{' or '.join(SPARK_FUELS)} (a diesel has no compression-ignition "
+                          "engine model from specs)")
+    if not any(fuel_family(t.fuel) == fuel for t in tests):
         fuels = ", ".join(sorted({f"'{t.fuel}'" for t in tests}))
         raise ConfigError(f"{t0.make} {t0.model} ({t0.vehicle_id}): tested on {fuels}, no "
-                          "gasoline: the model from specs is a spark-ignition engine on "
-                          "certification gasoline (a diesel, E85 or electric test is not "
-                          "modelled)")
+                          f"{fuel}: the model from specs is a spark-ignition engine on "
+                          "certification gasoline, or on E85 for a car's E85 tests (a diesel "
+                          "or electric test is not modelled)")
     if all(t.transmission not in ("A", "SA") or t.gears not in RATIO_SPREAD for t in tests):
         _refuse_transmission(t0)  # before any other check: no narrowing makes it modelled
 
@@ -262,14 +285,16 @@ def _check_values(tests: list[EpaTest]) -> None:
                           "cannot set the gear ratios")
 
 
-def specs_from_tests(tests: list[EpaTest]) -> Specs:
+def specs_from_tests(tests: list[EpaTest], fuel: str = "gasoline") -> Specs:
     """The specification of the one configuration the selected list rows describe.
 
     The rows must agree on the test vehicle's weight, road load, axle ratio, N/V,
     gears, displacement and rated power (one car; cold CO rows, whose road load is raised
     for -7 degC, are not compared); an automatic with a torque converter (transmission
-    ``A`` or ``SA``, 3-10 gears), a gasoline test and a model name without a hybrid mark
-    are required, and the listed power and N/V must be plausible.
+    ``A`` or ``SA``, 3-10 gears), a test on ``fuel`` (a fuel family of
+    :data:`SPARK_FUELS`: the car's engine burns it; its cold start is read from that fuel's
+    FTP rows) and a model name without a hybrid mark are required, and the listed power and
+    N/V must be plausible.
 
     Raises
     ------
@@ -278,7 +303,7 @@ def specs_from_tests(tests: list[EpaTest]) -> Specs:
     """
     if not tests:
         raise ConfigError("no EPA list row selected: name the make, model and year")
-    _check_car(tests)
+    _check_car(tests, fuel)
     rows = _spec_rows(tests)
     t0 = rows[0]
     _check_values(rows)
@@ -295,17 +320,17 @@ def specs_from_tests(tests: list[EpaTest]) -> Specs:
         _refuse_transmission(t0)
     ratios = []
     for t in rows:
-        if (procedure_key(t) == "ftp75" and _is_gasoline(t)
+        if (procedure_key(t) == "ftp75" and fuel_family(t.fuel) == fuel
                 and all(math.isfinite(b) for b in t.bags[:3])):
             ratios.append(t.bags[2] / t.bags[0])
-    name = f"{t0.make} {t0.model} {t0.year}".lower()
+    name = f"{t0.make} {t0.model} {t0.year}{'' if fuel == 'gasoline' else ' ' + fuel}".lower()
     return Specs(
         name="".join(c if c.isalnum() else "_" for c in name).strip("_"),
         make=t0.make, model=t0.model, year=t0.year, vehicle_id=t0.vehicle_id,
         **{k: float(getattr(t0, k)) for k in _SPEC_KEYS}, gears=t0.gears,
         transmission=t0.transmission,
         cold_bag_ratio=float(np.mean(ratios)) if ratios else math.nan,
-        rows=[f"{t.label} ({t.source})" for t in rows])
+        rows=[f"{t.label} ({t.source})" for t in rows], fuel=fuel)
 
 
 def friction_torque_nm(speed_rpm: np.ndarray, displacement_l: float,
@@ -368,7 +393,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
     shape = np.interp(speeds, [0.0, 0.6 * RATED_SPEED_RPM, max_rpm], [0.75, 1.0, 1.0])
     tmax = np.minimum(t_peak * shape, s.rated_power_w / (speeds * RPM))
     torques = np.linspace(0.0, 1.05 * t_peak, 14)
-    lhv = _lhv()
+    lhv = _lhv(SPARK_FUELS[s.fuel])
     high = (enrichment, em.HIGH_LOAD_FROM)
     fuel = em.fuel_rate_g_per_s(speeds, torques, tmax, vd, eta, kf, lhv, high)
     tf = friction_torque_nm(np.array([IDLE_SPEED_RPM, 2000.0]), vd, kf)
@@ -434,7 +459,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                    "max_power_w": s.rated_power_w, "max_speed_rpm": max_rpm,
                    "idle_speed_rpm": IDLE_SPEED_RPM, "fire_speed_rpm": IDLE_SPEED_RPM / 2,
                    "motoring_torque_nm": float(tf[1]),
-                   "inertia_kg_m2": 0.15 + 0.05 * vd, "fuel": "gasoline_e0",
+                   "inertia_kg_m2": 0.15 + 0.05 * vd, "fuel": SPARK_FUELS[s.fuel],
                    "displacement_l": vd, "warmup_fuel_fraction": warm,
                    "warmup_time_constant_s": WARMUP_TIME_CONSTANT_S,
                    "sources": {
@@ -449,7 +474,10 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                        "idle_speed_rpm": est, "fire_speed_rpm": f"half the idle: {est}",
                        "motoring_torque_nm": f"friction torque at 2000 rpm of the {willans}",
                        "inertia_kg_m2": f"0.15 + 0.05 kg m^2 per litre: {est}",
-                       "fuel": "Tier 2 certification gasoline, the fuel of the list's tests",
+                       "fuel": ("Tier 2 certification gasoline, the fuel of the list's tests"
+                                if s.fuel == "gasoline" else
+                                f"{SPARK_FUELS[s.fuel]}: the fuel of the list's {s.fuel} "
+                                "tests (vehval fuel table)"),
                        "displacement_l": f"test vehicle displacement, {where}",
                        "warmup_fuel_fraction": warm_src,
                        "warmup_time_constant_s": est}},
@@ -522,12 +550,12 @@ def model_fuel_lhv() -> float:
     return _lhv()
 
 
-def _lhv() -> float:
+def _lhv(name: str = "gasoline_e0") -> float:
     from vehval.fuels import table_fuel
 
-    lhv = table_fuel("gasoline_e0").lhv_j_per_kg
+    lhv = table_fuel(name).lhv_j_per_kg
     if lhv is None:
-        raise ConfigError("fuel table: gasoline_e0 has no lower heating value")
+        raise ConfigError(f"fuel table: {name} has no lower heating value")
     return float(lhv)
 
 

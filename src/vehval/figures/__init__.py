@@ -10,7 +10,7 @@ time axis (:func:`time_traces_figure`), display units chosen by the caller throu
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -20,8 +20,8 @@ PALETTE = ("#1f5fa8", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c", "#0b7285", "#e
            "#495057")
 ROW_HEIGHT_PX = 170
 
-__all__ = ["PALETTE", "ROW_HEIGHT_PX", "bar_figure", "markers_figure", "one_axis_figure",
-           "scatter_fit_figure", "time_traces_figure"]
+__all__ = ["PALETTE", "ROW_HEIGHT_PX", "bar_figure", "histogram_figure", "markers_figure",
+           "one_axis_figure", "scatter_fit_figure", "scatter_groups_figure", "time_traces_figure"]
 
 
 def time_traces_figure(panels: Sequence[dict], *, n_buckets: int = DEFAULT_BUCKETS,
@@ -244,4 +244,39 @@ def markers_figure(series: Sequence[dict], *, xlabel: str, ylabel: str, title: s
         layout["title"] = {"text": title}
     if height:
         layout["height"] = int(height)
+    return {"data": data, "layout": layout}
+
+
+def histogram_figure(groups: dict[str, Sequence[float]], *, xlabel: str,
+                     bin_size: float | None = None, scale: float = 1.0) -> dict:
+    """Overlaid histograms, one per group (name -> values, times ``scale``), bars of
+    ``bin_size`` (in scaled units; plotly's choice when None)."""
+    data = []
+    for k, (name, vals) in enumerate(groups.items()):
+        v = np.asarray(vals, float) * scale
+        trace: dict[str, Any] = {"type": "histogram", "name": f"{name} (n = {v.size})",
+                                 "x": v[np.isfinite(v)], "opacity": 0.6,
+                                 "marker": {"color": PALETTE[k % len(PALETTE)]}}
+        if bin_size:
+            trace["xbins"] = {"size": bin_size}
+        data.append(trace)
+    layout = {"height": 360, "barmode": "overlay", "margin": {"l": 60, "r": 20, "t": 30, "b": 50},
+              "xaxis": {"title": {"text": xlabel}}, "yaxis": {"title": {"text": "rows"}}}
+    return {"data": data, "layout": layout}
+
+
+def scatter_groups_figure(groups: Mapping[str, tuple[Sequence[float], Sequence[float],
+                                                     Sequence[str]]],
+                          *, xlabel: str, ylabel: str, hlines: Sequence[float] = ()) -> dict:
+    """Markers per group (name -> (x, y, hover text)) with dotted horizontal lines at
+    ``hlines`` (e.g. the tolerance band)."""
+    data = []
+    for k, (name, (x, y, text)) in enumerate(groups.items()):
+        data.append({"type": "scatter", "mode": "markers", "name": name,
+                     "x": np.asarray(x, float), "y": np.asarray(y, float), "text": list(text),
+                     "marker": {"size": 5, "color": PALETTE[k % len(PALETTE)], "opacity": 0.6}})
+    shapes = [{"type": "line", "xref": "paper", "x0": 0, "x1": 1, "y0": h, "y1": h,
+               "line": {"color": "#868e96", "dash": "dot", "width": 1}} for h in hlines]
+    layout = {"height": 380, "margin": {"l": 70, "r": 20, "t": 30, "b": 50}, "shapes": shapes,
+              "xaxis": {"title": {"text": xlabel}}, "yaxis": {"title": {"text": ylabel}}}
     return {"data": data, "layout": layout}

@@ -18,8 +18,10 @@ import numpy as np
 from vehval.figures import (
     PALETTE,
     ROW_HEIGHT_PX,
+    histogram_figure,
     one_axis_figure,
     scatter_fit_figure,
+    scatter_groups_figure,
     time_traces_figure,
 )
 from vehval.figures.decimate import decimate_minmax
@@ -203,6 +205,6 @@ def prepare_figures(figures: Sequence[FigSpec], start: int = 0) -> int:
     return n
 
 
-__all__ = ["DEFAULT_FIG_HEIGHT_PX", "PALETTE", "ROW_HEIGHT_PX", "FigSpec", "figure_json",
-           "one_axis_figure", "prepare_figures", "scatter_fit_figure", "time_traces_figure",
+__all__ = ["DEFAULT_FIG_HEIGHT_PX", "PALETTE", "ROW_HEIGHT_PX", "FigSpec", "figure_json", "histogram_figure",
+           "one_axis_figure", "prepare_figures", "scatter_fit_figure", "scatter_groups_figure", "time_traces_figure",
            "typed_array"]
