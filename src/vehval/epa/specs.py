@@ -212,18 +212,26 @@ def _spec_rows(tests: list[EpaTest]) -> list[EpaTest]:
     return warm or tests
 
 
+def hybrid_mark(tests: list[EpaTest]) -> str:
+    """What marks the rows of one car as a hybrid or plug-in hybrid ('' when nothing does):
+    a hybrid word in the model name (:data:`HYBRID_WORDS`, or HYBRID anywhere) or a
+    charge-depleting test among the rows."""
+    name = tests[0].model.upper()
+    words = set(name.replace("(", " ").replace(")", " ").replace(",", " ").split())
+    mark = "HYBRID" if "HYBRID" in name else next(iter(sorted(words & set(HYBRID_WORDS))), "")
+    if mark:
+        return f"'{mark}' in the model name"
+    plug = next((t for t in tests if procedure_key(t) in ("cd_udds", "cd_hwfet")), None)
+    return "" if plug is None else f"charge-depleting test {plug.label} in the list"
+
+
 def _check_car(tests: list[EpaTest]) -> None:
     """Refuse what the spark-ignition conventional model cannot describe: a hybrid or
     plug-in by its model name, a configuration tested on no gasoline (diesel, E85,
     electricity), a transmission other than a geared automatic."""
     t0 = tests[0]
-    name = t0.model.upper()
-    words = set(name.replace("(", " ").replace(")", " ").replace(",", " ").split())
-    mark = "HYBRID" if "HYBRID" in name else next(iter(sorted(words & set(HYBRID_WORDS))), "")
-    plug = next((t for t in tests if procedure_key(t) in ("cd_udds", "cd_hwfet")), None)
-    if mark or plug is not None:
-        why = (f"'{mark}' in the model name" if mark or plug is None else
-               f"charge-depleting test {plug.label} in the list")
+    why = hybrid_mark(tests)
+    if why:
         raise ConfigError(f"{t0.make} {t0.model}: {why}: a hybrid or plug-in hybrid is not "
                           "modelled from specs (the model is a conventional car); use a "
                           "hybrid vehicle file with `vehval epa validate`")
