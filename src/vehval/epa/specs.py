@@ -396,6 +396,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None,
                                          INDICATED_EFFICIENCY)
     friction_scale, kf_src = pick(friction_scale, "friction_scale", 1.0)
     idle_factor, idle_f_src = pick(None, "idle_factor", 1.0)
+    pumping_bar, pump_src = pick(None, "pumping_bar", 0.0)
     gb_eff = coef.transmission_value(family, "efficiency") if coef is not None else None
     if not (0.1 <= indicated_efficiency <= 0.6 and 0.2 <= friction_scale <= 4.0
             and 0.0 <= enrichment <= 1.0):
@@ -417,14 +418,18 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None,
     torques = np.linspace(0.0, 1.05 * t_peak, 14)
     lhv = _lhv()
     high = (enrichment, em.HIGH_LOAD_FROM)
-    fuel = em.fuel_rate_g_per_s(speeds, torques, tmax, vd, eta, kf, lhv, high)
+    pump = {"pumping_pa": pumping_bar * 1e5} if pumping_bar else {}
+    fuel = em.fuel_rate_g_per_s(speeds, torques, tmax, vd, eta, kf, lhv, high, **pump)
     tf = friction_torque_nm(np.array([IDLE_SPEED_RPM, 2000.0]), vd, kf)
     t_acc = ACCESSORY_POWER_W / (IDLE_SPEED_RPM * RPM)
     i_idle = int(np.flatnonzero(np.isclose(speeds, IDLE_SPEED_RPM))[0])
     idle_fuel = float(np.interp(t_acc, torques, fuel[i_idle]))
     willans = willans_text(eta, kf, s, enrichment)
-    if eta_src or kf_src:
-        willans += "; " + "; ".join(x for x in (eta_src, kf_src) if x)
+    if pumping_bar:
+        willans += (f"; part-load pumping {pumping_bar:.4g} bar MEP at zero load falling to 0 at "
+                    "full load (engine_model.pumping_mep_pa)")
+    if eta_src or kf_src or pump_src:
+        willans += "; " + "; ".join(x for x in (eta_src, kf_src, pump_src) if x)
     idle_src = f"the fuel map at idle with the accessory load ({willans})"
     if idle_fuel_g_per_s is None and idle_factor != 1.0:
         idle_fuel_g_per_s = idle_factor * idle_fuel

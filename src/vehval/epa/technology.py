@@ -8,14 +8,16 @@ state the engine's efficiency, its friction or its idle fuel. :func:`vehicle_fro
 
 * engine technology (:func:`engine_technology`): ``spark_na`` (naturally aspirated spark
   ignition) or ``spark_turbo`` (turbocharged). The lists have no aspiration column: a
-  rated power at or above ``turbo_min_specific_power_w_per_l`` per litre (70 kW/L; the
-  naturally aspirated engines of the 2016-2019 lists sit at 45-70 kW/L, the downsized
-  turbo engines at 75-120) marks a turbocharged engine;
+  rated power at or above ``turbo_min_specific_power_w_per_l`` per litre (78 kW/L, as the fleet report's aspiration; the
+  naturally aspirated engines of the 2016-2019 lists sit at 45-75 kW/L, the downsized
+  turbo engines at 80-140) marks a turbocharged engine;
 * per engine technology: ``indicated_efficiency`` (slope of the Willans line, [-]),
   ``friction_scale`` (factor on Heywood's friction MEP, which with it carries the part-load
   pumping, [-]) and ``idle_factor`` (warm idle fuel / the Willans map at idle speed and
   the accessory load [-]: the idle control's retarded spark and its own air flow burn
-  more than the Willans line; 1.73 on the one car measured, the D3 Camry);
+  more than the Willans line; 1.73 on the one car measured, the D3 Camry) and
+  ``pumping_bar`` (part-load pumping MEP of the throttle at zero load [bar], falling to 0
+  at full load: :func:`vehval.epa.engine_model.pumping_mep_pa`);
 * per transmission family (:mod:`vehval.epa.transmissions`): ``efficiency`` of the gearbox.
 
 Every value carries ``value``, ``interval`` (the fit's interval, or the range of its
@@ -34,10 +36,10 @@ from typing import Any
 from vehval.errors import ConfigError
 
 ENGINE_TECHNOLOGIES = ("spark_na", "spark_turbo")
-ENGINE_KEYS = ("indicated_efficiency", "friction_scale", "idle_factor")
+ENGINE_KEYS = ("indicated_efficiency", "friction_scale", "idle_factor", "pumping_bar")
 #: physical bounds of each coefficient (a file outside them is refused)
 BOUNDS = {"indicated_efficiency": (0.2, 0.6), "friction_scale": (0.2, 4.0),
-          "idle_factor": (0.5, 4.0), "efficiency": (0.7, 1.0),
+          "idle_factor": (0.5, 4.0), "pumping_bar": (0.0, 1.5), "efficiency": (0.7, 1.0),
           "turbo_min_specific_power_w_per_l": (30e3, 150e3)}
 DEFAULT_FILE = "data/epa/technology_coefficients.yaml"
 
@@ -64,7 +66,7 @@ class Coefficients:
 
     engine: dict[str, dict[str, Coefficient]]
     transmission: dict[str, dict[str, Coefficient]]
-    turbo_min_specific_power_w_per_l: float = 70e3
+    turbo_min_specific_power_w_per_l: float = 78e3
     where: str = DEFAULT_FILE
     header: dict[str, Any] = field(default_factory=dict)
 
@@ -111,7 +113,7 @@ def parse_coefficients(data: Any, where: str) -> Coefficients:
                 raise ConfigError(f"{where}: '{part}.{tech}' must be a mapping")
             groups[part][str(tech)] = {str(k): _coefficient(v, where, f"{part}.{tech}.{k}")
                                        for k, v in values.items()}
-    turbo = data.get("turbo_min_specific_power_w_per_l", 70e3)
+    turbo = data.get("turbo_min_specific_power_w_per_l", 78e3)
     c = _coefficient({"value": turbo}, where, "turbo_min_specific_power_w_per_l")
     return Coefficients(engine=groups["engine"], transmission=groups["transmission"],
                         turbo_min_specific_power_w_per_l=c.value, where=where,

@@ -26,11 +26,16 @@ driveline loop (engine - coupling with lock-up - stepped ratios - final drive,
   (the engine held near that speed while the clutch slips) and locked as soon as the
   clutch's output turns above idle; the automatic's shift lines and spread, a short
   shift time, a higher efficiency (no converter pump, wet or dry clutches).
-* ``manual`` (``M``; 4-7 gears): the same clutch launch; the upshift speeds of 40 CFR
+* ``manual`` (``M``; 4-7 gears): the same clutch launch; upshifts by vehicle speed (a
+  driver following a schedule: at full load only 25 % later): the speeds of 40 CFR
   86.128-79 for a manual transmission without the manufacturer's recommended shift
   speeds (first to second at 15 mph, second to third at 25, third to fourth at 40,
   fourth to fifth at 45 mph), higher gears when the next gear turns the engine at
-  ``MANUAL_UPSHIFT_RPM`` or more; never an upshift that lugs the engine below
+  ``MANUAL_UPSHIFT_RPM`` or more; earlier when the engine reaches
+  ``MANUAL_SHIFT_FROM_RPM`` (the recommended shift points of a modern six-speed, shown by
+  its shift indicator, come at lower engine speeds than the CFR's speeds written for the
+  three- and four-speed boxes of the 1970s: a six-speed with a tall top gear would turn
+  3600 rpm at 15 mph in first); never an upshift that lugs the engine below
   ``MANUAL_MIN_RPM``. The lists' ``Shift Indicator Light Use`` says whether a shift
   indicator was used, not its shift points, so it does not enter the schedule.
 
@@ -67,11 +72,12 @@ SHIFT_TIME_S = {"automatic": 0.6, "cvt": 0.2, "automated_manual": 0.4, "manual":
 CVT_SPREAD = 7.0  # ratio range of a belt / chain CVT (lowest / overdrive) [-]
 CVT_STEPS = 12  # ratio steps that stand for the continuous range [-]
 CVT_SHIFT_TIME_S = SHIFT_TIME_S["cvt"]
-CVT_LINE_RPM = 1250.0  # engine speed of the operating line at zero load [rpm]
+CVT_LINE_RPM = 1100.0  # engine speed of the operating line at zero load [rpm]
 CVT_LOCKUP_MPH = 12.0  # converter locked above this vehicle speed [mph]
 CLUTCH_LAUNCH_RPM = 1500.0  # launch-clutch slip speed at peak torque [rpm]
 MANUAL_SHIFT_MPH = (15.0, 25.0, 40.0, 45.0)  # 40 CFR 86.128-79: 1-2, 2-3, 3-4, 4-5 [mph]
 MANUAL_UPSHIFT_RPM = 1500.0  # higher gears: the next gear turns the engine this fast [rpm]
+MANUAL_SHIFT_FROM_RPM = 2200.0  # or earlier: upshift when the engine reaches this [rpm]
 MANUAL_MIN_RPM = 1100.0  # no upshift below this engine speed in the next gear [rpm]
 STALL_SPEED_RPM = 2500.0  # torque-converter stall speed at peak torque [rpm]
 UPSHIFT_RPM, DOWNSHIFT_RPM = 1300.0, 1000.0  # at zero load, engine speed in the higher gear
@@ -140,12 +146,15 @@ def _manual_lines(overall: list[float], r: float, rated_rpm: float) -> dict[str,
     up0 = lines["upshift_speed_mps"]
     for i in range(len(up0)):
         lug = _v_at(MANUAL_MIN_RPM, overall[i + 1], r)
-        up0[i] = max(MANUAL_SHIFT_MPH[i] * MPH if i < len(MANUAL_SHIFT_MPH) else up0[i], lug)
+        cfr = MANUAL_SHIFT_MPH[i] * MPH if i < len(MANUAL_SHIFT_MPH) else up0[i]
+        up0[i] = max(min(cfr, _v_at(MANUAL_SHIFT_FROM_RPM, overall[i], r)), lug)
         if i:
             up0[i] = max(up0[i], up0[i - 1] * 1.05)
         lines["downshift_speed_mps"][i] = min(lines["downshift_speed_mps"][i], 0.8 * up0[i])
-        upf = lines["upshift_speed_full_load_mps"]
-        upf[i] = max(upf[i], up0[i] * 1.2)
+        # a driver shifts by vehicle speed: at full load only a little later
+        lines["upshift_speed_full_load_mps"][i] = 1.25 * up0[i]
+        lines["downshift_speed_full_load_mps"][i] = min(
+            lines["downshift_speed_full_load_mps"][i], 0.8 * up0[i])
     return lines
 
 
@@ -213,7 +222,8 @@ def gearbox_blocks(family: str, top_gearbox: float, axle_ratio: float, gears: in
                 lines = _manual_lines(overall, r, rated_rpm)
                 line_src = ("40 CFR 86.128-79 manual shift speeds 15 / 25 / 40 / 45 mph, "
                             f"higher gears at {MANUAL_UPSHIFT_RPM:g} rpm in the next gear, "
-                            f"never below {MANUAL_MIN_RPM:g} rpm")
+                            f"earlier at {MANUAL_SHIFT_FROM_RPM:g} rpm, never below "
+                            f"{MANUAL_MIN_RPM:g} rpm in the next gear")
             else:
                 lines = _shift_lines(overall, r, rated_rpm, UPSHIFT_RPM, DOWNSHIFT_RPM)
                 line_src = f"engine at {UPSHIFT_RPM:g} rpm after the upshift: {_EST}"
