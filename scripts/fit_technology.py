@@ -41,9 +41,9 @@ from vehval.errors import VehvalError
 
 KEYS = ("ftp75", "hwfet", "us06")
 GRID_KEYS = ("friction_scale", "idle_factor", "pumping_bar")
-FRICTION_GRID = (0.75, 1.0, 1.5)
-IDLE_GRID = (1.0, 1.75, 2.5)
-PUMPING_GRID = (0.0, 0.4, 0.8)  # [bar]
+FRICTION_GRID = (0.5, 0.75, 1.0)
+IDLE_GRID = (1.75, 2.5)
+PUMPING_GRID = (0.4, 0.8, 1.2)  # [bar]
 
 
 def with_values(base: tech.Coefficients, engine: dict, trans: dict, note: str
@@ -94,28 +94,47 @@ def predict(jobs: list, coef: tech.Coefficients, dt: float) -> list[dict]:
     return out
 
 
-def fit_levels(recs: list[dict], eff0: dict[str, float], iters: int = 4
-               ) -> tuple[dict[str, float], dict[str, float]]:
-    """Closed-form indicated efficiency per engine technology and gearbox efficiency per
-    family: medians of the log error, alternated (mpg inverse in fuel, fuel inverse in both)."""
+def fit_levels(recs: list[dict], eff0: dict[str, float], iters: int = 4) -> dict:
+    """Closed-form levels: per engine technology the indicated efficiency at 60 kW/L and its
+    specific-power exponent (a trimmed straight line of the log error against log specific
+    power), per family the gearbox efficiency (median), alternated; mpg is proportional to
+    both efficiencies (fuel inverse in them). Returns the values and ``adjusted(record)``,
+    the log error a record would have with them."""
     le = np.array([math.log1p(r["error"]) for r in recs])
+    x = np.array([math.log(r["kw_per_l"] * 1e3 / tech.REFERENCE_SPECIFIC_POWER_W_PER_L)
+                  for r in recs])
     techs = np.array([r["tech"] for r in recs])
     fams = np.array([r["family"] for r in recs])
     a = dict.fromkeys(set(techs), 0.0)
+    g = dict.fromkeys(set(techs), 0.0)
     b = dict.fromkeys(set(fams), 0.0)
     for _ in range(iters):
         for t in a:
             m = techs == t
-            a[t] = -float(np.median(le[m] + np.array([b[f] for f in fams[m]])))
+            y = -(le[m] + np.array([b[f] for f in fams[m]]))
+            keep = np.abs(y - np.median(y)) < 0.25
+            if keep.sum() >= 10 and np.ptp(x[m][keep]) > 0.1:
+                coef = np.polyfit(-x[m][keep], y[keep], 1)
+                g[t], a[t] = float(coef[0]), float(coef[1])
+            else:
+                g[t], a[t] = 0.0, float(np.median(y))
+            a[t] = float(np.median(y + g[t] * x[m]))  # the level robust: median
         for f in b:
             m = fams == f
-            b[f] = -float(np.median(le[m] + np.array([a[t] for t in techs[m]])))
+            b[f] = -float(np.median(le[m] + np.array([a[t] - g[t] * xx
+                                                       for t, xx in zip(techs[m], x[m])])))
         shift = float(np.median(list(b.values())))  # the families' share: centred
         b = {f: v - shift for f, v in b.items()}
         a = {t: v + shift for t, v in a.items()}
     eta = {t: INDICATED_EFFICIENCY * math.exp(v) for t, v in a.items()}
     eff = {f: min(eff0[f] * math.exp(v), 0.99) for f, v in b.items()}
-    return eta, eff
+
+    def adjusted(r: dict) -> float:
+        xx = math.log(r["kw_per_l"] * 1e3 / tech.REFERENCE_SPECIFIC_POWER_W_PER_L)
+        return (math.log1p(r["error"]) + math.log(eta[r["tech"]] / INDICATED_EFFICIENCY)
+                - g[r["tech"]] * xx + math.log(eff[r["family"]] / eff0[r["family"]]))
+
+    return {"eta": eta, "gamma": g, "eff": eff, "adjusted": adjusted}
 
 
 def choose(by_combo: dict, eff0: dict[str, float]) -> dict:
@@ -127,15 +146,13 @@ def choose(by_combo: dict, eff0: dict[str, float]) -> dict:
             sel = [r for r in recs if r["tech"] == t]
             if not sel:
                 continue
-            eta, eff = fit_levels(sel, eff0)
-            le = [abs(math.log1p(r["error"]) + math.log(eta[t] / INDICATED_EFFICIENCY)
-                      + math.log(eff[r["family"]] / eff0[r["family"]])) for r in sel]
-            scores[combo] = float(np.mean(le))
+            lev = fit_levels(sel, eff0)
+            scores[combo] = float(np.mean([abs(lev["adjusted"](r)) for r in sel]))
         best[t] = min(scores, key=scores.get)
     recs = [r for combo, rr in by_combo.items() for r in rr
             if r["tech"] in best and best[r["tech"]] == combo]
-    eta, eff = fit_levels(recs, eff0)
-    return {"combo": best, "eta": eta, "eff": eff}
+    lev = fit_levels(recs, eff0)
+    return {"combo": best, "eta": lev["eta"], "gamma": lev["gamma"], "eff": lev["eff"]}
 
 
 def bootstrap(by_combo: dict, eff0: dict, n: int, seed: int = 1) -> dict:
@@ -155,6 +172,7 @@ def bootstrap(by_combo: dict, eff0: dict, n: int, seed: int = 1) -> dict:
                 draws[f"engine.{t}.{k}"].append(v)
         for t, v in res["eta"].items():
             draws[f"engine.{t}.indicated_efficiency"].append(v)
+            draws[f"engine.{t}.efficiency_specific_power_exponent"].append(res["gamma"][t])
         for f, v in res["eff"].items():
             draws[f"transmission.{f}.efficiency"].append(v)
     return {k: (float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5)))
@@ -220,9 +238,13 @@ def yaml_text(fit_list: str, res: dict, iv: dict, base: tech.Coefficients, n_car
                              "part-load pumping",
            "idle_factor": "warm idle fuel / the Willans map at idle and the accessory load "
                           "(idle control with retarded spark)",
-           "pumping_bar": "part-load pumping MEP at zero load [bar], to 0 at full load"}
+           "pumping_bar": "part-load pumping MEP at zero load [bar], to 0 at full load",
+           "efficiency_specific_power_exponent": "indicated efficiency x (specific power / "
+                                                 "60 kW/L)^-exponent"}
     for t in ("spark_na", "spark_turbo"):
-        vals = {"indicated_efficiency": res["eta"][t], **dict(zip(GRID_KEYS, res["combo"][t]))}
+        vals = {"indicated_efficiency": res["eta"][t],
+                "efficiency_specific_power_exponent": res["gamma"][t],
+                **dict(zip(GRID_KEYS, res["combo"][t]))}
         lines.append(f"  {t}:")
         for k, v in vals.items():
             lo, hi = iv.get(f"engine.{t}.{k}", (v, v))
@@ -256,15 +278,17 @@ def main(argv: list[str] | None = None) -> int:
     by_combo = {}
     for combo in itertools.product(FRICTION_GRID, IDLE_GRID, PUMPING_GRID):
         vals = dict(zip(GRID_KEYS, combo))
-        coef = with_values(base, {t: {"indicated_efficiency": INDICATED_EFFICIENCY, **vals}
+        coef = with_values(base, {t: {"indicated_efficiency": INDICATED_EFFICIENCY,
+                                      "efficiency_specific_power_exponent": 0.0, **vals}
                                   for t in tech.ENGINE_TECHNOLOGIES}, eff0, "grid")
         by_combo[combo] = predict(jobs, coef, a.dt)
         print(f"grid {vals}: {len(by_combo[combo])} rows, {time.time() - start:.0f} s",
               file=sys.stderr, flush=True)
     res = choose(by_combo, eff0)
     iv = bootstrap(by_combo, eff0, a.boot)
-    engine = {t: {"indicated_efficiency": res["eta"][t], **dict(zip(GRID_KEYS, res["combo"][t]))}
-              for t in res["combo"]}
+    engine = {t: {"indicated_efficiency": res["eta"][t],
+                  "efficiency_specific_power_exponent": res["gamma"][t],
+                  **dict(zip(GRID_KEYS, res["combo"][t]))} for t in res["combo"]}
     coef = with_values(base, engine, res["eff"], "fit")
     n_rows_fit = sum(len(r) for r in by_combo.values()) // len(by_combo)
     print(f"fit on {a.fit_list}: {len(jobs)} cars, {n_rows_fit} rows; {res}; intervals {iv}")
@@ -283,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.json:
         with open(a.json, "w") as fh:
             json.dump({"fit": {"combo": {k: list(v) for k, v in res["combo"].items()},
-                               "eta": res["eta"], "eff": res["eff"],
+                               "eta": res["eta"], "eff": res["eff"], "gamma": res["gamma"],
                                "intervals": {k: list(v) for k, v in iv.items()}},
                        "in_sample": judge(fit_recs), "out_of_sample": j, "rows": recs}, fh,
                       indent=1)

@@ -385,15 +385,23 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None,
     family = specs.family
 
     def pick(given: float | None, key: str, default: float) -> tuple[float, str]:
-        c = coef.engine_value(engine_tech, key) if coef is not None else None
         if given is not None:
             return float(given), ""
-        if c is None:
+        c = coef.engine_value(engine_tech, key) if coef is not None else None
+        if c is None or coef is None:
             return default, ""
         return c.value, f"{key.replace('_', ' ')} of {engine_tech}: {c.text()} ({coef.where})"
 
+    given_eta = indicated_efficiency is not None
     indicated_efficiency, eta_src = pick(indicated_efficiency, "indicated_efficiency",
                                          INDICATED_EFFICIENCY)
+    gamma, gamma_src = pick(None, "efficiency_specific_power_exponent", 0.0)
+    if gamma and not given_eta:
+        indicated_efficiency = tech.indicated_efficiency(indicated_efficiency, gamma,
+                                                         specs.rated_power_w, specs.displacement_l)
+        eta_src += (f", at {specs.rated_power_w / specs.displacement_l / 1e3:.1f} kW/L x "
+                    f"(specific power / {tech.REFERENCE_SPECIFIC_POWER_W_PER_L / 1e3:g} kW/L)"
+                    f"^-{gamma:.4g}: {gamma_src}")
     friction_scale, kf_src = pick(friction_scale, "friction_scale", 1.0)
     idle_factor, idle_f_src = pick(None, "idle_factor", 1.0)
     pumping_bar, pump_src = pick(None, "pumping_bar", 0.0)

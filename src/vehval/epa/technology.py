@@ -11,7 +11,12 @@ state the engine's efficiency, its friction or its idle fuel. :func:`vehicle_fro
   rated power at or above ``turbo_min_specific_power_w_per_l`` per litre (78 kW/L, as the fleet report's aspiration; the
   naturally aspirated engines of the 2016-2019 lists sit at 45-75 kW/L, the downsized
   turbo engines at 80-140) marks a turbocharged engine;
-* per engine technology: ``indicated_efficiency`` (slope of the Willans line, [-]),
+* per engine technology: ``indicated_efficiency`` (slope of the Willans line at the
+  reference specific power of 60 kW/L, [-]) and ``efficiency_specific_power_exponent``
+  (gamma: the efficiency scales as (specific power / 60 kW/L)^-gamma; an engine built for
+  more power per litre has a lower compression ratio against knock, turbocharged or not,
+  more valve overlap and a richer calibration, and burns more at the part loads of a
+  drive cycle), :func:`indicated_efficiency`),
   ``friction_scale`` (factor on Heywood's friction MEP, which with it carries the part-load
   pumping, [-]) and ``idle_factor`` (warm idle fuel / the Willans map at idle speed and
   the accessory load [-]: the idle control's retarded spark and its own air flow burn
@@ -36,10 +41,14 @@ from typing import Any
 from vehval.errors import ConfigError
 
 ENGINE_TECHNOLOGIES = ("spark_na", "spark_turbo")
-ENGINE_KEYS = ("indicated_efficiency", "friction_scale", "idle_factor", "pumping_bar")
+ENGINE_KEYS = ("indicated_efficiency", "friction_scale", "idle_factor", "pumping_bar",
+               "efficiency_specific_power_exponent")
+#: specific power at which ``indicated_efficiency`` holds [W/L]
+REFERENCE_SPECIFIC_POWER_W_PER_L = 60e3
 #: physical bounds of each coefficient (a file outside them is refused)
 BOUNDS = {"indicated_efficiency": (0.2, 0.6), "friction_scale": (0.2, 4.0),
           "idle_factor": (0.5, 4.0), "pumping_bar": (0.0, 1.5), "efficiency": (0.7, 1.0),
+          "efficiency_specific_power_exponent": (-1.0, 1.0),
           "turbo_min_specific_power_w_per_l": (30e3, 150e3)}
 DEFAULT_FILE = "data/epa/technology_coefficients.yaml"
 
@@ -83,6 +92,14 @@ def engine_technology(rated_power_w: float, displacement_l: float,
     c = coefficients or load_coefficients()
     spec = rated_power_w / max(displacement_l, 1e-9)
     return "spark_turbo" if spec >= c.turbo_min_specific_power_w_per_l else "spark_na"
+
+
+def indicated_efficiency(base: float, exponent: float, rated_power_w: float,
+                         displacement_l: float) -> float:
+    """Indicated efficiency [-] of an engine of this specific power: ``base`` x (specific
+    power / ``REFERENCE_SPECIFIC_POWER_W_PER_L``)^-``exponent``."""
+    spec = rated_power_w / max(displacement_l, 1e-9)
+    return base * (spec / REFERENCE_SPECIFIC_POWER_W_PER_L) ** (-exponent)
 
 
 def _coefficient(raw: Any, where: str, key: str) -> Coefficient:
@@ -138,4 +155,5 @@ def load_coefficients(path: str | Path | None = None) -> Coefficients:
 
 
 __all__ = ["Coefficient", "Coefficients", "ENGINE_TECHNOLOGIES", "engine_technology",
+           "indicated_efficiency",
            "load_coefficients", "parse_coefficients"]
