@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -86,7 +84,9 @@ def test_cvt_ratio_range_and_operating_line(tmp_path):
     up0 = np.asarray(veh.gearbox.upshift_speed_mps)
     w_next = up0 * veh.overall_ratios()[1:] / veh.driveline.wheel_radius_m / RPM_RAD_PER_S
     assert np.allclose(w_next, tr.CVT_LINE_RPM)
-    assert veh.gearbox.efficiency < vehicle_from_specs(_specs(tmp_path, "A", 8)).gearbox.efficiency
+    # the generic belt efficiency is below the automatic's (the fitted one: docs/validation.md)
+    generic = vehicle_from_specs(_specs(tmp_path, "CVT", 1), technology=False)
+    assert generic.gearbox.efficiency == tr.EFFICIENCY["cvt"] < tr.EFFICIENCY["automatic"]
 
 
 def test_clutch_launch_without_converter(tmp_path):
@@ -124,23 +124,3 @@ def test_automatic_without_technology_is_the_generic_model(tmp_path):
     eff = coef.transmission_value("automatic", "efficiency")
     assert tv.gearbox.efficiency == pytest.approx(eff.value)
     assert coef.where in tv.sources()["gearbox.efficiency"]
-
-
-def test_technology_of_the_engine_by_specific_power():
-    c = tech.load_coefficients()
-    lim = c.turbo_min_specific_power_w_per_l
-    assert tech.engine_technology(0.99 * lim * 2.0, 2.0, c) == "spark_na"
-    assert tech.engine_technology(1.01 * lim * 2.0, 2.0, c) == "spark_turbo"
-    for t in tech.ENGINE_TECHNOLOGIES:
-        for k in tech.ENGINE_KEYS:
-            v = c.engine_value(t, k)
-            assert v is not None and v.interval[0] <= v.value <= v.interval[1] and v.source
-
-
-def test_coefficients_file_out_of_bounds_refused(tmp_path):
-    p = tmp_path / "c.yaml"
-    p.write_text("engine:\n  spark_na:\n    indicated_efficiency: {value: 0.9, interval: "
-                 "[0.8, 1.0], source: x}\n", encoding="utf-8")
-    with pytest.raises(ConfigError, match="indicated_efficiency' = 0.9 outside"):
-        tech.load_coefficients(p)
-    assert math.isfinite(tech.load_coefficients().turbo_min_specific_power_w_per_l)

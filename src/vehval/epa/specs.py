@@ -349,7 +349,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None,
                        friction_scale: float | None = None, cold_start: bool = True,
                        note: str = "", idle_fuel_g_per_s: float | None = None,
                        idle_source: str = "",
-                       enrichment: float = ENRICHMENT, technology: bool = True,
+                       enrichment: float = ENRICHMENT, technology: bool | None = None,
                        coefficients: tech.Coefficients | None = None) -> ConventionalVehicle:
     """The conventional vehicle of ``specs`` with the two free fuel parameters.
 
@@ -372,14 +372,18 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None,
     enrichment : float
         Extra fuel at full load [-] (power enrichment, knock-limited spark), rising
         linearly from ``engine_model.HIGH_LOAD_FROM`` x the full-load torque.
-    technology : bool
+    technology : bool, optional
         Take what is not given (indicated efficiency, friction scale, the warm idle as a
-        factor on the map, the gearbox efficiency) from the generic technology coefficients
-        (:mod:`vehval.epa.technology`); False: the generic constants of this module (the
-        start of a calibration).
+        factor on the map, part-load pumping, the gearbox efficiency) from the generic
+        technology coefficients (:mod:`vehval.epa.technology`); False: the generic constants
+        of this module (the structure a calibration fits). Default: True when neither the
+        indicated efficiency nor the friction scale is given, else False (a caller giving
+        them calibrates the generic model).
     coefficients : Coefficients, optional
         The technology coefficients (default: the package's file).
     """
+    if technology is None:
+        technology = indicated_efficiency is None and friction_scale is None
     coef = (coefficients or tech.load_coefficients()) if technology else None
     engine_tech = specs.engine_technology
     family = specs.family
