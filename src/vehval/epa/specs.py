@@ -22,7 +22,13 @@ what the list does not state with generic, documented scaling (constants below):
   the rated power, rated at a generic speed;
 * gearbox: top-gear overall ratio from N/V (engine speed per vehicle speed, exact), the
   other gears geometric over a ratio spread typical of the gear count; shift lines from
-  engine speeds; a converter sized by its stall speed, locked from third gear;
+  engine speeds; a converter sized by its stall speed, locked from third gear (an
+  automatic; a CVT, an automated manual or dual-clutch box and a manual are built by
+  their family, :mod:`vehval.epa.transmissions`);
+* generic technology coefficients (:mod:`vehval.epa.technology`): when no fuel value is
+  given, the indicated efficiency, friction scale, warm idle factor, part-load pumping
+  and gearbox efficiency of the engine technology and transmission family, fitted across
+  a list year (docs/validation.md);
 * cold start: the extra fuel of the FTP's first bag over its third in the list's own
   FTP rows of the configuration (the same car, same road load), placed as the vehicle's
   warm-up fuel with a generic time constant.
@@ -228,7 +234,8 @@ def hybrid_mark(tests: list[EpaTest]) -> str:
 def _check_car(tests: list[EpaTest]) -> None:
     """Refuse what the spark-ignition conventional model cannot describe: a hybrid or
     plug-in by its model name, a configuration tested on no gasoline (diesel, E85,
-    electricity), a transmission other than a geared automatic."""
+    electricity), a transmission no family models (``OT``, a one-gear automatic, an
+    unknown code)."""
     t0 = tests[0]
     why = hybrid_mark(tests)
     if why:
@@ -286,8 +293,9 @@ def specs_from_tests(tests: list[EpaTest]) -> Specs:
 
     The rows must agree on the test vehicle's weight, road load, axle ratio, N/V,
     gears, displacement and rated power (one car; cold CO rows, whose road load is raised
-    for -7 degC, are not compared); an automatic with a torque converter (transmission
-    ``A`` or ``SA``, 3-10 gears), a gasoline test and a model name without a hybrid mark
+    for -7 degC, are not compared); a transmission of a modelled family
+    (:func:`vehval.epa.transmissions.family_of`: automatic, CVT, automated manual or
+    dual-clutch, manual), a gasoline test and a model name without a hybrid mark
     are required, and the listed power and N/V must be plausible.
 
     Raises
