@@ -396,27 +396,12 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None,
     engine_tech = specs.engine_technology
     family = specs.family
 
-    def pick(given: float | None, key: str, default: float) -> tuple[float, str]:
-        if given is not None:
-            return float(given), ""
-        c = coef.engine_value(engine_tech, key) if coef is not None else None
-        if c is None or coef is None:
-            return default, ""
-        return c.value, f"{key.replace('_', ' ')} of {engine_tech}: {c.text()} ({coef.where})"
-
-    given_eta = indicated_efficiency is not None
-    indicated_efficiency, eta_src = pick(indicated_efficiency, "indicated_efficiency",
-                                         INDICATED_EFFICIENCY)
-    gamma, gamma_src = pick(None, "efficiency_specific_power_exponent", 0.0)
-    if gamma and not given_eta:
-        indicated_efficiency = tech.indicated_efficiency(indicated_efficiency, gamma,
-                                                         specs.rated_power_w, specs.displacement_l)
-        eta_src += (f", at {specs.rated_power_w / specs.displacement_l / 1e3:.1f} kW/L x "
-                    f"(specific power / {tech.REFERENCE_SPECIFIC_POWER_W_PER_L / 1e3:g} kW/L)"
-                    f"^-{gamma:.4g}: {gamma_src}")
-    friction_scale, kf_src = pick(friction_scale, "friction_scale", 1.0)
-    idle_factor, idle_f_src = pick(None, "idle_factor", 1.0)
-    pumping_bar, pump_src = pick(None, "pumping_bar", 0.0)
+    e = tech.engine_values(coef, engine_tech, specs.rated_power_w, specs.displacement_l,
+                           indicated_efficiency, friction_scale, INDICATED_EFFICIENCY)
+    indicated_efficiency, eta_src = e["indicated_efficiency"]
+    friction_scale, kf_src = e["friction_scale"]
+    idle_factor, idle_f_src = e["idle_factor"]
+    pumping_bar, pump_src = e["pumping_bar"]
     gb_eff = coef.transmission_value(family, "efficiency") if coef is not None else None
     if not (0.1 <= indicated_efficiency <= 0.6 and 0.2 <= friction_scale <= 4.0
             and 0.0 <= enrichment <= 1.0):

@@ -102,6 +102,37 @@ def indicated_efficiency(base: float, exponent: float, rated_power_w: float,
     return base * (spec / REFERENCE_SPECIFIC_POWER_W_PER_L) ** (-exponent)
 
 
+def engine_values(coef: Coefficients | None, engine_tech: str, rated_power_w: float,
+                  displacement_l: float, eta: float | None, friction_scale: float | None,
+                  eta_default: float) -> dict[str, tuple[float, str]]:
+    """(value, source text) of the engine's fuel coefficients: a given value as given (no
+    source text), else the file's (``coef``; None: the generic defaults, ''); the
+    indicated efficiency at this engine's specific power (:func:`indicated_efficiency`)
+    unless given."""
+
+    def pick(given: float | None, key: str, default: float) -> tuple[float, str]:
+        if given is not None:
+            return float(given), ""
+        c = coef.engine_value(engine_tech, key) if coef is not None else None
+        if c is None or coef is None:
+            return default, ""
+        return c.value, f"{key.replace('_', ' ')} of {engine_tech}: {c.text()} ({coef.where})"
+
+    out = {"indicated_efficiency": pick(eta, "indicated_efficiency", eta_default),
+           "friction_scale": pick(friction_scale, "friction_scale", 1.0),
+           "idle_factor": pick(None, "idle_factor", 1.0),
+           "pumping_bar": pick(None, "pumping_bar", 0.0)}
+    gamma, gamma_src = pick(None, "efficiency_specific_power_exponent", 0.0)
+    if gamma and eta is None:
+        base, src = out["indicated_efficiency"]
+        spec = rated_power_w / max(displacement_l, 1e-9)
+        out["indicated_efficiency"] = (
+            indicated_efficiency(base, gamma, rated_power_w, displacement_l),
+            f"{src}, at {spec / 1e3:.1f} kW/L x (specific power / "
+            f"{REFERENCE_SPECIFIC_POWER_W_PER_L / 1e3:g} kW/L)^-{gamma:.4g}: {gamma_src}")
+    return out
+
+
 def _coefficient(raw: Any, where: str, key: str) -> Coefficient:
     if not isinstance(raw, dict) or "value" not in raw:
         raise ConfigError(f"{where}: '{key}' needs a mapping with 'value', 'interval', 'source'")
@@ -155,5 +186,5 @@ def load_coefficients(path: str | Path | None = None) -> Coefficients:
 
 
 __all__ = ["Coefficient", "Coefficients", "ENGINE_TECHNOLOGIES", "engine_technology",
-           "indicated_efficiency",
+           "engine_values", "indicated_efficiency",
            "load_coefficients", "parse_coefficients"]
