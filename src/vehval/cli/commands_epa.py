@@ -478,13 +478,24 @@ def calibrate_cmd(
         typer.echo(f"wrote {output}")
 
 
-def _uncalibrated() -> str:
-    """What a vehicle built without calibration tests is."""
+def _uncalibrated(specs: Any = None) -> str:
+    """What a vehicle built without calibration tests is: the generic technology
+    coefficients of its engine and gearbox (:mod:`vehval.epa.technology`)."""
+    from vehval.epa import technology as tech
     from vehval.epa.specs import INDICATED_EFFICIENCY
 
-    return ("fuel model not calibrated (no --calibrate test): the generic start values, "
-            f"indicated efficiency {100 * INDICATED_EFFICIENCY:.0f} %, Heywood's friction "
-            "(scale 1), idle fuel from the map")
+    head = "fuel model not calibrated (no --calibrate test)"
+    if specs is None:
+        return f"{head}: the generic technology coefficients"
+    c = tech.load_coefficients()
+    e = tech.engine_values(c, specs.engine_technology, specs.rated_power_w,
+                           specs.displacement_l, None, None, INDICATED_EFFICIENCY)
+    return (f"{head}: the generic technology coefficients ({c.where}) of a "
+            f"{specs.engine_technology.replace('_', ' ')} engine and a "
+            f"{specs.family.replace('_', ' ')} gearbox: indicated efficiency "
+            f"{100 * e['indicated_efficiency'][0]:.0f} %, friction scale "
+            f"{e['friction_scale'][0]:.2g} x Heywood, idle fuel {e['idle_factor'][0]:.2g} x "
+            f"the map, part-load pumping {e['pumping_bar'][0]:.2g} bar")
 
 
 def _narrow(rows: list, vehicle_id: str | None, config: str | None) -> list:
@@ -573,7 +584,7 @@ def vehicle_cmd(
     held = [runs[f] for f in predict]
     fit = calibrate_specs(specs, cal, dt) if cal else None
     veh = fit.vehicle() if fit is not None else vehicle_from_specs(
-        specs, note=f"; {_uncalibrated()}")
+        specs, note=f"; {_uncalibrated(specs)}")
     pred = predict_runs(fit.model() if fit else veh, held, dt) if held else {}
     split_rows = all_splits(specs, list(runs.values()), splits, dt) if splits else []
     write_vehicle_yaml(veh, output, "vehval epa vehicle")
@@ -597,8 +608,10 @@ def vehicle_cmd(
                f"{specs.rated_power_w / 1e3:.0f} kW, {specs.gears}-speed, axle "
                f"{specs.axle_ratio:g}, N/V {specs.n_v_ratio:g}")
     if fit is None:
-        typer.echo(f"{_uncalibrated()}: expect errors up to about 25 % against the list's "
-                   "figures (docs/validation.md); give dyno tests with --calibrate")
+        typer.echo(f"{_uncalibrated(specs)}: expect a median error of about 5 % on the "
+                   "FTP-75 and 3-5 % on the HWFET and US06 against the list's figures, "
+                   "beyond 10 % for some cars (docs/validation.md); give dyno tests with "
+                   "--calibrate")
     if fit is not None:
         idle = "-" if fit.idle_fuel_g_per_s is None else f"{fit.idle_fuel_g_per_s:.3f}"
         brake = peak_brake_efficiency(veh.engine)
