@@ -47,13 +47,9 @@ REASONS = {
     "specs_not_usable": "the car's specification is missing, impossible or ambiguous",
     "model_error": "the simulation of this row failed",
 }
-#: rated power per litre from which a gasoline engine is counted turbocharged [W/L]: the lists
-#: have no aspiration column; naturally aspirated car engines make 45-75 kW/L, downsized
-#: turbo engines 80-140 kW/L (engineering threshold)
-TURBO_W_PER_L = 78e3
-#: list transmission code -> transmission class of the report
-TRANSMISSION_CLASSES = {"A": "automatic", "SA": "automatic", "CVT": "CVT", "SCV": "CVT",
-                        "AM": "dual-clutch", "AMS": "dual-clutch", "M": "manual"}
+#: the report's name of each transmission family (vehval.epa.transmissions owns the codes)
+CLASS_OF_FAMILY = {"automatic": "automatic", "cvt": "CVT", "automated_manual": "dual-clutch",
+                   "manual": "manual"}
 #: simulation step of the fleet [s] (``epa validate``'s default: at 1 s the HWFET reads
 #: about 1.5 % higher)
 FLEET_DT_S = 0.2
@@ -81,19 +77,25 @@ def _f(x: float) -> float | None:
 
 
 def aspiration(t: EpaTest) -> str:
-    """``diesel``, ``turbocharged`` or ``naturally aspirated`` (by the rated power per litre,
-    :data:`TURBO_W_PER_L`); ``unknown`` without power or displacement."""
+    """``diesel``, ``turbocharged`` or ``naturally aspirated`` (the technology rule of
+    :func:`vehval.epa.technology.engine_technology`); ``unknown`` without power or
+    displacement."""
+    from vehval.epa.technology import engine_technology
+
     if fuel_family(t.fuel) == "diesel":
         return "diesel"
     if not (t.displacement_l > 0 and t.rated_power_w > 0):
         return "unknown"
-    return "turbocharged" if t.rated_power_w / t.displacement_l >= TURBO_W_PER_L \
-        else "naturally aspirated"
+    turbo = engine_technology(t.rated_power_w, t.displacement_l) == "spark_turbo"
+    return "turbocharged" if turbo else "naturally aspirated"
 
 
 def transmission_class(t: EpaTest) -> str:
     """``automatic``, ``CVT``, ``dual-clutch``, ``manual`` or ``other`` of the listed code."""
-    return TRANSMISSION_CLASSES.get(t.transmission, "other")
+    from vehval.epa.transmissions import FAMILY_OF_CODE
+
+    fam = FAMILY_OF_CODE.get((t.transmission or "").strip().upper())
+    return CLASS_OF_FAMILY.get(fam or "", "other")
 
 
 def car_key(t: EpaTest) -> str:
