@@ -5,7 +5,7 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.vehval-installed
 DEMO_OUT ?= demo_out
 
-.PHONY: venv demo test test-fast lint golden generate bench browser clean lock
+.PHONY: venv demo test test-fast lint golden generate bench browser clean lock screenshots
 
 $(STAMP): pyproject.toml constraints.txt
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -20,6 +20,11 @@ demo: venv
 
 browser:
 	@bash scripts/ensure_chromium.sh
+
+# the workbench's screenshots in docs/workbench/, taken by its browser tests from the real
+# pages (virtual tests always; the Cruze pages when ../shared/data is there)
+screenshots: venv browser
+	VEHVAL_SCREENSHOTS=1 $(BIN)/python -m pytest -q -p no:xdist -m browser tests/serve
 
 # ruff: pyflakes, statement errors, import order and function size/complexity; mypy over the
 # whole package (both configured in pyproject.toml)

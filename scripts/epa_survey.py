@@ -35,6 +35,7 @@ from vehval.constants import MPH_M_PER_S as MPH
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.epa import engine_model as em
 from vehval.epa import specs as sp
+from vehval.epa import transmissions as tr
 from vehval.epa.procedures import is_gasoline, plan_for, procedure_key
 from vehval.epa.reader import read_test_car_list
 from vehval.epa.specs import RATIO_SPREAD, specs_from_tests, vehicle_from_specs
@@ -181,14 +182,15 @@ def ftp_idle_share(veh, test, dt: float) -> float:
 
 
 def survey(paths: list[str], n_max: int, dt: float, per_make: int, cars=CARS,
-           idle_factor: float = 1.0, **model_kw) -> list[dict]:
+           idle_factor: float = 1.0, technology: bool = False, **model_kw) -> list[dict]:
     rows_out = []
     for k, rows in enumerate(candidates(paths, 999 if cars else per_make, cars)[:n_max]):
         specs = specs_from_tests(rows)
-        veh = vehicle_from_specs(specs, **model_kw)
+        veh = (vehicle_from_specs(specs) if technology
+               else vehicle_from_specs(specs, technology=False, **model_kw))
         if idle_factor != 1.0:
             idle = veh.engine_control.idle_fuel_rate_g_per_s * idle_factor
-            veh = vehicle_from_specs(specs, idle_fuel_g_per_s=idle,
+            veh = vehicle_from_specs(specs, idle_fuel_g_per_s=idle, technology=False,
                                      idle_source=f"{idle_factor:g} x the map", **model_kw)
         rec = {"car": f"{specs.make} {specs.model} {specs.year}", "half": "AB"[k % 2],
                "gears": specs.gears, "litres": specs.displacement_l,
@@ -272,6 +274,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--friction-scale", type=float, default=1.0, help="x Heywood [-]")
     ap.add_argument("--idle-factor", type=float, default=1.0,
                     help="warm idle fuel = this x the map at idle [-]")
+    ap.add_argument("--technology", action="store_true",
+                    help="the generic technology coefficients (vehval.epa.technology) instead "
+                         "of the generic constants")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                     help="override a generic constant of vehval.epa.specs or "
                          "vehval.epa.engine_model for a what-if run (e.g. UPSHIFT_RPM=1100)")
@@ -286,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
         with_part_load_pumping(a.pumping_bar)
     for item in a.set:
         name, value = item.split("=", 1)
-        mods = [m for m in (sp, em) if hasattr(m, name)]
+        mods = [m for m in (sp, em, tr) if hasattr(m, name)]
         if not mods:
             ap.error(f"--set {item}: no constant {name} in vehval.epa.specs or engine_model")
         for m in mods:
@@ -294,7 +299,8 @@ def main(argv: list[str] | None = None) -> int:
     print(HEAD)
     print("|---" * (HEAD.count("|") - 1) + "|")
     rows = survey(a.lists, a.max, a.dt, a.per_make, () if a.all else CARS,
-                  idle_factor=a.idle_factor, indicated_efficiency=a.eta,
+                  idle_factor=a.idle_factor, technology=a.technology,
+                  indicated_efficiency=a.eta,
                   friction_scale=a.friction_scale)
     print(summary(rows))
     if a.json:

@@ -26,7 +26,7 @@ SRC = Path(__file__).resolve().parents[1]
 LAYERS: dict[str, int] = {
     "vehval": 0, "errors": 0, "constants": 0, "units": 0, "nomenclature": 0, "safe_yaml": 0,
     "jsonsafe": 0, "conditions": 0, "protocols": 0, "numba_cache": 0, "progress": 0,
-    "fuels": 0, "display": 0, "uncertainty": 0, "layers": 0, "integrals": 0,
+    "fuels": 0, "display": 0, "uncertainty": 0, "layers": 0, "integrals": 0, "figures": 0,
     "test": 1, "cycles": 1, "cycles_match": 1, "vehicle": 1,
     "io": 2, "align": 2,
     "equations": 3, "sim": 3, "calibration": 3,

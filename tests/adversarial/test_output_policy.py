@@ -143,6 +143,8 @@ WRITERS = {
         "sensitivity", "--cycles", "hwfet", "--params", "vehicle.mass_kg", "-o", x]),
     "batch -o": ("-o", True, lambda i, x: [
         "batch", i["dir"], "-t", i["t"], "-o", x, "-j", "0"]),
+    "epa fleet -o": ("-o", True, lambda i, x: [
+        "epa", "fleet", i["epa"], "-o", x, "--workers", "1"]),
 }
 
 NODES = ["chr", "fifo", "socket", "link-chr", "link-fifo"]

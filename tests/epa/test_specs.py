@@ -31,7 +31,7 @@ def test_specs_from_list_rows(specs):
     assert len(specs.rows) == 2
 
 
-def test_specs_refuse_mixed_configurations_and_cvt(tmp_path, monkeypatch):
+def test_specs_refuse_mixed_configurations_and_other_transmissions(tmp_path, monkeypatch):
     monkeypatch.setenv("VEHVAL_UNITS", "us")
     rows = camry_rows() + camry_rows(vid="18-GV2A", weight=3875)
     path = write_list(tmp_path / "mixed.csv", rows, header=HEADER)
@@ -41,19 +41,19 @@ def test_specs_refuse_mixed_configurations_and_cvt(tmp_path, monkeypatch):
     # (was kg to six digits: 1644.27), and this command's options
     assert "18-AV3A config 1: 3625 lb; 18-GV2A config 1: 3875 lb" in str(err.value)
     assert "--vehicle-id" in str(err.value) and "CAMRY" not in str(err.value)
-    # a CVT (a hybrid's) is refused as such before any narrowing is asked for
-    cvt_mixed = rows
-    for r in cvt_mixed:
-        r.update({"Tested Transmission Type Code": "CVT", "# of Gears": "1"})
-    path = write_list(tmp_path / "cvt_mixed.csv", cvt_mixed, header=HEADER)
-    with pytest.raises(ConfigError, match="automatic with a torque converter"):
+    # a transmission no family models is refused as such before any narrowing is asked for
+    other = rows
+    for r in other:
+        r.update({"Tested Transmission Type Code": "OT", "# of Gears": "1"})
+    path = write_list(tmp_path / "ot_mixed.csv", other, header=HEADER)
+    with pytest.raises(ConfigError, match="'OT' \\(other\\)"):
         specs_from_tests(read_test_car_list(path))
+    # a CVT is a modelled family now (vehval.epa.transmissions)
     cvt = camry_rows()
     for r in cvt:
         r.update({"Tested Transmission Type Code": "CVT", "# of Gears": "1"})
     path = write_list(tmp_path / "cvt.csv", cvt, header=HEADER)
-    with pytest.raises(ConfigError, match="automatic with a torque converter"):
-        specs_from_tests(read_test_car_list(path))
+    assert specs_from_tests(read_test_car_list(path)).family == "cvt"
 
 
 def test_vehicle_from_specs_keeps_n_v_and_sources(specs):
@@ -311,7 +311,8 @@ def test_cli_vehicle_without_tests_says_it_is_not_calibrated(tmp_path, capsys):
                  "--year", "2019", "-o", str(out)]) == 0
     text = capsys.readouterr().out
     assert "fuel model not calibrated (no --calibrate test)" in text
-    assert "indicated efficiency 38 %" in text
+    assert "generic technology coefficients" in text and "spark na engine" in text
+    assert "automatic gearbox: indicated efficiency" in text
     assert "fuel model not calibrated" in load_vehicle(out).description
 
 

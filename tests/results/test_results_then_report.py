@@ -61,7 +61,7 @@ def test_results_section_follows_the_unit_system(monkeypatch):
     assert phases.columns[6:8] == ["consumption [L/100 km]", "fuel economy [mpg]"]
     assert phases.rows[0][1] == 5.78 and phases.rows[0][3] == 41.22
     assert phases.rows[0][6] == "8.12 ± 0.10" and phases.rows[0][-2] == 0.526   # RMSSE km/h
-    assert headline_banner(_doc())["title"].split(": ", 1)[1].startswith("8.12 L/100 km")
+    assert headline_banner(_doc())["title"].split(": ", 1)[1].startswith("8.12 ± 0.10 L/100 km")
     comp = next(t for t in sec.tables if t.title == "Regulatory composites")
     assert comp.rows[0][-1] == "none"            # the substitute is not repeated as a caveat
     monkeypatch.setenv("VEHVAL_UNITS", "us")

@@ -14,7 +14,6 @@ import pytest
 
 from vehval.cli import main
 
-from .browsing import browser  # noqa: F401 - the Chromium fixture of the browser tests
 from .helpers import _relabel_fuel
 
 
@@ -60,3 +59,21 @@ def batch_ws(synth_dir, tmp_path_factory) -> Path:
         encoding="utf-8")
     run_batch(ws / "in", ws / "template.yaml", ws / "out", steps=["qa"], workers=0, progress=False)
     return ws
+
+
+@pytest.fixture()
+def browser():
+    """Headless Debian Chromium through playwright (skips when either is missing)."""
+    from helpers.browser import ARGS, CHROMIUM
+
+    if not Path(CHROMIUM).exists():
+        pytest.skip("chromium not installed (run `make browser`)")
+    sync_api = pytest.importorskip("playwright.sync_api")
+    pytest.importorskip("uvicorn")
+    with sync_api.sync_playwright() as p:
+        try:
+            b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        except Exception as exc:  # noqa: BLE001 - a broken browser install is a skip
+            pytest.skip(f"chromium does not start: {exc}")
+        yield b
+        b.close()

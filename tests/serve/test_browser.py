@@ -16,7 +16,7 @@ import yaml
 from vehval.catalog import open_catalog
 from vehval.io.template import Template
 
-from .browsing import Visit, _wait
+from .browser_page import Visit, _wait, one_unit_per_axis, shot
 from .helpers import FUEL_COLUMN, expected_mpg
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("serve_browser")]
@@ -38,6 +38,7 @@ def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
         page = s.page
         page.goto(s.server.url)
         assert "token" not in page.url  # the token went into a cookie
+        shot(page, "home")
         page.click("text=virtual")
         _wait_run(page, 0)  # the page runs QA on open (template saved, no result yet)
         summary = page.text_content("#summary") or ""
@@ -66,6 +67,11 @@ def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
         mpg = float(page.text_content("#headline-mpg"))
         expected = expected_mpg(synth_dir, 740.0)  # gasoline_e0: 740 kg/m³
         assert mpg == pytest.approx(expected, rel=0.03)
+        # the report's headline: U (k = 2), the rule, and the virtual Prius's J1711 status
+        assert " ± " in (page.text_content("#headline-figure") or "")
+        assert "SAE J1711" in (page.text_content("#headline-j1711") or "")
+        assert "SAE J1711" in (page.text_content("#headline-lines") or "")
+        shot(page, "template_review")
         assert page.locator(f'tr[data-raw="{FUEL_COLUMN}"] .hint').count() == 0
         saved = yaml.safe_load((workspace / "virtual" / "template.yaml").read_text(encoding="utf-8"))
         init["fuel"] = "gasoline_e0"
@@ -75,6 +81,11 @@ def test_unit_fix_and_triage_in_chromium(browser, workspace, synth_dir):
         page.click("button[data-tab=triage]")
         page.locator("#findings tr.finding").first.click()
         _wait(page, "document.getElementById('findplot').dataset.finding")
+        # the plot lies under its finding, one unit per axis
+        assert page.evaluate("document.getElementById('findplot').closest('tr')"
+                             ".previousElementSibling.classList.contains('sel')")
+        one_unit_per_axis(page, "findplot")
+        shot(page, "triage")
         sel = page.locator('#selection tr[data-signal="dyno_frc_test"]')
         sel.locator("input.drop-reason").fill("load cell drifting this week")
         n = _runs(page)
@@ -103,10 +114,21 @@ def test_catalog_in_chromium(browser, batch_ws):
         page.click("text=out/catalog.duckdb")
         _wait(page, "document.body.dataset.rows === '2'")
         with open_catalog(batch_ws / "out" / "catalog.duckdb", read_only=True) as cat:
-            _, rows = cat.query("SELECT test_id, fuel_economy_mpg FROM latest_tests ORDER BY 1")
-        for test_id, mpg in rows:
-            cell = page.locator(f'tr[data-test="{test_id}"] td[data-col="fuel_economy_mpg"]')
-            assert cell.text_content() == str(mpg)  # the catalog's number, as stored
+            _, rows = cat.query("SELECT test_id, headline_name, headline_mpg, headline_u_mpg "
+                                "FROM latest_tests ORDER BY 1")
+        for test_id, name, mpg, u in rows:
+            cell = page.locator(f'tr[data-test="{test_id}"] td[data-col="headline"]')
+            # the catalog's headline with its U (k = 2), in display units
+            shown = "whole test" if name == "test" else name
+            text = cell.text_content() or ""
+            assert text.startswith(f"{shown}: {mpg:.2f} ± {u:.2f} mpg ("), (text, name, mpg, u)
+        heads = page.locator("#catalog th").all_text_contents()
+        assert "distance [mi]" in heads and not any("_m" in h or "_kg" in h for h in heads)
+        # the table fits a 1280 px window
+        page.set_viewport_size({"width": 1280, "height": 900})
+        width = page.evaluate("document.getElementById('catalog').getBoundingClientRect().right")
+        assert width <= 1280, width
+        shot(page, "catalog")
         page.select_option('select[data-filter="cycle"]', "japan1015")
         _wait(page, "document.body.dataset.rows === '1'")
         page.select_option('select[data-filter="cycle"]', "")
@@ -117,6 +139,8 @@ def test_catalog_in_chromium(browser, batch_ws):
         page.click("#overlay")
         _wait(page, "document.getElementById('overlayplot').dataset.traces === '2'")
         assert page.locator("#overlayplot .scatterlayer .trace").count() == 2
+        assert one_unit_per_axis(page, "overlayplot") == {"yaxis": ["mph"]}
+        shot(page, "catalog_overlay")
         # a test's report (shared plotly.js of the batch) opens from the workbench
         href = page.locator('tr[data-test="udds"] a').get_attribute("href")
         page.goto(s.origin + href)

@@ -48,3 +48,42 @@ def test_rows_filters_and_overlay_match_the_catalog(batch_ws):
     assert ph["phases"][0]["span"][1] == pytest.approx(505.0, abs=1.0)  # bag 1: 505 s
     bad = c.get("/api/catalog", params={"db": "../x.duckdb"})
     assert bad.status_code == 403
+
+
+def test_overlay_from_the_batch_kept_signals_and_a_missing_soc(batch_ws, tmp_path):
+    """The overlay reads the validated signals the batch kept (tests/ID/overlay.parquet): it
+    works with the raw files outside the workspace; a test without an SOC signal (a
+    conventional car) is named beside the plot, the others drawn, in display units."""
+    import shutil
+
+    from vehval.io.parquet import read_test, write_test
+    from vehval.serve.catalog_view import overlay_figure, test_traces
+    from vehval.test import Test
+
+    ws = tmp_path / "ws"
+    shutil.copytree(batch_ws / "out", ws / "out")      # the raw files stay outside `ws`
+    db = (ws / "out" / "catalog.duckdb").resolve()
+    root = ws.resolve()
+    tr = test_traces(root, db, "udds", "speed", 1000)
+    assert tr["unit"] == "mph" and tr["span"][1] > 1300
+    kept = ws / "out" / "tests" / "udds" / "overlay.parquet"
+    t = read_test(kept)
+    write_test(Test([s for s in t if s.base != "ess_soc"], meta=t.meta), kept)
+    out = overlay_figure(root, db, ["udds", "japan1015"], "soc", 1000)
+    assert out["traces"] == 1 and out["missing"] == [
+        "udds: no battery SOC signal in the test (a conventional car has no traction battery)"]
+    assert out["figure"]["layout"]["yaxis"]["title"]["text"] == "battery SOC [%]"
+
+
+def test_catalog_view_is_in_display_units(batch_ws):
+    c = _client(batch_ws)
+    r = c.get("/api/catalog", params={"db": "out/catalog.duckdb"}).json()
+    heads = [h["label"] for h in r["view"]["columns"]]
+    assert "distance [mi]" in heads and "headline (U, k = 2)" in heads
+    udds = r["view"]["rows"][[x["test_id"] for x in r["rows"]].index("udds")]
+    row = next(x for x in r["rows"] if x["test_id"] == "udds")
+    assert udds["distance_m"] == f"{row['distance_m'] / 1609.344:,.2f}"
+    assert udds["headline"].startswith("udds: ") and " ± " in udds["headline"]
+    ov = c.get("/api/catalog/overlay", params={"db": "out/catalog.duckdb",
+                                               "tests": "udds,japan1015", "q": "soc"}).json()
+    assert ov["traces"] == 2 and ov["missing"] == []

@@ -9,8 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from .browsing import Visit, _wait
-from .shots import shot
+from .browser_page import Visit, _wait, shot
 
 pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("serve_browser")]
 

@@ -60,6 +60,17 @@ def test_model_overlay_with_verdicts(synth_dir, tmp_path):
     assert row["U_meas (k = 2)"] == pytest.approx(1e3 * ne["u_meas_kg"])
     assert row["error [%]"] == pytest.approx(100 * (ne["model_kg"] / ne["measured_kg"] - 1))
     assert row["verdict"].startswith(ne["verdict"])
+    # the model's verdict with its En joins the page's headline; its figure: one panel per
+    # quantity on one linked time axis, one unit per axis, in display units
+    from vehval.report.finding_figures import panel_units
+
+    h = c.get("/api/test", params={"dir": "prius"}).json()["headline"]
+    assert h["model"]["en"] == pytest.approx(ne["en"]) and f"En = {ne['en']:+.2f}" in h["verdict"]
+    units = panel_units(m["figure"])
+    assert len(units) >= 3 and all(len(u) == 1 for u in units.values())
+    assert {"mph", "rpm", "%"} <= {next(iter(u)) for u in units.values()}
+    assert all(m["figure"]["layout"][f"xaxis{i}"].get("matches") == "x"
+               for i in range(2, len(units) + 1))
 
 
 def test_model_needs_a_vehicle(workspace):

@@ -107,28 +107,31 @@ class AnalysisResult:
             {"title": "Findings", "columns": ["kind", "signal", "message"],
              "rows": [[f["kind"], f["signal"], f["message"]] for f in self.findings]},
         ]
+        from vehval.figures import bar_figure, markers_figure
+
         figs = []
         hist = self.operating_points.get("power_by_mode", {})
         if "edges_w" in hist:
             centers = [(a + b) / 2e3 for a, b in zip(hist["edges_w"][:-1], hist["edges_w"][1:])]
-            figs.append({"data": [{"type": "bar", "name": m, "x": centers, "y": c}
-                                  for m, c in hist["counts"].items()],
-                         "layout": {"title": "Engine power by mode", "barmode": "stack",
-                                    "xaxis": {"title": "engine power [kW]"},
-                                    "yaxis": {"title": "steps"}}})
+            figs.append(bar_figure([{"name": m, "x": centers, "y": c}
+                                    for m, c in hist["counts"].items()],
+                                   title="Engine power by mode", stacked=True,
+                                   xlabel="engine power [kW]", ylabel="steps"))
         cur = self.braking.get("current_during_regen", {})
         if "edges_a" in cur:
             centers = [(a + b) / 2 for a, b in zip(cur["edges_a"][:-1], cur["edges_a"][1:])]
-            figs.append({"data": [{"type": "bar", "x": centers, "y": cur["counts"]}],
-                         "layout": {"title": "Battery current during regenerative braking",
-                                    "xaxis": {"title": "current [A]"}, "yaxis": {"title": "steps"}}})
+            figs.append(bar_figure([{"x": centers, "y": cur["counts"]}],
+                                   title="Battery current during regenerative braking",
+                                   xlabel="current [A]", ylabel="steps"))
         ev = [e for e in self.events if e["type"] == "on"]
         if ev:
-            figs.append({"data": [{"type": "scatter", "mode": "markers", "name": "engine starts",
-                                   "x": [e["speed_mps"] for e in ev], "y": [e["total_demand_w"] for e in ev]}],
-                         "layout": {"title": "Conditions at engine starts",
-                                    "xaxis": {"title": "speed [m/s]"},
-                                    "yaxis": {"title": "total demand [W]"}}})
+            from vehval.display import to_display
+
+            v, vu = to_display(np.array([e["speed_mps"] for e in ev], float), "m/s")
+            p, pu = to_display(np.array([e["total_demand_w"] for e in ev], float), "W")
+            figs.append(markers_figure([{"name": "engine starts", "x": v, "y": p}],
+                                       title="Conditions at engine starts",
+                                       xlabel=f"speed [{vu}]", ylabel=f"total demand [{pu}]"))
         return {"title": "Control strategy", "tables": tables, "figures": figs}
 
 

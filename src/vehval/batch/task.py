@@ -103,9 +103,30 @@ def _vehicle(name: str | None, digest: str):
     return load_vehicle(name)
 
 
-def _compact_findings(qa_dict: dict) -> list[dict]:
+#: The validated signals a test keeps for the catalog's overlays (``tests/ID/overlay.parquet``):
+#: the best signal of each base, in SI; overlays work wherever the raw files are.
+OVERLAY_FILE = "overlay.parquet"
+OVERLAY_BASES = ("veh_spd", "fuel_rate", "eng_spd_out", "ess_soc", "test_phase")
+
+
+def write_overlay(test: Any, path: Path) -> Path | None:
+    """The overlay signals of a validated ``test`` (:data:`OVERLAY_BASES`) to ``path``
+    (None when the test holds none of them)."""
+    from vehval.io.parquet import write_test
+    from vehval.test import Test
+
+    sigs = [s for b in OVERLAY_BASES if (s := test.best(b, ("test", "calc"))) is not None]
+    if not sigs:
+        return None
+    return write_test(Test(sigs, meta=test.meta), path)
+
+
+def _compact_findings(qa_dict: dict, results: dict | None = None) -> list[dict]:
+    """Every finding of QA and of the results stage (:func:`stage_findings`), compact."""
+    from vehval.results.all_findings import stage_findings
+
     keep = ("signal", "kind", "severity", "start_s", "end_s", "message")
-    return [{k: f.get(k) for k in keep} for f in qa_dict.get("findings") or [] if isinstance(f, dict)]
+    return [{k: f.get(k) for k in keep} for f in stage_findings(qa_dict, results)]
 
 
 def _by_severity(findings: list[dict]) -> dict[str, int]:
@@ -222,12 +243,14 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
         outputs[step] = out
         write_text_atomic(stage / STEP_OUTPUT[step], dump_json(out))
     qa_dict = outputs.get("qa") or {}
-    write_text_atomic(stage / "results.json", dump_json(res.to_dict()))
+    write_overlay(run.validated, stage / OVERLAY_FILE)
+    res_doc = res.to_dict()
+    write_text_atomic(stage / "results.json", dump_json(res_doc))
     result["results"] = results_summary(res)
     result["metrics"] = test_metrics(test, _selected(qa_dict) if qa_dict else None, fuel=res.fuel,
                                      results=res)
     if qa_dict:
-        result["findings"] = _compact_findings(qa_dict)
+        result["findings"] = _compact_findings(qa_dict, res_doc)
         result["findings_by_severity"] = _by_severity(result["findings"])
         result["qa_summary"] = qa_dict.get("summary")
     if "validate" in outputs and isinstance(outputs["validate"], dict):

@@ -28,6 +28,7 @@ def _register() -> None:
         commands_batch,  # noqa: F401
         commands_cycles,  # noqa: F401
         commands_epa,  # noqa: F401
+        commands_fleet,  # noqa: F401 - registers on the epa group
         commands_identify,  # noqa: F401
         commands_predict,  # noqa: F401
         commands_import,  # noqa: F401

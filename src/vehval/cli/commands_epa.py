@@ -194,8 +194,10 @@ def vehicle_cmd(
                f"{specs.rated_power_w / 1e3:.0f} kW, {specs.gears}-speed, axle "
                f"{specs.axle_ratio:g}, N/V {specs.n_v_ratio:g}")
     if fit is None:
-        typer.echo(f"{uncalibrated_note()}: expect errors up to about 25 % against the list's "
-                   "figures (docs/validation.md); give dyno tests with --calibrate")
+        typer.echo(f"{uncalibrated_note(specs)}: expect a median error of about 5 % on the "
+                   "FTP-75 and 3-5 % on the HWFET and US06 against the list's figures, "
+                   "beyond 10 % for some cars (docs/validation.md); give dyno tests with "
+                   "--calibrate")
     if fit is not None:
         idle = "-" if fit.idle_fuel_g_per_s is None else f"{fit.idle_fuel_g_per_s:.3f}"
         brake = peak_brake_efficiency(veh.engine)

@@ -36,29 +36,12 @@ def hot_start_bag1(files: list[Path], template) -> dict[str, float]:
 
 
 def headline_lines(doc: dict) -> list[str]:
-    """The headline of a results.json document: its figure, or why it is withheld."""
-    h = doc.get("headline") or {}
-    name = h.get("name") or "test"
-    held = h.get("withheld")
-    if held and not h.get("forced"):
-        return [f"headline {name}: WITHHELD ({', '.join(held['signals'])}): {held['reason']}",
-                f"  fix: {held['fix']}",
-                "  (--force states it anyway, under a banner)"]
-    mpg, lp = h.get("fuel_economy_mpg"), h.get("fuel_consumption_l_per_100km")
-    if mpg is None:
-        return [f"headline {name}: fuel economy n/a"]
-    from vehval.display import system as display_system
+    """The headline of a results.json document (:meth:`vehval.results.headline.Headline.lines`):
+    its figure with U and caveats, or why it is withheld."""
+    from vehval.results.headline import headline_of
 
-    u = h.get("fuel_economy_u_mpg")
-    first, second = f"{mpg:.2f} +- {u or 0:.2f} mpg", (f"{lp:.2f} L/100 km" if lp is not None
-                                                       else "")
-    if second and display_system() == "metric":
-        first, second = second, first
-    line = f"headline {name}: {first}" + (f" ({second})" if second else "")
-    if held:
-        return [f"STATED DESPITE QA ERRORS (--force): {line}", f"  withheld reason: {held['reason']}",
-                f"  fix: {held['fix']}"]
-    return [line] + [f"  ! caveat: {c}" for c in h.get("caveats") or []]
+    h = headline_of(doc)
+    return h.lines() if h is not None else ["headline test: fuel economy n/a"]
 
 
 def _fuel_declared(fuel) -> str:
@@ -121,7 +104,7 @@ def echo_results(res) -> None:
 
     typer.echo(f"{res.test_id}: cycle {res.cycle or '(not identified)'}; phases from "
                f"{res.phase_source}; fuel {_fuel_declared(res.fuel)}")
-    for line in headline_lines({"headline": res.headline()}):
+    for line in headline_lines(res.to_dict()):
         typer.echo(f"  {line}")
     for p in res.phases:
         dq = res.drive_quality.get(p.name) or {}

@@ -11,13 +11,24 @@ from typing import Any
 from vehval.epa.specs_fit import DynoRun
 
 
-def uncalibrated_note() -> str:
-    """What a vehicle built without calibration tests is."""
+def uncalibrated_note(specs: Any = None) -> str:
+    """What a vehicle built without calibration tests is: the generic technology
+    coefficients of its engine and gearbox (:mod:`vehval.epa.technology`)."""
+    from vehval.epa import technology as tech
     from vehval.epa.specs import INDICATED_EFFICIENCY
 
-    return ("fuel model not calibrated (no --calibrate test): the generic start values, "
-            f"indicated efficiency {100 * INDICATED_EFFICIENCY:.0f} %, Heywood's friction "
-            "(scale 1), idle fuel from the map")
+    head = "fuel model not calibrated (no --calibrate test)"
+    if specs is None:
+        return f"{head}: the generic technology coefficients"
+    c = tech.load_coefficients()
+    e = tech.engine_values(c, specs.engine_technology, specs.rated_power_w,
+                           specs.displacement_l, None, None, INDICATED_EFFICIENCY)
+    return (f"{head}: the generic technology coefficients ({c.where}) of a "
+            f"{specs.engine_technology.replace('_', ' ')} engine and a "
+            f"{specs.family.replace('_', ' ')} gearbox: indicated efficiency "
+            f"{100 * e['indicated_efficiency'][0]:.0f} %, friction scale "
+            f"{e['friction_scale'][0]:.2g} x Heywood, idle fuel {e['idle_factor'][0]:.2g} x "
+            f"the map, part-load pumping {e['pumping_bar'][0]:.2g} bar")
 
 
 @dataclass
@@ -73,7 +84,7 @@ def dyno_vehicle(specs: Any, tests: Sequence[DynoTest], dt: float,
     held = [t.run for t in tests if not t.in_sample]
     fit = calibrate_specs(specs, cal, dt) if cal else None
     veh = fit.vehicle() if fit is not None else vehicle_from_specs(
-        specs, note=f"; {uncalibrated_note()}")
+        specs, note=f"; {uncalibrated_note(specs)}")
     pred = predict_runs(fit.model() if fit else veh, held, dt) if held else {}
     split_rows = all_splits(specs, [t.run for t in tests], splits, dt) if splits else []
     return DynoVehicle(specs, fit, veh, pred, split_rows, list(tests))

@@ -69,20 +69,33 @@ def fuel_rate_g_per_s(speed_rpm: np.ndarray, torque: np.ndarray, full_load_nm: n
                       displacement_l: float, eta_i: float, friction_scale: float,
                       lhv_j_per_kg: float,
                       high_load: tuple[float, float] = (HIGH_LOAD_FUEL, HIGH_LOAD_FROM),
-                      ) -> np.ndarray:
+                      pumping_pa: float = 0.0) -> np.ndarray:
     """Willans fuel map [g/s] on the grid ``speed_rpm`` [rpm] x ``torque`` [N·m].
 
     ``full_load_nm`` is the full-load torque at each speed [N·m]; ``eta_i`` the indicated
     efficiency [-]; ``high_load`` the (fuel increase, start share) of
-    :func:`high_load_factor`. Negative torque is overrun: the fuel at zero torque.
+    :func:`high_load_factor`; ``pumping_pa`` the part-load pumping MEP at zero load [Pa]
+    (:func:`pumping_mep_pa`). Negative torque is overrun: the fuel at zero torque.
     """
     spd = np.asarray(speed_rpm, float)[:, None]
     trq = np.maximum(np.asarray(torque, float)[None, :], 0.0)
     tmax = np.asarray(full_load_nm, float)[:, None]
-    fuel_mep = ((mep_pa(trq, displacement_l) + fmep_pa(spd, friction_scale)) / eta_i
+    bmep = mep_pa(trq, displacement_l)
+    pump = pumping_mep_pa(bmep, mep_pa(tmax, displacement_l), pumping_pa) if pumping_pa else 0.0
+    fuel_mep = ((bmep + fmep_pa(spd, friction_scale) + pump) / eta_i
                 * high_load_factor(trq / tmax, *high_load))
     power = fuel_mep * displacement_l * 1e-3 * spd * RPM / (4.0 * math.pi)  # MEP V_d N/2 [W]
     return power / lhv_j_per_kg * 1e3
+
+
+def pumping_mep_pa(bmep: np.ndarray, full_bmep: np.ndarray, zero_load_pa: float) -> np.ndarray:
+    """Part-load pumping MEP [Pa] of a throttled spark-ignition engine: ``zero_load_pa`` at
+    zero brake load falling linearly to 0 at full load (the intake pressure rises about in
+    proportion to the load; Heywood 1988, section 13.5: the pumping MEP of a throttled
+    engine is a fraction of a bar at light load, near zero at wide-open throttle, which eq.
+    13.13 counts)."""
+    share = np.clip(np.asarray(bmep, float) / np.maximum(full_bmep, 1.0), 0.0, 1.0)
+    return zero_load_pa * (1.0 - share)
 
 
 def idle_control_shift(speed_rpm: np.ndarray, idle_rpm: float, cut_rpm: float,
@@ -99,4 +112,4 @@ def idle_control_shift(speed_rpm: np.ndarray, idle_rpm: float, cut_rpm: float,
 
 
 __all__ = ["FMEP_BAR", "HIGH_LOAD_FROM", "HIGH_LOAD_FUEL", "fmep_pa", "fuel_rate_g_per_s",
-           "high_load_factor", "idle_control_shift", "mep_pa", "torque_nm"]
+           "high_load_factor", "idle_control_shift", "mep_pa", "pumping_mep_pa", "torque_nm"]

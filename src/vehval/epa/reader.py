@@ -63,6 +63,7 @@ OPTIONAL = {
     "Test Fuel Type Description": "fuel",
     "# of Gears": "gears",
     "Tested Transmission Type Code": "transmission",
+    "# of Cylinders and Rotors": "cylinders",
 }
 #: the model-year column is named differently across years
 YEAR_COLUMNS = ("Model Year", "Year")
@@ -141,6 +142,8 @@ class EpaTest:
     duplicate_rows : tuple of str
         ``file:line`` of the other rows of the same list with this test number (the row
         kept is ``source``); empty for a test listed once.
+    cylinders : int
+        ``# of Cylinders and Rotors`` (0 when absent).
     duplicate_note : str
         What those rows are: identical, differing only in columns not read (e.g. one row per
         aftertreatment device) or in the dyno set coefficients (the first row's are used).
@@ -184,6 +187,7 @@ class EpaTest:
     adfe_test_number: str = ""  # 'ADFE Test Number' ('' when absent)
     duplicate_rows: tuple[str, ...] = ()  # file:line of the other rows of this test number
     duplicate_note: str = ""  # what those rows repeat or differ in
+    cylinders: int = 0  # '# of Cylinders and Rotors' (0 when absent)
 
     @property
     def listed_years(self) -> tuple[int, ...]:
@@ -374,6 +378,7 @@ def _record(path: Path, lineno: int, row: list[str], index: dict[str, int],
     year = _num(_cell(row, index, year_col))
     code = _num(f["procedure_code"])
     gears = _num(f["gears"])
+    cylinders = _num(f["cylinders"])
     return EpaTest(
         year=int(year) if not math.isnan(year) else 0,
         make=f["make"], model=f["model"], vehicle_id=f["vehicle_id"], config=f["config"],
@@ -397,6 +402,7 @@ def _record(path: Path, lineno: int, row: list[str], index: dict[str, int],
         source=f"{path.name}:{lineno}",
         gears=int(gears) if not math.isnan(gears) else 0,
         transmission=f["transmission"].upper(),
+        cylinders=int(cylinders) if math.isfinite(cylinders) else 0,
         analytically_derived=_flag(_cell(row, index, "adfe")) if "adfe" in index else None,
         adfe_test_number=_cell(row, index, "adfe_test_number"),
     )

@@ -22,7 +22,13 @@ what the list does not state with generic, documented scaling (constants below):
   the rated power, rated at a generic speed;
 * gearbox: top-gear overall ratio from N/V (engine speed per vehicle speed, exact), the
   other gears geometric over a ratio spread typical of the gear count; shift lines from
-  engine speeds; a converter sized by its stall speed, locked from third gear;
+  engine speeds; a converter sized by its stall speed, locked from third gear (an
+  automatic; a CVT, an automated manual or dual-clutch box and a manual are built by
+  their family, :mod:`vehval.epa.transmissions`);
+* generic technology coefficients (:mod:`vehval.epa.technology`): when no fuel value is
+  given, the indicated efficiency, friction scale, warm idle factor, part-load pumping
+  and gearbox efficiency of the engine technology and transmission family, fitted across
+  a list year (docs/validation.md);
 * cold start: the extra fuel of the FTP's first bag over its third in the list's own
   FTP rows of the configuration (the same car, same road load), placed as the vehicle's
   warm-up fuel with a generic time constant.
@@ -41,14 +47,28 @@ import numpy as np
 from vehval.constants import MPH_M_PER_S as MPH
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.epa import engine_model as em
+from vehval.epa import technology as tech
 from vehval.epa.consistency import impossible_values
 from vehval.epa.procedures import (
     UDDS_BAG1_END_S,
+    fuel_family,
     is_gasoline,
     procedure_key,
     road_load_without_b,
 )
 from vehval.epa.reader import EpaTest
+from vehval.epa.transmissions import (  # noqa: F401 - the generic gearbox values, re-exported
+    DOWNSHIFT_FULL,
+    DOWNSHIFT_RPM,
+    LOCKUP_FROM_GEAR,
+    LOCKUP_RPM,
+    RATIO_SPREAD,
+    STALL_SPEED_RPM,
+    UPSHIFT_FULL,
+    UPSHIFT_RPM,
+    family_of,
+    gearbox_blocks,
+)
 from vehval.errors import ConfigError
 from vehval.vehicle.conventional import ConventionalVehicle
 
@@ -59,18 +79,10 @@ BMEP_MAX_PA = 12.0e5  # full-load BMEP of a naturally aspirated gasoline engine 
 RATED_SPEED_RPM = 6000.0  # speed of the rated power of a gasoline car engine [rpm]
 IDLE_SPEED_RPM = 700.0  # warm idle [rpm]
 ENRICHMENT = em.HIGH_LOAD_FUEL  # extra fuel at full load [-] (knock retard, enrichment)
-STALL_SPEED_RPM = 2500.0  # torque-converter stall speed at peak torque [rpm]
 WHEEL_RADIUS_M = 0.33  # rolling radius [m]: only engine speed / vehicle speed matters
 ACCESSORY_POWER_W = 300.0  # alternator, pumps [W]
 FUEL_CUT_IDLE_RATIO = 1.6  # fuel cut on overrun above this x idle speed [-]
 WARMUP_TIME_CONSTANT_S = 200.0  # decay of a cold engine's extra fuel [s]
-#: ratio spread (first / top) of production automatics by gear count
-RATIO_SPREAD = {3: 2.8, 4: 4.0, 5: 4.9, 6: 6.0, 7: 7.0, 8: 7.6, 9: 9.2, 10: 10.0}
-UPSHIFT_RPM, DOWNSHIFT_RPM = 1300.0, 1000.0  # at zero load, engine speed in the higher gear
-#: at full load: upshift at this share of the rated speed, downshift below this share
-UPSHIFT_FULL, DOWNSHIFT_FULL = 0.9, 0.6
-LOCKUP_RPM = DOWNSHIFT_RPM  # locked above this engine speed [rpm]: on overrun to the downshift
-LOCKUP_FROM_GEAR = 3  # lock-up from this gear: launches and 2nd gear through the converter
 _EST = "engineering estimate (generic, vehval.epa.specs)"
 _SPEC_KEYS = ("mass_kg", "target_a_n", "target_b_n_per_mps", "target_c_n_per_mps2",
               "axle_ratio", "n_v_ratio", "displacement_l", "rated_power_w")
@@ -100,6 +112,9 @@ class Specs:
         Rated power [W].
     cold_bag_ratio : float
         FTP bag 3 / bag 1 fuel economy of the configuration's FTP rows [-] (NaN: none).
+    fuel : str
+        Fuel family of the rows the car is built for (``gasoline``, ``e85``: a key of
+        :data:`SPARK_FUELS`).
     rows : list of str
         ``test (file:line)`` of the rows used.
     """
@@ -120,10 +135,21 @@ class Specs:
     displacement_l: float
     rated_power_w: float
     cold_bag_ratio: float = math.nan
+    fuel: str = "gasoline"  # fuel family of the rows: a key of SPARK_FUELS
     rows: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
+
+    @property
+    def family(self) -> str:
+        """Transmission family (:func:`vehval.epa.transmissions.family_of`)."""
+        return family_of(self.transmission, self.gears, self.name)
+
+    @property
+    def engine_technology(self) -> str:
+        """``spark_na`` or ``spark_turbo`` (:func:`vehval.epa.technology.engine_technology`)."""
+        return tech.engine_technology(self.rated_power_w, self.displacement_l)
 
     @property
     def where(self) -> str:
@@ -133,11 +159,8 @@ class Specs:
 
 
 def _refuse_transmission(t0: EpaTest) -> None:
-    gears = "1 gear" if t0.gears == 1 else f"{t0.gears} gears"
-    raise ConfigError(f"{t0.label}: transmission '{t0.transmission or '?'}' with "
-                      f"{gears}: the conventional model is an automatic with "
-                      f"a torque converter and {min(RATIO_SPREAD)}-{max(RATIO_SPREAD)} "
-                      "gears (CVT, manual and hybrid are not modelled from specs)")
+    """Refuse a transmission no family models (:func:`vehval.epa.transmissions.family_of`)."""
+    family_of(t0.transmission, t0.gears, f"EPA list row {_where(t0)}")
 
 
 #: what a specification key is called in a message
@@ -192,6 +215,11 @@ def _is_gasoline(t: EpaTest) -> bool:
     return is_gasoline(t.fuel)
 
 
+#: fuel family of the list's tests -> fuel-table name of the spark-ignition engine built for
+#: them (a flex-fuel car's E85 rows run on E85, its gasoline rows on certification gasoline)
+SPARK_FUELS = {"gasoline": "gasoline_e0", "e85": "ethanol_e85"}
+
+
 def _spec_rows(tests: list[EpaTest]) -> list[EpaTest]:
     """The rows that state the configuration: all but the cold CO tests, whose road-load
     coefficients are the warm ones raised for -7 degC (about +10 %) and whose fuel is the
@@ -200,29 +228,42 @@ def _spec_rows(tests: list[EpaTest]) -> list[EpaTest]:
     return warm or tests
 
 
-def _check_car(tests: list[EpaTest]) -> None:
-    """Refuse what the spark-ignition conventional model cannot describe: a hybrid or
-    plug-in by its model name, a configuration tested on no gasoline (diesel, E85,
-    electricity), a transmission other than a geared automatic."""
-    t0 = tests[0]
-    name = t0.model.upper()
+def hybrid_mark(tests: list[EpaTest]) -> str:
+    """What marks the rows of one car as a hybrid or plug-in hybrid ('' when nothing does):
+    a hybrid word in the model name (:data:`HYBRID_WORDS`, or HYBRID anywhere) or a
+    charge-depleting test among the rows."""
+    name = tests[0].model.upper()
     words = set(name.replace("(", " ").replace(")", " ").replace(",", " ").split())
     mark = "HYBRID" if "HYBRID" in name else next(iter(sorted(words & set(HYBRID_WORDS))), "")
+    if mark:
+        return f"'{mark}' in the model name"
     plug = next((t for t in tests if procedure_key(t) in ("cd_udds", "cd_hwfet")), None)
-    if mark or plug is not None:
-        why = (f"'{mark}' in the model name" if mark or plug is None else
-               f"charge-depleting test {plug.label} in the list")
+    return "" if plug is None else f"charge-depleting test {plug.label} in the list"
+
+
+def _check_car(tests: list[EpaTest], fuel: str = "gasoline") -> None:
+    """Refuse what the spark-ignition conventional model cannot describe: a hybrid or
+    plug-in by its model name, a configuration tested on no ``fuel`` (a fuel family of
+    :data:`SPARK_FUELS`), a transmission no family models (``OT``, a one-gear automatic, an
+    unknown code)."""
+    t0 = tests[0]
+    why = hybrid_mark(tests)
+    if why:
         raise ConfigError(f"{t0.make} {t0.model}: {why}: a hybrid or plug-in hybrid is not "
                           "modelled from specs (the model is a conventional car); use a "
                           "hybrid vehicle file with `vehval epa validate`")
-    if not any(_is_gasoline(t) for t in tests):
+    if fuel not in SPARK_FUELS:
+        raise ConfigError(f"{t0.make} {t0.model} ({t0.vehicle_id}): fuel '{fuel}': the model "
+                          "from specs is a spark-ignition engine on "
+                          f"{' or '.join(SPARK_FUELS)} (a diesel has no compression-ignition "
+                          "engine model from specs)")
+    if not any(fuel_family(t.fuel) == fuel for t in tests):
         fuels = ", ".join(sorted({f"'{t.fuel}'" for t in tests}))
         raise ConfigError(f"{t0.make} {t0.model} ({t0.vehicle_id}): tested on {fuels}, no "
-                          "gasoline: the model from specs is a spark-ignition engine on "
-                          "certification gasoline (a diesel, E85 or electric test is not "
-                          "modelled)")
-    if all(t.transmission not in ("A", "SA") or t.gears not in RATIO_SPREAD for t in tests):
-        _refuse_transmission(t0)  # before any other check: no narrowing makes it modelled
+                          f"{fuel}: the model from specs is a spark-ignition engine on "
+                          "certification gasoline, or on E85 for a car's E85 tests (a diesel "
+                          "or electric test is not modelled)")
+    _refuse_transmission(t0)  # before any other check: no narrowing makes it modelled
 
 
 def _check_values(tests: list[EpaTest]) -> None:
@@ -262,14 +303,16 @@ def _check_values(tests: list[EpaTest]) -> None:
                           "cannot set the gear ratios")
 
 
-def specs_from_tests(tests: list[EpaTest]) -> Specs:
+def specs_from_tests(tests: list[EpaTest], fuel: str = "gasoline") -> Specs:
     """The specification of the one configuration the selected list rows describe.
 
     The rows must agree on the test vehicle's weight, road load, axle ratio, N/V,
     gears, displacement and rated power (one car; cold CO rows, whose road load is raised
-    for -7 degC, are not compared); an automatic with a torque converter (transmission
-    ``A`` or ``SA``, 3-10 gears), a gasoline test and a model name without a hybrid mark
-    are required, and the listed power and N/V must be plausible.
+    for -7 degC, are not compared); a transmission of a modelled family
+    (:func:`vehval.epa.transmissions.family_of`: automatic, CVT, automated manual or
+    dual-clutch, manual), a test on ``fuel`` (a fuel family of :data:`SPARK_FUELS`: the
+    car's engine burns it; its cold start is read from that fuel's FTP rows) and a model name
+    without a hybrid mark are required, and the listed power and N/V must be plausible.
 
     Raises
     ------
@@ -278,7 +321,7 @@ def specs_from_tests(tests: list[EpaTest]) -> Specs:
     """
     if not tests:
         raise ConfigError("no EPA list row selected: name the make, model and year")
-    _check_car(tests)
+    _check_car(tests, fuel)
     rows = _spec_rows(tests)
     t0 = rows[0]
     _check_values(rows)
@@ -291,21 +334,20 @@ def specs_from_tests(tests: list[EpaTest]) -> Specs:
     if len(gears) != 1 or len(trans) != 1:
         raise ConfigError("the selected rows differ in transmission or gear count: narrow "
                           "the selection")
-    if t0.transmission not in ("A", "SA") or t0.gears not in RATIO_SPREAD:
-        _refuse_transmission(t0)
+    _refuse_transmission(t0)
     ratios = []
     for t in rows:
-        if (procedure_key(t) == "ftp75" and _is_gasoline(t)
+        if (procedure_key(t) == "ftp75" and fuel_family(t.fuel) == fuel
                 and all(math.isfinite(b) for b in t.bags[:3])):
             ratios.append(t.bags[2] / t.bags[0])
-    name = f"{t0.make} {t0.model} {t0.year}".lower()
+    name = f"{t0.make} {t0.model} {t0.year}{'' if fuel == 'gasoline' else ' ' + fuel}".lower()
     return Specs(
         name="".join(c if c.isalnum() else "_" for c in name).strip("_"),
         make=t0.make, model=t0.model, year=t0.year, vehicle_id=t0.vehicle_id,
         **{k: float(getattr(t0, k)) for k in _SPEC_KEYS}, gears=t0.gears,
         transmission=t0.transmission,
         cold_bag_ratio=float(np.mean(ratios)) if ratios else math.nan,
-        rows=[f"{t.label} ({t.source})" for t in rows])
+        rows=[f"{t.label} ({t.source})" for t in rows], fuel=fuel)
 
 
 def friction_torque_nm(speed_rpm: np.ndarray, displacement_l: float,
@@ -316,29 +358,34 @@ def friction_torque_nm(speed_rpm: np.ndarray, displacement_l: float,
 
 
 def gear_ratios(specs: Specs) -> tuple[list[float], float]:
-    """Gearbox ratios (first first) and the top gear's overall ratio [-] from N/V."""
+    """Gearbox ratios (first first) and the top gear's overall ratio [-] from N/V (a CVT:
+    its ratio steps, the lowest from N/V)."""
+    from vehval.epa.transmissions import CVT_SPREAD, CVT_STEPS, stepped_ratios
+
     top_overall = specs.n_v_ratio * RPM * WHEEL_RADIUS_M / MPH
     top = top_overall / specs.axle_ratio
-    n = specs.gears
-    spread = RATIO_SPREAD[n]
-    return [top * spread ** ((n - 1 - i) / (n - 1)) for i in range(n)], top_overall
+    if specs.family == "cvt":
+        return stepped_ratios(top, CVT_STEPS, CVT_SPREAD), top_overall
+    return stepped_ratios(top, specs.gears, RATIO_SPREAD[specs.gears]), top_overall
 
 
-def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFFICIENCY,  # long: one vehicle document, each value beside its source
-                       friction_scale: float = 1.0, cold_start: bool = True,
+def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None,  # long: one vehicle document, each value beside its source
+                       friction_scale: float | None = None, cold_start: bool = True,
                        note: str = "", idle_fuel_g_per_s: float | None = None,
                        idle_source: str = "",
-                       enrichment: float = ENRICHMENT) -> ConventionalVehicle:
+                       enrichment: float = ENRICHMENT, technology: bool | None = None,
+                       coefficients: tech.Coefficients | None = None) -> ConventionalVehicle:
     """The conventional vehicle of ``specs`` with the two free fuel parameters.
 
     Parameters
     ----------
     specs : Specs
         From :func:`specs_from_tests`.
-    indicated_efficiency : float
-        Slope of the Willans line: brake + friction power over fuel power [-].
-    friction_scale : float
-        Factor on Heywood's friction MEP [-].
+    indicated_efficiency : float, optional
+        Slope of the Willans line: brake + friction power over fuel power [-]; default the
+        technology coefficient of the engine (``technology``) or ``INDICATED_EFFICIENCY``.
+    friction_scale : float, optional
+        Factor on Heywood's friction MEP [-]; default the technology coefficient or 1.
     cold_start : bool
         Include the warm-up fuel from the list's FTP bags (when it has them).
     note : str
@@ -349,7 +396,29 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
     enrichment : float
         Extra fuel at full load [-] (power enrichment, knock-limited spark), rising
         linearly from ``engine_model.HIGH_LOAD_FROM`` x the full-load torque.
+    technology : bool, optional
+        Take what is not given (indicated efficiency, friction scale, the warm idle as a
+        factor on the map, part-load pumping, the gearbox efficiency) from the generic
+        technology coefficients (:mod:`vehval.epa.technology`); False: the generic constants
+        of this module (the structure a calibration fits). Default: True when neither the
+        indicated efficiency nor the friction scale is given, else False (a caller giving
+        them calibrates the generic model).
+    coefficients : Coefficients, optional
+        The technology coefficients (default: the package's file).
     """
+    if technology is None:
+        technology = indicated_efficiency is None and friction_scale is None
+    coef = (coefficients or tech.load_coefficients()) if technology else None
+    engine_tech = specs.engine_technology
+    family = specs.family
+
+    e = tech.engine_values(coef, engine_tech, specs.rated_power_w, specs.displacement_l,
+                           indicated_efficiency, friction_scale, INDICATED_EFFICIENCY)
+    indicated_efficiency, eta_src = e["indicated_efficiency"]
+    friction_scale, kf_src = e["friction_scale"]
+    idle_factor, idle_f_src = e["idle_factor"]
+    pumping_bar, pump_src = e["pumping_bar"]
+    gb_eff = coef.transmission_value(family, "efficiency") if coef is not None else None
     if not (0.1 <= indicated_efficiency <= 0.6 and 0.2 <= friction_scale <= 4.0
             and 0.0 <= enrichment <= 1.0):
         raise ConfigError(f"indicated efficiency {indicated_efficiency:g} (0.1-0.6) or "
@@ -368,15 +437,24 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
     shape = np.interp(speeds, [0.0, 0.6 * RATED_SPEED_RPM, max_rpm], [0.75, 1.0, 1.0])
     tmax = np.minimum(t_peak * shape, s.rated_power_w / (speeds * RPM))
     torques = np.linspace(0.0, 1.05 * t_peak, 14)
-    lhv = _lhv()
+    lhv = _lhv(SPARK_FUELS[s.fuel])
     high = (enrichment, em.HIGH_LOAD_FROM)
-    fuel = em.fuel_rate_g_per_s(speeds, torques, tmax, vd, eta, kf, lhv, high)
+    pump = {"pumping_pa": pumping_bar * 1e5} if pumping_bar else {}
+    fuel = em.fuel_rate_g_per_s(speeds, torques, tmax, vd, eta, kf, lhv, high, **pump)
     tf = friction_torque_nm(np.array([IDLE_SPEED_RPM, 2000.0]), vd, kf)
     t_acc = ACCESSORY_POWER_W / (IDLE_SPEED_RPM * RPM)
     i_idle = int(np.flatnonzero(np.isclose(speeds, IDLE_SPEED_RPM))[0])
     idle_fuel = float(np.interp(t_acc, torques, fuel[i_idle]))
     willans = willans_text(eta, kf, s, enrichment)
+    if pumping_bar:
+        willans += (f"; part-load pumping {pumping_bar:.4g} bar MEP at zero load falling to 0 at "
+                    "full load (engine_model.pumping_mep_pa)")
+    if eta_src or kf_src or pump_src:
+        willans += "; " + "; ".join(x for x in (eta_src, kf_src, pump_src) if x)
     idle_src = f"the fuel map at idle with the accessory load ({willans})"
+    if idle_fuel_g_per_s is None and idle_factor != 1.0:
+        idle_fuel_g_per_s = idle_factor * idle_fuel
+        idle_source = f"{idle_factor:.4g} x the fuel map at idle: {idle_f_src}"
     if idle_fuel_g_per_s is not None:
         # idle control: the map at idle burns the measured idle fuel (to the fuel-cut speed)
         fuel = np.maximum(fuel + em.idle_control_shift(
@@ -385,21 +463,16 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                     f"the shift fading to nothing at the fuel-cut speed {cut_rpm:g} rpm")
         idle_fuel, idle_src = float(idle_fuel_g_per_s), idle_source or "measured"
     ratios, top_overall = gear_ratios(s)
-    overall = np.array(ratios) * s.axle_ratio
     r = WHEEL_RADIUS_M
-
-    def v_at(rpm: float, ov: float) -> float:
-        return rpm * RPM * r / ov
-
-    n = len(ratios)
-    up0 = [v_at(UPSHIFT_RPM, overall[i + 1]) for i in range(n - 1)]
-    upf = [max(v_at(UPSHIFT_FULL * RATED_SPEED_RPM, overall[i]), up0[i] * 1.2)
-           for i in range(n - 1)]
-    dn0 = [v_at(DOWNSHIFT_RPM, overall[i + 1]) for i in range(n - 1)]
-    dnf = [min(v_at(DOWNSHIFT_FULL * RATED_SPEED_RPM, overall[i + 1]), 0.8 * upf[i])
-           for i in range(n - 1)]
-    lock = [100.0 if i + 1 < LOCKUP_FROM_GEAR else v_at(LOCKUP_RPM, overall[i])
-            for i in range(n)]
+    gearbox, converter = gearbox_blocks(
+        family, ratios[-1], s.axle_ratio, s.gears, r, RATED_SPEED_RPM, t_peak,
+        f"top gear from N/V {s.n_v_ratio:g} rpm/mph and axle ratio {s.axle_ratio:g} with the "
+        f"rolling radius {r} m (overall top ratio {top_overall:.4f}; exact in engine speed "
+        f"per vehicle speed), {where}",
+        efficiency=None if gb_eff is None else gb_eff.value)
+    if gb_eff is not None:
+        gearbox["sources"]["efficiency"] = (f"{family.replace('_', ' ')} gearbox: "
+                                            f"{gb_eff.text()} ({coef.where if coef else ''})")
     warm = 0.0
     warm_src = "no FTP bags of the configuration in the list: no warm-up model"
     if cold_start and math.isfinite(s.cold_bag_ratio):
@@ -434,7 +507,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                    "max_power_w": s.rated_power_w, "max_speed_rpm": max_rpm,
                    "idle_speed_rpm": IDLE_SPEED_RPM, "fire_speed_rpm": IDLE_SPEED_RPM / 2,
                    "motoring_torque_nm": float(tf[1]),
-                   "inertia_kg_m2": 0.15 + 0.05 * vd, "fuel": "gasoline_e0",
+                   "inertia_kg_m2": 0.15 + 0.05 * vd, "fuel": SPARK_FUELS[s.fuel],
                    "displacement_l": vd, "warmup_fuel_fraction": warm,
                    "warmup_time_constant_s": WARMUP_TIME_CONSTANT_S,
                    "sources": {
@@ -449,7 +522,10 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                        "idle_speed_rpm": est, "fire_speed_rpm": f"half the idle: {est}",
                        "motoring_torque_nm": f"friction torque at 2000 rpm of the {willans}",
                        "inertia_kg_m2": f"0.15 + 0.05 kg m^2 per litre: {est}",
-                       "fuel": "Tier 2 certification gasoline, the fuel of the list's tests",
+                       "fuel": ("Tier 2 certification gasoline, the fuel of the list's tests"
+                                if s.fuel == "gasoline" else
+                                f"{SPARK_FUELS[s.fuel]}: the fuel of the list's {s.fuel} "
+                                "tests (vehval fuel table)"),
                        "displacement_l": f"test vehicle displacement, {where}",
                        "warmup_fuel_fraction": warm_src,
                        "warmup_time_constant_s": est}},
@@ -461,33 +537,8 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float = INDICATED_EFF
                         "fuel_cut_min_speed_rpm": f"{FUEL_CUT_IDLE_RATIO:g} x idle: {est}",
                         "overrun_fuel_rate_g_per_s": f"full fuel cut on overrun: {est}",
                         "accessory_power_w": est}},
-        "gearbox": {
-            "ratios": ratios, "efficiency": 0.95, "upshift_speed_mps": up0,
-            "upshift_speed_full_load_mps": upf, "downshift_speed_mps": dn0,
-            "downshift_speed_full_load_mps": dnf, "shift_time_s": 0.6,
-            "sources": {
-                "ratios": (f"top gear from N/V {s.n_v_ratio:g} rpm/mph and axle ratio "
-                           f"{s.axle_ratio:g} with the rolling radius {r} m (overall top "
-                           f"ratio {top_overall:.4f}; exact in engine speed per vehicle "
-                           f"speed), {where}; the other {s.gears - 1} geometric over a ratio "
-                           f"spread {RATIO_SPREAD[s.gears]:g} typical of {s.gears}-speed "
-                           f"automatics: {est}"),
-                "efficiency": est,
-                "upshift_speed_mps": f"engine at {UPSHIFT_RPM:g} rpm after the upshift: {est}",
-                "upshift_speed_full_load_mps": f"{UPSHIFT_FULL:g} x rated speed before the "
-                                               f"upshift: {est}",
-                "downshift_speed_mps": f"engine below {DOWNSHIFT_RPM:g} rpm: {est}",
-                "downshift_speed_full_load_mps": f"{DOWNSHIFT_FULL:g} x rated speed (at most "
-                                                 f"0.8 x the upshift speed): {est}",
-                "shift_time_s": est}},
-        "converter": {
-            "capacity_nm_s2_per_rad2": t_peak / (STALL_SPEED_RPM * RPM) ** 2,
-            "lockup_speed_mps": lock,
-            "sources": {"capacity_nm_s2_per_rad2": f"peak torque at a stall speed of "
-                                                   f"{STALL_SPEED_RPM:g} rpm: {est}",
-                        "lockup_speed_mps": f"locked from gear {LOCKUP_FROM_GEAR} above "
-                                            f"{LOCKUP_RPM:g} rpm (lower gears: never): "
-                                            f"{est}"}},
+        "gearbox": gearbox,
+        "converter": converter,
         "driveline": {
             "final_drive_ratio": s.axle_ratio, "final_drive_efficiency": 0.97,
             "wheel_radius_m": r, "wheel_inertia_kg_m2": 0.0,
@@ -522,12 +573,12 @@ def model_fuel_lhv() -> float:
     return _lhv()
 
 
-def _lhv() -> float:
+def _lhv(name: str = "gasoline_e0") -> float:
     from vehval.fuels import table_fuel
 
-    lhv = table_fuel("gasoline_e0").lhv_j_per_kg
+    lhv = table_fuel(name).lhv_j_per_kg
     if lhv is None:
-        raise ConfigError("fuel table: gasoline_e0 has no lower heating value")
+        raise ConfigError(f"fuel table: {name} has no lower heating value")
     return float(lhv)
 
 

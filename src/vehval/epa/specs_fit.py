@@ -203,7 +203,8 @@ class SpecsFit:
         """The vehicle with the fitted values (sources without the calibration text)."""
         return vehicle_from_specs(self.specs, self.indicated_efficiency, self.friction_scale,
                                   note=note, idle_fuel_g_per_s=self.idle_fuel_g_per_s,
-                                  idle_source=self.idle_source, enrichment=self.enrichment)
+                                  idle_source=self.idle_source, enrichment=self.enrichment,
+                                  technology=False)
 
     def to_dict(self) -> dict[str, Any]:
         eff = peak_brake_efficiency(self.model().engine)
@@ -258,7 +259,7 @@ def calibrate_specs(specs: Specs, runs: Sequence[DynoRun], dt: float = 0.5) -> S
 
     def build(eta: float, kf: float, en: float) -> Any:
         return vehicle_from_specs(specs, eta, kf, idle_fuel_g_per_s=idle,
-                                  idle_source=idle_src, enrichment=en)
+                                  idle_source=idle_src, enrichment=en, technology=False)
 
     start = np.array([simulated_fuel_kg(build(INDICATED_EFFICIENCY, 1.0, ENRICHMENT), r, dt)
                       for r in runs])

@@ -10,7 +10,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import plotly.graph_objects as go
 
 from vehval.constants import RPM_RAD_PER_S
 from vehval.identify.warmup import start_label
@@ -24,50 +23,53 @@ def _thin(n: int) -> slice:
     return slice(None, None, max(n // MAX_POINTS, 1))
 
 
-def fuel_map_figure(idf) -> go.Figure:
-    """Fitted Willans lines at five engine speeds over the measured (delay-aligned) points."""
+def fuel_map_figure(idf) -> dict:
+    """Fitted Willans lines at five engine speeds over the measured (delay-aligned) points
+    (the figure layer's :func:`~vehval.figures.markers_figure`; power in kW, fuel in g/s)."""
+    from vehval.figures import markers_figure
+
     fm = idf.fuel_map
     pts = fm.points
     ok = np.isfinite(pts["fuel"])
     sl = _thin(int(ok.sum()))
-    fig = go.Figure()
-    fig.add_trace(go.Scattergl(
-        x=pts["p"][ok][sl] / 1e3, y=pts["fuel"][ok][sl] * 1e3, mode="markers",
-        marker={"size": 3, "color": pts["w"][ok][sl] * RPM, "colorscale": "Viridis",
-                "colorbar": {"title": "rpm"}, "opacity": 0.5}, name="measured (delay-aligned)"))
+    series = [{"name": "measured (delay-aligned)", "x": pts["p"][ok][sl] / 1e3,
+               "y": pts["fuel"][ok][sl] * 1e3, "color": pts["w"][ok][sl] * RPM,
+               "color_title": "rpm", "size": 3, "opacity": 0.5}]
     p = np.linspace(0.0, fm.power_range_w[1], 60)
     for rpm in np.linspace(fm.speed_range_rad_s[0] * RPM, fm.speed_range_rad_s[1] * RPM, 5):
-        fig.add_trace(go.Scatter(x=p / 1e3, y=fm.rate(np.full_like(p, rpm / RPM), p) * 1e3,
-                                 mode="lines", name=f"fitted map, {rpm:.0f} rpm"))
-    fig.update_layout(title="Engine fuel map: fitted Willans lines and measured points",
-                      xaxis_title="engine power [kW]", yaxis_title="fuel rate [g/s]", height=480)
-    return fig
+        series.append({"name": f"fitted map, {rpm:.0f} rpm", "mode": "lines", "x": p / 1e3,
+                       "y": fm.rate(np.full_like(p, rpm / RPM), p) * 1e3})
+    return markers_figure(series, xlabel="engine power [kW]", ylabel="fuel rate [g/s]",
+                          title="Engine fuel map: fitted Willans lines and measured points",
+                          height=480)
 
 
-def trace_figure(pred: dict) -> go.Figure:
-    """Engine speed and fuel rate, measured vs simulated, of one predicted test."""
-    from plotly.subplots import make_subplots
+def trace_figure(pred: dict) -> dict:
+    """Engine speed and fuel rate, measured vs simulated, of one predicted test: one panel
+    per unit (rpm, g/s) on one linked time axis (:func:`~vehval.figures.time_traces_figure`)."""
+    from vehval.figures import PALETTE, time_traces_figure
+
     s = pred["sim"].test
     t = s["eng_spd_out_simu"].time
     tr = pred["trace"]
     m = tr.t >= 0
     tm = tr.t[m] - tr.t[m][0]
-    sl = _thin(t.size)
-    fig = make_subplots(rows=2, cols=1, shared_xaxes=True, vertical_spacing=0.06)
-    fig.add_trace(go.Scattergl(x=tm[sl], y=tr.w_eng[m][sl] * RPM, name="engine speed, test",
-                               line={"width": 1}), row=1, col=1)
-    fig.add_trace(go.Scattergl(x=t[sl], y=s["eng_spd_out_simu"].values[sl] * RPM,
-                               name="engine speed, model", line={"width": 1}), row=1, col=1)
-    fig.add_trace(go.Scattergl(x=tm[sl], y=tr.fuel[m][sl] * 1e3, name="fuel rate, test",
-                               line={"width": 1}), row=2, col=1)
-    fig.add_trace(go.Scattergl(x=t[sl], y=s["fuel_rate_simu"].values[sl] * 1e3,
-                               name="fuel rate, model", line={"width": 1}), row=2, col=1)
-    fig.update_yaxes(title_text="rpm", row=1, col=1)
-    fig.update_yaxes(title_text="g/s", row=2, col=1)
-    fig.update_xaxes(title_text="time [s]", row=2, col=1)
-    fig.update_layout(title=f"{pred['test']} ({pred['cycle']}): fuel {pred['fuel_measured_g']:.0f} g "
-                            f"measured, {pred['fuel_predicted_g']:.0f} g predicted "
-                            f"({100 * pred['error_rel']:+.1f} %)", height=560)
+    panels = [
+        {"ylabel": "engine speed [rpm]", "traces": [
+            {"name": "engine speed, test", "t": tm, "y": tr.w_eng[m] * RPM, "unit": "rpm",
+             "color": PALETTE[0]},
+            {"name": "engine speed, model", "t": t, "y": s["eng_spd_out_simu"].values * RPM,
+             "unit": "rpm", "color": PALETTE[1], "dash": "dot"}]},
+        {"ylabel": "fuel rate [g/s]", "traces": [
+            {"name": "fuel rate, test", "t": tm, "y": tr.fuel[m] * 1e3, "unit": "g/s",
+             "color": PALETTE[0]},
+            {"name": "fuel rate, model", "t": t, "y": s["fuel_rate_simu"].values * 1e3,
+             "unit": "g/s", "color": PALETTE[1], "dash": "dot"}]}]
+    fig = time_traces_figure(panels, row_height=250)
+    fig["layout"]["title"] = {"text": f"{pred['test']} ({pred['cycle']}): fuel "
+                                      f"{pred['fuel_measured_g']:.0f} g measured, "
+                                      f"{pred['fuel_predicted_g']:.0f} g predicted "
+                                      f"({100 * pred['error_rel']:+.1f} %)"}
     return fig
 
 

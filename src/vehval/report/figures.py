@@ -1,4 +1,5 @@
-"""Figure building blocks: decimated time traces, scatter-with-fit, and the JSON encoding.
+"""The report's figures: :class:`FigSpec`, the builders of the figure layer
+(:mod:`vehval.figures`, re-exported here) and the JSON encoding.
 
 Figures are plain plotly JSON dicts (``{"data": [...], "layout": {...}}``). Numeric arrays
 are encoded as plotly typed arrays (``{"dtype": "f4", "bdata": <base64>}``), which plotly.js
@@ -14,13 +15,19 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from vehval.report.decimate import DEFAULT_BUCKETS, decimate_minmax
+from vehval.figures import (
+    PALETTE,
+    ROW_HEIGHT_PX,
+    histogram_figure,
+    one_axis_figure,
+    scatter_fit_figure,
+    scatter_groups_figure,
+    time_traces_figure,
+)
+from vehval.figures.decimate import decimate_minmax
 from vehval.report.safety import safe_figure
 from vehval.report.tables import slug
 
-PALETTE = ("#1f5fa8", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c", "#0b7285", "#e67700",
-           "#495057")
-ROW_HEIGHT_PX = 170
 DEFAULT_FIG_HEIGHT_PX = 450
 #: A trace drawn as SVG keeps at most this many points; a longer one (a WebGL trace of a
 #: payload, which pages draw as SVG: see :func:`vehval.report.safety.safe_figure`) is
@@ -198,135 +205,6 @@ def prepare_figures(figures: Sequence[FigSpec], start: int = 0) -> int:
     return n
 
 
-def time_traces_figure(panels: Sequence[dict], *, n_buckets: int = DEFAULT_BUCKETS,
-                       row_height: int = ROW_HEIGHT_PX) -> dict:
-    """Stacked time-trace panels on one shared time axis.
-
-    Parameters
-    ----------
-    panels : sequence of dict
-        Each panel: ``ylabel`` (str), ``traces`` (list of dicts with ``name``, ``t`` [s],
-        ``y``, optional ``color``, ``dash``, ``width``), optional ``band`` ``(lo, hi)`` drawn
-        as a shaded plausible range, optional ``spans`` list of ``(t0, t1)`` [s] shaded red.
-    n_buckets : int
-        Min/max decimation buckets per trace.
-    row_height : int
-        Height of one panel [px].
-
-    Returns
-    -------
-    dict
-        plotly figure JSON; all x axes match the first one (zooming one zooms all).
-    """
-    n = max(len(panels), 1)
-    gap = 0.035 if n > 1 else 0.0
-    h = (1.0 - gap * (n - 1)) / n
-    data: list[dict] = []
-    layout: dict[str, Any] = {
-        "height": int(row_height * n + 70), "margin": {"l": 70, "r": 20, "t": 30, "b": 40},
-        "hovermode": "x unified", "showlegend": True,
-        "shapes": [],
-    }
-    for i, panel in enumerate(panels):
-        ax = "" if i == 0 else str(i + 1)
-        top = 1.0 - i * (h + gap)
-        xa: dict[str, Any] = {"anchor": f"y{ax}", "showticklabels": i == n - 1, "showspikes": True,
-                              "spikemode": "across", "spikethickness": 1}
-        if i:
-            xa["matches"] = "x"
-        if i == n - 1:
-            xa["title"] = {"text": "time [s]"}
-        layout[f"xaxis{ax}"] = xa
-        layout[f"yaxis{ax}"] = {"domain": [max(top - h, 0.0), top], "anchor": f"x{ax}",
-                                "title": {"text": panel.get("ylabel", ""), "font": {"size": 11}}}
-        lo, hi = np.inf, -np.inf
-        for j, tr in enumerate(panel.get("traces", [])):
-            t, y = decimate_minmax(tr["t"], tr["y"], n_buckets)
-            if np.isfinite(y).any():
-                lo, hi = min(lo, float(np.nanmin(y))), max(hi, float(np.nanmax(y)))
-            data.append({
-                "type": "scatter", "mode": "lines", "name": tr["name"], "x": t, "y": y,
-                "xaxis": f"x{ax}", "yaxis": f"y{ax}", "connectgaps": False,
-                "line": {"color": tr.get("color", PALETTE[j % len(PALETTE)]),
-                         "width": tr.get("width", 1.3), "dash": tr.get("dash", "solid")},
-                "legend": f"legend{ax}", "hovertemplate": "%{y:.4g}",
-            })
-        layout[f"legend{ax}"] = {"x": 1.0, "xanchor": "right", "y": top, "yanchor": "bottom" if i == 0 else "top",
-                                 "orientation": "h", "bgcolor": "rgba(255,255,255,0.75)",
-                                 "font": {"size": 11}}
-        band = panel.get("band")
-        if np.isfinite(lo):
-            # y range from the data; a range-band edge is included when it is close enough
-            # to matter (the data crosses it or comes within a quarter of its span)
-            span = max(hi - lo, abs(hi) * 1e-3, 1e-9)
-            ylo, yhi = lo, hi
-            if band is not None and all(np.isfinite(band)):
-                if band[0] >= lo - 0.25 * span:
-                    ylo = min(ylo, float(band[0]))
-                if band[1] <= hi + 0.25 * span:
-                    yhi = max(yhi, float(band[1]))
-            pad = 0.06 * max(yhi - ylo, span)
-            layout[f"yaxis{ax}"]["range"] = [ylo - pad, yhi + pad]
-        if band is not None and all(np.isfinite(band)):
-            layout["shapes"].append({
-                "type": "rect", "xref": f"x{ax} domain", "yref": f"y{ax}", "x0": 0, "x1": 1,
-                "y0": float(band[0]), "y1": float(band[1]), "fillcolor": "rgba(43,138,62,0.08)",
-                "line": {"width": 1, "color": "rgba(43,138,62,0.5)", "dash": "dot"}, "layer": "below"})
-        for t0, t1 in panel.get("spans", [])[:300]:
-            if t1 <= t0:
-                t0, t1 = t0 - 0.5, t1 + 0.5
-            layout["shapes"].append({
-                "type": "rect", "xref": f"x{ax}", "yref": f"y{ax} domain", "x0": float(t0),
-                "x1": float(t1), "y0": 0, "y1": 1, "fillcolor": "rgba(224,49,49,0.18)",
-                "line": {"width": 0}, "layer": "below"})
-    return {"data": data, "layout": layout}
-
-
-def scatter_fit_figure(x: np.ndarray, y: np.ndarray, *, xlabel: str, ylabel: str,
-                       slope: float | None, intercept: float | None, r2: float | None,
-                       max_points: int = 2500) -> dict:
-    """Correlation scatter of two signals on a common grid with the 1:1 line and a fit.
-
-    Parameters
-    ----------
-    x, y : numpy.ndarray
-        Paired samples (NaN pairs are dropped).
-    xlabel, ylabel : str
-        Axis titles (name and unit).
-    slope, intercept : float or None
-        Fit ``y = slope * x + intercept`` as stated by QA; fitted here by least squares
-        when absent.
-    r2 : float or None
-        Coefficient of determination to show in the legend (computed when absent).
-    max_points : int
-        Points drawn (evenly strided subset, extremes of both axes always included).
-    """
-    ok = np.isfinite(x) & np.isfinite(y)
-    x, y = np.asarray(x, float)[ok], np.asarray(y, float)[ok]
-    data: list[dict] = []
-    if x.size:
-        if slope is None or intercept is None:
-            if x.size >= 2 and np.ptp(x) > 0:
-                slope, intercept = (float(v) for v in np.polyfit(x, y, 1))
-        if r2 is None and x.size >= 2 and np.std(x) > 0 and np.std(y) > 0:
-            r2 = float(np.corrcoef(x, y)[0, 1] ** 2)
-        idx = np.arange(x.size)
-        if x.size > max_points:
-            idx = np.unique(np.r_[np.linspace(0, x.size - 1, max_points).astype(int),
-                                  np.argmin(x), np.argmax(x), np.argmin(y), np.argmax(y)])
-        data.append({"type": "scatter", "mode": "markers", "name": "samples", "x": x[idx], "y": y[idx],
-                     "marker": {"size": 4, "color": PALETTE[0], "opacity": 0.45}})
-        lo, hi = float(min(x.min(), y.min())), float(max(x.max(), y.max()))
-        data.append({"type": "scatter", "mode": "lines", "name": "1:1", "x": [lo, hi], "y": [lo, hi],
-                     "line": {"color": "#868e96", "dash": "dot", "width": 1}})
-        if slope is not None and intercept is not None:
-            xs = np.array([x.min(), x.max()])
-            label = f"fit y = {slope:.4g}·x {'+' if intercept >= 0 else '−'} {abs(intercept):.4g}"
-            if r2 is not None:
-                label += f" (R² = {r2:.4f})"
-            data.append({"type": "scatter", "mode": "lines", "name": label, "x": xs,
-                         "y": slope * xs + intercept, "line": {"color": PALETTE[1], "width": 2}})
-    layout = {"height": 380, "margin": {"l": 70, "r": 20, "t": 30, "b": 50},
-              "xaxis": {"title": {"text": xlabel}}, "yaxis": {"title": {"text": ylabel}},
-              "legend": {"x": 0.01, "y": 0.99, "bgcolor": "rgba(255,255,255,0.7)"}}
-    return {"data": data, "layout": layout}
+__all__ = ["DEFAULT_FIG_HEIGHT_PX", "PALETTE", "ROW_HEIGHT_PX", "FigSpec", "figure_json", "histogram_figure",
+           "one_axis_figure", "prepare_figures", "scatter_fit_figure", "scatter_groups_figure", "time_traces_figure",
+           "typed_array"]

@@ -263,14 +263,15 @@ def alignment_section(test: Test, qa: dict) -> Section:
         else:
             before_t, after_t = other.time, other.time + off
             after_name = f"{other.name} with the estimated {off:+.3f} s (not applied)"
-        panels: list[dict[str, Any]] = [{"ylabel": label(test, ref.name),
-                   "traces": [{"name": f"{ref.name} (reference)", "t": ref.time, "y": ref.values, "color": PALETTE[0]}]},
-                  {"ylabel": label(test, other.name),
-                   "traces": [{"name": f"{other.name} before", "t": before_t, "y": other.values,
+        (ref_label, kr), (oth_label, ko) = display_label(test, ref.name), display_label(test, other.name)
+        panels: list[dict[str, Any]] = [{"ylabel": ref_label,
+                   "traces": [{"name": f"{ref.name} (reference)", "t": ref.time, "y": ref.values * kr, "color": PALETTE[0]}]},
+                  {"ylabel": oth_label,
+                   "traces": [{"name": f"{other.name} before", "t": before_t, "y": other.values * ko,
                                "color": PALETTE[1], "dash": "dot"},
-                              {"name": after_name, "t": after_t, "y": other.values, "color": PALETTE[2]}]}]
-        if ref.unit == other.unit:  # same quantity: overlay all three in one panel
-            panels = [{"ylabel": label(test, ref.name), "traces": panels[0]["traces"] + panels[1]["traces"]}]
+                              {"name": after_name, "t": after_t, "y": other.values * ko, "color": PALETTE[2]}]}]
+        if ref.unit == other.unit and kr == ko:  # same quantity: overlay all three in one panel
+            panels = [{"ylabel": ref_label, "traces": panels[0]["traces"] + panels[1]["traces"]}]
         fig = time_traces_figure(panels, row_height=300 if len(panels) == 1 else 200)
         sec.figures.append(FigSpec(f"Source '{src}': {other.name} against {ref.name}, "
                                    f"offset {off:+.3f} s" + ("" if applied else " (not applied)"),
@@ -422,8 +423,11 @@ def table2_section(test: Test, qa: dict) -> Section:
         a, b = names[:2]
         x, y = _pair_data(test, a, b)
         slope, icpt, r2 = qv.fit_of(r)
-        fig = scatter_fit_figure(x, y, xlabel=label(test, a), ylabel=label(test, b), slope=slope,
-                                 intercept=icpt, r2=r2)
+        (xlab, kx), (ylab, ky) = display_label(test, a), display_label(test, b)
+        # the fit in display units: y' = (slope ky / kx) x' + intercept ky
+        fig = scatter_fit_figure(x * kx, y * ky, xlabel=xlab, ylabel=ylab,
+                                 slope=None if slope is None else slope * ky / kx,
+                                 intercept=None if icpt is None else icpt * ky, r2=r2)
         sec.figures.append(FigSpec(f"{b} vs {a}", fig))
     return sec
 
@@ -506,43 +510,14 @@ def signals_section(test: Test) -> Section:
 
 
 def headline_banner(results: dict | None) -> dict | None:
-    """What the report shows first: the headline figure of ``results.json``, or why it is
-    withheld (signals, reason, fix), or that it is stated despite QA errors (``--force``).
+    """What the report shows first (:meth:`vehval.results.headline.Headline.banner`): the
+    headline figure of ``results.json`` with U and every caveat, or why it is withheld
+    (signals, reason, fix), or that it is stated despite QA errors (``--force``).
 
     Returns ``{"kind": "headline" | "withheld" | "forced", "title", "lines"}`` or None when
     there are no results.
     """
-    if not results:
-        return None
-    h = results.get("headline") or {}
-    name = str(h.get("name") or "test")
-    shown = "whole test" if name == "test" else name
-    held = h.get("withheld")
-    mpg, u = h.get("fuel_economy_mpg"), h.get("fuel_economy_u_mpg")
-    lp = h.get("fuel_consumption_l_per_100km")
-    figure = ("fuel economy n/a" if mpg is None else
-              f"{mpg:.2f} ± {u or 0:.2f} mpg" + (f" ({lp:.2f} L/100 km)" if lp is not None else ""))
-    from vehval.display import system
+    from vehval.results.headline import headline_of
 
-    if mpg is not None and lp is not None and system() == "metric":   # L/100 km first
-        figure = f"{lp:.2f} L/100 km ({mpg:.2f} ± {u or 0:.2f} mpg)"
-    rule = str(h.get("rule") or "")
-    n = int(results.get("withheld_count") or 0)
-    if held and not h.get("forced"):
-        return {"kind": "withheld", "title": f"Headline {shown}: withheld",
-                "lines": [f"Signals: {', '.join(held.get('signals') or [])}",
-                          f"Reason: {held.get('reason', '')}", f"Fix: {held.get('fix', '')}",
-                          f"{n} figure(s) withheld in this report; `--force` states them "
-                          "under a banner."]}
-    if results.get("forced") and n:
-        lines = [f"{n} figure(s) computed from signals with QA errors are stated anyway "
-                 "(--force); do not use them as test results."]
-        if held:
-            lines += [f"Reason: {held.get('reason', '')}", f"Fix: {held.get('fix', '')}"]
-        return {"kind": "forced", "title": f"Stated despite QA errors: {shown} {figure}",
-                "lines": lines}
-    lines = [rule] if rule else []
-    lines += [f"Caveat: {c}" for c in h.get("caveats") or []]
-    if n:
-        lines.append(f"{n} other figure(s) withheld for QA errors: see the results section.")
-    return {"kind": "headline", "title": f"{shown}: {figure}", "lines": lines}
+    h = headline_of(results)
+    return None if h is None else h.banner()

@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from vehval.fuels import Fuel, resolve_fuel
+from vehval.fuels import Fuel, fuel_volume_m3, mpg_from_volume_per_distance, resolve_fuel
 from vehval.qa.findings import Finding
-from vehval.results.composites import Composite, composites_for
+from vehval.results.composites import Composite, composites_for, substitute_direction
 from vehval.results.gate import headline
 from vehval.results.phases import Phase
 from vehval.results.steps import (
@@ -211,6 +211,8 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                          composites, hot_start_bag1)
     res = propagate_results(model, acc.parameters, method=method, draws=draws, seed=seed,
                             notes=notes)
+    notes.extend(substitute_direction(composites, res.values, hot_start_bag1,
+                                      lambda fpd: _economy(fuel_obj, fpd)))
     dq = drive_quality_by_scope(test, inputs.speed, plan, findings, notes)
     soc = soc_step(res.values, plan, composites, inputs, soc_factor, findings)
     return TestResults(test_id=test.meta.test_id, cycle=test.meta.cycle, fuel=fuel_obj,
@@ -220,6 +222,15 @@ def compute_results(test: Test, *, fuel: Any = None, accuracy: dict[str, Any] | 
                        conditions=cond, method=res.method,
                        draws=draws if res.method == "monte_carlo" else None,
                        findings=findings, notes=notes, inputs=roles)
+
+
+def _economy(fuel: Fuel | None, fuel_per_distance: float) -> float | None:
+    """Fuel per distance [kg/m] -> fuel economy [mpg] with the nominal fuel density (None
+    without one)."""
+    if fuel is None or not fuel.density_kg_per_m3:
+        return None
+    return float(mpg_from_volume_per_distance(fuel_volume_m3(fuel_per_distance,
+                                                             fuel.density_kg_per_m3)))
 
 
 def results_from_template(test: Test, template: Any, vehicle: Any = None,

@@ -361,6 +361,17 @@ def api_signal(wb: Workbench, q: prm.SignalQuery, body: None) -> dict:
     return wb.bench(q.dir, q.test).signal(q.name, q.t0, q.t1, q.n)
 
 
+def api_finding(wb: Workbench, q: prm.FindingQuery, body: None) -> dict:
+    """The figure of one finding (a plotly spec the page draws; 409 before QA ran)."""
+    import json
+
+    from vehval.report.figures import figure_json
+
+    out = wb.bench(q.dir).finding_figure(q.i)
+    out["figure"] = json.loads(figure_json(out["figure"]))
+    return out
+
+
 def api_save(wb: Workbench, q: prm.DirQuery, body: prm.TemplateEdits) -> dict:
     b = wb.bench(q.dir, q.test)
     b.save_edits(body.edits())
@@ -427,6 +438,21 @@ def api_trace(wb: Workbench, q: prm.TraceQuery, body: None) -> dict:
     return test_traces(wb.root, db, q.test, q.q, q.n, per_phase=q.axis == "phase")
 
 
+def api_overlay(wb: Workbench, q: prm.OverlayQuery, body: None) -> dict:
+    """The overlay figure of catalog tests (a spec the page draws; a test without the
+    quantity's signal is named in ``missing``)."""
+    import json
+
+    from vehval.report.figures import figure_json
+    from vehval.serve.catalog_view import overlay_figure
+
+    db = sec.inside_workspace(wb.root, q.db)
+    sec.regular_file(wb.root, db, q.db)
+    out = overlay_figure(wb.root, db, q.ids(), q.q, q.n, per_phase=q.axis == "phase")
+    out["figure"] = json.loads(figure_json(out["figure"]))
+    return out
+
+
 def create_app(workspace: str | Path, *, token: str | None = None,
                extra_hosts: frozenset[str] = frozenset()) -> Starlette:
     """The workbench application over ``workspace``.
@@ -447,6 +473,7 @@ def create_app(workspace: str | Path, *, token: str | None = None,
         Route("/api/test", _api(api_test, prm.DirQuery)),
         Route("/api/channel", _api(api_channel, prm.ChannelQuery)),
         Route("/api/signal", _api(api_signal, prm.SignalQuery)),
+        Route("/api/finding", _api(api_finding, prm.FindingQuery)),
         Route("/api/template", _api(api_save, prm.DirQuery, prm.TemplateEdits), methods=["POST"]),
         Route("/api/run", _api(api_run, prm.DirQuery, prm.NoBody), methods=["POST"]),
         Route("/api/selection", _api(api_selection, prm.DirQuery, prm.Decision),
@@ -456,6 +483,7 @@ def create_app(workspace: str | Path, *, token: str | None = None,
         Route("/api/report", _api(api_report, prm.DirQuery, prm.NoBody), methods=["POST"]),
         Route("/api/catalog", _api(api_catalog, prm.CatalogQuery)),
         Route("/api/catalog/trace", _api(api_trace, prm.TraceQuery)),
+        Route("/api/catalog/overlay", _api(api_overlay, prm.OverlayQuery)),
     ]
     app = Starlette(routes=routes, middleware=[Middleware(_Guard)])
     app.state.workbench = Workbench(Path(workspace), token, extra_hosts)

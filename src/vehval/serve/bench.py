@@ -25,7 +25,7 @@ import numpy as np
 from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.io import folder as data_folder
 from vehval.serve import security as sec
-from vehval.serve.series import series
+from vehval.serve.series import series, series_figure
 from vehval.serve.yamlcomments import carry_comments
 
 #: The template file of a test folder, and the folder QA writes into.
@@ -98,6 +98,8 @@ class Bench:
         self._raw: dict[str, tuple[float, Any]] = {}
         self.run: Any = None
         self.state = BenchState()
+        #: the last model comparison's normalised error of the fuel mass (for the headline)
+        self.model_verdict: dict | None = None
         self._load_outputs()
 
     # ------------------------------------------------------------------ template
@@ -279,6 +281,7 @@ class Bench:
                                         results=self.state.results)
                 return self.state
             self.run = run
+            self.model_verdict = None
             self.state = BenchState(findings=qa.document, results=results.to_dict(),
                                     notes=list(qa.document.get("notes") or []))
             return self.state
@@ -321,7 +324,9 @@ class Bench:
             raise
         except VehvalError as exc:
             return {"error": str(exc), "files": [], "saved": saved, "left_out": left}
-        findings = (self.state.findings or {}).get("findings") or []
+        from vehval.results.all_findings import stage_findings
+
+        findings = stage_findings(self.state.findings, self.state.results)
         hints: dict[str, list[dict]] = {}
         for f in findings:
             if f.get("kind") in UNIT_KINDS:
@@ -345,7 +350,7 @@ class Bench:
                 "fuels": list(known_fuels()), "findings": findings,
                 "selection": selection,
                 "user_selection": tmpl.selection.model_dump(),
-                "headline": headline(self.state.results),
+                "headline": headline(self.state.results, self.model_verdict),
                 "summary": summary,
                 "error": self.state.error, "notes": self.state.notes}
 
@@ -415,7 +420,9 @@ class Bench:
         else:
             t = np.arange(y.size, dtype=float)
         unit = dict(zip(raw.names, raw.units)).get(raw_name)
-        return {"file": file, "raw": raw_name, "unit": unit, **series(t, y, t0, t1, n)}
+        s = series(t, y, t0, t1, n)
+        return {"file": file, "raw": raw_name, "unit": unit, **s,
+                "figure": series_figure(s, raw_name, unit or "", f"{raw_name} as in {file}")}
 
     def signal(self, name: str, t0: float | None, t1: float | None, n: int) -> dict:
         """Samples of one imported signal [SI], on the test's aligned time, for triage.
@@ -425,19 +432,52 @@ class Bench:
         QANotRun
             QA has not run on the test since the workbench started (a view never runs it).
         """
-        run = self.run
-        if run is None:
-            last = f" (the last run stopped: {self.state.error})" if self.state.error else ""
-            raise QANotRun(f"{self._label()}: QA has not run on this test since the workbench "
-                           f"started{last}: run it first (the page's Rerun QA, POST /api/run), "
-                           "then ask again")
+        run = self._run_or_409()
         test = run.qa().validated
         sig = test[name] if name in test else None
         if sig is None and name in run.test:
             sig = run.test[name]
         if sig is None:
             raise InputFileError(f"{name}: no such signal in the test")
-        return {"name": name, "unit": sig.unit, **series(sig.time, sig.values, t0, t1, n)}
+        from vehval.display import to_display
+
+        shown, label = to_display(np.asarray(sig.values, float), sig.unit, signal=name)
+        s = series(sig.time, shown, t0, t1, n)
+        # t, y in SI as before; the figure in the display unit
+        return {"name": name, "unit": sig.unit, "display_unit": label,
+                **series(sig.time, sig.values, t0, t1, n),
+                "figure": series_figure(s, name, label, name)}
+
+    def finding_figure(self, index: int) -> dict:
+        """The figure of the page's finding number ``index`` (:func:`stage_findings` order),
+        made for its kind in display units (:mod:`vehval.report.finding_figures`).
+
+        Raises
+        ------
+        QANotRun
+            QA has not run on the test since the workbench started.
+        """
+        from vehval.report.finding_figures import finding_figure
+        from vehval.results.all_findings import stage_findings
+
+        run = self._run_or_409()
+        found = stage_findings(self.state.findings, self.state.results)
+        if not 0 <= index < len(found):
+            raise InputFileError(f"finding {index}: the test has {len(found)} finding(s)")
+        qa = run.qa()
+        fig = finding_figure(qa.validated, found[index], results=self.state.results,
+                             calc=qa.result.calculations, vehicle=run.vehicle,
+                             imported=run.test)
+        return {"index": index, "kind": found[index].get("kind"), "figure": fig}
+
+    def _run_or_409(self) -> Any:
+        run = self.run
+        if run is None:
+            last = f" (the last run stopped: {self.state.error})" if self.state.error else ""
+            raise QANotRun(f"{self._label()}: QA has not run on this test since the workbench "
+                           f"started{last}: run it first (the page's Rerun QA, POST /api/run), "
+                           "then ask again")
+        return run
 
     def _ensure_run(self) -> Any:
         if self.run is None:
@@ -462,25 +502,13 @@ def _confidence(spec: Any, proposed: str | None, base: str | None, header_unit: 
     return "edited"
 
 
-def headline(results: dict | None) -> dict | None:
-    """The headline figure of ``results.json``: its ``headline`` when it has one, else the
-    first regulatory composite, else the whole test (with ``withheld`` when withheld)."""
-    if not results:
-        return None
-    if isinstance(results.get("headline"), dict):
-        return dict(results["headline"])
-    for comp in results.get("composites") or []:
-        v = comp.get("values") or {}
-        if v.get("fuel_economy_mpg") is not None:
-            return {"name": comp.get("name"), "fuel_economy_mpg": v.get("fuel_economy_mpg"),
-                    "fuel_consumption_l_per_100km": v.get("fuel_consumption_l_per_100km"),
-                    "withheld": comp.get("withheld")}
-    v = (results.get("test_total") or {}).get("values") or {}
-    why = None if v.get("fuel_economy_mpg") is not None else \
-        "; ".join(str(n) for n in results.get("notes") or []) or "no fuel economy"
-    return {"name": "test", "fuel_economy_mpg": v.get("fuel_economy_mpg"),
-            "fuel_consumption_l_per_100km": v.get("fuel_consumption_l_per_100km"),
-            "withheld": why}
+def headline(results: dict | None, model: dict | None = None) -> dict | None:
+    """The page's headline of ``results.json`` (:func:`vehval.results.headline.headline_of`:
+    figure with U, rule, every caveat, J1711 status, the model's verdict when it ran)."""
+    from vehval.results.headline import headline_of
+
+    h = headline_of(results, model=model)
+    return None if h is None else h.to_dict()
 
 
 def _with_user_drops(selection: dict, user_drop: dict[str, str]) -> dict:

@@ -19,18 +19,36 @@ from vehval.errors import InputFileError, VehvalError
 from vehval.serve.security import classify, inside_workspace, regular_file
 from vehval.serve.series import series
 
-#: Catalog columns listed on the page (metrics [SI] and the fuel economy [mpg]).
+#: Catalog columns read for the page (the API's ``rows`` hold them as the catalog stores
+#: them: SI, mpg).
 COLUMNS = ("test_id", "status", "vehicle", "cycle", "start_condition", "cell_temp_c", "fuel",
            "duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
-           "fuel_consumption_l_per_100km", "soc_change", "n_findings", "error")
+           "fuel_consumption_l_per_100km", "soc_change", "n_findings", "error",
+           "headline_name", "headline_mpg", "headline_u_mpg", "headline_l_per_100km",
+           "withheld_reason")
+#: What the page shows (``view``): key -> (heading, SI unit or None, digits); units are the
+#: user's display units (:mod:`vehval.display`).
+VIEW = {"test_id": ("test", None, 0), "status": ("status", None, 0),
+        "vehicle": ("vehicle", None, 0), "cycle": ("cycle", None, 0),
+        "start_condition": ("start", None, 0), "cell_temp_c": ("cell", "degC", 1),
+        "fuel": ("fuel", None, 0), "headline": ("headline (U, k = 2)", None, 0),
+        "duration_s": ("duration", "min", 1), "distance_m": ("distance", "m", 2),
+        "fuel_mass_kg": ("fuel used", "kg", 3), "soc_change": ("SOC change", "%", 1),
+        "n_findings": ("findings", None, 0), "error": ("error", None, 0)}
 #: Filters the page offers: query key -> column.
 FILTERS = {"vehicle": "vehicle", "cycle": "cycle", "status": "status",
            "start": "start_condition", "fuel": "fuel"}
 #: Quantities an overlay may show: key -> (standard base names tried in order, label).
-OVERLAY = {"speed": (("veh_spd",), "vehicle speed [m/s]"),
-           "fuel": (("fuel_rate",), "fuel rate [kg/s]"),
-           "engine": (("eng_spd_out",), "engine speed [rad/s]"),
-           "soc": (("ess_soc",), "battery SOC [-]")}
+OVERLAY = {"speed": (("veh_spd",), "vehicle speed"),
+           "fuel": (("fuel_rate",), "fuel rate"),
+           "engine": (("eng_spd_out",), "engine speed"),
+           "soc": (("ess_soc",), "battery SOC")}
+
+
+class NoSignal(VehvalError):
+    """A test of the catalog has no signal for the overlay's quantity (answered as a message
+    beside the plot, not an error: an SOC overlay of a conventional car)."""
+
 
 _cache_lock = threading.Lock()
 #: One catalog connection at a time: DuckDB shares one database per file and process, and a
@@ -78,8 +96,63 @@ def rows(db: Path, filters: dict[str, str]) -> dict:
             _, vals = cat.query(f"SELECT DISTINCT {col} FROM latest_tests WHERE {col} IS NOT NULL "
                                 f"ORDER BY 1")
             options[key] = [v[0] for v in vals]
-    return {"columns": list(cols), "rows": [dict(zip(cols, r)) for r in data],
-            "options": options}
+    out_rows = [dict(zip(cols, r)) for r in data]
+    heads, cells = view(out_rows)
+    return {"columns": list(cols), "rows": out_rows, "options": options,
+            "view": {"columns": heads, "rows": cells}}
+
+
+def _headline_cell(row: dict) -> str:
+    """``hwfet: 54.80 ± 0.66 mpg (4.29 L/100 km)`` in the user's system (the results layer's
+    :class:`~vehval.results.headline.Headline`), or why it is withheld."""
+    from vehval.display import system
+    from vehval.results.headline import Headline
+
+    name = row.get("headline_name")
+    if not name:
+        return ""
+    if row.get("headline_mpg") is None:
+        why = row.get("withheld_reason")
+        return f"{name}: withheld" + (f" ({why})" if why else "")
+    h = Headline(kind="headline", scope=str(name), mpg=row.get("headline_mpg"),
+                 u_mpg=row.get("headline_u_mpg"), l_per_100km=row.get("headline_l_per_100km"),
+                 system=system())
+    return f"{h.shown}: {h.figure()}"
+
+
+def view(rows_in: list[dict]) -> tuple[list[dict], list[dict]]:
+    """The page's table: headings with display units (``[{"key", "label"}]``) and one dict
+    of display texts per row (key -> text), numbers rounded in the user's units."""
+    from vehval.display import unit_for
+
+    heads, units = [], {}
+    for key, (label, si, _) in VIEW.items():
+        unit = None
+        if si == "min":
+            unit = "min"
+        elif si == "%":
+            unit = "%"
+        elif si:
+            unit = unit_for(si).label
+        units[key] = unit
+        heads.append({"key": key, "label": f"{label} [{unit}]" if unit else label})
+    cells = []
+    for row in rows_in:
+        out: dict[str, str] = {}
+        for key, (_, si, digits) in VIEW.items():
+            v = _headline_cell(row) if key == "headline" else row.get(key)
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and si:
+                if si == "min":
+                    v = v / 60.0
+                elif si == "%":
+                    v = 100.0 * v
+                else:
+                    v = float(unit_for(si).convert(v))
+                out[key] = f"{v:,.{digits}f}"
+            else:
+                out[key] = "" if v is None else str(v)
+        cells.append(out)
+    return heads, cells
 
 
 def _test_record(db: Path, test_id: str) -> tuple[list[str], dict]:
@@ -123,12 +196,39 @@ def _per_phase(test: Any, time: np.ndarray, values: np.ndarray, n: int) -> list[
     return out
 
 
-def test_traces(root: Path, db: Path, test_id: str, quantity: str, n: int,
-                per_phase: bool = False) -> dict:
-    """One quantity of one catalog test, imported again from its raw files [SI]; with
-    ``per_phase`` one trace per phase, each from its own start."""
-    if quantity not in OVERLAY:
-        raise InputFileError(f"overlay: unknown quantity '{quantity}' ({', '.join(OVERLAY)})")
+def _overlay_test(root: Path, db: Path, test_id: str) -> Any | None:
+    """The validated overlay signals the batch kept for the test (``tests/ID/overlay.parquet``
+    beside the catalog), or None when the batch kept none."""
+    from vehval.batch.task import OVERLAY_FILE
+    from vehval.io.parquet import read_test
+
+    if not test_id or test_id.startswith(".") or "/" in test_id or "\\" in test_id:
+        return None
+    path = db.parent / "tests" / test_id / OVERLAY_FILE
+    try:
+        real = regular_file(root, path, OVERLAY_FILE)
+    except VehvalError:
+        return None
+    if real is None:
+        return None
+    key = (str(real), real.stat().st_mtime)
+    with _cache_lock:
+        hit = _tests.get(key)
+    if hit is None:
+        hit = read_test(real)
+        with _cache_lock:
+            if len(_tests) > 32:
+                _tests.clear()
+            _tests[key] = hit
+    return hit
+
+
+def _catalog_test(root: Path, db: Path, test_id: str) -> Any:
+    """The test's overlay signals: the batch's validated ones, else imported again from the
+    recorded raw files with the batch's template (both inside the workspace)."""
+    kept = _overlay_test(root, db, test_id)
+    if kept is not None:
+        return kept
     files, settings = _test_record(db, test_id)
     tpl = settings.get("template")
     if not files or not tpl:
@@ -146,14 +246,66 @@ def test_traces(root: Path, db: Path, test_id: str, quantity: str, n: int,
             if len(_tests) > 32:
                 _tests.clear()
             _tests[key] = test
+    return test
+
+
+def test_traces(root: Path, db: Path, test_id: str, quantity: str, n: int,
+                per_phase: bool = False) -> dict:
+    """One quantity of one catalog test in its display unit (the batch's validated signals,
+    else imported again from its raw files); with ``per_phase`` one trace per phase, each
+    from its own start.
+
+    Raises
+    ------
+    NoSignal
+        The test has no signal of the quantity (an SOC of a conventional car).
+    """
+    from vehval.display import to_display
+
+    if quantity not in OVERLAY:
+        raise InputFileError(f"overlay: unknown quantity '{quantity}' ({', '.join(OVERLAY)})")
+    test = _catalog_test(root, db, test_id)
     bases, label = OVERLAY[quantity]
     for base in bases:
-        sig = test.best(base, ("test",))
+        sig = test.best(base, ("test", "calc"))
         if sig is not None:
-            out = {"test_id": test_id, "signal": sig.name, "unit": sig.unit, "label": label,
-                   **series(sig.time, sig.values, None, None, n)}
+            y, unit = to_display(np.asarray(sig.values, float), sig.unit, signal=sig.name)
+            out = {"test_id": test_id, "signal": sig.name, "unit": unit,
+                   "label": f"{label} [{unit}]" if unit else label,
+                   **series(sig.time, y, None, None, n)}
             if per_phase:
-                out["phases"] = _per_phase(test, np.asarray(sig.time, float),
-                                           np.asarray(sig.values, float), n)
+                out["phases"] = _per_phase(test, np.asarray(sig.time, float), y, n)
             return out
-    raise VehvalError(f"{test_id}: no {label.split(' [')[0]} signal in the test")
+    raise NoSignal(f"{test_id}: no {label} signal in the test"
+                   + (" (a conventional car has no traction battery)" if quantity == "soc"
+                      else ""))
+
+
+def overlay_figure(root: Path, db: Path, test_ids: list[str], quantity: str, n: int,
+                   per_phase: bool = False) -> dict:
+    """The overlay of ``quantity`` over catalog tests on one axis in its display unit (the
+    report's figure layer); tests without the signal are named in ``missing``."""
+    from vehval.report.figures import one_axis_figure
+
+    traces, missing, unit = [], [], None
+    for tid in test_ids:
+        try:
+            s = test_traces(root, db, tid, quantity, n, per_phase)
+        except NoSignal as exc:
+            missing.append(str(exc))
+            continue
+        if unit is not None and s["unit"] != unit:       # one unit per axis
+            missing.append(f"{tid}: {quantity} in {s['unit']}, not {unit}: not overlaid")
+            continue
+        unit = s["unit"]
+        parts = s.get("phases") if per_phase else [dict(s, phase=None)]
+        for p in parts or []:
+            name = tid if p.get("phase") is None else f"{tid} phase {p['phase']}"
+            traces.append({"name": name, "t": np.asarray(p["t"], float),
+                           "y": np.asarray(p["y"], dtype=float)})
+    label = OVERLAY[quantity][1]
+    fig = one_axis_figure(traces, unit=unit or "", ylabel=label,
+                          xlabel="time from each phase's start [s]" if per_phase else "time [s]")
+    fig["layout"]["title"] = {"text": label + (" per phase" if per_phase else ""),
+                              "font": {"size": 13}, "x": 0.01}
+    return {"figure": fig, "missing": missing, "traces": len(traces)}

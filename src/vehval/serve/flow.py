@@ -192,6 +192,7 @@ def _power_split(bench: Any, p: dict) -> dict:
         if fuel_qa and t.get("title", "").startswith("Verdict"):
             t["note"] = (t.get("note") or "") + " " + qa_label(fuel_qa)
     out["fuel_qa"] = fuel_qa
+    out["figure"] = traces_figure(out["traces"])
     return out
 
 
@@ -259,7 +260,8 @@ def _conventional(bench: Any, p: dict) -> dict:
             "set_verdict": verdict, "fuel_qa": fuel_qa,
             "notes": notes + [f"A/C {'on' if pred['ac_on'] else 'off'}: {pred['ac_reason']}",
                               f"start: {pred['cold_reason']}"],
-            "traces": _conventional_traces(pred)}
+            "traces": (overlay := _conventional_traces(pred)),
+            "figure": traces_figure(overlay)}
 
 
 def _tmpl(bench: Any) -> Any:
@@ -301,6 +303,24 @@ def _fuel_table(pred: dict, fuel_qa: list[dict]) -> dict:
             "columns": ["scope", "measured [g]", "predicted [g]", "error [%]",
                         "U_model (k = 2) [g]", "U_meas (k = 2) [g]", "En", "verdict"],
             "rows": rows, "note": note}
+
+
+def traces_figure(traces: list[dict]) -> dict:
+    """Measured against model, one panel per quantity in its display unit, on one linked time
+    axis: the figure layer's stacked traces (:func:`vehval.report.figures.time_traces_figure`),
+    as plotly JSON the page draws."""
+    from vehval.report.figures import PALETTE, figure_json, time_traces_figure
+
+    panels = [{"ylabel": f"{tr['base']} [{tr['unit']}]" if tr["unit"] else tr["base"],
+               "traces": [{"name": tr[side]["name"], "t": tr[side]["t"],
+                           "y": [np.nan if v is None else v for v in tr[side]["y"]],
+                           "unit": tr["unit"], "color": PALETTE[k],
+                           **({"dash": "dot"} if side == "simulated" else {})}
+                          for k, side in enumerate(("measured", "simulated"))]}
+              for tr in traces]
+    fig = time_traces_figure(panels, row_height=150)
+    fig["layout"]["meta"] = {"units": [tr["unit"] for tr in traces]}
+    return json.loads(figure_json(fig))
 
 
 def _conventional_traces(pred: dict, n: int = 2000) -> list[dict]:

@@ -38,11 +38,41 @@ def model_overlay(bench: Any, n: int = 2000) -> dict:
         traces.append({"base": base, "unit": m.unit,
                        "measured": {"name": m.name, **series(m.time, m.values, None, None, n)},
                        "simulated": {"name": s.name, **series(s.time, s.values, None, None, n)}})
+    figure = overlay_figure(measured, sim)
     ne = _normalised_error(run.vehicle, val.comparison)
+    bench.model_verdict = ne
     tables = val.comparison.tables()
     tables.insert(1 if tables else 0, en_table(ne))   # beside the summary's % differences
     return {"vehicle": val.sim.vehicle.name, "tables": tables, "normalised_error": ne,
-            "notes": outcome.payload(figures=False).get("notes", []), "traces": traces}
+            "notes": outcome.payload(figures=False).get("notes", []), "traces": traces,
+            "figure": figure}
+
+
+def overlay_figure(measured: Any, sim: Any) -> dict:
+    """Measured against simulated, one panel per quantity in its display unit, on one linked
+    time axis (the report's figure layer), as plotly JSON the page draws."""
+    import json
+
+    import numpy as np
+
+    from vehval.display import to_display
+    from vehval.report.figures import PALETTE, figure_json, time_traces_figure
+
+    panels = []
+    for base in BASES:
+        m = measured.best(base, ("test",))
+        s = sim.best(base, ("simu",))
+        if m is None or s is None:
+            continue
+        ym, unit = to_display(np.asarray(m.values, float), m.unit, signal=m.name)
+        ys, _ = to_display(np.asarray(s.values, float), s.unit, signal=m.name)
+        panels.append({"ylabel": f"{base} [{unit}]" if unit else base, "unit": unit, "traces": [
+            {"name": f"{m.name} (test)", "t": m.time, "y": ym, "unit": unit, "color": PALETTE[0]},
+            {"name": f"{s.name} (model)", "t": s.time, "y": ys, "unit": unit,
+             "color": PALETTE[1], "dash": "dot"}]})
+    fig = time_traces_figure(panels, row_height=140)
+    fig["layout"]["meta"] = {"units": [p["unit"] for p in panels]}
+    return json.loads(figure_json(fig))
 
 
 def _normalised_error(veh: Any, comp: Any) -> dict:

@@ -83,6 +83,12 @@ class SignalQuery(_Window):
     name: str = Field(min_length=1)
 
 
+class FindingQuery(DirQuery):
+    """``/api/finding``: the figure of the test's finding number ``i`` (page order)."""
+
+    i: int = Field(ge=0, le=100_000)
+
+
 class CatalogQuery(_Query):
     """``/api/catalog``: a catalog (``db``) and the filters of its tests."""
 
@@ -102,6 +108,25 @@ class TraceQuery(_Query):
     q: str = "speed"
     n: int = Field(MAX_POINTS, ge=10, le=MAX_N)
     axis: Literal["time", "phase"] = "time"
+
+
+class OverlayQuery(_Query):
+    """``/api/catalog/overlay``: one quantity ``q`` of the catalog tests ``tests`` (comma
+    separated test ids) on one axis."""
+
+    db: str = Field(min_length=1)
+    tests: str = Field(min_length=1)
+    q: str = "speed"
+    n: int = Field(MAX_POINTS, ge=10, le=MAX_N)
+    axis: Literal["time", "phase"] = "time"
+
+    def ids(self) -> list[str]:
+        """The test ids (at most 50, duplicates once)."""
+        out: list[str] = []
+        for t in self.tests.split(","):
+            if t.strip() and t.strip() not in out:
+                out.append(t.strip())
+        return out[:50]
 
 
 # ------------------------------------------------------------------ bodies

@@ -53,3 +53,19 @@ def series(time: np.ndarray, values: np.ndarray, t0: float | None = None,
         t, y = td, yd
     return {"t": _finite_or_none(t), "y": _finite_or_none(y), "exact": bool(exact),
             "n_window": int(m), "span": span}
+
+
+def series_figure(s: dict, name: str, unit: str, title: str) -> dict:
+    """The figure of one trace of :func:`series` (already windowed and decimated) on one
+    axis in ``unit`` (the report's figure layer), as plotly JSON the page draws."""
+    import json
+
+    from vehval.report.figures import figure_json, one_axis_figure
+
+    t = np.array([np.nan if v is None else v for v in s["t"]], float)
+    y = np.array([np.nan if v is None else v for v in s["y"]], float)
+    fig = one_axis_figure([{"name": name, "t": t, "y": y}], unit=unit or "", ylabel=name,
+                          n_buckets=0)
+    fig["layout"]["title"] = {"text": title, "font": {"size": 13}, "x": 0.01}
+    fig["layout"]["meta"].update(exact=bool(s["exact"]), points=int(t.size))
+    return json.loads(figure_json(fig))

@@ -185,15 +185,15 @@ def tornado_figure(result: dict[str, Any], cycle: str, top: int = 20) -> dict:
     names = [r["key"] for r in rows]
     lo = [r["cycles"][cycle]["low_pct"] for r in rows]
     hi = [r["cycles"][cycle]["high_pct"] for r in rows]
-    return {"data": [{"type": "bar", "orientation": "h", "y": names, "x": lo, "name": "low end",
-                      "marker": {"color": "#1f5fa8"}},
-                     {"type": "bar", "orientation": "h", "y": names, "x": hi,
-                      "name": "high end", "marker": {"color": "#d9480f"}}],
-            "layout": {"barmode": "overlay", "height": 120 + 22 * len(rows),
-                       "title": {"text": f"{cycle}: fuel economy change [%] "
-                                         f"(base {result['base'][cycle]['mpg']:.1f} mpg)"},
-                       "xaxis": {"title": {"text": "change of SOC-corrected mpg [%]"}},
-                       "margin": {"l": 260, "r": 20, "t": 40, "b": 50}}}
+    from vehval.figures import bar_figure
+
+    return bar_figure([{"name": "low end", "x": lo, "y": names, "color": "#1f5fa8"},
+                       {"name": "high end", "x": hi, "y": names, "color": "#d9480f"}],
+                      horizontal=True, overlay=True, height=120 + 22 * len(rows),
+                      title=f"{cycle}: fuel economy change [%] "
+                            f"(base {result['base'][cycle]['mpg']:.1f} mpg)",
+                      xlabel="change of SOC-corrected mpg [%]",
+                      margin={"l": 260, "r": 20, "t": 40, "b": 50})
 
 
 # --- fuel economy against road load and test weight -------------------------------------

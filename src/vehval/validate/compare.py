@@ -420,38 +420,22 @@ def overlay_figures(comp: Comparison, max_points: int = 2500) -> list[dict]:
     stride = max(1, int(math.ceil(len(df) / max_points)))
     t = df["time"].to_numpy()[::stride]
     out = []
+    from vehval.figures import time_traces_figure
+
     for title, bases in FIGURE_GROUPS:
         present = [b for b in bases if f"{b}_test" in df and f"{b}_simu" in df]
         if not present:
             continue
-        n = len(present)
-        gap = 0.04
-        h = (1.0 - gap * (n - 1)) / n
-        data: list[dict[str, Any]] = []
-        layout: dict[str, Any] = {"title": {"text": f"{title}: test vs simulation"},
-                                  "height": 220 * n + 80, "showlegend": True,
-                                  "legend": {"orientation": "h"},
-                                  "margin": {"t": 60, "l": 70, "r": 20}}
-        for i, base in enumerate(present):
+        panels = []
+        for base in present:
             label, unit, k = COMPONENT_SIGNALS.get(base, (base, "SI", 1.0))
-            ax = "" if i == 0 else str(i + 1)
-            for origin, color, dash in (("test", "#1f77b4", "solid"), ("simu", "#d62728", "dot")):
-                v = df[f"{base}_{origin}"].to_numpy()[::stride] * k
-                data.append({"type": "scattergl", "mode": "lines", "name": f"{label} {origin}",
-                             "x": np.round(t, 3).tolist(),
-                             "y": [None if not np.isfinite(x) else round(float(x), 5) for x in v],
-                             "xaxis": f"x{ax}", "yaxis": f"y{ax}",
-                             "line": {"color": color, "dash": dash, "width": 1.2},
-                             "legendgroup": origin, "showlegend": i == 0})
-                if i == 0:
-                    data[-1]["name"] = "test" if origin == "test" else "simulation"
-            top = 1.0 - i * (h + gap)
-            layout[f"yaxis{ax}"] = {"domain": [max(top - h, 0.0), top], "title": {"text": f"{label} [{unit}]"},
-                                    "anchor": f"x{ax}"}
-            layout[f"xaxis{ax}"] = {"anchor": f"y{ax}", "matches": "x" if i else None,
-                                    "showticklabels": i == n - 1,
-                                    "title": {"text": "time [s]" if i == n - 1 else ""}}
-            if not i:
-                layout["xaxis"].pop("matches")
-        out.append({"title": f"{title}: test vs simulation", "figure": {"data": data, "layout": layout}})
+            panels.append({"ylabel": f"{label} [{unit}]", "traces": [
+                {"name": f"{label} {'test' if origin == 'test' else 'simulation'}", "t": t,
+                 "y": df[f"{base}_{origin}"].to_numpy()[::stride] * k, "unit": unit,
+                 "color": color, "dash": dash, "width": 1.2}
+                for origin, color, dash in (("test", "#1f77b4", "solid"),
+                                            ("simu", "#d62728", "dot"))]})
+        fig = time_traces_figure(panels, row_height=220)
+        fig["layout"]["title"] = {"text": f"{title}: test vs simulation"}
+        out.append({"title": f"{title}: test vs simulation", "figure": fig})
     return out

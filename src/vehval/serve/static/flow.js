@@ -35,13 +35,6 @@
     if (!r.ok) throw new Error(data.error || ("HTTP " + r.status));
     return data;
   }
-  function plotly() {
-    return new Promise(resolve => {
-      if (window.Plotly) { resolve(); return; }
-      const poll = setInterval(() => { if (window.Plotly) { clearInterval(poll); resolve(); } }, 50);
-    });
-  }
-
   // ---------------------------------------------------------------- the tab in the URL
   function tabFromUrl() { const m = /(?:^|[#&])tab=([a-z]+)/.exec(location.hash); return m ? m[1] : null; }
   document.querySelectorAll(".tabs button").forEach(b => b.addEventListener("click", () => {
@@ -92,22 +85,11 @@
         el("tbody", {}, ...t.rows.map(row => el("tr", {}, ...(Array.isArray(row) ? row : t.columns.map(c => row[c])).map(v => el("td", {text: fmt(v)})))))));
       if (t.note) out.append(el("p", {class: "note", text: t.note}));
     }
-    if (r.traces && r.traces.length) {
-      // one figure, one row per quantity (its own unit), one linked time axis
-      await plotly();
+    if (r.figure && r.traces && r.traces.length) {
+      // the server's figure: one panel per quantity (its own unit), one linked time axis
       const div = el("div", {class: "plot model-plot", id: "model-plot"});
-      div.style.height = (170 * r.traces.length + 60) + "px";
       out.append(div);
-      const data = [], layout = {margin: {t: 20, r: 10, b: 40, l: 70}, grid: {rows: r.traces.length, columns: 1, pattern: "coupled"}, showlegend: true};
-      r.traces.forEach((tr, i) => {
-        const ax = i === 0 ? "" : String(i + 1);
-        for (const [s, dash] of [[tr.measured, "solid"], [tr.simulated, "dot"]]) {
-          data.push({type: "scatter", mode: "lines", x: s.t, y: s.y, name: s.name, xaxis: "x", yaxis: "y" + ax, line: {width: 1, dash}, connectgaps: false});
-        }
-        layout["yaxis" + ax] = {title: {text: tr.base + " [" + tr.unit + "]"}};
-      });
-      layout.xaxis = {title: {text: "time [s]"}};
-      await Plotly.newPlot(div, data, layout, {responsive: true, displaylogo: false});
+      await window.vehvalFigures.draw(div, r.figure);
       div.dataset.rows = String(r.traces.length);
     }
     for (const n of r.notes || []) out.append(el("p", {text: n}));

@@ -4,14 +4,6 @@
   const csrf = document.querySelector('meta[name="vehval-csrf"]').content;
   const page = document.body.dataset.page;
   const N = 4000;  // points per trace (min/max decimated beyond, exact when zoomed in)
-  // plotly.js loads asynchronously: the tables show before it is parsed
-  const plotlyReady = new Promise(resolve => {
-    if (window.Plotly) { resolve(); return; }
-    const tag = document.getElementById("plotly-js");
-    tag.addEventListener("load", () => resolve());
-    const poll = setInterval(() => { if (window.Plotly) { clearInterval(poll); resolve(); } }, 50);
-  });
-
   function el(tag, attrs, ...kids) {
     const e = document.createElement(tag);
     for (const [k, v] of Object.entries(attrs || {})) {
@@ -43,43 +35,6 @@
     return data;
   }
   function fmt(x, d) { return (x === null || x === undefined) ? "" : (typeof x === "number" ? x.toFixed(d === undefined ? 3 : d) : String(x)); }
-  function trace(s, name) { return {type: "scatter", mode: "lines", x: s.t, y: s.y, name: name, line: {width: 1}}; }
-
-  // a plot whose traces reload exactly when zoomed in (fetchers: window -> promise of traces)
-  function zoomPlot(div, fetchers, layout) {
-    const draw = async (t0, t1) => {
-      await plotlyReady;
-      const traces = await Promise.all(fetchers.map(f => f(t0, t1)));
-      const lay = Object.assign({margin: {t: 30, r: 10, b: 40, l: 60}, showlegend: true,
-                                 xaxis: {title: {text: "time [s]"}}}, layout || {});
-      if (t0 !== null) lay.xaxis = Object.assign({}, lay.xaxis, {range: [t0, t1]});
-      await Plotly.react(div, traces, lay, {responsive: true, displaylogo: false});
-      div.dataset.exact = traces.every(t => t.exact) ? "1" : "0";
-      div.dataset.points = String(traces.reduce((n, t) => n + t.x.length, 0));
-    };
-    div._fetchers = fetchers; div._draw = draw;
-    return draw;
-  }
-  function bindZoom(div) {
-    if (div.dataset.zoomBound) return;
-    div.dataset.zoomBound = "1";
-    div.on("plotly_relayout", ev => {
-      const r = ev["xaxis.range"] || (ev["xaxis.range[0]"] !== undefined ? [ev["xaxis.range[0]"], ev["xaxis.range[1]"]] : null);
-      if (div._drawing) return;
-      if (ev["xaxis.autorange"]) div._draw(null, null).catch(e => showError(e.message));
-      else if (r) {
-        div._drawing = true;
-        div._draw(r[0], r[1]).catch(e => showError(e.message)).finally(() => { div._drawing = false; });
-      }
-    });
-  }
-  async function plotWith(div, fetchers, layout, t0, t1) {
-    const draw = zoomPlot(div, fetchers, layout);
-    div._drawing = true;
-    try { await draw(t0 === undefined ? null : t0, t1 === undefined ? null : t1); } finally { div._drawing = false; }
-    bindZoom(div);
-  }
-
   // ------------------------------------------------------------------ test page
   function testPage() {
     const dir = document.body.dataset.dir;
@@ -99,18 +54,24 @@
     }
 
     function headline(h) {
+      // the results layer's headline (vehval.results.headline): figure with U, rule, caveats
       const box = document.getElementById("headline");
       box.textContent = "";
       if (!h) { box.append("No result yet: save the template or rerun QA."); return; }
-      if (h.fuel_economy_mpg !== null && h.fuel_economy_mpg !== undefined && !h.withheld) {
-        box.append(el("b", {text: (h.name || "test") + ": "}),
-                   el("span", {id: "headline-mpg", text: h.fuel_economy_mpg.toFixed(1)}), " mpg",
-                   h.fuel_consumption_l_per_100km ? " (" + h.fuel_consumption_l_per_100km.toFixed(2) + " L/100 km)" : "");
+      const title = el("b", {text: (h.shown || h.name || "test") + ": "});
+      if (h.kind === "headline" || h.kind === "forced") {
+        box.append(title, el("span", {id: "headline-figure", text: h.figure}),
+                   el("span", {id: "headline-mpg", hidden: true, text: h.fuel_economy_mpg.toFixed(2)}));
       } else {
-        box.append(el("b", {text: (h.name || "test") + ": "}),
-                   el("span", {class: "withheld", id: "headline-withheld",
-                               text: "withheld: " + withheldText(h.withheld)}));
+        box.append(title, el("span", {class: "withheld", id: "headline-withheld",
+                                      text: "withheld: " + withheldText(h.withheld)}));
       }
+      const lines = el("ul", {id: "headline-lines", class: "headline-lines"});
+      for (const line of (h.banner && h.banner.lines) || []) {
+        lines.append(el("li", {class: line.startsWith("Caveat") ? "caveat" : "", text: line}));
+      }
+      if (h.j1711) box.append(" ", el("span", {id: "headline-j1711", class: "j1711", text: "SAE J1711: " + h.j1711.replace(/_/g, " ")}));
+      if (lines.childNodes.length) box.append(lines);
     }
 
     function render(m) {
@@ -163,30 +124,27 @@
 
     async function plotChannel(file, raw) {
       const div = document.getElementById("chplot");
-      let unit = "";
-      const fetcher = async (t0, t1) => {
-        const s = await api("/api/channel", {dir, file, raw, t0, t1, n: N});
-        unit = s.unit || "";
-        return Object.assign(trace(s, raw + (unit ? " [" + unit + "]" : "")), {exact: s.exact});
-      };
-      await plotWith(div, [fetcher], {title: {text: raw + " as in " + file}, yaxis: {title: {text: unit}}});
+      await window.vehvalFigures.zoomable(div, async (t0, t1) => (await api("/api/channel", {dir, file, raw, t0, t1, n: N})).figure);
       div.dataset.channel = raw;
     }
 
     function renderTriage(m) {
       const s = m.summary;
       const n = (k, word) => `${k} ${word}${k === 1 ? "" : "s"}`;
-      document.getElementById("summary").textContent = s ? `${n(s.total, "finding")} (${n(s.by_severity.error, "error")}, ${n(s.by_severity.warning, "warning")}, ${s.by_severity.info} info); kept ${s.kept}, dropped ${s.dropped}, computed ${s.computed}` : "QA has not run.";
+      const later = (m.findings || []).filter(f => f.stage === "results").length;
+      document.getElementById("summary").textContent = s ? `${n(s.total, "finding")} (${n(s.by_severity.error, "error")}, ${n(s.by_severity.warning, "warning")}, ${s.by_severity.info} info); kept ${s.kept}, dropped ${s.dropped}, computed ${s.computed}` + (later ? `; and ${n(later, "finding")} of the results stage` : "") : "QA has not run.";
       const tb = document.querySelector("#findings tbody");
+      const fp = document.getElementById("findplot");
+      if (fp && fp.closest("#findings")) { if (window.Plotly) Plotly.purge(fp); fp.textContent = ""; document.getElementById("findplot-home").append(fp); }
       tb.textContent = "";
-      for (const f of m.findings || []) {
-        const tr = el("tr", {class: "finding"},
-          el("td", {class: "sev-" + f.severity, text: f.severity}), el("td", {text: f.kind}),
+      (m.findings || []).forEach((f, i) => {
+        const tr = el("tr", {class: "finding", "data-index": i, "data-stage": f.stage || "qa"},
+          el("td", {class: "sev-" + f.severity, text: f.severity}), el("td", {text: f.stage || "qa"}), el("td", {text: f.kind}),
           el("td", {text: f.signal}), el("td", {text: f.start_s === null ? "" : fmt(f.start_s, 1) + " – " + fmt(f.end_s, 1)}),
           el("td", {text: f.message}), el("td", {text: f.fix || ""}));
-        tr.addEventListener("click", () => { openFinding(f).catch(e => showError(e.message)); tb.querySelectorAll("tr.sel").forEach(r => r.classList.remove("sel")); tr.classList.add("sel"); });
+        tr.addEventListener("click", () => { openFinding(f, i, tr).catch(e => showError(e.message)); tb.querySelectorAll("tr.sel").forEach(r => r.classList.remove("sel")); tr.classList.add("sel"); });
         tb.append(tr);
-      }
+      });
       const sel = m.selection || {kept: {}, dropped: {}};
       const user = m.user_selection || {keep: [], drop: {}};
       const st = document.querySelector("#selection tbody");
@@ -210,19 +168,23 @@
       }
     }
 
-    async function openFinding(f) {
-      const names = [f.signal, ...(f.related || [])].filter((x, i, a) => x && a.indexOf(x) === i);
-      let t0 = f.start_s, t1 = f.end_s;
-      if (t0 !== null && t1 !== null) { const pad = Math.max(5, 0.2 * (t1 - t0)); t0 -= pad; t1 += pad; }
-      else { t0 = null; t1 = null; }
-      const fetchers = names.map(n => async (a, b) => {
-        try {
-          const s = await signal({dir, name: n, t0: a, t1: b, n: N});
-          return Object.assign(trace(s, n + " [" + s.unit + "]"), {exact: s.exact});
-        } catch (e) { return {type: "scatter", x: [], y: [], name: n + " (not available)", exact: true}; }
-      });
+    // the finding's figure (built by the server for its kind) in a row under the finding
+    async function openFinding(f, i, tr) {
       const div = document.getElementById("findplot");
-      await plotWith(div, fetchers, {title: {text: f.kind + ": " + f.signal}}, t0, t1);
+      let row = document.getElementById("findplot-row");
+      if (!row) {
+        row = el("tr", {id: "findplot-row"}, el("td", {colSpan: 7}));
+      }
+      row.firstChild.append(div);
+      tr.after(row);
+      div.dataset.finding = "";
+      let r;
+      try { r = await api("/api/finding", {dir, i}); } catch (e) {
+        if (e.status !== 409) throw e;
+        await runQA();
+        r = await api("/api/finding", {dir, i});
+      }
+      await window.vehvalFigures.draw(div, r.figure);
       div.dataset.finding = f.kind + ":" + f.signal;
     }
 
@@ -287,13 +249,16 @@
         });
         const head = document.querySelector("#catalog thead"), body = document.querySelector("#catalog tbody");
         head.textContent = ""; body.textContent = "";
-        head.append(el("tr", {}, el("th", {text: "overlay"}), ...r.columns.map(c => el("th", {text: c})), el("th", {text: "report"})));
-        for (const row of rows) {
+        // the server's view: display units and names, the headline with U
+        const cols = r.view.columns;
+        head.append(el("tr", {}, el("th", {text: "overlay"}), ...cols.map(c => el("th", {"data-col": c.key, text: c.label})), el("th", {text: "report"})));
+        rows.forEach((row, i) => {
+          const cells = r.view.rows[i];
           body.append(el("tr", {"data-test": row.test_id},
             el("td", {}, el("input", {type: "checkbox", class: "pick", value: row.test_id})),
-            ...r.columns.map(c => el("td", {"data-col": c, text: typeof row[c] === "number" ? String(row[c]) : (row[c] === null ? "" : String(row[c]))})),
+            ...cols.map(c => el("td", {"data-col": c.key, class: "col-" + c.key, title: c.key === "error" ? cells[c.key] : null, text: cells[c.key]})),
             el("td", {}, row.report ? el("a", {href: "/files/" + row.report.split("/").map(encodeURIComponent).join("/"), target: "_blank", text: "report"}) : "")));
-        }
+        });
         document.body.dataset.rows = String(rows.length);
         showError(null);
       } catch (e) { showError(e.message); }
@@ -304,16 +269,12 @@
       const q = document.getElementById("quantity").value;
       try {
         const axis = document.getElementById("axis").value;
-        const per = await Promise.all(picks.map(async id => {
-          const s = await api("/api/catalog/trace", {db, test: id, q, n: N, axis});
-          if (axis !== "phase") return [Object.assign(trace(s, id), {label: s.label})];
-          return s.phases.map(p => Object.assign(trace(p, id + " phase " + p.phase), {label: s.label + " per phase"}));
-        }));
-        const traces = per.flat();
+        const r = await api("/api/catalog/overlay", {db, tests: picks.join(","), q, n: N, axis});
         const div = document.getElementById("overlayplot");
-        await plotlyReady;
-        await Plotly.react(div, traces, {title: {text: traces.length ? traces[0].label : ""}, margin: {t: 30, r: 10, b: 40, l: 60}, xaxis: {title: {text: "time [s]"}}}, {responsive: true, displaylogo: false});
-        div.dataset.traces = String(traces.length);
+        await window.vehvalFigures.draw(div, r.figure);
+        const note = document.getElementById("overlay-missing");
+        note.hidden = !(r.missing && r.missing.length);
+        note.textContent = (r.missing || []).join("; ");
       } catch (e) { showError(e.message); }
     });
     load();

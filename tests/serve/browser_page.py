@@ -1,33 +1,33 @@
-"""Chromium for the workbench's browser tests: the ``browser`` fixture, a :class:`Visit`
-(a server and a page recording its requests and errors) and :func:`_wait` (poll a JS
-expression: the page's policy forbids the eval of ``wait_for_function``)."""
+"""The workbench in headless Chromium: a server with a recording page, waits, screenshots and
+the one-unit-per-axis check, shared by the browser tests of this folder."""
 
 from __future__ import annotations
 
+import os
 import time
 from pathlib import Path
 from urllib.parse import urlparse
 
-import pytest
-
-from helpers.browser import ARGS, CHROMIUM
-
 TIMEOUT_MS = 60_000  # QA on a 1,370 s test, on a loaded 2-core machine
 
 
-@pytest.fixture()
-def browser():
-    if not Path(CHROMIUM).exists():
-        pytest.skip("chromium not installed (run `make browser`)")
-    sync_api = pytest.importorskip("playwright.sync_api")
-    pytest.importorskip("uvicorn")
-    with sync_api.sync_playwright() as p:
-        try:
-            b = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
-        except Exception as exc:  # noqa: BLE001 - a broken browser install is a skip
-            pytest.skip(f"chromium does not start: {exc}")
-        yield b
-        b.close()
+#: Screenshots of each view go to docs/workbench/ when VEHVAL_SCREENSHOTS=1 (`make
+#: screenshots`); `make test` leaves the docs alone.
+SHOTS = Path(__file__).resolve().parents[2] / "docs" / "workbench"
+
+
+def shot(page, name: str, full_page: bool = False) -> None:
+    """A screenshot of the view as ``docs/workbench/<name>.png`` when asked for."""
+    if os.environ.get("VEHVAL_SCREENSHOTS") == "1":
+        SHOTS.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(SHOTS / f"{name}.png"), full_page=full_page)
+
+
+def one_unit_per_axis(page, div_id: str) -> dict:
+    """y axis -> units of the traces drawn on it, from the drawn figure; asserts one each."""
+    units = page.evaluate(f"window.vehvalFigures.axisUnits(document.getElementById('{div_id}'))")
+    assert units and all(len(v) == 1 for v in units.values()), units
+    return units
 
 
 class Visit:

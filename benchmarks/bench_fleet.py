@@ -1,0 +1,161 @@
+"""Fleet throughput: rows per minute of ``vehval epa fleet`` on a running 2-worker Dask
+cluster against a plain loop, in the same run; memory per worker; the whole list's time.
+
+The rows are every runnable row of the 2019 EPA Test Car List (``../shared``) or, without
+it, of a synthetic list of :data:`N_SYNTH_CARS` cars (FTP-75 + HWFET each). Both runs
+simulate every car (``force``); rows per minute count the simulation stage (the run's
+``elapsed_s``), the whole-run figure adds reading, planning, the baseline, the tables and
+the report. The cluster is started and primed first (``--scheduler`` on a running
+cluster: workers warm, kernel cache loaded). The cluster is started as a user starts one
+(``dask scheduler``, ``dask worker``), its processes in sessions of their own
+(:func:`_running_cluster`): on a machine shared with other work, Linux gives every session
+one share of the CPUs (autogroup), so workers started inside the benchmark's own session
+would split one share between them and could never beat the loop.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+import time
+from pathlib import Path
+
+from benchmarks.common import row
+
+N_WORKERS = 2
+N_SYNTH_CARS = 300
+LIST_2019 = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real" / \
+    "epa_test_car_list" / "19tstcar.csv"
+
+
+def _synthetic_list(path: Path) -> Path:
+    """A list of ``N_SYNTH_CARS`` automatic gasoline cars, FTP-75 and HWFET rows each."""
+    head = ("Model Year,Represented Test Veh Make,Represented Test Veh Model,Test Vehicle ID,"
+            "Test Veh Configuration #,Test Veh Displacement (L),Rated Horsepower,"
+            "Equivalent Test Weight (lbs.),Axle Ratio,N/V Ratio,Test Number,Test Procedure Cd,"
+            "Test Procedure Description,Test Fuel Type Cd,Test Fuel Type Description,RND_ADJ_FE,"
+            "FE_UNIT,FE Bag 1,FE Bag 2,FE Bag 3,FE Bag 4,Target Coef A (lbf),"
+            "Target Coef B (lbf/mph),Target Coef C (lbf/mph**2),Set Coef A (lbf),"
+            "Set Coef B (lbf/mph),Set Coef C (lbf/mph**2),# of Gears,"
+            "Tested Transmission Type Code")
+    lines = [head]
+    for k in range(N_SYNTH_CARS):
+        w = 3000 + 10 * (k % 150)
+        disp, hp = 1.5 + (k % 5) * 0.5, 150 + (k % 5) * 50
+        base = (f"2019,MAKER,CAR{k},V{k},1,{disp},{hp},{w},3.0,{22 + k % 8},")
+        tail = f",26.5,0.2,0.0{70 + k % 20},5,0.1,0.01,{6 + k % 3},A"
+        lines.append(base + f"F{k},21,FTP,61,Tier 2 Cert Gasoline,30,MPG,29,28,33,{tail}")
+        lines.append(base + f"H{k},3,HWFE,61,Tier 2 Cert Gasoline,45,MPG,,,,{tail}")
+    path.write_text("\n".join(lines) + "\n", encoding="latin-1")
+    return path
+
+
+def _worker_rss_mb() -> float:
+    import psutil
+
+    return psutil.Process().memory_info().rss / 1e6
+
+
+def _cpu_s() -> float:
+    return time.process_time()
+
+
+@contextlib.contextmanager
+def _running_cluster(root: Path):
+    """A running cluster as a user starts one (``dask scheduler`` and ``N_WORKERS`` x
+    ``dask worker``, loopback), each process in its own session: the kernel's per-session
+    CPU share (autogroup) then treats them as separate jobs, as an idle machine gives each
+    its core. Yields the scheduler address."""
+    import json
+    import signal
+    import subprocess
+    import sys
+
+    dask_cli = [sys.executable, "-m", "distributed.cli.dask_scheduler"]
+    sfile = root / "scheduler.json"
+    procs = [subprocess.Popen(dask_cli + ["--host", "127.0.0.1", "--port", "0",
+                                          "--dashboard-address", ":0",
+                                          "--scheduler-file", str(sfile)],
+                              start_new_session=True, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)]
+    try:
+        for _ in range(600):
+            if sfile.exists() and sfile.stat().st_size:
+                break
+            time.sleep(0.1)
+        addr = json.loads(sfile.read_text())["address"]
+        procs += [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", addr,
+                                    "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1",
+                                    "--no-dashboard"],
+                                   start_new_session=True, stdout=subprocess.DEVNULL,
+                                   stderr=subprocess.DEVNULL) for _ in range(N_WORKERS)]
+        from distributed import Client
+
+        with Client(addr) as client:
+            client.wait_for_workers(N_WORKERS, timeout=120)
+        yield addr
+    finally:
+        for p in reversed(procs):
+            p.send_signal(signal.SIGTERM)
+        for p in procs:
+            try:
+                p.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def run() -> list[dict]:
+    from distributed import Client
+
+    from vehval.batch.fleet import run_fleet
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        src = LIST_2019 if LIST_2019.exists() else _synthetic_list(root / "19tstcar.csv")
+        what = ("the 2019 Test Car List" if src == LIST_2019 else
+                f"a synthetic list of {N_SYNTH_CARS} cars")
+        run_fleet([src], root / "warm", workers=1, report=False)  # imports, kernel cache
+        c0 = time.process_time()
+        loop = run_fleet([src], root / "loop", workers=1, report=False, force=True)
+        cpu_loop = time.process_time() - c0
+        t0 = time.perf_counter()
+        with _running_cluster(root) as addr:
+            t_start = time.perf_counter() - t0
+            run_fleet([src], root / "prime", scheduler=addr, report=False)
+            with Client(addr) as client:
+                cpu0 = client.run(_cpu_s)
+                t1 = time.perf_counter()
+                dask = run_fleet([src], root / "dask", scheduler=addr, force=True)
+                t_whole = time.perf_counter() - t1
+                rss = client.run(_worker_rss_mb)
+                cpu_workers = sum(client.run(_cpu_s).values()) - sum(cpu0.values())
+    n = dask["run"]["n_rows_simulated"]
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    note = (f"{n} runnable rows of {what} ({dask['n_rows']} rows), dt {dask['run']['dt_s']} s, "
+            f"{N_WORKERS} workers x 1 thread on {os.cpu_count()} CPUs, load average "
+            f"{load:.1f} at the end")
+    rows.append(row("fleet_rows_per_min_warm_cluster", dask["run"]["rows_per_minute"],
+                    "rows/min", baseline=loop["run"]["rows_per_minute"], target=1.6,
+                    better="higher", note=note + "; --scheduler on a running cluster; "
+                    "baseline the plain loop (--workers 1) in the same run"))
+    rows.append(row("fleet_rows_per_min_plain_loop", loop["run"]["rows_per_minute"],
+                    "rows/min", better="higher", note=note + "; --workers 1"))
+    rows.append(row("fleet_cpu_ms_per_row_workers", 1e3 * cpu_workers / n, "ms/row",
+                    baseline=1e3 * cpu_loop / n, target=1.25,
+                    note="CPU time of the workers per row simulated against the whole plain-"
+                         "loop run's CPU time per row: the cost of the distribution itself, "
+                         "free of other load on the machine"))
+    rows.append(row("fleet_whole_list_seconds_2_workers", t_whole, "s", target=600.0,
+                    note=note + "; read, plan, simulate, baseline, DuckDB, JSON and report"))
+    rows.append(row("fleet_memory_per_worker", max(rss.values()), "MB", target=1000.0,
+                    note="largest resident set of a worker after the run (psutil)"))
+    rows.append(row("fleet_cluster_start", t_start, "s", target=10.0,
+                    note=f"dask scheduler + {N_WORKERS} dask worker processes started"))
+    return rows
+
+
+if __name__ == "__main__":  # pragma: no cover
+    for r in run():
+        print(r)

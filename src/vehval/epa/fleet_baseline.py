@@ -1,0 +1,178 @@
+"""The regression baseline of the fleet: a ridge log-linear fit on the list's own columns.
+
+What a physics model from specifications must beat: log(fuel economy) fitted, per procedure,
+as a linear function of about 20 columns of the same rows (:func:`features`: log test
+weight, the road-load force at 20, 50 and 70 mph, log displacement, log rated power, power
+per weight, cylinders, N/V, axle ratio, gears, one-hot transmission class, fuel and
+aspiration), standardised, with an L2 penalty (ridge) whose weight is chosen on the training
+rows by generalised cross-validation. It is judged like the model:
+
+* **within a year**: 10-fold cross-validation over the rows of one list, the folds drawn by
+  test vehicle (a car's tests are never split between fitting and judging);
+* **year to year** (two lists or more): fitted on one list's rows, judged on another's.
+
+numpy only: the fit is a linear solve of a 20 x 20 system.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from typing import Any, Sequence
+
+import numpy as np
+
+from vehval.constants import MPH_M_PER_S
+
+#: folds of the within-year cross-validation
+N_FOLDS = 10
+#: ridge weights tried (on standardised columns; chosen by generalised cross-validation)
+LAMBDAS = (1e-3, 1e-2, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0)
+#: the categorical columns and their levels (one-hot; the first level is the reference)
+CATEGORIES = {
+    "transmission_class": ("automatic", "CVT", "dual-clutch", "manual", "other"),
+    "fuel_family": ("gasoline", "diesel", "e85"),
+    "aspiration": ("naturally aspirated", "turbocharged", "diesel", "unknown"),
+}
+#: least rows of a procedure to fit (below it the baseline is not stated)
+MIN_ROWS = 12
+
+
+def _road_load(r: dict[str, Any], mph: float) -> float:
+    v = mph * MPH_M_PER_S
+    return r["target_a_n"] + r["target_b_n_per_mps"] * v + r["target_c_n_per_mps2"] * v * v
+
+
+def features(r: dict[str, Any]) -> list[float] | None:
+    """The numeric columns of one row record (None: a column the fit needs is missing)."""
+    need = ("mass_kg", "displacement_l", "rated_power_w", "n_v_ratio", "axle_ratio",
+            "target_a_n", "target_b_n_per_mps", "target_c_n_per_mps2")
+    if any(r.get(k) is None or not r[k] > -1e9 for k in need):
+        return None
+    if not (r["mass_kg"] > 0 and r["displacement_l"] > 0 and r["rated_power_w"] > 0):
+        return None
+    f_lo, f_mid, f_hi = (max(_road_load(r, v), 1.0) for v in (20.0, 50.0, 70.0))
+    x = [math.log(r["mass_kg"]), math.log(f_lo), math.log(f_mid), math.log(f_hi),
+         math.log(r["displacement_l"]), math.log(r["rated_power_w"]),
+         math.log(r["rated_power_w"] / r["mass_kg"]), float(r.get("cylinders") or 0),
+         float(r["n_v_ratio"]), float(r["axle_ratio"]), float(r.get("gears") or 0)]
+    for key, levels in CATEGORIES.items():
+        x += [1.0 if r.get(key) == lev else 0.0 for lev in levels[1:]]
+    return x
+
+
+def fit_ridge(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Ridge fit of ``y`` on standardised ``x``: (coefficients, column means, column scales,
+    lambda), lambda chosen by generalised cross-validation among :data:`LAMBDAS`."""
+    mu = x.mean(axis=0)
+    sd = x.std(axis=0)
+    sd[sd == 0] = 1.0
+    z = (x - mu) / sd
+    y0 = y.mean()
+    u, s, vt = np.linalg.svd(z, full_matrices=False)
+    uty = u.T @ (y - y0)
+    n = len(y)
+    best = (math.inf, LAMBDAS[0], np.zeros(z.shape[1]))
+    for lam in LAMBDAS:
+        d = s / (s ** 2 + lam)
+        beta = vt.T @ (d * uty)
+        resid = y - y0 - z @ beta
+        dof = float(np.sum(s ** 2 / (s ** 2 + lam)))
+        gcv = float(resid @ resid) / n / max(1.0 - dof / n, 1e-6) ** 2
+        if gcv < best[0]:
+            best = (gcv, lam, beta)
+    coef = np.r_[y0, best[2]]
+    return coef, mu, sd, best[1]
+
+
+def predict_ridge(model: tuple, x: np.ndarray) -> np.ndarray:
+    """log-fuel-economy predictions of a :func:`fit_ridge` model."""
+    coef, mu, sd, _ = model
+    return coef[0] + ((x - mu) / sd) @ coef[1:]
+
+
+def _usable(records: Sequence[dict[str, Any]]) -> list[tuple[dict[str, Any], list[float]]]:
+    out = []
+    for r in records:
+        if r.get("status") != "run" or not r.get("judged") or not r.get("measured_mpg"):
+            continue
+        x = features(r)
+        if x is not None:
+            out.append((r, x))
+    return out
+
+
+def _folds(rows: list[dict[str, Any]], n: int = N_FOLDS) -> list[int]:
+    """Fold of each row, drawn by test vehicle (deterministic: sorted vehicle ids dealt out)."""
+    vids = sorted({r["vehicle_id"] for r in rows})
+    fold = {v: k % n for k, v in enumerate(vids)}
+    return [fold[r["vehicle_id"]] for r in rows]
+
+
+def cross_validate(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The baseline's cross-validated predictions, written into the records as
+    ``baseline_mpg`` / ``baseline_error`` (within a year; ``baseline_year_mpg`` /
+    ``baseline_year_error`` fitted on the other lists), and the comparison with the model
+    per procedure and scheme."""
+    usable = _usable(records)
+    groups: dict[tuple[str, str], list[tuple[dict[str, Any], list[float]]]] = defaultdict(list)
+    for r, x in usable:
+        groups[(r["list"], r["procedure"])].append((r, x))
+    for (_, _proc), items in groups.items():
+        if len(items) < MIN_ROWS:
+            continue
+        rows = [r for r, _ in items]
+        xa = np.array([f for _, f in items])
+        y = np.log([r["measured_mpg"] for r in rows])
+        folds = np.array(_folds(rows))
+        for k in range(N_FOLDS):
+            test = folds == k
+            if not test.any() or (~test).sum() < MIN_ROWS:
+                continue
+            pred = np.exp(predict_ridge(fit_ridge(xa[~test], y[~test]), xa[test]))
+            for r, p in zip([r for r, t in zip(rows, test) if t], pred):
+                r["baseline_mpg"] = float(p)
+                r["baseline_error"] = float(p) / r["measured_mpg"] - 1.0
+    lists = sorted({lst for lst, _ in groups})
+    if len(lists) > 1:
+        for (lst, proc), items in groups.items():
+            train = [it for (l2, p2), its in groups.items() if p2 == proc and l2 != lst
+                     for it in its]
+            if len(train) < MIN_ROWS:
+                continue
+            model = fit_ridge(np.array([f for _, f in train]),
+                              np.log([r["measured_mpg"] for r, _ in train]))
+            pred = np.exp(predict_ridge(model, np.array([f for _, f in items])))
+            for (r, _), p in zip(items, pred):
+                r["baseline_year_mpg"] = float(p)
+                r["baseline_year_error"] = float(p) / r["measured_mpg"] - 1.0
+    return compare(records)
+
+
+def _stats(err: list[float]) -> dict[str, Any]:
+    a = np.abs(np.array(err))
+    return {"n": len(err), "median_abs_error": float(np.median(a)) if len(a) else None,
+            "mean_error": float(np.mean(err)) if len(err) else None,
+            "share_within_5pct": float(np.mean(a <= 0.05)) if len(a) else None}
+
+
+def compare(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Per procedure and scheme (``within_year``, ``year_to_year``): the model's and the
+    baseline's errors on the same rows, and whether the model is better (smaller median
+    |error|)."""
+    out: dict[str, Any] = {}
+    for scheme, key in (("within_year", "baseline_error"), ("year_to_year", "baseline_year_error")):
+        per: dict[str, dict[str, list[float]]] = defaultdict(lambda: {"model": [], "base": []})
+        for r in records:
+            if r.get(key) is None or r.get("error") is None:
+                continue
+            per[r["procedure"]]["model"].append(r["error"])
+            per[r["procedure"]]["base"].append(r[key])
+        if not per:
+            continue
+        out[scheme] = {}
+        for proc, d in sorted(per.items()):
+            m, b = _stats(d["model"]), _stats(d["base"])
+            out[scheme][proc] = {"model": m, "baseline": b,
+                                 "model_better": m["median_abs_error"] < b["median_abs_error"]}
+    return out

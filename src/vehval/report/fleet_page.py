@@ -1,0 +1,140 @@
+"""The page of ``vehval epa fleet``: rows accounted for, errors per procedure and technology,
+the regression baseline, error histograms and scatters, and the outliers named.
+
+Self-contained HTML (plotly.js inline); figures through :mod:`vehval.report.figures`.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+from typing import Any, Sequence
+
+from vehval.io.atomic import write_text_atomic
+from vehval.report.document import Block, bullets, figure, h1, h2, para, render_document, table
+from vehval.report.figures import FigSpec, histogram_figure, scatter_groups_figure
+
+#: report order of the procedures
+PROCEDURES = ("ftp75", "hwfet", "us06")
+_PCT = 100.0
+
+
+def _pc(x: float | None, sign: bool = False) -> str:
+    return "-" if x is None else f"{_PCT * x:{'+' if sign else ''}.1f} %"
+
+
+def _stats_row(name: str, st: dict[str, Any]) -> list[str]:
+    if not st.get("n"):
+        return [name, "0", "-", "-", "-", "-"]
+    return [name, str(st["n"]), _pc(st["median_error"], True), _pc(st["median_abs_error"]),
+            _pc(st["share_within_3pct"]), _pc(st["share_within_5pct"])]
+
+
+_HEAD = ["group", "rows", "median error", "median |error|", "within 3 %", "within 5 %"]
+
+
+def _accounting(summary: dict[str, Any]) -> list[Block]:
+    from vehval.epa.fleet import REASONS
+
+    per = summary["per_list"]
+    rows = [[k, str(v["n_rows"]), str(v["n_run"]), str(v["n_not_run"]), str(v["n_failed"])]
+            for k, v in per.items()]
+    why = [[code, str(n), REASONS.get(code, "")] for code, n in summary["not_run_by_reason"].items()]
+    out = [h2("Every row accounted for"),
+           table(["list", "rows", "run", "not run", "failed"], rows),
+           table(["reason not run", "rows", "meaning"], why)]
+    if summary.get("notes"):
+        out.append(bullets(summary["notes"]))
+    return out
+
+
+def _errors(summary: dict[str, Any]) -> list[Block]:
+    err = summary["errors"]
+    out = [h2("Error per procedure (predicted / measured - 1, judged rows)"),
+           table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
+    bias = summary["hwfet_ftp_bias"]
+    out.append(para(f"HWFET against FTP-75 across cars (mean of (1 + HWFET error) / (1 + FTP "
+                    f"error) - 1): {_pc(bias['mean'], True)} over {bias['n_cars']} cars."))
+    for grouping, groups in summary["per_technology"].items():
+        rows = [_stats_row(f"{g} {p}", d[p]) for g, d in groups.items() for p in PROCEDURES
+                if p in d]
+        out += [h2(f"Error per {grouping} and procedure"), table(_HEAD, rows)]
+    return out
+
+
+def _baseline(summary: dict[str, Any]) -> list[Block]:
+    base = summary.get("baseline") or {}
+    if not base:
+        return [h2("Regression baseline"), para("Too few judged rows to fit the baseline.")]
+    rows = []
+    for scheme, procs in base.items():
+        for p, d in procs.items():
+            rows.append([scheme.replace("_", " "), p, str(d["model"]["n"]),
+                         _pc(d["model"]["median_abs_error"]),
+                         _pc(d["baseline"]["median_abs_error"]),
+                         _pc(d["model"]["share_within_5pct"]),
+                         _pc(d["baseline"]["share_within_5pct"]),
+                         "physics" if d["model_better"] else "regression"])
+    return [h2("Physics against a ridge regression on the list's columns"),
+            para("Ridge log-linear fit on about 20 columns (weight, road load, displacement, "
+                 "power, cylinders, N/V, axle ratio, gears, transmission, fuel, aspiration), "
+                 "10-fold cross-validated by test vehicle within a list, and fitted on one "
+                 "list to judge another (year to year), on the same rows as the model."),
+            table(["scheme", "procedure", "rows", "model median |error|",
+                   "baseline median |error|", "model within 5 %", "baseline within 5 %",
+                   "better"], rows)]
+
+
+def _figures(rows: Sequence[dict[str, Any]]) -> list[Block]:
+    by_proc: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for r in rows:
+        by_proc[r["procedure"]].append(r)
+    hist = histogram_figure({p: [r["error"] for r in by_proc[p]] for p in PROCEDURES
+                             if p in by_proc}, xlabel="error [%]", bin_size=1.0, scale=_PCT)
+    out = [h2("Figures"), figure(FigSpec("Error histogram per procedure", hist))]
+    for col, label, scale in (("specific_power_w_per_l", "rated power per litre [kW/L]", 1e-3),
+                              ("mass_kg", "equivalent test weight [kg]", 1.0),
+                              ("n_v_ratio", "N/V [rpm/mph]", 1.0)):
+        groups = {}
+        for p in PROCEDURES:
+            pts = [r for r in by_proc.get(p, []) if r.get(col) is not None]
+            groups[p] = ([r[col] * scale for r in pts], [_PCT * r["error"] for r in pts],
+                         [f"{r['make']} {r['model']} ({r['source']})" for r in pts])
+        fig = scatter_groups_figure(groups, xlabel=label, ylabel="error [%]", hlines=(-5.0, 5.0))
+        out.append(figure(FigSpec(f"Error against {label.split(' [')[0]}", fig)))
+    return out
+
+
+def _outliers(summary: dict[str, Any], limit: int = 200) -> list[Block]:
+    outl = summary["outliers"]
+    rows = [[o["row_id"], f"{o['make']} {o['model']}", o["vehicle_id"], o["procedure"],
+             o["transmission_class"], o["aspiration"], f"{o['measured_mpg']:.1f}",
+             f"{o['predicted_mpg']:.1f}", _pc(o["error"], True), o["why"]] for o in outl[:limit]]
+    more = f" (the first {limit} of {len(outl)})" if len(outl) > limit else ""
+    return [h2(f"Outliers: {len(outl)} rows{more}"),
+            table(["row", "car", "test vehicle", "procedure", "transmission", "engine",
+                   "measured mpg", "predicted mpg", "error", "why"], rows)]
+
+
+def render_fleet_page(records: Sequence[dict[str, Any]], summary: dict[str, Any]) -> str:
+    """HTML of the fleet report."""
+    from vehval.epa.fleet_summary import judged
+
+    rows = judged(records)
+    blocks = [h1(f"Fleet: {', '.join(summary['lists'])}"),
+              para(f"{summary['n_rows']} rows: {summary['n_run']} run ({summary['n_judged']} "
+                   f"judged), {summary['n_not_run']} not run, {summary['n_failed']} failed; "
+                   f"{summary['n_cars']} cars. Every car built from its list row with the "
+                   "generic values of vehval epa vehicle, each row on its own procedure, "
+                   "weight and road load.")]
+    blocks += _accounting(summary) + _errors(summary) + _baseline(summary)
+    if rows:
+        blocks += _figures(rows)
+    blocks += _outliers(summary)
+    return render_document(blocks, title="Fleet", css="simple.css")
+
+
+def write_fleet_report(path: str | Path, records: Sequence[dict[str, Any]],
+                       summary: dict[str, Any]) -> None:
+    """Write the fleet report to ``path`` atomically."""
+    write_text_atomic(path, render_fleet_page(records, summary))

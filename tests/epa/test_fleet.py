@@ -1,0 +1,334 @@
+"""The fleet runner: every row of a list run or accounted for, resumable, on Dask, with the
+regression baseline, the report and the what-if (small lists written in tmp_path)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from helpers.epa_lists import HEADER, camry_rows, write_list
+from vehval.batch.fleet import run_fleet
+from vehval.cli import main
+from vehval.epa.fleet import ROW_COLUMNS, plan_fleet, predict_jobs, read_fleet
+from vehval.epa.fleet_baseline import cross_validate, fit_ridge, predict_ridge
+from vehval.epa.fleet_summary import outliers
+from vehval.epa.fleet_whatif import parse_change, whatif
+from vehval.errors import ConfigError
+
+ADFE = "Analytically Derived FE?"
+FLEET_HEADER = [*HEADER, ADFE, "# of Cylinders and Rotors"]
+
+
+def _car(vid: str, **kw) -> list[dict]:
+    rows = camry_rows(vid=vid, **kw)
+    for r in rows:
+        r["Test Number"] = f"{vid}-{r['Test Number']}"
+        r[ADFE] = "No"
+        r["# of Cylinders and Rotors"] = "4"
+    return rows
+
+
+def _mixed_rows() -> list[dict]:
+    """Two runnable cars and one row of every reason not to run."""
+    good = _car("A1") + _car("A2", weight=4000, target=(30.0, 0.25, 0.009))
+    hybrid = _car("H1", model="SEDAN HYBRID")
+    sc03 = _car("S1")[:1]
+    sc03[0].update({"Test Procedure Cd": "95", "Test Procedure Description": "SC03"})
+    adfe = _car("D1")[1:]
+    adfe[0][ADFE] = "Yes"
+    zero = _car("Z1")[1:]
+    zero[0]["RND_ADJ_FE"] = "0"
+    nocoef = _car("N1")[1:]
+    nocoef[0]["Target Coef A (lbf)"] = ""
+    unknown_tr = _car("U1")
+    for r in unknown_tr:
+        r["Tested Transmission Type Code"] = "ZZ"
+    one_hp = _car("P1")
+    for r in one_hp:
+        r["Rated Horsepower"] = "1"
+    nv0 = _car("V1")
+    for r in nv0:
+        r["N/V Ratio"] = "0"
+    electric = _car("E1")[1:]
+    electric[0].update({"Test Fuel Type Cd": "62", "Test Fuel Type Description": "Electricity"})
+    diesel = _car("G1")[1:]
+    diesel[0]["Test Fuel Type Description"] = "Federal Cert Diesel 7-15 PPM Sulfur"
+    return (good + hybrid + sc03 + adfe + zero + nocoef + unknown_tr + one_hp + nv0
+            + electric + diesel)
+
+
+@pytest.fixture
+def mixed_list(tmp_path):
+    return write_list(tmp_path / "19tstcar.csv", _mixed_rows(), header=FLEET_HEADER)
+
+
+def _by_vid(records):
+    out: dict[str, list] = {}
+    for r in records:
+        out.setdefault(r["vehicle_id"], []).append(r)
+    return out
+
+
+def test_every_row_is_run_or_not_run_with_its_reason(mixed_list):
+    tests, lists = read_fleet([mixed_list])
+    plan = plan_fleet(tests)
+    records = [*plan.not_run, *predict_jobs(plan.jobs)]
+    assert lists == ["19tstcar.csv"] and len(records) == len(tests) == plan.n_rows
+    assert set(records[0]) == set(ROW_COLUMNS)
+    by = _by_vid(records)
+    assert {r["status"] for v in ("A1", "A2") for r in by[v]} == {"run"}
+    expect = {"H1": "hybrid", "S1": "procedure_not_modelled", "D1": "analytically_derived",
+              "Z1": "placeholder_values", "N1": "missing_coefficients",
+              "U1": "transmission_not_modelled", "P1": "specs_not_usable",
+              "V1": "specs_not_usable", "E1": "electric", "G1": "fuel_not_modelled"}
+    for vid, code in expect.items():
+        for r in by[vid]:
+            assert r["status"] == "not_run" and r["reason_code"] == code, (vid, r["reason"])
+            # one line naming the row
+            assert r["reason"].startswith(f"19tstcar.csv:{r['source'].split(':')[1]}: ")
+            assert "\n" not in r["reason"]
+    assert "1" in by["P1"][0]["reason"] and "kW/L" in by["P1"][0]["reason"]
+    assert "N/V" in by["V1"][0]["reason"]
+    assert "'ZZ'" in by["U1"][0]["reason"]
+    # an analytically derived row is never judged (nor run)
+    assert not any(r["judged"] for r in by["D1"])
+    for r in by["A1"] + by["A2"]:
+        assert r["judged"] and math.isfinite(r["error"]) and abs(r["error"]) < 0.5
+        assert r["predicted_mpg"] == pytest.approx(r["measured_mpg"] * (1 + r["error"]))
+    # each row on its own weight: the heavier car reads lower
+    hw = {r["vehicle_id"]: r["predicted_mpg"] for r in records
+          if r["procedure"] == "hwfet" and r["status"] == "run"}
+    assert hw["A2"] < hw["A1"]
+
+
+def test_fleet_run_writes_tables_summary_report_and_resumes(mixed_list, tmp_path):
+    import duckdb
+
+    out = tmp_path / "out"
+    s = run_fleet([mixed_list], out, workers=1)
+    assert s["n_rows"] == len(_mixed_rows()) and s["n_run"] == 4 and s["n_failed"] == 0
+    assert s["not_run_by_reason"]["specs_not_usable"] == 4
+    assert set(s["errors"]) == {"ftp75", "hwfet"} and s["run"]["n_rows_simulated"] == 4
+    assert {"per_technology", "hwfet_ftp_bias", "outliers", "baseline", "per_list"} <= set(s)
+    con = duckdb.connect(str(out / "fleet.duckdb"), read_only=True)
+    try:
+        n, n_run = con.execute("SELECT count(*), count(*) FILTER (WHERE status = 'run') "
+                               "FROM fleet_rows").fetchone()
+        reasons = con.execute("SELECT count(*) FROM fleet_rows WHERE status <> 'run' AND "
+                              "reason IS NULL").fetchone()[0]
+    finally:
+        con.close()
+    assert (n, n_run, reasons) == (s["n_rows"], 4, 0)
+    assert json.loads((out / "fleet.json").read_text())["n_rows"] == n
+    html = (out / "fleet.html").read_text()
+    assert "Every row accounted for" in html and "Outliers" in html
+    # a rerun takes every car from the store and simulates nothing
+    cars = sorted(p.stat().st_mtime_ns for p in (out / "cars").iterdir())
+    again = run_fleet([mixed_list], out, workers=1)
+    assert again["run"]["n_cars_cached"] == again["run"]["n_cars"] == 2
+    assert again["run"]["n_rows_simulated"] == 0
+    assert sorted(p.stat().st_mtime_ns for p in (out / "cars").iterdir()) == cars
+    assert again["errors"] == s["errors"]
+
+
+def test_a_list_without_a_runnable_row_is_one_line_and_exit_2(tmp_path, capsys):
+    rows = _car("H1", model="SEDAN HYBRID")
+    path = write_list(tmp_path / "16tstcar.csv", rows, header=FLEET_HEADER)
+    with pytest.raises(ConfigError, match="no runnable row"):
+        run_fleet([path], tmp_path / "o", workers=1)
+    assert main(["epa", "fleet", str(path), "-o", str(tmp_path / "o2"), "--workers", "1"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "16tstcar.csv" in err[0] and "hybrid 2" in err[0]
+    assert not (tmp_path / "o2" / "fleet.json").exists()
+
+
+def test_a_list_without_runnable_rows_beside_a_good_one_is_noted(mixed_list, tmp_path):
+    bad = write_list(tmp_path / "16tstcar.csv", _car("H1", model="SEDAN HYBRID"),
+                     header=FLEET_HEADER)
+    s = run_fleet([bad, mixed_list], tmp_path / "o", workers=1, report=False)
+    assert s["per_list"]["16tstcar.csv"]["n_run"] == 0 and s["n_run"] == 4
+    assert len(s["notes"]) == 1 and s["notes"][0].startswith("16tstcar.csv: no runnable row")
+
+
+def test_cli_fleet_json(mixed_list, tmp_path, capsys):
+    assert main(["epa", "fleet", str(mixed_list), "-o", str(tmp_path / "o"), "--workers", "1",
+                 "--json", "--no-report"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["n_run"] == 4 and s["outputs"]["html"] is None
+    assert not (tmp_path / "o" / "fleet.html").exists()
+
+
+def test_dask_run_equals_the_loop(mixed_list, tmp_path):
+    loop = run_fleet([mixed_list], tmp_path / "loop", workers=1, report=False)
+    dask = run_fleet([mixed_list], tmp_path / "dask", workers=2, report=False)
+    assert dask["run"]["workers"] == 2
+    assert dask["errors"] == loop["errors"]
+
+
+def test_ridge_recovers_a_log_linear_law_and_cross_validates():
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(200, 5))
+    y = 3.0 + x @ np.array([0.3, -0.2, 0.1, 0.0, 0.05])
+    model = fit_ridge(x, y)
+    assert np.allclose(predict_ridge(model, x), y, atol=1e-2)
+    # records whose mpg follows the weight exactly: the baseline beats a model 10 % off
+    recs = []
+    for k in range(60):
+        m = 1200.0 + 20 * k
+        recs.append({"status": "run", "judged": True, "list": "19tstcar.csv",
+                     "procedure": "hwfet", "vehicle_id": f"V{k}", "mass_kg": m,
+                     "displacement_l": 2.0, "rated_power_w": 1.2e5, "n_v_ratio": 25.0,
+                     "axle_ratio": 3.0, "target_a_n": 100.0, "target_b_n_per_mps": 1.0,
+                     "target_c_n_per_mps2": 0.4, "gears": 8, "cylinders": 4,
+                     "transmission_class": "automatic", "fuel_family": "gasoline",
+                     "aspiration": "naturally aspirated", "measured_mpg": 1e5 / m,
+                     "error": -0.10})
+    cmp = cross_validate(recs)["within_year"]["hwfet"]
+    assert cmp["baseline"]["median_abs_error"] < 0.01 and not cmp["model_better"]
+    assert all(r["baseline_error"] is not None for r in recs)
+
+
+def test_outliers_are_named():
+    rows = [{"row_id": f"l.csv:{k}", "make": "M", "model": "X", "vehicle_id": f"V{k}",
+             "procedure": "ftp75", "transmission_class": "automatic",
+             "aspiration": "naturally aspirated", "measured_mpg": 30.0,
+             "predicted_mpg": 30.0 * (1 + e), "error": e}
+            for k, e in enumerate([0.01, -0.01, 0.0, 0.02, -0.02, 0.005, 0.12])]
+    out = outliers(rows)
+    assert [o["row_id"] for o in out] == ["l.csv:6"]
+    assert "robust sigma" in out[0]["why"] and "10 %" in out[0]["why"]
+
+
+def test_whatif_answers_weight_road_load_and_axle(mixed_list):
+    tests, _ = read_fleet([mixed_list])
+    res = whatif(tests, "A1", weight="-200lb", road_load="-5%")
+    assert len(res["rows"]) == 2
+    for r in res["rows"]:
+        assert r["change"] > 0.01 and r["answer_mpg"] > r["measured_mpg"]
+        lo, hi = r["interval_mpg"]
+        assert lo < r["answer_mpg"] < hi and r["u_change_rel"] > 0
+    heavy = whatif(tests, "A1", weight="+10%", procedure="hwfet")["rows"][0]
+    assert heavy["change"] < 0 and heavy["procedure"] == "hwfet"
+    axle = whatif(tests, "A1", axle="3.2")
+    assert axle["changes"]["n_v_ratio"] == pytest.approx(24.7 * 3.2 / 2.8)
+    with pytest.raises(ConfigError, match="--road-load '-5lb'"):
+        whatif(tests, "A1", road_load="-5lb")
+    with pytest.raises(ConfigError, match="no runnable row"):
+        whatif(tests, "H1", weight="-200lb")
+    with pytest.raises(Exception, match="did you mean A1"):
+        whatif(tests, "A11", weight="-200lb")
+
+
+def test_parse_change():
+    assert parse_change("-200lb", "--weight", ("lb", "kg", "%")) == ("-", 200.0, "lb")
+    assert parse_change("3.2", "--axle", ("", "%")) == ("", 3.2, "")
+    with pytest.raises(ConfigError):
+        parse_change("abc", "--axle", ("", "%"))
+
+
+def test_cli_whatif(mixed_list, capsys):
+    assert main(["epa", "whatif", str(mixed_list), "--vehicle-id", "A1", "--weight",
+                 "-200lb", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["vehicle_id"] == "A1" and len(res["rows"]) == 2
+    assert main(["epa", "whatif", str(mixed_list), "--vehicle-id", "A1"]) == 2
+    assert "at least one of --weight" in capsys.readouterr().err
+
+
+def test_real_list_every_row_accounted_for(shared_data):
+    path = shared_data / "real" / "epa_test_car_list" / "19tstcar.csv"
+    if not path.exists():
+        pytest.skip("2019 Test Car List not present")
+    tests, _ = read_fleet([path])
+    plan = plan_fleet(tests)
+    assert plan.n_to_run + len(plan.not_run) == len(tests) == plan.n_rows
+    assert all(r["reason"] and r["reason_code"] for r in plan.not_run)
+    derived = {t.source for t in tests if t.analytically_derived}
+    assert derived and not derived & {t.source for j in plan.jobs for t in j.tests}
+
+
+def test_an_interrupted_run_keeps_the_cars_it_finished(mixed_list, tmp_path, monkeypatch):
+    import vehval.epa.fleet as fleet
+
+    real, calls = fleet.predict_car, []
+
+    def second_interrupts(job):
+        calls.append(job.key)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(job)
+
+    monkeypatch.setattr(fleet, "predict_car", second_interrupts)
+    with pytest.raises(KeyboardInterrupt):
+        run_fleet([mixed_list], tmp_path / "o", workers=1)
+    assert not (tmp_path / "o" / "fleet.json").exists()
+    monkeypatch.setattr(fleet, "predict_car", real)
+    s = run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    assert s["run"]["n_cars_cached"] == 1 and s["run"]["n_rows_simulated"] == 2
+    assert s["n_run"] == 4
+
+
+def test_e85_rows_run_on_e85(tmp_path):
+    """A flex-fuel car: its E85 rows run on E85 (energy per gallon about 72 % of
+    certification gasoline's), its gasoline rows on gasoline; a diesel row is named."""
+    gas = _car("F1")
+    e85 = _car("F1")
+    for r in e85:
+        r["Test Number"] += "E"
+        r.update({"Test Fuel Type Cd": "19",
+                  "Test Fuel Type Description": "E85 (85% Ethanol 15% EPA Unleaded Gasoline)",
+                  "RND_ADJ_FE": str(round(float(r["RND_ADJ_FE"]) * 0.72, 1))})
+    path = write_list(tmp_path / "19tstcar.csv", gas + e85, header=FLEET_HEADER)
+    tests, _ = read_fleet([path])
+    plan = plan_fleet(tests)
+    assert not plan.not_run and sorted(j.fuel for j in plan.jobs) == ["e85", "gasoline"]
+    recs = predict_jobs(plan.jobs)
+    hw = {r["fuel_family"]: r["predicted_mpg"] for r in recs if r["procedure"] == "hwfet"}
+    assert hw["e85"] / hw["gasoline"] == pytest.approx((29.17 * 781.7) / (42.60 * 740.0),
+                                                       rel=0.03)
+    e85_specs = next(j.specs for j in plan.jobs if j.fuel == "e85")
+    from vehval.epa.specs import vehicle_from_specs
+
+    assert vehicle_from_specs(e85_specs).engine.fuel == "ethanol_e85"
+
+
+def test_a_changed_model_runs_the_stored_cars_again(mixed_list, tmp_path, monkeypatch):
+    import vehval.epa.fleet as fleet
+
+    run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    monkeypatch.setattr(fleet, "model_fingerprint", lambda: "another model")
+    s = run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    assert s["run"]["n_cars_cached"] == 0 and s["run"]["n_rows_simulated"] == 4
+
+
+def test_duckdb_keeps_missing_values_null(mixed_list, tmp_path):
+    import duckdb
+
+    run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    con = duckdb.connect(str(tmp_path / "o" / "fleet.duckdb"), read_only=True)
+    try:
+        nan, null, miss = con.execute(
+            "SELECT count(*) FILTER (WHERE isnan(predicted_mpg)), "
+            "count(*) FILTER (WHERE predicted_mpg IS NULL), "
+            "max(trace_n_miss) FROM fleet_rows").fetchone()
+        zero_fe = con.execute("SELECT measured_mpg FROM fleet_rows WHERE vehicle_id = 'Z1'"
+                              ).fetchone()[0]
+    finally:
+        con.close()
+    assert nan == 0 and null > 0 and miss is not None and zero_fe is None
+
+
+def test_a_scheduler_that_does_not_answer_is_one_line(mixed_list, tmp_path, capsys):
+    import socket
+
+    with socket.socket() as s:  # a free port nothing listens on
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    assert main(["epa", "fleet", str(mixed_list), "-o", str(tmp_path / "o"),
+                 "--scheduler", f"tcp://127.0.0.1:{port}"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--scheduler" in err[0]
+    assert not (tmp_path / "o" / "fleet.json").exists()

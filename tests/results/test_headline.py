@@ -1,0 +1,108 @@
+"""The one headline (vehval.results.headline): figure with U, rule, every caveat (start
+condition, cell, SAE J1711, substitutes), the model's verdict, the user's unit system; and the
+two caveats that were wrong (a hot-start UDDS read as the FTP-72; the bag 2 stand-in for bag 3
+said to overstate whatever the data)."""
+
+import numpy as np
+import pytest
+
+from vehval.results import compute_results
+from vehval.results.headline import headline_of
+
+from .helpers import make_test, true_signals
+
+EXPLICIT = {"density_kg_per_m3": 800.0, "lhv_j_per_kg": 42e6, "carbon_mass_fraction": 0.86}
+
+
+def _with_temps(coolant_c: float, cell_c: float = 23.0):
+    from vehval.test import Signal
+
+    t, s = true_signals()
+    test = make_test(t, s)
+    test.add(Signal.standard("amb_temp_test", t, np.full(t.size, cell_c), source="dyno"))
+    test.add(Signal.standard("eng_temp_coolant_test", t, np.full(t.size, coolant_c),
+                             source="dyno"))
+    return test
+
+
+def test_a_hot_start_udds_is_not_the_ftp72_and_says_why():
+    res = compute_results(_with_temps(91.0), fuel=EXPLICIT)
+    assert res.conditions["start"] == "hot"
+    doc = res.to_dict()
+    h = headline_of(doc, system_name="us")
+    assert h is not None and h.scope == "udds"
+    assert any(c.startswith("hot start (coolant 91") and "86.132" in c for c in h.caveats), h.caveats
+    assert "hot-start run" in h.rule and "(FTP-72) result over bags 1+2" not in h.rule
+    lines = h.lines()
+    assert any("! caveat: hot start" in ln for ln in lines), lines
+    # a cold start keeps the FTP-72 rule and no start caveat
+    cold = headline_of(compute_results(_with_temps(24.0), fuel=EXPLICIT).to_dict())
+    assert cold is not None and "FTP-72" in cold.rule
+    assert not any("hot start" in c for c in cold.caveats)
+
+
+def test_the_bag2_stand_in_never_claims_a_direction_the_data_does_not_give():
+    res = compute_results(_with_temps(24.0), fuel=EXPLICIT)
+    ftp = next(c for c in res.composites if c.name == "ftp75_from_udds")
+    assert "overstates" not in ftp.substitute and "--hot-start" in ftp.substitute
+
+
+@pytest.mark.parametrize("hot_fuel, word", [(0.30, "overstates"), (0.15, "understates")])
+def test_with_a_hot_bag1_the_stand_in_direction_comes_from_the_data(hot_fuel, word):
+    t, s = true_signals()
+    hot = {"fuel_mass_kg": hot_fuel, "distance_m": 5800.0}
+    res = compute_results(make_test(t, s, constants={}), fuel=EXPLICIT, hot_start_bag1=hot)
+    v = res.values
+    fb2, db2 = v["bag2"]["fuel_mass_kg"], v["bag2"]["distance_m"]
+    f12 = (v["bag1"]["fuel_mass_kg"] + fb2) / (v["bag1"]["distance_m"] + db2)
+    stand_in = 0.43 * f12 + 0.57 * fb2 / db2
+    measured = v["ftp75_from_udds"]["fuel_per_distance_kg_per_m"]
+    note = next(n for n in res.notes if n.startswith("FTP-75: bag 2 standing for bag 3"))
+    assert word in note and f"by {100 * abs(measured / stand_in - 1):.1f} %" in note, note
+    mpg = v["ftp75_from_udds"]["fuel_economy_mpg"]
+    assert f"against {mpg:.2f} mpg)" in note, note
+    # the direction follows the hot bag against bag 2 per distance
+    assert (hot_fuel / 5800.0 > fb2 / db2) == (word == "overstates")
+
+
+def _doc(**over):
+    doc = {"headline": {"name": "udds", "kind": "composite", "rule": "40 CFR 86.144: UDDS",
+                        "fuel_economy_mpg": 62.2, "fuel_economy_u_mpg": 0.8,
+                        "fuel_consumption_l_per_100km": 3.78, "withheld": None, "forced": False,
+                        "caveats": []},
+           "composites": [{"name": "udds", "uncertainty": {
+               "fuel_consumption_l_per_100km": {"U": 0.05}}}],
+           "soc_correction": {"status": "not_applicable"}, "withheld_count": 0}
+    doc.update(over)
+    return doc
+
+
+def test_j1711_status_metric_order_and_model_verdict():
+    soc = {"status": "beyond_tolerance_uncorrected",
+           "message": "battery net energy change +2.03 % of the fuel energy, beyond ..."}
+    h = headline_of(_doc(soc_correction=soc), system_name="metric",
+                    model={"verdict": "consistent", "en": 0.42, "error_pct": 1.3})
+    assert h is not None and h.j1711 == "beyond_tolerance_uncorrected"
+    assert any("SAE J1711 beyond tolerance uncorrected" in c and "+2.03 %" in c
+               for c in h.caveats)
+    assert h.figure().startswith("3.78 ± 0.05 L/100 km (62.20 ± 0.80 mpg)")
+    assert headline_of(_doc(), system_name="us").figure().startswith("62.20 ± 0.80 mpg")
+    assert "En = +0.42" in (h.verdict_text() or "")
+    d = h.to_dict()
+    assert d["figure"] == h.figure() and d["caveats"] == h.caveats and "En" in d["verdict"]
+    assert any("Caveat: SAE J1711" in ln for ln in d["banner"]["lines"])
+    within = headline_of(_doc(soc_correction={"status": "within_tolerance", "message": "x"}))
+    assert within is not None and within.j1711 == "within_tolerance" and not within.caveats
+
+
+def test_withheld_and_forced_headlines():
+    held = {"signals": ["fuel_rate_test"], "reason": "QA error", "fix": "check it"}
+    doc = _doc(withheld_count=2)
+    doc["headline"].update(fuel_economy_mpg=None, withheld=held)
+    h = headline_of(doc)
+    assert h is not None and h.kind == "withheld"
+    assert h.lines()[0].startswith("headline udds: WITHHELD (fuel_rate_test)")
+    assert h.banner()["kind"] == "withheld"
+    doc["headline"].update(fuel_economy_mpg=60.0, forced=True)
+    h = headline_of(doc)
+    assert h is not None and h.kind == "forced" and h.lines()[0].startswith("STATED DESPITE")
