@@ -101,3 +101,25 @@ def battery_electric_test(veh: Any, vehicle: str, cycle: str, seed: int, faults:
         f"measurement) in {out}",
         f"its SAE J1634 figures: vehval results {' '.join(truth['files'])} -t "
         f"{truth['template']}"])
+
+
+def parallel_hybrid_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str,
+                         out: Path, control: dict, param: dict, force: bool) -> VirtualTest:
+    """A parallel hybrid on ``cycle``: the 10 Hz log channels with noise and the controller's
+    rules as the answer key (no fault mix), controller overrides ``control`` and vehicle
+    overrides ``param``, written into ``out``."""
+    from vehval.cycles import load_cycle
+    from vehval.synth.parallel import make_parallel_test
+
+    if faults not in ("default", "none"):
+        raise ConfigError("--faults: fault files apply to power-split virtual tests only")
+    over = {**{f"controller.{k}": v for k, v in (control or {}).items()}, **(param or {})}
+    veh = veh.with_overrides(over or None)
+    truth = make_parallel_test(veh, load_cycle(cycle), seed, out, vehicle_ref=str(vehicle))
+    doc = {"files": truth["files"], "template": truth["template"],
+           "truth": str(out / "truth.json")}
+    return VirtualTest(doc, [
+        f"virtual parallel-hybrid test '{truth['test_id']}' (VIRTUAL: synthetic, not a "
+        f"measurement) in {out}",
+        f"analyze it with: vehval analyze {' '.join(truth['files'])} -t "
+        f"{truth['template']} -o OUTDIR"])
