@@ -31,10 +31,10 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
+from pydantic import ConfigDict, Field, model_validator
 
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.vehicle.base import Block, apply_overrides
+from vehval.vehicle.base import Block, BlockVehicle
 from vehval.vehicle.components import BatteryParams, BodyParams, DrivelineParams, EngineParams, MachineParams
 from vehval.vehicle.control import DriverParams
 from vehval.vehicle.conventional import ConverterParams, GearboxParams
@@ -85,7 +85,7 @@ class ParallelControlParams(Block):
         return self
 
 
-class ParallelHybridVehicle(BaseModel):
+class ParallelHybridVehicle(BlockVehicle):
     """A parallel hybrid: engine + motor on the crankshaft, gearbox, final drive, battery."""
 
     model_config = ConfigDict(extra="forbid")
@@ -104,7 +104,6 @@ class ParallelHybridVehicle(BaseModel):
     driver: DriverParams
     transmission: Literal["manual", "automatic"] = "manual"
     identification: dict = Field(default_factory=dict)
-    _file: str = PrivateAttr(default="")
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -120,35 +119,12 @@ class ParallelHybridVehicle(BaseModel):
             raise ValueError(f"'controller.assist_min_gear' exceeds the {n} gears")
         return self
 
-    @property
-    def file(self) -> str:
-        """File the vehicle was loaded from ('' when built in code)."""
-        return self._file
-
     def _blocks(self) -> tuple[str, ...]:
         return PARALLEL_BLOCKS + (("converter",) if self.converter is not None else ())
-
-    def parameters(self) -> dict:
-        """Flat dict of every scalar parameter by dotted path (e.g. ``body.mass_kg``)."""
-        out = {}
-        for blk in self._blocks():
-            for key, val in getattr(self, blk).model_dump(exclude={"sources"}).items():
-                if isinstance(val, (int, float)) and not isinstance(val, bool):
-                    out[f"{blk}.{key}"] = val
-        return out
-
-    def sources(self) -> dict[str, str]:
-        """Source of every parameter by dotted path."""
-        return {f"{blk}.{k}": v for blk in self._blocks()
-                for k, v in getattr(self, blk).sources.items()}
 
     def overall_ratios(self) -> np.ndarray:
         """Shaft-to-wheel speed ratio of every gear [-] (gearbox x final drive)."""
         return np.asarray(self.gearbox.ratios, float) * self.driveline.final_drive_ratio
-
-    def with_overrides(self, overrides: dict | None) -> ParallelHybridVehicle:
-        """A validated copy with parameters replaced by dotted path (``controller.soc_target``)."""
-        return apply_overrides(self, overrides, self._blocks())
 
     def signal_limits(self) -> dict[str, tuple[float, float]]:
         """Physical limits per signal base name, SI units (for QA range checks)."""
