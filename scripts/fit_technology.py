@@ -16,7 +16,12 @@ per technology group.
 Usage::
 
     python scripts/fit_technology.py 16tstcar.csv 19tstcar.csv [--every 3] [--dt 0.5] \
-        [--write-yaml src/vehval/data/epa/technology_coefficients.yaml] [--json out.json]
+        [--write-yaml src/vehval/data/epa/technology_coefficients.yaml] [--json out.json] \
+        [--fuel diesel]
+
+``--fuel diesel`` fits the compression-ignition engine alone on the list's diesel cars
+(its efficiency, friction and idle; the gearbox families and the spark-ignition values are
+kept as the coefficients file has them).
 """
 
 from __future__ import annotations
@@ -239,7 +244,8 @@ def yaml_text(fit_list: str, res: dict, iv: dict, base: tech.Coefficients, n_car
               every: int, fuel: str = "gasoline") -> str:
     """The coefficients file of a fit (values, intervals, provenance): the technologies
     fitted (those of ``res``) written anew, every other value kept as ``base`` has it."""
-    fit = (f"fitted on {fit_list} ({n_cars} cars, every {every}th runnable {fuel} car; "
+    which = "every" if every == 1 else f"every {every}th"
+    fit = (f"fitted on {fit_list} ({n_cars} cars, {which} runnable {fuel} car; "
            "scripts/fit_technology.py)")
     header = fit if fuel == "gasoline" else base.header.get("fit", "")
     lines = ["# Generic technology coefficients of a car built from its EPA Test Car List row",
