@@ -12,6 +12,7 @@ import json
 from typing import Any, Sequence
 from urllib.parse import quote
 
+from vehval.display import as_unit
 from vehval.report.document import Block, cell, figure, h1, h2, para, render_document, table
 from vehval.report.figures import FigSpec
 
@@ -93,7 +94,7 @@ def _variability(var: Sequence[dict]) -> list[Block]:
         rows.append([v["vehicle"], v["cycle"], v.get("start", ""), v.get("temperature_band", ""),
                      v.get("ac", ""), name, unit.label if unit is not None else "",
                      _num(v["n"], pattern="{:.0f}"), shown(v["mean"]), shown(v["std"], f, 0.0),
-                     cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
+                     cell("" if v["cv"] is None else f"{as_unit(v['cv'], '%'):.2f}", "num"),
                      shown(v["min"]), shown(v["max"])])
     return out + [table(["vehicle", "cycle", "start", "cell temperature", "A/C", "metric", "unit",
                          "n", "mean", "std", "CV [%]", "min", "max"], rows)]
@@ -107,7 +108,7 @@ def _results(var: Sequence[dict]) -> list[Block]:
             + [f"{v['scope'] if v['kind'] != 'test' else 'whole test'} ({v['kind']})",
                _num(v["n"], pattern="{:.0f}"), _num(v["mean"], pattern="{:.2f}"),
                _num(v["std"], pattern="{:.2f}"),
-               cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
+               cell("" if v["cv"] is None else f"{as_unit(v['cv'], '%'):.2f}", "num"),
                _num(v["mean_u"], pattern="{:.2f}")] for v in var]
     return out + [table(["vehicle", "cycle", "cell temperature", "start", "A/C", "result", "n",
                          "mean [mpg]", "std [mpg]", "CV [%]", "mean U (k = 2) [mpg]"], rows)]
@@ -143,7 +144,7 @@ def _soc_figure(tests: Sequence[dict]) -> list[Block]:
             groups.setdefault((r["vehicle"] or "", r["cycle"] or ""), []).append(r)
     if not groups:
         return []
-    data = [{"type": "scatter", "x": [100 * r["soc_change"] for r in rs],
+    data = [{"type": "scatter", "x": [as_unit(r["soc_change"], "%") for r in rs],
              "y": [r["headline_mpg"] for r in rs], "mode": "markers",
              "text": [str(r["test_id"]) for r in rs], "name": f"{veh} {cyc}".strip()}
             for (veh, cyc), rs in sorted(groups.items())]

@@ -13,6 +13,7 @@ import numpy as np
 import plotly.graph_objects as go
 
 from vehval.constants import RPM_RAD_PER_S
+from vehval.display import as_unit
 from vehval.equations.engine_state import engine_running
 from vehval.fuels import resolve_fuel
 from vehval.integrals import integral
@@ -109,11 +110,11 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
         raise PlotSkipped("no vehicle engine fuel map")
     spd = np.asarray(eng.speed_rpm, float)
     trq = np.asarray(eng.torque_nm, float)
-    fuel = np.asarray(eng.fuel_rate_g_per_s, float) * 1e-3  # [kg/s], rows = speed
+    fuel = np.asarray(eng.fuel_rate_g_per_s, float) / as_unit(1.0, "g/s")  # [kg/s], rows = speed
     lhv = float(eng.fuel_lhv_j_per_kg)
     pw = (spd[:, None] * RPM) * trq[None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
-        eff = np.where((fuel > 0) & (pw > 0), pw / (fuel * lhv), np.nan) * 100.0
+        eff = as_unit(np.where((fuel > 0) & (pw > 0), pw / (fuel * lhv), np.nan), "%")
     tmax = np.asarray(eng.max_torque_nm, float)
     eff = np.where(trq[None, :] <= np.interp(spd, spd, tmax)[:, None] * 1.02, eff, np.nan)
     fig = go.Figure()
@@ -154,7 +155,7 @@ def machine_efficiency(speed_rpm: np.ndarray, torque_nm: np.ndarray, loss_w: np.
     with np.errstate(divide="ignore", invalid="ignore"):
         eff = np.where(pm > 0, pm / (pm + loss), (a - loss) / a)
     eff = np.where(a > 1.0, eff, np.nan)
-    return np.clip(eff, 0.0, 1.0) * 100.0
+    return as_unit(np.clip(eff, 0.0, 1.0), "%")
 
 
 def machine_map_figure(test: Test, vehicle: Any, which: str) -> go.Figure:
@@ -241,7 +242,7 @@ def engine_power_histogram(test: Test) -> go.Figure:
     on = np.isfinite(pw) & running
     if not on.any():
         raise PlotSkipped("engine never on")
-    fig = go.Figure(go.Histogram(x=pw[on] / 1e3, nbinsx=50, name=name, marker={"color": "#d9480f"}))
+    fig = go.Figure(go.Histogram(x=as_unit(pw[on], "kW"), nbinsx=50, name=name, marker={"color": "#d9480f"}))
     return _layout(fig, "Engine power while running", "engine power [kW]", "samples", height=380)
 
 
@@ -287,13 +288,13 @@ def willans(test: Test, lhv_j_per_kg: float | None = None) -> dict:
 def willans_figure(test: Test, lhv_j_per_kg: float | None = None) -> go.Figure:
     """Scatter of fuel power against engine power [kW] with the fitted Willans line."""
     w = willans(test, lhv_j_per_kg)
-    x, y = _thin(w["eng_pwr"] / 1e3, w["fuel_pwr"] / 1e3)
+    x, y = _thin(as_unit(w["eng_pwr"], "kW"), as_unit(w["fuel_pwr"], "kW"))
     xs = np.array([0.0, float(np.max(w["eng_pwr"]))])
     fig = go.Figure([
         go.Scatter(x=x, y=y, mode="markers", name="engine running", marker={"size": 4, "opacity": 0.45}),
-        go.Scatter(x=xs / 1e3, y=(w["slope"] * xs + w["intercept"]) / 1e3, mode="lines",
-                   name=(f"fuel = {w['slope']:.3f}·P + {w['intercept'] / 1e3:.2f} kW "
-                         f"(marginal eff. {w['marginal_efficiency'] * 100:.1f} %, R² = {w['r2']:.3f})"),
+        go.Scatter(x=as_unit(xs, "kW"), y=as_unit(w["slope"] * xs + w["intercept"], "kW"), mode="lines",
+                   name=(f"fuel = {w['slope']:.3f}·P + {as_unit(w['intercept'], 'kW'):.2f} kW "
+                         f"(marginal eff. {as_unit(w['marginal_efficiency'], '%'):.1f} %, R² = {w['r2']:.3f})"),
                    line={"color": "#d9480f", "width": 2})])
     return _layout(fig, "Willans line", "engine power [kW]", "fuel power [kW]")
 
@@ -376,7 +377,7 @@ def sankey_figure(flows: dict[str, float], title: str = "Energy flow over the te
         if v is not None and v > 0:
             src.append(nodes.index(a))
             dst.append(nodes.index(b))
-            val.append(v / 1e6)
+            val.append(as_unit(v, "MJ"))
 
     fuel, eng = flows.get("fuel"), flows.get("engine")
     if fuel is not None and eng is None:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.display import as_unit
 from vehval.report.figures import PALETTE, FigSpec
 from vehval.report.safety import GL_TO_SVG
 from vehval.report.sections import Section
@@ -197,15 +198,15 @@ def soc_regulation_figure(soc: dict) -> dict | None:
         return None
     x = [b["soc"] for b in bins]
     data = [{"type": "scatter", "mode": "markers", "name": "median per SOC bin",
-             "x": x, "y": [b["ess_pwr_median_w"] / 1e3 for b in bins],
+             "x": x, "y": [as_unit(b["ess_pwr_median_w"], "kW") for b in bins],
              "text": [f"n = {b.get('n')}" for b in bins],
              "marker": {"size": 8, "color": PALETTE[0]}}]
     slope, icpt = soc.get("slope_w"), soc.get("intercept_w")
     if isinstance(slope, (int, float)) and isinstance(icpt, (int, float)):
         xs = [min(x), max(x)]
         r2 = soc.get("r2")
-        data.append({"type": "scatter", "mode": "lines", "x": xs, "y": [(slope * s + icpt) / 1e3 for s in xs],
-                     "name": f"fit: {slope / 1e3:.4g} kW per unit SOC" + (f" (R² = {r2:.3f})" if isinstance(r2, (int, float)) else ""),
+        data.append({"type": "scatter", "mode": "lines", "x": xs, "y": [as_unit(slope * s + icpt, "kW") for s in xs],
+                     "name": f"fit: {as_unit(slope, 'kW'):.4g} kW per unit SOC" + (f" (R² = {r2:.3f})" if isinstance(r2, (int, float)) else ""),
                      "line": {"color": PALETTE[1], "width": 2}})
     return {"data": data, "layout": {"height": 360, "margin": {"l": 70, "r": 20, "t": 30, "b": 50},
                                      "xaxis": _axis("state of charge [-]"),
@@ -225,7 +226,7 @@ def regen_share_figure(brk: dict) -> dict | None:
     return {"data": [{"type": "scatter", "mode": "markers", "name": "regen share",
                       "x": [0.5 * sum(c["speed_mps"]) for c in cells],
                       "y": [0.5 * sum(c["decel_mps2"]) for c in cells],
-                      "text": [f"{c['regen_share'] * 100:.0f} % of {c.get('n')} steps" for c in cells],
+                      "text": [f"{as_unit(c['regen_share'], '%'):.0f} % of {c.get('n')} steps" for c in cells],
                       "marker": {"size": size.tolist(), "color": [c["regen_share"] for c in cells],
                                  "cmin": 0, "cmax": 1, "colorscale": "Viridis",
                                  "colorbar": {"title": {"text": "regen share"}}},
@@ -257,12 +258,12 @@ def control_section(doc: dict, hybrid: bool = True) -> Section:
     eng, op, soc = doc.get("engine") or {}, doc.get("operating_points") or {}, doc.get("soc_regulation") or {}
     share = eng.get("on_share")
     sec.facts = [("Test", str(doc.get("test_id") or "—")),
-                 ("Rule agreement", f"{doc['rule_agreement'] * 100:.1f} % of steps"
+                 ("Rule agreement", f"{as_unit(doc['rule_agreement'], '%'):.1f} % of steps"
                   if isinstance(doc.get("rule_agreement"), (int, float)) else "not estimated"),
-                 ("Engine on", f"{share * 100:.1f} % of the time, {eng.get('starts', '—')} starts"
+                 ("Engine on", f"{as_unit(share, '%'):.1f} % of the time, {eng.get('starts', '—')} starts"
                   if isinstance(share, (int, float)) else "—"),
                  ("Engine state from", str(eng.get("method") or "—")),
-                 ("On the best line", f"{op['share_within_band'] * 100:.1f} % within ±{_fmt(op.get('band_nm'), 'g')} N·m"
+                 ("On the best line", f"{as_unit(op['share_within_band'], '%'):.1f} % within ±{_fmt(op.get('band_nm'), 'g')} N·m"
                   if isinstance(op.get("share_within_band"), (int, float)) else "—"),
                  ("SOC window", (f"{_fmt(soc.get('soc_min'), '.3f')} – {_fmt(soc.get('soc_max'), '.3f')}"
                                  f" (mean {_fmt(soc.get('soc_mean'), '.3f')})"))]
