@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Iterable, overload
 
 import numpy as np
 
@@ -190,6 +190,10 @@ FIXED: dict[str, tuple[str, float]] = {
 }
 
 
+@overload
+def as_unit(value_si: float, label: str) -> float: ...
+@overload
+def as_unit(value_si: np.ndarray, label: str) -> np.ndarray: ...
 def as_unit(value_si: float | np.ndarray, label: str) -> float | np.ndarray:
     """An SI value (or array) in the fixed display unit ``label`` (:data:`FIXED`):
     ``as_unit(0.0021, "g/s")`` -> 2.1, ``as_unit(0.25, "%")`` -> 25.0 (a fraction [-] as a

@@ -13,6 +13,7 @@ from typing import Any, Sequence
 from urllib.parse import quote
 
 from vehval.display import as_unit
+from vehval.figures import layout_figure
 from vehval.report.document import Block, cell, figure, h1, h2, para, render_document, table
 from vehval.report.figures import FigSpec
 
@@ -126,12 +127,11 @@ def _phase_figure(phase_rows: Sequence[tuple]) -> list[Block]:
              "error_y": {"type": "data", "visible": True, "array": [p[2] or 0.0 for p in pts]},
              "marker": {"size": 10 if scope == "whole test" else 7}}
             for scope, pts in by_scope.items()]
-    layout = {"xaxis": {"title": {"text": "test"}},
-              "yaxis": {"title": {"text": "fuel economy [mpg]"}}, "height": 450,
-              "margin": {"l": 60, "r": 20, "t": 30, "b": 80}}
+    fig = layout_figure(data, xlabel="test", ylabel="fuel economy [mpg]", height=450,
+                        margin={"l": 60, "r": 20, "t": 30, "b": 80})
     return [h2("Fuel economy per test and per phase"),
-            figure(FigSpec("Fuel economy per test and per phase (± U, k = 2)",
-                           {"data": data, "layout": layout}, key="fe_phase"))]
+            figure(FigSpec("Fuel economy per test and per phase (± U, k = 2)", fig,
+                           key="fe_phase"))]
 
 
 def _soc_figure(tests: Sequence[dict]) -> list[Block]:
@@ -148,12 +148,11 @@ def _soc_figure(tests: Sequence[dict]) -> list[Block]:
              "y": [r["headline_mpg"] for r in rs], "mode": "markers",
              "text": [str(r["test_id"]) for r in rs], "name": f"{veh} {cyc}".strip()}
             for (veh, cyc), rs in sorted(groups.items())]
-    layout = {"xaxis": {"title": {"text": "ΔSOC [%]"}},
-              "yaxis": {"title": {"text": "headline fuel economy [mpg]"}}, "height": 450,
-              "margin": {"l": 60, "r": 20, "t": 30, "b": 50}}
+    fig = layout_figure(data, xlabel="ΔSOC [%]", ylabel="headline fuel economy [mpg]",
+                        height=450, margin={"l": 60, "r": 20, "t": 30, "b": 50})
     return [h2("Fuel economy vs SOC change"),
-            figure(FigSpec("Headline fuel economy against battery SOC change, per test",
-                           {"data": data, "layout": layout}, key="fe_soc"))]
+            figure(FigSpec("Headline fuel economy against battery SOC change, per test", fig,
+                           key="fe_soc"))]
 
 
 def render_index_page(run: dict, tests: Sequence[dict], variability: Sequence[dict],

@@ -23,9 +23,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import plotly.graph_objects as go
 
 from vehval.display import as_unit
+from vehval.figures.engineering import sankey_figure
 from vehval.report.plots import PlotSkipped, energy_flows, pick
 from vehval.test import Test
 from vehval.test import is_hybrid as test_is_hybrid
@@ -104,19 +104,15 @@ def conventional_audit(test: Test) -> dict[str, Any]:
 
 
 def conventional_sankey(audit: dict[str, Any],
-                        title: str = "Energy flow over the test") -> go.Figure:
+                        title: str = "Energy flow over the test") -> Any:
     """Sankey diagram [MJ] of :func:`conventional_audit`: fuel -> engine -> wheels -> road."""
     s = audit["sinks"]
     nodes = ["Fuel", "Engine output", "Wheels (traction)", *[SINKS[k] for k in s]]
-    src: list[int] = []
-    dst: list[int] = []
-    val: list[float] = []
+    links: list[tuple[int, int, float]] = []
 
     def link(a: str, b: str, v: float | None) -> None:
         if v is not None and v > 0:
-            src.append(nodes.index(a))
-            dst.append(nodes.index(b))
-            val.append(as_unit(v, "MJ"))
+            links.append((nodes.index(a), nodes.index(b), float(as_unit(v, "MJ"))))
 
     trac = audit["traction_j"]
     if audit["engine_output_j"] is not None:
@@ -131,14 +127,8 @@ def conventional_sankey(audit: dict[str, Any],
         if key in s:
             link("Wheels (traction)", SINKS[key], s[key])
     colors = {"Fuel": "#e67700", "Engine output": "#d9480f", "Wheels (traction)": "#0b7285"}
-    fig = go.Figure(go.Sankey(
-        valueformat=".2f", valuesuffix=" MJ",
-        node={"label": nodes, "pad": 18, "thickness": 16,
-              "color": [colors.get(n, "#adb5bd") for n in nodes]},
-        link={"source": src, "target": dst, "value": val, "color": "rgba(31,95,168,0.25)"}))
-    fig.update_layout(title={"text": title, "font": {"size": 14}}, height=420,
-                      margin={"l": 20, "r": 20, "t": 50, "b": 20})
-    return fig
+    return sankey_figure(nodes, links, title=title,
+                         colors=[colors.get(n, "#adb5bd") for n in nodes])
 
 
 def audit_rows(audit: dict[str, Any]) -> list[list[Any]]:

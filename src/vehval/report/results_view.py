@@ -11,6 +11,7 @@ from typing import Any
 
 from vehval.constants import KMH_M_PER_S, KWH_J, MILE_M, MPH_M_PER_S
 from vehval.display import as_unit
+from vehval.figures import layout_figure
 from vehval.report.figures import FigSpec
 from vehval.report.sections import Section
 from vehval.report.tables import Table
@@ -186,10 +187,10 @@ def results_section(doc: dict) -> Section:
     if any(v is not None for v in fe):
         err = [((p.get("uncertainty") or {}).get(lead) or {}).get("U")
                for p in doc.get("phases") or []]
-        fig = {"data": [{"type": "bar", "x": names, "y": fe, "name": what.lower(),
-                         "error_y": {"type": "data", "array": err, "visible": True}}],
-               "layout": {"title": {"text": f"{what} per phase (± U, k = 2)"},
-                          "yaxis": {"title": {"text": _LABEL[lead]}}, "height": 360}}
+        fig = layout_figure([{"type": "bar", "x": names, "y": fe, "name": what.lower(),
+                              "error_y": {"type": "data", "array": err, "visible": True}}],
+                            title=f"{what} per phase (± U, k = 2)", ylabel=_LABEL[lead],
+                            height=360)
         sec.figures.append(FigSpec(f"{what} per phase", fig))
     held = [[p.get("name") or "whole test", ", ".join(w.get("quantities") or []),
              ", ".join(w.get("signals") or []), w.get("reason"), w.get("fix"),
