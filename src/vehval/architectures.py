@@ -176,6 +176,19 @@ class Stages:
 
         return ARCHITECTURES[self.name].has_battery
 
+    @property
+    def burns_fuel(self) -> bool:
+        """Whether the powertrain has an engine burning fuel (fuel signals it may have)."""
+        from vehval.vehicle.definition import absent_categories
+
+        return "fuel" not in absent_categories(self.name)
+
+    @property
+    def is_hybrid(self) -> bool:
+        """A hybrid: a traction battery and a fuel (what :func:`vehval.test.is_hybrid`
+        decides from a vehicle file's blocks)."""
+        return self.has_battery and self.burns_fuel
+
 
 #: Architecture name -> its stages.
 REGISTRY: dict[str, Stages] = {
