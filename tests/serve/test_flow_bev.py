@@ -52,6 +52,7 @@ def test_bev_headline_model_and_report(bev_ws, monkeypatch):
     assert [t["unit"] for t in out["traces"]] == ["mph", "A", "V"]       # display units
     assert [t["title"].split(",")[0] for t in out["tables"]] == [
         "Traces", "DC battery energy", "SAE J1634 figures"]
+    assert out["tables"][0]["rows"][0][0] == "vehicle speed [mph]"      # the user's unit
     energy = out["tables"][1]
     assert "En" in energy["columns"] and energy["rows"][-1][0] == "test"
     units = panel_units(out["figure"])
