@@ -25,7 +25,8 @@ COLUMNS = ("test_id", "status", "vehicle", "cycle", "start_condition", "cell_tem
            "duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
            "fuel_consumption_l_per_100km", "soc_change", "n_findings", "error",
            "headline_name", "headline_mpg", "headline_u_mpg", "headline_l_per_100km",
-           "withheld_reason")
+           "headline_j1634_scope", "headline_mpge", "headline_u_mpge", "headline_kwh_per_100km",
+           "headline_u_kwh_per_100km", "headline_battery_share", "withheld_reason")
 #: What the page shows (``view``): key -> (heading, SI unit or None, digits); units are the
 #: user's display units (:mod:`vehval.display`).
 VIEW = {"test_id": ("test", None, 0), "status": ("status", None, 0),
@@ -102,22 +103,45 @@ def rows(db: Path, filters: dict[str, str]) -> dict:
             "view": {"columns": heads, "rows": cells}}
 
 
+def _electric(row: dict) -> dict | None:
+    """The row's SAE J1634 headline figures as :attr:`Headline.electric` holds them (kWh/100 mi
+    from the stored kWh/100 km), None for a row without them."""
+    from vehval.constants import MILE_M
+
+    if row.get("headline_mpge") is None or row.get("headline_kwh_per_100km") is None:
+        return None
+    per_mi = MILE_M / 1000.0   # kWh/100 km -> kWh/100 mi
+    u_km = row.get("headline_u_kwh_per_100km")
+    return {"scope": row.get("headline_j1634_scope") or "test",
+            "mpge": row["headline_mpge"], "u_mpge": row.get("headline_u_mpge"),
+            "kwh_per_100km": row["headline_kwh_per_100km"], "u_kwh_per_100km": u_km,
+            "kwh_per_100mi": row["headline_kwh_per_100km"] * per_mi,
+            "u_kwh_per_100mi": None if u_km is None else u_km * per_mi}
+
+
 def _headline_cell(row: dict) -> str:
     """``hwfet: 54.80 ± 0.66 mpg (4.29 L/100 km)`` in the user's system (the results layer's
-    :class:`~vehval.results.headline.Headline`), or why it is withheld."""
+    :class:`~vehval.results.headline.Headline`), with the battery's share of the fuel energy
+    for a hybrid where the results give it; ``whole test: 183.3 ± 1.7 MPGe (18.39 ± 0.17
+    kWh/100 mi)`` for a battery-electric test; or why it is withheld."""
     from vehval.display import system
     from vehval.results.headline import Headline
 
     name = row.get("headline_name")
     if not name:
         return ""
-    if row.get("headline_mpg") is None:
+    electric = _electric(row)
+    if row.get("headline_mpg") is None and electric is None:
         why = row.get("withheld_reason")
         return f"{name}: withheld" + (f" ({why})" if why else "")
-    h = Headline(kind="headline", scope=str(name), mpg=row.get("headline_mpg"),
+    h = Headline(kind="headline", scope=str(electric["scope"] if electric and row.get(
+                 "headline_mpg") is None else name), mpg=row.get("headline_mpg"),
                  u_mpg=row.get("headline_u_mpg"), l_per_100km=row.get("headline_l_per_100km"),
-                 system=system())
-    return f"{h.shown}: {h.figure()}"
+                 electric=electric, system=system())
+    share = row.get("headline_battery_share")
+    tail = (f"; battery {100 * share:+.1f} % of the fuel energy"
+            if share is not None and h.mpg is not None else "")
+    return f"{h.shown}: {h.figure()}{tail}"
 
 
 def view(rows_in: list[dict]) -> tuple[list[dict], list[dict]]:
