@@ -119,10 +119,11 @@ def test_headline_column_shows_each_kind_with_its_own_figures(batch_ws, bev_ws, 
     # the hybrid keeps its fuel economy, with the battery's share of the fuel energy
     monkeypatch.setenv("VEHVAL_UNITS", "us")
     hyb = _client(batch_ws).get("/api/catalog", params={"db": "out/catalog.duckdb"}).json()
-    udds = next(x for x, v in zip(hyb["rows"], hyb["view"]["rows"]) if x["test_id"] == "udds")
-    text = next(v for x, v in zip(hyb["rows"], hyb["view"]["rows"])
-                if x["test_id"] == "udds")["headline"]
+    udds, cells = next((x, v) for x, v in zip(hyb["rows"], hyb["view"]["rows"])
+                       if x["test_id"] == "udds")
     assert udds["headline_mpg"] is not None and udds["headline_mpge"] is None
+    assert " mpg" in cells["headline"] and "MPGe" not in cells["headline"]
     share = udds["headline_battery_share"]
-    assert share is not None and f"battery {100 * share:+.1f} % of the fuel energy" in text
-    assert " mpg" in text
+    assert share is not None and cells["headline_battery_share"] == f"{100 * share:,.2f}"
+    assert {"key": "headline_battery_share", "label": "battery share [%]"} in hyb["view"]["columns"]
+    assert r["view"]["rows"][0]["headline_battery_share"] == ""   # none for a BEV

@@ -35,6 +35,7 @@ VIEW = {"test_id": ("test", None, 0), "status": ("status", None, 0),
         "fuel": ("fuel", None, 0), "headline": ("headline (U, k = 2)", None, 0),
         "duration_s": ("duration", "min", 1), "distance_m": ("distance", "m", 2),
         "fuel_mass_kg": ("fuel used", "kg", 3), "soc_change": ("SOC change", "%", 1),
+        "headline_battery_share": ("battery share", "%", 2),
         "n_findings": ("findings", None, 0), "error": ("error", None, 0)}
 #: Filters the page offers: query key -> column.
 FILTERS = {"vehicle": "vehicle", "cycle": "cycle", "status": "status",
@@ -121,9 +122,9 @@ def _electric(row: dict) -> dict | None:
 
 def _headline_cell(row: dict) -> str:
     """``hwfet: 54.80 ± 0.66 mpg (4.29 L/100 km)`` in the user's system (the results layer's
-    :class:`~vehval.results.headline.Headline`), with the battery's share of the fuel energy
-    for a hybrid where the results give it; ``whole test: 183.3 ± 1.7 MPGe (18.39 ± 0.17
-    kWh/100 mi)`` for a battery-electric test; or why it is withheld."""
+    :class:`~vehval.results.headline.Headline`); ``whole test: 183.3 ± 1.7 MPGe (18.39 ±
+    0.17 kWh/100 mi)`` for a battery-electric test; or why it is withheld. (A hybrid's
+    battery share of the fuel energy has its own column, ``battery share``.)"""
     from vehval.display import system
     from vehval.results.headline import Headline
 
@@ -138,10 +139,7 @@ def _headline_cell(row: dict) -> str:
                  "headline_mpg") is None else name), mpg=row.get("headline_mpg"),
                  u_mpg=row.get("headline_u_mpg"), l_per_100km=row.get("headline_l_per_100km"),
                  electric=electric, system=system())
-    share = row.get("headline_battery_share")
-    tail = (f"; battery {100 * share:+.1f} % of the fuel energy"
-            if share is not None and h.mpg is not None else "")
-    return f"{h.shown}: {h.figure()}{tail}"
+    return f"{h.shown}: {h.figure()}"
 
 
 def view(rows_in: list[dict]) -> tuple[list[dict], list[dict]]:
