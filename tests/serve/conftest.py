@@ -83,7 +83,9 @@ def browser():
 def bev_ws(tmp_path_factory) -> Path:
     """``WS/bev/``: a virtual UDDS test of the test BEV (``vehval.synth.bev``, an answer key
     of SAE J1634 figures) under its template (``architecture: battery_electric``) naming the
-    vehicle file ``WS/test_bev.yaml``. Returns the workspace; ``WS/truth.json`` is the key."""
+    vehicle file ``test_bev.yaml`` as the command line names one run from ``WS`` (a test
+    using it works from there: ``monkeypatch.chdir``). Returns the workspace;
+    ``WS/truth.json`` is the key."""
     import json
 
     import yaml
@@ -100,7 +102,7 @@ def bev_ws(tmp_path_factory) -> Path:
     for name in ("README.txt", "truth.json"):
         (ws / "bev" / name).unlink()
     data = yaml.safe_load((ws / "bev" / "template.yaml").read_text(encoding="utf-8"))
-    data["vehicle"] = str(vfile)
+    data["vehicle"] = vfile.name
     (ws / "bev" / "template.yaml").write_text(yaml.safe_dump(data, sort_keys=False),
                                               encoding="utf-8")
     (ws / "truth.json").write_text(json.dumps(truth["j1634"]), encoding="utf-8")

@@ -99,6 +99,7 @@ def test_headline_column_shows_each_kind_with_its_own_figures(batch_ws, bev_ws, 
     from vehval.batch import run_batch
 
     monkeypatch.setenv("VEHVAL_UNITS", "us")
+    monkeypatch.chdir(bev_ws)   # the template names its vehicle file from there
     ws = tmp_path / "ws"
     shutil.copytree(bev_ws / "bev", ws / "in" / "bev", ignore=shutil.ignore_patterns("qa"))
     (ws / "in" / "bev" / "template.yaml").rename(ws / "template.yaml")

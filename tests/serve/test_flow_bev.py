@@ -28,6 +28,7 @@ def test_bev_headline_model_and_report(bev_ws, monkeypatch):
     from vehval.report.finding_figures import panel_units
 
     monkeypatch.setenv("VEHVAL_UNITS", "us")
+    monkeypatch.chdir(bev_ws)   # the template names its vehicle file from there
     key = json.loads((bev_ws / "truth.json").read_text(encoding="utf-8"))["test"]
     c = _client(bev_ws)
     q = {"dir": "bev"}
@@ -72,6 +73,7 @@ def test_bev_headline_model_and_report(bev_ws, monkeypatch):
 
 def test_bev_headline_in_metric_units(bev_ws, monkeypatch):
     monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    monkeypatch.chdir(bev_ws)
     c = _client(bev_ws)
     q = {"dir": "bev"}
     assert c.post("/api/run", params=q, json={}).status_code == 200

@@ -15,6 +15,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.xdist_group("serve_browser")]
 
 def test_bev_page_headline_and_model(browser, bev_ws, monkeypatch):
     monkeypatch.setenv("VEHVAL_UNITS", "us")
+    monkeypatch.chdir(bev_ws)   # the template names its vehicle file from there
     s = Visit(browser, bev_ws)
     try:
         page = s.page
