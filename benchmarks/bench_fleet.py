@@ -11,6 +11,14 @@ cluster: workers warm, kernel cache loaded). The cluster is started as a user st
 (:func:`_running_cluster`): on a machine shared with other work, Linux gives every session
 one share of the CPUs (autogroup), so workers started inside the benchmark's own session
 would split one share between them and could never beat the loop.
+
+The loop and the cluster run alternately, :data:`N_PAIRS` times (loop, cluster, loop,
+cluster...), and the ratio is the median of each pair's: on a machine shared with other
+work the load drifts over minutes, and a loop timed once before the cluster judged the
+cluster against another machine. (Profiled on the 2019 list: the workers are busy 95-97 %
+of the run with 16 tasks or 4, and their CPU time per row equals the plain loop's: no loss
+to task granularity, serialisation or the kernel's compilation once the workers are
+primed; what remains is the CPU share the machine gives the workers.)
 """
 
 from __future__ import annotations
@@ -24,6 +32,8 @@ from pathlib import Path
 from benchmarks.common import row
 
 N_WORKERS = 2
+#: alternating loop / cluster runs; the ratio is the median over the pairs
+N_PAIRS = 2
 N_SYNTH_CARS = 300
 LIST_2019 = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real" / \
     "epa_test_car_list" / "19tstcar.csv"
@@ -117,30 +127,43 @@ def run() -> list[dict]:
         what = ("the 2019 Test Car List" if src == LIST_2019 else
                 f"a synthetic list of {N_SYNTH_CARS} cars")
         run_fleet([src], root / "warm", workers=1, report=False)  # imports, kernel cache
-        c0 = time.process_time()
-        loop = run_fleet([src], root / "loop", workers=1, report=False, force=True)
-        cpu_loop = time.process_time() - c0
         t0 = time.perf_counter()
+        pairs, cpu_loop, cpu_workers = [], 0.0, 0.0
         with _running_cluster(root) as addr:
             t_start = time.perf_counter() - t0
             run_fleet([src], root / "prime", scheduler=addr, report=False)
             with Client(addr) as client:
-                cpu0 = client.run(_cpu_s)
-                t1 = time.perf_counter()
-                dask = run_fleet([src], root / "dask", scheduler=addr, force=True)
-                t_whole = time.perf_counter() - t1
+                for k in range(N_PAIRS):
+                    c0 = time.process_time()
+                    loop = run_fleet([src], root / f"loop{k}", workers=1, report=False,
+                                     force=True)
+                    cpu_loop += time.process_time() - c0
+                    cpu0 = client.run(_cpu_s)
+                    t1 = time.perf_counter()
+                    dask = run_fleet([src], root / f"dask{k}", scheduler=addr, force=True)
+                    t_whole = time.perf_counter() - t1
+                    cpu_workers += sum(client.run(_cpu_s).values()) - sum(cpu0.values())
+                    pairs.append((loop["run"]["rows_per_minute"],
+                                  dask["run"]["rows_per_minute"]))
                 rss = client.run(_worker_rss_mb)
-                cpu_workers = sum(client.run(_cpu_s).values()) - sum(cpu0.values())
     n = dask["run"]["n_rows_simulated"]
+    cpu_loop, cpu_workers = cpu_loop / N_PAIRS, cpu_workers / N_PAIRS
+    ratios = sorted(d / lp for lp, d in pairs)
+    ratio = ratios[len(ratios) // 2] if len(ratios) % 2 else 0.5 * (
+        ratios[len(ratios) // 2 - 1] + ratios[len(ratios) // 2])
+    loop_rpm = sorted(lp for lp, _ in pairs)[len(pairs) // 2]
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     note = (f"{n} runnable rows of {what} ({dask['n_rows']} rows), dt {dask['run']['dt_s']} s, "
             f"{N_WORKERS} workers x 1 thread on {os.cpu_count()} CPUs, load average "
             f"{load:.1f} at the end")
-    rows.append(row("fleet_rows_per_min_warm_cluster", dask["run"]["rows_per_minute"],
-                    "rows/min", baseline=loop["run"]["rows_per_minute"], target=1.6,
+    pair_text = ", ".join(f"{d:.0f} / {lp:.0f}" for lp, d in pairs)
+    rows.append(row("fleet_rows_per_min_warm_cluster", loop_rpm * ratio,
+                    "rows/min", baseline=loop_rpm, target=1.6,
                     better="higher", note=note + "; --scheduler on a running cluster; "
-                    "baseline the plain loop (--workers 1) in the same run"))
-    rows.append(row("fleet_rows_per_min_plain_loop", loop["run"]["rows_per_minute"],
+                    "baseline the plain loop (--workers 1) in the same run; the median "
+                    f"ratio of {N_PAIRS} alternating pairs (cluster / loop rows/min: "
+                    f"{pair_text})"))
+    rows.append(row("fleet_rows_per_min_plain_loop", loop_rpm,
                     "rows/min", better="higher", note=note + "; --workers 1"))
     rows.append(row("fleet_cpu_ms_per_row_workers", 1e3 * cpu_workers / n, "ms/row",
                     baseline=1e3 * cpu_loop / n, target=1.25,

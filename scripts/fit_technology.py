@@ -16,7 +16,12 @@ per technology group.
 Usage::
 
     python scripts/fit_technology.py 16tstcar.csv 19tstcar.csv [--every 3] [--dt 0.5] \
-        [--write-yaml src/vehval/data/epa/technology_coefficients.yaml] [--json out.json]
+        [--write-yaml src/vehval/data/epa/technology_coefficients.yaml] [--json out.json] \
+        [--fuel diesel]
+
+``--fuel diesel`` fits the compression-ignition engine alone on the list's diesel cars
+(its efficiency, friction and idle; the gearbox families and the spark-ignition values are
+kept as the coefficients file has them).
 """
 
 from __future__ import annotations
@@ -44,6 +49,10 @@ GRID_KEYS = ("friction_scale", "idle_factor", "pumping_bar")
 FRICTION_GRID = (0.5, 0.75, 1.0)
 IDLE_GRID = (1.75, 2.5)
 PUMPING_GRID = (0.4, 0.8, 1.2)  # [bar]
+#: the diesel's grid: no throttle (pumping 0), friction around its starting 1.3, idle on
+#: or above its Willans line; its gearbox efficiencies are the gasoline fit's (not refitted
+#: on the few diesel cars) and its efficiency has no specific-power exponent
+DIESEL_GRID = ((1.0, 1.3, 1.6), (1.0, 1.5), (0.0,))
 
 
 def with_values(base: tech.Coefficients, engine: dict, trans: dict, note: str
@@ -59,10 +68,10 @@ def with_values(base: tech.Coefficients, engine: dict, trans: dict, note: str
     return dataclasses.replace(base, engine=eng, transmission=tr)
 
 
-def judged_jobs(path: str, dt: float, every: int = 1) -> list:
-    """The fleet planner's gasoline car jobs of one list (every ``every``-th)."""
+def judged_jobs(path: str, dt: float, every: int = 1, fuel: str = "gasoline") -> list:
+    """The fleet planner's car jobs of one list on ``fuel`` (every ``every``-th)."""
     tests, _ = read_fleet([path])
-    jobs = [j for j in plan_fleet(tests, dt).jobs if j.fuel == "gasoline"]
+    jobs = [j for j in plan_fleet(tests, dt).jobs if j.fuel == fuel]
     return jobs[::every]
 
 
@@ -94,12 +103,14 @@ def predict(jobs: list, coef: tech.Coefficients, dt: float) -> list[dict]:
     return out
 
 
-def fit_levels(recs: list[dict], eff0: dict[str, float], iters: int = 4) -> dict:
+def fit_levels(recs: list[dict], eff0: dict[str, float], iters: int = 4,
+               shared: bool = True) -> dict:
     """Closed-form levels: per engine technology the indicated efficiency at 60 kW/L and its
     specific-power exponent (a trimmed straight line of the log error against log specific
     power), per family the gearbox efficiency (median), alternated; mpg is proportional to
-    both efficiencies (fuel inverse in them). Returns the values and ``adjusted(record)``,
-    the log error a record would have with them."""
+    both efficiencies (fuel inverse in them). ``shared`` False (the diesel): the engine's
+    level only (median), no exponent, the family efficiencies kept. Returns the values and
+    ``adjusted(record)``, the log error a record would have with them."""
     le = np.array([math.log1p(r["error"]) for r in recs])
     x = np.array([math.log(r["kw_per_l"] * 1e3 / tech.REFERENCE_SPECIFIC_POWER_W_PER_L)
                   for r in recs])
@@ -113,13 +124,13 @@ def fit_levels(recs: list[dict], eff0: dict[str, float], iters: int = 4) -> dict
             m = techs == t
             y = -(le[m] + np.array([b[f] for f in fams[m]]))
             keep = np.abs(y - np.median(y)) < 0.25
-            if keep.sum() >= 10 and np.ptp(x[m][keep]) > 0.1:
+            if shared and keep.sum() >= 10 and np.ptp(x[m][keep]) > 0.1:
                 coef = np.polyfit(-x[m][keep], y[keep], 1)
                 g[t], a[t] = float(coef[0]), float(coef[1])
             else:
                 g[t], a[t] = 0.0, float(np.median(y))
             a[t] = float(np.median(y + g[t] * x[m]))  # the level robust: median
-        for f in b:
+        for f in b if shared else ():
             m = fams == f
             b[f] = -float(np.median(le[m] + np.array([a[t] - g[t] * xx
                                                        for t, xx in zip(techs[m], x[m])])))
@@ -127,35 +138,37 @@ def fit_levels(recs: list[dict], eff0: dict[str, float], iters: int = 4) -> dict
         b = {f: v - shift for f, v in b.items()}
         a = {t: v + shift for t, v in a.items()}
     eta = {t: INDICATED_EFFICIENCY * math.exp(v) for t, v in a.items()}
-    eff = {f: min(eff0[f] * math.exp(v), 0.99) for f, v in b.items()}
+    eff = {f: min(eff0[f] * math.exp(v), 0.99) for f, v in b.items()} if shared else {}
 
     def adjusted(r: dict) -> float:
         xx = math.log(r["kw_per_l"] * 1e3 / tech.REFERENCE_SPECIFIC_POWER_W_PER_L)
         return (math.log1p(r["error"]) + math.log(eta[r["tech"]] / INDICATED_EFFICIENCY)
-                - g[r["tech"]] * xx + math.log(eff[r["family"]] / eff0[r["family"]]))
+                - g[r["tech"]] * xx
+                + (math.log(eff[r["family"]] / eff0[r["family"]]) if shared else 0.0))
 
     return {"eta": eta, "gamma": g, "eff": eff, "adjusted": adjusted}
 
 
-def choose(by_combo: dict, eff0: dict[str, float]) -> dict:
+def choose(by_combo: dict, eff0: dict[str, float], shared: bool = True) -> dict:
     """Per engine technology the grid point of least mean |log error| after the levels."""
     best = {}
-    for t in ("spark_na", "spark_turbo"):
+    techs = sorted({r["tech"] for rr in by_combo.values() for r in rr})
+    for t in techs:
         scores = {}
         for combo, recs in by_combo.items():
             sel = [r for r in recs if r["tech"] == t]
             if not sel:
                 continue
-            lev = fit_levels(sel, eff0)
+            lev = fit_levels(sel, eff0, shared=shared)
             scores[combo] = float(np.mean([abs(lev["adjusted"](r)) for r in sel]))
         best[t] = min(scores, key=scores.get)
     recs = [r for combo, rr in by_combo.items() for r in rr
             if r["tech"] in best and best[r["tech"]] == combo]
-    lev = fit_levels(recs, eff0)
+    lev = fit_levels(recs, eff0, shared=shared)
     return {"combo": best, "eta": lev["eta"], "gamma": lev["gamma"], "eff": lev["eff"]}
 
 
-def bootstrap(by_combo: dict, eff0: dict, n: int, seed: int = 1) -> dict:
+def bootstrap(by_combo: dict, eff0: dict, n: int, seed: int = 1, shared: bool = True) -> dict:
     """2.5-97.5 % intervals of every fitted value over car resamples."""
     cars = sorted({r["car"] for rr in by_combo.values() for r in rr})
     rng = np.random.default_rng(seed)
@@ -166,7 +179,7 @@ def bootstrap(by_combo: dict, eff0: dict, n: int, seed: int = 1) -> dict:
         for k in pick:
             weight[cars[k]] += 1
         sub = {c: [r for r in rr for _ in range(weight[r["car"]])] for c, rr in by_combo.items()}
-        res = choose(sub, eff0)
+        res = choose(sub, eff0, shared)
         for t, combo in res["combo"].items():
             for k, v in zip(GRID_KEYS, combo):
                 draws[f"engine.{t}.{k}"].append(v)
@@ -221,18 +234,31 @@ def print_judge(title: str, j: dict) -> None:
               f"{100 * v['median_abs']:.1f} %")
 
 
+def _line(k: str, v: float, lo: float, hi: float, source: str, fit: str) -> str:
+    fit_text = f", fit: \"{fit}\"" if fit else ""
+    return (f"    {k}: {{value: {v:.4g}, interval: [{min(lo, v):.4g}, {max(hi, v):.4g}], "
+            f"source: \"{source}\"{fit_text}}}")
+
+
 def yaml_text(fit_list: str, res: dict, iv: dict, base: tech.Coefficients, n_cars: int,
-              every: int) -> str:
-    """The coefficients file of a fit (values, intervals, provenance)."""
-    fit = (f"fitted on {fit_list} ({n_cars} cars, every {every}th runnable gasoline car; "
+              every: int, fuel: str = "gasoline") -> str:
+    """The coefficients file of a fit (values, intervals, provenance): the technologies
+    fitted (those of ``res``) written anew, every other value kept as ``base`` has it."""
+    which = "every" if every == 1 else f"every {every}th"
+    fit = (f"fitted on {fit_list} ({n_cars} cars, {which} runnable {fuel} car; "
            "scripts/fit_technology.py)")
+    header = fit if fuel == "gasoline" else base.header.get("fit", "")
     lines = ["# Generic technology coefficients of a car built from its EPA Test Car List row",
              "# (vehval.epa.technology; read by vehval.epa.specs.vehicle_from_specs).",
              "# Written by scripts/fit_technology.py: intervals are 2.5-97.5 % bootstrap",
              "# percentiles over the cars of the fit.",
-             "provenance:", "  fitted: true", f"  fit: \"{fit}\"",
-             f"turbo_min_specific_power_w_per_l: {base.turbo_min_specific_power_w_per_l:g}",
-             "engine:"]
+             "provenance:", "  fitted: true", f"  fit: \"{header}\""]
+    if fuel != "gasoline":
+        lines.append(f"  fit_{fuel}: \"{fit}\"")
+    elif base.header.get("fit_diesel"):
+        lines.append(f"  fit_diesel: \"{base.header['fit_diesel']}\"")
+    lines += [f"turbo_min_specific_power_w_per_l: {base.turbo_min_specific_power_w_per_l:g}",
+              "engine:"]
     src = {"indicated_efficiency": "slope of the Willans line (fuel inverse in it)",
            "friction_scale": "factor on Heywood (1988) eq. 13.13 friction MEP, with the "
                              "part-load pumping",
@@ -241,22 +267,30 @@ def yaml_text(fit_list: str, res: dict, iv: dict, base: tech.Coefficients, n_car
            "pumping_bar": "part-load pumping MEP at zero load [bar], to 0 at full load",
            "efficiency_specific_power_exponent": "indicated efficiency x (specific power / "
                                                  "60 kW/L)^-exponent"}
-    for t in ("spark_na", "spark_turbo"):
+    for t in tech.ENGINE_TECHNOLOGIES:
+        lines.append(f"  {t}:")
+        old = base.engine.get(t, {})
+        if t not in res["combo"]:
+            lines += [_line(k, c.value, *c.interval, c.source, c.fit) for k, c in old.items()]
+            continue
         vals = {"indicated_efficiency": res["eta"][t],
                 "efficiency_specific_power_exponent": res["gamma"][t],
                 **dict(zip(GRID_KEYS, res["combo"][t]))}
-        lines.append(f"  {t}:")
         for k, v in vals.items():
             lo, hi = iv.get(f"engine.{t}.{k}", (v, v))
-            lines.append(f"    {k}: {{value: {v:.4g}, interval: [{min(lo, v):.4g}, "
-                         f"{max(hi, v):.4g}], source: \"{src[k]}\", fit: \"{fit}\"}}")
+            source = old[k].source if t == "diesel" and k in old else src[k]
+            lines.append(_line(k, v, lo, hi, source, fit))
     lines.append("transmission:")
     for f in ("automatic", "cvt", "automated_manual", "manual"):
-        v = res["eff"].get(f, base.transmission[f]["efficiency"].value)
+        c = base.transmission[f]["efficiency"]
+        lines.append(f"  {f}:")
+        if f not in res["eff"]:
+            lines.append(_line("efficiency", c.value, *c.interval, c.source, c.fit))
+            continue
+        v = res["eff"][f]
         lo, hi = iv.get(f"transmission.{f}.efficiency", (v, v))
-        lines += [f"  {f}:", f"    efficiency: {{value: {v:.4g}, interval: [{min(lo, v):.4g}, "
-                  f"{max(hi, v):.4g}], source: \"gearbox efficiency with the family's "
-                  f"launch and shift losses\", fit: \"{fit}\"}}"]
+        lines.append(_line("efficiency", v, lo, hi, "gearbox efficiency with the family's "
+                           "launch and shift losses", fit))
     return "\n".join(lines) + "\n"
 
 
@@ -270,13 +304,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--boot", type=int, default=100)
     ap.add_argument("--write-yaml")
     ap.add_argument("--json")
+    ap.add_argument("--fuel", choices=("gasoline", "diesel"), default="gasoline",
+                    help="the cars fitted and judged: gasoline (both spark-ignition "
+                         "technologies and the gearbox families) or diesel (the "
+                         "compression-ignition engine alone)")
     a = ap.parse_args(argv)
+    shared = a.fuel == "gasoline"
+    grid = (FRICTION_GRID, IDLE_GRID, PUMPING_GRID) if shared else DIESEL_GRID
     base = tech.load_coefficients()
     eff0 = {f: base.transmission[f]["efficiency"].value for f in base.transmission}
     start = time.time()
-    jobs = judged_jobs(a.fit_list, a.dt, a.every)
+    jobs = judged_jobs(a.fit_list, a.dt, a.every, a.fuel)
     by_combo = {}
-    for combo in itertools.product(FRICTION_GRID, IDLE_GRID, PUMPING_GRID):
+    for combo in itertools.product(*grid):
         vals = dict(zip(GRID_KEYS, combo))
         coef = with_values(base, {t: {"indicated_efficiency": INDICATED_EFFICIENCY,
                                       "efficiency_specific_power_exponent": 0.0, **vals}
@@ -284,8 +324,8 @@ def main(argv: list[str] | None = None) -> int:
         by_combo[combo] = predict(jobs, coef, a.dt)
         print(f"grid {vals}: {len(by_combo[combo])} rows, {time.time() - start:.0f} s",
               file=sys.stderr, flush=True)
-    res = choose(by_combo, eff0)
-    iv = bootstrap(by_combo, eff0, a.boot)
+    res = choose(by_combo, eff0, shared)
+    iv = bootstrap(by_combo, eff0, a.boot, shared=shared)
     engine = {t: {"indicated_efficiency": res["eta"][t],
                   "efficiency_specific_power_exponent": res["gamma"][t],
                   **dict(zip(GRID_KEYS, res["combo"][t]))} for t in res["combo"]}
@@ -295,15 +335,16 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.time()
     fit_recs = predict(jobs, coef, a.dt)
     print_judge(f"IN-SAMPLE {a.fit_list} (the cars fitted on)", judge(fit_recs))
-    judge_jobs = judged_jobs(a.judge_list, a.dt, a.judge_every)
+    judge_jobs = judged_jobs(a.judge_list, a.dt, a.judge_every, a.fuel)
     recs = predict(judge_jobs, coef, a.dt)
     rate = len(recs) / max(time.time() - t0, 1e-9)
     j = judge(recs)
-    print_judge(f"OUT-OF-SAMPLE {a.judge_list} (every runnable gasoline car)", j)
+    print_judge(f"OUT-OF-SAMPLE {a.judge_list} (every runnable {a.fuel} car)", j)
     print(f"rows per second (fit set and judge set, dt {a.dt:g} s, one process): {rate:.1f}")
     if a.write_yaml:
         with open(a.write_yaml, "w") as fh:
-            fh.write(yaml_text(a.fit_list.rsplit("/", 1)[-1], res, iv, base, len(jobs), a.every))
+            fh.write(yaml_text(a.fit_list.rsplit("/", 1)[-1], res, iv, base, len(jobs), a.every,
+                               a.fuel))
     if a.json:
         with open(a.json, "w") as fh:
             json.dump({"fit": {"combo": {k: list(v) for k, v in res["combo"].items()},

@@ -29,6 +29,9 @@ GROUPS = (
     ("CP", "CONV_PARAMS", "the parameter vector of the conventional loop"),
     ("CS", "CONV_SIGNALS", "the recorded signals (columns) of the conventional loop"),
     ("CY", "CONV_SUMMARY", "the summary accumulators of the conventional loop"),
+    ("HP", "PAR_PARAMS", "the parameter vector of the parallel-hybrid loop"),
+    ("HS", "PAR_SIGNALS", "the recorded signals (columns) of the parallel-hybrid loop"),
+    ("HY", "PAR_SUMMARY", "the summary accumulators of the parallel-hybrid loop"),
     ("BP", "BEV_PARAMS", "the parameter vector of the battery-electric loop"),
     ("BS", "BEV_SIGNALS", "the recorded signals (columns) of the battery-electric loop"),
     ("BY", "BEV_SUMMARY", "the summary accumulators of the battery-electric loop"),
@@ -44,8 +47,10 @@ the recorded signals (:data:`~vehval.sim.layout.SIGNALS`), ``Y_<NAME>`` the summ
 (:data:`~vehval.sim.layout.SUMMARY`), ``X_<NAME>`` the loop state
 (:data:`~vehval.sim.layout.STATE`); ``N_P``, ``N_S``, ``N_Y``, ``N_X`` are their lengths.
 ``CP_``, ``CS_``, ``CY_`` (and ``N_CP``, ``N_CS``, ``N_CY``) are the same for the
-conventional loop (``CONV_PARAMS``, ``CONV_SIGNALS``, ``CONV_SUMMARY``), ``BP_``, ``BS_``,
-``BY_`` for the battery-electric loop (``BEV_PARAMS``, ``BEV_SIGNALS``, ``BEV_SUMMARY``). numba reads
+conventional loop (``CONV_PARAMS``, ``CONV_SIGNALS``, ``CONV_SUMMARY``); ``HP_``, ``HS_``,
+``HY_`` for the parallel-hybrid loop (``PAR_PARAMS``, ``PAR_SIGNALS``, ``PAR_SUMMARY``);
+``BP_``, ``BS_``, ``BY_`` for the battery-electric loop (``BEV_PARAMS``, ``BEV_SIGNALS``,
+``BEV_SUMMARY``). numba reads
 module globals as compile-time constants, so the kernels index with literals; the compiled
 cache follows a change here through :mod:`vehval.numba_cache`. The module holds nothing but
 these integers, so ``from vehval.sim.indices import *`` brings exactly them.

@@ -24,7 +24,7 @@ MAX_CLI_LINES = 250
 
 
 def _scanned() -> list[Path]:
-    return (sorted((PKG / "cli").glob("*.py")) + [PKG / "workflow.py"]
+    return (sorted((PKG / "cli").glob("*.py")) + sorted((PKG / "workflow").glob("*.py"))
             + sorted((PKG / "serve").glob("*.py")))
 
 

@@ -74,6 +74,27 @@ def _validate_battery_electric(run: Any, *, dt: float, smooth_hz: float | None,
                              u_model_rel=MODEL_U_REL, u_model_source=MODEL_U_SOURCE)
 
 
+def _synth_parallel_hybrid(*args: Any, **kw: Any) -> Any:
+    from vehval.synth.front import parallel_hybrid_test
+
+    return parallel_hybrid_test(*args, **kw)
+
+
+def _validate_parallel_hybrid(run: Any, *, dt: float, overrides: dict | None,
+                              **_: Any) -> Any:
+    """The simulation on the test's speed trace from its SOC against its traces: engine
+    on/off and speed, battery energy, motor torque, gear."""
+    from vehval.validate.parallel import validate_parallel_test
+
+    return validate_parallel_test(run, dt=dt, overrides=overrides)
+
+
+def _analyze_parallel_hybrid(test: Any, vehicle: Any) -> Any:
+    from vehval.analysis.parallel import analyze_parallel
+
+    return analyze_parallel(test, vehicle)
+
+
 def _calibrate_power_split(*args: Any, **kw: Any) -> Any:
     from vehval.validate.calibrate_stage import calibrate_power_split
 
@@ -155,6 +176,19 @@ class Stages:
 
         return ARCHITECTURES[self.name].has_battery
 
+    @property
+    def burns_fuel(self) -> bool:
+        """Whether the powertrain has an engine burning fuel (fuel signals it may have)."""
+        from vehval.vehicle.definition import absent_categories
+
+        return "fuel" not in absent_categories(self.name)
+
+    @property
+    def is_hybrid(self) -> bool:
+        """A hybrid: a traction battery and a fuel (what :func:`vehval.test.is_hybrid`
+        decides from a vehicle file's blocks)."""
+        return self.has_battery and self.burns_fuel
+
 
 #: Architecture name -> its stages.
 REGISTRY: dict[str, Stages] = {
@@ -171,6 +205,13 @@ REGISTRY: dict[str, Stages] = {
              "calibrate",
         calibrate=_calibrate_conventional, identify=_identify_conventional,
         predict=_predict_conventional),
+    "parallel_hybrid": Stages(
+        name="parallel_hybrid", label="parallel hybrid", family="hybrid",
+        synth=_synth_parallel_hybrid, validate=_validate_parallel_hybrid,
+        validate_suite=False, analyze=_analyze_parallel_hybrid,
+        hint="for a parallel hybrid use vehval analyze (assist / regen / engine-stop rules) "
+             "or the validate step of vehval.workflow.TestRun (engine on/off and speed, "
+             "battery energy, motor torque per test)"),
     "battery_electric": Stages(
         name="battery_electric", label="battery-electric car", family="electric",
         synth=_synth_battery_electric, validate=_validate_battery_electric,

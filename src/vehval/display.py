@@ -16,12 +16,13 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from typing import Iterable
+from typing import Iterable, overload
 
 import numpy as np
 
 from vehval.constants import (
     KMH_M_PER_S,
+    KWH_J,
     LB_KG,
     LBF_N,
     MILE_M,
@@ -176,6 +177,33 @@ def to_display(values_si: np.ndarray, si_unit: str, *, system_name: str | None =
     magnitude = float(np.max(np.abs(finite))) if finite.size else None
     unit = unit_for(si_unit, system_name=system_name, signal=signal, magnitude=magnitude)
     return np.asarray(unit.convert(arr), dtype=float), unit.label
+
+
+#: Fixed display unit label -> (the SI unit it shows, factor from SI): what a page writes in
+#: one named unit whatever the unit system (a plot axis in kW, an energy table in MJ).
+FIXED: dict[str, tuple[str, float]] = {
+    "g/s": ("kg/s", 1.0e3), "g": ("kg", 1.0e3), "kW": ("W", 1.0e-3), "kJ": ("J", 1.0e-3),
+    "MJ": ("J", 1.0e-6), "Wh": ("J", 1.0 / 3600.0), "kWh": ("J", 1.0 / KWH_J),
+    "km": ("m", 1.0e-3), "mi": ("m", 1.0 / MILE_M), "lb": ("kg", 1.0 / LB_KG), "%": ("dimensionless", 100.0),
+    "rpm": ("rad/s", 1.0 / RPM_RAD_PER_S), "mph": ("m/s", 1.0 / MPH_M_PER_S),
+    "km/h": ("m/s", 1.0 / KMH_M_PER_S), "kW/L": ("W/L", 1.0e-3),
+}
+
+
+@overload
+def as_unit(value_si: float, label: str) -> float: ...
+@overload
+def as_unit(value_si: np.ndarray, label: str) -> np.ndarray: ...
+def as_unit(value_si: float | np.ndarray, label: str) -> float | np.ndarray:
+    """An SI value (or array) in the fixed display unit ``label`` (:data:`FIXED`):
+    ``as_unit(0.0021, "g/s")`` -> 2.1, ``as_unit(0.25, "%")`` -> 25.0 (a fraction [-] as a
+    percentage), ``as_unit(3.6e6, "kWh")`` -> 1.0; ValueError naming the known labels."""
+    try:
+        factor = FIXED[label][1]
+    except KeyError:
+        raise ValueError(f"no fixed display unit {label!r} (known: {', '.join(FIXED)})") \
+            from None
+    return value_si * factor
 
 
 def number(value: float, digits: int = 4) -> str:

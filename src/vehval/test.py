@@ -339,9 +339,12 @@ def hybrid_signals(test: Test, *, measured_only: bool = True) -> list[str]:
 
 
 def is_hybrid(test: Test, vehicle: object = None, *, measured_only: bool = True) -> bool:
-    """True for a hybrid: the vehicle file's ``architecture`` when one is given, else a
-    hybrid-component signal in the test (the one rule every stage asks)."""
-    arch = getattr(vehicle, "architecture", None)
-    if arch is not None:
-        return str(arch) != "conventional"
+    """True for a hybrid: with a vehicle file, a powertrain that both burns fuel (an
+    ``engine`` block) and stores traction energy (a ``battery`` block), the rule of the stage
+    registry's :attr:`vehval.architectures.Stages.is_hybrid` (a battery-electric car or a
+    conventional one is no hybrid); without one, a hybrid-component signal in the test (the
+    one rule every stage asks)."""
+    if getattr(vehicle, "architecture", None) is not None:
+        return getattr(vehicle, "engine", None) is not None \
+            and getattr(vehicle, "battery", None) is not None
     return bool(hybrid_signals(test, measured_only=measured_only))

@@ -58,3 +58,33 @@ def test_choose_takes_the_grid_point_of_least_scatter():
     assert res["combo"] == {"spark_na": (0.5, 2.5, 0.8), "spark_turbo": (0.5, 2.5, 0.8)}
     j = fit.judge(good)
     assert j["n_cars"] == len(good) and j["ftp75"]["n"] + j["hwfet"]["n"] == len(good)
+
+
+def test_diesel_fit_keeps_the_families_and_writes_only_the_diesel(tmp_path):
+    """The diesel's fit sets its efficiency alone (the few diesel cars do not refit the
+    gearbox families), and the written file keeps every gasoline value as it was."""
+    recs = []
+    for k in range(60):
+        f = tuple(EFF0)[k % 4]
+        err = fit.INDICATED_EFFICIENCY / 0.47 - 1.0  # a diesel whose efficiency is 0.47
+        recs.append({"car": f"d{k}", "tech": "diesel", "family": f, "kw_per_l": 50.0 + k % 10,
+                     "error": err, "procedure": "ftp75"})
+    lev = fit.fit_levels(recs, EFF0, shared=False)
+    assert lev["eta"]["diesel"] == pytest.approx(0.47, rel=1e-6)
+    assert lev["eff"] == {} and lev["gamma"]["diesel"] == 0.0
+    base = tech.load_coefficients()
+    res = fit.choose({(1.3, 1.5, 0.0): recs}, EFF0, shared=False)
+    text = fit.yaml_text("16tstcar.csv", res, {}, base, 60, 1, fuel="diesel")
+    p = tmp_path / "c.yaml"
+    p.write_text(text, encoding="utf-8")
+    new = tech.load_coefficients(p)
+    assert new.engine_value("diesel", "indicated_efficiency").value == pytest.approx(0.47,
+                                                                                     rel=1e-3)
+    assert new.engine_value("diesel", "idle_factor").value == 1.5
+    for t in ("spark_na", "spark_turbo"):
+        for k, c in base.engine[t].items():
+            assert new.engine_value(t, k).value == pytest.approx(c.value, rel=1e-3)
+    for f, v in base.transmission.items():
+        assert new.transmission_value(f, "efficiency").value == pytest.approx(
+            v["efficiency"].value, rel=1e-3)
+    assert "diesel" in new.header.get("fit_diesel", "")

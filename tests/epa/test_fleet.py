@@ -54,10 +54,14 @@ def _mixed_rows() -> list[dict]:
         r["N/V Ratio"] = "0"
     electric = _car("E1")[1:]
     electric[0].update({"Test Fuel Type Cd": "62", "Test Fuel Type Description": "Electricity"})
-    diesel = _car("G1")[1:]
-    diesel[0]["Test Fuel Type Description"] = "Federal Cert Diesel 7-15 PPM Sulfur"
+    hydrogen = _car("G1")[1:]
+    hydrogen[0].update({"Test Fuel Type Cd": "50", "Test Fuel Type Description": "Hydrogen 5"})
+    cold_co = _car("K1")[:1]
+    cold_co[0].update({"Test Procedure Cd": "11", "Test Procedure Description": "Cold CO",
+                       "Test Fuel Type Cd": "26",
+                       "Test Fuel Type Description": "Cold CO Regular (Tier 2)"})
     return (good + hybrid + sc03 + adfe + zero + nocoef + unknown_tr + one_hp + nv0
-            + electric + diesel)
+            + electric + hydrogen + cold_co)
 
 
 @pytest.fixture
@@ -83,7 +87,8 @@ def test_every_row_is_run_or_not_run_with_its_reason(mixed_list):
     expect = {"H1": "hybrid", "S1": "procedure_not_modelled", "D1": "analytically_derived",
               "Z1": "placeholder_values", "N1": "missing_coefficients",
               "U1": "transmission_not_modelled", "P1": "specs_not_usable",
-              "V1": "specs_not_usable", "E1": "electric", "G1": "fuel_not_modelled"}
+              "V1": "specs_not_usable", "E1": "electric", "G1": "fuel_not_modelled",
+              "K1": "procedure_not_modelled"}
     for vid, code in expect.items():
         for r in by[vid]:
             assert r["status"] == "not_run" and r["reason_code"] == code, (vid, r["reason"])
@@ -191,6 +196,33 @@ def test_ridge_recovers_a_log_linear_law_and_cross_validates():
     assert all(r["baseline_error"] is not None for r in recs)
 
 
+def test_physics_plus_regression_residual_is_reported_apart():
+    """The physics' own error explained by the list's columns (a bias growing with N/V)
+    is removed by the residual ridge, cross-validated by vehicle; the physics model's
+    figures and its comparison with the baseline stay those of the physics alone."""
+    recs = []
+    for lst in ("16tstcar.csv", "19tstcar.csv"):
+        for k in range(60):
+            m, nv = 1200.0 + 20 * k, 20.0 + (k * 7) % 15
+            meas = 1e5 / m
+            err = 0.01 * (nv - 27.0)  # the physics reads high with N/V
+            recs.append({"status": "run", "judged": True, "list": lst, "procedure": "ftp75",
+                         "vehicle_id": f"V{k}", "mass_kg": m, "displacement_l": 2.0,
+                         "rated_power_w": 1.2e5, "n_v_ratio": nv, "axle_ratio": 3.0,
+                         "target_a_n": 100.0, "target_b_n_per_mps": 1.0,
+                         "target_c_n_per_mps2": 0.4, "gears": 8, "cylinders": 4,
+                         "transmission_class": "automatic", "fuel_family": "gasoline",
+                         "aspiration": "naturally aspirated", "measured_mpg": meas,
+                         "predicted_mpg": meas * (1 + err), "error": err})
+    cmp = cross_validate(recs)
+    for scheme in ("within_year", "year_to_year"):
+        d = cmp[scheme]["ftp75"]
+        assert d["model"]["median_abs_error"] > 0.03  # the physics' own error, unchanged
+        assert d["physics_residual"]["median_abs_error"] < 0.005
+    assert all(r["residual_error"] is not None and r["residual_year_error"] is not None
+               for r in recs)
+
+
 def test_outliers_are_named():
     rows = [{"row_id": f"l.csv:{k}", "make": "M", "model": "X", "vehicle_id": f"V{k}",
              "procedure": "ftp75", "transmission_class": "automatic",
@@ -293,6 +325,39 @@ def test_e85_rows_run_on_e85(tmp_path):
     from vehval.epa.specs import vehicle_from_specs
 
     assert vehicle_from_specs(e85_specs).engine.fuel == "ethanol_e85"
+
+
+DIESEL = "Federal Cert Diesel 7-15 PPM Sulfur"
+
+
+def test_diesel_rows_run_on_a_compression_ignition_engine(tmp_path):
+    """Diesel rows were all 'fuel not modelled': now the car is built for its diesel rows with
+    the diesel technology (no throttle pumping, lean full load, its own efficiency,
+    friction and idle, rated power at 4000 rpm) and runs on diesel fuel."""
+    gas = _car("G2")
+    diesel = _car("D2")
+    for r in diesel:
+        r.update({"Test Fuel Type Cd": "20", "Test Fuel Type Description": DIESEL})
+    path = write_list(tmp_path / "19tstcar.csv", gas + diesel, header=FLEET_HEADER)
+    tests, _ = read_fleet([path])
+    plan = plan_fleet(tests)
+    assert not plan.not_run and sorted(j.fuel for j in plan.jobs) == ["diesel", "gasoline"]
+    d_specs = next(j.specs for j in plan.jobs if j.fuel == "diesel")
+    g_specs = next(j.specs for j in plan.jobs if j.fuel == "gasoline")
+    assert d_specs.engine_technology == "diesel"
+    from vehval.epa.specs import vehicle_from_specs
+
+    veh = vehicle_from_specs(d_specs)
+    assert veh.engine.fuel == "diesel" and veh.engine.max_speed_rpm == pytest.approx(4400.0)
+    assert "no enrichment" in veh.engine.sources["fuel_rate_g_per_s"]
+    assert "diesel" in veh.engine.sources["fuel_rate_g_per_s"]  # the diesel's coefficients
+    recs = predict_jobs(plan.jobs)
+    assert all(r["status"] == "run" and r["judged"] for r in recs)
+    hw = {r["fuel_family"]: r["predicted_mpg"] for r in recs if r["procedure"] == "hwfet"}
+    # a gallon of diesel holds about 14 % more energy and the engine is more efficient
+    assert hw["diesel"] / hw["gasoline"] > 1.15
+    assert {r["aspiration"] for r in recs if r["fuel_family"] == "diesel"} == {"diesel"}
+    assert g_specs.engine_technology != "diesel"
 
 
 def test_a_changed_model_runs_the_stored_cars_again(mixed_list, tmp_path, monkeypatch):

@@ -395,7 +395,7 @@ def fit_rule(obs: np.ndarray, valid: np.ndarray, p_wh: np.ndarray, v: np.ndarray
     # top of the power range: above every total demand seen, so "never binding" is a value
     p_hi = (float(np.max(p_fin)) if p_fin.size else 30e3) + aux_w + \
         max(prob.vec[IDX["soc_charge_power_max_w"]], 0.0) + 2000.0
-    p_hi = float(np.ceil(max(p_hi, 4000.0) / 1000.0) * 1000.0)
+    p_hi = float(np.ceil(max(p_hi, 4000.0) / 1000.0) * 1000.0)  # whole kW [W]: not a unit conversion
     for key, b in (("min_on_time_s", boot["on"]), ("min_off_time_s", boot["off"])):
         # start short: a long minimum time would mask the thresholds in the first scans
         prob.vec[IDX[key]] = min(max(b["estimate"] - 0.5, 0.0), 2.0) if b else 0.0

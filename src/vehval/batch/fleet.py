@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from vehval.epa.fleet import ROW_COLUMNS, CarJob, plan_fleet, predict_jobs, read_fleet
-from vehval.epa.fleet_baseline import cross_validate
+from vehval.epa.fleet_baseline import BASELINE_KEYS, RESIDUAL_KEYS, cross_validate
 from vehval.epa.fleet_summary import summarise
 from vehval.errors import ConfigError
 from vehval.io.atomic import atomic_path, write_text_atomic
@@ -35,7 +35,7 @@ from vehval.jsonsafe import dumps
 
 DB_NAME, JSON_NAME, HTML_NAME, CARS_DIR = "fleet.duckdb", "fleet.json", "fleet.html", "cars"
 #: columns the baseline adds to a row record
-BASELINE_COLUMNS = ("baseline_mpg", "baseline_error", "baseline_year_mpg", "baseline_year_error")
+BASELINE_COLUMNS = (*BASELINE_KEYS, *RESIDUAL_KEYS)
 _INT = {"year", "procedure_code", "gears", "cylinders", "trace_n_miss"}
 _BOOL = {"judged", "list_doubtful"}
 _TEXT = {"row_id", "list", "source", "car", "make", "model", "vehicle_id", "config",
@@ -111,13 +111,17 @@ def write_duckdb(path: Path, records: Sequence[dict[str, Any]], baseline: dict[s
             con.execute("CREATE TABLE baseline (scheme VARCHAR, procedure VARCHAR, n BIGINT, "
                         "model_median_abs_error DOUBLE, baseline_median_abs_error DOUBLE, "
                         "model_share_within_5pct DOUBLE, baseline_share_within_5pct DOUBLE, "
-                        "model_better BOOLEAN)")
+                        "model_better BOOLEAN, residual_median_abs_error DOUBLE, "
+                        "residual_share_within_5pct DOUBLE)")
             base = [[scheme, proc, d["model"]["n"], d["model"]["median_abs_error"],
                      d["baseline"]["median_abs_error"], d["model"]["share_within_5pct"],
-                     d["baseline"]["share_within_5pct"], d["model_better"]]
+                     d["baseline"]["share_within_5pct"], d["model_better"],
+                     d["physics_residual"]["median_abs_error"],
+                     d["physics_residual"]["share_within_5pct"]]
                     for scheme, procs in baseline.items() for proc, d in procs.items()]
             if base:
-                con.executemany("INSERT INTO baseline VALUES (?, ?, ?, ?, ?, ?, ?, ?)", base)
+                con.executemany("INSERT INTO baseline VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                                base)
         finally:
             con.close()
 

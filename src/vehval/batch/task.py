@@ -193,6 +193,20 @@ def _normalised_error(job: dict, run: TestRun, outcome: Any) -> dict[str, Any]:
     return fuel_normalised_error(run.vehicle, comp, u_rel, notes)
 
 
+def _validation_document(job: dict, run: TestRun, outcome: Any) -> Any:
+    """validation.json: the comparison of the vehicle's architecture
+    (:class:`vehval.workflow.ValidationOutcome`: the simulation on the test's conditions,
+    a conventional car's fuel prediction, a battery-electric car's traces, DC energy and
+    SAE J1634 figures); the simulation on the test's conditions adds the normalised error
+    of the fuel mass (the others carry their own verdicts)."""
+    from vehval.validate.validation import Validation
+
+    out = jsonable(outcome.comparison)
+    if isinstance(outcome.comparison, Validation) and isinstance(out, dict):
+        out["normalised_error"] = jsonable(_normalised_error(job, run, outcome))
+    return out
+
+
 def _clear_stale(test_dir: Path, keep: set[str]) -> None:
     if not test_dir.is_dir():
         return
@@ -233,9 +247,8 @@ def _run_steps(job: dict, stage: Path, result: dict) -> None:
     res = run.results().results
     for step in job["steps"]:
         outcome = STEPS[step](run)
-        out = jsonable(outcome.validation if step == "validate" else outcome.result)
-        if step == "validate" and isinstance(out, dict):
-            out["normalised_error"] = jsonable(_normalised_error(job, run, outcome))
+        out = (_validation_document(job, run, outcome) if step == "validate"
+               else jsonable(outcome.result))
         if step == "analyze":
             report_parts["control"] = out
         elif step == "validate":

@@ -41,6 +41,13 @@ def analyze_cmd(
     if as_json:
         typer.echo(text, nl=False)
         return
+    lines = getattr(result, "summary_lines", None)
+    if lines is not None:  # an analysis that states its own summary (a parallel hybrid)
+        first, *rest = lines()
+        typer.echo(f"wrote {outdir / 'control.json'}: {first}")
+        for line in rest:
+            typer.echo(line)
+        return
     from vehval.analysis.summary import judged_conventional
 
     c = result.controller

@@ -30,14 +30,14 @@ from typing import Any, Callable, Iterable, Sequence
 
 from vehval.epa.procedures import RUNNABLE, UNRUNNABLE, fuel_family, plan_for, procedure_key
 from vehval.epa.reader import EpaTest, find_list_files, read_test_car_list
-from vehval.epa.specs import SPARK_FUELS
+from vehval.epa.specs import ENGINE_FUELS
 from vehval.errors import VehvalError
 
 #: reason code -> what it means (every row not run carries one, with a line naming the row)
 REASONS = {
     "hybrid": "hybrid or plug-in hybrid (the model from specs is a conventional car)",
     "electric": "electric test (charge-depleting or battery-electric)",
-    "fuel_not_modelled": "a test fuel the model has no engine for (hydrogen, CNG...)",
+    "fuel_not_modelled": "a test fuel the model has no engine for (hydrogen, CNG)",
     "procedure_not_modelled": "a procedure without a simulation plan (SC03, cold CO...)",
     "analytically_derived": "analytically derived: a computed figure, never judged as a test",
     "placeholder_values": "no measured result (0 or empty: the list's placeholder), or a "
@@ -201,14 +201,12 @@ def _row_reason(t: EpaTest, fam: str) -> tuple[str, str] | None:
     """Why a row of a conventional car is not run ((code, line) or None: runnable)."""
     if fam == "other" and "ELECTRIC" in t.fuel.upper():
         return "electric", f"test fuel '{t.fuel}': an electric test"
-    if fam not in SPARK_FUELS:  # the fuel families run, each on its own engine fuel
-        what = ("diesel: no compression-ignition engine model from specs" if fam == "diesel"
-                else f"'{t.fuel}': no engine model for this fuel")
-        return "fuel_not_modelled", f"test fuel {what}"
-    key = procedure_key(t)
+    key = procedure_key(t)  # first: a cold CO row's fuel is the cold CO fuel, not its reason
     if key in UNRUNNABLE or key not in RUNNABLE:
         return "procedure_not_modelled", (UNRUNNABLE.get(key) or f"procedure code "
                                           f"{t.procedure_code} ('{t.procedure}') has no plan")
+    if fam not in ENGINE_FUELS:  # the fuel families run, each on its own engine fuel
+        return "fuel_not_modelled", f"test fuel '{t.fuel}': no engine model for this fuel"
     if t.analytically_derived:
         src = f" from test {t.adfe_test_number}" if t.adfe_test_number else ""
         return "analytically_derived", (f"analytically derived{src} ('Analytically Derived "

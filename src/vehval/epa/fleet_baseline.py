@@ -11,6 +11,10 @@ rows by generalised cross-validation. It is judged like the model:
   test vehicle (a car's tests are never split between fitting and judging);
 * **year to year** (two lists or more): fitted on one list's rows, judged on another's.
 
+The same ridge fitted to the physics model's log error and divided out of its prediction
+is the **physics + regression residual**, cross-validated the same way and reported apart
+from the physics model (:func:`cross_validate`).
+
 numpy only: the fit is a linear solve of a 20 x 20 system.
 """
 
@@ -36,6 +40,10 @@ CATEGORIES = {
 }
 #: least rows of a procedure to fit (below it the baseline is not stated)
 MIN_ROWS = 12
+#: the record keys of the baseline (within a year, year to year: mpg and error)
+BASELINE_KEYS = ("baseline_mpg", "baseline_error", "baseline_year_mpg", "baseline_year_error")
+#: the record keys of the physics + regression residual (reported apart from the physics)
+RESIDUAL_KEYS = ("residual_mpg", "residual_error", "residual_year_mpg", "residual_year_error")
 
 
 def _road_load(r: dict[str, Any], mph: float) -> float:
@@ -109,43 +117,65 @@ def _folds(rows: list[dict[str, Any]], n: int = N_FOLDS) -> list[int]:
     return [fold[r["vehicle_id"]] for r in rows]
 
 
-def cross_validate(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """The baseline's cross-validated predictions, written into the records as
-    ``baseline_mpg`` / ``baseline_error`` (within a year; ``baseline_year_mpg`` /
-    ``baseline_year_error`` fitted on the other lists), and the comparison with the model
-    per procedure and scheme."""
-    usable = _usable(records)
-    groups: dict[tuple[str, str], list[tuple[dict[str, Any], list[float]]]] = defaultdict(list)
-    for r, x in usable:
-        groups[(r["list"], r["procedure"])].append((r, x))
-    for (_, _proc), items in groups.items():
+def _fit_predict(groups: dict[tuple[str, str], list[tuple[dict[str, Any], list[float]]]],
+                 target: Any, keys: tuple[str, str, str, str], to_mpg: Any) -> None:
+    """Cross-validated ridge predictions of ``target(record)`` written into the records:
+    10-fold by test vehicle within a list as ``keys[0]`` (mpg) / ``keys[1]`` (error), and
+    fitted on the other lists as ``keys[2]`` / ``keys[3]``; ``to_mpg(record, prediction)``
+    turns a prediction into fuel economy [mpg]."""
+
+    def put(rows: list[dict[str, Any]], pred: np.ndarray, k_mpg: str, k_err: str) -> None:
+        for r, p in zip(rows, pred):
+            mpg = float(to_mpg(r, p))
+            r[k_mpg], r[k_err] = mpg, mpg / r["measured_mpg"] - 1.0
+
+    for items in groups.values():
         if len(items) < MIN_ROWS:
             continue
         rows = [r for r, _ in items]
         xa = np.array([f for _, f in items])
-        y = np.log([r["measured_mpg"] for r in rows])
+        y = np.array([target(r) for r in rows])
         folds = np.array(_folds(rows))
         for k in range(N_FOLDS):
             test = folds == k
             if not test.any() or (~test).sum() < MIN_ROWS:
                 continue
-            pred = np.exp(predict_ridge(fit_ridge(xa[~test], y[~test]), xa[test]))
-            for r, p in zip([r for r, t in zip(rows, test) if t], pred):
-                r["baseline_mpg"] = float(p)
-                r["baseline_error"] = float(p) / r["measured_mpg"] - 1.0
-    lists = sorted({lst for lst, _ in groups})
-    if len(lists) > 1:
-        for (lst, proc), items in groups.items():
-            train = [it for (l2, p2), its in groups.items() if p2 == proc and l2 != lst
-                     for it in its]
-            if len(train) < MIN_ROWS:
-                continue
-            model = fit_ridge(np.array([f for _, f in train]),
-                              np.log([r["measured_mpg"] for r, _ in train]))
-            pred = np.exp(predict_ridge(model, np.array([f for _, f in items])))
-            for (r, _), p in zip(items, pred):
-                r["baseline_year_mpg"] = float(p)
-                r["baseline_year_error"] = float(p) / r["measured_mpg"] - 1.0
+            put([r for r, t in zip(rows, test) if t],
+                predict_ridge(fit_ridge(xa[~test], y[~test]), xa[test]), keys[0], keys[1])
+    if len({lst for lst, _ in groups}) < 2:
+        return
+    for (lst, proc), items in groups.items():
+        train = [it for (l2, p2), its in groups.items() if p2 == proc and l2 != lst
+                 for it in its]
+        if len(train) < MIN_ROWS:
+            continue
+        model = fit_ridge(np.array([f for _, f in train]),
+                          np.array([target(r) for r, _ in train]))
+        put([r for r, _ in items], predict_ridge(model, np.array([f for _, f in items])),
+            keys[2], keys[3])
+
+
+def cross_validate(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The baseline's cross-validated predictions, written into the records as
+    ``baseline_mpg`` / ``baseline_error`` (within a year; ``baseline_year_mpg`` /
+    ``baseline_year_error`` fitted on the other lists), and the comparison with the model
+    per procedure and scheme.
+
+    Beside it, and reported apart (never as the physics model): **physics + regression
+    residual**, the same ridge on the same columns fitted to the physics model's log error
+    log(predicted / measured) and divided out of its prediction, cross-validated the same
+    way (``residual_mpg`` / ``residual_error``, ``residual_year_mpg`` /
+    ``residual_year_error``)."""
+    usable = _usable(records)
+    groups: dict[tuple[str, str], list[tuple[dict[str, Any], list[float]]]] = defaultdict(list)
+    for r, x in usable:
+        groups[(r["list"], r["procedure"])].append((r, x))
+    _fit_predict(groups, lambda r: math.log(r["measured_mpg"]), BASELINE_KEYS,
+                 lambda r, p: math.exp(p))
+    phys = {g: [(r, x) for r, x in its if (r.get("predicted_mpg") or 0) > 0]
+            for g, its in groups.items()}
+    _fit_predict(phys, lambda r: math.log(r["predicted_mpg"] / r["measured_mpg"]),
+                 RESIDUAL_KEYS, lambda r, p: r["predicted_mpg"] / math.exp(p))
     return compare(records)
 
 
@@ -159,20 +189,27 @@ def _stats(err: list[float]) -> dict[str, Any]:
 def compare(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Per procedure and scheme (``within_year``, ``year_to_year``): the model's and the
     baseline's errors on the same rows, and whether the model is better (smaller median
-    |error|)."""
+    |error|); ``physics_residual``: the physics + regression residual on its rows (apart:
+    it is not the physics model)."""
     out: dict[str, Any] = {}
-    for scheme, key in (("within_year", "baseline_error"), ("year_to_year", "baseline_year_error")):
-        per: dict[str, dict[str, list[float]]] = defaultdict(lambda: {"model": [], "base": []})
+    for scheme, key, res_key in (("within_year", "baseline_error", "residual_error"),
+                                 ("year_to_year", "baseline_year_error",
+                                  "residual_year_error")):
+        per: dict[str, dict[str, list[float]]] = defaultdict(
+            lambda: {"model": [], "base": [], "res": []})
         for r in records:
             if r.get(key) is None or r.get("error") is None:
                 continue
             per[r["procedure"]]["model"].append(r["error"])
             per[r["procedure"]]["base"].append(r[key])
+            if r.get(res_key) is not None:
+                per[r["procedure"]]["res"].append(r[res_key])
         if not per:
             continue
         out[scheme] = {}
         for proc, d in sorted(per.items()):
             m, b = _stats(d["model"]), _stats(d["base"])
             out[scheme][proc] = {"model": m, "baseline": b,
-                                 "model_better": m["median_abs_error"] < b["median_abs_error"]}
+                                 "model_better": m["median_abs_error"] < b["median_abs_error"],
+                                 "physics_residual": _stats(d["res"])}
     return out

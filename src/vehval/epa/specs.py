@@ -48,15 +48,30 @@ from vehval.constants import MPH_M_PER_S as MPH
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.epa import engine_model as em
 from vehval.epa import technology as tech
-from vehval.epa.consistency import impossible_values
 from vehval.epa.procedures import (
     UDDS_BAG1_END_S,
     fuel_family,
-    is_gasoline,
     procedure_key,
     road_load_without_b,
 )
 from vehval.epa.reader import EpaTest
+from vehval.epa.specs_rows import (  # noqa: F401 - the row checks, re-exported
+    _SPEC_KEYS,
+    ENGINE_FUELS,
+    HYBRID_WORDS,
+    IDLE_SPEED_RPM,
+    RATED_SPEED_RPM,
+    SPARK_FUELS,
+    SPECIFIC_POWER_W_PER_L,
+    _check_car,
+    _check_values,
+    _is_gasoline,
+    _refuse_mixed,
+    _refuse_transmission,
+    _spec_rows,
+    _where,
+    hybrid_mark,
+)
 from vehval.epa.transmissions import (  # noqa: F401 - the generic gearbox values, re-exported
     DOWNSHIFT_FULL,
     DOWNSHIFT_RPM,
@@ -76,16 +91,18 @@ from vehval.vehicle.conventional import ConventionalVehicle
 FMEP_BAR = em.FMEP_BAR  # Heywood eq. 13.13: a + b (N/1000) + c (N/1000)^2 [bar]
 INDICATED_EFFICIENCY = 0.38  # start value: gross indicated efficiency of a modern SI engine
 BMEP_MAX_PA = 12.0e5  # full-load BMEP of a naturally aspirated gasoline engine [Pa]
-RATED_SPEED_RPM = 6000.0  # speed of the rated power of a gasoline car engine [rpm]
-IDLE_SPEED_RPM = 700.0  # warm idle [rpm]
+#: a turbocharged direct-injection car diesel: rated power at about 4000 rpm, full-load BMEP
+#: about 18 bar from 1750 rpm (engineering estimate of the car diesels of the 2016-2019
+#: lists: 2.0-3.0 L, 100-190 kW, 350-600 N m); no enrichment at full load (a diesel runs
+#: lean at every load: its full load is smoke-limited, not enriched)
+DIESEL_RATED_SPEED_RPM = 4000.0
+DIESEL_BMEP_MAX_PA = 18.0e5
 ENRICHMENT = em.HIGH_LOAD_FUEL  # extra fuel at full load [-] (knock retard, enrichment)
 WHEEL_RADIUS_M = 0.33  # rolling radius [m]: only engine speed / vehicle speed matters
 ACCESSORY_POWER_W = 300.0  # alternator, pumps [W]
 FUEL_CUT_IDLE_RATIO = 1.6  # fuel cut on overrun above this x idle speed [-]
 WARMUP_TIME_CONSTANT_S = 200.0  # decay of a cold engine's extra fuel [s]
 _EST = "engineering estimate (generic, vehval.epa.specs)"
-_SPEC_KEYS = ("mass_kg", "target_a_n", "target_b_n_per_mps", "target_c_n_per_mps2",
-              "axle_ratio", "n_v_ratio", "displacement_l", "rated_power_w")
 
 
 @dataclass
@@ -113,8 +130,8 @@ class Specs:
     cold_bag_ratio : float
         FTP bag 3 / bag 1 fuel economy of the configuration's FTP rows [-] (NaN: none).
     fuel : str
-        Fuel family of the rows the car is built for (``gasoline``, ``e85``: a key of
-        :data:`SPARK_FUELS`).
+        Fuel family of the rows the car is built for (``gasoline``, ``e85``, ``diesel``: a
+        key of :data:`ENGINE_FUELS`; a diesel is a compression-ignition engine).
     rows : list of str
         ``test (file:line)`` of the rows used.
     """
@@ -135,7 +152,7 @@ class Specs:
     displacement_l: float
     rated_power_w: float
     cold_bag_ratio: float = math.nan
-    fuel: str = "gasoline"  # fuel family of the rows: a key of SPARK_FUELS
+    fuel: str = "gasoline"  # fuel family of the rows: a key of ENGINE_FUELS
     rows: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
@@ -148,7 +165,10 @@ class Specs:
 
     @property
     def engine_technology(self) -> str:
-        """``spark_na`` or ``spark_turbo`` (:func:`vehval.epa.technology.engine_technology`)."""
+        """``diesel`` for a car built for its diesel rows, else ``spark_na`` or
+        ``spark_turbo`` (:func:`vehval.epa.technology.engine_technology`)."""
+        if self.fuel == "diesel":
+            return "diesel"
         return tech.engine_technology(self.rated_power_w, self.displacement_l)
 
     @property
@@ -158,151 +178,6 @@ class Specs:
                 f"{self.vehicle_id} ({', '.join(self.rows)})")
 
 
-def _refuse_transmission(t0: EpaTest) -> None:
-    """Refuse a transmission no family models (:func:`vehval.epa.transmissions.family_of`)."""
-    family_of(t0.transmission, t0.gears, f"EPA list row {_where(t0)}")
-
-
-#: what a specification key is called in a message
-_SPEC_NAMES = {"mass_kg": "equivalent test weight", "target_a_n": "road-load target A",
-               "target_b_n_per_mps": "road-load target B",
-               "target_c_n_per_mps2": "road-load target C", "axle_ratio": "axle ratio",
-               "n_v_ratio": "N/V [rpm/mph]", "displacement_l": "displacement [L]",
-               "rated_power_w": "rated power"}
-#: list columns of the specification keys (named when a list lacks one)
-_SPEC_COLUMNS = {"mass_kg": "Equivalent Test Weight (lbs.)", "axle_ratio": "Axle Ratio",
-                 "n_v_ratio": "N/V Ratio", "displacement_l": "Test Veh Displacement (L)",
-                 "rated_power_w": "Rated Horsepower"}
-#: words of a model name that mark a hybrid or plug-in (whole words, upper case; any name
-#: containing HYBRID is one too, e.g. 'ActiveHybrid 5')
-HYBRID_WORDS = ("HEV", "PHEV", "FHEV", "MHEV", "PLUG-IN")
-#: plausible rated power per litre of a car engine [W/L] (naturally aspirated to racing
-#: turbo: 40-140 kW/L in the 2016-2019 lists); outside it the listed power or displacement
-#: is a typing error
-SPECIFIC_POWER_W_PER_L = (20e3, 200e3)
-
-
-def _refuse_mixed(tests: list[EpaTest], key: str) -> None:
-    """Refuse rows of several configurations, naming the value of ``key`` (display units)
-    of each test vehicle and configuration number and the options that choose one."""
-    from vehval.display import format_keyed, number
-
-    by_cfg: dict[str, set[str]] = {}
-    for t in tests:
-        value = float(getattr(t, key))
-        text = (format_keyed(key, value) if key in ("mass_kg", "rated_power_w")
-                or key.startswith("target_") else number(value))
-        by_cfg.setdefault(f"{t.vehicle_id or '?'} config {t.config or '?'}", set()).add(text)
-    shown = "; ".join(f"{k}: {', '.join(sorted(v))}" for k, v in sorted(by_cfg.items()))
-    t0 = tests[0]
-    how = ("choose one with --vehicle-id ID and, when one test vehicle has several, "
-           "--config N")
-    if any(not t.config for t in tests):
-        how = ("the list has no configuration number (the reduced column set of some "
-               "years) to choose one by: use another year's list that lists this test "
-               "vehicle with its configurations")
-    raise ConfigError(f"the selected {t0.make} {t0.model} rows describe more than one "
-                      f"configuration ({_SPEC_NAMES.get(key, key)} by test vehicle and "
-                      f"configuration: {shown}): {how}")
-
-
-def _where(t: EpaTest) -> str:
-    """``test (file:line)``, or ``file:line`` for a row without a test number."""
-    return f"{t.test_number} ({t.source})" if t.test_number else t.source
-
-
-def _is_gasoline(t: EpaTest) -> bool:
-    return is_gasoline(t.fuel)
-
-
-#: fuel family of the list's tests -> fuel-table name of the spark-ignition engine built for
-#: them (a flex-fuel car's E85 rows run on E85, its gasoline rows on certification gasoline)
-SPARK_FUELS = {"gasoline": "gasoline_e0", "e85": "ethanol_e85"}
-
-
-def _spec_rows(tests: list[EpaTest]) -> list[EpaTest]:
-    """The rows that state the configuration: all but the cold CO tests, whose road-load
-    coefficients are the warm ones raised for -7 degC (about +10 %) and whose fuel is the
-    cold CO fuel; every row is used when only cold CO rows are selected."""
-    warm = [t for t in tests if procedure_key(t) != "coldco"]
-    return warm or tests
-
-
-def hybrid_mark(tests: list[EpaTest]) -> str:
-    """What marks the rows of one car as a hybrid or plug-in hybrid ('' when nothing does):
-    a hybrid word in the model name (:data:`HYBRID_WORDS`, or HYBRID anywhere) or a
-    charge-depleting test among the rows."""
-    name = tests[0].model.upper()
-    words = set(name.replace("(", " ").replace(")", " ").replace(",", " ").split())
-    mark = "HYBRID" if "HYBRID" in name else next(iter(sorted(words & set(HYBRID_WORDS))), "")
-    if mark:
-        return f"'{mark}' in the model name"
-    plug = next((t for t in tests if procedure_key(t) in ("cd_udds", "cd_hwfet")), None)
-    return "" if plug is None else f"charge-depleting test {plug.label} in the list"
-
-
-def _check_car(tests: list[EpaTest], fuel: str = "gasoline") -> None:
-    """Refuse what the spark-ignition conventional model cannot describe: a hybrid or
-    plug-in by its model name, a configuration tested on no ``fuel`` (a fuel family of
-    :data:`SPARK_FUELS`), a transmission no family models (``OT``, a one-gear automatic, an
-    unknown code)."""
-    t0 = tests[0]
-    why = hybrid_mark(tests)
-    if why:
-        raise ConfigError(f"{t0.make} {t0.model}: {why}: a hybrid or plug-in hybrid is not "
-                          "modelled from specs (the model is a conventional car); use a "
-                          "hybrid vehicle file with `vehval epa validate`")
-    if fuel not in SPARK_FUELS:
-        raise ConfigError(f"{t0.make} {t0.model} ({t0.vehicle_id}): fuel '{fuel}': the model "
-                          "from specs is a spark-ignition engine on "
-                          f"{' or '.join(SPARK_FUELS)} (a diesel has no compression-ignition "
-                          "engine model from specs)")
-    if not any(fuel_family(t.fuel) == fuel for t in tests):
-        fuels = ", ".join(sorted({f"'{t.fuel}'" for t in tests}))
-        raise ConfigError(f"{t0.make} {t0.model} ({t0.vehicle_id}): tested on {fuels}, no "
-                          f"{fuel}: the model from specs is a spark-ignition engine on "
-                          "certification gasoline, or on E85 for a car's E85 tests (a diesel "
-                          "or electric test is not modelled)")
-    _refuse_transmission(t0)  # before any other check: no narrowing makes it modelled
-
-
-def _check_values(tests: list[EpaTest]) -> None:
-    """Refuse a missing or implausible listed value, naming the row and the column."""
-    for key in _SPEC_KEYS:
-        if key.startswith("target_"):
-            continue
-        for t in tests:
-            v = float(getattr(t, key))
-            bad = impossible_values(t, (key,))
-            if bad:
-                raise ConfigError(f"EPA list row {_where(t)}: {bad[key]}; the specs need weight, "
-                                  "road load, axle ratio, N/V, displacement and rated power: "
-                                  "use a list row that gives it for this test vehicle")
-            if not math.isfinite(v):
-                col = _SPEC_COLUMNS[key]
-                raise ConfigError(f"EPA list row {_where(t)}: no "
-                                  f"{_SPEC_NAMES[key]} ('{col}' empty or absent: some years' "
-                                  "lists have a reduced column set); the specs need weight, "
-                                  "road load, axle ratio, N/V, displacement and rated power: "
-                                  "use a list that gives them for this test vehicle")
-    t0 = tests[0]
-    spec = t0.rated_power_w / t0.displacement_l
-    lo, hi = SPECIFIC_POWER_W_PER_L
-    if not lo <= spec <= hi:
-        raise ConfigError(f"EPA list row {_where(t0)}: rated power "
-                          f"{t0.rated_power_w / 1e3:.1f} kW for {t0.displacement_l:g} L is "
-                          f"{spec / 1e3:.0f} kW/L, outside the {lo / 1e3:.0f}-{hi / 1e3:.0f} "
-                          "kW/L of car engines: a typing error in the list (horsepower or "
-                          "displacement); the specs cannot size the engine")
-    rpm60 = 60.0 * t0.n_v_ratio
-    if not 1.3 * IDLE_SPEED_RPM <= rpm60 <= 0.9 * RATED_SPEED_RPM:
-        raise ConfigError(f"EPA list row {_where(t0)}: N/V {t0.n_v_ratio:g} "
-                          f"rpm/mph puts the engine at {rpm60:.0f} rpm at 60 mph in top gear, "
-                          f"outside {1.3 * IDLE_SPEED_RPM:.0f}-{0.9 * RATED_SPEED_RPM:.0f} "
-                          "rpm: not a plausible N/V (a typing error in the list?); the specs "
-                          "cannot set the gear ratios")
-
-
 def specs_from_tests(tests: list[EpaTest], fuel: str = "gasoline") -> Specs:
     """The specification of the one configuration the selected list rows describe.
 
@@ -310,7 +185,7 @@ def specs_from_tests(tests: list[EpaTest], fuel: str = "gasoline") -> Specs:
     gears, displacement and rated power (one car; cold CO rows, whose road load is raised
     for -7 degC, are not compared); a transmission of a modelled family
     (:func:`vehval.epa.transmissions.family_of`: automatic, CVT, automated manual or
-    dual-clutch, manual), a test on ``fuel`` (a fuel family of :data:`SPARK_FUELS`: the
+    dual-clutch, manual), a test on ``fuel`` (a fuel family of :data:`ENGINE_FUELS`: the
     car's engine burns it; its cold start is read from that fuel's FTP rows) and a model name
     without a hybrid mark are required, and the listed power and N/V must be plausible.
 
@@ -373,7 +248,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
                        friction_scale: float | None = None, cold_start: bool = True,
                        note: str = "", idle_fuel_g_per_s: float | None = None,
                        idle_source: str = "",
-                       enrichment: float = ENRICHMENT, technology: bool | None = None,
+                       enrichment: float | None = None, technology: bool | None = None,
                        coefficients: tech.Coefficients | None = None) -> ConventionalVehicle:
     """The conventional vehicle of ``specs`` with the two free fuel parameters.
 
@@ -393,9 +268,10 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
     idle_fuel_g_per_s : float, optional
         Measured warm idle fuel rate [g/s] (``idle_source`` says where from); default the
         fuel map at idle with the accessory load.
-    enrichment : float
+    enrichment : float, optional
         Extra fuel at full load [-] (power enrichment, knock-limited spark), rising
-        linearly from ``engine_model.HIGH_LOAD_FROM`` x the full-load torque.
+        linearly from ``engine_model.HIGH_LOAD_FROM`` x the full-load torque; default
+        ``ENRICHMENT`` for a spark-ignition engine, 0 for a diesel (lean at every load).
     technology : bool, optional
         Take what is not given (indicated efficiency, friction scale, the warm idle as a
         factor on the map, part-load pumping, the gearbox efficiency) from the generic
@@ -419,6 +295,11 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
     idle_factor, idle_f_src = e["idle_factor"]
     pumping_bar, pump_src = e["pumping_bar"]
     gb_eff = coef.transmission_value(family, "efficiency") if coef is not None else None
+    diesel = specs.fuel == "diesel"
+    if enrichment is None:
+        enrichment = 0.0 if diesel else ENRICHMENT
+    rated_rpm = DIESEL_RATED_SPEED_RPM if diesel else RATED_SPEED_RPM
+    bmep_max = DIESEL_BMEP_MAX_PA if diesel else BMEP_MAX_PA
     if not (0.1 <= indicated_efficiency <= 0.6 and 0.2 <= friction_scale <= 4.0
             and 0.0 <= enrichment <= 1.0):
         raise ConfigError(f"indicated efficiency {indicated_efficiency:g} (0.1-0.6) or "
@@ -427,17 +308,17 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
     s, where = specs, specs.where
     eta, kf = float(indicated_efficiency), float(friction_scale)
     vd = s.displacement_l
-    w_rated = RATED_SPEED_RPM * RPM
-    t_peak = max(BMEP_MAX_PA * vd * 1e-3 / (4 * math.pi), s.rated_power_w / w_rated)
-    max_rpm = 1.1 * RATED_SPEED_RPM
+    w_rated = rated_rpm * RPM
+    t_peak = max(bmep_max * vd * 1e-3 / (4 * math.pi), s.rated_power_w / w_rated)
+    max_rpm = 1.1 * rated_rpm
     cut_rpm = FUEL_CUT_IDLE_RATIO * IDLE_SPEED_RPM
     # grid with the idle and fuel-cut speeds as breakpoints (idle control between them)
     speeds = np.unique(np.r_[np.linspace(IDLE_SPEED_RPM * 0.8, max_rpm, 16),
                              IDLE_SPEED_RPM, cut_rpm])
-    shape = np.interp(speeds, [0.0, 0.6 * RATED_SPEED_RPM, max_rpm], [0.75, 1.0, 1.0])
+    shape = np.interp(speeds, [0.0, 0.6 * rated_rpm, max_rpm], [0.75, 1.0, 1.0])
     tmax = np.minimum(t_peak * shape, s.rated_power_w / (speeds * RPM))
     torques = np.linspace(0.0, 1.05 * t_peak, 14)
-    lhv = _lhv(SPARK_FUELS[s.fuel])
+    lhv = _lhv(ENGINE_FUELS[s.fuel])
     high = (enrichment, em.HIGH_LOAD_FROM)
     pump = {"pumping_pa": pumping_bar * 1e5} if pumping_bar else {}
     fuel = em.fuel_rate_g_per_s(speeds, torques, tmax, vd, eta, kf, lhv, high, **pump)
@@ -465,7 +346,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
     ratios, top_overall = gear_ratios(s)
     r = WHEEL_RADIUS_M
     gearbox, converter = gearbox_blocks(
-        family, ratios[-1], s.axle_ratio, s.gears, r, RATED_SPEED_RPM, t_peak,
+        family, ratios[-1], s.axle_ratio, s.gears, r, rated_rpm, t_peak,
         f"top gear from N/V {s.n_v_ratio:g} rpm/mph and axle ratio {s.axle_ratio:g} with the "
         f"rolling radius {r} m (overall top ratio {top_overall:.4f}; exact in engine speed "
         f"per vehicle speed), {where}",
@@ -507,16 +388,16 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
                    "max_power_w": s.rated_power_w, "max_speed_rpm": max_rpm,
                    "idle_speed_rpm": IDLE_SPEED_RPM, "fire_speed_rpm": IDLE_SPEED_RPM / 2,
                    "motoring_torque_nm": float(tf[1]),
-                   "inertia_kg_m2": 0.15 + 0.05 * vd, "fuel": SPARK_FUELS[s.fuel],
+                   "inertia_kg_m2": 0.15 + 0.05 * vd, "fuel": ENGINE_FUELS[s.fuel],
                    "displacement_l": vd, "warmup_fuel_fraction": warm,
                    "warmup_time_constant_s": WARMUP_TIME_CONSTANT_S,
                    "sources": {
                        "speed_rpm": "grid from below idle to the maximum speed",
                        "torque_nm": "grid up to the peak torque",
                        "fuel_rate_g_per_s": willans,
-                       "max_torque_nm": (f"{BMEP_MAX_PA / 1e5:g} bar BMEP x displacement, "
+                       "max_torque_nm": (f"{bmep_max / 1e5:g} bar BMEP x displacement, "
                                          f"limited by the rated power at "
-                                         f"{RATED_SPEED_RPM:g} rpm: {est}"),
+                                         f"{rated_rpm:g} rpm: {est}"),
                        "max_power_w": f"rated horsepower, {where}",
                        "max_speed_rpm": f"1.1 x the rated-power speed: {est}",
                        "idle_speed_rpm": est, "fire_speed_rpm": f"half the idle: {est}",
@@ -524,7 +405,9 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
                        "inertia_kg_m2": f"0.15 + 0.05 kg m^2 per litre: {est}",
                        "fuel": ("Tier 2 certification gasoline, the fuel of the list's tests"
                                 if s.fuel == "gasoline" else
-                                f"{SPARK_FUELS[s.fuel]}: the fuel of the list's {s.fuel} "
+                                "diesel: the fuel of the list's diesel tests, burnt by a "
+                                "compression-ignition engine (vehval fuel table)" if diesel else
+                                f"{ENGINE_FUELS[s.fuel]}: the fuel of the list's {s.fuel} "
                                 "tests (vehval fuel table)"),
                        "displacement_l": f"test vehicle displacement, {where}",
                        "warmup_fuel_fraction": warm_src,
@@ -563,8 +446,9 @@ def willans_text(eta: float, kf: float, s: Specs, enrichment: float = ENRICHMENT
     return (f"Willans line: (brake + friction power) / (indicated efficiency {eta:.4g} x "
             f"LHV); friction MEP {kf:.4g} x Heywood eq. 13.13 (0.97 + 0.15 N/1000 + 0.05 "
             f"(N/1000)^2 bar) x displacement {s.displacement_l:g} L ({s.where}); fuel x "
-            f"(1 + {enrichment:g} s), s from 0 at {em.HIGH_LOAD_FROM:g} x full-load torque "
-            f"to 1 at full load (knock-limited spark, power enrichment: {_EST})")
+            + (f"(1 + {enrichment:g} s), s from 0 at {em.HIGH_LOAD_FROM:g} x full-load "
+               f"torque to 1 at full load (knock-limited spark, power enrichment: {_EST})"
+               if enrichment else "no enrichment (a diesel runs lean at every load)"))
 
 
 def model_fuel_lhv() -> float:

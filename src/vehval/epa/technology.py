@@ -10,7 +10,10 @@ state the engine's efficiency, its friction or its idle fuel. :func:`vehicle_fro
   ignition) or ``spark_turbo`` (turbocharged). The lists have no aspiration column: a
   rated power at or above ``turbo_min_specific_power_w_per_l`` per litre (78 kW/L, as the fleet report's aspiration; the
   naturally aspirated engines of the 2016-2019 lists sit at 45-75 kW/L, the downsized
-  turbo engines at 80-140) marks a turbocharged engine;
+  turbo engines at 80-140) marks a turbocharged engine; a car built for its diesel rows
+  has the ``diesel`` technology (compression ignition, turbocharged: no throttle, so no
+  part-load pumping, a lean full load, its own efficiency, friction and idle;
+  :attr:`vehval.epa.specs.Specs.engine_technology`);
 * per engine technology: ``indicated_efficiency`` (slope of the Willans line at the
   reference specific power of 60 kW/L, [-]) and ``efficiency_specific_power_exponent``
   (gamma: the efficiency scales as (specific power / 60 kW/L)^-gamma; an engine built for
@@ -40,7 +43,7 @@ from typing import Any
 
 from vehval.errors import ConfigError
 
-ENGINE_TECHNOLOGIES = ("spark_na", "spark_turbo")
+ENGINE_TECHNOLOGIES = ("spark_na", "spark_turbo", "diesel")
 ENGINE_KEYS = ("indicated_efficiency", "friction_scale", "idle_factor", "pumping_bar",
                "efficiency_specific_power_exponent")
 #: specific power at which ``indicated_efficiency`` holds [W/L]

@@ -245,11 +245,14 @@ class CalcResult:
 
 
 def choose_calc_set(test: Test, vehicle: Any = None, architecture: str | None = None) -> str:
-    """``power_split`` when the vehicle or the signals show a planetary hybrid, else
-    ``conventional``; a stated ``architecture`` other than ``power_split`` is
-    ``conventional`` (the relations its signals lack are then not run)."""
-    if architecture is not None and architecture != "power_split":
-        return "conventional"
+    """The relation set of a stated ``architecture`` (its entry of
+    :data:`vehval.vehicle.definition.CALC_SETS`: ``parallel_hybrid``, or ``conventional``
+    for a car whose missing signals' relations are then not run); else ``power_split`` when
+    the vehicle or the signals show a planetary hybrid, else ``conventional``."""
+    from vehval.vehicle.definition import CALC_SETS
+
+    if architecture is not None and architecture in CALC_SETS:
+        return CALC_SETS[architecture]
     if vehicle is not None and vehicle_value(vehicle, "planetary.ring_teeth") is not None:
         return "power_split"
     for sig in test:

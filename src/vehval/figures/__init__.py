@@ -20,8 +20,8 @@ PALETTE = ("#1f5fa8", "#d9480f", "#2b8a3e", "#7048e8", "#c2255c", "#0b7285", "#e
            "#495057")
 ROW_HEIGHT_PX = 170
 
-__all__ = ["PALETTE", "ROW_HEIGHT_PX", "bar_figure", "histogram_figure", "markers_figure",
-           "one_axis_figure", "scatter_fit_figure", "scatter_groups_figure", "time_traces_figure"]
+__all__ = ["PALETTE", "ROW_HEIGHT_PX", "bar_figure", "histogram_figure", "layout_figure",
+           "markers_figure", "one_axis_figure", "scatter_fit_figure", "scatter_groups_figure", "time_traces_figure"]
 
 
 def time_traces_figure(panels: Sequence[dict], *, n_buckets: int = DEFAULT_BUCKETS,
@@ -280,3 +280,31 @@ def scatter_groups_figure(groups: Mapping[str, tuple[Sequence[float], Sequence[f
     layout = {"height": 380, "margin": {"l": 70, "r": 20, "t": 30, "b": 50}, "shapes": shapes,
               "xaxis": {"title": {"text": xlabel}}, "yaxis": {"title": {"text": ylabel}}}
     return {"data": data, "layout": layout}
+
+
+def layout_figure(data: Sequence[dict], *, xlabel: str | None = None, ylabel: str | None = None,
+                  title: str | None = None, height: int | None = None,
+                  margin: dict | None = None, legend: dict | None = None,
+                  barmode: str | None = None, categories: Sequence[str] | None = None) -> dict:
+    """Traces a page built (plotly trace dicts: markers with error bars, timelines, bubbles)
+    on one pair of axes: axis titles, ``title``, ``height`` [px], ``margin``, ``legend``,
+    ``barmode`` and the category order of the y axis (``categories``, top last)."""
+    layout: dict[str, Any] = {}
+    if title:
+        layout["title"] = {"text": title}
+    if height:
+        layout["height"] = int(height)
+    if barmode:
+        layout["barmode"] = barmode
+    if margin:
+        layout["margin"] = dict(margin)
+    if xlabel is not None:
+        layout["xaxis"] = {"title": {"text": xlabel}}
+    if ylabel is not None or categories is not None:
+        yaxis: dict[str, Any] = {"title": {"text": ylabel}} if ylabel is not None else {}
+        if categories is not None:
+            yaxis.update(categoryorder="array", categoryarray=list(categories))
+        layout["yaxis"] = yaxis
+    if legend:
+        layout["legend"] = dict(legend)
+    return {"data": list(data), "layout": layout}

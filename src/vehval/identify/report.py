@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from vehval.constants import RPM_RAD_PER_S
+from vehval.display import as_unit
 from vehval.identify.warmup import start_label
 from vehval.report.identify_page import write_identification_page, write_prediction_page
 
@@ -32,13 +33,13 @@ def fuel_map_figure(idf) -> dict:
     pts = fm.points
     ok = np.isfinite(pts["fuel"])
     sl = _thin(int(ok.sum()))
-    series = [{"name": "measured (delay-aligned)", "x": pts["p"][ok][sl] / 1e3,
-               "y": pts["fuel"][ok][sl] * 1e3, "color": pts["w"][ok][sl] * RPM,
+    series = [{"name": "measured (delay-aligned)", "x": as_unit(pts["p"][ok][sl], "kW"),
+               "y": as_unit(pts["fuel"][ok][sl], "g/s"), "color": pts["w"][ok][sl] * RPM,
                "color_title": "rpm", "size": 3, "opacity": 0.5}]
     p = np.linspace(0.0, fm.power_range_w[1], 60)
     for rpm in np.linspace(fm.speed_range_rad_s[0] * RPM, fm.speed_range_rad_s[1] * RPM, 5):
-        series.append({"name": f"fitted map, {rpm:.0f} rpm", "mode": "lines", "x": p / 1e3,
-                       "y": fm.rate(np.full_like(p, rpm / RPM), p) * 1e3})
+        series.append({"name": f"fitted map, {rpm:.0f} rpm", "mode": "lines", "x": as_unit(p, "kW"),
+                       "y": as_unit(fm.rate(np.full_like(p, rpm / RPM), p), "g/s")})
     return markers_figure(series, xlabel="engine power [kW]", ylabel="fuel rate [g/s]",
                           title="Engine fuel map: fitted Willans lines and measured points",
                           height=480)
@@ -61,15 +62,15 @@ def trace_figure(pred: dict) -> dict:
             {"name": "engine speed, model", "t": t, "y": s["eng_spd_out_simu"].values * RPM,
              "unit": "rpm", "color": PALETTE[1], "dash": "dot"}]},
         {"ylabel": "fuel rate [g/s]", "traces": [
-            {"name": "fuel rate, test", "t": tm, "y": tr.fuel[m] * 1e3, "unit": "g/s",
+            {"name": "fuel rate, test", "t": tm, "y": as_unit(tr.fuel[m], "g/s"), "unit": "g/s",
              "color": PALETTE[0]},
-            {"name": "fuel rate, model", "t": t, "y": s["fuel_rate_simu"].values * 1e3,
+            {"name": "fuel rate, model", "t": t, "y": as_unit(s["fuel_rate_simu"].values, "g/s"),
              "unit": "g/s", "color": PALETTE[1], "dash": "dot"}]}]
     fig = time_traces_figure(panels, row_height=250)
     fig["layout"]["title"] = {"text": f"{pred['test']} ({pred['cycle']}): fuel "
                                       f"{pred['fuel_measured_g']:.0f} g measured, "
                                       f"{pred['fuel_predicted_g']:.0f} g predicted "
-                                      f"({100 * pred['error_rel']:+.1f} %)"}
+                                      f"({as_unit(pred['error_rel'], '%'):+.1f} %)"}
     return fig
 
 

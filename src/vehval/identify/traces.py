@@ -16,6 +16,7 @@ import numpy as np
 from vehval.errors import SignalError
 from vehval.fuels import resolve_fuel
 from vehval.test import Test, hybrid_signals, is_hybrid
+from vehval.vehicle.definition import absent_categories
 
 if TYPE_CHECKING:
     from vehval.fuels import ResolvedFuel
@@ -84,12 +85,16 @@ def hybrid_refusal(test: Test, vehicle: object = None) -> str | None:
     The decision is :func:`vehval.test.is_hybrid`'s: the vehicle file's architecture when
     one is given (the template's ``vehicle:``), else a hybrid-component signal in the test.
     """
+    arch, name = getattr(vehicle, "architecture", None), getattr(vehicle, "name", None)
+    where = ", ".join(test.meta.files) or test.meta.test_id or "the test"
+    if arch is not None and "engine" in absent_categories(str(arch)):
+        return (f"{where}: its vehicle {name or ''} is {arch}, a car without an engine: "
+                "identify and the conventional model take conventional cars only; use "
+                "`vehval results` for its energy figures")
     if not is_hybrid(test, vehicle, measured_only=False):
         return None
-    arch, name = getattr(vehicle, "architecture", None), getattr(vehicle, "name", None)
     why = (f"it has {', '.join(hybrid_signals(test, measured_only=False)[:3])}" if arch is None
            else f"its vehicle {name} is {arch}" if name else f"its vehicle file says {arch}")
-    where = ", ".join(test.meta.files) or test.meta.test_id or "the test"
     return (f"{where}: this is a hybrid ({why}): identify and the conventional model take "
             "conventional cars only; use `vehval validate` or `vehval calibrate` with a "
             "power-split vehicle file (--vehicle)")

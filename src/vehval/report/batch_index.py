@@ -12,6 +12,8 @@ import json
 from typing import Any, Sequence
 from urllib.parse import quote
 
+from vehval.display import as_unit
+from vehval.figures import layout_figure
 from vehval.report.document import Block, cell, figure, h1, h2, para, render_document, table
 from vehval.report.figures import FigSpec
 
@@ -93,7 +95,7 @@ def _variability(var: Sequence[dict]) -> list[Block]:
         rows.append([v["vehicle"], v["cycle"], v.get("start", ""), v.get("temperature_band", ""),
                      v.get("ac", ""), name, unit.label if unit is not None else "",
                      _num(v["n"], pattern="{:.0f}"), shown(v["mean"]), shown(v["std"], f, 0.0),
-                     cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
+                     cell("" if v["cv"] is None else f"{as_unit(v['cv'], '%'):.2f}", "num"),
                      shown(v["min"]), shown(v["max"])])
     return out + [table(["vehicle", "cycle", "start", "cell temperature", "A/C", "metric", "unit",
                          "n", "mean", "std", "CV [%]", "min", "max"], rows)]
@@ -107,7 +109,7 @@ def _results(var: Sequence[dict]) -> list[Block]:
             + [f"{v['scope'] if v['kind'] != 'test' else 'whole test'} ({v['kind']})",
                _num(v["n"], pattern="{:.0f}"), _num(v["mean"], pattern="{:.2f}"),
                _num(v["std"], pattern="{:.2f}"),
-               cell("" if v["cv"] is None else f"{100 * v['cv']:.2f}", "num"),
+               cell("" if v["cv"] is None else f"{as_unit(v['cv'], '%'):.2f}", "num"),
                _num(v["mean_u"], pattern="{:.2f}")] for v in var]
     return out + [table(["vehicle", "cycle", "cell temperature", "start", "A/C", "result", "n",
                          "mean [mpg]", "std [mpg]", "CV [%]", "mean U (k = 2) [mpg]"], rows)]
@@ -125,12 +127,11 @@ def _phase_figure(phase_rows: Sequence[tuple]) -> list[Block]:
              "error_y": {"type": "data", "visible": True, "array": [p[2] or 0.0 for p in pts]},
              "marker": {"size": 10 if scope == "whole test" else 7}}
             for scope, pts in by_scope.items()]
-    layout = {"xaxis": {"title": {"text": "test"}},
-              "yaxis": {"title": {"text": "fuel economy [mpg]"}}, "height": 450,
-              "margin": {"l": 60, "r": 20, "t": 30, "b": 80}}
+    fig = layout_figure(data, xlabel="test", ylabel="fuel economy [mpg]", height=450,
+                        margin={"l": 60, "r": 20, "t": 30, "b": 80})
     return [h2("Fuel economy per test and per phase"),
-            figure(FigSpec("Fuel economy per test and per phase (± U, k = 2)",
-                           {"data": data, "layout": layout}, key="fe_phase"))]
+            figure(FigSpec("Fuel economy per test and per phase (± U, k = 2)", fig,
+                           key="fe_phase"))]
 
 
 def _soc_figure(tests: Sequence[dict]) -> list[Block]:
@@ -143,16 +144,15 @@ def _soc_figure(tests: Sequence[dict]) -> list[Block]:
             groups.setdefault((r["vehicle"] or "", r["cycle"] or ""), []).append(r)
     if not groups:
         return []
-    data = [{"type": "scatter", "x": [100 * r["soc_change"] for r in rs],
+    data = [{"type": "scatter", "x": [as_unit(r["soc_change"], "%") for r in rs],
              "y": [r["headline_mpg"] for r in rs], "mode": "markers",
              "text": [str(r["test_id"]) for r in rs], "name": f"{veh} {cyc}".strip()}
             for (veh, cyc), rs in sorted(groups.items())]
-    layout = {"xaxis": {"title": {"text": "ΔSOC [%]"}},
-              "yaxis": {"title": {"text": "headline fuel economy [mpg]"}}, "height": 450,
-              "margin": {"l": 60, "r": 20, "t": 30, "b": 50}}
+    fig = layout_figure(data, xlabel="ΔSOC [%]", ylabel="headline fuel economy [mpg]",
+                        height=450, margin={"l": 60, "r": 20, "t": 30, "b": 50})
     return [h2("Fuel economy vs SOC change"),
-            figure(FigSpec("Headline fuel economy against battery SOC change, per test",
-                           {"data": data, "layout": layout}, key="fe_soc"))]
+            figure(FigSpec("Headline fuel economy against battery SOC change, per test", fig,
+                           key="fe_soc"))]
 
 
 def render_index_page(run: dict, tests: Sequence[dict], variability: Sequence[dict],

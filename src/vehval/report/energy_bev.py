@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from vehval.constants import KWH_J
+from vehval.display import as_unit
 from vehval.integrals import battery_power, integral
 from vehval.report import sections as S
 from vehval.report.plots import pick
@@ -55,9 +57,9 @@ def bev_energy_section(test: Test, results: dict[str, Any] | None) -> S.Section:
     rows = []
     for scope, f in scopes.items():
         e = _energies(test, segs.get(scope, [(t0, t1)]))
-        share = 100.0 * e[1] / e[0] if e and e[0] > 0 else None
-        rows.append([scope, f["distance_m"] / 1000.0, 1000.0 * f["dc_energy_kwh"],
-                     1000.0 * f["ac_energy_kwh"], f["ac_kwh_per_100mi"],
+        share = as_unit(e[1] / e[0], "%") if e and e[0] > 0 else None
+        rows.append([scope, as_unit(f["distance_m"], "km"), as_unit(f["dc_energy_kwh"] * KWH_J, "Wh"),
+                     as_unit(f["ac_energy_kwh"] * KWH_J, "Wh"), f["ac_kwh_per_100mi"],
                      f["ac_kwh_per_100km"], f["mpge"], share])
     sec.tables.append(S.Table(
         "SAE J1634 energy per phase", ["scope", "distance [km]", "DC energy [Wh]",

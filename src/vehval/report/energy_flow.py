@@ -23,8 +23,9 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import plotly.graph_objects as go
 
+from vehval.display import as_unit
+from vehval.figures.engineering import sankey_figure
 from vehval.report.plots import PlotSkipped, energy_flows, pick
 from vehval.test import Test
 from vehval.test import is_hybrid as test_is_hybrid
@@ -103,19 +104,15 @@ def conventional_audit(test: Test) -> dict[str, Any]:
 
 
 def conventional_sankey(audit: dict[str, Any],
-                        title: str = "Energy flow over the test") -> go.Figure:
+                        title: str = "Energy flow over the test") -> Any:
     """Sankey diagram [MJ] of :func:`conventional_audit`: fuel -> engine -> wheels -> road."""
     s = audit["sinks"]
     nodes = ["Fuel", "Engine output", "Wheels (traction)", *[SINKS[k] for k in s]]
-    src: list[int] = []
-    dst: list[int] = []
-    val: list[float] = []
+    links: list[tuple[int, int, float]] = []
 
     def link(a: str, b: str, v: float | None) -> None:
         if v is not None and v > 0:
-            src.append(nodes.index(a))
-            dst.append(nodes.index(b))
-            val.append(v / 1e6)
+            links.append((nodes.index(a), nodes.index(b), float(as_unit(v, "MJ"))))
 
     trac = audit["traction_j"]
     if audit["engine_output_j"] is not None:
@@ -130,29 +127,24 @@ def conventional_sankey(audit: dict[str, Any],
         if key in s:
             link("Wheels (traction)", SINKS[key], s[key])
     colors = {"Fuel": "#e67700", "Engine output": "#d9480f", "Wheels (traction)": "#0b7285"}
-    fig = go.Figure(go.Sankey(
-        valueformat=".2f", valuesuffix=" MJ",
-        node={"label": nodes, "pad": 18, "thickness": 16,
-              "color": [colors.get(n, "#adb5bd") for n in nodes]},
-        link={"source": src, "target": dst, "value": val, "color": "rgba(31,95,168,0.25)"}))
-    fig.update_layout(title={"text": title, "font": {"size": 14}}, height=420,
-                      margin={"l": 20, "r": 20, "t": 50, "b": 20})
-    return fig
+    return sankey_figure(nodes, links, title=title,
+                         colors=[colors.get(n, "#adb5bd") for n in nodes])
 
 
 def audit_rows(audit: dict[str, Any]) -> list[list[Any]]:
     """Rows (item, energy [MJ], share of the fuel energy [%]) of the audit table."""
     fuel = audit["fuel_j"]
-    rows: list[list[Any]] = [["fuel energy", fuel / 1e6, 100.0]]
+    rows: list[list[Any]] = [["fuel energy", as_unit(fuel, "MJ"), as_unit(1.0, "%")]]
     if audit["engine_output_j"] is not None:
-        rows.append(["engine output", audit["engine_output_j"] / 1e6,
-                     100 * audit["engine_output_j"] / fuel])
-    rows.append(["wheels (traction)", audit["traction_j"] / 1e6, 100 * audit["traction_j"] / fuel])
-    rows += [[SINKS[k].lower(), v / 1e6, 100 * v / fuel] for k, v in audit["sinks"].items()]
+        rows.append(["engine output", as_unit(audit["engine_output_j"], "MJ"),
+                     as_unit(audit["engine_output_j"] / fuel, "%")])
+    rows.append(["wheels (traction)", as_unit(audit["traction_j"], "MJ"),
+                 as_unit(audit["traction_j"] / fuel, "%")])
+    rows += [[SINKS[k].lower(), as_unit(v, "MJ"), as_unit(v / fuel, "%")] for k, v in audit["sinks"].items()]
     rc = audit.get("road_load_coefficients_j")
     if rc is not None:
         # the target coefficients hold the car's own tyre and driveline losses; a chassis
         # dyno applies only the rest (its set coefficients): the force measured at the rollers
         # closes the balance with that part, so on a real dyno this figure is the larger one
-        rows.append([ROAD_LOAD_CROSS_CHECK, rc / 1e6, 100 * rc / fuel])
+        rows.append([ROAD_LOAD_CROSS_CHECK, as_unit(rc, "MJ"), as_unit(rc / fuel, "%")])
     return rows

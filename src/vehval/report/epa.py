@@ -15,6 +15,7 @@ import math
 from pathlib import Path
 
 from vehval import jsonsafe
+from vehval.display import as_unit
 from vehval.epa.consistency import group_mismatches
 from vehval.epa.validation import TOLERANCE, EpaValidation
 from vehval.report.page import render_page
@@ -90,7 +91,7 @@ def scatter_plot(val: EpaValidation, size: int = 420) -> dict | None:
                        "x": f"{sx(x) - 3.5:.1f}", "y": f"{sy(y) - 3.5:.1f}",
                        "fill": col if c.judged else "none", "in_sample": c.in_sample,
                        "title": f"{c.test} {c.procedure} {c.item}: predicted {c.predicted_mpg:.1f}, "
-                                f"measured {c.measured_mpg:.1f} mpg ({100 * c.error:+.1f} %"
+                                f"measured {c.measured_mpg:.1f} mpg ({as_unit(c.error, '%'):+.1f} %"
                                 f"{', in-sample' if c.in_sample else ''})"})
     legend = [{"label": label, "color": _COLORS[key], "cy": m + 14 + 14 * i, "ty": m + 18 + 14 * i}
               for i, (label, key) in enumerate((("FTP-75", "ftp75"), ("HWFET", "hwfet"),
@@ -102,7 +103,7 @@ def scatter_plot(val: EpaValidation, size: int = 420) -> dict | None:
 
 def share_text(x: float | None) -> str:
     """A battery share [-] as signed percent with one decimal ("-" without a battery)."""
-    return "-" if x is None else f"{round(100 * x, 1) + 0.0:+.1f}"  # + 0.0: no "-0.0"
+    return "-" if x is None else f"{round(as_unit(x, '%'), 1) + 0.0:+.1f}"  # + 0.0: no "-0.0"
 
 
 def _figures_text(st: dict) -> str:
@@ -110,9 +111,9 @@ def _figures_text(st: dict) -> str:
     if not st["n_judged"]:
         return "no judged figure."
     return (f"{st['n_within_tolerance']} of {st['n_judged']} judged figures within "
-            f"{100 * st['tolerance']:.0f} % ({st['n_within_3pct']} within 3 %); mean error "
-            f"{100 * (st['mean_error'] or 0):+.1f} %, mean |error| "
-            f"{100 * (st['mean_abs_error'] or 0):.1f} %.")
+            f"{as_unit(st['tolerance'], '%'):.0f} % ({st['n_within_3pct']} within 3 %); mean error "
+            f"{as_unit(st['mean_error'] or 0, '%'):+.1f} %, mean |error| "
+            f"{as_unit(st['mean_abs_error'] or 0, '%'):.1f} %.")
 
 
 def render_html(val: EpaValidation) -> str:
@@ -124,7 +125,7 @@ def render_html(val: EpaValidation) -> str:
         ok = abs(c.error) <= TOLERANCE
         classes.append("" if not c.judged else ("ok" if ok else "bad"))
         rows.append([c.test, c.originator, c.procedure, c.item, f"{c.predicted_mpg:.1f}",
-                     f"{c.measured_mpg:.1f}", f"{100 * c.error:+.1f}",
+                     f"{c.measured_mpg:.1f}", f"{as_unit(c.error, '%'):+.1f}",
                      "-" if c.en is None or not math.isfinite(c.en)
                      else f"{c.en:+.2f}" + ("?" if c.uninformative else ""),
                      share_text(c.battery_share),
@@ -132,8 +133,8 @@ def render_html(val: EpaValidation) -> str:
                                                       else "held-out"),
                      "yes" if c.judged else "no", c.note])
     r_kind = corr["per_kind"]
-    kinds = [[k, v["n"], v["n_within_tolerance"], f"{100 * v['mean_error']:+.1f}",
-              f"{100 * v['mean_abs_error']:.1f}", f"{100 * v['max_abs_error']:.1f}",
+    kinds = [[k, v["n"], v["n_within_tolerance"], f"{as_unit(v['mean_error'], '%'):+.1f}",
+              f"{as_unit(v['mean_abs_error'], '%'):.1f}", f"{as_unit(v['max_abs_error'], '%'):.1f}",
               "-" if r_kind.get(k) is None else f"{r_kind[k]:.3f}"]
              for k, v in st["per_kind"].items()]
     skipped = [f"{s['test']} ({s['description']}): {s['reason']}" for s in val.skipped]
@@ -141,7 +142,7 @@ def render_html(val: EpaValidation) -> str:
     groups = group_mismatches((p.test.label, p.vehicle_check) for p in val.predictions)
     mismatch = [f"{len(labels)} test(s) ({', '.join(labels)}): {note}. Their errors judge the "
                 "vehicle file on a car it may not describe." for note, labels in groups.items()]
-    tol = f"{100 * TOLERANCE:.0f}"
+    tol = f"{as_unit(TOLERANCE, '%'):.0f}"
     summary = (f"{st['n_tests_simulated']} tests simulated, {st['n_tests_skipped']} skipped;\n"
                f"held-out: {_figures_text(st)}\n"
                "Correlation of predicted and measured held-out judged figures: r = "

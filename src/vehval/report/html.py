@@ -16,6 +16,7 @@ import datetime as _dt
 from pathlib import Path
 from typing import Any
 
+from vehval.display import as_unit
 from vehval.io.atomic import write_text_atomic
 from vehval.report import plots
 from vehval.report import sections as S
@@ -96,7 +97,7 @@ def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S
     flows = plots.energy_flows(test)
     if flows:
         sec.tables.append(S.Table("Energies over the test", ["quantity", "energy [MJ]"],
-                                  [[k, v / 1e6] for k, v in flows.items()], key="energies"))
+                                  [[k, as_unit(v, "MJ")] for k, v in flows.items()], key="energies"))
     return sec
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from vehval.constants import RPM_RAD_PER_S
-from vehval.display import format_keyed
+from vehval.display import as_unit, format_keyed
 from vehval.io.atomic import write_text_atomic
 from vehval.report.document import Block, bullets, figure, h1, h2, para, render_document, table
 from vehval.report.figures import FigSpec
@@ -63,7 +63,8 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
            h2("Fuel map"),
            para(f"R² {fm['r2']:.3f} (10 Hz), {fm['r2_5s']:.3f} (5 s means); meter delay "
                 f"{fm['delay_s']:.1f} s, lag {fm['tau_s']:.1f} s; idle "
-                f"{fm['idle_fuel_kg_s'] * 1e3:.3f} g/s; overrun {fm['overrun_fuel_kg_s'] * 1e3:.3f}"
+                f"{as_unit(fm['idle_fuel_kg_s'], 'g/s'):.3f} g/s; overrun "
+                f"{as_unit(fm['overrun_fuel_kg_s'], 'g/s'):.3f}"
                 f" g/s above {fm['fuel_cut_speed_rad_s'] * RPM:.0f} rpm")]
     if d.get("drag") is not None:
         dr = d["drag"]
@@ -79,7 +80,7 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
     if d.get("warmup") is not None:
         w = d["warmup"]
         out += [h2("Warm-up fuel"),
-                para(f"+{100 * w['fraction']:.1f} % at the start, time constant "
+                para(f"+{as_unit(w['fraction'], '%'):.1f} % at the start, time constant "
                      f"{w['time_constant_s']:.0f} s: {w['provenance']}"
                      + (f"; {w['note']}" if w["note"] else "")),
                 bullets([f"phase {p['phase']}: cold {p['cold_g']:.1f} g, hot {p['hot_g']:.1f} g, "
@@ -89,7 +90,7 @@ def identification_blocks(d: dict, figs: Sequence[Any]) -> list[Block]:
                  "are not a check of the model."),
             table(["test", "cycle", "cell °C", "measured g", "predicted g", "error %", "A/C"],
                   [[p["test"] + (" (in sample)" if p.get("in_sample") else ""), p["cycle"], f"{p['amb_temp_c']:.1f}", f"{p['fuel_measured_g']:.1f}",
-                    f"{p['fuel_predicted_g']:.1f}", f"{100 * p['error_rel']:+.2f}",
+                    f"{p['fuel_predicted_g']:.1f}", f"{as_unit(p['error_rel'], '%'):+.2f}",
                     "on" if p.get("ac_on") else "off"] for p in d["predictions"]])]
     return out + _figures(figs)  # every figure after the text, as plotly.js draws them
 
@@ -148,12 +149,12 @@ def write_prediction_page(path: str | Path, vehicle: str, predictions: Sequence[
         rows.append([p["test"], p["cycle"], f"{p['amb_temp_c']:.1f}", ac,
                      f"{p['start']} ({p.get('cold_reason', '')})", "test",
                      f"{p['fuel_measured_g']:.1f}", f"{p['fuel_predicted_g']:.1f}",
-                     f"{100 * p['error_rel']:+.2f}" + _in_sample(p), _en(p)])
+                     f"{as_unit(p['error_rel'], '%'):+.2f}" + _in_sample(p), _en(p)])
         for ph in p["phases"]:
             u = ph.get("u_g")
             rows.append(["", "", "", "", "", ph["name"],
                          f"{ph['measured_g']:.1f}" + (f" ± {u:.1f}" if u else ""),
-                         f"{ph['predicted_g']:.1f}", f"{100 * ph['error_rel']:+.2f}"
+                         f"{ph['predicted_g']:.1f}", f"{as_unit(ph['error_rel'], '%'):+.2f}"
                          + _in_sample(ph), _en(ph)])
     blocks = [h1(f"Predictions of {vehicle}"),
               para("An error marked in sample is of a test (or phase) the model was fitted "

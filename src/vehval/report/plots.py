@@ -1,6 +1,7 @@
 """Engineering plots: operating points on component maps, histograms, Willans lines, Sankey.
 
-Every function returns a :class:`plotly.graph_objects.Figure`, or ``None`` together with a
+Every function returns a :class:`plotly.graph_objects.Figure` built by the figure layer
+(:mod:`vehval.figures.engineering`), or ``None`` together with a
 note (via :class:`PlotSkipped`) when the data it needs is absent, so callers can say why a
 plot is missing. Speeds are drawn in rpm and powers in kW for readability; the data stays SI.
 """
@@ -10,10 +11,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import plotly.graph_objects as go
 
 from vehval.constants import RPM_RAD_PER_S
+from vehval.display import as_unit
 from vehval.equations.engine_state import engine_running
+from vehval.figures.engineering import sankey_figure as _sankey
+from vehval.figures.engineering import trace_figure
 from vehval.fuels import resolve_fuel
 from vehval.integrals import integral
 from vehval.test import Test
@@ -75,13 +78,6 @@ def _thin(*arrays: np.ndarray, n: int = MAX_POINTS) -> list[np.ndarray]:
     return [a[idx] for a in arrays]
 
 
-def _layout(fig: go.Figure, title: str, x: str, y: str, height: int = 460) -> go.Figure:
-    fig.update_layout(title={"text": title, "font": {"size": 14}}, height=height, bargap=0.04,
-                      margin={"l": 70, "r": 30, "t": 50, "b": 50},
-                      xaxis_title=x, yaxis_title=y, legend={"x": 0.01, "y": 0.99})
-    return fig
-
-
 def _component(vehicle: Any, *names: str) -> Any:
     for n in names:
         comp = getattr(vehicle, n, None)
@@ -93,7 +89,7 @@ def _component(vehicle: Any, *names: str) -> Any:
 
 
 # ----------------------------------------------------------------------------- maps
-def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
+def engine_map_figure(test: Test, vehicle: Any) -> Any:
     """Engine operating points on the fuel-map efficiency contours with the best-efficiency line.
 
     Parameters
@@ -109,37 +105,38 @@ def engine_map_figure(test: Test, vehicle: Any) -> go.Figure:
         raise PlotSkipped("no vehicle engine fuel map")
     spd = np.asarray(eng.speed_rpm, float)
     trq = np.asarray(eng.torque_nm, float)
-    fuel = np.asarray(eng.fuel_rate_g_per_s, float) * 1e-3  # [kg/s], rows = speed
+    fuel = np.asarray(eng.fuel_rate_g_per_s, float) / as_unit(1.0, "g/s")  # [kg/s], rows = speed
     lhv = float(eng.fuel_lhv_j_per_kg)
     pw = (spd[:, None] * RPM) * trq[None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
-        eff = np.where((fuel > 0) & (pw > 0), pw / (fuel * lhv), np.nan) * 100.0
+        eff = as_unit(np.where((fuel > 0) & (pw > 0), pw / (fuel * lhv), np.nan), "%")
     tmax = np.asarray(eng.max_torque_nm, float)
     eff = np.where(trq[None, :] <= np.interp(spd, spd, tmax)[:, None] * 1.02, eff, np.nan)
-    fig = go.Figure()
-    fig.add_trace(go.Contour(x=spd, y=trq, z=eff.T, name="efficiency [%]", colorscale="Blues",
-                             contours={"start": 10, "end": 40, "size": 2, "showlabels": True},
-                             colorbar={"title": {"text": "eff. [%]"}}, opacity=0.75,
-                             hovertemplate="%{x:.0f} rpm, %{y:.0f} N·m: %{z:.1f} %<extra></extra>"))
-    fig.add_trace(go.Scatter(x=spd, y=tmax, mode="lines", name="full load",
-                             line={"color": "#212529", "width": 2}))
+    traces: list[tuple[str, dict]] = [
+        ("Contour", dict(x=spd, y=trq, z=eff.T, name="efficiency [%]", colorscale="Blues",
+                         contours={"start": 10, "end": 40, "size": 2, "showlabels": True},
+                         colorbar={"title": {"text": "eff. [%]"}}, opacity=0.75,
+                         hovertemplate="%{x:.0f} rpm, %{y:.0f} N·m: %{z:.1f} %<extra></extra>")),
+        ("Scatter", dict(x=spd, y=tmax, mode="lines", name="full load",
+                         line={"color": "#212529", "width": 2}))]
     try:
         from vehval.vehicle.maps import best_efficiency_line
         _, w, t = best_efficiency_line(eng)
-        fig.add_trace(go.Scatter(x=w / RPM, y=t, mode="lines", name="best efficiency",
-                                 line={"color": "#2b8a3e", "width": 3, "dash": "dash"}))
+        traces.append(("Scatter", dict(x=w / RPM, y=t, mode="lines", name="best efficiency",
+                                       line={"color": "#2b8a3e", "width": 3, "dash": "dash"})))
     except Exception:  # noqa: BLE001 - the line is optional decoration (older vehicle models)
         pass
     try:
         tt, (w, tq), names = common(test, ("eng_spd_out", "eng_trq_out"))
         on = np.isfinite(w) & np.isfinite(tq) & engine_running(tt, w)
         x, y = _thin(w[on] / RPM, tq[on])
-        fig.add_trace(go.Scatter(x=x, y=y, mode="markers", name=f"engine running ({names[0]})",
-                                 marker={"size": 4, "color": "#d9480f", "opacity": 0.5}))
+        traces.append(("Scatter", dict(x=x, y=y, mode="markers",
+                                       name=f"engine running ({names[0]})",
+                                       marker={"size": 4, "color": "#d9480f", "opacity": 0.5})))
     except PlotSkipped:
         pass
-    return _layout(fig, "Engine operating points on the efficiency map", "engine speed [rpm]",
-                   "engine torque [N·m]")
+    return trace_figure(traces, title="Engine operating points on the efficiency map",
+                        xlabel="engine speed [rpm]", ylabel="engine torque [N·m]")
 
 
 def machine_efficiency(speed_rpm: np.ndarray, torque_nm: np.ndarray, loss_w: np.ndarray) -> np.ndarray:
@@ -154,10 +151,10 @@ def machine_efficiency(speed_rpm: np.ndarray, torque_nm: np.ndarray, loss_w: np.
     with np.errstate(divide="ignore", invalid="ignore"):
         eff = np.where(pm > 0, pm / (pm + loss), (a - loss) / a)
     eff = np.where(a > 1.0, eff, np.nan)
-    return np.clip(eff, 0.0, 1.0) * 100.0
+    return as_unit(np.clip(eff, 0.0, 1.0), "%")
 
 
-def machine_map_figure(test: Test, vehicle: Any, which: str) -> go.Figure:
+def machine_map_figure(test: Test, vehicle: Any, which: str) -> Any:
     """Motor (``mot``, MG2) or generator (``gen``, MG1) operating points on the efficiency map.
 
     The map is the vehicle's ``mg2``/``mg1`` loss map (``speed_rpm``, ``torque_nm``,
@@ -168,36 +165,40 @@ def machine_map_figure(test: Test, vehicle: Any, which: str) -> go.Figure:
     base = {"mot": "mot", "gen": "gen"}[which]
     comp = _component(vehicle, *(("mg2", "motor", "mot") if which == "mot" else ("mg1", "generator", "gen")))
     title = "Motor (MG2)" if which == "mot" else "Generator (MG1)"
-    fig = go.Figure()
+    traces: list[tuple[str, dict]] = []
     if comp is not None and hasattr(comp, "loss_w"):
         spd, trq = np.asarray(comp.speed_rpm, float), np.asarray(comp.torque_nm, float)
-        fig.add_trace(go.Contour(x=spd, y=trq, z=machine_efficiency(spd, trq, comp.loss_w).T,
-                                 colorscale="Blues", opacity=0.75, name="efficiency [%]",
-                                 contours={"start": 50, "end": 98, "size": 4, "showlabels": True},
-                                 colorbar={"title": {"text": "eff. [%]"}},
-                                 hovertemplate="%{x:.0f} rpm, %{y:.0f} N·m: %{z:.1f} %<extra></extra>"))
+        traces.append(("Contour", dict(
+            x=spd, y=trq, z=machine_efficiency(spd, trq, comp.loss_w).T,
+            colorscale="Blues", opacity=0.75, name="efficiency [%]",
+            contours={"start": 50, "end": 98, "size": 4, "showlabels": True},
+            colorbar={"title": {"text": "eff. [%]"}},
+            hovertemplate="%{x:.0f} rpm, %{y:.0f} N·m: %{z:.1f} %<extra></extra>")))
         w = np.linspace(spd.min(), spd.max(), 200)
         with np.errstate(divide="ignore"):
             env = np.minimum(comp.max_torque_nm, comp.max_power_w / np.abs(w * RPM))
-        fig.add_trace(go.Scatter(x=w, y=env, mode="lines", name="torque limit", line={"color": "#212529"}))
-        fig.add_trace(go.Scatter(x=w, y=-env, mode="lines", name="torque limit", showlegend=False,
-                                 line={"color": "#212529"}))
+        traces += [("Scatter", dict(x=w, y=env, mode="lines", name="torque limit",
+                                    line={"color": "#212529"})),
+                   ("Scatter", dict(x=w, y=-env, mode="lines", name="torque limit",
+                                    showlegend=False, line={"color": "#212529"}))]
     try:
         _, (w, tq), names = common(test, (f"{base}_spd_out", f"{base}_trq_out"))
         ok = np.isfinite(w) & np.isfinite(tq)
         x, y = _thin(w[ok] / RPM, tq[ok])
-        fig.add_trace(go.Scatter(x=x, y=y, mode="markers", name=f"operating points ({names[0]})",
-                                 marker={"size": 4, "color": "#d9480f", "opacity": 0.5}))
+        traces.append(("Scatter", dict(x=x, y=y, mode="markers",
+                                       name=f"operating points ({names[0]})",
+                                       marker={"size": 4, "color": "#d9480f", "opacity": 0.5})))
         subtitle = "operating points"
     except PlotSkipped as exc:
-        if not fig.data:
+        if not traces:
             raise PlotSkipped(f"no {title} map and {exc}") from None
         subtitle = f"map only: {exc}"
-    return _layout(fig, f"{title}: {subtitle}", "speed [rpm]", "torque [N·m]")
+    return trace_figure(traces, title=f"{title}: {subtitle}", xlabel="speed [rpm]",
+                        ylabel="torque [N·m]")
 
 
 # ----------------------------------------------------------------------------- histograms
-def regen_current_histogram(test: Test) -> go.Figure:
+def regen_current_histogram(test: Test) -> Any:
     """Battery current [A] while braking: vehicle moving and decelerating (dv/dt < −0.1 m/s²).
 
     The current is ``ess_curr``; without it, ``ess_pwr / ess_volt`` (current positive when
@@ -217,13 +218,13 @@ def regen_current_histogram(test: Test) -> go.Figure:
     mask = np.isfinite(i) & (v > 0.5) & (acc < -0.1)
     if not mask.any():
         raise PlotSkipped("no braking phase (deceleration below −0.1 m/s² while moving)")
-    fig = go.Figure(go.Histogram(x=i[mask], nbinsx=60, name=names[0], marker={"color": "#1f5fa8"}))
-    fig.add_vline(x=0.0, line={"color": "#868e96", "dash": "dot"})
-    return _layout(fig, f"Battery current during braking ({mask.sum()} samples)", f"{names[0]} [A]",
-                   "samples", height=380)
+    return trace_figure([("Histogram", dict(x=i[mask], nbinsx=60, name=names[0],
+                                            marker={"color": "#1f5fa8"}))],
+                        title=f"Battery current during braking ({mask.sum()} samples)",
+                        xlabel=f"{names[0]} [A]", ylabel="samples", height=380, vline=0.0)
 
 
-def engine_power_histogram(test: Test) -> go.Figure:
+def engine_power_histogram(test: Test) -> Any:
     """Distribution of engine power [kW] while the engine runs (by its speed, the rule of
     :mod:`vehval.equations.engine_state`; every sample without a speed)."""
     p = pick(test, "eng_pwr_out")
@@ -241,8 +242,10 @@ def engine_power_histogram(test: Test) -> go.Figure:
     on = np.isfinite(pw) & running
     if not on.any():
         raise PlotSkipped("engine never on")
-    fig = go.Figure(go.Histogram(x=pw[on] / 1e3, nbinsx=50, name=name, marker={"color": "#d9480f"}))
-    return _layout(fig, "Engine power while running", "engine power [kW]", "samples", height=380)
+    return trace_figure([("Histogram", dict(x=as_unit(pw[on], "kW"), nbinsx=50, name=name,
+                                            marker={"color": "#d9480f"}))],
+                        title="Engine power while running", xlabel="engine power [kW]",
+                        ylabel="samples", height=380)
 
 
 # ----------------------------------------------------------------------------- Willans
@@ -284,18 +287,21 @@ def willans(test: Test, lhv_j_per_kg: float | None = None) -> dict:
             "marginal_efficiency": float(1.0 / slope) if slope else float("nan"), "r2": r2}
 
 
-def willans_figure(test: Test, lhv_j_per_kg: float | None = None) -> go.Figure:
+def willans_figure(test: Test, lhv_j_per_kg: float | None = None) -> Any:
     """Scatter of fuel power against engine power [kW] with the fitted Willans line."""
     w = willans(test, lhv_j_per_kg)
-    x, y = _thin(w["eng_pwr"] / 1e3, w["fuel_pwr"] / 1e3)
+    x, y = _thin(as_unit(w["eng_pwr"], "kW"), as_unit(w["fuel_pwr"], "kW"))
     xs = np.array([0.0, float(np.max(w["eng_pwr"]))])
-    fig = go.Figure([
-        go.Scatter(x=x, y=y, mode="markers", name="engine running", marker={"size": 4, "opacity": 0.45}),
-        go.Scatter(x=xs / 1e3, y=(w["slope"] * xs + w["intercept"]) / 1e3, mode="lines",
-                   name=(f"fuel = {w['slope']:.3f}·P + {w['intercept'] / 1e3:.2f} kW "
-                         f"(marginal eff. {w['marginal_efficiency'] * 100:.1f} %, R² = {w['r2']:.3f})"),
-                   line={"color": "#d9480f", "width": 2})])
-    return _layout(fig, "Willans line", "engine power [kW]", "fuel power [kW]")
+    return trace_figure([
+        ("Scatter", dict(x=x, y=y, mode="markers", name="engine running",
+                         marker={"size": 4, "opacity": 0.45})),
+        ("Scatter", dict(x=as_unit(xs, "kW"), y=as_unit(w["slope"] * xs + w["intercept"], "kW"),
+                         mode="lines",
+                         name=(f"fuel = {w['slope']:.3f}·P + {as_unit(w['intercept'], 'kW'):.2f} kW "
+                               f"(marginal eff. {as_unit(w['marginal_efficiency'], '%'):.1f} %, "
+                               f"R² = {w['r2']:.3f})"),
+                         line={"color": "#d9480f", "width": 2}))],
+        title="Willans line", xlabel="engine power [kW]", ylabel="fuel power [kW]")
 
 
 # ----------------------------------------------------------------------------- Sankey
@@ -358,7 +364,7 @@ def energy_flows(test: Test, origin: str = "test", lhv_j_per_kg: float | None = 
     return {k: x for k, x in out.items() if np.isfinite(x)}
 
 
-def sankey_figure(flows: dict[str, float], title: str = "Energy flow over the test") -> go.Figure:
+def sankey_figure(flows: dict[str, float], title: str = "Energy flow over the test") -> Any:
     """Sankey diagram [MJ] from fuel and battery to the wheels and the losses.
 
     Nodes: fuel → engine → powertrain (planetary, MG1, MG2, inverters) ← battery discharge;
@@ -370,13 +376,11 @@ def sankey_figure(flows: dict[str, float], title: str = "Energy flow over the te
     nodes = ["Fuel", "Engine", "Engine losses", "Battery (discharge)", "Powertrain",
              "Wheels (traction)", "Battery (charge)", "Powertrain losses", "Road load",
              "Inertia and brakes"]
-    src, dst, val = [], [], []
+    links: list[tuple[int, int, float]] = []
 
     def link(a: str, b: str, v: float | None) -> None:
         if v is not None and v > 0:
-            src.append(nodes.index(a))
-            dst.append(nodes.index(b))
-            val.append(v / 1e6)
+            links.append((nodes.index(a), nodes.index(b), float(as_unit(v, "MJ"))))
 
     fuel, eng = flows.get("fuel"), flows.get("engine")
     if fuel is not None and eng is None:
@@ -396,12 +400,6 @@ def sankey_figure(flows: dict[str, float], title: str = "Energy flow over the te
         if road is not None:
             link("Wheels (traction)", "Road load", min(road, wheel))
             link("Wheels (traction)", "Inertia and brakes", max(wheel - road, 0.0))
-    fig = go.Figure(go.Sankey(
-        valueformat=".2f", valuesuffix=" MJ",
-        node={"label": nodes, "pad": 18, "thickness": 16,
-              "color": ["#e67700", "#d9480f", "#adb5bd", "#2b8a3e", "#1f5fa8", "#0b7285", "#2b8a3e",
-                        "#adb5bd", "#868e96", "#868e96"]},
-        link={"source": src, "target": dst, "value": val, "color": "rgba(31,95,168,0.25)"}))
-    fig.update_layout(title={"text": title, "font": {"size": 14}}, height=420,
-                      margin={"l": 20, "r": 20, "t": 50, "b": 20})
-    return fig
+    return _sankey(nodes, links, title=title,
+                   colors=["#e67700", "#d9480f", "#adb5bd", "#2b8a3e", "#1f5fa8", "#0b7285",
+                           "#2b8a3e", "#adb5bd", "#868e96", "#868e96"])

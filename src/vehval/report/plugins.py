@@ -21,6 +21,8 @@ from typing import Any
 
 import numpy as np
 
+from vehval.display import as_unit
+from vehval.figures import layout_figure
 from vehval.report.figures import PALETTE, FigSpec
 from vehval.report.safety import GL_TO_SVG
 from vehval.report.sections import Section
@@ -138,8 +140,9 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
     return format(v, spec) if isinstance(v, (int, float)) and not isinstance(v, bool) else "—"
 
 
-def _axis(text: str) -> dict:
-    return {"title": {"text": text}}
+#: Margins [px] and legend place of the control section's figures.
+_MARGIN = {"l": 70, "r": 20, "t": 30, "b": 50}
+_LEGEND = {"x": 0.01, "y": 0.99}
 
 
 def operating_points_figure(op: dict) -> dict | None:
@@ -163,10 +166,8 @@ def operating_points_figure(op: dict) -> dict | None:
                              "name": f"±{band:g} N·m band", "x": best["speed_rpm"],
                              "y": [t + sign * band for t in best["torque_nm"]],
                              "line": {"color": PALETTE[2], "width": 1, "dash": "dot"}})
-    return {"data": data, "layout": {"height": 420, "margin": {"l": 70, "r": 20, "t": 30, "b": 50},
-                                     "xaxis": _axis("engine speed [rpm]"),
-                                     "yaxis": _axis("engine torque [N·m]"),
-                                     "legend": {"x": 0.01, "y": 0.99}}}
+    return layout_figure(data, height=420, margin=_MARGIN, xlabel="engine speed [rpm]",
+                         ylabel="engine torque [N·m]", legend=_LEGEND)
 
 
 def mode_timeline_figure(modes: dict) -> dict | None:
@@ -183,10 +184,9 @@ def mode_timeline_figure(modes: dict) -> dict | None:
                      "base": [s["start_s"] for s in mine], "x": [s["duration_s"] for s in mine],
                      "marker": {"color": PALETTE[i % len(PALETTE)]}, "showlegend": False,
                      "hovertemplate": "%{y}: %{base:.1f} s + %{x:.1f} s<extra></extra>"})
-    return {"data": data, "layout": {"height": 90 + 26 * len(order), "barmode": "overlay",
-                                     "margin": {"l": 130, "r": 20, "t": 20, "b": 45},
-                                     "xaxis": _axis("time [s]"),
-                                     "yaxis": {"categoryorder": "array", "categoryarray": order[::-1]}}}
+    return layout_figure(data, height=90 + 26 * len(order), barmode="overlay",
+                         margin={"l": 130, "r": 20, "t": 20, "b": 45}, xlabel="time [s]",
+                         categories=order[::-1])
 
 
 def soc_regulation_figure(soc: dict) -> dict | None:
@@ -197,20 +197,18 @@ def soc_regulation_figure(soc: dict) -> dict | None:
         return None
     x = [b["soc"] for b in bins]
     data = [{"type": "scatter", "mode": "markers", "name": "median per SOC bin",
-             "x": x, "y": [b["ess_pwr_median_w"] / 1e3 for b in bins],
+             "x": x, "y": [as_unit(b["ess_pwr_median_w"], "kW") for b in bins],
              "text": [f"n = {b.get('n')}" for b in bins],
              "marker": {"size": 8, "color": PALETTE[0]}}]
     slope, icpt = soc.get("slope_w"), soc.get("intercept_w")
     if isinstance(slope, (int, float)) and isinstance(icpt, (int, float)):
         xs = [min(x), max(x)]
         r2 = soc.get("r2")
-        data.append({"type": "scatter", "mode": "lines", "x": xs, "y": [(slope * s + icpt) / 1e3 for s in xs],
-                     "name": f"fit: {slope / 1e3:.4g} kW per unit SOC" + (f" (R² = {r2:.3f})" if isinstance(r2, (int, float)) else ""),
+        data.append({"type": "scatter", "mode": "lines", "x": xs, "y": [as_unit(slope * s + icpt, "kW") for s in xs],
+                     "name": f"fit: {as_unit(slope, 'kW'):.4g} kW per unit SOC" + (f" (R² = {r2:.3f})" if isinstance(r2, (int, float)) else ""),
                      "line": {"color": PALETTE[1], "width": 2}})
-    return {"data": data, "layout": {"height": 360, "margin": {"l": 70, "r": 20, "t": 30, "b": 50},
-                                     "xaxis": _axis("state of charge [-]"),
-                                     "yaxis": _axis("battery power [kW] (+ discharge)"),
-                                     "legend": {"x": 0.01, "y": 0.99}}}
+    return layout_figure(data, height=360, margin=_MARGIN, xlabel="state of charge [-]",
+                         ylabel="battery power [kW] (+ discharge)", legend=_LEGEND)
 
 
 def regen_share_figure(brk: dict) -> dict | None:
@@ -222,17 +220,16 @@ def regen_share_figure(brk: dict) -> dict | None:
         return None
     n = np.array([c.get("n") or 0 for c in cells], float)
     size = 6 + 18 * np.sqrt(n / max(n.max(), 1.0))
-    return {"data": [{"type": "scatter", "mode": "markers", "name": "regen share",
+    return layout_figure([{"type": "scatter", "mode": "markers", "name": "regen share",
                       "x": [0.5 * sum(c["speed_mps"]) for c in cells],
                       "y": [0.5 * sum(c["decel_mps2"]) for c in cells],
-                      "text": [f"{c['regen_share'] * 100:.0f} % of {c.get('n')} steps" for c in cells],
+                      "text": [f"{as_unit(c['regen_share'], '%'):.0f} % of {c.get('n')} steps" for c in cells],
                       "marker": {"size": size.tolist(), "color": [c["regen_share"] for c in cells],
                                  "cmin": 0, "cmax": 1, "colorscale": "Viridis",
                                  "colorbar": {"title": {"text": "regen share"}}},
                       "hovertemplate": "%{x:.1f} m/s, %{y:.2f} m/s²: %{text}<extra></extra>"}],
-            "layout": {"height": 380, "margin": {"l": 70, "r": 20, "t": 30, "b": 50},
-                       "xaxis": _axis("vehicle speed [m/s] (bin centre)"),
-                       "yaxis": _axis("deceleration [m/s²] (bin centre)")}}
+                         height=380, margin=_MARGIN, xlabel="vehicle speed [m/s] (bin centre)",
+                         ylabel="deceleration [m/s²] (bin centre)")
 
 
 #: Tables and facts of the control section about a hybrid's controller only.
@@ -257,12 +254,12 @@ def control_section(doc: dict, hybrid: bool = True) -> Section:
     eng, op, soc = doc.get("engine") or {}, doc.get("operating_points") or {}, doc.get("soc_regulation") or {}
     share = eng.get("on_share")
     sec.facts = [("Test", str(doc.get("test_id") or "—")),
-                 ("Rule agreement", f"{doc['rule_agreement'] * 100:.1f} % of steps"
+                 ("Rule agreement", f"{as_unit(doc['rule_agreement'], '%'):.1f} % of steps"
                   if isinstance(doc.get("rule_agreement"), (int, float)) else "not estimated"),
-                 ("Engine on", f"{share * 100:.1f} % of the time, {eng.get('starts', '—')} starts"
+                 ("Engine on", f"{as_unit(share, '%'):.1f} % of the time, {eng.get('starts', '—')} starts"
                   if isinstance(share, (int, float)) else "—"),
                  ("Engine state from", str(eng.get("method") or "—")),
-                 ("On the best line", f"{op['share_within_band'] * 100:.1f} % within ±{_fmt(op.get('band_nm'), 'g')} N·m"
+                 ("On the best line", f"{as_unit(op['share_within_band'], '%'):.1f} % within ±{_fmt(op.get('band_nm'), 'g')} N·m"
                   if isinstance(op.get("share_within_band"), (int, float)) else "—"),
                  ("SOC window", (f"{_fmt(soc.get('soc_min'), '.3f')} – {_fmt(soc.get('soc_max'), '.3f')}"
                                  f" (mean {_fmt(soc.get('soc_mean'), '.3f')})"))]

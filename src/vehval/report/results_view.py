@@ -10,6 +10,8 @@ from __future__ import annotations
 from typing import Any
 
 from vehval.constants import KMH_M_PER_S, KWH_J, MILE_M, MPH_M_PER_S
+from vehval.display import as_unit
+from vehval.figures import layout_figure
 from vehval.report.figures import FigSpec
 from vehval.report.sections import Section
 from vehval.report.tables import Table
@@ -87,7 +89,7 @@ def _row(name: str, block: dict) -> list:
             _r(v.get("duration_s"), 1),
             _r((v.get("mean_speed_mps") or 0) / spd_mps, 2) if v.get("mean_speed_mps") else None,
             _r((v.get("max_speed_mps") or 0) / spd_mps, 2) if v.get("max_speed_mps") else None,
-            _r(v["fuel_mass_kg"] * 1e3, 1) if v.get("fuel_mass_kg") is not None else
+            _r(as_unit(v["fuel_mass_kg"], "g"), 1) if v.get("fuel_mass_kg") is not None else
             _num_or_held(block, "fuel_mass_kg", None),
             *(_pm(block, k) for k in _fuel_keys()),
             _pm(block, "co2_g_per_km", nd=1),
@@ -123,7 +125,7 @@ def results_section(doc: dict) -> Section:
                      + (f" (caveat: {'; '.join(head['caveats'])})"
                         if head and head.get("caveats") else "")),
         ("Fuel", f"{fuel.get('name')} ({fuel.get('density_kg_per_m3')} kg/m³, "
-                 f"{(fuel.get('lhv_j_per_kg') or 0) / 1e6:.2f} MJ/kg)" if fuel else
+                 f"{as_unit(fuel.get('lhv_j_per_kg') or 0, 'MJ'):.2f} MJ/kg)" if fuel else
          "not declared: no volume-based result"),
         ("Phases from", str(doc.get("phase_source"))),
         ("Conditions", ("cell temperature not measured" if cond.get("cell_temp_c") is None
@@ -166,7 +168,7 @@ def results_section(doc: dict) -> Section:
     for key in ("fuel_economy_mpg", "co2_g_per_km"):
         u = (src.get("uncertainty") or {}).get(key)
         for c in (u or {}).get("contributors", []):
-            budget.append([key, c["parameter"], _r(100 * c["share"], 1),
+            budget.append([key, c["parameter"], _r(as_unit(c["share"], "%"), 1),
                            "assumed (class default)" if c.get("assumed") else "declared"])
     if budget:
         sec.tables.append(Table(f"Largest uncertainty contributors ({src.get('name', 'whole test')})",
@@ -185,10 +187,10 @@ def results_section(doc: dict) -> Section:
     if any(v is not None for v in fe):
         err = [((p.get("uncertainty") or {}).get(lead) or {}).get("U")
                for p in doc.get("phases") or []]
-        fig = {"data": [{"type": "bar", "x": names, "y": fe, "name": what.lower(),
-                         "error_y": {"type": "data", "array": err, "visible": True}}],
-               "layout": {"title": {"text": f"{what} per phase (± U, k = 2)"},
-                          "yaxis": {"title": {"text": _LABEL[lead]}}, "height": 360}}
+        fig = layout_figure([{"type": "bar", "x": names, "y": fe, "name": what.lower(),
+                              "error_y": {"type": "data", "array": err, "visible": True}}],
+                            title=f"{what} per phase (± U, k = 2)", ylabel=_LABEL[lead],
+                            height=360)
         sec.figures.append(FigSpec(f"{what} per phase", fig))
     held = [[p.get("name") or "whole test", ", ".join(w.get("quantities") or []),
              ", ".join(w.get("signals") or []), w.get("reason"), w.get("fix"),

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from vehval.constants import MILE_M
+from vehval.display import as_unit
 from vehval.integrals import integral
 from vehval.nomenclature import registry
 from vehval.report import qa_view as qv
@@ -102,7 +102,7 @@ def summary_section(test: Test, qa: dict, template: Any, title: str) -> Section:
     tmpl = template if isinstance(template, (str, type(None))) else getattr(template, "description", None) or type(template).__name__
     facts = [("Test", m.test_id or "—"), ("Vehicle", m.vehicle or "—"), ("Cycle", m.cycle or "—"),
              ("Duration", f"{dur:,.1f} s ({dur / 60:.1f} min)"),
-             ("Distance", f"{dist / 1000:,.3f} km ({dist / MILE_M:,.3f} mi)" if dist is not None else "—"),
+             ("Distance", f"{as_unit(dist, 'km'):,.3f} km ({as_unit(dist, 'mi'):,.3f} mi)" if dist is not None else "—"),
              ("Template", str(tmpl or m.template or "—")),
              ("Signals", f"{len(test)} from sources {', '.join(s or '—' for s in test.sources)}"),
              ("Files", ", ".join(m.files) or "—")]
@@ -304,7 +304,7 @@ def _finding_row(row: dict) -> dict:
         elif si is not None and k in _DELTA_KEYS:
             parts.append(f"{k} = {format_delta(float(v), si, signal=sig)}")
         elif k.endswith("fraction"):
-            parts.append(f"{k} = {number(100.0 * float(v))} %")
+            parts.append(f"{k} = {number(as_unit(float(v), '%'))} %")
         elif k.endswith("_s"):
             parts.append(f"{k} = {number(float(v))} s")
         else:
@@ -393,7 +393,7 @@ def _pair_rows(rows: list[dict]) -> list[dict]:
         row: dict = {}
         for k, v in r.items():
             if k in _PAIR_FRACTION_KEYS:
-                row[f"{k} [%]"] = None if v is None else 100.0 * float(v)
+                row[f"{k} [%]"] = None if v is None else as_unit(float(v), "%")
             elif unit is not None and k in _PAIR_UNIT_KEYS and isinstance(v, (int, float)):
                 row[k] = float(v) * unit.factor
             elif unit is not None and k == "unit":

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.display import as_unit
 from vehval.errors import InputFileError, VehvalError
 from vehval.serve.security import classify, inside_workspace, regular_file
 from vehval.serve.series import series
@@ -167,7 +168,7 @@ def view(rows_in: list[dict]) -> tuple[list[dict], list[dict]]:
                 if si == "min":
                     v = v / 60.0
                 elif si == "%":
-                    v = 100.0 * v
+                    v = as_unit(v, "%")
                 else:
                     v = float(unit_for(si).convert(v))
                 out[key] = f"{v:,.{digits}f}"

@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.display import as_unit
 from vehval.errors import ConfigError, InputFileError
 from vehval.serve import security as sec
 from vehval.serve.series import series
@@ -290,7 +291,7 @@ def _verdict(row: dict, fuel_qa: list[dict]) -> str:
 def _fuel_table(pred: dict, fuel_qa: list[dict]) -> dict:
     """Fuel per phase and for the test, measured against predicted [g], with En."""
     def pct(x: Any) -> Any:
-        return None if x is None or not np.isfinite(x) else 100 * x
+        return None if x is None or not np.isfinite(x) else as_unit(x, "%")
 
     rows = [[ph.get("results_name") or f"phase {ph['phase']}", ph["measured_g"],
              ph["predicted_g"], pct(ph["error_rel"]), ph.get("u_model_g"), ph.get("u_meas_g"),

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from vehval.display import as_unit
 from vehval.errors import ConfigError
 from vehval.serve.series import series
 
@@ -95,7 +96,7 @@ def _normalised_error(veh: Any, comp: Any) -> dict:
 def en_table(ne: dict) -> dict:
     """The page's table of the fuel mass's normalised error, in display units (g)."""
     def g(v: Any) -> Any:
-        return None if v is None else v * 1e3
+        return None if v is None else as_unit(v, "g")
 
     en = ne.get("en")
     flag = "; uninformative (combined U over 10 % of the measured fuel)" if ne.get("uninformative") else ""
@@ -108,5 +109,5 @@ def en_table(ne: dict) -> dict:
                       "in-sample" if ne.get("in_sample") else "held-out"]],
             "note": ("En = (m_sim - m_test) / sqrt(U_model² + U_meas²); |En| ≤ 1 is consistent. "
                      "U_model: the vehicle's parameter ranges on the cycle; U_meas: the "
-                     f"measured fuel's U with the repeatability s_r = {100 * (ne.get('s_r') or 0):.2f} %"
+                     f"measured fuel's U with the repeatability s_r = {as_unit(ne.get('s_r') or 0, '%'):.2f} %"
                      + (f". {ne['note']}" if ne.get("note") else ""))}

@@ -8,8 +8,10 @@ the recorded signals (:data:`~vehval.sim.layout.SIGNALS`), ``Y_<NAME>`` the summ
 (:data:`~vehval.sim.layout.SUMMARY`), ``X_<NAME>`` the loop state
 (:data:`~vehval.sim.layout.STATE`); ``N_P``, ``N_S``, ``N_Y``, ``N_X`` are their lengths.
 ``CP_``, ``CS_``, ``CY_`` (and ``N_CP``, ``N_CS``, ``N_CY``) are the same for the
-conventional loop (``CONV_PARAMS``, ``CONV_SIGNALS``, ``CONV_SUMMARY``), ``BP_``, ``BS_``,
-``BY_`` for the battery-electric loop (``BEV_PARAMS``, ``BEV_SIGNALS``, ``BEV_SUMMARY``). numba reads
+conventional loop (``CONV_PARAMS``, ``CONV_SIGNALS``, ``CONV_SUMMARY``); ``HP_``, ``HS_``,
+``HY_`` for the parallel-hybrid loop (``PAR_PARAMS``, ``PAR_SIGNALS``, ``PAR_SUMMARY``);
+``BP_``, ``BS_``, ``BY_`` for the battery-electric loop (``BEV_PARAMS``, ``BEV_SIGNALS``,
+``BEV_SUMMARY``). numba reads
 module globals as compile-time constants, so the kernels index with literals; the compiled
 cache follows a change here through :mod:`vehval.numba_cache`. The module holds nothing but
 these integers, so ``from vehval.sim.indices import *`` brings exactly them.
@@ -340,6 +342,127 @@ CY_TRACE_MAX_MISS_MPS = 19
 CY_TRACE_N_MISS = 20
 CY_DURATION_S = 21
 N_CY = 22
+
+# the parameter vector of the parallel-hybrid loop (layout.PAR_PARAMS)
+HP_MASS = 0
+HP_RL_A = 1
+HP_RL_B = 2
+HP_RL_C = 3
+HP_R_WHEEL = 4
+HP_FD_RATIO = 5
+HP_FD_EFF = 6
+HP_J_WHEEL = 7
+HP_BRK_MAX = 8
+HP_GB_EFF = 9
+HP_SHIFT_TIME = 10
+HP_TC_K = 11
+HP_AUTOMATIC = 12
+HP_J_ENG = 13
+HP_J_MOT = 14
+HP_ENG_IDLE = 15
+HP_ENG_MAX_SPD = 16
+HP_ENG_DRAG = 17
+HP_ENG_PMAX = 18
+HP_FUEL_LHV = 19
+HP_FUEL_CUT_SPD = 20
+HP_MECH_ACC = 21
+HP_ELEC_ACC = 22
+HP_MOT_TMAX = 23
+HP_MOT_PMAX = 24
+HP_BATT_CAP_C = 25
+HP_SOC_LO = 26
+HP_SOC_HI = 27
+HP_SOC_TARGET = 28
+HP_ASSIST_THR = 29
+HP_ASSIST_MIN = 30
+HP_ASSIST_SLOPE = 31
+HP_ASSIST_MAX = 32
+HP_ASSIST_GEAR = 33
+HP_ASSIST_SOC = 34
+HP_REGEN_THR = 35
+HP_REGEN_FRAC = 36
+HP_REGEN_SPD = 37
+HP_REGEN_SOC = 38
+HP_CHARGE_TRQ = 39
+HP_CHARGE_BAND = 40
+HP_STOP_SPD = 41
+HP_STOP_SOC = 42
+HP_RESTART_J = 43
+HP_MOT_IDLE_OFF = 44
+HP_DRV_TAU = 45
+HP_DRV_KI = 46
+HP_DRV_INT_LIM = 47
+HP_DRV_FMAX = 48
+HP_WARM_FRAC = 49
+HP_WARM_TAU = 50
+HP_SOC_INIT = 51
+N_HP = 52
+
+# the recorded signals (columns) of the parallel-hybrid loop (layout.PAR_SIGNALS)
+HS_VEH_SPD = 0
+HS_VEH_SPD_TARGET = 1
+HS_VEH_ACC = 2
+HS_VEH_FRC_IN = 3
+HS_VEH_FRC_LOSS = 4
+HS_WHL_TRQ_OUT = 5
+HS_WHL_SPD = 6
+HS_ENG_SPD_OUT = 7
+HS_ENG_TRQ_OUT = 8
+HS_ENG_PWR_OUT = 9
+HS_ENG_ON = 10
+HS_ENG_FUEL_CUT = 11
+HS_FUEL_RATE = 12
+HS_MOT_SPD_OUT = 13
+HS_MOT_TRQ_OUT = 14
+HS_MOT_PWR_IN = 15
+HS_ESS_VOLT = 16
+HS_ESS_CURR = 17
+HS_ESS_PWR = 18
+HS_ESS_SOC = 19
+HS_GB_GEAR = 20
+HS_GB_SPD_IN = 21
+HS_BRK_FRC = 22
+HS_DRV_FRC_DEMAND = 23
+HS_DRV_PWR_DEMAND = 24
+N_HS = 25
+
+# the summary accumulators of the parallel-hybrid loop (layout.PAR_SUMMARY)
+HY_FUEL_MASS_KG = 0
+HY_FUEL_ENERGY_J = 1
+HY_ESS_CHEM_ENERGY_J = 2
+HY_ESS_LOSS_J = 3
+HY_ENG_OUT_ENERGY_J = 4
+HY_ENG_LOSS_J = 5
+HY_MOT_LOSS_J = 6
+HY_AUX_MECH_ENERGY_J = 7
+HY_AUX_ELEC_ENERGY_J = 8
+HY_RESTART_LOSS_J = 9
+HY_SHAFT_KE_CHANGE_J = 10
+HY_CLUTCH_LOSS_J = 11
+HY_GEARBOX_LOSS_J = 12
+HY_BRAKE_ENERGY_J = 13
+HY_ROAD_ENERGY_J = 14
+HY_KE_START_J = 15
+HY_KE_END_J = 16
+HY_WHEEL_ENERGY_J = 17
+HY_DISTANCE_M = 18
+HY_ENG_ON_TIME_S = 19
+HY_ENGINE_STARTS = 20
+HY_ASSIST_TIME_S = 21
+HY_REGEN_TIME_S = 22
+HY_ASSIST_ENERGY_J = 23
+HY_REGEN_ENERGY_J = 24
+HY_ESS_OUT_ENERGY_J = 25
+HY_ESS_IN_ENERGY_J = 26
+HY_SOC_FINAL = 27
+HY_SOC_MIN_SEEN = 28
+HY_SOC_MAX_SEEN = 29
+HY_GEAR_SHIFTS = 30
+HY_ENG_SPD_MAX = 31
+HY_TRACE_MAX_MISS_MPS = 32
+HY_TRACE_N_MISS = 33
+HY_DURATION_S = 34
+N_HY = 35
 
 # the parameter vector of the battery-electric loop (layout.BEV_PARAMS)
 BP_MASS = 0

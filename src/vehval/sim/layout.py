@@ -5,7 +5,8 @@ of the recorded output (base names of the ``_simu`` signals); ``SUMMARY`` the en
 the accumulator vector (energies [J], masses [kg], counts, extrema); ``STATE`` the entries
 of the loop's state vector, which every phase of a step reads and writes (SI; flags and
 states as 0/1 and small integers). ``CONV_PARAMS``, ``CONV_SIGNALS``, ``CONV_SUMMARY``: the
-same three for the conventional loop; ``BEV_PARAMS``, ``BEV_SIGNALS``, ``BEV_SUMMARY`` for the
+same three for the conventional loop; ``PAR_PARAMS``, ``PAR_SIGNALS``, ``PAR_SUMMARY`` for
+the parallel-hybrid loop; ``BEV_PARAMS``, ``BEV_SIGNALS``, ``BEV_SUMMARY`` for the
 battery-electric loop.
 """
 
@@ -82,6 +83,33 @@ CONV_SUMMARY = (
     "ke_start_j", "ke_end_j", "wheel_energy_j", "distance_m", "idle_time_s",
     "fuel_cut_time_s", "unlocked_time_s", "gear_shifts", "eng_spd_max", "trace_max_miss_mps",
     "trace_n_miss", "duration_s",
+)
+# the parallel-hybrid loop (:mod:`vehval.sim.parallel_kernel`): parameters, recorded
+# signals, summary accumulators
+PAR_PARAMS = (
+    "mass", "rl_a", "rl_b", "rl_c", "r_wheel", "fd_ratio", "fd_eff", "j_wheel", "brk_max",
+    "gb_eff", "shift_time", "tc_k", "automatic", "j_eng", "j_mot", "eng_idle", "eng_max_spd",
+    "eng_drag", "eng_pmax", "fuel_lhv", "fuel_cut_spd", "mech_acc", "elec_acc",
+    "mot_tmax", "mot_pmax", "batt_cap_c", "soc_lo", "soc_hi", "soc_target",
+    "assist_thr", "assist_min", "assist_slope", "assist_max", "assist_gear", "assist_soc",
+    "regen_thr", "regen_frac", "regen_spd", "regen_soc", "charge_trq", "charge_band",
+    "stop_spd", "stop_soc", "restart_j", "mot_idle_off",
+    "drv_tau", "drv_ki", "drv_int_lim", "drv_fmax", "warm_frac", "warm_tau", "soc_init",
+)
+PAR_SIGNALS = (
+    "veh_spd", "veh_spd_target", "veh_acc", "veh_frc_in", "veh_frc_loss", "whl_trq_out",
+    "whl_spd", "eng_spd_out", "eng_trq_out", "eng_pwr_out", "eng_on", "eng_fuel_cut",
+    "fuel_rate", "mot_spd_out", "mot_trq_out", "mot_pwr_in", "ess_volt", "ess_curr", "ess_pwr",
+    "ess_soc", "gb_gear", "gb_spd_in", "brk_frc", "drv_frc_demand", "drv_pwr_demand",
+)
+PAR_SUMMARY = (
+    "fuel_mass_kg", "fuel_energy_j", "ess_chem_energy_j", "ess_loss_j", "eng_out_energy_j",
+    "eng_loss_j", "mot_loss_j", "aux_mech_energy_j", "aux_elec_energy_j", "restart_loss_j",
+    "shaft_ke_change_j", "clutch_loss_j", "gearbox_loss_j", "brake_energy_j", "road_energy_j",
+    "ke_start_j", "ke_end_j", "wheel_energy_j", "distance_m", "eng_on_time_s", "engine_starts",
+    "assist_time_s", "regen_time_s", "assist_energy_j", "regen_energy_j", "ess_out_energy_j",
+    "ess_in_energy_j", "soc_final", "soc_min_seen", "soc_max_seen", "gear_shifts",
+    "eng_spd_max", "trace_max_miss_mps", "trace_n_miss", "duration_s",
 )
 # the battery-electric loop (:mod:`vehval.sim.bev_kernel`): parameters, recorded signals,
 # summary accumulators

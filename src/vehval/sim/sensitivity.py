@@ -20,6 +20,8 @@ from typing import Any, Sequence
 import numpy as np
 
 from vehval import progress
+from vehval.constants import LB_KG
+from vehval.display import as_unit
 from vehval.errors import ConfigError
 from vehval.sim.batch import simulate_batch
 from vehval.sim.simulate import simulate
@@ -135,8 +137,8 @@ def sensitivity(vehicle: Vehicle | str, cycles: Sequence[str] = DEFAULT_CYCLES,
         for cyc in cycles:
             b = base[cyc]["mpg"]
             lo, hi = per_cycle[cyc][j], per_cycle[cyc][n + j]
-            res[cyc] = {"low_mpg": lo, "high_mpg": hi, "low_pct": 100 * (lo / b - 1),
-                        "high_pct": 100 * (hi / b - 1)}
+            res[cyc] = {"low_mpg": lo, "high_mpg": hi, "low_pct": as_unit(lo / b - 1, "%"),
+                        "high_pct": as_unit(hi / b - 1, "%")}
         swings = [abs(r["high_pct"] - r["low_pct"]) for r in res.values()
                   if np.isfinite(r["high_pct"] - r["low_pct"])]
         scale = u.spec.get("scale")
@@ -256,12 +258,12 @@ def load_derivatives(vehicle: Vehicle | str, cycles: Sequence[str] = ("udds", "h
         el = {}
         for j, k in enumerate([*LOAD_KEYS, "all"]):
             el[k] = float(np.log(mpg[2 * j + 1] / mpg[2 * j]) / step)
-        lb = 0.45359237
+        hundred_lb_kg = 100.0 * LB_KG  # 100 lb of test weight [kg]: not a unit conversion
         out[cyc] = {"mpg": float(r.summary[MPG]), "soc_initial": soc0,
                     "tractive_energy_j": tractive_energy_j(cyc, *base_vals.values()),
                     "elasticity": el,
-                    "per_100_lb_pct": 100 * el["body.mass_kg"] * 100 * lb / base_vals[
-                        "body.mass_kg"]}
+                    "per_100_lb_pct": as_unit(el["body.mass_kg"] * hundred_lb_kg
+                                             / base_vals["body.mass_kg"], "%")}
     return {"vehicle": veh.name, "dt_s": dt, "rel_step": rel_step, "cycles": out}
 
 
@@ -320,13 +322,13 @@ def configuration_pairs(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             dp = np.log(float(np.mean(g["pred"])) / p0)
 
             def name(c, labels):
-                return (f"{'/'.join(sorted(labels))} ({c[0] / 0.45359237:.0f} lb, "
+                return (f"{'/'.join(sorted(labels))} ({as_unit(c[0], 'lb'):.0f} lb, "
                         f"A {c[1]:.1f} N)")
             out.append({"procedure": proc, "reference": name(ref_cfg, ref["labels"]),
                         "config": name(cfg, g["labels"]), "n_ref": len(ref["meas"]),
-                        "n": len(g["meas"]), "tractive_change_pct": 100 * float(np.expm1(de)),
-                        "measured_change_pct": 100 * float(np.expm1(dm)),
-                        "predicted_change_pct": 100 * float(np.expm1(dp)),
+                        "n": len(g["meas"]), "tractive_change_pct": as_unit(float(np.expm1(de)), "%"),
+                        "measured_change_pct": as_unit(float(np.expm1(dm)), "%"),
+                        "predicted_change_pct": as_unit(float(np.expm1(dp)), "%"),
                         "measured_elasticity": float(-dm / de) if de else float("nan"),
                         "predicted_elasticity": float(-dp / de) if de else float("nan")})
     return out

@@ -35,6 +35,8 @@ from vehval.sim.grid import Grid, check_dt, cycle_grid, make_grid, time_grid
 from vehval.sim.kernel import run
 from vehval.sim.layout import BEV_SIGNALS, BEV_SUMMARY, SIGNALS, SUMMARY
 from vehval.sim.packing import pack
+from vehval.sim.parallel import par_maps, par_param_vector, summarise_parallel
+from vehval.sim.parallel_kernel import PAR_SIGNALS, PAR_SUMMARY, run_parallel
 from vehval.test import Signal, Test, TestMeta
 from vehval.vehicle import Vehicle, load_vehicle
 from vehval.vehicle.maps import best_line_efficiency
@@ -307,6 +309,16 @@ def _run_conventional(veh: Any, grid: Grid, soc0: float,
     return out, ys
 
 
+def _run_parallel(veh: Any, grid: Grid, soc0: float,
+                  record: bool) -> tuple[np.ndarray, np.ndarray]:
+    out = np.zeros((grid.t.size if record else 1, len(PAR_SIGNALS)))
+    compile_notice("parallel_kernel", "run_parallel", "parallel-hybrid simulation kernel")
+    ys = run_parallel(grid.vt, grid.lo, grid.hi, grid.dt,
+                      par_param_vector(veh, soc0, grid.cold_start), *par_maps(veh),  # type: ignore[call-arg]  # numba Dispatcher stub
+                      out, record)
+    return out, ys
+
+
 def _run_bev(veh: Any, grid: Grid, soc0: float,
              record: bool) -> tuple[np.ndarray, np.ndarray]:
     out = np.zeros((grid.t.size if record else 1, len(BEV_SIGNALS)))
@@ -331,6 +343,12 @@ ARCHITECTURES: dict[str, Architecture] = {
         signals=CONV_SIGNALS, summary_keys=CONV_SUMMARY, run=_run_conventional,
         summarise=lambda v, ys, s0: summarise_conventional(v, ys),
         cold_start_model=lambda v: v.engine.warmup_fuel_fraction > 0.0),
+    "parallel_hybrid": Architecture(
+        name="parallel_hybrid", label="forward-looking parallel-hybrid simulation",
+        signals=PAR_SIGNALS, summary_keys=PAR_SUMMARY, run=_run_parallel,
+        summarise=lambda v, ys, s0: summarise_parallel(v, ys, s0, energy_balance_fuel_kg),
+        cold_start_model=lambda v: v.engine.warmup_fuel_fraction > 0.0,
+        soc_final=PAR_SUMMARY.index("soc_final")),
     "battery_electric": Architecture(
         name="battery_electric", label="forward-looking battery-electric simulation",
         signals=BEV_SIGNALS, summary_keys=BEV_SUMMARY, run=_run_bev, summarise=summarise_bev,

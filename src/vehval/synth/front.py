@@ -57,6 +57,24 @@ def power_split_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str,
     return VirtualTest(doc, lines)
 
 
+def _written(kind: str, truth: dict, out: Path, next_step: str) -> VirtualTest:
+    """The document and lines of a virtual test written by a maker that returns its truth."""
+    doc = {"files": truth["files"], "template": truth["template"],
+           "truth": str(out / "truth.json")}
+    return VirtualTest(doc, [
+        f"virtual {kind} test '{truth['test_id']}' (VIRTUAL: synthetic, not a measurement) "
+        f"in {out}", next_step.format(files=" ".join(truth["files"]), template=truth["template"])])
+
+
+def _without_faults(faults: str, control: dict, kind: str | None) -> None:
+    """Refuse a fault mix (power-split tests only) and, for a car without a supervisory
+    controller (``kind``), controller overrides."""
+    if kind is not None and control:
+        raise ConfigError(f"--control: a {kind} vehicle has no supervisory controller")
+    if faults not in ("default", "none"):
+        raise ConfigError("--faults: fault files apply to power-split virtual tests only")
+
+
 def conventional_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str, out: Path,
                       control: dict, param: dict, force: bool) -> VirtualTest:
     """A conventional car on ``cycle``: dyno channels with a slow fuel bench and noise (no
@@ -64,40 +82,38 @@ def conventional_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str
     from vehval.cycles import load_cycle
     from vehval.synth.conventional import make_conventional_test
 
-    if control:
-        raise ConfigError("--control: a conventional vehicle has no supervisory controller")
-    if faults not in ("default", "none"):
-        raise ConfigError("--faults: fault files apply to power-split virtual tests only")
-    veh = veh.with_overrides(param or None)
-    truth = make_conventional_test(veh, load_cycle(cycle), seed, out)
-    doc = {"files": truth["files"], "template": truth["template"],
-           "truth": str(out / "truth.json")}
-    return VirtualTest(doc, [
-        f"virtual conventional test '{truth['test_id']}' (VIRTUAL: synthetic, not a "
-        f"measurement) in {out}",
-        f"identify it with: vehval identify {' '.join(truth['files'])} -t "
-        f"{truth['template']} --architecture conventional -o VEHICLE.yaml"])
+    _without_faults(faults, control, "conventional")
+    truth = make_conventional_test(veh.with_overrides(param or None), load_cycle(cycle), seed,
+                                   out)
+    return _written("conventional", truth, out, "identify it with: vehval identify {files} -t "
+                    "{template} --architecture conventional -o VEHICLE.yaml")
 
 
 def battery_electric_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str,
                           out: Path, control: dict, param: dict, force: bool) -> VirtualTest:
     """A battery-electric car on ``cycle``: dyno speed and force, battery volts and amps with
-    noise, and the SAE J1634 answer key, written into ``out`` (no fault mix, no controller)."""
+    noise, and the SAE J1634 answer key, written into ``out`` (no fault mix, no controller),
+    vehicle overrides ``param``."""
     from vehval.cycles import load_cycle
     from vehval.synth.bev import make_bev_test
 
-    if control:
-        raise ConfigError("--control: a battery-electric vehicle has no supervisory controller")
-    if faults not in ("default", "none"):
-        raise ConfigError("--faults: fault files apply to power-split virtual tests only")
-    if param:
-        raise ConfigError("--param: vehicle overrides apply to hybrid and conventional "
-                          "virtual tests; edit the battery-electric vehicle file instead")
-    truth = make_bev_test(veh, load_cycle(cycle), seed, out)
-    doc = {"files": truth["files"], "template": truth["template"],
-           "truth": str(out / "truth.json")}
-    return VirtualTest(doc, [
-        f"virtual battery-electric test '{truth['test_id']}' (VIRTUAL: synthetic, not a "
-        f"measurement) in {out}",
-        f"its SAE J1634 figures: vehval results {' '.join(truth['files'])} -t "
-        f"{truth['template']}"])
+    _without_faults(faults, control, "battery-electric")
+    truth = make_bev_test(veh.with_overrides(param or None), load_cycle(cycle), seed, out)
+    return _written("battery-electric", truth, out,
+                    "its SAE J1634 figures: vehval results {files} -t {template}")
+
+
+def parallel_hybrid_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str,
+                         out: Path, control: dict, param: dict, force: bool) -> VirtualTest:
+    """A parallel hybrid on ``cycle``: the 10 Hz log channels with noise and the controller's
+    rules as the answer key (no fault mix), controller overrides ``control`` and vehicle
+    overrides ``param``, written into ``out``."""
+    from vehval.cycles import load_cycle
+    from vehval.synth.parallel import make_parallel_test
+
+    _without_faults(faults, control, None)
+    over = {**{f"controller.{k}": v for k, v in (control or {}).items()}, **(param or {})}
+    truth = make_parallel_test(veh.with_overrides(over or None), load_cycle(cycle), seed, out,
+                               vehicle_ref=str(vehicle))
+    return _written("parallel-hybrid", truth, out, "analyze it with: vehval analyze {files} -t "
+                    "{template} -o OUTDIR")

@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import Any, Sequence
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError, model_validator
 
 from vehval.errors import ConfigError
 
@@ -178,3 +178,38 @@ def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ..
     new = veh.model_copy(update=update)
     new._file = veh._file
     return new
+
+
+class BlockVehicle(BaseModel):
+    """A vehicle made of parameter blocks (``_blocks()``): the file it came from, its flat
+    parameters and their sources, and validated copies with parameters overridden."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    _file: str = PrivateAttr(default="")
+
+    def _blocks(self) -> tuple[str, ...]:  # the vehicle's block names, in file order
+        raise NotImplementedError
+
+    @property
+    def file(self) -> str:
+        """File the vehicle was loaded from ('' when built in code)."""
+        return self._file
+
+    def parameters(self) -> dict:
+        """Flat dict of every scalar parameter by dotted path (e.g. ``body.mass_kg``)."""
+        out = {}
+        for blk in self._blocks():
+            for key, val in getattr(self, blk).model_dump(exclude={"sources"}).items():
+                if isinstance(val, (int, float)) and not isinstance(val, bool):
+                    out[f"{blk}.{key}"] = val
+        return out
+
+    def sources(self) -> dict[str, str]:
+        """Source of every parameter by dotted path."""
+        return {f"{blk}.{k}": v for blk in self._blocks()
+                for k, v in getattr(self, blk).sources.items()}
+
+    def with_overrides(self, overrides: dict | None) -> Any:
+        """A validated copy with parameters replaced by dotted path (``body.mass_kg``)."""
+        return apply_overrides(self, overrides, self._blocks())

@@ -26,11 +26,11 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
+from pydantic import ConfigDict, Field, model_validator
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.integrals import integral
-from vehval.vehicle.base import Block, apply_overrides
+from vehval.vehicle.base import Block, BlockVehicle
 from vehval.vehicle.components import BatteryParams, BodyParams, DrivelineParams, MachineParams
 from vehval.vehicle.control import DriverParams
 from vehval.vehicle.machine_fit import LossSurface, loss_table, scaled_losses
@@ -74,7 +74,7 @@ class ChargerParams(Block):
     soc_initial: float = Field(ge=0, le=1)  # [-] SOC at the start of a run
 
 
-class BatteryElectricVehicle(BaseModel):
+class BatteryElectricVehicle(BlockVehicle):
     """A battery-electric car: battery, motor with inverter, single reduction."""
 
     model_config = ConfigDict(extra="forbid")
@@ -90,7 +90,9 @@ class BatteryElectricVehicle(BaseModel):
     charger: ChargerParams
     driver: DriverParams
     identification: dict = Field(default_factory=dict)
-    _file: str = PrivateAttr(default="")
+
+    def _blocks(self) -> tuple[str, ...]:
+        return BEV_BLOCKS
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -102,29 +104,6 @@ class BatteryElectricVehicle(BaseModel):
             raise ValueError("'driveline.mg2_reduction_ratio' is a power-split key: a "
                              "battery-electric car has one reduction, 'final_drive_ratio'")
         return self
-
-    @property
-    def file(self) -> str:
-        """File the vehicle was loaded from ('' when built in code)."""
-        return self._file
-
-    def parameters(self) -> dict:
-        """Flat dict of every scalar parameter by dotted path (e.g. ``body.mass_kg``)."""
-        out = {}
-        for blk in BEV_BLOCKS:
-            for key, val in getattr(self, blk).model_dump(exclude={"sources"}).items():
-                if isinstance(val, (int, float)) and not isinstance(val, bool):
-                    out[f"{blk}.{key}"] = val
-        return out
-
-    def sources(self) -> dict[str, str]:
-        """Source of every parameter by dotted path."""
-        return {f"{blk}.{k}": v for blk in BEV_BLOCKS
-                for k, v in getattr(self, blk).sources.items()}
-
-    def with_overrides(self, overrides: dict | None) -> BatteryElectricVehicle:
-        """A validated copy with parameters replaced by dotted path (``charger.efficiency``)."""
-        return apply_overrides(self, overrides, BEV_BLOCKS)
 
     def usable_energy_j(self) -> float:
         """Energy [J] between ``soc_min`` and ``soc_max`` at the open-circuit voltage."""

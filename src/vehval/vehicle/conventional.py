@@ -24,10 +24,10 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, model_validator
+from pydantic import ConfigDict, Field, model_validator
 
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.vehicle.base import Block, apply_overrides
+from vehval.vehicle.base import Block, BlockVehicle
 from vehval.vehicle.components import BodyParams, DrivelineParams, EngineParams
 from vehval.vehicle.control import DriverParams
 
@@ -104,7 +104,7 @@ class ConverterParams(Block):
         return self
 
 
-class ConventionalVehicle(BaseModel):
+class ConventionalVehicle(BlockVehicle):
     """A conventional car: engine, torque converter, automatic gearbox, final drive."""
 
     model_config = ConfigDict(extra="forbid")
@@ -120,7 +120,9 @@ class ConventionalVehicle(BaseModel):
     driveline: DrivelineParams
     driver: DriverParams
     identification: dict = Field(default_factory=dict)
-    _file: str = PrivateAttr(default="")
+
+    def _blocks(self) -> tuple[str, ...]:
+        return CONVENTIONAL_BLOCKS
 
     @model_validator(mode="after")
     def _consistent(self):
@@ -129,32 +131,9 @@ class ConventionalVehicle(BaseModel):
             raise ValueError(f"'converter.lockup_speed_mps' needs one entry per gear ({n})")
         return self
 
-    @property
-    def file(self) -> str:
-        """File the vehicle was loaded from ('' when built in code)."""
-        return self._file
-
-    def parameters(self) -> dict:
-        """Flat dict of every scalar parameter by dotted path (e.g. ``body.mass_kg``)."""
-        out = {}
-        for blk in CONVENTIONAL_BLOCKS:
-            for key, val in getattr(self, blk).model_dump(exclude={"sources"}).items():
-                if isinstance(val, (int, float)) and not isinstance(val, bool):
-                    out[f"{blk}.{key}"] = val
-        return out
-
-    def sources(self) -> dict[str, str]:
-        """Source of every parameter by dotted path."""
-        return {f"{blk}.{k}": v for blk in CONVENTIONAL_BLOCKS
-                for k, v in getattr(self, blk).sources.items()}
-
     def overall_ratios(self) -> np.ndarray:
         """Engine-to-wheel speed ratio of every gear [-] (gearbox x final drive)."""
         return np.asarray(self.gearbox.ratios, float) * self.driveline.final_drive_ratio
-
-    def with_overrides(self, overrides: dict | None) -> ConventionalVehicle:
-        """A validated copy with parameters replaced by dotted path (``gearbox.efficiency``)."""
-        return apply_overrides(self, overrides, CONVENTIONAL_BLOCKS)
 
     def signal_limits(self) -> dict[str, tuple[float, float]]:
         """Physical limits per signal base name, SI units (for QA range checks)."""

@@ -34,6 +34,7 @@ from vehval.vehicle.components import (
 from vehval.vehicle.control import ControllerParams, DriverParams
 from vehval.vehicle.conventional import ConventionalVehicle
 from vehval.vehicle.maps import best_efficiency_line
+from vehval.vehicle.parallel import ParallelHybridVehicle
 from vehval.vehicle.variant import resolve_variant
 
 BLOCKS = ("body", "engine", "mg1", "mg2", "battery", "boost", "planetary", "driveline",
@@ -136,9 +137,9 @@ _BEST_LINE_KEYS = {f"engine.{k}" for k in (
 
 
 ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]
-                   | type[BatteryElectricVehicle]] = {
+                   | type[ParallelHybridVehicle] | type[BatteryElectricVehicle]] = {
     "power_split": Vehicle, "conventional": ConventionalVehicle,
-    "battery_electric": BatteryElectricVehicle}
+    "parallel_hybrid": ParallelHybridVehicle, "battery_electric": BatteryElectricVehicle}
 
 #: Signal categories (signals.yaml) a powertrain of each architecture does not have: a
 #: template of that architecture may not map them and QA runs no check on them. The one
@@ -146,11 +147,20 @@ ARCHITECTURES: dict[str, type[Vehicle] | type[ConventionalVehicle]
 ABSENT_CATEGORIES: dict[str, tuple[str, ...]] = {
     "battery_electric": ("engine", "fuel", "generator", "planetary", "converter", "gearbox"),
     "conventional": ("generator", "planetary"),
+    "parallel_hybrid": ("generator", "planetary"),
 }
 #: What a template of each architecture must map: alternatives of signal base names (one
 #: alternative complete is enough).
 REQUIRED_SIGNALS: dict[str, tuple[tuple[str, ...], ...]] = {
     "battery_electric": (("ess_volt", "ess_curr"), ("ess_pwr",)),
+    "parallel_hybrid": (("ess_curr",), ("ess_pwr",)),
+}
+
+#: The relation set (``data/calculations/<name>.yaml``) QA runs on a test of each stated
+#: architecture; one not listed (``power_split``) is chosen from the vehicle and signals.
+CALC_SETS: dict[str, str] = {
+    "conventional": "conventional", "battery_electric": "conventional",
+    "parallel_hybrid": "parallel_hybrid",
 }
 
 
@@ -245,7 +255,7 @@ def _read_base(name: str, here: Path) -> tuple[Any, str]:
 
 
 def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle
-                 | BatteryElectricVehicle):
+                 | ParallelHybridVehicle | BatteryElectricVehicle):
     """Load a vehicle by name (shipped file) or from a YAML path.
 
     Raises
@@ -254,7 +264,8 @@ def load_vehicle(name_or_path: str | Path | Vehicle | ConventionalVehicle
         Unknown name, unreadable file, or any invalid / missing / unknown key (the message
         names the key and the file).
     """
-    if isinstance(name_or_path, (Vehicle, ConventionalVehicle, BatteryElectricVehicle)):
+    if isinstance(name_or_path, (Vehicle, ConventionalVehicle, ParallelHybridVehicle,
+                                BatteryElectricVehicle)):
         return name_or_path
     path = _find(str(name_or_path))
     data = read_yaml(path)
