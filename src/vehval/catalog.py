@@ -78,6 +78,8 @@ HEADLINE_COLUMNS: dict[str, str] = {
     "headline_u_mpge": "its expanded uncertainty U, k = 2 [mile/gal equivalent]",
     "headline_kwh_per_100km": "SAE J1634 AC (wall) energy consumption [kWh/100 km]",
     "headline_u_kwh_per_100km": "its expanded uncertainty U, k = 2 [kWh/100 km]",
+    "headline_kwh_per_100mi": "the same in [kWh/100 mi]",
+    "headline_u_kwh_per_100mi": "its expanded uncertainty U, k = 2 [kWh/100 mi]",
     "headline_battery_share": "net battery energy over the fuel energy of the whole test "
                               "(SAE J1711 NEC ratio, signed: positive discharged) [-]",
 }
@@ -381,7 +383,8 @@ class Catalog:
                 None if held else _num(head.get("fuel_economy_u_mpg")),
                 None if held else _num(head.get("fuel_consumption_l_per_100km")),
                 *(_num(elec.get(k)) for k in ("mpge", "u_mpge", "kwh_per_100km",
-                                              "u_kwh_per_100km")),
+                                              "u_kwh_per_100km", "kwh_per_100mi",
+                                              "u_kwh_per_100mi")),
                 _num(res.get("battery_share")),
                 (held or {}).get("reason"), res.get("withheld_count")]
         row += [len(findings), to_json(result.get("findings_by_severity") or {}),

@@ -27,7 +27,8 @@ COLUMNS = ("test_id", "status", "vehicle", "cycle", "start_condition", "cell_tem
            "fuel_consumption_l_per_100km", "soc_change", "n_findings", "error",
            "headline_name", "headline_mpg", "headline_u_mpg", "headline_l_per_100km",
            "headline_j1634_scope", "headline_mpge", "headline_u_mpge", "headline_kwh_per_100km",
-           "headline_u_kwh_per_100km", "headline_battery_share", "withheld_reason")
+           "headline_u_kwh_per_100km", "headline_kwh_per_100mi", "headline_u_kwh_per_100mi",
+           "headline_battery_share", "withheld_reason")
 #: What the page shows (``view``): key -> (heading, SI unit or None, digits); units are the
 #: user's display units (:mod:`vehval.display`).
 VIEW = {"test_id": ("test", None, 0), "status": ("status", None, 0),
@@ -106,19 +107,14 @@ def rows(db: Path, filters: dict[str, str]) -> dict:
 
 
 def _electric(row: dict) -> dict | None:
-    """The row's SAE J1634 headline figures as :attr:`Headline.electric` holds them (kWh/100 mi
-    from the stored kWh/100 km), None for a row without them."""
-    from vehval.constants import MILE_M
-
-    if row.get("headline_mpge") is None or row.get("headline_kwh_per_100km") is None:
+    """The row's SAE J1634 headline figures as :attr:`Headline.electric` holds them, None for
+    a row without them."""
+    keys = ("mpge", "kwh_per_100km", "kwh_per_100mi")
+    if any(row.get(f"headline_{k}") is None for k in keys):
         return None
-    per_mi = MILE_M / 1000.0   # kWh/100 km -> kWh/100 mi
-    u_km = row.get("headline_u_kwh_per_100km")
     return {"scope": row.get("headline_j1634_scope") or "test",
-            "mpge": row["headline_mpge"], "u_mpge": row.get("headline_u_mpge"),
-            "kwh_per_100km": row["headline_kwh_per_100km"], "u_kwh_per_100km": u_km,
-            "kwh_per_100mi": row["headline_kwh_per_100km"] * per_mi,
-            "u_kwh_per_100mi": None if u_km is None else u_km * per_mi}
+            **{k: row[f"headline_{k}"] for k in keys},
+            **{f"u_{k}": row.get(f"headline_u_{k}") for k in keys}}
 
 
 def _headline_cell(row: dict) -> str:
