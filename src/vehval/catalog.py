@@ -36,7 +36,7 @@ from typing import Any, Iterable, Iterator
 from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.jsonsafe import clean
 
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 #: Key metrics stored as DOUBLE columns of ``tests`` (name -> description [unit]).
 METRIC_COLUMNS: dict[str, str] = {
@@ -73,6 +73,15 @@ HEADLINE_COLUMNS: dict[str, str] = {
     "headline_mpg": "headline fuel economy [mile/US gal]; NULL when withheld",
     "headline_u_mpg": "its expanded uncertainty U, k = 2 [mile/US gal]",
     "headline_l_per_100km": "headline fuel consumption [L/100 km]; NULL when withheld",
+    "headline_mpge": "SAE J1634 MPGe of a test without fuel economy (battery-electric) "
+                     "[mile/gal equivalent at 33.705 kWh]",
+    "headline_u_mpge": "its expanded uncertainty U, k = 2 [mile/gal equivalent]",
+    "headline_kwh_per_100km": "SAE J1634 AC (wall) energy consumption [kWh/100 km]",
+    "headline_u_kwh_per_100km": "its expanded uncertainty U, k = 2 [kWh/100 km]",
+    "headline_kwh_per_100mi": "the same in [kWh/100 mi]",
+    "headline_u_kwh_per_100mi": "its expanded uncertainty U, k = 2 [kWh/100 mi]",
+    "headline_battery_share": "net battery energy over the fuel energy of the whole test "
+                              "(SAE J1711 NEC ratio, signed: positive discharged) [-]",
 }
 
 #: The validate step's normalised error of the fuel mass in ``tests`` (name -> description);
@@ -93,7 +102,7 @@ EN_FLAGS: dict[str, str] = {
 }
 
 #: Metrics summarised by :func:`summary` (variability per vehicle, cycle and conditions).
-SUMMARY_METRICS = ("headline_mpg", "fuel_economy_mpg", "fuel_mass_kg", "soc_change",
+SUMMARY_METRICS = ("headline_mpg", "headline_mpge", "fuel_economy_mpg", "fuel_mass_kg", "soc_change",
                    "fuel_energy_j", "ess_energy_j", "eng_energy_j", "tractive_energy_j")
 
 _DDL = [
@@ -110,7 +119,7 @@ _DDL = [
     "    input_hash VARCHAR, elapsed_s DOUBLE,\n"
     + "".join(f"    {c} DOUBLE,\n" for c in METRIC_COLUMNS)
     + "    fuel VARCHAR, cell_temp_c DOUBLE, start_condition VARCHAR, ac VARCHAR,\n"
-    "    headline_name VARCHAR, headline_rule VARCHAR,\n"
+    "    headline_name VARCHAR, headline_rule VARCHAR, headline_j1634_scope VARCHAR,\n"
     + "".join(f"    {c} DOUBLE,\n" for c in HEADLINE_COLUMNS)
     + "    withheld_reason VARCHAR, withheld_count INTEGER,\n"
     "    n_findings INTEGER, n_findings_by_severity JSON, qa_summary JSON,\n"
@@ -367,11 +376,16 @@ class Catalog:
         res = result.get("results") or {}
         head = res.get("headline") or {}
         held = head.get("withheld") if not head.get("forced") else None
+        elec = res.get("electric") or {}
         row += [res.get("fuel"), _num(res.get("cell_temp_c")), res.get("start"), res.get("ac"),
-                head.get("name"), head.get("rule"),
+                head.get("name"), head.get("rule"), elec.get("scope"),
                 None if held else _num(head.get("fuel_economy_mpg")),
                 None if held else _num(head.get("fuel_economy_u_mpg")),
                 None if held else _num(head.get("fuel_consumption_l_per_100km")),
+                *(_num(elec.get(k)) for k in ("mpge", "u_mpge", "kwh_per_100km",
+                                              "u_kwh_per_100km", "kwh_per_100mi",
+                                              "u_kwh_per_100mi")),
+                _num(res.get("battery_share")),
                 (held or {}).get("reason"), res.get("withheld_count")]
         row += [len(findings), to_json(result.get("findings_by_severity") or {}),
                 to_json(result.get("qa_summary")), to_json(validation), to_json(val_errors),
@@ -383,7 +397,8 @@ class Catalog:
                 for c in EN_FLAGS]
         cols = (["test_id", "run_id", "status", "error", "error_type", "source_run_id", "vehicle",
                  "cycle", "files", "file_hashes", "input_hash", "elapsed_s"] + list(METRIC_COLUMNS)
-                + ["fuel", "cell_temp_c", "start_condition", "ac", "headline_name", "headline_rule"]
+                + ["fuel", "cell_temp_c", "start_condition", "ac", "headline_name", "headline_rule",
+                   "headline_j1634_scope"]
                 + list(HEADLINE_COLUMNS)
                 + ["withheld_reason", "withheld_count", "n_findings", "n_findings_by_severity",
                    "qa_summary", "validation", "validation_errors", "outputs"]

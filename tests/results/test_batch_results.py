@@ -41,7 +41,7 @@ def test_batch_writes_phase_results_and_groups_them(tmp_path):
     doc = json.loads((out / "tests" / "u0" / "results.json").read_text())
     assert [p["name"] for p in doc["phases"]] == ["bag1", "bag2"]
     with open_catalog(out / "catalog.duckdb", read_only=True) as cat:
-        assert cat.query("SELECT version FROM schema_info")[1] == [(SCHEMA_VERSION,)] == [(4,)]
+        assert cat.query("SELECT version FROM schema_info")[1] == [(SCHEMA_VERSION,)] == [(5,)]
         _, rows = cat.query("SELECT test_id, scope, kind, fuel_economy_mpg, fuel_economy_u_mpg "
                             "FROM phase_results WHERE run_id = ? ORDER BY 1, 3, 2", [s.run_id])
         scopes = {(r[0], r[1], r[2]) for r in rows}

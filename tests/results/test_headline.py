@@ -106,3 +106,41 @@ def test_withheld_and_forced_headlines():
     doc["headline"].update(fuel_economy_mpg=60.0, forced=True)
     h = headline_of(doc)
     assert h is not None and h.kind == "forced" and h.lines()[0].startswith("STATED DESPITE")
+
+
+def _bev_doc(u_rel=0.01):
+    """A battery-electric results document: no fuel economy, SAE J1634 figures per scope."""
+    doc = _doc(soc_correction={"status": "undetermined", "message": "no fuel energy"})
+    doc["headline"].update(fuel_economy_mpg=None, fuel_economy_u_mpg=None,
+                           fuel_consumption_l_per_100km=None)
+    scope = {"mpge": 183.3, "ac_kwh_per_100mi": 18.39, "ac_kwh_per_100km": 11.43,
+             "ac_basis": "DC / charger efficiency 0.88"}
+    if u_rel is not None:
+        scope["U_rel_dc_energy"] = u_rel
+    doc["j1634"] = {"standard": "SAE J1634", "charger_efficiency": 0.88,
+                    "scopes": {"bag1": dict(scope, mpge=160.0), "test": scope}}
+    return doc
+
+
+def test_a_battery_electric_headline_is_in_j1634_terms():
+    """MPGe and kWh per distance with U in the user's system, the J1634 rule, no fuel
+    economy and no SAE J1711 caveat (a fuel-energy ratio a BEV has not)."""
+    h = headline_of(_bev_doc(), system_name="us",
+                    model={"verdict": "consistent", "en": 0.2, "error_pct": 0.4,
+                           "quantity": "DC energy"})
+    assert h is not None and h.kind == "headline" and h.scope == "test"
+    assert h.figure() == "183.3 ± 1.8 MPGe (18.39 ± 0.18 kWh/100 mi)"
+    assert "SAE J1634" in h.rule and "0.88" in h.rule
+    assert h.j1711 is None and not any("J1711" in c for c in h.caveats)
+    assert h.lines()[0] == "headline test: 183.3 +- 1.8 MPGe (18.39 +- 0.18 kWh/100 mi)"
+    assert "DC energy +0.4 % against the test" in (h.verdict_text() or "")
+    assert h.to_dict()["electric"]["u_mpge"] == pytest.approx(1.833)
+    metric = headline_of(_bev_doc(), system_name="metric")
+    assert metric is not None
+    assert metric.figure() == "11.43 ± 0.11 kWh/100 km (183.3 ± 1.8 MPGe)"
+    no_u = headline_of(_bev_doc(u_rel=None), system_name="us")
+    assert no_u is not None and no_u.figure() == "183.3 MPGe (18.39 kWh/100 mi)"
+    # a car burning fuel keeps its fuel economy even beside J1634 figures
+    both = _bev_doc()
+    both["headline"]["fuel_economy_mpg"] = 50.0
+    assert headline_of(both, system_name="us").figure().startswith("50.00")

@@ -77,3 +77,33 @@ def browser():
             pytest.skip(f"chromium does not start: {exc}")
         yield b
         b.close()
+
+
+@pytest.fixture(scope="session")
+def bev_ws(tmp_path_factory) -> Path:
+    """``WS/bev/``: a virtual UDDS test of the test BEV (``vehval.synth.bev``, an answer key
+    of SAE J1634 figures) under its template (``architecture: battery_electric``) naming the
+    vehicle file ``test_bev.yaml`` as the command line names one run from ``WS`` (a test
+    using it works from there: ``monkeypatch.chdir``). Returns the workspace;
+    ``WS/truth.json`` is the key."""
+    import json
+
+    import yaml
+
+    from helpers.bev import bev_data
+    from vehval.cycles import load_cycle
+    from vehval.synth.bev import make_bev_test
+    from vehval.vehicle import load_vehicle
+
+    ws = tmp_path_factory.mktemp("bevws")
+    vfile = ws / "test_bev.yaml"
+    vfile.write_text(yaml.safe_dump(bev_data(), sort_keys=False), encoding="utf-8")
+    truth = make_bev_test(load_vehicle(vfile), load_cycle("udds"), 5, ws / "bev")
+    for name in ("README.txt", "truth.json"):
+        (ws / "bev" / name).unlink()
+    data = yaml.safe_load((ws / "bev" / "template.yaml").read_text(encoding="utf-8"))
+    data["vehicle"] = vfile.name
+    (ws / "bev" / "template.yaml").write_text(yaml.safe_dump(data, sort_keys=False),
+                                              encoding="utf-8")
+    (ws / "truth.json").write_text(json.dumps(truth["j1634"]), encoding="utf-8")
+    return ws

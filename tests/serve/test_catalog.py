@@ -87,3 +87,44 @@ def test_catalog_view_is_in_display_units(batch_ws):
     ov = c.get("/api/catalog/overlay", params={"db": "out/catalog.duckdb",
                                                "tests": "udds,japan1015", "q": "soc"}).json()
     assert ov["traces"] == 2 and ov["missing"] == []
+
+
+def test_headline_column_shows_each_kind_with_its_own_figures(batch_ws, bev_ws, tmp_path,
+                                                             monkeypatch):
+    """A battery-electric row: MPGe and kWh per distance with U (SAE J1634); a hybrid row:
+    its fuel economy and the battery's share of the fuel energy (SAE J1711 NEC ratio)."""
+    import json
+    import shutil
+
+    from vehval.batch import run_batch
+
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
+    monkeypatch.chdir(bev_ws)   # the template names its vehicle file from there
+    ws = tmp_path / "ws"
+    shutil.copytree(bev_ws / "bev", ws / "in" / "bev", ignore=shutil.ignore_patterns("qa"))
+    (ws / "in" / "bev" / "template.yaml").rename(ws / "template.yaml")
+    run_batch(ws / "in", ws / "template.yaml", ws / "out", steps=["qa"], workers=0,
+              progress=False)
+    key = json.loads((bev_ws / "truth.json").read_text(encoding="utf-8"))["test"]
+    r = _client(ws).get("/api/catalog", params={"db": "out/catalog.duckdb"}).json()
+    row, cell = r["rows"][0], r["view"]["rows"][0]["headline"]
+    assert row["headline_mpg"] is None and row["headline_j1634_scope"] == "test"
+    assert row["headline_mpge"] == pytest.approx(key["mpge"], rel=0.005)
+    assert row["headline_kwh_per_100km"] == pytest.approx(key["ac_kwh_per_100km"], rel=0.005)
+    assert row["headline_u_mpge"] > 0 and row["headline_battery_share"] is None
+    assert cell.startswith(f"whole test: {row['headline_mpge']:.1f} ± ") and "MPGe" in cell
+    assert "kWh/100 mi" in cell and "mpg " not in cell + " "
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    metric = _client(ws).get("/api/catalog", params={"db": "out/catalog.duckdb"}).json()
+    assert metric["view"]["rows"][0]["headline"].split(" (")[0].endswith("kWh/100 km")
+    # the hybrid keeps its fuel economy, with the battery's share of the fuel energy
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
+    hyb = _client(batch_ws).get("/api/catalog", params={"db": "out/catalog.duckdb"}).json()
+    udds, cells = next((x, v) for x, v in zip(hyb["rows"], hyb["view"]["rows"])
+                       if x["test_id"] == "udds")
+    assert udds["headline_mpg"] is not None and udds["headline_mpge"] is None
+    assert " mpg" in cells["headline"] and "MPGe" not in cells["headline"]
+    share = udds["headline_battery_share"]
+    assert share is not None and cells["headline_battery_share"] == f"{100 * share:,.2f}"
+    assert {"key": "headline_battery_share", "label": "battery share [%]"} in hyb["view"]["columns"]
+    assert r["view"]["rows"][0]["headline_battery_share"] == ""   # none for a BEV

@@ -303,8 +303,27 @@ def results_summary(res: Any) -> dict:
         rows.append(row)
     return {"phase_source": res.phase_source, "fuel": res.fuel.name if res.fuel else None,
             "cell_temp_c": res.conditions.get("cell_temp_c"), "start": res.conditions.get("start"),
-            "ac": res.conditions.get("ac"), "headline": res.headline(),
+            "ac": res.conditions.get("ac"), "headline": (head := res.headline()),
+            "electric": _electric(res, head), "battery_share": _battery_share(res),
             "withheld_count": len(res.withheld), "forced": res.forced, "rows": rows}
+
+
+def _electric(res: Any, head: dict) -> dict | None:
+    """The SAE J1634 figures the headline states for a test without fuel economy (a
+    battery-electric test; :func:`vehval.results.headline.electric_figures`), else None."""
+    from vehval.results.headline import electric_figures
+
+    if head.get("fuel_economy_mpg") is not None or not res.j1634:
+        return None
+    return electric_figures({"j1634": res.j1634}, str(head.get("name") or "test"))
+
+
+def _battery_share(res: Any) -> float | None:
+    """The whole test's net battery energy over its fuel energy (SAE J1711 NEC ratio of the
+    results' SOC check), None where the results give none (no battery, no fuel)."""
+    scopes = (res.soc or {}).get("scopes") or {}
+    v = (scopes.get("test") or {}).get("nec_ratio")
+    return float(v) if isinstance(v, (int, float)) else None
 
 
 def process_test(job: dict) -> dict:

@@ -2,11 +2,13 @@
 
 The command line (``vehval results``, ``vehval report``), the report's banner and the
 workbench's page all state the same headline from a ``results.json`` document: the
-regulatory figure of the test's cycle with its expanded uncertainty U (k = 2), the
+regulatory figure of the test's cycle with its expanded uncertainty U (k = 2) (fuel economy
+for a car that burns fuel; SAE J1634 MPGe and kWh per distance for a battery-electric test), the
 regulation clause it follows, every caveat (start condition, cell temperature, SAE J1711
 status, substitutes, no identified cycle), and, when a model comparison ran, its verdict with
 the fuel mass's normalised error En. The figure is written in the user's unit system
-(:mod:`vehval.display`: ``us`` puts mpg first, ``metric`` L/100 km).
+(:mod:`vehval.display`: ``us`` puts mpg (MPGe, kWh/100 mi) first, ``metric`` L/100 km
+(kWh/100 km)).
 
 :func:`headline_of` builds a :class:`Headline` from the document; its :meth:`Headline.lines`
 (command line), :meth:`Headline.banner` (report) and :meth:`Headline.to_dict` (page, JSON)
@@ -19,7 +21,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Headline", "headline_of", "j1711_caveat"]
+__all__ = ["Headline", "electric_figures", "headline_of", "j1711_caveat"]
 
 #: SAE J1711 statuses that qualify the figure (the others stand it unqualified).
 _J1711_CAVEAT = ("beyond_tolerance_uncorrected", "corrected", "undetermined")
@@ -47,7 +49,7 @@ class Headline:
     ----------
     kind : str
         ``headline`` (a figure stated), ``withheld`` (QA errors: no figure), ``forced``
-        (stated despite QA errors, ``--force``) or ``none`` (no fuel economy).
+        (stated despite QA errors, ``--force``) or ``none`` (no fuel economy nor J1634 figure).
     scope : str
         The composite (``udds``, ``hwfet``...) or ``test``.
     mpg, u_mpg : float or None
@@ -71,6 +73,11 @@ class Headline:
         ``error_pct`` when a comparison ran.
     system : str
         The unit system the text is written in (``us`` or ``metric``).
+    electric : dict or None
+        SAE J1634 figures of a test without fuel economy (a battery-electric test):
+        ``mpge``, ``kwh_per_100mi``, ``kwh_per_100km`` (AC, wall), each with ``u_<name>``
+        (U, k = 2, from the DC energy's relative U; None when the results give none),
+        ``scope`` (the J1634 scope) and ``basis`` (how the AC energy was obtained).
     """
 
     kind: str
@@ -87,6 +94,7 @@ class Headline:
     model: dict | None = None
     system: str = "us"
     forced: bool = False
+    electric: dict | None = None
 
     @property
     def shown(self) -> str:
@@ -95,12 +103,20 @@ class Headline:
 
     def figure(self, pm: str = "±") -> str:
         """``"24.60 ± 0.30 mpg (9.56 ± 0.12 L/100 km)"``, L/100 km first in ``metric``;
-        ``"fuel economy n/a"`` without a figure. ``pm`` is the plus-minus sign."""
+        ``"fuel economy n/a"`` without a figure. ``pm`` is the plus-minus sign. A
+        battery-electric test: ``"183.3 ± 1.7 MPGe (18.39 ± 0.17 kWh/100 mi)"`` (``us``) or
+        ``"11.42 ± 0.11 kWh/100 km (183.3 ± 1.7 MPGe)"`` (``metric``)."""
+        def one(v: float, u: float | None, unit: str, nd: int = 2) -> str:
+            return f"{v:.{nd}f} {pm} {u:.{nd}f} {unit}" if u is not None else f"{v:.{nd}f} {unit}"
+
+        if self.mpg is None and self.electric:
+            e = self.electric
+            mpge = one(e["mpge"], e.get("u_mpge"), "MPGe", 1)
+            if self.system == "metric":
+                return f"{one(e['kwh_per_100km'], e.get('u_kwh_per_100km'), 'kWh/100 km')} ({mpge})"
+            return f"{mpge} ({one(e['kwh_per_100mi'], e.get('u_kwh_per_100mi'), 'kWh/100 mi')})"
         if self.mpg is None:
             return "fuel economy n/a"
-
-        def one(v: float, u: float | None, unit: str) -> str:
-            return f"{v:.2f} {pm} {u:.2f} {unit}" if u is not None else f"{v:.2f} {unit}"
 
         first = one(self.mpg, self.u_mpg if self.u_mpg is not None else 0.0, "mpg")
         if self.l_per_100km is None:
@@ -120,7 +136,7 @@ class Headline:
         if en is not None:
             parts.append(f"En = {en:+.2f}")
         if err is not None:
-            parts.append(f"fuel {err:+.1f} % against the test")
+            parts.append(f"{m.get('quantity') or 'fuel'} {err:+.1f} % against the test")
         return ", ".join(parts)
 
     # ------------------------------------------------------------------ renderings
@@ -176,6 +192,7 @@ class Headline:
                 "fuel_economy_mpg": self.mpg, "fuel_economy_u_mpg": self.u_mpg,
                 "fuel_consumption_l_per_100km": self.l_per_100km,
                 "fuel_consumption_u_l_per_100km": self.u_l_per_100km,
+                "electric": dict(self.electric) if self.electric else None,
                 "figure": self.figure(), "rule": self.rule, "caveats": list(self.caveats),
                 "j1711": self.j1711, "withheld": self.withheld,
                 "withheld_count": self.withheld_count, "model": self.model,
@@ -194,6 +211,27 @@ def _u_l_per_100km(doc: dict, scope: str) -> float | None:
         if u is not None:
             return u
     return None
+
+
+def electric_figures(doc: dict, scope: str) -> dict | None:
+    """The SAE J1634 figures of ``scope`` in a results document (``scope`` when J1634 has it,
+    else the whole test), with U (k = 2) from the DC energy's relative U; None without J1634
+    figures (:attr:`Headline.electric`)."""
+    j = doc.get("j1634") or {}
+    scopes = j.get("scopes") or {}
+    key = scope if scope in scopes else "test"
+    s = scopes.get(key) or {}
+    vals = {n: _num(s.get(n)) for n in ("mpge", "ac_kwh_per_100mi", "ac_kwh_per_100km")}
+    if any(v is None for v in vals.values()):
+        return None
+    rel = _num(s.get("U_rel_dc_energy"))
+    out: dict[str, Any] = {"scope": key, "basis": str(s.get("ac_basis") or ""),
+                           "charger_efficiency": _num(j.get("charger_efficiency"))}
+    for name, v in (("mpge", vals["mpge"]), ("kwh_per_100mi", vals["ac_kwh_per_100mi"]),
+                    ("kwh_per_100km", vals["ac_kwh_per_100km"])):
+        out[name] = v
+        out[f"u_{name}"] = None if rel is None else abs(rel * v)  # type: ignore[operator]
+    return out
 
 
 def headline_of(doc: dict | None, *, model: dict | None = None,
@@ -222,12 +260,20 @@ def headline_of(doc: dict | None, *, model: dict | None = None,
     caveats = [str(c) for c in h.get("caveats") or []]
     if (j := j1711_caveat(soc)) is not None and j not in caveats:
         caveats.append(j)
-    kind = ("withheld" if held and not h.get("forced") else "forced" if held else
-            "headline" if mpg is not None else "none")
+    electric = electric_figures(doc, scope) if mpg is None and not held else None
+    rule = str(h.get("rule") or "")
     status = soc.get("status")
+    if electric is not None:   # SAE J1711 corrects a hybrid's fuel: not a BEV's energy
+        caveats = [c for c in caveats if c != j] if j else caveats
+        status = None
+        scope = electric["scope"]   # J1634 per phase and whole test, not per composite
+        rule = (f"SAE J1634 ({'whole test' if electric['scope'] == 'test' else electric['scope']}):"
+                f" AC energy {electric['basis']}; MPGe at 33.705 kWh per gallon equivalent")
+    kind = ("withheld" if held and not h.get("forced") else "forced" if held else
+            "headline" if mpg is not None or electric is not None else "none")
     return Headline(kind=kind, scope=scope, mpg=mpg, u_mpg=_num(h.get("fuel_economy_u_mpg")),
                     l_per_100km=_num(h.get("fuel_consumption_l_per_100km")),
-                    u_l_per_100km=_u_l_per_100km(doc, scope), rule=str(h.get("rule") or ""),
+                    u_l_per_100km=_u_l_per_100km(doc, scope), rule=rule, electric=electric,
                     caveats=caveats,
                     j1711=status if status not in (None, "not_applicable") else None,
                     withheld=held, withheld_count=int(doc.get("withheld_count") or 0),

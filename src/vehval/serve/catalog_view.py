@@ -26,7 +26,9 @@ COLUMNS = ("test_id", "status", "vehicle", "cycle", "start_condition", "cell_tem
            "duration_s", "distance_m", "fuel_mass_kg", "fuel_economy_mpg",
            "fuel_consumption_l_per_100km", "soc_change", "n_findings", "error",
            "headline_name", "headline_mpg", "headline_u_mpg", "headline_l_per_100km",
-           "withheld_reason")
+           "headline_j1634_scope", "headline_mpge", "headline_u_mpge", "headline_kwh_per_100km",
+           "headline_u_kwh_per_100km", "headline_kwh_per_100mi", "headline_u_kwh_per_100mi",
+           "headline_battery_share", "withheld_reason")
 #: What the page shows (``view``): key -> (heading, SI unit or None, digits); units are the
 #: user's display units (:mod:`vehval.display`).
 VIEW = {"test_id": ("test", None, 0), "status": ("status", None, 0),
@@ -35,6 +37,7 @@ VIEW = {"test_id": ("test", None, 0), "status": ("status", None, 0),
         "fuel": ("fuel", None, 0), "headline": ("headline (U, k = 2)", None, 0),
         "duration_s": ("duration", "min", 1), "distance_m": ("distance", "m", 2),
         "fuel_mass_kg": ("fuel used", "kg", 3), "soc_change": ("SOC change", "%", 1),
+        "headline_battery_share": ("battery share", "%", 2),
         "n_findings": ("findings", None, 0), "error": ("error", None, 0)}
 #: Filters the page offers: query key -> column.
 FILTERS = {"vehicle": "vehicle", "cycle": "cycle", "status": "status",
@@ -103,21 +106,36 @@ def rows(db: Path, filters: dict[str, str]) -> dict:
             "view": {"columns": heads, "rows": cells}}
 
 
+def _electric(row: dict) -> dict | None:
+    """The row's SAE J1634 headline figures as :attr:`Headline.electric` holds them, None for
+    a row without them."""
+    keys = ("mpge", "kwh_per_100km", "kwh_per_100mi")
+    if any(row.get(f"headline_{k}") is None for k in keys):
+        return None
+    return {"scope": row.get("headline_j1634_scope") or "test",
+            **{k: row[f"headline_{k}"] for k in keys},
+            **{f"u_{k}": row.get(f"headline_u_{k}") for k in keys}}
+
+
 def _headline_cell(row: dict) -> str:
     """``hwfet: 54.80 ± 0.66 mpg (4.29 L/100 km)`` in the user's system (the results layer's
-    :class:`~vehval.results.headline.Headline`), or why it is withheld."""
+    :class:`~vehval.results.headline.Headline`); ``whole test: 183.3 ± 1.7 MPGe (18.39 ±
+    0.17 kWh/100 mi)`` for a battery-electric test; or why it is withheld. (A hybrid's
+    battery share of the fuel energy has its own column, ``battery share``.)"""
     from vehval.display import system
     from vehval.results.headline import Headline
 
     name = row.get("headline_name")
     if not name:
         return ""
-    if row.get("headline_mpg") is None:
+    electric = _electric(row)
+    if row.get("headline_mpg") is None and electric is None:
         why = row.get("withheld_reason")
         return f"{name}: withheld" + (f" ({why})" if why else "")
-    h = Headline(kind="headline", scope=str(name), mpg=row.get("headline_mpg"),
+    h = Headline(kind="headline", scope=str(electric["scope"] if electric and row.get(
+                 "headline_mpg") is None else name), mpg=row.get("headline_mpg"),
                  u_mpg=row.get("headline_u_mpg"), l_per_100km=row.get("headline_l_per_100km"),
-                 system=system())
+                 electric=electric, system=system())
     return f"{h.shown}: {h.figure()}"
 
 

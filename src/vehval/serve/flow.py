@@ -4,7 +4,8 @@ for every architecture the tool simulates.
 * **Report** (``POST /api/report``): the static HTML report ``vehval report`` writes from the
   test's QA outputs, written atomically into the test's ``qa/`` folder and opened sandboxed.
 * **Model and test** (``POST /api/model`` runs, ``GET /api/model`` reads what is kept): a
-  power-split car named by the template is simulated and compared as ``vehval validate`` does
+  car the stage registry validates by simulation (a power-split hybrid, a battery-electric car)
+  named by the template is simulated and compared as its validate stage does
   (:mod:`.model_view`); a conventional car is predicted as ``vehval predict`` does, with the
   template's vehicle or, when it names none, with the car identified (as ``vehval identify``
   does) from the other tests of the folder (this one held out). The result is kept on disk in
@@ -172,11 +173,14 @@ def simulate(architecture: str, bench: Any, p: dict) -> dict:
     require(architecture, "validate")
     if stages(architecture).predict is not None:
         return _conventional(bench, p)
-    return _power_split(bench, p)
+    return _simulated(bench, p)
 
 
-# --------------------------------------------------------------------------- power split
-def _power_split(bench: Any, p: dict) -> dict:
+# --------------------------------------------------------------------------- simulated
+def _simulated(bench: Any, p: dict) -> dict:
+    """The validation of the architecture (power-split, battery-electric...) through the
+    outcome's generic interface (:func:`vehval.serve.model_view.model_overlay`), its traces
+    in display units, QA's flagged samples blanked."""
     from vehval.display import to_display
     from vehval.serve.model_view import model_overlay
 

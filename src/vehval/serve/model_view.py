@@ -1,79 +1,87 @@
-"""Model and test: the simulation of a test's own conditions overlaid on its measured traces.
+"""Model and test: the simulation of a test's own conditions overlaid on its measured traces,
+for every architecture the stage registry validates by simulation.
 
-The test's template names the vehicle; :meth:`vehval.workflow.TestRun.validate` simulates it
-on the test's speed trace and conditions and compares (verdicts against the measurement
-uncertainty, docs/validation.md). The page gets the comparison tables, the fuel mass's
-normalised error En with U_model and U_meas (``normalised_error``, and a table beside the
-summary's % differences) and, per quantity, the measured and simulated traces on one time axis.
+The test's template names the vehicle; :meth:`vehval.workflow.TestRun.validate` runs the
+architecture's validation (:mod:`vehval.architectures`: the power-split hybrid's comparison,
+the battery-electric car's traces, DC energy and SAE J1634 figures) and the page reads the
+outcome's generic interface only: its tables and notes (``payload``) and its measured and
+simulated traces on one time grid (``overlays``). The verdict the headline carries is the
+architecture's own: the fuel mass's normalised error En with U_model and U_meas for a car
+that burns fuel (a table beside the summary's % differences), the whole test's DC energy En
+for a battery-electric car.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
+
 from vehval.display import as_unit
 from vehval.errors import ConfigError
 from vehval.serve.series import series
 
-#: Quantities overlaid (standard base names).
+#: Quantities overlaid, in this order, when the comparison has both sides (standard base
+#: names).
 BASES = ("veh_spd", "fuel_rate", "eng_spd_out", "ess_soc", "eng_trq_out", "mot_trq_out",
-         "gen_spd_out", "ess_curr")
+         "gen_spd_out", "ess_curr", "ess_volt")
 
 
 def model_overlay(bench: Any, n: int = 2000) -> dict:
-    """Run the validation of ``bench``'s test and return tables and overlaid traces."""
+    """Run the validation of ``bench``'s test and return tables and overlaid traces (SI)."""
     run = bench._ensure_run()
     if run.vehicle is None:
         raise ConfigError("the template names no vehicle ('vehicle: prius_2004'): the model "
                           "needs one")
     outcome = run.validate()
-    val = outcome.validation
-    measured = run.validated
-    sim = val.sim.test
-    traces = []
-    for base in BASES:
-        m = measured.best(base, ("test",))
-        s = sim.best(base, ("simu",))
-        if m is None or s is None:
-            continue
-        traces.append({"base": base, "unit": m.unit,
-                       "measured": {"name": m.name, **series(m.time, m.values, None, None, n)},
-                       "simulated": {"name": s.name, **series(s.time, s.values, None, None, n)}})
-    figure = overlay_figure(measured, sim)
-    ne = _normalised_error(run.vehicle, val.comparison)
+    payload = outcome.payload(figures=False)
+    traces = overlay_traces(run.validated, outcome.overlays, n)
+    tables = list(payload.get("tables") or [])
+    ne = model_verdict(run.vehicle, outcome.comparison)
     bench.model_verdict = ne
-    tables = val.comparison.tables()
-    tables.insert(1 if tables else 0, en_table(ne))   # beside the summary's % differences
-    return {"vehicle": val.sim.vehicle.name, "tables": tables, "normalised_error": ne,
-            "notes": outcome.payload(figures=False).get("notes", []), "traces": traces,
-            "figure": figure}
+    if ne is not None and ne.get("quantity") is None:   # the fuel mass: its own table
+        tables.insert(1 if tables else 0, en_table(ne))  # beside the summary's % differences
+    return {"vehicle": str(outcome.document.get("vehicle") or run.vehicle.name),
+            "tables": tables, "normalised_error": ne, "notes": payload.get("notes", []),
+            "traces": traces}
 
 
-def overlay_figure(measured: Any, sim: Any) -> dict:
-    """Measured against simulated, one panel per quantity in its display unit, on one linked
-    time axis (the report's figure layer), as plotly JSON the page draws."""
-    import json
-
-    import numpy as np
-
-    from vehval.display import to_display
-    from vehval.report.figures import PALETTE, figure_json, time_traces_figure
-
-    panels = []
+def overlay_traces(measured: Any, overlays: Any, n: int = 2000) -> list[dict]:
+    """Per quantity of :data:`BASES` the comparison has on both sides: ``base``, ``unit``
+    (the measured signal's SI unit) and the ``measured`` / ``simulated`` series."""
+    if overlays is None:
+        return []
+    t = np.asarray(overlays["time"], float)
+    out = []
     for base in BASES:
-        m = measured.best(base, ("test",))
-        s = sim.best(base, ("simu",))
-        if m is None or s is None:
+        if f"{base}_test" not in overlays or f"{base}_simu" not in overlays:
             continue
-        ym, unit = to_display(np.asarray(m.values, float), m.unit, signal=m.name)
-        ys, _ = to_display(np.asarray(s.values, float), s.unit, signal=m.name)
-        panels.append({"ylabel": f"{base} [{unit}]" if unit else base, "unit": unit, "traces": [
-            {"name": f"{m.name} (test)", "t": m.time, "y": ym, "unit": unit, "color": PALETTE[0]},
-            {"name": f"{s.name} (model)", "t": s.time, "y": ys, "unit": unit,
-             "color": PALETTE[1], "dash": "dot"}]})
-    fig = time_traces_figure(panels, row_height=140)
-    fig["layout"]["meta"] = {"units": [p["unit"] for p in panels]}
-    return json.loads(figure_json(fig))
+        m = measured.best(base, ("test",))
+        if m is None:
+            continue
+        out.append({"base": base, "unit": m.unit,
+                    "measured": {"name": m.name, **series(
+                        t, np.asarray(overlays[f"{base}_test"], float), None, None, n)},
+                    "simulated": {"name": f"{base}_simu", **series(
+                        t, np.asarray(overlays[f"{base}_simu"], float), None, None, n)}})
+    return out
+
+
+def model_verdict(veh: Any, comparison: Any) -> dict | None:
+    """The verdict the headline carries: the whole test's DC energy En of a battery-electric
+    comparison (``quantity``: ``DC energy``), else the fuel mass's En (:func:`_normalised_error`)
+    of a simulation on the test's conditions; None for other comparisons."""
+    energy = getattr(comparison, "energy", None)
+    if energy is not None:
+        row = next((r for r in energy if r.get("scope") == "test"), None)
+        if row is None or row.get("en") is None:
+            return None
+        return {"quantity": "DC energy", "en": row["en"], "error_pct": row.get("error_pct"),
+                "verdict": "consistent" if abs(row["en"]) <= 1.0 else "inconsistent",
+                "u_model_wh": row.get("U_model"), "u_meas_wh": row.get("U_meas"),
+                "model_wh": row.get("model_wh"), "measured_wh": row.get("test_wh")}
+    inner = getattr(comparison, "comparison", None)
+    return None if inner is None else _normalised_error(veh, inner)
 
 
 def _normalised_error(veh: Any, comp: Any) -> dict:

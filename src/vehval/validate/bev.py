@@ -30,9 +30,10 @@ from vehval.validate.conditions import CONSTANT_OVERRIDES, speed_trace
 from vehval.validate.metrics import signal_metrics
 from vehval.validate.quantities import pick_signal
 
-#: Traces compared: base name -> (label, display unit, factor from SI).
-TRACES = {"veh_spd": ("vehicle speed", "km/h", 3.6), "ess_curr": ("battery current", "A", 1.0),
-          "ess_volt": ("battery voltage", "V", 1.0)}
+#: Traces compared: base name -> (label, SI unit); tables state them in the user's display
+#: unit (:func:`vehval.display.to_display`).
+TRACES = {"veh_spd": ("vehicle speed", "m/s"), "ess_curr": ("battery current", "A"),
+          "ess_volt": ("battery voltage", "V")}
 #: J1634 figures judged, from :func:`vehval.results.j1634.j1634_scope`.
 J1634_FIGURES = ("dc_wh_per_mile", "ac_kwh_per_100km", "mpge")
 
@@ -87,8 +88,12 @@ class BevValidation:
 
     def tables(self) -> list[dict[str, Any]]:
         """Report tables: traces (RMS error), DC energy per scope, J1634 figures."""
-        tr = [[TRACES[b][0] + f" [{TRACES[b][1]}]", m["rmse"] * TRACES[b][2],
-               m["bias"] * TRACES[b][2], m["r2"]] for b, m in self.traces.items()]
+        from vehval.display import to_display
+
+        tr = []
+        for b, m in self.traces.items():   # RMS and bias scale by the display unit's factor
+            (k,), unit = to_display(np.array([1.0]), TRACES[b][1], signal=b)
+            tr.append([TRACES[b][0] + f" [{unit}]", m["rmse"] * k, m["bias"] * k, m["r2"]])
         en = [[r["scope"], r["model_wh"], r["test_wh"], r["error_pct"], r["en"]]
               for r in self.energy]
         jf = [[r["scope"], r["figure"], r["model"], r["test"], r["error_pct"], r["en"]]

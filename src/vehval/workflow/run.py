@@ -86,6 +86,16 @@ class ValidationOutcome:
         """The per-test validation summary (``validation.json`` of a batch test)."""
         return self.comparison.to_dict()
 
+    @property
+    def overlays(self) -> Any:
+        """Measured and simulated traces on the simulation's time grid (a DataFrame of
+        ``time`` [s] and ``<base>_test`` / ``<base>_simu`` in SI), whatever the architecture
+        compares; None when the comparison has no traces (a fuel prediction per phase)."""
+        own = getattr(self.comparison, "overlays", None)
+        if own is not None:
+            return own
+        return getattr(getattr(self.comparison, "comparison", None), "overlays", None)
+
     def payload(self, figures: bool = True) -> dict:
         """The report's validation section: ``{tables, figures, notes}``."""
         return self.comparison.payload(figures=figures)

@@ -60,8 +60,10 @@
       if (!h) { box.append("No result yet: save the template or rerun QA."); return; }
       const title = el("b", {text: (h.shown || h.name || "test") + ": "});
       if (h.kind === "headline" || h.kind === "forced") {
-        box.append(title, el("span", {id: "headline-figure", text: h.figure}),
-                   el("span", {id: "headline-mpg", hidden: true, text: h.fuel_economy_mpg.toFixed(2)}));
+        box.append(title, el("span", {id: "headline-figure", text: h.figure}));
+        // the numbers behind the sentence: fuel economy, or a BEV's SAE J1634 MPGe
+        if (h.fuel_economy_mpg != null) box.append(el("span", {id: "headline-mpg", hidden: true, text: h.fuel_economy_mpg.toFixed(2)}));
+        if (h.electric) box.append(el("span", {id: "headline-mpge", hidden: true, text: h.electric.mpge.toFixed(2)}));
       } else {
         box.append(title, el("span", {class: "withheld", id: "headline-withheld",
                                       text: "withheld: " + withheldText(h.withheld)}));
