@@ -28,6 +28,7 @@ import numpy as np
 from vehval.numba_cache import njit
 from vehval.sim.components.battery import current_from_power, terminal_voltage
 from vehval.sim.components.body import road_load
+from vehval.sim.driver import band_miss, driver_memory
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
 from vehval.sim.layout import BEV_PARAMS, BEV_SIGNALS, BEV_SUMMARY
 from vehval.sim.maps import interp1, interp2
@@ -160,11 +161,9 @@ def run_bev(vt, band_lo, band_hi, dt, prm, mS, mT, mL, bSoc, bOcv, bRd, bRc, bPd
         ys[BY_DISTANCE_M] += v_a * dt
         ys[BY_SOC_MIN_SEEN] = min(ys[BY_SOC_MIN_SEEN], soc)
         # ---------------- driver memory (conditional integration)
-        f_real = f_pt - f_brk
-        if abs(f_real - f_dem) <= max(100.0, 0.05 * abs(f_dem)):
-            i_drv += prm[BP_DRV_KI] * (vnext - v1) * dt
-            i_drv = min(max(i_drv, -prm[BP_DRV_INT_LIM]), prm[BP_DRV_INT_LIM])
-        miss = max(band_lo[i + 1] - v1, v1 - band_hi[i + 1], 0.0)
+        i_drv = driver_memory(i_drv, f_pt - f_brk, f_dem, prm[BP_DRV_KI], prm[BP_DRV_INT_LIM],
+                              vnext, v1, dt)
+        miss = band_miss(band_lo[i + 1], band_hi[i + 1], v1)
         if miss > 0.0:
             ys[BY_TRACE_N_MISS] += 1.0
         ys[BY_TRACE_MAX_MISS_MPS] = max(ys[BY_TRACE_MAX_MISS_MPS], miss)

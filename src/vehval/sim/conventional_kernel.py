@@ -30,6 +30,7 @@ import numpy as np
 from vehval.numba_cache import njit
 from vehval.sim.components.body import road_load
 from vehval.sim.components.engine import fuel_rate, max_torque, warmup_factor
+from vehval.sim.driver import band_miss, driver_memory
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
 from vehval.sim.layout import CONV_PARAMS, CONV_SIGNALS, CONV_SUMMARY
 from vehval.sim.phases import driver_demand
@@ -194,11 +195,9 @@ def run_conventional(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, ratios, up0
             ys[CY_UNLOCKED_TIME_S] += dt
         ys[CY_ENG_SPD_MAX] = max(ys[CY_ENG_SPD_MAX], we1)
         # ---------------- driver memory (conditional integration)
-        f_real = f_pt - f_brk
-        if abs(f_real - f_dem) <= max(100.0, 0.05 * abs(f_dem)):
-            i_drv += prm[CP_DRV_KI] * (vnext - v1) * dt
-            i_drv = min(max(i_drv, -prm[CP_DRV_INT_LIM]), prm[CP_DRV_INT_LIM])
-        miss = max(band_lo[i + 1] - v1, v1 - band_hi[i + 1], 0.0)
+        i_drv = driver_memory(i_drv, f_pt - f_brk, f_dem, prm[CP_DRV_KI], prm[CP_DRV_INT_LIM],
+                              vnext, v1, dt)
+        miss = band_miss(band_lo[i + 1], band_hi[i + 1], v1)
         if miss > 0.0:
             ys[CY_TRACE_N_MISS] += 1.0
         ys[CY_TRACE_MAX_MISS_MPS] = max(ys[CY_TRACE_MAX_MISS_MPS], miss)

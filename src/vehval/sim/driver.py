@@ -43,6 +43,24 @@ def driver_force(v, v_now, v_next, dt, mass_eq, road_force, integ, tau, f_min, f
     return min(max(f, f_min), f_max)
 
 
+@njit(cache=True, inline="always")
+def driver_memory(integ, f_real, f_dem, ki, limit, v_target, v, dt):
+    """The driver's integral term [N] after one step: conditional integration (anti-windup)
+    of the speed error ``v_target - v`` [m/s] with gain ``ki`` [N/(m s)], only while the
+    delivered wheel force ``f_real`` [N] follows the demand ``f_dem`` [N], held within
+    +-``limit`` [N]."""
+    if abs(f_real - f_dem) <= max(100.0, 0.05 * abs(f_dem)):
+        integ += ki * (v_target - v) * dt
+        integ = min(max(integ, -limit), limit)
+    return integ
+
+
+@njit(cache=True, inline="always")
+def band_miss(lo, hi, v):
+    """How far [m/s] speed ``v`` lies outside the tolerance band [lo, hi] (0 inside)."""
+    return max(lo - v, v - hi, 0.0)
+
+
 def tolerance_band(time_s: np.ndarray, target_mps: np.ndarray, speed_tol_mps: float,
                    time_tol_s: float) -> tuple[np.ndarray, np.ndarray]:
     """EPA speed-trace band: [min - tol, max + tol] of the target within ±``time_tol_s``.

@@ -36,6 +36,7 @@ from vehval.sim.components.electric_machine import (
 )
 from vehval.sim.components.engine import fuel_rate, max_torque, warmup_factor
 from vehval.sim.conventional_kernel import STANDSTILL_MPS, coupling_pump_speed, select_gear
+from vehval.sim.driver import band_miss, driver_memory
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
 from vehval.sim.layout import PAR_PARAMS, PAR_SIGNALS, PAR_SUMMARY
 from vehval.sim.maps import interp1
@@ -368,11 +369,9 @@ def run_parallel(vt, band_lo, band_hi, dt, prm, eS, eT, eF, eTm, mS, mT, mL, bS,
         _book(ys, dt, lhv, prm[HP_ELEC_ACC], fuel, p_e, p_el, t_m, w_a, ocv, cur, r, vb, t_acc,
               t_inertia, t_sh, w_in, f_pt, v_a, f_brk, fl, on, mode, w1, soc)
         # ---------------- driver memory (conditional integration)
-        f_real = f_pt - f_brk
-        if abs(f_real - f_dem) <= max(100.0, 0.05 * abs(f_dem)):
-            i_drv += prm[HP_DRV_KI] * (vnext - v1) * dt
-            i_drv = min(max(i_drv, -prm[HP_DRV_INT_LIM]), prm[HP_DRV_INT_LIM])
-        miss = max(band_lo[i + 1] - v1, v1 - band_hi[i + 1], 0.0)
+        i_drv = driver_memory(i_drv, f_pt - f_brk, f_dem, prm[HP_DRV_KI], prm[HP_DRV_INT_LIM],
+                              vnext, v1, dt)
+        miss = band_miss(band_lo[i + 1], band_hi[i + 1], v1)
         if miss > 0.0:
             ys[HY_TRACE_N_MISS] += 1.0
         ys[HY_TRACE_MAX_MISS_MPS] = max(ys[HY_TRACE_MAX_MISS_MPS], miss)

@@ -17,6 +17,7 @@ from vehval.sim.components.battery import current_from_power
 from vehval.sim.components.boost import battery_side_power, output_voltage
 from vehval.sim.components.electric_machine import electrical_power, torque_limit
 from vehval.sim.components.engine import fuel_rate, warmup_factor
+from vehval.sim.driver import band_miss, driver_memory
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
 from vehval.sim.maps import interp1
 from vehval.sim.phases import bus_allowed, mot_power, mot_torque_for_power
@@ -252,10 +253,8 @@ def memory_phase(prm, maps, x):
             i_gen = 0.0
     f_real = x[X_F_FD] - x[X_BRK_APP]
     f_dem = x[X_F_DEM]
-    if abs(f_real - f_dem) <= max(100.0, 0.05 * abs(f_dem)):
-        drv_lim = prm[P_DRV_INT_LIM]
-        i_drv += prm[P_DRV_KI] * (x[X_VNEXT] - x[X_V1]) * dt
-        i_drv = min(max(i_drv, -drv_lim), drv_lim)
+    i_drv = driver_memory(i_drv, f_real, f_dem, prm[P_DRV_KI], prm[P_DRV_INT_LIM], x[X_VNEXT],
+                          x[X_V1], dt)
     x[X_I_GEN] = i_gen
     x[X_I_DRV] = i_drv
 
@@ -281,7 +280,7 @@ def end_phase(prm, maps, x, ys, band_lo, band_hi, j):
     ys[Y_MOT_SPD_MAX] = max(ys[Y_MOT_SPD_MAX], prm[P_MG2_RATIO] * g * v1)
     ys[Y_SOC_MIN_SEEN] = min(ys[Y_SOC_MIN_SEEN], soc)
     ys[Y_SOC_MAX_SEEN] = max(ys[Y_SOC_MAX_SEEN], soc)
-    miss = max(band_lo[j] - v1, v1 - band_hi[j], 0.0)
+    miss = band_miss(band_lo[j], band_hi[j], v1)
     if miss > 0.0:
         ys[Y_TRACE_N_MISS] += 1.0
     ys[Y_TRACE_MAX_MISS_MPS] = max(ys[Y_TRACE_MAX_MISS_MPS], miss)
