@@ -79,6 +79,23 @@ def test_files_route_stays_inside(app, ws):
     assert r.status_code in (403, 404) and "outside" not in r.text.replace("outside the", "")
 
 
+def test_files_are_streamed_and_a_huge_page_refused(app, ws, monkeypatch):
+    """A workspace file is streamed from disk; a report page above the limit is a 413 naming
+    the file, never read into memory whole."""
+    import vehval.serve.params as prm
+
+    c = _authed(app)
+    data = (ws / "t1" / "run.csv").read_bytes()
+    r = c.get("/files/t1/run.csv")
+    assert r.status_code == 200 and r.content == data
+    (ws / "t1" / "big.html").write_text("<p>" + "x" * 4096, encoding="utf-8")
+    monkeypatch.setattr(prm, "MAX_PAGE_BYTES", 1024)
+    r = c.get("/files/t1/big.html")
+    assert r.status_code == 413 and "t1/big.html" in r.json()["error"]
+    monkeypatch.setattr(prm, "MAX_PAGE_BYTES", 1 << 20)
+    assert c.get("/files/t1/big.html").status_code == 200
+
+
 @pytest.mark.skipif(not hasattr(os, "symlink"), reason="no symlinks")
 def test_symlink_out_of_the_workspace_is_refused(app, ws, tmp_path):
     (ws / "link").symlink_to(tmp_path)

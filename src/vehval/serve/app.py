@@ -334,16 +334,22 @@ async def files(request: Request) -> Response:
     kind = SERVED_TYPES.get(path.suffix.lower())
     if not path.is_file() or kind is None:
         return JSONResponse({"error": f"{rel}: not a file the workbench opens"}, status_code=404)
-    body = path.read_bytes()
-    headers = {}
-    if path.suffix.lower() == ".html":
-        # a page from the workspace runs sandboxed (an origin of its own: no cookie, no API);
-        # a batch report's shared plotly.js ('file:' in its own policy) comes from the
-        # workbench's public copy instead
-        body = _ASSET_SRC.sub(f'src="{PUBLIC_PATH}"'.encode(), body, count=1)
-        body = body.replace(b" file:;", b" 'self';", 1)
-        headers["Content-Security-Policy"] = sec.REPORT_CSP
-    return Response(body, media_type=kind, headers=headers)
+    if path.suffix.lower() != ".html":   # streamed from disk, never read whole
+        from starlette.responses import FileResponse
+
+        return FileResponse(path, media_type=kind)
+    size = path.stat().st_size
+    if size > prm.MAX_PAGE_BYTES:
+        return JSONResponse({"error": f"{rel}: {size / 2**20:.0f} MiB, more than the "
+                             f"{prm.MAX_PAGE_BYTES >> 20} MiB a report page may have: open it "
+                             "from the file system"}, status_code=413)
+    # a page from the workspace runs sandboxed (an origin of its own: no cookie, no API); a
+    # batch report's shared plotly.js ('file:' in its own policy) comes from the workbench's
+    # public copy instead
+    body = _ASSET_SRC.sub(f'src="{PUBLIC_PATH}"'.encode(), path.read_bytes(), count=1)
+    body = body.replace(b" file:;", b" 'self';", 1)
+    return Response(body, media_type=kind,
+                    headers={"Content-Security-Policy": sec.REPORT_CSP})
 
 
 # --------------------------------------------------------------------------- API

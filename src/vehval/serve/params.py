@@ -18,6 +18,9 @@ from vehval.serve.series import MAX_POINTS
 
 #: Largest request body read [bytes] (a template edit of every channel is a few kB).
 MAX_BODY_BYTES = 1 << 20
+#: largest report page [bytes] the workbench rewrites and serves (a report with its plots is
+#: a few MiB; other files are streamed whatever their size)
+MAX_PAGE_BYTES = 64 << 20
 #: Deepest nesting of a body's arrays and objects (an edit nests 3 deep).
 MAX_DEPTH = 32
 #: Longest text of one query parameter or body string [characters].
