@@ -27,7 +27,7 @@ import numpy as np
 
 from vehval.numba_cache import njit
 from vehval.sim.components.battery import current_from_power, terminal_voltage
-from vehval.sim.components.body import road_load
+from vehval.sim.components.body import longitudinal_step
 from vehval.sim.driver import band_miss, driver_memory
 from vehval.sim.indices import *  # noqa: F401,F403 - index constants
 from vehval.sim.layout import BEV_PARAMS, BEV_SIGNALS, BEV_SUMMARY
@@ -118,15 +118,8 @@ def run_bev(vt, band_lo, band_hi, dt, prm, mS, mT, mL, bSoc, bOcv, bRd, bRc, bPd
         # ---------------- vehicle
         f_pt = t_m * g
         f_pt = f_pt * eff if f_pt >= 0.0 else f_pt / eff
-        f_brk = min(max(f_pt - f_dem, 0.0), prm[BP_BRK_MAX]) if f_dem < 0.0 else 0.0
-        fl = road_load(v0, rl_a, rl_b, rl_c)
-        v1 = v0 + dt * (f_pt - f_brk - fl) / m_eq
-        if v1 < 0.0:
-            v1 = 0.0
-            f_brk = f_pt - fl + v0 * m_eq / dt
-            if f_brk < 0.0:
-                fl += f_brk
-                f_brk = 0.0
+        v1, f_brk, fl = longitudinal_step(v0, f_pt, f_dem, prm[BP_BRK_MAX], rl_a, rl_b, rl_c,
+                                            m_eq, dt)
         v_a = 0.5 * (v0 + v1)
         # ---------------- electric (mid-step speed)
         w_a = v_a * g
