@@ -13,12 +13,14 @@ one share of the CPUs (autogroup), so workers started inside the benchmark's own
 would split one share between them and could never beat the loop.
 
 The loop and the cluster run alternately, :data:`N_PAIRS` times (loop, cluster, loop,
-cluster...), and the ratio is the median of each pair's: on a machine shared with other
-work the load drifts over minutes, and a loop timed once before the cluster judged the
-cluster against another machine. (Profiled on the 2019 list: the workers are busy 95-97 %
-of the run with 16 tasks or 4, and their CPU time per row equals the plain loop's: no loss
-to task granularity, serialisation or the kernel's compilation once the workers are
-primed; what remains is the CPU share the machine gives the workers.)
+cluster...), and the ratio is the median of each pair's: the load of a shared machine
+drifts over minutes. Found while profiling the 2019 list: (1) a second ``Client`` held open
+in the process of the run (the benchmark's own, for its CPU readings) made the cluster run
+bimodal, 5 s or 8-9 s for the same 5 s of worker compute, so the readings now take a client
+of their own between runs; (2) the workers' statistical profiler cost about 10 % of their
+compute (off for the fleet's own cluster and for these workers,
+:data:`vehval.batch.runner.THROUGHPUT_ENV`); (3) each car's digest was computed twice in the
+client, about 1 ms each (now once, from the dataclasses' reprs).
 """
 
 from __future__ import annotations
@@ -33,7 +35,7 @@ from benchmarks.common import row
 
 N_WORKERS = 2
 #: alternating loop / cluster runs; the ratio is the median over the pairs
-N_PAIRS = 2
+N_PAIRS = 5
 N_SYNTH_CARS = 300
 LIST_2019 = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "real" / \
     "epa_test_car_list" / "19tstcar.csv"
@@ -95,9 +97,13 @@ def _running_cluster(root: Path):
                 break
             time.sleep(0.1)
         addr = json.loads(sfile.read_text())["address"]
+        import os
+
+        from vehval.batch.runner import THROUGHPUT_ENV
+        env = {**os.environ, **THROUGHPUT_ENV}  # as docs/fleet.md recommends for workers
         procs += [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", addr,
                                     "--nthreads", "1", "--no-nanny", "--host", "127.0.0.1",
-                                    "--no-dashboard"],
+                                    "--no-dashboard"], env=env,
                                    start_new_session=True, stdout=subprocess.DEVNULL,
                                    stderr=subprocess.DEVNULL) for _ in range(N_WORKERS)]
         from distributed import Client
@@ -115,9 +121,15 @@ def _running_cluster(root: Path):
                 p.kill()
 
 
-def run() -> list[dict]:
+def _on_workers(addr: str, fn) -> dict:
+    """``fn()`` on every worker of the cluster at ``addr``, through a client of its own."""
     from distributed import Client
 
+    with Client(addr) as client:
+        return client.run(fn)
+
+
+def run() -> list[dict]:
     from vehval.batch.fleet import run_fleet
 
     rows = []
@@ -132,20 +144,21 @@ def run() -> list[dict]:
         with _running_cluster(root) as addr:
             t_start = time.perf_counter() - t0
             run_fleet([src], root / "prime", scheduler=addr, report=False)
-            with Client(addr) as client:
-                for k in range(N_PAIRS):
-                    c0 = time.process_time()
-                    loop = run_fleet([src], root / f"loop{k}", workers=1, report=False,
-                                     force=True)
-                    cpu_loop += time.process_time() - c0
-                    cpu0 = client.run(_cpu_s)
-                    t1 = time.perf_counter()
-                    dask = run_fleet([src], root / f"dask{k}", scheduler=addr, force=True)
-                    t_whole = time.perf_counter() - t1
-                    cpu_workers += sum(client.run(_cpu_s).values()) - sum(cpu0.values())
-                    pairs.append((loop["run"]["rows_per_minute"],
-                                  dask["run"]["rows_per_minute"]))
-                rss = client.run(_worker_rss_mb)
+            for k in range(N_PAIRS):
+                c0 = time.process_time()
+                loop = run_fleet([src], root / f"loop{k}", workers=1, report=False,
+                                 force=True)
+                cpu_loop += time.process_time() - c0
+                # the readings' own client is closed during the run: a second client held
+                # open in the process of the run's slowed it by up to 1.8x (bimodal)
+                cpu0 = _on_workers(addr, _cpu_s)
+                t1 = time.perf_counter()
+                dask = run_fleet([src], root / f"dask{k}", scheduler=addr, force=True)
+                t_whole = time.perf_counter() - t1
+                cpu_workers += sum(_on_workers(addr, _cpu_s).values()) - sum(cpu0.values())
+                pairs.append((loop["run"]["rows_per_minute"],
+                              dask["run"]["rows_per_minute"]))
+            rss = _on_workers(addr, _worker_rss_mb)
     n = dask["run"]["n_rows_simulated"]
     cpu_loop, cpu_workers = cpu_loop / N_PAIRS, cpu_workers / N_PAIRS
     ratios = sorted(d / lp for lp, d in pairs)

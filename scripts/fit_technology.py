@@ -31,6 +31,7 @@ import dataclasses
 import itertools
 import json
 import math
+import re
 import sys
 import time
 from collections import defaultdict
@@ -45,19 +46,21 @@ from vehval.epa.validation import predict_test
 from vehval.errors import VehvalError
 
 KEYS = ("ftp75", "hwfet", "us06")
-GRID_KEYS = ("friction_scale", "idle_factor", "pumping_bar")
-FRICTION_GRID = (0.5, 0.75, 1.0)
-IDLE_GRID = (1.75, 2.5)
+GRID_KEYS = ("friction_scale", "idle_factor", "pumping_bar", "accessory_power_w")
+FRICTION_GRID = (0.4, 0.5, 0.75)
+IDLE_GRID = (2.0, 2.5, 3.0)
 PUMPING_GRID = (0.4, 0.8, 1.2)  # [bar]
+ACCESSORY_GRID = (300.0, 600.0, 900.0, 1200.0)  # [W]
 #: the diesel's grid: no throttle (pumping 0), friction around its starting 1.3, idle on
 #: or above its Willans line; its gearbox efficiencies are the gasoline fit's (not refitted
 #: on the few diesel cars) and its efficiency has no specific-power exponent
-DIESEL_GRID = ((1.0, 1.3, 1.6), (1.0, 1.5), (0.0,))
+DIESEL_GRID = ((1.0, 1.3, 1.6), (1.0, 1.5, 2.0, 2.5), (0.0,), (300.0, 600.0))
 
 
-def with_values(base: tech.Coefficients, engine: dict, trans: dict, note: str
-                ) -> tech.Coefficients:
-    """A copy of ``base`` with engine {tech: {key: value}} and transmission {family: eff}."""
+def with_values(base: tech.Coefficients, engine: dict, trans: dict, note: str,
+                scales: dict | None = None) -> tech.Coefficients:
+    """A copy of ``base`` with engine {tech: {key: value}}, transmission {family: eff} and
+    upshift scales {family: scale}."""
     eng = {t: dict(v) for t, v in base.engine.items()}
     for t, vals in engine.items():
         for k, x in vals.items():
@@ -65,6 +68,8 @@ def with_values(base: tech.Coefficients, engine: dict, trans: dict, note: str
     tr = {f: dict(v) for f, v in base.transmission.items()}
     for f, x in trans.items():
         tr[f]["efficiency"] = tech.Coefficient(float(x), (float(x), float(x)), note)
+    for f, x in (scales or {}).items():
+        tr[f]["upshift_scale"] = tech.Coefficient(float(x), (float(x), float(x)), note)
     return dataclasses.replace(base, engine=eng, transmission=tr)
 
 
@@ -192,6 +197,58 @@ def bootstrap(by_combo: dict, eff0: dict, n: int, seed: int = 1, shared: bool = 
             for k, v in draws.items()}
 
 
+def choose_scales(by_scale: dict, eff0: dict[str, float], cars: dict | None = None) -> dict:
+    """Per transmission family the upshift scale of least mean |log error| with the engine
+    levels held at those of scale 1 (else the first) and the family's own gearbox
+    efficiency (its median, at most 0.99); ``cars``: car -> weight of a resample. Then the
+    levels of the records at the chosen scales."""
+    def pick(recs: list[dict]) -> list[dict]:
+        return recs if cars is None else [r for r in recs for _ in range(cars.get(r["car"], 0))]
+
+    ref = by_scale.get(1.0) or next(iter(by_scale.values()))
+    lev0 = fit_levels(pick(ref), eff0)
+
+    def engine_only(r: dict) -> float:
+        x = math.log(r["kw_per_l"] * 1e3 / tech.REFERENCE_SPECIFIC_POWER_W_PER_L)
+        return (math.log1p(r["error"]) + math.log(lev0["eta"][r["tech"]] / INDICATED_EFFICIENCY)
+                - lev0["gamma"][r["tech"]] * x)
+
+    best = {}
+    for f in sorted({r["family"] for rr in by_scale.values() for r in rr}):
+        scores = {}
+        for k, rr in by_scale.items():
+            y = np.array([engine_only(r) for r in pick(rr) if r["family"] == f])
+            if y.size:
+                b = min(-float(np.median(y)), math.log(0.99 / eff0[f]))
+                scores[k] = float(np.mean(np.abs(y + b)))
+        best[f] = min(scores, key=scores.get)
+    recs = [r for k, rr in by_scale.items() for r in pick(rr) if best[r["family"]] == k]
+    lev = fit_levels(recs, eff0)
+    return {"scale": best, "eta": lev["eta"], "gamma": lev["gamma"], "eff": lev["eff"]}
+
+
+def scale_intervals(by_scale: dict, eff0: dict, n: int, seed: int = 2) -> dict:
+    """2.5-97.5 % intervals of the chosen scales, and of the levels fitted with them, over
+    car resamples (the engine grid point held)."""
+    cars = sorted({r["car"] for rr in by_scale.values() for r in rr})
+    rng = np.random.default_rng(seed)
+    draws: dict[str, list[float]] = defaultdict(list)
+    for _ in range(n):
+        weight: dict = defaultdict(int)
+        for k in rng.choice(len(cars), len(cars)):
+            weight[cars[k]] += 1
+        res = choose_scales(by_scale, eff0, weight)
+        for f, v in res["scale"].items():
+            draws[f"transmission.{f}.upshift_scale"].append(v)
+        for f, v in res["eff"].items():
+            draws[f"transmission.{f}.efficiency"].append(v)
+        for t, v in res["eta"].items():
+            draws[f"engine.{t}.indicated_efficiency"].append(v)
+            draws[f"engine.{t}.efficiency_specific_power_exponent"].append(res["gamma"][t])
+    return {k: (float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5)))
+            for k, v in draws.items()}
+
+
 def judge(recs: list[dict]) -> dict:
     """The acceptance figures of a set of predicted rows."""
     out: dict = {"n_rows": len(recs), "n_cars": len({r["car"] for r in recs})}
@@ -257,6 +314,10 @@ def yaml_text(fit_list: str, res: dict, iv: dict, base: tech.Coefficients, n_car
         lines.append(f"  fit_{fuel}: \"{fit}\"")
     elif base.header.get("fit_diesel"):
         lines.append(f"  fit_diesel: \"{base.header['fit_diesel']}\"")
+    texts = [header, fit if fuel != "gasoline" else base.header.get("fit_diesel", "")]
+    fit_lists = sorted({m.group(1) for m in (re.match(r"fitted on (\S+) \(", str(x))
+                                              for x in texts) if m})
+    lines.append("  fit_lists: [" + ", ".join(f'"{x}"' for x in fit_lists) + "]")
     lines += [f"turbo_min_specific_power_w_per_l: {base.turbo_min_specific_power_w_per_l:g}",
               "engine:"]
     src = {"indicated_efficiency": "slope of the Willans line (fuel inverse in it)",
@@ -265,6 +326,8 @@ def yaml_text(fit_list: str, res: dict, iv: dict, base: tech.Coefficients, n_car
            "idle_factor": "warm idle fuel / the Willans map at idle and the accessory load "
                           "(idle control with retarded spark)",
            "pumping_bar": "part-load pumping MEP at zero load [bar], to 0 at full load",
+           "accessory_power_w": "electrical and mechanical accessories on the engine during "
+                                "the test [W]",
            "efficiency_specific_power_exponent": "indicated efficiency x (specific power / "
                                                  "60 kW/L)^-exponent"}
     for t in tech.ENGINE_TECHNOLOGIES:
@@ -282,15 +345,23 @@ def yaml_text(fit_list: str, res: dict, iv: dict, base: tech.Coefficients, n_car
             lines.append(_line(k, v, lo, hi, source, fit))
     lines.append("transmission:")
     for f in ("automatic", "cvt", "automated_manual", "manual"):
-        c = base.transmission[f]["efficiency"]
         lines.append(f"  {f}:")
         if f not in res["eff"]:
-            lines.append(_line("efficiency", c.value, *c.interval, c.source, c.fit))
+            lines += [_line(k, c.value, *c.interval, c.source, c.fit)
+                      for k, c in base.transmission[f].items()]
             continue
         v = res["eff"][f]
         lo, hi = iv.get(f"transmission.{f}.efficiency", (v, v))
         lines.append(_line("efficiency", v, lo, hi, "gearbox efficiency with the family's "
                            "launch and shift losses", fit))
+        k = (res.get("scale") or {}).get(f)
+        old = base.transmission[f].get("upshift_scale")
+        if k is not None:
+            lo, hi = iv.get(f"transmission.{f}.upshift_scale", (k, k))
+            lines.append(_line("upshift_scale", k, lo, hi, "factor on the family's upshift "
+                               "engine speeds (shift strategy; vehval.epa.transmissions)", fit))
+        elif old is not None:
+            lines.append(_line("upshift_scale", old.value, *old.interval, old.source, old.fit))
     return "\n".join(lines) + "\n"
 
 
@@ -304,14 +375,25 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--boot", type=int, default=100)
     ap.add_argument("--write-yaml")
     ap.add_argument("--json")
+    ap.add_argument("--base", help="coefficients file whose values not fitted are kept "
+                    "(default: the package's)")
+    ap.add_argument("--grid", nargs=4, metavar=("FRICTION", "IDLE", "PUMPING", "ACCESSORY"),
+                    help="comma-separated grid values of friction scale, idle factor, "
+                         "pumping MEP [bar] and accessory power [W] (default: the module's "
+                         "grids)")
+    ap.add_argument("--scales", default="0.85,1,1.2,1.45,1.7",
+                    help="comma-separated upshift scales tried per transmission family after "
+                         "the engine grid ('' : not fitted)")
     ap.add_argument("--fuel", choices=("gasoline", "diesel"), default="gasoline",
                     help="the cars fitted and judged: gasoline (both spark-ignition "
                          "technologies and the gearbox families) or diesel (the "
                          "compression-ignition engine alone)")
     a = ap.parse_args(argv)
     shared = a.fuel == "gasoline"
-    grid = (FRICTION_GRID, IDLE_GRID, PUMPING_GRID) if shared else DIESEL_GRID
-    base = tech.load_coefficients()
+    grid = (FRICTION_GRID, IDLE_GRID, PUMPING_GRID, ACCESSORY_GRID) if shared else DIESEL_GRID
+    if a.grid:
+        grid = tuple(tuple(float(x) for x in g.split(",")) for g in a.grid)
+    base = tech.load_coefficients(a.base)
     eff0 = {f: base.transmission[f]["efficiency"].value for f in base.transmission}
     start = time.time()
     jobs = judged_jobs(a.fit_list, a.dt, a.every, a.fuel)
@@ -326,10 +408,23 @@ def main(argv: list[str] | None = None) -> int:
               file=sys.stderr, flush=True)
     res = choose(by_combo, eff0, shared)
     iv = bootstrap(by_combo, eff0, a.boot, shared=shared)
+    scales = [float(x) for x in a.scales.split(",") if x.strip()] if shared else []
+    if scales:  # the shift strategy per family, at the engine grid point chosen
+        grid_engine = {t: {"indicated_efficiency": INDICATED_EFFICIENCY,
+                           "efficiency_specific_power_exponent": 0.0,
+                           **dict(zip(GRID_KEYS, res["combo"][t]))} for t in res["combo"]}
+        by_scale = {}
+        for k in scales:
+            c = with_values(base, grid_engine, eff0, "grid", {f: k for f in eff0})
+            by_scale[k] = predict(jobs, c, a.dt)
+            print(f"upshift scale {k:g}: {len(by_scale[k])} rows, {time.time() - start:.0f} s",
+                  file=sys.stderr, flush=True)
+        res.update(choose_scales(by_scale, eff0))
+        iv.update(scale_intervals(by_scale, eff0, a.boot))
     engine = {t: {"indicated_efficiency": res["eta"][t],
                   "efficiency_specific_power_exponent": res["gamma"][t],
                   **dict(zip(GRID_KEYS, res["combo"][t]))} for t in res["combo"]}
-    coef = with_values(base, engine, res["eff"], "fit")
+    coef = with_values(base, engine, res["eff"], "fit", res.get("scale"))
     n_rows_fit = sum(len(r) for r in by_combo.values()) // len(by_combo)
     print(f"fit on {a.fit_list}: {len(jobs)} cars, {n_rows_fit} rows; {res}; intervals {iv}")
     t0 = time.time()
@@ -348,6 +443,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.json:
         with open(a.json, "w") as fh:
             json.dump({"fit": {"combo": {k: list(v) for k, v in res["combo"].items()},
+                               "scale": res.get("scale"),
                                "eta": res["eta"], "eff": res["eff"], "gamma": res["gamma"],
                                "intervals": {k: list(v) for k, v in iv.items()}},
                        "in_sample": judge(fit_recs), "out_of_sample": j, "rows": recs}, fh,

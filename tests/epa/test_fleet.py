@@ -397,3 +397,158 @@ def test_a_scheduler_that_does_not_answer_is_one_line(mixed_list, tmp_path, caps
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--scheduler" in err[0]
     assert not (tmp_path / "o" / "fleet.json").exists()
+
+
+@pytest.mark.parametrize("model", ["NX 300h AWD", "PRIUS c", "330e", "X5 xDrive40e",
+                                   "GLC 350e 4MATIC", "XC90 T8 AWD", "INSIGHT", "NIRO"])
+def test_hybrids_known_by_their_makers_names_are_not_run(model, tmp_path):
+    path = write_list(tmp_path / "19tstcar.csv", _car("H2", model=model) + _car("A1"),
+                      header=FLEET_HEADER)
+    tests, _ = read_fleet([path])
+    plan = plan_fleet(tests)
+    hyb = [r for r in plan.not_run if r["vehicle_id"] == "H2"]
+    assert len(hyb) == 2 and {r["reason_code"] for r in hyb} == {"hybrid"}
+    assert "in the model name" in hyb[0]["reason"]
+    assert [j.tests[0].vehicle_id for j in plan.jobs] == ["A1"]
+
+
+@pytest.mark.parametrize("model", ["SONATA SE", "E 300", "F150 PICKUP 2WD", "CX-3", "330i",
+                                   "XC90 T6 AWD", "M340i xDrive"])
+def test_conventional_names_are_not_taken_for_hybrids(model, tmp_path):
+    path = write_list(tmp_path / "19tstcar.csv", _car("C1", model=model), header=FLEET_HEADER)
+    tests, _ = read_fleet([path])
+    plan = plan_fleet(tests)
+    assert not plan.not_run and len(plan.jobs) == 1
+
+
+def test_a_city_figure_at_the_highway_figure_is_a_hybrid_whatever_its_name(tmp_path):
+    rows = _car("M1", model="MALIBU")
+    rows[0]["RND_ADJ_FE"] = "61.1"  # the list's FTP-75 of an unnamed hybrid
+    rows[0]["FE Bag 1"], rows[0]["FE Bag 2"], rows[0]["FE Bag 3"] = "55", "63", "62"
+    rows[1]["RND_ADJ_FE"] = "61.9"
+    path = write_list(tmp_path / "19tstcar.csv", rows + _car("A1"), header=FLEET_HEADER)
+    tests, _ = read_fleet([path])
+    plan = plan_fleet(tests)
+    why = {r["reason_code"] for r in plan.not_run}
+    assert why == {"hybrid"} and "0.99 of its HWFET" in plan.not_run[0]["reason"]
+    # the camry's 37.0 / 58.2 = 0.64 is a conventional car's
+    assert [j.tests[0].vehicle_id for j in plan.jobs] == ["A1"]
+
+
+def _coefficients_fitted_on(tmp_path, name: str, list_name: str, eta: float) -> str:
+    """The package's coefficients as fitted on ``list_name``, with another NA efficiency."""
+    from importlib import resources
+
+    import yaml
+
+    from vehval.epa import technology as tech
+
+    data = yaml.safe_load(resources.files("vehval").joinpath(tech.DEFAULT_FILE).read_text())
+    data["provenance"]["fit_lists"] = [list_name]
+    data["engine"]["spark_na"]["indicated_efficiency"]["value"] = eta
+    data["engine"]["spark_na"]["indicated_efficiency"]["interval"] = [0.2, 0.6]
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    return str(path)
+
+
+def test_each_list_is_judged_with_a_fit_of_another_list(tmp_path):
+    """--coefficients: a list fitted on is judged with the other file (out-of-sample); a
+    list that every file was fitted on is marked in-sample."""
+    a = write_list(tmp_path / "16tstcar.csv", _car("A6", year=2016), header=FLEET_HEADER)
+    b = write_list(tmp_path / "19tstcar.csv", _car("B9"), header=FLEET_HEADER)
+    f16 = _coefficients_fitted_on(tmp_path, "f16.yaml", "16tstcar.csv", 0.40)
+    f19 = _coefficients_fitted_on(tmp_path, "f19.yaml", "19tstcar.csv", 0.30)
+    s = run_fleet([a, b], tmp_path / "o", workers=1, report=False, coefficients=[f16, f19])
+    used = {c["file"]: c for c in s["coefficients"]}
+    assert used[f16]["lists_judged"] == ["19tstcar.csv"]
+    assert used[f19]["lists_judged"] == ["16tstcar.csv"]
+    assert s["out_of_sample"]["n_judged"] == s["n_judged"] == 4
+    assert s["out_of_sample"]["n_in_sample"] == 0
+    # the 2016 car (same specs as the 2019 one) built with the less efficient engine
+    import duckdb
+
+    con = duckdb.connect(str(tmp_path / "o" / "fleet.duckdb"), read_only=True)
+    rows = con.execute("SELECT list, procedure, predicted_mpg, in_sample, coefficients "
+                       "FROM fleet_rows ORDER BY list, procedure").fetchall()
+    con.close()
+    pred = {(x[0], x[1]): x[2] for x in rows}
+    assert pred[("16tstcar.csv", "hwfet")] < 0.85 * pred[("19tstcar.csv", "hwfet")]
+    assert {x[3] for x in rows} == {False} and "f19.yaml" in rows[0][4]
+    # one file fitted on the list: its rows run with it, marked in-sample, and the
+    # out-of-sample statistics leave them out
+    s1 = run_fleet([b], tmp_path / "o1", workers=1, report=False, coefficients=[f19])
+    assert s1["out_of_sample"]["n_judged"] == 0 and s1["per_list"]["19tstcar.csv"][
+        "n_in_sample"] == 2
+    assert s1["coefficients"][0]["in_sample_lists"] == ["19tstcar.csv"]
+
+
+def test_cross_year_uses_the_packaged_fits(mixed_list, tmp_path, capsys):
+    from vehval.epa import technology as tech
+
+    fits = tech.packaged_fits()
+    assert len(fits) >= 2 and all(f.fit_lists for f in fits)
+    assert main(["epa", "fleet", str(mixed_list), "-o", str(tmp_path / "o"), "--workers", "1",
+                 "--no-report", "--cross-year"]) == 0
+    out = capsys.readouterr().out
+    assert "out of sample (4 rows)" in out and "in-sample lists: none" in out
+
+
+def test_a_bad_coefficients_file_is_one_line(mixed_list, tmp_path, capsys):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("engine: {spark_na: {friction_scale: {value: 9}}}\n", encoding="utf-8")
+    assert main(["epa", "fleet", str(mixed_list), "-o", str(tmp_path / "o"), "--workers", "1",
+                 "--coefficients", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "bad.yaml" in err[0] and "friction_scale" in err[0]
+    assert not (tmp_path / "o" / "fleet.json").exists()
+
+
+def test_a_test_carried_over_from_the_fitted_list_is_in_sample(tmp_path):
+    """The 2019 list repeats some 2016 tests: judged with the 2016 fit they are the rows
+    fitted on, not out-of-sample, and a rerun from the store keeps the marks of its lists."""
+    old = _car("C1", year=2016)
+    new = _car("C1") + _car("N2")
+    a = write_list(tmp_path / "16tstcar.csv", old, header=FLEET_HEADER)
+    b = write_list(tmp_path / "19tstcar.csv", new, header=FLEET_HEADER)
+    f16 = _coefficients_fitted_on(tmp_path, "f16.yaml", "16tstcar.csv", 0.40)
+    s = run_fleet([b], tmp_path / "o", workers=1, report=False, coefficients=[f16])
+    assert s["out_of_sample"]["n_judged"] == 4  # the 2016 list not read: nothing to see
+    s = run_fleet([a, b], tmp_path / "o", workers=1, report=False, coefficients=[f16])
+    assert s["run"]["n_cars_cached"] == 2  # the 2019 cars from the store, relabelled
+    per = s["per_list"]
+    assert per["19tstcar.csv"]["n_in_sample"] == 2 and per["16tstcar.csv"]["n_in_sample"] == 2
+    assert s["out_of_sample"]["n_judged"] == 2
+
+
+def test_a_four_phase_ftp_is_a_hybrid_mild_ones_included(tmp_path):
+    rows = _car("R1", model="1500 4X4")
+    rows[0]["FE Bag 4"] = "21.0"  # the four-phase FTP of a 48 V mild hybrid
+    path = write_list(tmp_path / "19tstcar.csv", rows + _car("A1"), header=FLEET_HEADER)
+    tests, _ = read_fleet([path])
+    plan = plan_fleet(tests)
+    assert {r["vehicle_id"] for r in plan.not_run} == {"R1"}
+    assert all(r["reason_code"] == "hybrid" and "bag 4" in r["reason"] for r in plan.not_run)
+
+
+def test_every_judged_row_has_its_normalised_error(mixed_list, tmp_path):
+    """En = (model - listed) / sqrt(U_model^2 + U_meas^2): U_meas from the lists'
+    vehicle-level reproducibility of the procedure, U_model from the coefficients' ranges."""
+    from vehval.uncertainty.defaults import precision_default
+
+    s = run_fleet([mixed_list], tmp_path / "o", workers=1, report=False)
+    tests, _ = read_fleet([mixed_list])
+    records = predict_jobs(plan_fleet(tests).jobs)
+    judged_rows = [r for r in records if r["judged"]]
+    assert judged_rows
+    for r in judged_rows:
+        d = precision_default(r["procedure"], "conventional")
+        assert r["u_meas_mpg"] == pytest.approx(2 * d.s_R_vehicle * r["measured_mpg"], rel=1e-6)
+        assert r["u_model_mpg"] > 0
+        en = (r["predicted_mpg"] - r["measured_mpg"]) / math.hypot(r["u_model_mpg"],
+                                                                   r["u_meas_mpg"])
+        assert r["en"] == pytest.approx(en)
+    ver = s["out_of_sample"]["verdicts"]
+    assert set(ver) == {"ftp75", "hwfet"} and all(v["n"] == 2 for v in ver.values())
+    share = np.mean([abs(r["en"]) <= 1 for r in judged_rows if r["procedure"] == "hwfet"])
+    assert ver["hwfet"]["share_consistent"] == pytest.approx(share)

@@ -95,3 +95,28 @@ def test_coefficients_file_out_of_bounds_refused(tmp_path):
     with pytest.raises(ConfigError, match="indicated_efficiency' = 0.9 outside"):
         tech.load_coefficients(p)
     assert math.isfinite(tech.load_coefficients().turbo_min_specific_power_w_per_l)
+
+
+def test_accessory_power_and_upshift_scale_reach_the_vehicle(specs):
+    """The accessory load of the coefficients is the engine's (and burns more at idle); the
+    family's upshift scale moves the upshift lines in proportion, with its source."""
+    base = tech.load_coefficients()
+    c0 = _with(base, accessory_power_w=300.0)
+    c1 = _with(base, accessory_power_w=900.0)
+    v0 = vehicle_from_specs(specs, coefficients=c0)
+    v1 = vehicle_from_specs(specs, coefficients=c1)
+    assert v0.engine_control.accessory_power_w == 300.0
+    assert v1.engine_control.accessory_power_w == 900.0
+    assert v1.engine_control.idle_fuel_rate_g_per_s > v0.engine_control.idle_fuel_rate_g_per_s
+    assert "accessory power" in v1.sources()["engine_control.accessory_power_w"]
+    fam = specs.family
+    tr = {f: dict(v) for f, v in base.transmission.items()}
+    tr[fam]["upshift_scale"] = tech.Coefficient(1.2, (1.2, 1.2), "test")
+    c2 = dataclasses.replace(c0, transmission=tr)
+    tr1 = {f: dict(v) for f, v in base.transmission.items()}
+    tr1[fam]["upshift_scale"] = tech.Coefficient(1.0, (1.0, 1.0), "test")
+    up1 = np.asarray(vehicle_from_specs(
+        specs, coefficients=dataclasses.replace(c0, transmission=tr1)).gearbox.upshift_speed_mps)
+    v2 = vehicle_from_specs(specs, coefficients=c2)
+    assert np.allclose(np.asarray(v2.gearbox.upshift_speed_mps), 1.2 * up1)
+    assert "upshift scale 1.2" in v2.sources()["gearbox.upshift_speed_mps"]

@@ -100,14 +100,25 @@ def test_clutch_launch_without_converter(tmp_path):
             auto.converter.capacity_nm_s2_per_rad2 * (tr.STALL_SPEED_RPM / tr.CLUTCH_LAUNCH_RPM) ** 2)
 
 
-def test_manual_shift_speeds_of_the_cfr_or_earlier(tmp_path):
-    veh = vehicle_from_specs(_specs(tmp_path, "M", 6))
+@pytest.mark.parametrize("scale", [1.0, 1.2])
+def test_manual_shift_speeds_of_the_cfr_or_earlier(tmp_path, scale):
+    """The CFR's speeds (x the family's upshift scale of the technology coefficients), or
+    earlier when the engine reaches MANUAL_SHIFT_FROM_RPM (x the scale) first."""
+    import dataclasses
+
+    from vehval.epa import technology as tech
+
+    base = tech.load_coefficients()
+    trs = {f: dict(v) for f, v in base.transmission.items()}
+    trs["manual"]["upshift_scale"] = tech.Coefficient(scale, (scale, scale), "test")
+    coef = dataclasses.replace(base, transmission=trs)
+    veh = vehicle_from_specs(_specs(tmp_path, "M", 6), coefficients=coef)
     up = np.asarray(veh.gearbox.upshift_speed_mps) / MPH_M_PER_S
     ov = veh.overall_ratios()
     rpm_before = up * MPH_M_PER_S * ov[:-1] / veh.driveline.wheel_radius_m / RPM_RAD_PER_S
     for i, cfr in enumerate(tr.MANUAL_SHIFT_MPH):
-        # the CFR speed, or earlier when the engine reaches MANUAL_SHIFT_FROM_RPM first
-        assert up[i] <= cfr + 1e-9 or rpm_before[i] <= tr.MANUAL_SHIFT_FROM_RPM + 1e-6
+        assert (up[i] <= scale * cfr + 1e-9
+                or rpm_before[i] <= scale * tr.MANUAL_SHIFT_FROM_RPM + 1e-6)
     assert np.all(np.diff(up) > 0)
     rpm_after = up * MPH_M_PER_S * ov[1:] / veh.driveline.wheel_radius_m / RPM_RAD_PER_S
     assert np.all(rpm_after >= tr.MANUAL_MIN_RPM - 1e-6)  # never lugging

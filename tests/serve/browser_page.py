@@ -60,7 +60,9 @@ def _wait(page, expr: str, timeout_s: float = TIMEOUT_MS / 1000) -> None:
     """Poll a JS expression until true (``page.wait_for_function`` evaluates a string,
     which the page's policy forbids: no 'unsafe-eval')."""
     deadline = time.monotonic() + timeout_s
-    while not page.evaluate(f"() => Boolean({expr})"):
+    # false while a navigation is under way (document.body is null for a moment)
+    while not page.evaluate(f"() => {{ try {{ return Boolean({expr}); }} "
+                            "catch (e) { return false; } }"):
         if time.monotonic() > deadline:
             shown = page.evaluate("() => (document.getElementById('error') || {}).textContent")
             raise AssertionError(f"timed out waiting for {expr} (page error: {shown!r})")

@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from vehval.epa.fleet import ROW_COLUMNS, CarJob, plan_fleet, predict_jobs, read_fleet
+from vehval.epa.fleet import ROW_COLUMNS, CarJob, plan_fleet, predict_jobs, read_fleet, relabel
 from vehval.epa.fleet_baseline import BASELINE_KEYS, RESIDUAL_KEYS, cross_validate
 from vehval.epa.fleet_summary import summarise
 from vehval.errors import ConfigError
@@ -37,10 +37,11 @@ DB_NAME, JSON_NAME, HTML_NAME, CARS_DIR = "fleet.duckdb", "fleet.json", "fleet.h
 #: columns the baseline adds to a row record
 BASELINE_COLUMNS = (*BASELINE_KEYS, *RESIDUAL_KEYS)
 _INT = {"year", "procedure_code", "gears", "cylinders", "trace_n_miss"}
-_BOOL = {"judged", "list_doubtful"}
+_BOOL = {"judged", "list_doubtful", "in_sample"}
 _TEXT = {"row_id", "list", "source", "car", "make", "model", "vehicle_id", "config",
          "test_number", "originator", "procedure", "fuel", "fuel_family", "transmission",
-         "transmission_class", "aspiration", "status", "reason_code", "reason"}
+         "transmission_class", "aspiration", "status", "reason_code", "reason",
+         "coefficients"}
 
 
 def _sql_type(col: str) -> str:
@@ -145,10 +146,39 @@ def _execute(jobs: list[CarJob], workers: int, scheduler: str | None,
     return n
 
 
+def _coefficient_sets(files: Sequence[str | Path], cross_year: bool) -> list[Any]:
+    """The coefficient sets of a run: the files given (each checked: a bad file is one line
+    naming it), then with ``cross_year`` the package's fits; none: the package's file."""
+    from vehval.epa import technology as tech
+
+    sets = [tech.load_coefficients(Path(f)) for f in files]
+    if cross_year:
+        sets += [c for c in tech.packaged_fits() if c.digest not in {s.digest for s in sets}]
+    return sets or [tech.load_coefficients()]
+
+
+def _coefficients_used(sets: Sequence[Any], jobs: Sequence[CarJob]) -> list[dict[str, Any]]:
+    """Per coefficient set: its file, the lists it was fitted on and the lists it judged."""
+    out = []
+    for c in sets:
+        judged = sorted({j.key.split("|", 1)[0] for j in jobs if j.coefficients is c})
+        out.append({"file": c.where, "fit_lists": list(c.fit_lists), "fit": c.header.get("fit"),
+                    "lists_judged": judged,
+                    "in_sample_lists": [x for x in judged if x in c.fit_lists]})
+    return out
+
+
 def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int | None = None,
               scheduler: str | None = None, force: bool = False, progress: bool = False,
-              report: bool = True) -> dict[str, Any]:
+              report: bool = True, coefficients: Sequence[str | Path] = (),
+              cross_year: bool = False) -> dict[str, Any]:
     """Predict every runnable row of the lists ``paths`` into ``outdir``; returns the summary.
+
+    ``coefficients``: technology coefficient files (default the package's); ``cross_year``:
+    add the package's fits of every list year (:data:`vehval.epa.technology.PACKAGED_FITS`).
+    Each list's cars are built with a set not fitted on that list when there is one
+    (:func:`vehval.epa.technology.for_list`); the rows of a list fitted on are marked
+    ``in_sample``.
 
     Raises
     ------
@@ -165,8 +195,9 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
         check_scheduler(scheduler)
     else:
         workers = check_workers(workers)
+    coef_sets = _coefficient_sets(coefficients, cross_year)
     tests, lists = read_fleet(paths)
-    plan = plan_fleet(tests)
+    plan = plan_fleet(tests, coefficients=coef_sets)
     if not plan.jobs:
         from collections import Counter
 
@@ -186,7 +217,7 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
         if cached is None or cached.get("key") != job.key:
             todo.append(job)
         else:
-            records.extend(cached["records"])
+            records.extend(relabel(job, cached["records"]))
             n_cached += 1
     t0 = time.perf_counter()
     with progress_bar("[bold]fleet", disable=not progress, transient=False) as pbar:
@@ -213,6 +244,7 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
                        "n_rows_simulated": n_new, "elapsed_s": elapsed,
                        "rows_per_minute": 60.0 * n_new / elapsed if n_new and elapsed else None,
                        "workers": used, "scheduler": scheduler, "dt_s": plan.jobs[0].dt},
+               "coefficients": _coefficients_used(coef_sets, plan.jobs),
                "outputs": {"duckdb": DB_NAME, "json": JSON_NAME,
                            "html": HTML_NAME if report else None}}
     write_duckdb(out / DB_NAME, records, baseline)

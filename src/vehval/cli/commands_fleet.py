@@ -33,6 +33,18 @@ def _lines(s: dict) -> list[str]:
                        f"{100 * d['model']['median_abs_error']:.1f} % vs regression "
                        f"{100 * d['baseline']['median_abs_error']:.1f} % median |error|: "
                        f"{'physics' if d['model_better'] else 'regression'} better")
+    for c in s.get("coefficients") or ():
+        inside = ", ".join(c["in_sample_lists"]) or "none"
+        out.append(f"  coefficients {c['file']} (fitted on {', '.join(c['fit_lists']) or '-'}): "
+                   f"judged {', '.join(c['lists_judged']) or '-'}; in-sample lists: {inside}")
+    oos = s.get("out_of_sample") or {}
+    if oos.get("n_judged"):
+        out.append(f"  out of sample ({oos['n_judged']} rows): " + ", ".join(
+            f"{p} {100 * st['median_abs_error']:.1f} %" for p, st in oos["errors"].items())
+            + f" median |error|, within 5 % {100 * oos['share_within_5pct']:.0f} %")
+        if oos.get("verdicts"):
+            out.append("  consistent within the uncertainty (|En| <= 1): " + ", ".join(
+                f"{p} {100 * v['share_consistent']:.0f} %" for p, v in oos["verdicts"].items()))
     run = s["run"]
     if run["rows_per_minute"]:
         out.append(f"  {run['n_rows_simulated']} rows simulated in {run['elapsed_s']:.1f} s "
@@ -55,6 +67,12 @@ def fleet_cmd(
     force: bool = typer.Option(False, "--force", help="Run every car again (default: the "
                                "cars of an earlier run into OUTDIR are kept)."),
     report: bool = typer.Option(True, "--report/--no-report", help="Write fleet.html."),
+    coefficients: Optional[list[Path]] = typer.Option(
+        None, "--coefficients", help="Technology coefficients file (repeatable; default the "
+        "package's). Each list is judged with a file not fitted on it when there is one."),
+    cross_year: bool = typer.Option(False, "--cross-year", help="Add the package's fit of "
+                                    "every list year: each list judged with another year's "
+                                    "fit (out-of-sample)."),
     as_json: bool = typer.Option(False, "--json", help="Print the summary as JSON."),
 ) -> None:
     """Predict every conventional row of the lists; every other row listed with its reason.
@@ -65,7 +83,8 @@ def fleet_cmd(
     from vehval.jsonsafe import dumps
 
     summary = run_fleet(paths, outdir, workers=workers, scheduler=scheduler, force=force,
-                        progress=enabled(as_json), report=report)
+                        progress=enabled(as_json), report=report,
+                        coefficients=coefficients or (), cross_year=cross_year)
     if as_json:
         typer.echo(dumps(summary), nl=False)
         return

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Optional
 
 import typer
 
@@ -16,6 +17,9 @@ from vehval.cli.app import app
 from vehval.cli.options import bounded, output_dir
 from vehval.errors import ConfigError
 from vehval.io.paths import check_outputs, sanitize_id, vehicle_path
+
+#: the vehicle validated when neither --vehicle nor the test's template names one
+DEFAULT_VEHICLE = "prius_2004"
 
 
 def _pct(value, digits: int, unit: str = " %") -> str:
@@ -41,7 +45,7 @@ def _tolerances(fuel_tol: float, soc_tol: float, soc_points: float | None):
 def validate_cmd(
     files: list[Path] = typer.Argument(None, help="Test directories, validated .parquet tests or the raw files of one test."),
     template: Path = typer.Option(None, "-t", "--template", help="Import template (default: template.yaml of each test directory)."),
-    vehicle: str = typer.Option("prius_2004", "--vehicle", help="Vehicle name or YAML path."),
+    vehicle: Optional[str] = typer.Option(None, "--vehicle", help="Vehicle name or YAML path (default: the template's vehicle, else prius_2004)."),
     output: Path = typer.Option(..., "-o", "--output", callback=output_dir, help="Output directory (written atomically)."),
     test_group: list[str] = typer.Option([], "--test", metavar="A,B", help="Files (comma-separated) of one test; repeatable."),
     dt: float = typer.Option(0.1, "--dt", callback=bounded("dt"), help="Simulation step (s)."),
@@ -66,9 +70,15 @@ def validate_cmd(
 
     if not files and not test_group:
         raise ConfigError("no test given: name test directories or files, or use --test A,B")
-    check_outputs(outdir=output, inputs=[*(files or []), template, vehicle_path(vehicle)],
+    check_outputs(outdir=output, inputs=[*(files or []), template,
+                                         vehicle_path(vehicle or DEFAULT_VEHICLE)],
                   writes=["validation.json", "metrics.json", "report.html", "tables.xlsx"])
     runs = runs_from_args(files or [], test_group, template, vehicle, use_qa=not no_qa)
+    for run in runs:  # neither --vehicle nor the template names one
+        if run.vehicle is None:
+            from vehval.vehicle import load_vehicle
+
+            run.vehicle = load_vehicle(DEFAULT_VEHICLE)
     from vehval.cli.progress import bar
     with bar("validate: simulating tests", as_json=as_json):
         suite = validate_runs(runs, _tolerances(fuel_tol, soc_tol, soc_points), dt=dt,

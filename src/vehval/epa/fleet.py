@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import json
 import math
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -68,6 +67,7 @@ ROW_COLUMNS = (
     "measured_bag1", "measured_bag2", "measured_bag3", "measured_bag4",
     "predicted_bag1", "predicted_bag2", "predicted_bag3", "predicted_bag4",
     "judged", "list_doubtful", "trace_n_miss", "status", "reason_code", "reason",
+    "in_sample", "coefficients", "u_model_mpg", "u_meas_mpg", "en",
 )
 
 
@@ -162,14 +162,22 @@ class CarJob:
     specs: Any  # vehval.epa.specs.Specs
     tests: list[EpaTest] = field(default_factory=list)
     dt: float = FLEET_DT_S
+    #: technology coefficients the car is built with (None: the package's file)
+    coefficients: Any = None  # vehval.epa.technology.Coefficients
+    #: the rows' list is one the coefficients were fitted on
+    in_sample: bool = False
+    #: rows (``source``) that are the same test (number and vehicle) as a row of a list the
+    #: coefficients were fitted on: a test carried over from one list year to the next
+    in_sample_rows: frozenset[str] = frozenset()
 
-    @property
+    @functools.cached_property
     def digest(self) -> str:
-        """Hash of what the job's results depend on: specs, rows, step and the model
-        (:func:`model_fingerprint`)."""
-        payload = json.dumps({"specs": self.specs.to_dict(), "dt": self.dt, "fuel": self.fuel,
-                              "rows": [t.to_dict() for t in self.tests],
-                              "model": model_fingerprint()}, sort_keys=True, default=str)
+        """Hash of what the job's results depend on: specs, rows, step, the technology
+        coefficients and the model (:func:`model_fingerprint`); computed once per job (the
+        dataclasses' reprs hold every field: exact floats, in order)."""
+        coef = self.coefficients.digest if self.coefficients is not None else None
+        payload = "\n".join([repr(self.specs), repr(self.dt), self.fuel, str(coef),
+                              model_fingerprint(), *map(repr, self.tests)])
         return hashlib.sha256(payload.encode()).hexdigest()[:20]
 
 
@@ -228,16 +236,25 @@ def _spec_reason(exc: VehvalError, tests: list[EpaTest]) -> str:
     return "hybrid" if "hybrid" in text else "specs_not_usable"
 
 
-def plan_fleet(tests: Iterable[EpaTest], dt: float = FLEET_DT_S) -> FleetPlan:
+def plan_fleet(tests: Iterable[EpaTest], dt: float = FLEET_DT_S,
+               coefficients: Sequence[Any] | None = None) -> FleetPlan:
     """Group rows into cars and decide for each row: a job to run, or not run with its reason.
 
+    ``coefficients``: technology coefficient sets (:class:`vehval.epa.technology.Coefficients`;
+    default the package's file); each list's cars are built with the first set not fitted
+    on that list (:func:`vehval.epa.technology.for_list`), else the first, in-sample.
     Every row given ends either in one :class:`CarJob` or in ``FleetPlan.not_run``."""
+    from vehval.epa import technology as tech
     from vehval.epa.specs import hybrid_mark, specs_from_tests
+
+    choices = list(coefficients or [tech.load_coefficients()])
 
     plan = FleetPlan()
     cars: dict[str, list[EpaTest]] = defaultdict(list)
+    lists_of_test: dict[tuple[str, str], set[str]] = defaultdict(set)
     for t in tests:
         cars[car_key(t)].append(t)
+        lists_of_test[(t.test_number, t.vehicle_id)].add(t.source.rsplit(":", 1)[0])
         plan.n_rows += 1
     plan.lists = sorted({k.split("|", 1)[0] for k in cars})
     for key, rows in cars.items():
@@ -266,15 +283,71 @@ def plan_fleet(tests: Iterable[EpaTest], dt: float = FLEET_DT_S) -> FleetPlan:
                 code = _spec_reason(exc, spec_rows)
                 plan.not_run.extend(not_run(t, code, str(exc)) for t in run)
                 continue
-            plan.jobs.append(CarJob(key=key, fuel=fam, specs=specs, tests=run, dt=dt))
+            coef, inside = tech.for_list(key.split("|", 1)[0], choices)
+            carried = frozenset(t.source for t in run if t.test_number and
+                                lists_of_test[(t.test_number, t.vehicle_id)] & set(coef.fit_lists))
+            plan.jobs.append(CarJob(key=key, fuel=fam, specs=specs, tests=run, dt=dt,
+                                    coefficients=coef, in_sample=inside,
+                                    in_sample_rows=carried))
     return plan
 
 
-def _predicted(t: EpaTest, pred: Any) -> dict[str, Any]:
+def _job_record(job: CarJob, t: EpaTest) -> dict[str, Any]:
+    """The row's own values and the coefficients its car was built with."""
+    coef = job.coefficients
+    return {**base_record(t), "in_sample": job.in_sample or t.source in job.in_sample_rows,
+            "coefficients": coef.label if coef is not None else None}
+
+
+def relabel(job: CarJob, records: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Stored records of ``job``'s car with this run's in-sample marks (they depend on the
+    lists read beside it, not on the prediction)."""
+    coef = job.coefficients
+    label = coef.label if coef is not None else None
+    return [{**r, "in_sample": job.in_sample or r.get("source") in job.in_sample_rows,
+             "coefficients": label} for r in records]
+
+
+def model_u_rel(job: CarJob) -> float:
+    """Relative standard uncertainty [-] of the car's fuel economy from the technology
+    coefficients' intervals: the indicated efficiency of its engine and the gearbox
+    efficiency of its family (mpg is proportional to both), each a uniform range (half
+    width / sqrt 3); 0 without intervals. The grid coefficients (friction, idle, pumping,
+    accessories, shift) are not propagated."""
+    from vehval.epa import technology as tech
+
+    coef = job.coefficients or tech.load_coefficients()
+    parts = [coef.engine_value(job.specs.engine_technology, "indicated_efficiency"),
+             coef.transmission_value(job.specs.family, "efficiency")]
+    u2 = sum((0.5 * (c.interval[1] - c.interval[0]) / math.sqrt(3) / c.value) ** 2
+             for c in parts if c is not None and c.value > 0)
+    return math.sqrt(u2)
+
+
+def verdict(t: EpaTest, predicted: float, u_rel: float) -> dict[str, float | None]:
+    """U_model, U_meas [mpg] (k = 2) and En of a row: U_meas from the packaged precision of
+    the procedure (conventional cars, vehicle level s_R: the model never saw this car;
+    :func:`vehval.uncertainty.defaults.precision_default`), U_model from ``u_rel``."""
+    from vehval.uncertainty import measurement_uncertainty, normalised_error
+    from vehval.uncertainty.defaults import precision_default
+
+    try:
+        d = precision_default(procedure_key(t), "conventional")
+    except VehvalError:
+        return {"u_model_mpg": None, "u_meas_mpg": None, "en": None}
+    s_r = d.s_r or 0.0
+    u_meas = measurement_uncertainty(t.fe, s_r=s_r, s_R=d.s_R_vehicle or d.s_R or s_r,
+                                     different_source=True)
+    u_model = 2.0 * u_rel * predicted
+    en = normalised_error(predicted, t.fe, u_model, u_meas).en
+    return {"u_model_mpg": u_model, "u_meas_mpg": u_meas, "en": _f(en)}
+
+
+def _predicted(job: CarJob, t: EpaTest, pred: Any) -> dict[str, Any]:
     from vehval.epa.consistency import check_listed_figures
 
     check = check_listed_figures(t)
-    rec = {**base_record(t), "status": "run", "reason_code": None, "reason": None,
+    rec = {**_job_record(job, t), "status": "run", "reason_code": None, "reason": None,
            "predicted_mpg": _f(pred.overall_mpg), "trace_n_miss": int(pred.trace_n_miss),
            "list_doubtful": not check.ok, "judged": bool(check.ok)}
     if not check.ok:
@@ -283,6 +356,8 @@ def _predicted(t: EpaTest, pred: Any) -> dict[str, Any]:
         rec[f"predicted_bag{k}"] = _f(v)
     if rec["predicted_mpg"] is not None and rec["measured_mpg"]:
         rec["error"] = rec["predicted_mpg"] / rec["measured_mpg"] - 1.0
+        if check.ok:  # judged: its normalised error
+            rec.update(verdict(t, rec["predicted_mpg"], model_u_rel(job)))
     return rec
 
 
@@ -295,9 +370,9 @@ def predict_car(job: CarJob) -> list[dict[str, Any]]:
     from vehval.epa.validation import predict_test
 
     try:
-        veh: Any = vehicle_from_specs(job.specs)
+        veh: Any = vehicle_from_specs(job.specs, coefficients=job.coefficients)
     except VehvalError as exc:
-        return [{**base_record(t), "status": "failed", "reason_code": "specs_not_usable",
+        return [{**_job_record(job, t), "status": "failed", "reason_code": "specs_not_usable",
                  "reason": f"{t.source}: {exc}"} for t in job.tests]
     out = []
     for t in job.tests:
@@ -305,9 +380,9 @@ def predict_car(job: CarJob) -> list[dict[str, Any]]:
         try:
             if proc is None:
                 raise VehvalError(why)
-            out.append(_predicted(t, predict_test(veh, t, proc, job.dt)))
+            out.append(_predicted(job, t, predict_test(veh, t, proc, job.dt)))
         except Exception as exc:  # noqa: BLE001 - one failed row is recorded, the rest go on
-            out.append({**base_record(t), "status": "failed", "reason_code": "model_error",
+            out.append({**_job_record(job, t), "status": "failed", "reason_code": "model_error",
                         "reason": f"{t.source}: {type(exc).__name__}: {exc}"})
     return out
 
@@ -331,7 +406,7 @@ def chunks(jobs: Sequence[CarJob], n_workers: int,
 
 
 def _lost(job: CarJob, exc: BaseException) -> list[dict[str, Any]]:
-    return [{**base_record(t), "status": "failed", "reason_code": "model_error",
+    return [{**_job_record(job, t), "status": "failed", "reason_code": "model_error",
              "reason": f"{t.source}: task lost ({type(exc).__name__}: {exc})"}
             for t in job.tests]
 

@@ -188,7 +188,8 @@ def _stats(err: list[float]) -> dict[str, Any]:
 
 def compare(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Per procedure and scheme (``within_year``, ``year_to_year``): the model's and the
-    baseline's errors on the same rows, and whether the model is better (smaller median
+    baseline's errors on the same rows (those out of the technology coefficients' fit: a row
+    marked ``in_sample`` is left out of both), and whether the model is better (smaller median
     |error|); ``physics_residual``: the physics + regression residual on its rows (apart:
     it is not the physics model)."""
     out: dict[str, Any] = {}
@@ -197,8 +198,8 @@ def compare(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
                                   "residual_year_error")):
         per: dict[str, dict[str, list[float]]] = defaultdict(
             lambda: {"model": [], "base": [], "res": []})
-        for r in records:
-            if r.get(key) is None or r.get("error") is None:
+        for r in records:  # out-of-sample rows only: the physics model's fit never saw them
+            if r.get(key) is None or r.get("error") is None or r.get("in_sample"):
                 continue
             per[r["procedure"]]["model"].append(r["error"])
             per[r["procedure"]]["base"].append(r[key])

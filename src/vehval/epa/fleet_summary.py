@@ -94,6 +94,28 @@ def outliers(rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     return sorted(out, key=lambda o: -abs(o["error"]))
 
 
+def verdicts(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Per procedure: rows with a normalised error, the share with |En| <= 1 (consistent
+    within the list's reproducibility and the coefficients' intervals) and the median |En|."""
+    by: dict[str, list[float]] = defaultdict(list)
+    for r in rows:
+        if r.get("en") is not None:
+            by[r["procedure"]].append(abs(r["en"]))
+    return {p: {"n": len(v), "share_consistent": float(np.mean(np.array(v) <= 1.0)),
+                "median_abs_en": float(np.median(v))} for p, v in sorted(by.items())}
+
+
+def _judged_block(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Judged rows' statistics: counts (in-sample: the row's list is one the technology
+    coefficients were fitted on), errors per procedure, share within 5 %, HWFET/FTP bias,
+    normalised-error verdicts."""
+    err = [r["error"] for r in rows]
+    return {"n_judged": len(rows), "n_in_sample": sum(bool(r.get("in_sample")) for r in rows),
+            "errors": per_procedure(rows),
+            "share_within_5pct": float(np.mean(np.abs(err) <= 0.05)) if err else None,
+            "hwfet_ftp_bias": hwfet_ftp_bias(rows), "verdicts": verdicts(rows)}
+
+
 def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """The JSON summary of a fleet run's records (keys documented in docs/fleet.md)."""
     rows = judged(records)
@@ -101,8 +123,13 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     per_list: dict[str, Counter] = defaultdict(Counter)
     for r in records:
         per_list[r["list"]][r["status"]] += 1
+    outside = [r for r in rows if not r.get("in_sample")]
     lists = {k: {"n_rows": sum(c.values()), "n_run": c["run"], "n_not_run": c["not_run"],
-                 "n_failed": c["failed"]} for k, c in sorted(per_list.items())}
+                 "n_failed": c["failed"], **_judged_block([r for r in rows if r["list"] == k]),
+                 "out_of_sample": {
+                     **_judged_block([r for r in outside if r["list"] == k]),
+                     "per_technology": per_technology([r for r in outside if r["list"] == k])}}
+             for k, c in sorted(per_list.items())}
     out: dict[str, Any] = {
         "n_rows": len(records), "n_run": status["run"], "n_not_run": status["not_run"],
         "n_failed": status["failed"], "n_judged": len(rows),
@@ -114,6 +141,7 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "per_technology": per_technology(rows),
         "hwfet_ftp_bias": hwfet_ftp_bias(rows),
         "outliers": outliers(rows),
+        "out_of_sample": {**_judged_block(outside), "per_technology": per_technology(outside)},
     }
     out["notes"] = [f"{k}: no runnable row (rows not run: "
                     + ", ".join(f"{c} {n}" for c, n in Counter(

@@ -40,7 +40,6 @@ family is read from what the lists do state:
 from __future__ import annotations
 
 import math
-import re
 from collections import defaultdict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -49,6 +48,7 @@ from typing import Any
 from vehval.epa.consistency import check_listed_figures
 from vehval.epa.procedures import procedure_key
 from vehval.epa.reader import EpaTest
+from vehval.epa.specs_rows import four_bag_ftp, hybrid_name_mark
 from vehval.uncertainty import InsufficientDataError, LabPair, Precision
 from vehval.uncertainty import repeatability as _repeatability
 from vehval.uncertainty import reproducibility as _reproducibility
@@ -56,19 +56,10 @@ from vehval.uncertainty import reproducibility as _reproducibility
 FAMILIES = ("conventional", "hybrid", "electric")
 #: test fuel codes of electricity
 ELECTRICITY_FUEL_CODES = frozenset({"62"})
-#: words of a model name that mark a hybrid (whole words, case-insensitive)
-HYBRID_MARKS = ("HYBRID", "HEV", "PHEV", "FHEV", "PLUG-IN")
-
-
-def _hybrid_name(model: str) -> bool:
-    words = set(re.split(r"[^A-Z0-9-]+", model.upper()))
-    return bool(words & set(HYBRID_MARKS)) or "PLUG-IN" in model.upper()
-
-
 def hybrid_vehicles(tests: Iterable[EpaTest]) -> set[str]:
-    """Test vehicle IDs with an FTP-75 bag 4 result (the 4-bag hybrid FTP)."""
-    return {t.vehicle_id for t in tests
-            if procedure_key(t) == "ftp75" and len(t.bags) > 3 and math.isfinite(t.bags[3])}
+    """Test vehicle IDs with a four-phase FTP-75 (a bag 4 result: the hybrid FTP;
+    :func:`vehval.epa.specs_rows.four_bag_ftp`)."""
+    return {t.vehicle_id for t in tests if four_bag_ftp(t)}
 
 
 def powertrain_family(t: EpaTest, hybrids: set[str]) -> str:
@@ -76,7 +67,7 @@ def powertrain_family(t: EpaTest, hybrids: set[str]) -> str:
     ``hybrids`` is :func:`hybrid_vehicles` of the same list."""
     if t.fuel_code in ELECTRICITY_FUEL_CODES:
         return "electric"
-    if t.vehicle_id in hybrids or _hybrid_name(t.model):
+    if t.vehicle_id in hybrids or hybrid_name_mark(t.model):
         return "hybrid"
     return "conventional"
 

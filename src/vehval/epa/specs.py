@@ -289,12 +289,15 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
     family = specs.family
 
     e = tech.engine_values(coef, engine_tech, specs.rated_power_w, specs.displacement_l,
-                           indicated_efficiency, friction_scale, INDICATED_EFFICIENCY)
+                           indicated_efficiency, friction_scale, INDICATED_EFFICIENCY,
+                           ACCESSORY_POWER_W)
     indicated_efficiency, eta_src = e["indicated_efficiency"]
     friction_scale, kf_src = e["friction_scale"]
     idle_factor, idle_f_src = e["idle_factor"]
     pumping_bar, pump_src = e["pumping_bar"]
+    accessory_w, acc_src = e["accessory_power_w"]
     gb_eff = coef.transmission_value(family, "efficiency") if coef is not None else None
+    gb_up = coef.transmission_value(family, "upshift_scale") if coef is not None else None
     diesel = specs.fuel == "diesel"
     if enrichment is None:
         enrichment = 0.0 if diesel else ENRICHMENT
@@ -323,7 +326,7 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
     pump = {"pumping_pa": pumping_bar * 1e5} if pumping_bar else {}
     fuel = em.fuel_rate_g_per_s(speeds, torques, tmax, vd, eta, kf, lhv, high, **pump)
     tf = friction_torque_nm(np.array([IDLE_SPEED_RPM, 2000.0]), vd, kf)
-    t_acc = ACCESSORY_POWER_W / (IDLE_SPEED_RPM * RPM)
+    t_acc = accessory_w / (IDLE_SPEED_RPM * RPM)
     i_idle = int(np.flatnonzero(np.isclose(speeds, IDLE_SPEED_RPM))[0])
     idle_fuel = float(np.interp(t_acc, torques, fuel[i_idle]))
     willans = willans_text(eta, kf, s, enrichment)
@@ -350,10 +353,15 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
         f"top gear from N/V {s.n_v_ratio:g} rpm/mph and axle ratio {s.axle_ratio:g} with the "
         f"rolling radius {r} m (overall top ratio {top_overall:.4f}; exact in engine speed "
         f"per vehicle speed), {where}",
-        efficiency=None if gb_eff is None else gb_eff.value)
+        efficiency=None if gb_eff is None else gb_eff.value,
+        upshift_scale=1.0 if gb_up is None else gb_up.value)
     if gb_eff is not None:
         gearbox["sources"]["efficiency"] = (f"{family.replace('_', ' ')} gearbox: "
                                             f"{gb_eff.text()} ({coef.where if coef else ''})")
+    if gb_up is not None:
+        gearbox["sources"]["upshift_speed_mps"] += (
+            f"; upshift scale {gb_up.value:.4g} of the {family.replace('_', ' ')} family: "
+            f"{gb_up.text()} ({coef.where if coef else ''})")
     warm = 0.0
     warm_src = "no FTP bags of the configuration in the list: no warm-up model"
     if cold_start and math.isfinite(s.cold_bag_ratio):
@@ -415,11 +423,11 @@ def vehicle_from_specs(specs: Specs, indicated_efficiency: float | None = None, 
         "engine_control": {
             "idle_fuel_rate_g_per_s": idle_fuel,
             "fuel_cut_min_speed_rpm": cut_rpm,
-            "overrun_fuel_rate_g_per_s": 0.0, "accessory_power_w": ACCESSORY_POWER_W,
+            "overrun_fuel_rate_g_per_s": 0.0, "accessory_power_w": accessory_w,
             "sources": {"idle_fuel_rate_g_per_s": idle_src,
                         "fuel_cut_min_speed_rpm": f"{FUEL_CUT_IDLE_RATIO:g} x idle: {est}",
                         "overrun_fuel_rate_g_per_s": f"full fuel cut on overrun: {est}",
-                        "accessory_power_w": est}},
+                        "accessory_power_w": acc_src or est}},
         "gearbox": gearbox,
         "converter": converter,
         "driveline": {

@@ -5,6 +5,8 @@ hybrid mark, plausible listed values. Each refusal is one line naming the row an
 from __future__ import annotations
 
 import math
+import re
+import statistics
 
 from vehval.epa.consistency import impossible_values
 from vehval.epa.procedures import fuel_family, is_gasoline, procedure_key
@@ -35,8 +37,20 @@ _SPEC_COLUMNS = {"mass_kg": "Equivalent Test Weight (lbs.)", "axle_ratio": "Axle
                  "n_v_ratio": "N/V Ratio", "displacement_l": "Test Veh Displacement (L)",
                  "rated_power_w": "Rated Horsepower"}
 #: words of a model name that mark a hybrid or plug-in (whole words, upper case; any name
-#: containing HYBRID is one too, e.g. 'ActiveHybrid 5')
-HYBRID_WORDS = ("HEV", "PHEV", "FHEV", "MHEV", "PLUG-IN")
+#: containing HYBRID is one too, e.g. 'ActiveHybrid 5'): the generic words, and the names
+#: the makers give only to hybrid and plug-in models in the 2016-2019 lists (Toyota Prius,
+#: Honda Insight and CR-Z, Kia Niro, Hyundai Ioniq, Acura NSX, Ford Energi, Chevrolet
+#: Volt, Cadillac ELR, BMW i8, Honda Clarity, Porsche E-Hybrid, Volvo T8 Twin Engine)
+HYBRID_WORDS = ("HEV", "PHEV", "FHEV", "MHEV", "PLUG-IN", "PRIUS", "INSIGHT", "CR-Z", "NIRO",
+                "IONIQ", "NSX", "ENERGI", "VOLT", "ELR", "I8", "CLARITY", "E-HYBRID", "T8")
+#: model-name words of the makers' hybrid and plug-in suffixes: Lexus 'NX 300h', 'RX 450h'
+#: (three digits and h); BMW '330e', 'X5 xDrive40e', Mercedes-Benz 'GLC 350e' (two or three
+#: digits and e)
+HYBRID_SUFFIX = re.compile(r"^(?:\d{3}H|[A-Z]*\d{2,3}E)$")
+#: a car whose listed FTP-75 reaches this share of its HWFET is a hybrid, whatever its name:
+#: regenerative braking and the engine off at low speed make the city figure the higher;
+#: the conventional cars of the 2016-2019 lists sit at 0.55-0.80 (99.9th percentile 0.80)
+HYBRID_CITY_HIGHWAY_RATIO = 0.85
 #: plausible rated power per litre of a car engine [W/L] (naturally aspirated to racing
 #: turbo: 40-140 kW/L in the 2016-2019 lists); outside it the listed power or displacement
 #: is a typing error
@@ -92,17 +106,57 @@ def _spec_rows(tests: list[EpaTest]) -> list[EpaTest]:
     return warm or tests
 
 
+def hybrid_name_mark(model: str) -> str:
+    """The word of a model name that marks a hybrid or plug-in ('' when none)."""
+    name = model.upper()
+    words = set(name.replace("(", " ").replace(")", " ").replace(",", " ").split())
+    marks = sorted((words & set(HYBRID_WORDS)) | {w for w in words if HYBRID_SUFFIX.match(w)})
+    return "HYBRID" if "HYBRID" in name else next(iter(marks), "")
+
+
 def hybrid_mark(tests: list[EpaTest]) -> str:
     """What marks the rows of one car as a hybrid or plug-in hybrid ('' when nothing does):
-    a hybrid word in the model name (:data:`HYBRID_WORDS`, or HYBRID anywhere) or a
-    charge-depleting test among the rows."""
-    name = tests[0].model.upper()
-    words = set(name.replace("(", " ").replace(")", " ").replace(",", " ").split())
-    mark = "HYBRID" if "HYBRID" in name else next(iter(sorted(words & set(HYBRID_WORDS))), "")
+    a hybrid word in the model name (:data:`HYBRID_WORDS`, :data:`HYBRID_SUFFIX`, or HYBRID
+    anywhere), a charge-depleting test among the rows, a four-phase FTP-75
+    (:func:`four_bag_ftp`), or the city / highway signature (:func:`_city_highway_mark`)."""
+    mark = hybrid_name_mark(tests[0].model)
     if mark:
         return f"'{mark}' in the model name"
     plug = next((t for t in tests if procedure_key(t) in ("cd_udds", "cd_hwfet")), None)
-    return "" if plug is None else f"charge-depleting test {plug.label} in the list"
+    if plug is not None:
+        return f"charge-depleting test {plug.label} in the list"
+    four = next((t for t in tests if four_bag_ftp(t)), None)
+    if four is not None:
+        return (f"FTP-75 {four.label} listed with a bag 4 result: the four-phase test of a "
+                "hybrid (mild 48 V and belt starter-generator hybrids included)")
+    return _city_highway_mark(tests)
+
+
+def four_bag_ftp(t: EpaTest) -> bool:
+    """An FTP-75 row with a bag 4 figure: the four-phase FTP that hybrids are tested on (a
+    conventional car's FTP-75 has three bags)."""
+    return procedure_key(t) == "ftp75" and len(t.bags) > 3 and math.isfinite(t.bags[3])
+
+
+def _city_highway_mark(tests: list[EpaTest]) -> str:
+    """The hybrid's signature in the list's own figures ('' when absent): the median FTP-75
+    of the car's rows on one fuel at or above :data:`HYBRID_CITY_HIGHWAY_RATIO` x its HWFET."""
+    by: dict[tuple[str, str], list[float]] = {}
+    for t in tests:
+        key = procedure_key(t)
+        if key in ("ftp75", "hwfet") and 3.0 <= t.fe <= 1000.0:  # NaN fails the test
+            by.setdefault((fuel_family(t.fuel), key), []).append(t.fe)
+    for (fam, key), city in sorted(by.items()):
+        highway = by.get((fam, "hwfet"))
+        if key != "ftp75" or not highway:
+            continue
+        ratio = statistics.median(city) / statistics.median(highway)
+        if ratio >= HYBRID_CITY_HIGHWAY_RATIO:
+            return (f"its listed FTP-75 ({statistics.median(city):.1f} mpg) is {ratio:.2f} of "
+                    f"its HWFET ({statistics.median(highway):.1f} mpg), at or above "
+                    f"{HYBRID_CITY_HIGHWAY_RATIO}: a hybrid's signature (a conventional car's "
+                    "city figure is well below its highway figure)")
+    return ""
 
 
 def _check_car(tests: list[EpaTest], fuel: str = "gasoline") -> None:

@@ -25,8 +25,13 @@ state the engine's efficiency, its friction or its idle fuel. :func:`vehicle_fro
   the accessory load [-]: the idle control's retarded spark and its own air flow burn
   more than the Willans line; 1.73 on the one car measured, the D3 Camry) and
   ``pumping_bar`` (part-load pumping MEP of the throttle at zero load [bar], falling to 0
-  at full load: :func:`vehval.epa.engine_model.pumping_mep_pa`);
-* per transmission family (:mod:`vehval.epa.transmissions`): ``efficiency`` of the gearbox.
+  at full load: :func:`vehval.epa.engine_model.pumping_mep_pa`) and ``accessory_power_w``
+  (the electrical and mechanical accessories on the engine during the test [W]; 300 W,
+  the generic value of :mod:`vehval.epa.specs`, when absent);
+* per transmission family (:mod:`vehval.epa.transmissions`): ``efficiency`` of the gearbox
+  and ``upshift_scale`` (factor on the family's upshift engine speeds: the automatic's
+  1300 rpm after the upshift, the CVT's operating line, the manual's shift speeds; the
+  shift strategy: 1 when absent).
 
 Every value carries ``value``, ``interval`` (the fit's interval, or the range of its
 source), ``source`` and, when fitted, ``fit`` (list year fitted on, rows, method); the file
@@ -35,25 +40,29 @@ header names the fit. A value absent from the file keeps the generic constant.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 from vehval.errors import ConfigError
 
 ENGINE_TECHNOLOGIES = ("spark_na", "spark_turbo", "diesel")
 ENGINE_KEYS = ("indicated_efficiency", "friction_scale", "idle_factor", "pumping_bar",
-               "efficiency_specific_power_exponent")
+               "efficiency_specific_power_exponent", "accessory_power_w")
 #: specific power at which ``indicated_efficiency`` holds [W/L]
 REFERENCE_SPECIFIC_POWER_W_PER_L = 60e3
 #: physical bounds of each coefficient (a file outside them is refused)
 BOUNDS = {"indicated_efficiency": (0.2, 0.6), "friction_scale": (0.2, 4.0),
           "idle_factor": (0.5, 4.0), "pumping_bar": (0.0, 1.5), "efficiency": (0.7, 1.0),
+          "upshift_scale": (0.7, 2.5), "accessory_power_w": (0.0, 3000.0),
           "efficiency_specific_power_exponent": (-1.0, 1.0),
           "turbo_min_specific_power_w_per_l": (30e3, 150e3)}
 DEFAULT_FILE = "data/epa/technology_coefficients.yaml"
+#: the package's fits of other list years (``--cross-year`` of ``epa fleet``), beside the default
+PACKAGED_FITS = (DEFAULT_FILE, "data/epa/technology_coefficients_fit2019.yaml")
 
 
 @dataclass(frozen=True)
@@ -82,6 +91,29 @@ class Coefficients:
     where: str = DEFAULT_FILE
     header: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def fit_lists(self) -> tuple[str, ...]:
+        """File names of the lists the values were fitted on (provenance ``fit_lists``):
+        a row of one of them is in-sample."""
+        raw = self.header.get("fit_lists") or ()
+        return tuple(str(x) for x in ([raw] if isinstance(raw, str) else raw))
+
+    @property
+    def label(self) -> str:
+        """The file and what it was fitted on, for a record."""
+        fit = ", ".join(self.fit_lists) or "no list"
+        return f"{Path(self.where).name} (fitted on {fit})"
+
+    @functools.cached_property
+    def digest(self) -> str:
+        """Hash of every value (a changed file gives a new digest)."""
+        import hashlib
+
+        text = repr((sorted((t, sorted(v.items())) for t, v in self.engine.items()),
+                     sorted((t, sorted(v.items())) for t, v in self.transmission.items()),
+                     self.turbo_min_specific_power_w_per_l))
+        return hashlib.sha256(text.encode()).hexdigest()[:16]
+
     def engine_value(self, tech: str, key: str) -> Coefficient | None:
         return self.engine.get(tech, {}).get(key)
 
@@ -107,7 +139,8 @@ def indicated_efficiency(base: float, exponent: float, rated_power_w: float,
 
 def engine_values(coef: Coefficients | None, engine_tech: str, rated_power_w: float,
                   displacement_l: float, eta: float | None, friction_scale: float | None,
-                  eta_default: float) -> dict[str, tuple[float, str]]:
+                  eta_default: float, accessory_default_w: float = 300.0
+                  ) -> dict[str, tuple[float, str]]:
     """(value, source text) of the engine's fuel coefficients: a given value as given (no
     source text), else the file's (``coef``; None: the generic defaults, ''); the
     indicated efficiency at this engine's specific power (:func:`indicated_efficiency`)
@@ -124,7 +157,8 @@ def engine_values(coef: Coefficients | None, engine_tech: str, rated_power_w: fl
     out = {"indicated_efficiency": pick(eta, "indicated_efficiency", eta_default),
            "friction_scale": pick(friction_scale, "friction_scale", 1.0),
            "idle_factor": pick(None, "idle_factor", 1.0),
-           "pumping_bar": pick(None, "pumping_bar", 0.0)}
+           "pumping_bar": pick(None, "pumping_bar", 0.0),
+           "accessory_power_w": pick(None, "accessory_power_w", accessory_default_w)}
     gamma, gamma_src = pick(None, "efficiency_specific_power_exponent", 0.0)
     if gamma and eta is None:
         base, src = out["indicated_efficiency"]
@@ -176,18 +210,36 @@ _CACHE: dict[str, Coefficients] = {}
 
 def load_coefficients(path: str | Path | None = None) -> Coefficients:
     """The technology coefficients of ``path`` (default: the package's file), cached."""
-    from vehval.safe_yaml import load_yaml, read_yaml
+    from vehval.safe_yaml import read_yaml
 
     key = str(path) if path is not None else ""
     if key not in _CACHE:
-        if path is None:
-            text = resources.files("vehval").joinpath(DEFAULT_FILE).read_text(encoding="utf-8")
-            _CACHE[key] = parse_coefficients(load_yaml(text, DEFAULT_FILE), DEFAULT_FILE)
-        else:
-            _CACHE[key] = parse_coefficients(read_yaml(path), str(path))
+        _CACHE[key] = (_packaged(DEFAULT_FILE) if path is None
+                       else parse_coefficients(read_yaml(path), str(path)))
     return _CACHE[key]
 
 
-__all__ = ["Coefficient", "Coefficients", "ENGINE_TECHNOLOGIES", "engine_technology",
-           "engine_values", "indicated_efficiency",
-           "load_coefficients", "parse_coefficients"]
+def _packaged(name: str) -> Coefficients:
+    from vehval.safe_yaml import load_yaml
+
+    text = resources.files("vehval").joinpath(name).read_text(encoding="utf-8")
+    return parse_coefficients(load_yaml(text, name), name)
+
+
+def packaged_fits() -> list[Coefficients]:
+    """The package's fits (:data:`PACKAGED_FITS`), each fitted on one list year."""
+    return [load_coefficients() if n == DEFAULT_FILE else _packaged(n) for n in PACKAGED_FITS]
+
+
+def for_list(list_name: str, choices: Sequence[Coefficients]) -> tuple[Coefficients, bool]:
+    """The coefficients to judge the rows of ``list_name`` with: the first of ``choices`` not
+    fitted on that list (out-of-sample), else the first; and whether the rows are in-sample."""
+    for c in choices:
+        if list_name not in c.fit_lists:
+            return c, False
+    return choices[0], True
+
+
+__all__ = ["Coefficient", "Coefficients", "ENGINE_TECHNOLOGIES", "PACKAGED_FITS",
+           "engine_technology", "engine_values", "for_list", "indicated_efficiency",
+           "load_coefficients", "packaged_fits", "parse_coefficients"]

@@ -142,14 +142,16 @@ def _shift_lines(overall: list[float], r: float, rated_rpm: float, up_rpm: float
             "downshift_speed_mps": dn0, "downshift_speed_full_load_mps": dnf}
 
 
-def _manual_lines(overall: list[float], r: float, rated_rpm: float) -> dict[str, list[float]]:
-    """Manual shift lines: 40 CFR 86.128-79 speeds, then engine speeds (module docstring)."""
-    lines = _shift_lines(overall, r, rated_rpm, MANUAL_UPSHIFT_RPM, DOWNSHIFT_RPM)
+def _manual_lines(overall: list[float], r: float, rated_rpm: float,
+                  scale: float = 1.0) -> dict[str, list[float]]:
+    """Manual shift lines: 40 CFR 86.128-79 speeds, then engine speeds (module docstring);
+    ``scale`` multiplies the shift speeds and engine speeds (a later shift above 1)."""
+    lines = _shift_lines(overall, r, rated_rpm, MANUAL_UPSHIFT_RPM * scale, DOWNSHIFT_RPM)
     up0 = lines["upshift_speed_mps"]
     for i in range(len(up0)):
         lug = _v_at(MANUAL_MIN_RPM, overall[i + 1], r)
-        cfr = MANUAL_SHIFT_MPH[i] * MPH if i < len(MANUAL_SHIFT_MPH) else up0[i]
-        up0[i] = max(min(cfr, _v_at(MANUAL_SHIFT_FROM_RPM, overall[i], r)), lug)
+        cfr = scale * MANUAL_SHIFT_MPH[i] * MPH if i < len(MANUAL_SHIFT_MPH) else up0[i]
+        up0[i] = max(min(cfr, _v_at(scale * MANUAL_SHIFT_FROM_RPM, overall[i], r)), lug)
         if i:
             up0[i] = max(up0[i], up0[i - 1] * 1.05)
         lines["downshift_speed_mps"][i] = min(lines["downshift_speed_mps"][i], 0.8 * up0[i])
@@ -163,7 +165,7 @@ def _manual_lines(overall: list[float], r: float, rated_rpm: float) -> dict[str,
 def gearbox_blocks(family: str, top_gearbox: float, axle_ratio: float, gears: int,
                    wheel_radius_m: float, rated_rpm: float, peak_torque_nm: float,
                    ratio_source: str, efficiency: float | None = None,
-                   ) -> tuple[dict[str, Any], dict[str, Any]]:
+                   upshift_scale: float = 1.0) -> tuple[dict[str, Any], dict[str, Any]]:
     """The ``gearbox`` and ``converter`` blocks of a family (module docstring).
 
     Parameters
@@ -179,8 +181,15 @@ def gearbox_blocks(family: str, top_gearbox: float, axle_ratio: float, gears: in
         Source text of the top ratio (N/V, axle ratio and the list row).
     efficiency : float, optional
         Gearbox efficiency [-]; default ``EFFICIENCY[family]``.
+    upshift_scale : float
+        Factor [-] on the family's upshift engine speeds (the CVT's operating line, the
+        manual's shift speeds): the shift strategy of the technology coefficients; the
+        upshift stays at least 10 % above the downshift speed.
     """
     r = wheel_radius_m
+    k = float(upshift_scale)
+    up_rpm = max(UPSHIFT_RPM * k, 1.1 * DOWNSHIFT_RPM)
+    line_rpm = CVT_LINE_RPM * k
     eff = EFFICIENCY[family] if efficiency is None else float(efficiency)
     eff_src = (f"{family.replace('_', ' ')} gearbox: {_EST}" if efficiency is None
                else f"{family.replace('_', ' ')} gearbox: generic technology coefficients "
@@ -190,13 +199,13 @@ def gearbox_blocks(family: str, top_gearbox: float, axle_ratio: float, gears: in
         ratios = stepped_ratios(top_gearbox, n, spread)
         step = spread ** (1.0 / (n - 1))
         overall = [x * axle_ratio for x in ratios]
-        lines = _shift_lines(overall, r, rated_rpm, CVT_LINE_RPM, CVT_LINE_RPM / math.sqrt(step))
+        lines = _shift_lines(overall, r, rated_rpm, line_rpm, line_rpm / math.sqrt(step))
         lock = [CVT_LOCKUP_MPH * MPH] * n
         ratio_src = (f"{ratio_source}; lowest (overdrive) ratio from N/V, the range over a "
                      f"spread {spread:g} (Jatco CVT8 7.3, Toyota Direct Shift-CVT 7.5) in "
                      f"{n} steps standing for the continuous ratio")
         line_src = (f"CVT operating line: the ratio that turns the engine at "
-                    f"{CVT_LINE_RPM:g} rpm at no load, {UPSHIFT_FULL:g} x rated speed at "
+                    f"{line_rpm:g} rpm at no load, {UPSHIFT_FULL:g} x rated speed at "
                     f"full load: {_EST}")
         cap = peak_torque_nm / (STALL_SPEED_RPM * RPM) ** 2
         cap_src = f"launch converter, peak torque at a stall speed of {STALL_SPEED_RPM:g} rpm: {_EST}"
@@ -210,25 +219,26 @@ def gearbox_blocks(family: str, top_gearbox: float, axle_ratio: float, gears: in
                      f"{spread:g} typical of {gears}-speed automatics: {_EST}")
         shift_time = SHIFT_TIME_S[family]
         if family == "automatic":
-            lines = _shift_lines(overall, r, rated_rpm, UPSHIFT_RPM, DOWNSHIFT_RPM)
+            lines = _shift_lines(overall, r, rated_rpm, up_rpm, DOWNSHIFT_RPM)
             lock = [100.0 if i + 1 < LOCKUP_FROM_GEAR else _v_at(LOCKUP_RPM, overall[i], r)
                     for i in range(gears)]
             cap = peak_torque_nm / (STALL_SPEED_RPM * RPM) ** 2
             cap_src = f"peak torque at a stall speed of {STALL_SPEED_RPM:g} rpm: {_EST}"
             lock_src = (f"locked from gear {LOCKUP_FROM_GEAR} above {LOCKUP_RPM:g} rpm "
                         f"(lower gears: never): {_EST}")
-            line_src = f"engine at {UPSHIFT_RPM:g} rpm after the upshift: {_EST}"
+            line_src = f"engine at {up_rpm:g} rpm after the upshift: {_EST}"
             down_src = f"engine below {DOWNSHIFT_RPM:g} rpm: {_EST}"
         else:
             if family == "manual":
-                lines = _manual_lines(overall, r, rated_rpm)
-                line_src = ("40 CFR 86.128-79 manual shift speeds 15 / 25 / 40 / 45 mph, "
-                            f"higher gears at {MANUAL_UPSHIFT_RPM:g} rpm in the next gear, "
-                            f"earlier at {MANUAL_SHIFT_FROM_RPM:g} rpm, never below "
+                lines = _manual_lines(overall, r, rated_rpm, k)
+                line_src = ("40 CFR 86.128-79 manual shift speeds 15 / 25 / 40 / 45 mph"
+                            + (f" x {k:.3g}" if k != 1.0 else "") + ", higher gears at "
+                            f"{MANUAL_UPSHIFT_RPM * k:g} rpm in the next gear, earlier at "
+                            f"{MANUAL_SHIFT_FROM_RPM * k:g} rpm, never below "
                             f"{MANUAL_MIN_RPM:g} rpm in the next gear")
             else:
-                lines = _shift_lines(overall, r, rated_rpm, UPSHIFT_RPM, DOWNSHIFT_RPM)
-                line_src = f"engine at {UPSHIFT_RPM:g} rpm after the upshift: {_EST}"
+                lines = _shift_lines(overall, r, rated_rpm, up_rpm, DOWNSHIFT_RPM)
+                line_src = f"engine at {up_rpm:g} rpm after the upshift: {_EST}"
             down_src = f"engine below {DOWNSHIFT_RPM:g} rpm: {_EST}"
             lock = [0.0] * gears  # clutch closed whenever its output turns above idle
             cap = peak_torque_nm / (CLUTCH_LAUNCH_RPM * RPM) ** 2

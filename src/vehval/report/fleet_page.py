@@ -48,6 +48,45 @@ def _accounting(summary: dict[str, Any]) -> list[Block]:
     return out
 
 
+def _coefficients(summary: dict[str, Any]) -> list[Block]:
+    """Which technology coefficients judged which list, and the out-of-sample figures."""
+    used = summary.get("coefficients") or []
+    if not used:
+        return []
+    rows = [[c["file"], ", ".join(c["fit_lists"]) or "-", ", ".join(c["lists_judged"]) or "-",
+             ", ".join(c["in_sample_lists"]) or "none"] for c in used]
+    out = [h2("Technology coefficients and what is in-sample"),
+           table(["coefficients", "fitted on", "lists judged", "in-sample lists"], rows)]
+    oos = summary.get("out_of_sample") or {}
+    err = oos.get("errors") or {}
+    if oos.get("n_judged"):
+        bias = oos["hwfet_ftp_bias"]
+        out += [para(f"Out of sample: {oos['n_judged']} judged rows neither of a list the "
+                     "coefficients were fitted on nor a test carried over from one; within 5 %: {_pc(oos['share_within_5pct'])}; "
+                     f"HWFET against FTP-75 across cars {_pc(bias['mean'], True)} over "
+                     f"{bias['n_cars']} cars."),
+                table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
+        ver = oos.get("verdicts") or {}
+        if ver:
+            out += [para("Normalised error En = (model - listed) / sqrt(U_model^2 + U_meas^2), "
+                         "k = 2: U_meas from the lists' vehicle-level reproducibility of the "
+                         "procedure, U_model from the technology coefficients' intervals "
+                         "(efficiencies only)."),
+                    table(["procedure", "rows", "|En| <= 1", "median |En|"],
+                          [[p, str(v["n"]), _pc(v["share_consistent"]),
+                            f"{v['median_abs_en']:.2f}"] for p, v in ver.items()])]
+    per = [[f"{k} {p}", *_stats_row("", v["errors"][p])[1:]]
+           for k, v in summary.get("per_list", {}).items() for p in PROCEDURES
+           if p in (v.get("errors") or {})]
+    if per:
+        out += [para("Per list, every judged row (in-sample rows included):"),
+                table(["list and procedure", *_HEAD[1:]], per)]
+    if not oos.get("n_judged"):
+        out.append(para("Every judged row is of a list the coefficients were fitted on "
+                        "(in-sample): run with --cross-year or a file fitted on another list."))
+    return out
+
+
 def _errors(summary: dict[str, Any]) -> list[Block]:
     err = summary["errors"]
     out = [h2("Error per procedure (predicted / measured - 1, judged rows)"),
@@ -133,7 +172,8 @@ def render_fleet_page(records: Sequence[dict[str, Any]], summary: dict[str, Any]
                    f"{summary['n_cars']} cars. Every car built from its list row with the "
                    "generic values of vehval epa vehicle, each row on its own procedure, "
                    "weight and road load.")]
-    blocks += _accounting(summary) + _errors(summary) + _baseline(summary)
+    blocks += (_accounting(summary) + _coefficients(summary) + _errors(summary)
+               + _baseline(summary))
     if rows:
         blocks += _figures(rows)
     blocks += _outliers(summary)

@@ -1,0 +1,36 @@
+"""A virtual test's template names the vehicle it was made from, and `vehval validate`
+without --vehicle validates that car (not the default Prius)."""
+
+from __future__ import annotations
+
+import json
+
+from vehval.cli import main
+
+
+def test_validate_takes_the_template_vehicle(tmp_path, capsys):
+    out = tmp_path / "p16"
+    assert main(["synth", "--vehicle", "prius_2016", "--cycle", "steady:12mps:60s", "--seed",
+                 "1", "--faults", "none", "-o", str(out)]) == 0
+    assert "vehicle: prius_2016" in (out / "template.yaml").read_text()
+    capsys.readouterr()
+    assert main(["validate", str(out), "--dt", "1", "-o", str(tmp_path / "val")]) == 0
+    intro = json.loads((tmp_path / "val" / "validation.json").read_text())["intro"]
+    assert intro.startswith("prius_2016 ")
+    # --vehicle still wins over the template's
+    assert main(["validate", str(out), "--dt", "1", "--vehicle", "prius_2004",
+                 "-o", str(tmp_path / "val4")]) == 0
+    intro = json.loads((tmp_path / "val4" / "validation.json").read_text())["intro"]
+    assert intro.startswith("prius_2004 ")
+
+
+def test_a_conventional_virtual_test_is_not_validated_against_a_hybrid(tmp_path, capsys):
+    out = tmp_path / "cruze"
+    assert main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "steady:15mps:60s",
+                 "--seed", "1", "-o", str(out)]) == 0
+    assert 'vehicle: "cruze_diesel_2014"' in (out / "template.yaml").read_text()
+    capsys.readouterr()
+    assert main(["validate", str(out), "--dt", "1", "-o", str(tmp_path / "val")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cruze_diesel_2014" in err[0] and "conventional" in err[0]
+    assert not (tmp_path / "val").exists()
