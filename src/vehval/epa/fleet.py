@@ -292,20 +292,22 @@ def plan_fleet(tests: Iterable[EpaTest], dt: float = FLEET_DT_S,
     return plan
 
 
-def _job_record(job: CarJob, t: EpaTest) -> dict[str, Any]:
-    """The row's own values and the coefficients its car was built with."""
+def _marks(job: CarJob, source: str | None) -> dict[str, Any]:
+    """The row ``source``'s in-sample mark and the coefficients its car was built with."""
     coef = job.coefficients
-    return {**base_record(t), "in_sample": job.in_sample or t.source in job.in_sample_rows,
+    return {"in_sample": job.in_sample or source in job.in_sample_rows,
             "coefficients": coef.label if coef is not None else None}
+
+
+def _job_record(job: CarJob, t: EpaTest) -> dict[str, Any]:
+    """The row's own values and its marks (:func:`_marks`)."""
+    return {**base_record(t), **_marks(job, t.source)}
 
 
 def relabel(job: CarJob, records: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Stored records of ``job``'s car with this run's in-sample marks (they depend on the
     lists read beside it, not on the prediction)."""
-    coef = job.coefficients
-    label = coef.label if coef is not None else None
-    return [{**r, "in_sample": job.in_sample or r.get("source") in job.in_sample_rows,
-             "coefficients": label} for r in records]
+    return [{**r, **_marks(job, r.get("source"))} for r in records]
 
 
 def model_u_rel(job: CarJob) -> float:
