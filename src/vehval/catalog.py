@@ -2,7 +2,9 @@
 
 The catalog lives at ``OUTDIR/catalog.duckdb``. It is written by the batch driver process
 only (workers return their results to the driver), so there is never a concurrent writer.
-The schema is versioned (:data:`SCHEMA_VERSION`) and documented in ``docs/catalog.md``.
+The schema is versioned (:data:`SCHEMA_VERSION`) and documented in ``docs/catalog.md``; its
+DDL, the check of a file against it and the migration of an older catalog live in
+:mod:`vehval.catalog_schema`.
 
 Tables
 ------
@@ -27,188 +29,37 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import re
 import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Iterable, Iterator
 
-from vehval.errors import ConfigError, InputFileError, VehvalError
+from vehval.catalog_schema import (  # noqa: F401 - re-exported: vehval.catalog's API
+    DDL,
+    EN_COLUMNS,
+    EN_FLAGS,
+    HEADLINE_COLUMNS,
+    METRIC_COLUMNS,
+    MIGRATABLE_VERSIONS,
+    PHASE_COLUMNS,
+    SANDBOX_CONFIG,
+    SCHEMA_VERSION,
+    open_schema,
+)
+from vehval.catalog_schema import duckdb_module as _duckdb
+from vehval.catalog_schema import first_line as _first_line
+from vehval.errors import InputFileError, VehvalError
 from vehval.jsonsafe import clean
-
-SCHEMA_VERSION = 5
-
-#: Key metrics stored as DOUBLE columns of ``tests`` (name -> description [unit]).
-METRIC_COLUMNS: dict[str, str] = {
-    "duration_s": "test duration [s]",
-    "distance_m": "distance driven [m]",
-    "fuel_mass_kg": "fuel mass used [kg]",
-    "fuel_economy_mpg": "fuel economy [mile/US gal]",
-    "fuel_consumption_l_per_100km": "fuel consumption [L/100 km]",
-    "soc_initial": "battery SOC at the start [-]",
-    "soc_final": "battery SOC at the end [-]",
-    "soc_change": "battery SOC change, final - initial [-]",
-    "fuel_energy_j": "fuel chemical energy used [J]",
-    "ess_energy_j": "net battery terminal energy, positive discharged [J]",
-    "eng_energy_j": "positive engine brake energy [J]",
-    "tractive_energy_j": "positive tractive energy at the wheels [J]",
-}
-
-#: Per-phase results stored as DOUBLE columns of ``phase_results`` (name -> description).
-PHASE_COLUMNS: dict[str, str] = {
-    "duration_s": "phase duration [s]",
-    "distance_m": "distance [m]",
-    "fuel_mass_kg": "fuel mass [kg]",
-    "fuel_economy_mpg": "fuel economy [mile/US gal]",
-    "fuel_economy_u_mpg": "its expanded uncertainty U, k = 2 [mile/US gal]",
-    "fuel_consumption_l_per_100km": "fuel consumption [L/100 km]",
-    "co2_g_per_km": "CO2 per distance [g/km]",
-    "ess_energy_net_j": "battery net energy, positive discharged [J]",
-    "iwr_pct": "SAE J2951 inertial work rating [%]",
-    "rmsse_mps": "SAE J2951 RMS speed error [m/s]",
-}
-
-#: The headline of a test (the regulatory figure of its cycle, docs/results.md) in ``tests``.
-HEADLINE_COLUMNS: dict[str, str] = {
-    "headline_mpg": "headline fuel economy [mile/US gal]; NULL when withheld",
-    "headline_u_mpg": "its expanded uncertainty U, k = 2 [mile/US gal]",
-    "headline_l_per_100km": "headline fuel consumption [L/100 km]; NULL when withheld",
-    "headline_mpge": "SAE J1634 MPGe of a test without fuel economy (battery-electric) "
-                     "[mile/gal equivalent at 33.705 kWh]",
-    "headline_u_mpge": "its expanded uncertainty U, k = 2 [mile/gal equivalent]",
-    "headline_kwh_per_100km": "SAE J1634 AC (wall) energy consumption [kWh/100 km]",
-    "headline_u_kwh_per_100km": "its expanded uncertainty U, k = 2 [kWh/100 km]",
-    "headline_kwh_per_100mi": "the same in [kWh/100 mi]",
-    "headline_u_kwh_per_100mi": "its expanded uncertainty U, k = 2 [kWh/100 mi]",
-    "headline_battery_share": "net battery energy over the fuel energy of the whole test "
-                              "(SAE J1711 NEC ratio, signed: positive discharged) [-]",
-}
-
-#: The validate step's normalised error of the fuel mass in ``tests`` (name -> description);
-#: the keys of ``result.json``'s ``validation.normalised_error`` without the ``fuel_`` prefix.
-EN_COLUMNS: dict[str, str] = {
-    "fuel_en": "normalised error En of the fuel mass, (model - measured) / sqrt(U_model^2 + "
-               "U_meas^2) [-]",
-    "fuel_error_pct": "fuel mass error, model / measured - 1 (signed) [%]",
-    "fuel_u_model_kg": "U_model of the fuel mass, k = 2 [kg]",
-    "fuel_u_meas_kg": "U_meas of the fuel mass, k = 2 (results-stage U with s_r) [kg]",
-    "fuel_s_r": "repeatability s_r of the test's procedure used in U_meas [-]",
-}
-#: Flags of the normalised error in ``tests`` (BOOLEAN columns).
-EN_FLAGS: dict[str, str] = {
-    "fuel_consistent": "|En| <= 1",
-    "fuel_uninformative": "combined U over 10 % of the measured fuel mass",
-    "in_sample": "the vehicle file was calibrated on this test (a fit, not a prediction)",
-}
 
 #: Metrics summarised by :func:`summary` (variability per vehicle, cycle and conditions).
 SUMMARY_METRICS = ("headline_mpg", "headline_mpge", "fuel_economy_mpg", "fuel_mass_kg", "soc_change",
                    "fuel_energy_j", "ess_energy_j", "eng_energy_j", "tractive_energy_j")
 
-_DDL = [
-    """CREATE TABLE IF NOT EXISTS schema_info (
-        version INTEGER NOT NULL, created TIMESTAMP NOT NULL, vehval_version VARCHAR)""",
-    """CREATE TABLE IF NOT EXISTS runs (
-        run_id VARCHAR PRIMARY KEY, started TIMESTAMP NOT NULL, finished TIMESTAMP,
-        status VARCHAR NOT NULL, vehval_version VARCHAR NOT NULL, settings JSON,
-        n_tests INTEGER, n_ok INTEGER, n_failed INTEGER, n_skipped INTEGER)""",
-    "CREATE TABLE IF NOT EXISTS tests (\n"
-    "    test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, status VARCHAR NOT NULL,\n"
-    "    error VARCHAR, error_type VARCHAR, source_run_id VARCHAR, recorded TIMESTAMP,\n"
-    "    vehicle VARCHAR, cycle VARCHAR, files VARCHAR[], file_hashes JSON,\n"
-    "    input_hash VARCHAR, elapsed_s DOUBLE,\n"
-    + "".join(f"    {c} DOUBLE,\n" for c in METRIC_COLUMNS)
-    + "    fuel VARCHAR, cell_temp_c DOUBLE, start_condition VARCHAR, ac VARCHAR,\n"
-    "    headline_name VARCHAR, headline_rule VARCHAR, headline_j1634_scope VARCHAR,\n"
-    + "".join(f"    {c} DOUBLE,\n" for c in HEADLINE_COLUMNS)
-    + "    withheld_reason VARCHAR, withheld_count INTEGER,\n"
-    "    n_findings INTEGER, n_findings_by_severity JSON, qa_summary JSON,\n"
-    "    validation JSON, validation_errors JSON, outputs VARCHAR[],\n"
-    + "".join(f"    {c} DOUBLE,\n" for c in EN_COLUMNS)
-    + "".join(f"    {c} BOOLEAN,\n" for c in EN_FLAGS)
-    + "    PRIMARY KEY (test_id, run_id))",
-    """CREATE TABLE IF NOT EXISTS findings (
-        test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, signal VARCHAR, kind VARCHAR,
-        severity VARCHAR, start_s DOUBLE, end_s DOUBLE, message VARCHAR)""",
-    "CREATE TABLE IF NOT EXISTS phase_results (\n"
-    "    test_id VARCHAR NOT NULL, run_id VARCHAR NOT NULL, scope VARCHAR NOT NULL,\n"
-    "    kind VARCHAR NOT NULL, part VARCHAR, run INTEGER,\n"
-    + "".join(f"    {c} DOUBLE,\n" for c in PHASE_COLUMNS)
-    + "    withheld_reason VARCHAR,\n"
-    "    PRIMARY KEY (test_id, run_id, kind, scope))",  # a phase and a composite may share a name (hwfet)
-    """CREATE TABLE IF NOT EXISTS set_verdicts (
-        run_id VARCHAR NOT NULL, vehicle VARCHAR NOT NULL, figure VARCHAR NOT NULL,
-        n_validated INTEGER, n INTEGER, mean_error_pct DOUBLE, mean_error_lo_pct DOUBLE,
-        mean_error_hi_pct DOUBLE, bias_limit_pct DOUBLE, biased BOOLEAN, n_consistent INTEGER,
-        coverage DOUBLE, coverage_lo DOUBLE, coverage_hi DOUBLE, understated BOOLEAN,
-        n_uninformative INTEGER, verdict VARCHAR, note VARCHAR, detail JSON,
-        PRIMARY KEY (run_id, vehicle, figure))""",
-    """CREATE OR REPLACE VIEW latest_tests AS
-        SELECT t.* FROM tests t JOIN runs r USING (run_id)
-        QUALIFY row_number() OVER (PARTITION BY t.test_id
-                                   ORDER BY r.started DESC, t.recorded DESC) = 1""",
-]
-
-
-#: DuckDB settings of every catalog connection: no access to other files, the network or
-#: extensions (``read_csv``, ``COPY ... TO``, ``ATTACH``, ``INSTALL`` are refused) and a
-#: memory and thread budget. ``lock_configuration`` is set right after opening.
-SANDBOX_CONFIG: dict[str, Any] = {
-    "enable_external_access": False,
-    "autoinstall_known_extensions": False,
-    "autoload_known_extensions": False,
-    "allow_community_extensions": False,
-    "memory_limit": "2GB",
-    "threads": 2,
-}
 #: Defaults of ``vehval catalog query``: rows printed and wall-clock time [s].
 DEFAULT_LIMIT = 10_000
 DEFAULT_TIMEOUT_S = 30.0
 #: Statement types ``vehval catalog query`` runs (SHOW, DESCRIBE, SUMMARIZE are SELECTs).
 QUERY_STATEMENTS = ("SELECT", "EXPLAIN")
-
-
-def _duckdb():
-    import duckdb  # imported lazily: the CLI starts faster without it
-
-    return duckdb
-
-
-def _first_line(exc: BaseException) -> str:
-    """The first line of a DuckDB error (no ``LINE 1:`` caret, no embedded traceback)."""
-    text = str(exc).strip().splitlines()
-    line = text[0] if text else type(exc).__name__
-    return line if len(line) <= 300 else line[:297] + "..."
-
-
-def _norm_sql(sql: str | None) -> str:
-    return re.sub(r"\s+", " ", sql or "").strip().rstrip(";").strip()
-
-
-_REFERENCE: dict[str, dict[str, str]] | None = None
-
-
-def _reference_schema() -> dict[str, dict[str, str]]:
-    """``{"table": {name: sql}, "view": {name: sql}}`` as DuckDB stores this module's DDL."""
-    global _REFERENCE
-    if _REFERENCE is None:
-        con = _duckdb().connect(":memory:", config=dict(SANDBOX_CONFIG))
-        try:
-            for ddl in _DDL:
-                con.execute(ddl)
-            _REFERENCE = _schema_objects(con, "memory")
-        finally:
-            con.close()
-    return _REFERENCE
-
-
-def _schema_objects(con, database: str) -> dict[str, dict[str, str]]:
-    tables = con.execute("SELECT table_name, sql FROM duckdb_tables() WHERE database_name = ?",
-                         [database]).fetchall()
-    views = con.execute("SELECT view_name, sql FROM duckdb_views() WHERE NOT internal "
-                        "AND database_name = ?", [database]).fetchall()
-    return {"table": {n: _norm_sql(q) for n, q in tables},
-            "view": {n: _norm_sql(q) for n, q in views}}
 
 
 def to_json(value: Any) -> str | None:
@@ -239,7 +90,9 @@ class Catalog:
         Wall-clock limit of every :meth:`query` [s] (None: none).
 
     Opening checks the schema version and that the file holds only the tables and view this
-    module creates (:class:`ConfigError` naming the first other object).
+    module creates (:class:`ConfigError` naming the first other object); opened for writing,
+    a catalog of an older version vehval migrates (:data:`MIGRATABLE_VERSIONS`) is migrated
+    in place first (:func:`vehval.catalog_schema.migrate`).
     Use as a context manager, or call :meth:`close`.
     """
 
@@ -261,8 +114,7 @@ class Catalog:
             raise InputFileError(f"cannot open catalog {self.path}: {_first_line(exc)}") from None
         try:
             if read_only:
-                self._check_version()
-                self._check_schema()
+                open_schema(self.con, self.path, read_only=True)
             else:
                 self._create()
         except BaseException:
@@ -289,54 +141,12 @@ class Catalog:
         existing = {r[0] for r in self.con.execute(
             "SELECT table_name FROM information_schema.tables").fetchall()}
         if existing:
-            self._check_version()
-            self._check_schema()
-        for ddl in _DDL:
-            self.con.execute(ddl)
+            open_schema(self.con, self.path, read_only=False)
+        for statement in DDL:
+            self.con.execute(statement)
         if self.con.execute("SELECT count(*) FROM schema_info").fetchone()[0] == 0:
             self.con.execute("INSERT INTO schema_info VALUES (?, current_timestamp, ?)",
                              [SCHEMA_VERSION, __version__])
-
-    def _check_version(self) -> None:
-        try:
-            row = self.con.execute("SELECT max(version) FROM schema_info").fetchone()
-        except Exception:  # noqa: BLE001 - any DuckDB error here means 'not a catalog'
-            raise ConfigError(f"{self.path} is not a vehval catalog (no schema_info table)") from None
-        if row is None or row[0] is None or int(row[0]) != SCHEMA_VERSION:
-            raise ConfigError(f"catalog {self.path} has schema version {row and row[0]}, this vehval "
-                              f"reads version {SCHEMA_VERSION}: use a new output directory")
-
-    def _check_schema(self) -> None:
-        """Refuse a catalog holding anything this module does not create (a view reading
-        files, a macro, another schema...), before any of it runs; names the first object."""
-        db = self.con.execute("SELECT current_database()").fetchone()[0]
-        ref = _reference_schema()
-        have = _schema_objects(self.con, db)
-        bad: list[str] = []
-        for kind in ("table", "view"):
-            for name, sql in sorted(have[kind].items()):
-                if name not in ref[kind]:
-                    bad.append(f"unknown {kind} '{name}'")
-                elif sql != ref[kind][name]:
-                    bad.append(f"{kind} '{name}' differs from the one vehval creates")
-        others = [
-            ("macro", "SELECT function_name FROM duckdb_functions() WHERE NOT internal"),
-            ("sequence", "SELECT sequence_name FROM duckdb_sequences()"),
-            ("index", "SELECT index_name FROM duckdb_indexes()"),
-            ("type", "SELECT type_name FROM duckdb_types() WHERE NOT internal "
-                     "AND database_name NOT IN ('system', 'temp')"),
-            ("schema", "SELECT schema_name FROM duckdb_schemas() WHERE NOT internal "
-                       "AND schema_name <> 'main'"),
-            ("database", "SELECT database_name FROM duckdb_databases() WHERE NOT internal "
-                         f"AND database_name <> '{db.replace(chr(39), chr(39) * 2)}'"),
-        ]
-        for kind, sql in others:
-            bad += [f"unknown {kind} '{r[0]}'" for r in self.con.execute(sql).fetchall()]
-        if bad:
-            more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
-            raise ConfigError(f"catalog {self.path} holds {bad[0]}{more}: it was not written by "
-                              "vehval or was altered; nothing in it was run (use a catalog "
-                              "written by `vehval batch`)")
 
     # -- writing -----------------------------------------------------------------------
     def start_run(self, run_id: str, settings: dict) -> None:

@@ -34,7 +34,7 @@ LAYERS: dict[str, int] = {
     "results": 5, "synth": 5,
     "analysis": 6,
     "validate": 7, "epa": 7,
-    "report": 8, "catalog": 8,
+    "report": 8, "catalog": 8, "catalog_schema": 8,
     "workflow": 9, "batch": 9, "identify": 9, "architectures": 9,
     "cli": 10, "serve": 10, "__main__": 10,
 }
@@ -70,6 +70,8 @@ SAME_LAYER: frozenset[tuple[str, str]] = frozenset({
     ("display", "fuels"), ("display", "nomenclature"),
     # floor 1: cycle matching reads the cycle table
     ("cycles_match", "cycles"),
+    # floor 8: the catalog opens its file through the schema module (DDL, check, migration)
+    ("catalog", "catalog_schema"),
     # floor 9: a batch and an identification run the one-test workflow
     ("batch", "workflow"), ("identify", "workflow"),
     # floor 9: the workflow chooses each stage by architecture in the stage registry, whose
