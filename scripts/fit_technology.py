@@ -173,28 +173,44 @@ def choose(by_combo: dict, eff0: dict[str, float], shared: bool = True) -> dict:
     return {"combo": best, "eta": lev["eta"], "gamma": lev["gamma"], "eff": lev["eff"]}
 
 
-def bootstrap(by_combo: dict, eff0: dict, n: int, seed: int = 1, shared: bool = True) -> dict:
-    """2.5-97.5 % intervals of every fitted value over car resamples."""
-    cars = sorted({r["car"] for rr in by_combo.values() for r in rr})
+def _intervals(by: dict, n: int, seed: int, fit) -> dict:
+    """2.5-97.5 % percentiles of every value ``fit(weight)`` returns (``weight``: car -> times
+    drawn) over ``n`` resamples of the cars of ``by``, with their replacement."""
+    cars = sorted({r["car"] for rr in by.values() for r in rr})
     rng = np.random.default_rng(seed)
     draws: dict[str, list[float]] = defaultdict(list)
     for _ in range(n):
-        pick = rng.choice(len(cars), len(cars))
-        weight = defaultdict(int)
-        for k in pick:
+        weight: dict = defaultdict(int)
+        for k in rng.choice(len(cars), len(cars)):
             weight[cars[k]] += 1
-        sub = {c: [r for r in rr for _ in range(weight[r["car"]])] for c, rr in by_combo.items()}
-        res = choose(sub, eff0, shared)
-        for t, combo in res["combo"].items():
+        res = fit(weight)
+        for key, v in _levels(res).items():
+            draws[key].append(v)
+        for t, combo in (res.get("combo") or {}).items():
             for k, v in zip(GRID_KEYS, combo):
                 draws[f"engine.{t}.{k}"].append(v)
-        for t, v in res["eta"].items():
-            draws[f"engine.{t}.indicated_efficiency"].append(v)
-            draws[f"engine.{t}.efficiency_specific_power_exponent"].append(res["gamma"][t])
-        for f, v in res["eff"].items():
-            draws[f"transmission.{f}.efficiency"].append(v)
+        for f, v in (res.get("scale") or {}).items():
+            draws[f"transmission.{f}.upshift_scale"].append(v)
     return {k: (float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5)))
             for k, v in draws.items()}
+
+
+def _levels(res: dict) -> dict[str, float]:
+    """The closed-form levels of a choice, by coefficient path."""
+    out = {f"transmission.{f}.efficiency": v for f, v in res["eff"].items()}
+    for t, v in res["eta"].items():
+        out[f"engine.{t}.indicated_efficiency"] = v
+        out[f"engine.{t}.efficiency_specific_power_exponent"] = res["gamma"][t]
+    return out
+
+
+def bootstrap(by_combo: dict, eff0: dict, n: int, seed: int = 1, shared: bool = True) -> dict:
+    """2.5-97.5 % intervals of every fitted value over car resamples."""
+    def fit(weight: dict) -> dict:
+        sub = {c: [r for r in rr for _ in range(weight[r["car"]])] for c, rr in by_combo.items()}
+        return choose(sub, eff0, shared)
+
+    return _intervals(by_combo, n, seed, fit)
 
 
 def choose_scales(by_scale: dict, eff0: dict[str, float], cars: dict | None = None) -> dict:
@@ -230,23 +246,7 @@ def choose_scales(by_scale: dict, eff0: dict[str, float], cars: dict | None = No
 def scale_intervals(by_scale: dict, eff0: dict, n: int, seed: int = 2) -> dict:
     """2.5-97.5 % intervals of the chosen scales, and of the levels fitted with them, over
     car resamples (the engine grid point held)."""
-    cars = sorted({r["car"] for rr in by_scale.values() for r in rr})
-    rng = np.random.default_rng(seed)
-    draws: dict[str, list[float]] = defaultdict(list)
-    for _ in range(n):
-        weight: dict = defaultdict(int)
-        for k in rng.choice(len(cars), len(cars)):
-            weight[cars[k]] += 1
-        res = choose_scales(by_scale, eff0, weight)
-        for f, v in res["scale"].items():
-            draws[f"transmission.{f}.upshift_scale"].append(v)
-        for f, v in res["eff"].items():
-            draws[f"transmission.{f}.efficiency"].append(v)
-        for t, v in res["eta"].items():
-            draws[f"engine.{t}.indicated_efficiency"].append(v)
-            draws[f"engine.{t}.efficiency_specific_power_exponent"].append(res["gamma"][t])
-    return {k: (float(np.percentile(v, 2.5)), float(np.percentile(v, 97.5)))
-            for k, v in draws.items()}
+    return _intervals(by_scale, n, seed, lambda weight: choose_scales(by_scale, eff0, weight))
 
 
 def judge(recs: list[dict]) -> dict:

@@ -153,7 +153,8 @@ def _coefficient_sets(files: Sequence[str | Path], cross_year: bool) -> list[Any
 
     sets = [tech.load_coefficients(Path(f)) for f in files]
     if cross_year:
-        sets += [c for c in tech.packaged_fits() if c.digest not in {s.digest for s in sets}]
+        given = {s.digest for s in sets}
+        sets += [c for c in tech.packaged_fits() if c.digest not in given]
     return sets or [tech.load_coefficients()]
 
 

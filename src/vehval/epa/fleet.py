@@ -345,7 +345,7 @@ def verdict(t: EpaTest, predicted: float, u_rel: float) -> dict[str, float | Non
     return {"u_model_mpg": u_model, "u_meas_mpg": u_meas, "en": _f(en)}
 
 
-def _predicted(job: CarJob, t: EpaTest, pred: Any) -> dict[str, Any]:
+def _predicted(job: CarJob, t: EpaTest, pred: Any, u_rel: float) -> dict[str, Any]:
     from vehval.epa.consistency import check_listed_figures
 
     check = check_listed_figures(t)
@@ -359,7 +359,7 @@ def _predicted(job: CarJob, t: EpaTest, pred: Any) -> dict[str, Any]:
     if rec["predicted_mpg"] is not None and rec["measured_mpg"]:
         rec["error"] = rec["predicted_mpg"] / rec["measured_mpg"] - 1.0
         if check.ok:  # judged: its normalised error
-            rec.update(verdict(t, rec["predicted_mpg"], model_u_rel(job)))
+            rec.update(verdict(t, rec["predicted_mpg"], u_rel))
     return rec
 
 
@@ -377,12 +377,13 @@ def predict_car(job: CarJob) -> list[dict[str, Any]]:
         return [{**_job_record(job, t), "status": "failed", "reason_code": "specs_not_usable",
                  "reason": f"{t.source}: {exc}"} for t in job.tests]
     out = []
+    u_rel = model_u_rel(job)  # the car's, for every row
     for t in job.tests:
         proc, why = plan_for(t, job.fuel)
         try:
             if proc is None:
                 raise VehvalError(why)
-            out.append(_predicted(job, t, predict_test(veh, t, proc, job.dt)))
+            out.append(_predicted(job, t, predict_test(veh, t, proc, job.dt), u_rel))
         except Exception as exc:  # noqa: BLE001 - one failed row is recorded, the rest go on
             out.append({**_job_record(job, t), "status": "failed", "reason_code": "model_error",
                         "reason": f"{t.source}: {type(exc).__name__}: {exc}"})

@@ -124,12 +124,13 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     for r in records:
         per_list[r["list"]][r["status"]] += 1
     outside = [r for r in rows if not r.get("in_sample")]
-    lists = {k: {"n_rows": sum(c.values()), "n_run": c["run"], "n_not_run": c["not_run"],
-                 "n_failed": c["failed"], **_judged_block([r for r in rows if r["list"] == k]),
-                 "out_of_sample": {
-                     **_judged_block([r for r in outside if r["list"] == k]),
-                     "per_technology": per_technology([r for r in outside if r["list"] == k])}}
-             for k, c in sorted(per_list.items())}
+    lists = {}
+    for k, c in sorted(per_list.items()):
+        out_k = [r for r in outside if r["list"] == k]
+        lists[k] = {"n_rows": sum(c.values()), "n_run": c["run"], "n_not_run": c["not_run"],
+                    "n_failed": c["failed"], **_judged_block([r for r in rows if r["list"] == k]),
+                    "out_of_sample": {**_judged_block(out_k),
+                                      "per_technology": per_technology(out_k)}}
     out: dict[str, Any] = {
         "n_rows": len(records), "n_run": status["run"], "n_not_run": status["not_run"],
         "n_failed": status["failed"], "n_judged": len(rows),

@@ -12,7 +12,6 @@ seeded: white noise on every channel (``NOISE``, channel units).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +19,8 @@ import numpy as np
 from vehval.constants import MPH_M_PER_S
 from vehval.fuels.quantities import ac_energy_j, kwh_per_100km, mpge, wh_per_mile
 from vehval.integrals import battery_power, integral
-from vehval.io.atomic import atomic_dir, write_text_atomic
+from vehval.synth.template import vehicle_line
+from vehval.synth.writers import write_test_folder
 
 NOISE = {"Dyno_Speed": 0.005, "Dyno_Tractive_Effort": 5.0, "HV_Battery_Voltage": 0.2,
          "HV_Battery_Current": 0.2}
@@ -62,9 +62,12 @@ def j1634_key(t: np.ndarray, speed: np.ndarray, volt: np.ndarray, curr: np.ndarr
     return out
 
 
-def make_bev_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
+def make_bev_test(veh, cyc, seed: int, outdir: str | Path,
+                  vehicle_ref: str | None = None) -> dict:
     """Simulate ``veh`` (battery-electric) on ``cyc`` and write the virtual test into
-    ``outdir`` (atomically). Returns the truth dictionary (also written as ``truth.json``).
+    ``outdir`` (atomically). ``vehicle_ref``: the vehicle the template names
+    (:func:`vehval.synth.template.vehicle_line`; none by default). Returns the truth
+    dictionary (also written as ``truth.json``).
     """
     from vehval.sim.simulate import simulate
     from vehval.synth.clean import test_phase
@@ -88,6 +91,7 @@ def make_bev_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
     chans = "".join(f"      {k}: {{name: {NAMES[k]}, unit: {UNITS[k]}}}\n" for k in UNITS)
     template = (
         "template_version: 1\n"
+        + vehicle_line(vehicle_ref) +
         "architecture: battery_electric\n"
         f"description: \"VIRTUAL battery-electric test of {veh.name} on {cyc.name} (seed "
         f"{seed}): synthetic, not a measurement\"\n"
@@ -105,15 +109,5 @@ def make_bev_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
              "vehicle": veh.name, "cycle": cyc.name, "seed": int(seed), "noise": NOISE,
              "charger_efficiency": veh.charger.efficiency, "j1634": key,
              "parameters": veh.parameters()}
-    outdir = Path(outdir)
-    with atomic_dir(outdir) as stage:
-        write_text_atomic(stage / f"{test_id}_d3.txt", "\n".join(lines) + "\n")
-        write_text_atomic(stage / "template.yaml", template)
-        write_text_atomic(stage / "truth.json", json.dumps(truth, indent=2) + "\n")
-        write_text_atomic(stage / "README.txt",
-                          f"VIRTUAL test {test_id}: simulated by vehval, not a measurement.\n"
-                          "truth.json holds the parameters that generated it and the SAE "
-                          "J1634 answer key.\n")
-    truth["files"] = [str(outdir / f"{test_id}_d3.txt")]
-    truth["template"] = str(outdir / "template.yaml")
-    return truth
+    return write_test_folder(outdir, f"{test_id}_d3.txt", lines, template, truth,
+                             "the parameters that generated it and the SAE J1634 answer key")

@@ -14,7 +14,6 @@ parameters and every measurement effect). Measurement effects, all seeded:
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -22,7 +21,8 @@ from scipy.signal import lfilter
 
 from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S
 from vehval.integrals import held_sum
-from vehval.io.atomic import atomic_dir, write_text_atomic
+from vehval.synth.template import vehicle_line
+from vehval.synth.writers import write_test_folder
 from vehval.vehicle.conventional import DRIVEN_AXLE_LOSS_SHARE
 
 FUEL_DELAY_S = 1.5
@@ -37,10 +37,12 @@ def _delay(x: np.ndarray, n: int) -> np.ndarray:
     return np.r_[np.full(n, x[0]), x[:-n]] if n > 0 else x
 
 
-def make_conventional_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
+def make_conventional_test(veh, cyc, seed: int, outdir: str | Path,
+                           vehicle_ref: str | None = None) -> dict:
     """Simulate ``veh`` on ``cyc`` and write the virtual test into ``outdir`` (atomically).
 
-    Returns the truth dictionary (also written as ``truth.json``).
+    ``vehicle_ref``: the vehicle the template names
+    (:func:`vehval.synth.template.vehicle_line`; none by default). Returns the truth dictionary (also written as ``truth.json``).
     """
     from vehval.sim.simulate import simulate
     from vehval.synth.clean import test_phase
@@ -80,6 +82,7 @@ def make_conventional_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
     share = DRIVEN_AXLE_LOSS_SHARE
     template = (
         "template_version: 1\n"
+        + vehicle_line(vehicle_ref) +
         f"description: \"VIRTUAL conventional test of {veh.name} on {cyc.name} (seed {seed}): "
         "synthetic, not a measurement\"\n"
         "constants:\n"
@@ -101,14 +104,5 @@ def make_conventional_test(veh, cyc, seed: int, outdir: str | Path) -> dict:
              "force_delay_s": FORCE_DELAY_S, "noise": NOISE,
              "fuel_g": held_sum(fuel, dt), "parameters": veh.parameters(),
              "gear_ratios": [float(r) for r in veh.overall_ratios()]}
-    outdir = Path(outdir)
-    with atomic_dir(outdir) as stage:
-        write_text_atomic(stage / f"{test_id}_d3.txt", "\n".join(lines) + "\n")
-        write_text_atomic(stage / "template.yaml", template)
-        write_text_atomic(stage / "truth.json", json.dumps(truth, indent=2) + "\n")
-        write_text_atomic(stage / "README.txt",
-                          f"VIRTUAL test {test_id}: simulated by vehval, not a measurement.\n"
-                          "truth.json holds the parameters that generated it.\n")
-    truth["files"] = [str(outdir / f"{test_id}_d3.txt")]
-    truth["template"] = str(outdir / "template.yaml")
-    return truth
+    return write_test_folder(outdir, f"{test_id}_d3.txt", lines, template, truth,
+                             "the parameters that generated it")

@@ -57,22 +57,6 @@ def power_split_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str,
     return VirtualTest(doc, lines)
 
 
-def name_vehicle(template: str | Path, vehicle: str) -> None:
-    """Write ``vehicle:`` (the vehicle the virtual test was made from: a name, or the
-    resolved path of a file) into the ``template`` when it names none, so that ``vehval
-    validate`` without ``--vehicle`` validates that car."""
-    from vehval.io.atomic import write_text_atomic
-
-    path = Path(template)
-    lines = path.read_text(encoding="utf-8").splitlines(keepends=True)
-    if any(line.startswith("vehicle:") for line in lines):
-        return
-    ref = str(Path(vehicle).resolve()) if Path(vehicle).is_file() else str(vehicle)
-    at = 1 if lines and lines[0].startswith("template_version") else 0
-    lines.insert(at, f"vehicle: {json.dumps(ref)}\n")
-    write_text_atomic(path, "".join(lines))
-
-
 def _written(kind: str, truth: dict, out: Path, next_step: str) -> VirtualTest:
     """The document and lines of a virtual test written by a maker that returns its truth."""
     doc = {"files": truth["files"], "template": truth["template"],
@@ -100,8 +84,7 @@ def conventional_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str
 
     _without_faults(faults, control, "conventional")
     truth = make_conventional_test(veh.with_overrides(param or None), load_cycle(cycle), seed,
-                                   out)
-    name_vehicle(truth["template"], vehicle)
+                                   out, vehicle_ref=vehicle)
     return _written("conventional", truth, out, "identify it with: vehval identify {files} -t "
                     "{template} --architecture conventional -o VEHICLE.yaml")
 
@@ -115,8 +98,8 @@ def battery_electric_test(veh: Any, vehicle: str, cycle: str, seed: int, faults:
     from vehval.synth.bev import make_bev_test
 
     _without_faults(faults, control, "battery-electric")
-    truth = make_bev_test(veh.with_overrides(param or None), load_cycle(cycle), seed, out)
-    name_vehicle(truth["template"], vehicle)
+    truth = make_bev_test(veh.with_overrides(param or None), load_cycle(cycle), seed, out,
+                          vehicle_ref=vehicle)
     return _written("battery-electric", truth, out,
                     "its SAE J1634 figures: vehval results {files} -t {template}")
 

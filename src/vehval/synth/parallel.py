@@ -12,13 +12,12 @@ generating parameters. Measurement effects, seeded: white noise on every channel
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from vehval.constants import MPH_M_PER_S, RPM_RAD_PER_S
-from vehval.io.atomic import atomic_dir, write_text_atomic
+from vehval.synth.writers import write_test_folder
 
 NOISE = {"speed_mph": 0.02, "batt_volts": 0.1, "batt_amps": 0.1, "eng_rpm": 2.0,
          "axle_torque_nm": 1.0, "em_trq_nm": 0.1}
@@ -83,15 +82,5 @@ def make_parallel_test(veh, cyc, seed: int, outdir: str | Path,
         "gear_ratios": [float(r) for r in veh.overall_ratios()],
         "parameters": veh.parameters(),
     }
-    outdir = Path(outdir)
-    with atomic_dir(outdir) as stage:
-        write_text_atomic(stage / f"{test_id}_10hz.txt", "\n".join(lines) + "\n")
-        write_text_atomic(stage / "template.yaml", template)
-        write_text_atomic(stage / "truth.json", json.dumps(truth, indent=2) + "\n")
-        write_text_atomic(stage / "README.txt",
-                          f"VIRTUAL test {test_id}: simulated by vehval, not a measurement.\n"
-                          "truth.json holds the controller rules and parameters that "
-                          "generated it.\n")
-    truth["files"] = [str(outdir / f"{test_id}_10hz.txt")]
-    truth["template"] = str(outdir / "template.yaml")
-    return truth
+    return write_test_folder(outdir, f"{test_id}_10hz.txt", lines, template, truth,
+                             "the controller rules and parameters that generated it")

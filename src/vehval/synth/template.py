@@ -19,6 +19,18 @@ def vehicle_name(vehicle: Any, vehicle_arg: str | Path) -> str:
     return str(name) if name else Path(str(vehicle_arg)).stem
 
 
+def vehicle_line(vehicle_ref: str | Path | None) -> str:
+    """The template's ``vehicle:`` line naming the vehicle a virtual test was made from (a
+    name, or the resolved path of a file), so that ``vehval validate`` without ``--vehicle``
+    validates that car; '' without a reference."""
+    import json
+
+    if vehicle_ref is None:
+        return ""
+    ref = str(Path(vehicle_ref).resolve()) if Path(vehicle_ref).is_file() else str(vehicle_ref)
+    return f"vehicle: {json.dumps(ref)}\n"
+
+
 def vehicle_constants(vehicle: Any) -> dict[str, float]:
     """Template constants (SI, unit in the key) from the vehicle parameters.
 

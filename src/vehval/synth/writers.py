@@ -117,3 +117,26 @@ def write_table(path: str | Path, headers: list[str], columns: list[np.ndarray],
     with atomic_path(path) as tmp:
         tmp.write_bytes(data)
     return {"rows_written": len(lines) - 1, "partial_line": partial, "bytes": len(data)}
+
+
+def write_test_folder(outdir: str | Path, data_name: str, lines: list[str], template: str,
+                      truth: dict, holds: str) -> dict:
+    """Write a virtual test into ``outdir`` (atomically): the data file ``data_name`` (its
+    ``lines``), ``template.yaml``, ``truth.json`` and a README saying what truth.json
+    ``holds``. Returns ``truth`` with the written ``files`` and ``template`` paths."""
+    import json
+
+    from vehval.io.atomic import atomic_dir, write_text_atomic
+
+    outdir = Path(outdir)
+    test_id = truth["test_id"]
+    with atomic_dir(outdir) as stage:
+        write_text_atomic(stage / data_name, "\n".join(lines) + "\n")
+        write_text_atomic(stage / "template.yaml", template)
+        write_text_atomic(stage / "truth.json", json.dumps(truth, indent=2) + "\n")
+        write_text_atomic(stage / "README.txt",
+                          f"VIRTUAL test {test_id}: simulated by vehval, not a measurement.\n"
+                          f"truth.json holds {holds}.\n")
+    truth["files"] = [str(outdir / data_name)]
+    truth["template"] = str(outdir / "template.yaml")
+    return truth
