@@ -238,8 +238,9 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
             store.flush()
     elapsed = time.perf_counter() - t0
     n_new = sum(len(j.tests) for j in todo)
-    baseline = cross_validate(records)
+    # list order first: the baseline's sums then do not depend on the order cars landed in
     records.sort(key=lambda r: (r["list"], int(r["source"].rsplit(":", 1)[1])))
+    baseline = cross_validate(records)
     summary = {"lists": lists, **summarise(records), "baseline": baseline,
                "run": {"n_cars": len(plan.jobs), "n_cars_cached": n_cached,
                        "n_rows_simulated": n_new, "elapsed_s": elapsed,
