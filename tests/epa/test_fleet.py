@@ -198,7 +198,7 @@ def test_ridge_recovers_a_log_linear_law_and_cross_validates():
 
 def test_physics_plus_regression_residual_is_reported_apart():
     """The physics' own error explained by the list's columns (a bias growing with N/V)
-    is removed by the residual ridge, cross-validated by vehicle; the physics model's
+    is removed by the learned residual, cross-validated by vehicle; the physics model's
     figures and its comparison with the baseline stay those of the physics alone."""
     recs = []
     for lst in ("16tstcar.csv", "19tstcar.csv"):
@@ -221,6 +221,72 @@ def test_physics_plus_regression_residual_is_reported_apart():
         assert d["physics_residual"]["median_abs_error"] < 0.005
     assert all(r["residual_error"] is not None and r["residual_year_error"] is not None
                for r in recs)
+
+
+def _row(lst: str, k: int, make: str, meas: float, err: float, coef: str | None = None):
+    return {"status": "run", "judged": True, "list": lst, "procedure": "ftp75",
+            "vehicle_id": f"{lst}-{make}-{k}", "make": make, "mass_kg": 1200.0 + 20 * k,
+            "displacement_l": 2.0, "rated_power_w": 1.2e5, "n_v_ratio": 25.0,
+            "axle_ratio": 3.0, "target_a_n": 100.0, "target_b_n_per_mps": 1.0,
+            "target_c_n_per_mps2": 0.4, "gears": 8, "cylinders": 4,
+            "transmission_class": "automatic", "fuel_family": "gasoline",
+            "aspiration": "naturally aspirated", "measured_mpg": meas,
+            "predicted_mpg": meas * (1 + err), "error": err, "coefficients": coef}
+
+
+def test_the_boosted_baseline_is_told_the_make():
+    """Two makes with the same columns, one 12 % more frugal: the ridge on the columns cannot
+    tell them apart (about 6 % off each), the boosted trees and the learned residual can."""
+    recs = [_row("19tstcar.csv", k, make, (1e5 / (1200.0 + 20 * k)) * (1.12 if make == "MAZDA"
+                                                                           else 1.0), 0.0)
+            for k in range(40) for make in ("MAZDA", "Ford")]
+    for r in recs:  # physics blind to the make as well
+        r["predicted_mpg"] = 1e5 / r["mass_kg"] * 1.06
+        r["error"] = r["predicted_mpg"] / r["measured_mpg"] - 1
+    d = cross_validate(recs)["within_year"]["ftp75"]
+    assert d["baseline"]["median_abs_error"] > 0.04
+    assert d["boosted"]["median_abs_error"] < 0.025  # steps of trees on a smooth law
+    assert d["physics_residual"]["median_abs_error"] < 0.01 and d["residual_better"]
+
+
+def test_the_year_to_year_residual_learns_the_judging_coefficients_own_error():
+    """2019 rows judged with a 2016 fit (5 % high) get their residual from the 2016 rows built
+    with that same fit (5 % high: learned and removed), never from the 2016 rows judged with
+    the 2019 fit (7 % low), which would double the error instead of removing it."""
+    recs, training = [], []
+    for k in range(40):
+        m = 1e5 / (1200.0 + 20 * k)
+        recs.append(_row("19tstcar.csv", k, "Ford", m, 0.05, "fit2016"))
+        recs.append(_row("16tstcar.csv", k, "Ford", m, -0.07, "fit2019"))
+        training.append(_row("16tstcar.csv", k, "Ford", m, 0.05, "fit2016"))
+        training.append(_row("19tstcar.csv", k, "Ford", m, -0.07, "fit2019"))
+    cmp = cross_validate(recs, training)["year_to_year"]["ftp75"]
+    assert cmp["model"]["median_abs_error"] > 0.04
+    assert cmp["physics_residual"]["median_abs_error"] < 0.005
+    for r in recs:
+        assert abs(r["residual_year_error"]) < 0.005 and r["boosted_year_error"] is not None
+    # without the training rows there is no fit with the same coefficients: no residual
+    plain = [{k: v for k, v in r.items() if not k.startswith("residual")} for r in recs]
+    cross_validate(plain)
+    assert all(r.get("residual_year_error") is None for r in plain)
+
+
+def test_the_fleet_model_block_judges_the_residual_against_the_targets():
+    from vehval.epa.fleet_summary import TARGETS, fleet_model, worst_group_bias
+
+    recs = [_row("19tstcar.csv", k, "Ford", 30.0, 0.0) | {"residual_error": e, "car": f"c{k}"}
+            for k, e in enumerate([0.01, -0.02, 0.04, 0.06, -0.01] * 6)]
+    block = fleet_model(recs)
+    assert block["scheme"] == "within_year" and block["n_judged"] == 30
+    assert block["errors"]["ftp75"]["median_abs_error"] == pytest.approx(0.02)
+    assert block["share_within_5pct"] == pytest.approx(0.8)
+    assert block["met"]["median_abs_error"]["ftp75"] and block["met"]["share_within_5pct"]
+    assert block["targets"] == TARGETS
+    tech = {"cylinders": {"unknown": {"ftp75": {"n": 30, "median_error": 0.2}},
+                          "4": {"ftp75": {"n": 30, "median_error": -0.04}},
+                          "3": {"ftp75": {"n": 5, "median_error": 0.09}}}}
+    assert worst_group_bias(tech) == {"grouping": "cylinders", "group": "4",
+                                      "procedure": "ftp75", "n": 30, "median_error": -0.04}
 
 
 def test_outliers_are_named():
@@ -465,6 +531,8 @@ def test_each_list_is_judged_with_a_fit_of_another_list(tmp_path):
     assert used[f19]["lists_judged"] == ["16tstcar.csv"]
     assert s["out_of_sample"]["n_judged"] == s["n_judged"] == 4
     assert s["out_of_sample"]["n_in_sample"] == 0
+    # each car built a second time with the fit of its own list, to fit the residual only
+    assert s["run"]["n_cars_training"] == 2 and s["n_rows"] == 4
     # the 2016 car (same specs as the 2019 one) built with the less efficient engine
     import duckdb
 

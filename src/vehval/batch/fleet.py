@@ -26,8 +26,8 @@ import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
-from vehval.epa.fleet import ROW_COLUMNS, CarJob, plan_fleet, predict_jobs, read_fleet, relabel
-from vehval.epa.fleet_baseline import BASELINE_KEYS, RESIDUAL_KEYS, cross_validate
+from vehval.epa.fleet import ROW_COLUMNS, CarJob, plan_fleet, predict_jobs, read_fleet, relabel, training_jobs
+from vehval.epa.fleet_baseline import BASELINE_KEYS, BOOSTED_KEYS, RESIDUAL_KEYS, cross_validate
 from vehval.epa.fleet_summary import summarise
 from vehval.errors import ConfigError
 from vehval.io.atomic import atomic_path, write_text_atomic
@@ -35,7 +35,7 @@ from vehval.jsonsafe import dumps
 
 DB_NAME, JSON_NAME, HTML_NAME, CARS_DIR = "fleet.duckdb", "fleet.json", "fleet.html", "cars"
 #: columns the baseline adds to a row record
-BASELINE_COLUMNS = (*BASELINE_KEYS, *RESIDUAL_KEYS)
+BASELINE_COLUMNS = (*BASELINE_KEYS, *BOOSTED_KEYS, *RESIDUAL_KEYS)
 _INT = {"year", "procedure_code", "gears", "cylinders", "trace_n_miss"}
 _BOOL = {"judged", "list_doubtful", "in_sample"}
 _TEXT = {"row_id", "list", "source", "car", "make", "model", "vehicle_id", "config",
@@ -113,15 +113,18 @@ def write_duckdb(path: Path, records: Sequence[dict[str, Any]], baseline: dict[s
                         "model_median_abs_error DOUBLE, baseline_median_abs_error DOUBLE, "
                         "model_share_within_5pct DOUBLE, baseline_share_within_5pct DOUBLE, "
                         "model_better BOOLEAN, residual_median_abs_error DOUBLE, "
-                        "residual_share_within_5pct DOUBLE)")
+                        "residual_share_within_5pct DOUBLE, boosted_median_abs_error DOUBLE, "
+                        "boosted_share_within_5pct DOUBLE, residual_better BOOLEAN)")
             base = [[scheme, proc, d["model"]["n"], d["model"]["median_abs_error"],
                      d["baseline"]["median_abs_error"], d["model"]["share_within_5pct"],
                      d["baseline"]["share_within_5pct"], d["model_better"],
                      d["physics_residual"]["median_abs_error"],
-                     d["physics_residual"]["share_within_5pct"]]
+                     d["physics_residual"]["share_within_5pct"],
+                     d["boosted"]["median_abs_error"], d["boosted"]["share_within_5pct"],
+                     d["residual_better"]]
                     for scheme, procs in baseline.items() for proc, d in procs.items()]
             if base:
-                con.executemany("INSERT INTO baseline VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                con.executemany("INSERT INTO baseline VALUES (" + ", ".join("?" * 13) + ")",
                                 base)
         finally:
             con.close()
@@ -210,26 +213,31 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
     out = Path(outdir)
     (out / CARS_DIR).mkdir(parents=True, exist_ok=True)
     records = list(plan.not_run)
+    training: list[dict[str, Any]] = []  # fit the residual only (never judged nor written)
+    extra = training_jobs(plan)
+    for_training = {id(j) for j in extra}
     todo: list[CarJob] = []
     n_cached = 0
     done = {} if force else _load_store(out)
-    for job in plan.jobs:
+    for job in [*plan.jobs, *extra]:
         cached = done.get(job.digest)
         if cached is None or cached.get("key") != job.key:
             todo.append(job)
         else:
-            records.extend(relabel(job, cached["records"]))
+            (training if id(job) in for_training else records).extend(
+                relabel(job, cached["records"]))
             n_cached += 1
     t0 = time.perf_counter()
     with progress_bar("[bold]fleet", disable=not progress, transient=False) as pbar:
-        task = pbar.add_task("fleet", total=plan.n_to_run,
-                             completed=plan.n_to_run - sum(len(j.tests) for j in todo))
+        total = plan.n_to_run + sum(len(j.tests) for j in extra)
+        task = pbar.add_task("fleet", total=total,
+                             completed=total - sum(len(j.tests) for j in todo))
 
         store = _Store(out)
 
         def land(job: CarJob, recs: list[dict[str, Any]]) -> None:
             store.add(job, recs)
-            records.extend(recs)
+            (training if id(job) in for_training else records).extend(recs)
             pbar.update(task, advance=len(recs))
 
         try:
@@ -239,10 +247,12 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
     elapsed = time.perf_counter() - t0
     n_new = sum(len(j.tests) for j in todo)
     # list order first: the baseline's sums then do not depend on the order cars landed in
-    records.sort(key=lambda r: (r["list"], int(r["source"].rsplit(":", 1)[1])))
-    baseline = cross_validate(records)
+    for recs in (records, training):
+        recs.sort(key=lambda r: (r["list"], int(r["source"].rsplit(":", 1)[1])))
+    baseline = cross_validate(records, training)
     summary = {"lists": lists, **summarise(records), "baseline": baseline,
-               "run": {"n_cars": len(plan.jobs), "n_cars_cached": n_cached,
+               "run": {"n_cars": len(plan.jobs), "n_cars_training": len(extra),
+                       "n_cars_cached": n_cached,
                        "n_rows_simulated": n_new, "elapsed_s": elapsed,
                        "rows_per_minute": 60.0 * n_new / elapsed if n_new and elapsed else None,
                        "workers": used, "scheduler": scheduler, "dt_s": plan.jobs[0].dt},

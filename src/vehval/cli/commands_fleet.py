@@ -18,6 +18,24 @@ def _pc(x: float | None) -> str:
     return "-" if x is None else f"{100 * x:+.1f} %"
 
 
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{100 * x:.1f} %"
+
+
+def _fleet_model_lines(fm: dict) -> list[str]:
+    """The physics + learned residual out of sample, against its targets."""
+    if not fm.get("n_judged"):
+        return []
+    worst = fm.get("worst_group_bias")
+    return [f"  fleet model (physics + learned residual, {fm['scheme'].replace('_', ' ')}, "
+            f"{fm['n_judged']} rows): " + ", ".join(
+                f"{p} {_pct(st['median_abs_error'])}" for p, st in fm["errors"].items())
+            + f" median |error|, within 5 % {_pct(fm['share_within_5pct'])}; HWFET/FTP bias "
+            + _pc(fm["hwfet_ftp_bias"]["mean"])
+            + (f"; largest group bias {worst['group']} {worst['procedure']} "
+               f"{_pc(worst['median_error'])}" if worst else "")]
+
+
 def _lines(s: dict) -> list[str]:
     out = [f"{s['n_rows']} rows: {s['n_run']} run ({s['n_judged']} judged), {s['n_not_run']} "
            f"not run, {s['n_failed']} failed; {s['n_cars']} cars"]
@@ -32,7 +50,11 @@ def _lines(s: dict) -> list[str]:
             out.append(f"  baseline {scheme.replace('_', ' ')} {p}: model "
                        f"{100 * d['model']['median_abs_error']:.1f} % vs regression "
                        f"{100 * d['baseline']['median_abs_error']:.1f} % median |error|: "
-                       f"{'physics' if d['model_better'] else 'regression'} better")
+                       f"{'physics' if d['model_better'] else 'regression'} better; "
+                       f"boosted {_pct(d['boosted']['median_abs_error'])}, physics + "
+                       f"residual {_pct(d['physics_residual']['median_abs_error'])}"
+                       + (" (best)" if d["residual_better"] else ""))
+    out += _fleet_model_lines(s.get("fleet_model") or {})
     for c in s.get("coefficients") or ():
         inside = ", ".join(c["in_sample_lists"]) or "none"
         out.append(f"  coefficients {c['file']} (fitted on {', '.join(c['fit_lists']) or '-'}): "

@@ -292,6 +292,23 @@ def plan_fleet(tests: Iterable[EpaTest], dt: float = FLEET_DT_S,
     return plan
 
 
+def training_jobs(plan: FleetPlan) -> list[CarJob]:
+    """The cars to simulate only to fit the learned residual year to year: for every
+    coefficient set that judges a list, the cars of the other lists it was fitted on, built
+    with it (in-sample; see :mod:`vehval.epa.fleet_baseline`). None when no list of the run
+    is one a judging set was fitted on."""
+    judging = {id(j.coefficients): j.coefficients for j in plan.jobs
+               if j.coefficients is not None}
+    out = []
+    for coef in judging.values():
+        for j in plan.jobs:
+            lst = j.key.split("|", 1)[0]
+            if j.coefficients is not coef and lst in coef.fit_lists:
+                out.append(CarJob(key=j.key, fuel=j.fuel, specs=j.specs, tests=j.tests,
+                                  dt=j.dt, coefficients=coef, in_sample=True))
+    return out
+
+
 def _marks(job: CarJob, source: str | None) -> dict[str, Any]:
     """The row ``source``'s in-sample mark and the coefficients its car was built with."""
     coef = job.coefficients

@@ -116,6 +116,57 @@ def _judged_block(rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
             "hwfet_ftp_bias": hwfet_ftp_bias(rows), "verdicts": verdicts(rows)}
 
 
+#: the issue's acceptance targets of the fleet model, judged out of sample
+TARGETS = {"median_abs_error": 0.03, "share_within_5pct": 0.80, "hwfet_ftp_bias": 0.02,
+           "group_bias": 0.03}
+#: least rows of a technology group whose median bias is judged
+MIN_GROUP_ROWS = 20
+
+
+def worst_group_bias(per_tech: dict[str, Any]) -> dict[str, Any] | None:
+    """The technology group and procedure with the largest |median error| among groups of
+    :data:`MIN_GROUP_ROWS` rows or more (``unknown``, rows whose list leaves the column
+    blank, is not a technology: left out)."""
+    best = None
+    for grouping, groups in per_tech.items():
+        for g, procs in groups.items():
+            if g == "unknown":
+                continue
+            for p, st in procs.items():
+                if st.get("n", 0) >= MIN_GROUP_ROWS and (
+                        best is None or abs(st["median_error"]) > abs(best["median_error"])):
+                    best = {"grouping": grouping, "group": g, "procedure": p,
+                            "n": st["n"], "median_error": st["median_error"]}
+    return best
+
+
+def fleet_model(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """The physics + learned residual judged out of sample (year to year when the run has
+    it, else within a year; rows in the technology coefficients' fit left out), against
+    :data:`TARGETS`: errors per procedure, share within 5 %, HWFET/FTP bias, technology
+    groups and the worst group's median bias."""
+    year = any(r.get("residual_year_error") is not None for r in records)
+    key = "residual_year_error" if year else "residual_error"
+    rows = [{**r, "error": r[key]} for r in judged(records)
+            if not r.get("in_sample") and r.get(key) is not None]
+    if not rows:
+        return {"scheme": None, "n_judged": 0}
+    tech = per_technology(rows)
+    block = {"scheme": "year_to_year" if year else "within_year", "error_key": key,
+             **{k: v for k, v in _judged_block(rows).items() if k != "verdicts"},
+             "per_technology": tech, "worst_group_bias": worst_group_bias(tech)}
+    worst = block["worst_group_bias"]
+    bias = block["hwfet_ftp_bias"]["mean"]
+    block["targets"] = TARGETS
+    block["met"] = {
+        "median_abs_error": {p: st["median_abs_error"] <= TARGETS["median_abs_error"]
+                             for p, st in block["errors"].items()},
+        "share_within_5pct": block["share_within_5pct"] >= TARGETS["share_within_5pct"],
+        "hwfet_ftp_bias": bias is not None and abs(bias) <= TARGETS["hwfet_ftp_bias"],
+        "group_bias": worst is None or abs(worst["median_error"]) <= TARGETS["group_bias"]}
+    return block
+
+
 def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """The JSON summary of a fleet run's records (keys documented in docs/fleet.md)."""
     rows = judged(records)
@@ -143,6 +194,7 @@ def summarise(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
         "hwfet_ftp_bias": hwfet_ftp_bias(rows),
         "outliers": outliers(rows),
         "out_of_sample": {**_judged_block(outside), "per_technology": per_technology(outside)},
+        "fleet_model": fleet_model(records),
     }
     out["notes"] = [f"{k}: no runnable row (rows not run: "
                     + ", ".join(f"{c} {n}" for c, n in Counter(
