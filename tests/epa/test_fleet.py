@@ -525,7 +525,10 @@ def test_each_list_is_judged_with_a_fit_of_another_list(tmp_path):
     b = write_list(tmp_path / "19tstcar.csv", _car("B9"), header=FLEET_HEADER)
     f16 = _coefficients_fitted_on(tmp_path, "f16.yaml", "16tstcar.csv", 0.40)
     f19 = _coefficients_fitted_on(tmp_path, "f19.yaml", "19tstcar.csv", 0.30)
-    s = run_fleet([a, b], tmp_path / "o", workers=1, report=False, coefficients=[f16, f19])
+    s = run_fleet([a, b], tmp_path / "o", workers=1, coefficients=[f16, f19])
+    html = (tmp_path / "o" / "fleet.html").read_text()
+    assert "Out of sample: 4 judged rows" in html and "{_pc" not in html
+    assert "within 5 %: " + f"{100 * s['out_of_sample']['share_within_5pct']:.1f} %" in html
     used = {c["file"]: c for c in s["coefficients"]}
     assert used[f16]["lists_judged"] == ["19tstcar.csv"]
     assert used[f19]["lists_judged"] == ["16tstcar.csv"]

@@ -1,5 +1,5 @@
-"""The page of ``vehval epa fleet``: rows accounted for, errors per procedure and technology,
-the regression baseline, error histograms and scatters, and the outliers named.
+"""The page of ``vehval epa fleet``: rows accounted for, the fleet model against its targets,
+errors per procedure and technology, the regression baselines, error histograms and scatters, and the outliers named.
 
 Self-contained HTML (plotly.js inline); figures through :mod:`vehval.report.figures`.
 """
@@ -62,7 +62,8 @@ def _coefficients(summary: dict[str, Any]) -> list[Block]:
     if oos.get("n_judged"):
         bias = oos["hwfet_ftp_bias"]
         out += [para(f"Out of sample: {oos['n_judged']} judged rows neither of a list the "
-                     "coefficients were fitted on nor a test carried over from one; within 5 %: {_pc(oos['share_within_5pct'])}; "
+                     "coefficients were fitted on nor a test carried over from one; within 5 %: "
+                     f"{_pc(oos['share_within_5pct'])}; "
                      f"HWFET against FTP-75 across cars {_pc(bias['mean'], True)} over "
                      f"{bias['n_cars']} cars."),
                 table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
@@ -104,30 +105,52 @@ def _errors(summary: dict[str, Any]) -> list[Block]:
 def _baseline(summary: dict[str, Any]) -> list[Block]:
     base = summary.get("baseline") or {}
     if not base:
-        return [h2("Regression baseline"), para("Too few judged rows to fit the baseline.")]
+        return [h2("Regression baselines"), para("Too few judged rows to fit the baselines.")]
     rows = []
     for scheme, procs in base.items():
         for p, d in procs.items():
             rows.append([scheme.replace("_", " "), p, str(d["model"]["n"]),
-                         _pc(d["model"]["median_abs_error"]),
-                         _pc(d["baseline"]["median_abs_error"]),
-                         _pc(d["model"]["share_within_5pct"]),
-                         _pc(d["baseline"]["share_within_5pct"]),
-                         "physics" if d["model_better"] else "regression",
-                         _pc((d.get("physics_residual") or {}).get("median_abs_error")),
-                         _pc((d.get("physics_residual") or {}).get("share_within_5pct"))])
-    return [h2("Physics against a ridge regression on the list's columns"),
-            para("Ridge log-linear fit on about 20 columns (weight, road load, displacement, "
-                 "power, cylinders, N/V, axle ratio, gears, transmission, fuel, aspiration), "
-                 "10-fold cross-validated by test vehicle within a list, and fitted on one "
-                 "list to judge another (year to year), on the same rows as the model. "
-                 "The last two columns are not the physics model: physics + regression "
-                 "residual, the same ridge fitted to the physics model's log error and "
-                 "divided out of its prediction, cross-validated the same way."),
-            table(["scheme", "procedure", "rows", "model median |error|",
-                   "baseline median |error|", "model within 5 %", "baseline within 5 %",
-                   "better", "physics + residual median |error|",
-                   "physics + residual within 5 %"], rows)]
+                         *(f"{_pc(d[k]['median_abs_error'])} / {_pc(d[k]['share_within_5pct'])}"
+                           for k in ("model", "baseline", "boosted", "physics_residual")),
+                         "physics + residual" if d["residual_better"] else "a baseline"])
+    return [h2("Physics, the regressions on the list's columns, and physics + learned residual"),
+            para("Each cell: median |error| / share within 5 %, on the same rows, "
+                 "10-fold cross-validated by test vehicle within a list, or fitted on one "
+                 "list to judge another (year to year). Ridge: a log-linear fit on about 20 "
+                 "columns (weight, road load, displacement, power, cylinders, N/V, axle ratio, "
+                 "gears, transmission, fuel, aspiration). Boosted: gradient-boosted trees on "
+                 "the same columns and the make. Physics + learned residual: the same trees "
+                 "fitted to the physics model's log error and divided out of its prediction; "
+                 "year to year they are fitted on the other list's rows built with the "
+                 "judging coefficients."),
+            table(["scheme", "procedure", "rows", "physics", "ridge", "boosted",
+                   "physics + residual", "best"], rows)]
+
+
+def _fleet_model(summary: dict[str, Any]) -> list[Block]:
+    """The physics + learned residual out of sample against the targets."""
+    fm = summary.get("fleet_model") or {}
+    if not fm.get("n_judged"):
+        return []
+    err, met, t = fm["errors"], fm["met"], fm["targets"]
+    worst = fm.get("worst_group_bias")
+    yes = {True: "met", False: "not met"}
+    rows = [[f"{p} median |error|", _pc(st["median_abs_error"]), f"<= {_pc(t['median_abs_error'])}",
+             yes[met["median_abs_error"][p]]] for p, st in err.items()]
+    rows += [["share within 5 %", _pc(fm["share_within_5pct"]),
+              f">= {_pc(t['share_within_5pct'])}", yes[met["share_within_5pct"]]],
+             ["HWFET / FTP-75 bias", _pc(fm["hwfet_ftp_bias"]["mean"], True),
+              f"+-{_pc(t['hwfet_ftp_bias'])}", yes[met["hwfet_ftp_bias"]]],
+             ["largest technology group bias", "-" if not worst else
+              f"{worst['grouping']} {worst['group']} {worst['procedure']} "
+              f"{_pc(worst['median_error'], True)} ({worst['n']} rows)",
+              f"+-{_pc(t['group_bias'])}", yes[met["group_bias"]]]]
+    return [h2(f"The fleet model out of sample ({fm['scheme'].replace('_', ' ')}, "
+               f"{fm['n_judged']} rows)"),
+            para("Physics + learned residual, on rows neither of a list the technology "
+                 "coefficients were fitted on nor carried over from one."),
+            table(["figure", "value", "target", ""], rows),
+            table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
 
 
 def _figures(rows: Sequence[dict[str, Any]]) -> list[Block]:
@@ -172,8 +195,8 @@ def render_fleet_page(records: Sequence[dict[str, Any]], summary: dict[str, Any]
                    f"{summary['n_cars']} cars. Every car built from its list row with the "
                    "generic values of vehval epa vehicle, each row on its own procedure, "
                    "weight and road load.")]
-    blocks += (_accounting(summary) + _coefficients(summary) + _errors(summary)
-               + _baseline(summary))
+    blocks += (_accounting(summary) + _fleet_model(summary) + _coefficients(summary)
+               + _errors(summary) + _baseline(summary))
     if rows:
         blocks += _figures(rows)
     blocks += _outliers(summary)
