@@ -271,3 +271,78 @@ def test_extra_test_must_not_be_an_identification_test(tmp_path, capsys, option)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and option in err[0] and "also an identification test" in err[0]
     assert not (tmp_path / "o.yaml").exists()
+
+
+def _simulated_trace():
+    """The packaged Cruze's simulated UDDS as a trace with its wheel force and fuel."""
+    from vehval.identify.traces import Trace
+    from vehval.sim.simulate import simulate
+
+    res = simulate("cruze_diesel_2014", "udds", dt=0.1)
+    t = res.test["veh_spd_simu"].time
+    v = res.test["veh_spd_simu"].values
+    return Trace(test_id="udds", cycle="udds", t=t, v=v, a=np.gradient(v, t),
+                 force=res.test["veh_frc_in_simu"].values,
+                 w_eng=res.test["eng_spd_out_simu"].values,
+                 fuel=res.test["fuel_rate_simu"].values, phase=np.ones_like(t),
+                 constants={"fuel_density_kg_per_m3": 851.0, "fuel_lhv_j_per_kg": 42.8e6},
+                 file="udds.txt")
+
+
+def test_a_dead_fuel_channel_is_left_out_of_the_fuel_map_and_named():
+    """A test whose fuel channel reads 0 throughout while the engine runs (a channel not
+    recorded, as in one of the real Cruze files) serves road load and gears, not the fuel
+    map: fitted, its zeros pulled the map toward no fuel at power and its total error was
+    infinite. The map equals the one fitted without it; the provenance names it."""
+    import dataclasses
+
+    from vehval.identify.traces import dead_fuel_channel
+
+    live = _simulated_trace()
+    dead = dataclasses.replace(live, test_id="dead", file="dead.txt",
+                               fuel=np.zeros_like(live.fuel))
+    nan = dataclasses.replace(dead, fuel=np.full_like(live.fuel, np.nan))
+    assert dead_fuel_channel(live) is None
+    assert "dead: its fuel rate reads 0 throughout" in dead_fuel_channel(dead)
+    assert dead_fuel_channel(nan) is not None
+    both = identify_conventional([live, dead], "two", drag_evidence=False)
+    alone = identify_conventional([live], "one", drag_evidence=False)
+    assert set(both.fuel_left_out) == {"dead"} and not alone.fuel_left_out
+    assert both.fuel_map.willans == pytest.approx(alone.fuel_map.willans, rel=0.02)
+    assert set(both.fuel_map.total_error_rel) == {"udds"}
+    assert "left out: dead: its fuel rate" in both.vehicle.engine.sources["fuel_rate_g_per_s"]
+    assert both.summary()["fuel_left_out"] == both.fuel_left_out
+    with pytest.raises(IdentificationError, match="no test with a fuel rate.*dead"):
+        identify_conventional([dead], "none", drag_evidence=False)
+
+
+def test_cross_validation_does_not_judge_a_test_without_fuel():
+    """Held out, a dead-fuel test has nothing to judge: it is named among the skipped, and
+    the summary's figures stay finite (they read nan before)."""
+    import dataclasses
+
+    from vehval.identify.crossval import cross_validate
+
+    live = _simulated_trace()
+    other = dataclasses.replace(live, test_id="udds2", file="udds2.txt")
+    dead = dataclasses.replace(live, test_id="dead", file="dead.txt",
+                               fuel=np.zeros_like(live.fuel))
+    res = cross_validate([live, other, dead], jobs=1)
+    assert {r["test"] for r in res["rows"]} == {"udds", "udds2"}
+    assert any(s.startswith("dead: its fuel rate reads 0") for s in res["skipped"])
+    assert np.isfinite(res["summary"]["median_abs_error"])
+
+
+def test_predict_names_a_test_without_fuel_as_not_judged():
+    import dataclasses
+
+    from vehval.cli.commands_predict import _table
+    from vehval.identify.predict import predict_trace
+    from vehval.vehicle import load_vehicle
+
+    live = _simulated_trace()
+    dead = dataclasses.replace(live, test_id="dead", fuel=np.zeros_like(live.t))
+    row = predict_trace(load_vehicle("cruze_diesel_2014"), dead)
+    assert row["not_judged"].startswith("dead: its fuel rate reads 0")
+    text = _table([row])
+    assert "not judged: dead: its fuel rate" in text and "+nan" not in text

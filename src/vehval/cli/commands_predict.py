@@ -19,9 +19,12 @@ def _table(rows: list[dict]) -> str:
              f"{'error %':>8}"]
     for r in rows:
         lines.append(f"{r['test']:<22} {r['cycle']:<10} {r['amb_temp_c']:>6.1f} "
-                     f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f} "
-                     f"{100 * r['error_rel']:>+8.2f}{_pi(r)}{_en(r)}  A/C {'on' if r['ac_on'] else 'off'}: "
-                     f"{r['ac_reason']}; {_start(r)}")
+                     f"{r['fuel_measured_g']:>11.1f} {r['fuel_predicted_g']:>12.1f}"
+                     + (f"  not judged: {r['not_judged']}" if r.get("not_judged") else
+                        f" {100 * r['error_rel']:>+8.2f}{_pi(r)}{_en(r)}  A/C "
+                        f"{'on' if r['ac_on'] else 'off'}: {r['ac_reason']}; {_start(r)}"))
+        if r.get("not_judged"):
+            continue
         if r.get("fuel_economy_measured_mpg") is not None:
             lines.append(f"  {'fuel economy':<38} measured "
                          f"{fuel_text(r['fuel_economy_measured_mpg'], r['fuel_consumption_measured_l_per_100km'])}"

@@ -32,7 +32,7 @@ from vehval.identify.gears import (
 from vehval.identify.losses import DragFit, fit_ac_load, fit_drag
 from vehval.identify.roadload import RoadLoadFit, fit_road_load
 from vehval.identify.spec import Assumptions, resolve
-from vehval.identify.traces import IdentificationError, Trace
+from vehval.identify.traces import IdentificationError, Trace, dead_fuel_channel
 from vehval.identify.uncertainty import coverage_grid
 from vehval.identify.warmup import WarmupFit, fit_warmup, hot_partner
 from vehval.io.atomic import write_text_atomic
@@ -58,11 +58,14 @@ class Identification:
     assumptions: Assumptions | None = None
     coverage: dict | None = None
     conditions: dict | None = None
+    #: tests left out of the fuel map, with why (:func:`.traces.dead_fuel_channel`)
+    fuel_left_out: dict = field(default_factory=dict)
 
     def summary(self) -> dict:
         return {"assumptions": None if self.assumptions is None else self.assumptions.provenance,
                 "coverage": self.coverage, "conditions": self.conditions,
-                "tests": [t.test_id for t in self.traces], "road_load": self.road_load.to_dict(),
+                "tests": [t.test_id for t in self.traces], "fuel_left_out": self.fuel_left_out,
+                "road_load": self.road_load.to_dict(),
                 "gears": self.gears.to_dict(), "gear_ratio_check": self.gear_ratio_check,
                 "fuel_map": self.fuel_map.to_dict(), "n_shifts": len(self.shifts),
                 "drag": None if self.drag is None else self.drag.to_dict(), "ac": self.ac,
@@ -253,7 +256,15 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
         return engine_power(t, g, gf.ratios, rw, a.gearbox_efficiency, rl.lag_s,
                             a.accessory_power_w, a.engine_inertia_kg_m2, drag)
 
-    drag, fm = fit_drag(traces, lambda d: [power(t, g, d) for t, g in zip(traces, gears)],
+    dead = {t.test_id: why for t in traces if (why := dead_fuel_channel(t))}
+    if len(dead) == len(traces):
+        raise IdentificationError("identify: no test with a fuel rate to fit the engine map: "
+                                  + "; ".join(dead.values())
+                                  + ": map the fuel channel to fuel_rate_test in the template")
+    fueled = [(t, g) for t, g in zip(traces, gears) if t.test_id not in dead]
+    fuel_tests = ", ".join(t.test_id for t, _ in fueled) + (
+        f" (left out: {'; '.join(dead.values())})" if dead else "")
+    drag, fm = fit_drag([t for t, _ in fueled], lambda d: [power(t, g, d) for t, g in fueled],
                         idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
                         a.driven_axle_loss_share, drag_evidence,
                         {"max_speed_rad_s": a.max_speed_rpm * RPM,
@@ -282,7 +293,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "sources": {
                 "speed_rpm": "grid chosen to cover idle to the maximum speed",
                 "torque_nm": "grid chosen to cover the full-load curve",
-                "fuel_rate_g_per_s": f"identified Willans surface (fuel = c0 + c1 w + c2 w² + (d0 + d1 w) P + e P², bounded up to the maximum speed: zero-power fuel not falling with speed, fuel per power at least 1 / ({ETA_MAX:g} LHV)) from {tests}: {fq}; measured engine power {fm.power_range_w[0] / 1e3:.1f}-{fm.power_range_w[1] / 1e3:.1f} kW, beyond it extrapolated",
+                "fuel_rate_g_per_s": f"identified Willans surface (fuel = c0 + c1 w + c2 w² + (d0 + d1 w) P + e P², bounded up to the maximum speed: zero-power fuel not falling with speed, fuel per power at least 1 / ({ETA_MAX:g} LHV)) from {fuel_tests}: {fq}; measured engine power {fm.power_range_w[0] / 1e3:.1f}-{fm.power_range_w[1] / 1e3:.1f} kW, beyond it extrapolated",
                 "max_torque_nm": a.source("full_load"),
                 "max_power_w": a.source("rated_power_kw"),
                 "max_speed_rpm": a.source("max_speed_rpm"),
@@ -292,7 +303,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                 "inertia_kg_m2": a.source("engine_inertia_kg_m2"),
                 **fuel_sources,
             }},
-        "engine_control": _engine_control(fm, a, tests, fq),
+        "engine_control": _engine_control(fm, a, fuel_tests, fq),
         "gearbox": {
             "ratios": [float(r) for r in gf.ratios], "efficiency": a.gearbox_efficiency,
             "upshift_speed_mps": uz, "upshift_speed_full_load_mps": uf,
@@ -300,7 +311,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             "shift_time_s": shift_dur,
             "drag_force_n": drag.force_n, "drag_force_n_per_mps": drag.force_n_per_mps,
             "sources": {
-                "drag_force_n": f"from {tests} and the template's target coefficients: {drag.note}; "
+                "drag_force_n": f"from {fuel_tests} and the template's target coefficients: {drag.note}; "
                                 + a.source("driven_axle_loss_share"),
                 "drag_force_n_per_mps": f"identified with drag_force_n from {tests}",
                 "ratios": f"identified: engine-to-wheel speed ratio clusters in {tests} (final drive included); {ratio_src}",
@@ -319,7 +330,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
             }},
         **_driveline_and_driver(rw, a),
     }
-    result = Identification(road_load=rl, gears=gf, fuel_map=fm, traces=traces,
+    result = Identification(road_load=rl, gears=gf, fuel_map=fm, traces=traces, fuel_left_out=dead,
                             gear_ratio_check=check, shifts=events, drag=drag, assumptions=a,
                             coverage=coverage_grid(fm.points["w"], fm.points["p"],
                                                    traces[0].dt),

@@ -19,7 +19,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from vehval.identify.traces import IdentificationError, Trace
+from vehval.identify.traces import IdentificationError, Trace, dead_fuel_channel
 from vehval.identify.verdicts import EN_KEYS, judge_row, verdict_of
 from vehval.uncertainty import normalised_error
 
@@ -34,14 +34,17 @@ def _combos(traces: list[Trace], pairs: bool) -> tuple[list[tuple[int, ...]], li
         raise IdentificationError(
             f"cross-validation: one test given ({names}); it needs at least two (identify "
             "from some, predict the others)" + ("; with --pairs at least three" if pairs else ""))
+    dead = {i: why for i, t in enumerate(traces) if (why := dead_fuel_channel(t))}
+    unjudged = [f"{why}: not predicted (no measured fuel to judge)" for why in dead.values()]
     if not pairs:
-        return [tuple(j for j in range(n) if j != i) for i in range(n)], []
+        return ([tuple(j for j in range(n) if j != i) for i in range(n) if i not in dead],
+                unjudged)
     if n < 3:
         raise IdentificationError(
             f"cross-validation --pairs: {n} tests given; a pair leaves nothing to predict: give "
             "at least three tests")
     out: list[tuple[int, ...]] = []
-    skipped: list[str] = []
+    skipped: list[str] = unjudged
     for i, j in itertools.combinations(range(n), 2):
         ci, cj = traces[i].cycle.lower(), traces[j].cycle.lower()
         if ci and ci == cj:
@@ -59,7 +62,7 @@ def _run_combo(arg) -> list[dict]:
     traces, combo, declared, ac = arg
     used = [traces[i] for i in combo]
     names = [t.test_id for t in used]
-    held = [t for k, t in enumerate(traces) if k not in combo]
+    held = [t for k, t in enumerate(traces) if k not in combo and not dead_fuel_channel(t)]
     try:
         idf = identify_conventional(used, "cross_validation", declared=declared,
                                     drag_evidence=False)

@@ -25,7 +25,7 @@ import numpy as np
 from vehval.cycles import Cycle
 from vehval.errors import ConfigError
 from vehval.identify.conditions import outside_conditions
-from vehval.identify.traces import Trace
+from vehval.identify.traces import Trace, dead_fuel_channel
 from vehval.identify.uncertainty import POOR_COVERAGE, interval_parts
 from vehval.identify.warmup import cold_start_state
 from vehval.integrals import held_sum
@@ -132,7 +132,8 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
             "in_sample": (trace.test_id in _fitted_tests(ident)
                           or any(r["in_sample"] for r in phases)),
             "outside_identification": outside_conditions(ident, trace),
-            "sim": res, "trace": trace}
+            "sim": res, "trace": trace,
+            "not_judged": dead_fuel_channel(trace)}
     _add_interval(out, unc.get("test"))
     out.update(stage.get("test", {}))
     return out

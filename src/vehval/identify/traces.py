@@ -100,6 +100,27 @@ def hybrid_refusal(test: Test, vehicle: object = None) -> str | None:
             "power-split vehicle file (--vehicle)")
 
 
+#: engine speed above which the engine counts as turning [rad/s] (about 300 rpm)
+TURNING_RAD_S = 30.0
+#: fuel rate under which a sample reads no fuel [kg/s] (1 mg/s)
+NO_FUEL_KG_S = 1e-6
+#: engine running this long with no fuel anywhere: a dead fuel channel [s]
+DEAD_FUEL_S = 10.0
+
+
+def dead_fuel_channel(tr: Trace) -> str | None:
+    """Why the fuel channel of ``tr`` cannot be fitted (None: it can): it reads no fuel in
+    any sample (0 or missing throughout) while the engine turns for :data:`DEAD_FUEL_S` or
+    more. A channel not recorded in that test, or a meter not connected: fitted, its zeros
+    would pull the fuel map toward no fuel at power."""
+    turning = float(np.count_nonzero(tr.w_eng > TURNING_RAD_S)) * tr.dt
+    fuel = np.nan_to_num(tr.fuel, nan=0.0)
+    if turning >= DEAD_FUEL_S and not np.any(fuel > NO_FUEL_KG_S):
+        return (f"{tr.test_id}: its fuel rate reads 0 throughout while the engine "
+                f"turns for {turning:.0f} s (a channel not recorded or a meter not connected)")
+    return None
+
+
 def trace_from_test(test: Test, dt: float = 0.1, vehicle: object = None) -> Trace:
     """Trace of ``test`` on a ``dt`` grid from time 0 (the start of the drive) to its end.
 
