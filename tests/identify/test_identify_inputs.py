@@ -312,6 +312,8 @@ def test_a_dead_fuel_channel_is_left_out_of_the_fuel_map_and_named():
     assert set(both.fuel_map.total_error_rel) == {"udds"}
     assert "left out: dead: its fuel rate" in both.vehicle.engine.sources["fuel_rate_g_per_s"]
     assert both.summary()["fuel_left_out"] == both.fuel_left_out
+    roles = {r["test"]: r["role"] for r in both.conditions["tests"]}
+    assert roles == {"udds": "fuel map", "dead": "road load and gears"}
     with pytest.raises(IdentificationError, match="no test with a fuel rate.*dead"):
         identify_conventional([dead], "none", drag_evidence=False)
 

@@ -334,7 +334,8 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                             gear_ratio_check=check, shifts=events, drag=drag, assumptions=a,
                             coverage=coverage_grid(fm.points["w"], fm.points["p"],
                                                    traces[0].dt),
-                            conditions=identification_conditions(traces, cold_trace, ac_trace))
+                            conditions=identification_conditions(traces, cold_trace, ac_trace,
+                                                                frozenset(dead)))
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
     if cold_trace is not None:

@@ -40,7 +40,8 @@ def _finite(x: float | None) -> float | None:
 
 
 def identification_conditions(traces: list[Trace], cold_trace: Trace | None = None,
-                              ac_trace: Trace | None = None) -> dict:
+                              ac_trace: Trace | None = None,
+                              no_fuel: frozenset[str] = frozenset()) -> dict:
     """The conditions of the tests an identification used (see the module docstring).
 
     Returns
@@ -49,9 +50,11 @@ def identification_conditions(traces: list[Trace], cold_trace: Trace | None = No
         ``tests``: one ``{test, role, amb_temp_c, coolant_start_c}`` per test [°C, None when
         not measured], ``role`` one of ``fuel map``, ``warm-up``, ``A/C``; ``amb_temp_c`` and
         ``coolant_start_c``: the ``[low, high]`` range the identification covers [°C], None
-        when no test measured it.
+        when no test measured it. A test of ``no_fuel`` (its fuel rate reads 0 throughout:
+        left out of the fuel map) has the role ``road load and gears`` and no part in the
+        ranges.
     """
-    roles = [(t, "fuel map") for t in traces]
+    roles = [(t, "road load and gears" if t.test_id in no_fuel else "fuel map") for t in traces]
     roles += [(t, role) for t, role in ((cold_trace, "warm-up"), (ac_trace, "A/C"))
               if t is not None]
     tests: list[dict] = [{"test": t.test_id, "role": role, "amb_temp_c": _finite(t.amb_temp_c),
@@ -59,6 +62,7 @@ def identification_conditions(traces: list[Trace], cold_trace: Trace | None = No
     out: dict = {"tests": tests}
     for key in CONDITIONS:
         values = [float(r[key]) for r in tests if r[key] is not None
+                  and r["role"] != "road load and gears"
                   and (key == "amb_temp_c" or r["role"] != "A/C")]
         out[key] = [min(values), max(values)] if values else None
     return out
