@@ -271,6 +271,28 @@ def test_the_year_to_year_residual_learns_the_judging_coefficients_own_error():
     assert all(r.get("residual_year_error") is None for r in plain)
 
 
+def test_the_fleet_models_en_takes_its_scatter_from_the_other_lists():
+    """U_model of a 2019 row: the robust sigma of the fleet model's within-year errors on the
+    2016 rows (never its own list's), less the lists' measurement part in quadrature."""
+    from vehval.epa.fleet_baseline import MIN_ROWS, residual_verdicts
+
+    recs = [{"list": "16tstcar.csv", "procedure": "ftp75", "measured_mpg": 30.0,
+             "u_meas_mpg": 1.8, "residual_error": math.expm1(0.04 * (-1) ** k)}
+            for k in range(2 * MIN_ROWS)]
+    judged_row = {"list": "19tstcar.csv", "procedure": "ftp75", "measured_mpg": 30.0,
+                  "u_meas_mpg": 1.8, "residual_error": 0.5, "residual_year_mpg": 31.0}
+    residual_verdicts([*recs, judged_row])
+    u_rel = math.sqrt((1.4826 * 0.04) ** 2 - 0.03 ** 2)
+    assert judged_row["residual_u_model_mpg"] == pytest.approx(2 * u_rel * 31.0)
+    assert judged_row["residual_en"] == pytest.approx(
+        1.0 / math.hypot(2 * u_rel * 31.0, 1.8), rel=1e-6)
+    assert "residual_en" not in recs[0]  # no year-to-year prediction: no verdict
+    alone = dict(judged_row)
+    del alone["residual_u_model_mpg"], alone["residual_en"]
+    residual_verdicts([alone])  # one list: nothing else to take the scatter from
+    assert "residual_en" not in alone
+
+
 def test_the_fleet_model_block_judges_the_residual_against_the_targets():
     from vehval.epa.fleet_summary import TARGETS, fleet_model, worst_group_bias
 

@@ -27,7 +27,13 @@ from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from vehval.epa.fleet import ROW_COLUMNS, CarJob, plan_fleet, predict_jobs, read_fleet, relabel, training_jobs
-from vehval.epa.fleet_baseline import BASELINE_KEYS, BOOSTED_KEYS, RESIDUAL_KEYS, cross_validate
+from vehval.epa.fleet_baseline import (
+    BASELINE_KEYS,
+    BOOSTED_KEYS,
+    RESIDUAL_KEYS,
+    RESIDUAL_VERDICT_KEYS,
+    cross_validate,
+)
 from vehval.epa.fleet_summary import summarise
 from vehval.errors import ConfigError
 from vehval.io.atomic import atomic_path, write_text_atomic
@@ -35,7 +41,7 @@ from vehval.jsonsafe import dumps
 
 DB_NAME, JSON_NAME, HTML_NAME, CARS_DIR = "fleet.duckdb", "fleet.json", "fleet.html", "cars"
 #: columns the baseline adds to a row record
-BASELINE_COLUMNS = (*BASELINE_KEYS, *BOOSTED_KEYS, *RESIDUAL_KEYS)
+BASELINE_COLUMNS = (*BASELINE_KEYS, *BOOSTED_KEYS, *RESIDUAL_KEYS, *RESIDUAL_VERDICT_KEYS)
 _INT = {"year", "procedure_code", "gears", "cylinders", "trace_n_miss"}
 _BOOL = {"judged", "list_doubtful", "in_sample"}
 _TEXT = {"row_id", "list", "source", "car", "make", "model", "vehicle_id", "config",

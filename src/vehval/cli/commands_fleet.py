@@ -33,7 +33,10 @@ def _fleet_model_lines(fm: dict) -> list[str]:
             + f" median |error|, within 5 % {_pct(fm['share_within_5pct'])}; HWFET/FTP bias "
             + _pc(fm["hwfet_ftp_bias"]["mean"])
             + (f"; largest group bias {worst['group']} {worst['procedure']} "
-               f"{_pc(worst['median_error'])}" if worst else "")]
+               f"{_pc(worst['median_error'])}" if worst else "")
+            + ("; consistent within the uncertainty (|En| <= 1): " + ", ".join(
+                f"{p} {_pct(v['share_consistent'])}" for p, v in fm["verdicts"].items())
+               if fm.get("verdicts") else "")]
 
 
 def _lines(s: dict) -> list[str]:

@@ -51,6 +51,8 @@ BASELINE_KEYS = ("baseline_mpg", "baseline_error", "baseline_year_mpg", "baselin
 BOOSTED_KEYS = ("boosted_mpg", "boosted_error", "boosted_year_mpg", "boosted_year_error")
 #: the record keys of the physics + learned residual (reported beside the physics model)
 RESIDUAL_KEYS = ("residual_mpg", "residual_error", "residual_year_mpg", "residual_year_error")
+#: the fleet model's verdict keys: its expanded uncertainty (k = 2) [mpg] and En
+RESIDUAL_VERDICT_KEYS = ("residual_u_model_mpg", "residual_en")
 #: the boosted trees' settings (chosen on the within-year folds of the 2016 and 2019 lists;
 #: the year-to-year figures move by under 0.2 point over learning rates 0.03-0.1)
 BOOST = {"learning_rate": 0.05, "max_iter": 300, "max_leaf_nodes": 15, "min_samples_leaf": 10,
@@ -231,7 +233,39 @@ def cross_validate(records: Sequence[dict[str, Any]],
                  lambda r: math.log(r["predicted_mpg"] / r["measured_mpg"]), RESIDUAL_KEYS,
                  lambda r, p: r["predicted_mpg"] / math.exp(p), boosted,
                  train=physics(_usable(every, makes)))
+    residual_verdicts(records)
     return compare(records)
+
+
+def residual_verdicts(records: Sequence[dict[str, Any]]) -> None:
+    """The fleet model's normalised error year to year, written into the records
+    (:data:`RESIDUAL_VERDICT_KEYS`): En = (residual_year_mpg - measured) / sqrt(U_model^2 +
+    U_meas^2), U_meas the row's (``u_meas_mpg``, the lists' reproducibility), U_model = 2 x
+    u x prediction with u the model's own scatter: the robust standard deviation (1.4826 x
+    MAD) of the fleet model's within-year cross-validated log errors on the *other* lists'
+    out-of-sample rows of the procedure, less the lists' measurement part in quadrature. No
+    verdict with one list (its own scatter would judge it)."""
+    from vehval.uncertainty import normalised_error
+
+    by: dict[tuple[str, str], list[float]] = defaultdict(list)
+    meas: dict[str, list[float]] = defaultdict(list)
+    for r in records:
+        if (r.get("residual_error") is not None and not r.get("in_sample")
+                and r.get("u_meas_mpg")):
+            by[(r["list"], r["procedure"])].append(math.log1p(r["residual_error"]))
+            meas[r["procedure"]].append(r["u_meas_mpg"] / 2.0 / r["measured_mpg"])
+    for r in records:
+        pred, u_meas = r.get("residual_year_mpg"), r.get("u_meas_mpg")
+        others = [e for (lst, p), es in by.items() if p == r.get("procedure")
+                  and lst != r.get("list") for e in es]
+        if pred is None or not u_meas or len(others) < MIN_ROWS:
+            continue
+        a = np.array(others)
+        sigma = 1.4826 * float(np.median(np.abs(a - np.median(a))))
+        u_rel = math.sqrt(max(sigma ** 2 - float(np.median(meas[r["procedure"]])) ** 2, 0.0))
+        u_model = 2.0 * u_rel * pred
+        r["residual_u_model_mpg"] = u_model
+        r["residual_en"] = normalised_error(pred, r["measured_mpg"], u_model, u_meas).en
 
 
 def _stats(err: list[float]) -> dict[str, Any]:

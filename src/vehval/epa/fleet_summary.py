@@ -147,13 +147,13 @@ def fleet_model(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     groups and the worst group's median bias."""
     year = any(r.get("residual_year_error") is not None for r in records)
     key = "residual_year_error" if year else "residual_error"
-    rows = [{**r, "error": r[key]} for r in judged(records)
-            if not r.get("in_sample") and r.get(key) is not None]
+    rows = [{**r, "error": r[key], "en": r.get("residual_en") if year else None}
+            for r in judged(records) if not r.get("in_sample") and r.get(key) is not None]
     if not rows:
         return {"scheme": None, "n_judged": 0}
     tech = per_technology(rows)
     block = {"scheme": "year_to_year" if year else "within_year", "error_key": key,
-             **{k: v for k, v in _judged_block(rows).items() if k != "verdicts"},
+             **_judged_block(rows),
              "per_technology": tech, "worst_group_bias": worst_group_bias(tech)}
     worst = block["worst_group_bias"]
     bias = block["hwfet_ftp_bias"]["mean"]

@@ -145,12 +145,22 @@ def _fleet_model(summary: dict[str, Any]) -> list[Block]:
               f"{worst['grouping']} {worst['group']} {worst['procedure']} "
               f"{_pc(worst['median_error'], True)} ({worst['n']} rows)",
               f"+-{_pc(t['group_bias'])}", yes[met["group_bias"]]]]
-    return [h2(f"The fleet model out of sample ({fm['scheme'].replace('_', ' ')}, "
-               f"{fm['n_judged']} rows)"),
-            para("Physics + learned residual, on rows neither of a list the technology "
-                 "coefficients were fitted on nor carried over from one."),
-            table(["figure", "value", "target", ""], rows),
-            table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
+    out = [h2(f"The fleet model out of sample ({fm['scheme'].replace('_', ' ')}, "
+              f"{fm['n_judged']} rows)"),
+           para("Physics + learned residual, on rows neither of a list the technology "
+                "coefficients were fitted on nor carried over from one."),
+           table(["figure", "value", "target", ""], rows),
+           table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
+    ver = fm.get("verdicts") or {}
+    if ver:
+        out += [para("Normalised error of the fleet model, k = 2: U_meas from the lists' "
+                     "vehicle-level reproducibility, U_model from the fleet model's own "
+                     "within-year scatter on the other lists (robust sigma, the measurement "
+                     "part removed)."),
+                table(["procedure", "rows", "|En| <= 1", "median |En|"],
+                      [[p, str(v["n"]), _pc(v["share_consistent"]),
+                        f"{v['median_abs_en']:.2f}"] for p, v in ver.items()])]
+    return out
 
 
 def _figures(rows: Sequence[dict[str, Any]]) -> list[Block]:
