@@ -48,6 +48,15 @@ def _accounting(summary: dict[str, Any]) -> list[Block]:
     return out
 
 
+def _verdicts(ver: dict[str, Any] | None, text: str) -> list[Block]:
+    """The share of rows with |En| <= 1 and the median |En| per procedure, after ``text``."""
+    if not ver:
+        return []
+    return [para(text), table(["procedure", "rows", "|En| <= 1", "median |En|"],
+                              [[p, str(v["n"]), _pc(v["share_consistent"]),
+                                f"{v['median_abs_en']:.2f}"] for p, v in ver.items()])]
+
+
 def _coefficients(summary: dict[str, Any]) -> list[Block]:
     """Which technology coefficients judged which list, and the out-of-sample figures."""
     used = summary.get("coefficients") or []
@@ -67,15 +76,10 @@ def _coefficients(summary: dict[str, Any]) -> list[Block]:
                      f"HWFET against FTP-75 across cars {_pc(bias['mean'], True)} over "
                      f"{bias['n_cars']} cars."),
                 table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
-        ver = oos.get("verdicts") or {}
-        if ver:
-            out += [para("Normalised error En = (model - listed) / sqrt(U_model^2 + U_meas^2), "
-                         "k = 2: U_meas from the lists' vehicle-level reproducibility of the "
-                         "procedure, U_model from the technology coefficients' intervals "
-                         "(efficiencies only)."),
-                    table(["procedure", "rows", "|En| <= 1", "median |En|"],
-                          [[p, str(v["n"]), _pc(v["share_consistent"]),
-                            f"{v['median_abs_en']:.2f}"] for p, v in ver.items()])]
+        out += _verdicts(oos.get("verdicts"), "Normalised error En = (model - listed) / "
+                         "sqrt(U_model^2 + U_meas^2), k = 2: U_meas from the lists' vehicle-level "
+                         "reproducibility of the procedure, U_model from the technology "
+                         "coefficients' intervals (efficiencies only).")
     per = [[f"{k} {p}", *_stats_row("", v["errors"][p])[1:]]
            for k, v in summary.get("per_list", {}).items() for p in PROCEDURES
            if p in (v.get("errors") or {})]
@@ -151,16 +155,10 @@ def _fleet_model(summary: dict[str, Any]) -> list[Block]:
                 "coefficients were fitted on nor carried over from one."),
            table(["figure", "value", "target", ""], rows),
            table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
-    ver = fm.get("verdicts") or {}
-    if ver:
-        out += [para("Normalised error of the fleet model, k = 2: U_meas from the lists' "
-                     "vehicle-level reproducibility, U_model from the fleet model's own "
-                     "within-year scatter on the other lists (robust sigma, the measurement "
-                     "part removed)."),
-                table(["procedure", "rows", "|En| <= 1", "median |En|"],
-                      [[p, str(v["n"]), _pc(v["share_consistent"]),
-                        f"{v['median_abs_en']:.2f}"] for p, v in ver.items()])]
-    return out
+    return out + _verdicts(fm.get("verdicts"), "Normalised error of the fleet model, k = 2: "
+                           "U_meas from the lists' vehicle-level reproducibility, U_model from "
+                           "the fleet model's own within-year scatter on the other lists "
+                           "(robust sigma, the measurement part removed).")
 
 
 def _figures(rows: Sequence[dict[str, Any]]) -> list[Block]:
