@@ -216,6 +216,22 @@ def _add_ac(result: Identification, ac_trace: Trace) -> None:
     result.vehicle.identification = _jsonable(result.summary())
 
 
+def _fuel_traces(traces: list[Trace], gears: list[np.ndarray]
+                 ) -> tuple[list[tuple[Trace, np.ndarray]], dict[str, str], str]:
+    """The (trace, gears) pairs that fit the fuel map, the tests left out with why
+    (:func:`.traces.dead_fuel_channel`) and the provenance text naming both; refused when no
+    test has a fuel rate."""
+    dead = {t.test_id: why for t in traces if (why := dead_fuel_channel(t))}
+    if len(dead) == len(traces):
+        raise IdentificationError("identify: no test with a fuel rate to fit the engine map: "
+                                  + "; ".join(dead.values())
+                                  + ": map the fuel channel to fuel_rate_test in the template")
+    fueled = [(t, g) for t, g in zip(traces, gears) if t.test_id not in dead]
+    names = ", ".join(t.test_id for t, _ in fueled) + (
+        f" (left out: {'; '.join(dead.values())})" if dead else "")
+    return fueled, dead, names
+
+
 def identify_conventional(traces: list[Trace], name: str = "identified_car",
                           assumptions: Assumptions | None = None,
                           ac_trace: Trace | None = None,
@@ -256,14 +272,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
         return engine_power(t, g, gf.ratios, rw, a.gearbox_efficiency, rl.lag_s,
                             a.accessory_power_w, a.engine_inertia_kg_m2, drag)
 
-    dead = {t.test_id: why for t in traces if (why := dead_fuel_channel(t))}
-    if len(dead) == len(traces):
-        raise IdentificationError("identify: no test with a fuel rate to fit the engine map: "
-                                  + "; ".join(dead.values())
-                                  + ": map the fuel channel to fuel_rate_test in the template")
-    fueled = [(t, g) for t, g in zip(traces, gears) if t.test_id not in dead]
-    fuel_tests = ", ".join(t.test_id for t, _ in fueled) + (
-        f" (left out: {'; '.join(dead.values())})" if dead else "")
+    fueled, dead, fuel_tests = _fuel_traces(traces, gears)
     drag, fm = fit_drag([t for t, _ in fueled], lambda d: [power(t, g, d) for t, g in fueled],
                         idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
                         a.driven_axle_loss_share, drag_evidence,
