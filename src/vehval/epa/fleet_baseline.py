@@ -218,9 +218,14 @@ def cross_validate(records: Sequence[dict[str, Any]],
     groups: dict[tuple[str, str], list[Item]] = defaultdict(list)
     for r, x in _usable(records, makes):
         groups[(r["list"], r["procedure"])].append((r, x))
-    log_mpg = (lambda r: math.log(r["measured_mpg"]), lambda r, p: math.exp(p))
-    _fit_predict(groups, *log_mpg[:1], BASELINE_KEYS, log_mpg[1], ridge)
-    _fit_predict(groups, *log_mpg[:1], BOOSTED_KEYS, log_mpg[1], boosted)
+    def log_mpg(r: dict[str, Any]) -> float:
+        return math.log(r["measured_mpg"])
+
+    def mpg(r: dict[str, Any], p: float) -> float:
+        return math.exp(p)
+
+    _fit_predict(groups, log_mpg, BASELINE_KEYS, mpg, ridge)
+    _fit_predict(groups, log_mpg, BOOSTED_KEYS, mpg, boosted)
 
     def physics(items: list[Item]) -> dict[tuple[str, str], list[Item]]:
         out: dict[tuple[str, str], list[Item]] = defaultdict(list)
