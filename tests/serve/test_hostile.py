@@ -19,7 +19,7 @@ from urllib.parse import urlsplit
 import pytest
 
 pytest.importorskip("uvicorn")
-httpx = pytest.importorskip("httpx")
+httpx = pytest.importorskip("httpx2")
 
 import vehval  # noqa: E402
 from vehval.cli import main  # noqa: E402
