@@ -348,3 +348,44 @@ def test_predict_names_a_test_without_fuel_as_not_judged():
     assert row["not_judged"].startswith("dead: its fuel rate reads 0")
     text = _table([row])
     assert "not judged: dead: its fuel rate" in text and "+nan" not in text
+
+
+def test_the_warm_fuel_map_leaves_out_cold_starts_and_off_standard_cells():
+    """With a standard warm test among them, a cold start (its warm-up fuel) and a test in a
+    35 °C cell (its A/C) serve road load and gears, not the warm fuel map, and are named;
+    with no warm test, every test with fuel fits it (as before)."""
+    import dataclasses
+
+    from vehval.identify.conditions import off_standard
+
+    base = _simulated_trace()
+    warm = dataclasses.replace(base, test_id="warm", amb_temp_c=23.0, coolant_start_c=90.0)
+    cold = dataclasses.replace(base, test_id="cold", amb_temp_c=22.0, coolant_start_c=22.0,
+                               fuel=base.fuel * 1.3)
+    hot = dataclasses.replace(base, test_id="hot", amb_temp_c=35.0, coolant_start_c=95.0,
+                              fuel=base.fuel * 1.2)
+    assert off_standard(warm) is None and off_standard(base) is None  # not measured: kept
+    assert off_standard(cold).startswith("cold: a cold start")
+    assert off_standard(hot) == "hot: cell 35.0 °C, outside the standard 20-30 °C"
+    mixed = identify_conventional([warm, cold, hot], "mixed", drag_evidence=False)
+    alone = identify_conventional([warm], "warm", drag_evidence=False)
+    assert set(mixed.fuel_left_out) == {"cold", "hot"}
+    assert mixed.fuel_map.willans == pytest.approx(alone.fuel_map.willans, rel=0.02)
+    ranges = mixed.conditions
+    assert ranges["amb_temp_c"] == [23.0, 23.0] and ranges["coolant_start_c"] == [90.0, 90.0]
+    only_cold = identify_conventional([cold], "cold", drag_evidence=False)
+    assert not only_cold.fuel_left_out
+
+
+def test_a_test_outside_the_identifications_conditions_is_not_in_the_set_verdict():
+    from vehval.identify.verdicts import judge_rows
+
+    rows = [{"test": f"t{k}", "fuel_measured_g": 700.0, "fuel_predicted_g": 700.0 * (1 + e),
+             "error_rel": e, "pi95_rel": 0.1, "pi95_g": [600.0, 800.0], "cycle": "udds",
+             "phases": [], "in_sample": False,
+             "outside_identification": {"amb_temp_c": {"value": -7.0, "range": [22, 25]}}
+             if k == 3 else {}}
+            for k, e in enumerate([0.01, -0.02, 0.015, -0.30])]
+    verdict, notes = judge_rows(rows)
+    assert verdict is not None and verdict["tests"] == ["t0", "t1", "t2"]
+    assert any(n.startswith("t3: outside the identification's conditions") for n in notes)

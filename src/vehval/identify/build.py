@@ -18,7 +18,7 @@ import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.fuels import known_fuels, resolve_fuel, table_fuel
-from vehval.identify.conditions import identification_conditions
+from vehval.identify.conditions import identification_conditions, off_standard
 from vehval.identify.fuelmap import ETA_MAX, FuelMapFit, engine_power
 from vehval.identify.gears import (
     GearFit,
@@ -218,14 +218,19 @@ def _add_ac(result: Identification, ac_trace: Trace) -> None:
 
 def _fuel_traces(traces: list[Trace], gears: list[np.ndarray]
                  ) -> tuple[list[tuple[Trace, np.ndarray]], dict[str, str], str]:
-    """The (trace, gears) pairs that fit the fuel map, the tests left out with why
-    (:func:`.traces.dead_fuel_channel`) and the provenance text naming both; refused when no
-    test has a fuel rate."""
+    """The (trace, gears) pairs that fit the warm fuel map, the tests left out with why and
+    the provenance text naming both. Left out: a test without fuel
+    (:func:`.traces.dead_fuel_channel`), and, when the tests hold at least one standard warm
+    test, every other test (:func:`.conditions.off_standard`: a cold start, a cell outside
+    20-30 °C). Refused when no test has a fuel rate."""
     dead = {t.test_id: why for t in traces if (why := dead_fuel_channel(t))}
     if len(dead) == len(traces):
         raise IdentificationError("identify: no test with a fuel rate to fit the engine map: "
                                   + "; ".join(dead.values())
                                   + ": map the fuel channel to fuel_rate_test in the template")
+    off = {t.test_id: why for t in traces if t.test_id not in dead and (why := off_standard(t))}
+    if len(dead) + len(off) < len(traces):
+        dead |= off
     fueled = [(t, g) for t, g in zip(traces, gears) if t.test_id not in dead]
     names = ", ".join(t.test_id for t, _ in fueled) + (
         f" (left out: {'; '.join(dead.values())})" if dead else "")

@@ -82,6 +82,7 @@ def _run_combo(arg) -> list[dict]:
                             bool(lo_hi[0] <= p["fuel_measured_g"] <= lo_hi[1])),
             "uncovered_share": p.get("uncovered_share"), "n_gears": len(idf.gears.ratios),
             "gear_notes": idf.gears.notes,
+            "outside_identification": bool(p.get("outside_identification")),
             **{k: p.get(k) for k in EN_KEYS},
             "phases": [{k: ph.get(k) for k in ("phase", "measured_g", "predicted_g",
                                                "error_rel", "pi95_rel", "uncovered_share",
@@ -118,8 +119,12 @@ def cross_validate(traces: list[Trace], pairs: bool = False, declared: dict | No
     rows = [r for part in parts for r in part]
     judged = [(normalised_error(r["predicted_g"], r["measured_g"], r["u_model_g"],
                                 r["u_meas_g"], label=r["test"]), r["s_r"])
-              for r in rows if r.get("en") is not None]
+              for r in rows if r.get("en") is not None and not r.get("outside_identification")]
     verdict, why = verdict_of(judged)
+    outside = sorted({r["test"] for r in rows if r.get("outside_identification")})
+    if outside:
+        why = "; ".join(x for x in (why, "not in the set verdict, outside the identification's "
+                                         "conditions: " + ", ".join(outside)) if x)
     return {"mode": "pairs" if pairs else "leave-one-out", "rows": rows, "skipped": skipped,
             "summary": summarise(rows), "elapsed_s": time.perf_counter() - t0,
             "set_verdict": verdict, "set_verdict_note": why}
@@ -154,7 +159,9 @@ def table(result: dict) -> str:
         en = "" if r.get("en") is None else f"{r['en']:+.2f}" + ("?" if r["uninformative"] else "")
         lines.append(f"{src:<36} {r['test']:<22} {r['cycle'][:10]:<10} {r['measured_g']:>10.1f} "
                      f"{r['predicted_g']:>11.1f} {100 * r['error_rel']:>+8.2f} {pi:>8} "
-                     f"{inside:>3} {unc:>7} {en:>6}")
+                     f"{inside:>3} {unc:>7} {en:>6}"
+                     + ("  outside the identification's conditions"
+                        if r.get("outside_identification") else ""))
     for s in result["skipped"]:
         lines.append(f"skipped {s}")
     s = result["summary"]
@@ -172,6 +179,6 @@ def table(result: dict) -> str:
         from vehval.uncertainty import verdict_text
 
         lines.append(verdict_text(sv, "held-out predictions"))
-    elif result.get("set_verdict_note"):
+    if result.get("set_verdict_note"):
         lines.append(result["set_verdict_note"])
     return "\n".join(lines)

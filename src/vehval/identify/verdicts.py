@@ -94,7 +94,11 @@ def judge_rows(rows: list[dict[str, Any]]) -> tuple[dict[str, Any] | None, list[
         if note:
             notes.append(note)
         if c is not None and not r.get("in_sample"):
-            held.append((c, s_r))
+            if r.get("outside_identification"):
+                notes.append(f"{r['test']}: outside the identification's conditions: not in "
+                             "the set verdict")
+            else:
+                held.append((c, s_r))
     if any(r.get("pi95_rel") is None for r in rows):
         notes.append("a vehicle without identification uncertainty: U_model = 0")
     verdict, why = verdict_of(held)
