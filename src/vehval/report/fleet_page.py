@@ -139,7 +139,8 @@ def _fleet_model(summary: dict[str, Any]) -> list[Block]:
     err, met, t = fm["errors"], fm["met"], fm["targets"]
     worst = fm.get("worst_group_bias")
     yes = {True: "met", False: "not met"}
-    rows = [[f"{p} median |error|", _pc(st["median_abs_error"]), f"<= {_pc(t['median_abs_error'])}",
+    rows = [[f"{p} median |error|", f"{_PCT * st['median_abs_error']:.2f} %",  # 3.01 > 3
+             f"<= {_pc(t['median_abs_error'])}",
              yes[met["median_abs_error"][p]]] for p, st in err.items()]
     rows += [["share within 5 %", _pc(fm["share_within_5pct"]),
               f">= {_pc(t['share_within_5pct'])}", yes[met["share_within_5pct"]]],
@@ -161,13 +162,25 @@ def _fleet_model(summary: dict[str, Any]) -> list[Block]:
                            "(robust sigma, the measurement part removed).")
 
 
-def _figures(rows: Sequence[dict[str, Any]]) -> list[Block]:
+def _figures(rows: Sequence[dict[str, Any]], fleet_key: str | None = None) -> list[Block]:
+    """Histograms of the physics model's error (and of the fleet model's, ``fleet_key``, on
+    its out-of-sample rows) per procedure; the physics' error against three columns."""
     by_proc: dict[str, list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
         by_proc[r["procedure"]].append(r)
     hist = histogram_figure({p: [r["error"] for r in by_proc[p]] for p in PROCEDURES
                              if p in by_proc}, xlabel="error [%]", bin_size=1.0, scale=_PCT)
-    out = [h2("Figures"), figure(FigSpec("Error histogram per procedure", hist))]
+    out = [h2("Figures"), figure(FigSpec("Error histogram per procedure (physics)", hist))]
+    if fleet_key:
+        fleet = {p: [r[fleet_key] for r in by_proc[p]
+                     if r.get(fleet_key) is not None and not r.get("in_sample")]
+                 for p in PROCEDURES if p in by_proc}
+        if any(fleet.values()):
+            out.append(figure(FigSpec(
+                "Error histogram per procedure (fleet model: physics + learned residual, "
+                "out of sample)",
+                histogram_figure({p: v for p, v in fleet.items() if v}, xlabel="error [%]",
+                                 bin_size=1.0, scale=_PCT))))
     for col, label, scale in (("specific_power_w_per_l", "rated power per litre [kW/L]", 1e-3),
                               ("mass_kg", "equivalent test weight [kg]", 1.0),
                               ("n_v_ratio", "N/V [rpm/mph]", 1.0)):
@@ -206,7 +219,7 @@ def render_fleet_page(records: Sequence[dict[str, Any]], summary: dict[str, Any]
     blocks += (_accounting(summary) + _fleet_model(summary) + _coefficients(summary)
                + _errors(summary) + _baseline(summary))
     if rows:
-        blocks += _figures(rows)
+        blocks += _figures(rows, (summary.get("fleet_model") or {}).get("error_key"))
     blocks += _outliers(summary)
     return render_document(blocks, title="Fleet", css="simple.css")
 
