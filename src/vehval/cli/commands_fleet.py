@@ -29,7 +29,7 @@ def _fleet_model_lines(fm: dict) -> list[str]:
     worst = fm.get("worst_group_bias")
     return [f"  fleet model (physics + learned residual, {fm['scheme'].replace('_', ' ')}, "
             f"{fm['n_judged']} rows): " + ", ".join(
-                f"{p} {_pct(st['median_abs_error'])}" for p, st in fm["errors"].items())
+                f"{p} {100 * st['median_abs_error']:.2f} %" for p, st in fm["errors"].items())
             + f" median |error|, within 5 % {_pct(fm['share_within_5pct'])}; HWFET/FTP bias "
             + _pc(fm["hwfet_ftp_bias"]["mean"])
             + (f"; largest group bias {worst['group']} {worst['procedure']} "
