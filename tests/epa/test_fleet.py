@@ -304,6 +304,7 @@ def test_the_fleet_model_block_judges_the_residual_against_the_targets():
     assert block["share_within_5pct"] == pytest.approx(0.8)
     assert block["met"]["median_abs_error"]["ftp75"] and block["met"]["share_within_5pct"]
     assert block["targets"] == TARGETS
+    assert block["per_list"]["19tstcar.csv"]["n_judged"] == 30
     tech = {"cylinders": {"unknown": {"ftp75": {"n": 30, "median_error": 0.2}},
                           "4": {"ftp75": {"n": 30, "median_error": -0.04}},
                           "3": {"ftp75": {"n": 5, "median_error": 0.09}}}}

@@ -152,8 +152,12 @@ def fleet_model(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     if not rows:
         return {"scheme": None, "n_judged": 0}
     tech = per_technology(rows)
+    lists = sorted({r["list"] for r in rows})
     block = {"scheme": "year_to_year" if year else "within_year", "error_key": key,
              **_judged_block(rows),
+             "per_list": {k: {key_: v for key_, v in _judged_block(
+                 [r for r in rows if r["list"] == k]).items() if key_ != "n_in_sample"}
+                 for k in lists},
              "per_technology": tech, "worst_group_bias": worst_group_bias(tech)}
     worst = block["worst_group_bias"]
     bias = block["hwfet_ftp_bias"]["mean"]
