@@ -371,8 +371,11 @@ def test_the_warm_fuel_map_leaves_out_cold_starts_and_off_standard_cells():
     alone = identify_conventional([warm], "warm", drag_evidence=False)
     assert set(mixed.fuel_left_out) == {"cold", "hot"}
     assert mixed.fuel_map.willans == pytest.approx(alone.fuel_map.willans, rel=0.02)
+    # the cold start, on the warm test's cycle in a standard cell, gives the warm-up: the
+    # identification then covers its start; the 35 °C test stays outside
+    assert mixed.warmup is not None and mixed.warmup.cold_test == "cold"
     ranges = mixed.conditions
-    assert ranges["amb_temp_c"] == [23.0, 23.0] and ranges["coolant_start_c"] == [90.0, 90.0]
+    assert ranges["amb_temp_c"] == [22.0, 23.0] and ranges["coolant_start_c"] == [22.0, 90.0]
     only_cold = identify_conventional([cold], "cold", drag_evidence=False)
     assert not only_cold.fuel_left_out
 
@@ -389,3 +392,25 @@ def test_a_test_outside_the_identifications_conditions_is_not_in_the_set_verdict
     verdict, notes = judge_rows(rows)
     assert verdict is not None and verdict["tests"] == ["t0", "t1", "t2"]
     assert any(n.startswith("t3: outside the identification's conditions") for n in notes)
+
+
+def test_a_cold_start_among_the_tests_gives_the_warm_up_without_cold_test():
+    """A cold start in a standard cell, on the cycle of a warm test given beside it, is left
+    out of the warm map and identifies the warm-up (as --cold-test would); no warning that
+    its warm-up went into the warm map. A cold start at -7 °C gives no warm-up."""
+    import dataclasses
+
+    from vehval.identify.checks import cold_warnings
+
+    base = _simulated_trace()
+    warm = dataclasses.replace(base, test_id="warm", amb_temp_c=23.0, coolant_start_c=90.0)
+    cold = dataclasses.replace(base, test_id="cold", amb_temp_c=22.0, coolant_start_c=22.0,
+                               fuel=base.fuel * (1.0 + 0.3 * np.exp(-base.t / 400.0)))
+    idf = identify_conventional([warm, cold], "auto", drag_evidence=False)
+    assert idf.warmup is not None and idf.warmup.cold_test == "cold"
+    assert idf.vehicle.engine.warmup_fuel_fraction == pytest.approx(0.3, rel=0.05)
+    assert idf.vehicle.engine.warmup_time_constant_s == pytest.approx(400.0, rel=0.1)
+    assert cold_warnings([warm, cold], idf.fuel_left_out) == []
+    assert cold_warnings([warm, cold]) != []  # fitted into the map, it would warn
+    frozen = dataclasses.replace(cold, amb_temp_c=-7.0, coolant_start_c=-7.0)
+    assert identify_conventional([warm, frozen], "frozen", drag_evidence=False).warmup is None

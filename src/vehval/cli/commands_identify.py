@@ -22,7 +22,7 @@ def identify_cmd(
     name: str = typer.Option(None, "--name", help="Vehicle name (default: the output file stem)."),
     report: Path = typer.Option(None, "--report", callback=output_file, help="Also write an HTML report (fitted map with the measured points, traces)."),
     ac_test: Path = typer.Option(None, "--ac-test", help="A test run with the A/C on (not one of FILES): identifies the A/C compressor load from its phases after the first."),
-    cold_test: Path = typer.Option(None, "--cold-test", help="A cold-start test (not one of FILES) on the cycle of a hot-start test among FILES: identifies the warm-up fuel (fraction and time constant) from the two tests' measured fuel."),
+    cold_test: Path = typer.Option(None, "--cold-test", help="A cold-start test (not one of FILES) on the cycle of a hot-start test among FILES: identifies the warm-up fuel (fraction and time constant) from the two tests' measured fuel. Without it, a cold start among FILES in a 20-30 °C cell, on the cycle of a warm test among them, does."),
     spec: Path = typer.Option(None, "--spec", help="Specification YAML (rated power and speed, peak torque, displacement, fuel, tyre, gears...; see docs/identification.md): values the data cannot separate."),
     rated_power_kw: float = typer.Option(None, "--rated-power-kw", callback=bounded("rated_power_kw"), help="Rated engine power [kW] (over the spec)."),
     rated_speed_rpm: float = typer.Option(None, "--rated-speed-rpm", callback=bounded("rated_speed_rpm"), help="Engine speed at rated power [rpm]."),
@@ -159,6 +159,8 @@ def _print_identification(idf, output: Path, report: Path | None) -> None:
     typer.echo(f"fuel map: R^2 {fm.r2:.3f} (5 s means {fm.r2_5s:.3f}), idle "
                f"{fm.idle_fuel_kg_s * 1e3:.3f} g/s, fuel cut above "
                f"{fm.fuel_cut_speed_rad_s / RPM_RAD_PER_S:.0f} rpm")
+    for why in idf.fuel_left_out.values():
+        typer.echo(f"fuel map: left out {why}")
     eta, rpm, nm = peak_brake_efficiency(idf.vehicle.engine)
     typer.echo(f"fuel map: peak brake efficiency {100 * eta:.1f} % at {rpm:.0f} rpm, {nm:.0f} N·m "
                "(between idle and full load)")

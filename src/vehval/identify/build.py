@@ -10,6 +10,7 @@ curve above the measured envelope, inertias, efficiencies) name their documented
 from __future__ import annotations
 
 import itertools
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -18,7 +19,7 @@ import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.fuels import known_fuels, resolve_fuel, table_fuel
-from vehval.identify.conditions import identification_conditions, off_standard
+from vehval.identify.conditions import STANDARD_CELL_C, identification_conditions, off_standard
 from vehval.identify.fuelmap import ETA_MAX, FuelMapFit, engine_power
 from vehval.identify.gears import (
     GearFit,
@@ -216,6 +217,20 @@ def _add_ac(result: Identification, ac_trace: Trace) -> None:
     result.vehicle.identification = _jsonable(result.summary())
 
 
+def _cold_among(traces: list[Trace], left_out: dict[str, str],
+                warm: list[Trace]) -> Trace | None:
+    """A cold start among ``traces`` to identify the warm-up from (no ``--cold-test`` given):
+    the first test left out of the warm map as a cold start in a standard cell, with fuel and
+    a warm test of its cycle among ``warm``; None when there is none."""
+    lo, hi = STANDARD_CELL_C
+    for t in traces:
+        standard_cell = not math.isfinite(t.amb_temp_c) or lo <= t.amb_temp_c <= hi
+        if (left_out.get(t.test_id, "").startswith(f"{t.test_id}: a cold start")
+                and standard_cell and any(w.cycle and w.cycle == t.cycle for w in warm)):
+            return t
+    return None
+
+
 def _fuel_traces(traces: list[Trace], gears: list[np.ndarray]
                  ) -> tuple[list[tuple[Trace, np.ndarray]], dict[str, str], str]:
     """The (trace, gears) pairs that fit the warm fuel map, the tests left out with why and
@@ -238,14 +253,13 @@ def _fuel_traces(traces: list[Trace], gears: list[np.ndarray]
 
 
 def identify_conventional(traces: list[Trace], name: str = "identified_car",
-                          assumptions: Assumptions | None = None,
-                          ac_trace: Trace | None = None,
-                          cold_trace: Trace | None = None,
-                          declared: dict | None = None,
+                          assumptions: Assumptions | None = None, ac_trace: Trace | None = None,
+                          cold_trace: Trace | None = None, declared: dict | None = None,
                           drag_evidence: bool = True) -> Identification:
     """Identify road load, gearbox, converter, shift schedule, driveline drag and fuel map
-    from ``traces``; with ``cold_trace`` (a cold start on the cycle of one of ``traces``) the
-    warm-up fuel (:mod:`vehval.identify.warmup`); with ``ac_trace`` (a test run with the A/C
+    from ``traces``; with ``cold_trace`` (a cold start on the cycle of one of ``traces``; else
+    one among ``traces``, :func:`_cold_among`) the warm-up fuel
+    (:mod:`vehval.identify.warmup`); with ``ac_trace`` (a test run with the A/C
     on) the A/C load, its model starting cold when that test does. What the data cannot
     separate comes from ``assumptions``, else from ``declared`` (:func:`.spec.load_spec`)
     and the generic scaling of :func:`.spec.resolve`."""
@@ -278,6 +292,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
                             a.accessory_power_w, a.engine_inertia_kg_m2, drag)
 
     fueled, dead, fuel_tests = _fuel_traces(traces, gears)
+    cold_trace = cold_trace or _cold_among(traces, dead, [t for t, _ in fueled])
     drag, fm = fit_drag([t for t, _ in fueled], lambda d: [power(t, g, d) for t, g in fueled],
                         idle_w, rl.values["road_load_a_n"], rl.values["road_load_b_n_per_mps"],
                         a.driven_axle_loss_share, drag_evidence,
@@ -353,7 +368,7 @@ def identify_conventional(traces: list[Trace], name: str = "identified_car",
     veh["identification"] = _jsonable(result.summary())
     result.vehicle = ConventionalVehicle.model_validate(veh)
     if cold_trace is not None:
-        _add_warmup(result, cold_trace, traces)
+        _add_warmup(result, cold_trace, [t for t, _ in fueled])
     if ac_trace is not None:
         _add_ac(result, ac_trace)
     return result

@@ -114,10 +114,13 @@ def check_fuel_map(idf, files) -> None:
             + f"; {UNIT_HINT}")
 
 
-def cold_warnings(traces) -> list[str]:
-    """Identification tests that start cold: their warm-up fuel goes into the warm fuel map."""
+def cold_warnings(traces, left_out=()) -> list[str]:
+    """Identification tests that start cold and fit the warm fuel map (not in ``left_out``,
+    the tests the map left out: with a standard warm test among them, every cold start is):
+    their warm-up fuel goes into it."""
     from vehval.identify.warmup import cold_start_state
-    cold = [(t.test_id, why) for t in traces for c, why in [cold_start_state(t)] if c]
+    cold = [(t.test_id, why) for t in traces for c, why in [cold_start_state(t)]
+            if c and t.test_id not in left_out]
     if not cold:
         return []
     return [f"{', '.join(f'{tid} ({why})' for tid, why in cold)} "
@@ -155,4 +158,4 @@ def check_identification(idf, declared: dict, template: Path, files) -> None:
 
 def identification_warnings(idf, traces) -> list[str]:
     """The warnings of an identification: its fuel map's peak efficiency, cold tests."""
-    return fuel_map_warnings(idf) + cold_warnings(traces)
+    return fuel_map_warnings(idf) + cold_warnings(traces, idf.fuel_left_out)

@@ -250,7 +250,7 @@ def _conventional(bench: Any, p: dict) -> dict:
         traces = load_traces(p["identify_from"], tmpl_path)
         idf = identify_conventional(traces, "identified_" + (bench.test or "car"))
         veh = idf.vehicle
-        notes += cold_warnings(traces)   # vehval identify's own warning
+        notes += cold_warnings(traces, idf.fuel_left_out)   # vehval identify's own warning
     else:
         veh = load_vehicle(p["vehicle"])
         check_same_car(veh, trace)
