@@ -259,15 +259,27 @@ def residual_verdicts(records: Sequence[dict[str, Any]]) -> None:
                 and r.get("u_meas_mpg")):
             by[(r["list"], r["procedure"])].append(math.log1p(r["residual_error"]))
             meas[r["procedure"]].append(r["u_meas_mpg"] / 2.0 / r["measured_mpg"])
-    for r in records:
-        pred, u_meas = r.get("residual_year_mpg"), r.get("u_meas_mpg")
-        others = [e for (lst, p), es in by.items() if p == r.get("procedure")
-                  and lst != r.get("list") for e in es]
-        if pred is None or not u_meas or len(others) < MIN_ROWS:
-            continue
+
+    def model_u_rel(lst: str, proc: str) -> float | None:
+        """u of the fleet model judging ``lst`` on ``proc`` [-] (None: too few rows)."""
+        others = [e for (l2, p2), es in by.items() if p2 == proc and l2 != lst for e in es]
+        if len(others) < MIN_ROWS:
+            return None
         a = np.array(others)
         sigma = 1.4826 * float(np.median(np.abs(a - np.median(a))))
-        u_rel = math.sqrt(max(sigma ** 2 - float(np.median(meas[r["procedure"]])) ** 2, 0.0))
+        return math.sqrt(max(sigma ** 2 - float(np.median(meas[proc])) ** 2, 0.0))
+
+    u_of: dict[tuple[str, str], float | None] = {}
+    for r in records:
+        pred, u_meas = r.get("residual_year_mpg"), r.get("u_meas_mpg")
+        if pred is None or not u_meas:
+            continue
+        key = (r["list"], r["procedure"])
+        if key not in u_of:  # once per list and procedure
+            u_of[key] = model_u_rel(*key)
+        u_rel = u_of[key]
+        if u_rel is None:
+            continue
         u_model = 2.0 * u_rel * pred
         r["residual_u_model_mpg"] = u_model
         r["residual_en"] = normalised_error(pred, r["measured_mpg"], u_model, u_meas).en

@@ -35,7 +35,7 @@ from vehval.identify.roadload import RoadLoadFit, fit_road_load
 from vehval.identify.spec import Assumptions, resolve
 from vehval.identify.traces import IdentificationError, Trace, dead_fuel_channel
 from vehval.identify.uncertainty import coverage_grid
-from vehval.identify.warmup import WarmupFit, fit_warmup, hot_partner
+from vehval.identify.warmup import WarmupFit, cold_start_state, fit_warmup, hot_partner
 from vehval.io.atomic import write_text_atomic
 from vehval.vehicle import ConventionalVehicle
 
@@ -225,8 +225,9 @@ def _cold_among(traces: list[Trace], left_out: dict[str, str],
     lo, hi = STANDARD_CELL_C
     for t in traces:
         standard_cell = not math.isfinite(t.amb_temp_c) or lo <= t.amb_temp_c <= hi
-        if (left_out.get(t.test_id, "").startswith(f"{t.test_id}: a cold start")
-                and standard_cell and any(w.cycle and w.cycle == t.cycle for w in warm)):
+        if (t.test_id in left_out and cold_start_state(t)[0] and standard_cell
+                and not dead_fuel_channel(t)
+                and any(w.cycle and w.cycle == t.cycle for w in warm)):
             return t
     return None
 
