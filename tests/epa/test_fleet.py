@@ -271,6 +271,36 @@ def test_the_year_to_year_residual_learns_the_judging_coefficients_own_error():
     assert all(r.get("residual_year_error") is None for r in plain)
 
 
+def test_the_trees_loss_is_chosen_on_the_fit_lists_own_folds():
+    """A physics error of +4 % for one make, 0 for the other, and one row in five 25 % off:
+    the squared loss follows the mean and is pulled by those rows, the absolute loss follows
+    the median and is not. The absolute loss is chosen on each list's within-year folds, and
+    the year-to-year fit takes the loss chosen on the list it is fitted on."""
+    from vehval.epa.fleet_baseline import _fit_predict, _usable, boosted, make_key
+
+    recs = []
+    for lst in ("16tstcar.csv", "19tstcar.csv"):
+        for k in range(60):
+            make = ("Ford", "MAZDA")[k % 2]
+            err = (0.04 if make == "MAZDA" else 0.0) + (0.25 if k % 5 == 4 else 0.0)
+            recs.append(_row(lst, k, make, 1e5 / (1200.0 + 20 * k), err))
+    cmp = cross_validate([dict(r) for r in recs])
+    for scheme, fit_lists in (("within_year", {"16tstcar.csv", "19tstcar.csv"}),
+                              ("year_to_year", {"16tstcar.csv", "19tstcar.csv"})):
+        loss = cmp[scheme]["ftp75"]["loss"]["physics_residual"]
+        assert set(loss) == fit_lists and set(loss.values()) == {"absolute_error"}
+    chosen = cmp["within_year"]["ftp75"]["physics_residual"]["median_abs_error"]
+    assert chosen < 0.005  # the median rows are exact
+    squared = [dict(r) for r in recs]  # the squared loss alone on the same rows
+    makes = {m: i for i, m in enumerate(sorted({make_key(r) for r in squared}))}
+    groups: dict = {}
+    for r, x in _usable(squared, makes):
+        groups.setdefault((r["list"], r["procedure"]), []).append((r, x))
+    _fit_predict(groups, lambda r: math.log(r["predicted_mpg"] / r["measured_mpg"]),
+                 ("m", "e", "ym", "ye"), lambda r, p: r["predicted_mpg"] / math.exp(p), boosted)
+    assert float(np.median([abs(r["e"]) for r in squared])) > max(2 * chosen, 0.01)
+
+
 def test_the_fleet_models_en_takes_its_scatter_from_the_other_lists():
     """U_model of a 2019 row: the robust sigma of the fleet model's within-year errors on the
     2016 rows (never its own list's), less the lists' measurement part in quadrature."""

@@ -36,7 +36,19 @@ def _fleet_model_lines(fm: dict) -> list[str]:
                f"{_pc(worst['median_error'])}" if worst else "")
             + ("; consistent within the uncertainty (|En| <= 1): " + ", ".join(
                 f"{p} {_pct(v['share_consistent'])}" for p, v in fm["verdicts"].items())
-               if fm.get("verdicts") else "")]
+               if fm.get("verdicts") else "")] + _floor_line(fm.get("floor") or {})
+
+
+def _floor_line(floor: dict) -> list[str]:
+    """What a perfect model of the row's columns would reach (rows it cannot tell apart)."""
+    per = floor.get("per_procedure") or {}
+    if not per:
+        return []
+    return ["  the data's floor (a perfect model of the row's columns, from "
+            + f"{sum(st['n_groups'] for st in per.values())} groups of rows it cannot tell "
+            "apart): " + ", ".join(f"{p} {100 * st['median_abs_error']:.2f} %"
+                                   for p, st in per.items())
+            + f" median |error|, within 5 % {_pct(floor['share_within_5pct'])}"]
 
 
 def _lines(s: dict) -> list[str]:

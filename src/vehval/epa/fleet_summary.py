@@ -13,6 +13,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from vehval.epa.fleet_floor import data_floor
+
 #: an outlier lies beyond this many robust standard deviations (1.4826 x MAD) of its
 #: procedure's median error, or beyond :data:`OUTLIER_ABS`
 OUTLIER_SIGMA = 3.0
@@ -144,7 +146,8 @@ def fleet_model(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """The physics + learned residual judged out of sample (year to year when the run has
     it, else within a year; rows in the technology coefficients' fit left out), against
     :data:`TARGETS`: errors per procedure, share within 5 %, HWFET/FTP bias, technology
-    groups and the worst group's median bias."""
+    groups and the worst group's median bias; ``floor``: what a perfect model of the row's
+    columns would reach on these lists (:func:`vehval.epa.fleet_floor.data_floor`)."""
     year = any(r.get("residual_year_error") is not None for r in records)
     key = "residual_year_error" if year else "residual_error"
     rows = [{**r, "error": r[key], "en": r.get("residual_en") if year else None}
@@ -161,6 +164,8 @@ def fleet_model(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
              "per_technology": tech, "worst_group_bias": worst_group_bias(tech)}
     worst = block["worst_group_bias"]
     bias = block["hwfet_ftp_bias"]["mean"]
+    block["floor"] = data_floor(judged(records),
+                                {p: st["n"] for p, st in block["errors"].items()})
     block["targets"] = TARGETS
     block["met"] = {
         "median_abs_error": {p: st["median_abs_error"] <= TARGETS["median_abs_error"]

@@ -156,10 +156,27 @@ def _fleet_model(summary: dict[str, Any]) -> list[Block]:
                 "coefficients were fitted on nor carried over from one."),
            table(["figure", "value", "target", ""], rows),
            table(_HEAD, [_stats_row(p, err[p]) for p in PROCEDURES if p in err])]
+    out += _floor(fm.get("floor") or {})
     return out + _verdicts(fm.get("verdicts"), "Normalised error of the fleet model, k = 2: "
                            "U_meas from the lists' vehicle-level reproducibility, U_model from "
                            "the fleet model's own within-year scatter on the other lists "
                            "(robust sigma, the measurement part removed).")
+
+
+def _floor(floor: dict[str, Any]) -> list[Block]:
+    """What a perfect model of the row's columns would reach on these lists."""
+    per = floor.get("per_procedure") or {}
+    if not per:
+        return []
+    rows = [[p, str(st["n_groups"]), str(st["n_rows"]), f"{_PCT * st['median_abs_error']:.2f} %",
+             _pc(st["share_within_5pct"]), _pc(st["sigma"])] for p, st in per.items()]
+    return [para("The data's floor: rows of one procedure, make and the same columns are one "
+                 "car to a model of the row; their measured figures still differ (a repeated "
+                 "test, another test vehicle, another lab). A perfect model of the columns "
+                 "errs by that spread: "
+                 f"{_pc(floor['share_within_5pct'])} within 5 % on this procedure mix."),
+            table(["procedure", "groups", "rows", "median |error|", "within 5 %",
+                   "sigma (one test)"], rows)]
 
 
 def _figures(rows: Sequence[dict[str, Any]], fleet_key: str | None = None) -> list[Block]:
