@@ -301,6 +301,22 @@ def test_the_trees_loss_is_chosen_on_the_fit_lists_own_folds():
     assert float(np.median([abs(r["e"]) for r in squared])) > max(2 * chosen, 0.01)
 
 
+def test_the_trees_fits_in_processes_give_the_same_figures(monkeypatch):
+    from vehval.epa import fleet_baseline
+
+    recs = [_row(lst, k, ("Ford", "MAZDA")[k % 2], 1e5 / (1200.0 + 20 * k),
+                 0.03 * math.sin(k)) for lst in ("16tstcar.csv", "19tstcar.csv")
+            for k in range(30)]
+    here = [dict(r) for r in recs]
+    cmp_here = cross_validate(here, jobs=1)
+    monkeypatch.setattr(fleet_baseline, "PARALLEL_MIN_ROWS", 0)
+    apart = [dict(r) for r in recs]
+    assert cross_validate(apart, jobs=2) == cmp_here
+    keys = [k for k in here[0] if k.startswith(("boosted", "residual", "baseline"))]
+    assert len(keys) >= 12
+    assert [[r[k] for k in keys] for r in apart] == [[r[k] for k in keys] for r in here]
+
+
 def test_the_fleet_models_en_takes_its_scatter_from_the_other_lists():
     """U_model of a 2019 row: the robust sigma of the fleet model's within-year errors on the
     2016 rows (never its own list's), less the lists' measurement part in quadrature."""

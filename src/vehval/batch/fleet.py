@@ -22,6 +22,7 @@ The jobs run on a private local Dask cluster by default (the batch's TLS cluster
 from __future__ import annotations
 
 import json
+import os
 import time
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -255,7 +256,9 @@ def run_fleet(paths: Sequence[str | Path], outdir: str | Path, *, workers: int |
     # list order first: the baseline's sums then do not depend on the order cars landed in
     for recs in (records, training):
         recs.sort(key=lambda r: (r["list"], int(r["source"].rsplit(":", 1)[1])))
-    baseline = cross_validate(records, training)
+    # the trees' fits in as many processes as the run has workers (a plain loop: here)
+    baseline = cross_validate(records, training,
+                              jobs=(os.cpu_count() or 1) if scheduler else max(workers or 1, 1))
     summary = {"lists": lists, **summarise(records), "baseline": baseline,
                "run": {"n_cars": len(plan.jobs), "n_cars_training": len(extra),
                        "n_cars_cached": n_cached,

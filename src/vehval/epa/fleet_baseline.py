@@ -9,7 +9,9 @@ N/V, axle ratio, gears, one-hot transmission class, fuel and aspiration), by two
   penalty whose weight is chosen on the training rows by generalised cross-validation;
 * the **boosted** baseline: gradient-boosted trees (scikit-learn's histogram gradient
   boosting) on the same columns and the make (categorical): the strongest regression on the
-  list's columns we know, non-linear, and told the manufacturer.
+  list's columns we know, non-linear, and told the manufacturer. The trees are fitted with
+  the squared and with the absolute error, and the loss is chosen per list and procedure on
+  that list's own within-year folds (year to year: the choice of the list fitted on).
 
 The **physics + learned residual** (the fleet model, reported beside the physics model):
 the same boosted trees fitted to the physics model's log error log(predicted / measured)
@@ -56,6 +58,8 @@ RESIDUAL_KEYS = ("residual_mpg", "residual_error", "residual_year_mpg", "residua
 RESIDUAL_VERDICT_KEYS = ("residual_u_model_mpg", "residual_en")
 #: the boosted trees' settings (chosen on the within-year folds of the 2016 and 2019 lists;
 #: the year-to-year figures move by under 0.2 point over learning rates 0.03-0.1)
+#: least training rows over a batch of fits to run them in processes (below it, here)
+PARALLEL_MIN_ROWS = 20000
 #: the losses the boosted trees are fitted with, chosen per list and procedure on the list's
 #: own within-year folds (the squared error follows the mean, the absolute error the median:
 #: a few rows 10-20 % off pull the first)
@@ -169,27 +173,40 @@ def _folds(rows: list[dict[str, Any]], n: int = N_FOLDS) -> list[int]:
     return [fold[r["vehicle_id"]] for r in rows]
 
 
-def _within_year(groups: dict[tuple[str, str], list[Item]], target: Any,
-                 keys: tuple[str, str], to_mpg: Any, learner: Learner) -> None:
-    """10-fold cross-validated predictions of ``target(record)`` by ``learner`` within each
-    list, the folds drawn by test vehicle, written as ``keys[0]`` (mpg) / ``keys[1]``
-    (error); ``to_mpg(record, prediction)`` turns a prediction into fuel economy [mpg]."""
-    for items in groups.values():
-        if len(items) < MIN_ROWS:
-            continue
-        rows = [r for r, _ in items]
-        xa = np.array([f for _, f in items])
-        folds = np.array(_folds(rows))
-        for k in range(N_FOLDS):
-            test = folds == k
-            if not test.any() or (~test).sum() < MIN_ROWS:
-                continue
-            model = _fit(learner, [it for it, t in zip(items, test) if not t], target)
-            _put([r for r, t in zip(rows, test) if t], model(xa[test]), keys, to_mpg)
+class _Fits:
+    """Fits gathered to run together, each a learner fitted on training rows that predicts
+    other rows (its predictions written into those rows by :func:`_put`); in ``jobs``
+    processes (joblib) when their training rows add up to :data:`PARALLEL_MIN_ROWS`, else
+    here. The trees use one core for a fit this size (their threads give under 5 %)."""
+
+    def __init__(self, jobs: int = 1) -> None:
+        self.jobs = jobs
+        self.tasks: list[tuple[Learner, np.ndarray, np.ndarray, np.ndarray]] = []
+        self.dest: list[tuple[list[dict[str, Any]], tuple[str, str], Any]] = []
+
+    def add(self, learner: Learner, items: list[Item], target: Any,
+            judged: list[Item], keys: tuple[str, str], to_mpg: Any) -> None:
+        self.tasks.append((learner, np.array([f for _, f in items]),
+                           np.array([target(r) for r, _ in items]),
+                           np.array([f for _, f in judged])))
+        self.dest.append(([r for r, _ in judged], keys, to_mpg))
+
+    def run(self) -> None:
+        if self.jobs > 1 and sum(len(t[2]) for t in self.tasks) >= PARALLEL_MIN_ROWS:
+            from joblib import Parallel, delayed
+
+            preds = Parallel(n_jobs=self.jobs)(delayed(_fit_and_predict)(*t)
+                                               for t in self.tasks)
+        else:
+            preds = [_fit_and_predict(*t) for t in self.tasks]
+        for (rows, keys, to_mpg), pred in zip(self.dest, preds):
+            _put(rows, pred, keys, to_mpg)
+        self.tasks, self.dest = [], []
 
 
-def _fit(learner: Learner, items: list[Item], target: Any) -> Callable[[np.ndarray], np.ndarray]:
-    return learner(np.array([f for _, f in items]), np.array([target(r) for r, _ in items]))
+def _fit_and_predict(learner: Learner, x: np.ndarray, y: np.ndarray,
+                     x_judged: np.ndarray) -> np.ndarray:
+    return learner(x, y)(x_judged)
 
 
 def _put(rows: list[dict[str, Any]], pred: np.ndarray, keys: tuple[str, str],
@@ -199,12 +216,30 @@ def _put(rows: list[dict[str, Any]], pred: np.ndarray, keys: tuple[str, str],
         r[keys[0]], r[keys[1]] = mpg, mpg / r["measured_mpg"] - 1.0
 
 
+def _within_year(groups: dict[tuple[str, str], list[Item]], target: Any,
+                 keys: tuple[str, str], to_mpg: Any, learner: Learner, fits: _Fits) -> None:
+    """10-fold cross-validated predictions of ``target(record)`` by ``learner`` within each
+    list, the folds drawn by test vehicle, added to ``fits`` to be written as ``keys[0]``
+    (mpg) / ``keys[1]`` (error); ``to_mpg(record, prediction)`` turns a prediction into
+    fuel economy [mpg]."""
+    for items in groups.values():
+        if len(items) < MIN_ROWS:
+            continue
+        folds = np.array(_folds([r for r, _ in items]))
+        for k in range(N_FOLDS):
+            test = folds == k
+            if not test.any() or (~test).sum() < MIN_ROWS:
+                continue
+            fits.add(learner, [it for it, t in zip(items, test) if not t], target,
+                     [it for it, t in zip(items, test) if t], keys, to_mpg)
+
+
 def _year_to_year(groups: dict[tuple[str, str], list[Item]], target: Any,
                   keys: tuple[str, str], to_mpg: Any,
-                  learner_for: Callable[[str, set[str]], Learner],
+                  learner_for: Callable[[str, set[str]], Learner], fits: _Fits,
                   train: dict[tuple[str, str], list[Item]] | None = None) -> None:
-    """Predictions fitted on the other lists, written as ``keys[0]`` / ``keys[1]``;
-    ``learner_for(procedure, fit lists)`` gives the learner.
+    """Predictions fitted on the other lists, added to ``fits`` to be written as
+    ``keys[0]`` / ``keys[1]``; ``learner_for(procedure, fit lists)`` gives the learner.
 
     ``train``: the rows to fit on, split by technology coefficients: a row is judged by a
     fit on the other lists' rows built with its own coefficients (default: by a fit on the
@@ -221,33 +256,37 @@ def _year_to_year(groups: dict[tuple[str, str], list[Item]], target: Any,
                         for it in its if train is None or it[0].get("coefficients") == coef]
             if len(fit_rows) < MIN_ROWS:
                 continue
-            learner = learner_for(proc, {r["list"] for r, _ in fit_rows})
-            _put([r for r, _ in judged], _fit(learner, fit_rows, target)(
-                np.array([f for _, f in judged])), keys, to_mpg)
+            fits.add(learner_for(proc, {r["list"] for r, _ in fit_rows}), fit_rows, target,
+                     judged, keys, to_mpg)
 
 
 def _fit_predict(groups: dict[tuple[str, str], list[Item]], target: Any,
-                 keys: tuple[str, str, str, str], to_mpg: Any, learner: Learner) -> None:
+                 keys: tuple[str, str, str, str], to_mpg: Any, learner: Learner,
+                 jobs: int = 1) -> None:
     """:func:`_within_year` as ``keys[:2]`` and :func:`_year_to_year` as ``keys[2:]``, one
     learner."""
-    _within_year(groups, target, keys[:2], to_mpg, learner)
-    _year_to_year(groups, target, keys[2:], to_mpg, lambda proc, lists: learner)
+    fits = _Fits(jobs)
+    _within_year(groups, target, keys[:2], to_mpg, learner, fits)
+    _year_to_year(groups, target, keys[2:], to_mpg, lambda proc, lists: learner, fits)
+    fits.run()
 
 
 def _fit_predict_chosen(groups: dict[tuple[str, str], list[Item]], target: Any,
                         keys: tuple[str, str, str, str], to_mpg: Any,
                         learners: dict[str, Learner],
-                        train: dict[tuple[str, str], list[Item]] | None = None
-                        ) -> dict[str, dict[str, dict[str, str]]]:
+                        train: dict[tuple[str, str], list[Item]] | None = None,
+                        jobs: int = 1) -> dict[str, dict[str, dict[str, str]]]:
     """:func:`_fit_predict` with the learner chosen among ``learners`` (name -> learner) per
     list and procedure on that list's own within-year folds (the smallest median |error|
     over its out-of-sample rows); year to year, the fit takes the learner chosen on the
     lists it is fitted on (their within-year rows pooled), never on the judged list.
     Returns scheme -> procedure -> list (within a year) or the fit lists joined by `` + ``
     (year to year) -> the name chosen."""
+    fits = _Fits(jobs)
     tmp = {name: (f"_{name}_mpg", f"_{name}_error") for name in learners}
     for name, learner in learners.items():
-        _within_year(groups, target, tmp[name], to_mpg, learner)
+        _within_year(groups, target, tmp[name], to_mpg, learner, fits)
+    fits.run()
     trial = {name: {g: [r[k[1]] for r, _ in items if k[1] in r and not r.get("in_sample")]
                     for g, items in groups.items()} for name, k in tmp.items()}
 
@@ -273,7 +312,8 @@ def _fit_predict_chosen(groups: dict[tuple[str, str], list[Item]], target: Any,
         year[proc][" + ".join(sorted(lists))] = name
         return learners[name]
 
-    _year_to_year(groups, target, keys[2:], to_mpg, learner_for, train)
+    _year_to_year(groups, target, keys[2:], to_mpg, learner_for, fits, train)
+    fits.run()
     within: dict[str, dict[str, str]] = defaultdict(dict)
     for (lst, proc), name in chosen.items():
         within[proc][lst] = name
@@ -281,14 +321,15 @@ def _fit_predict_chosen(groups: dict[tuple[str, str], list[Item]], target: Any,
 
 
 def cross_validate(records: Sequence[dict[str, Any]],
-                   training: Sequence[dict[str, Any]] = ()) -> dict[str, Any]:
+                   training: Sequence[dict[str, Any]] = (), jobs: int = 1) -> dict[str, Any]:
     """The baselines' cross-validated predictions, written into the records (ridge:
     ``baseline_mpg`` / ``baseline_error`` within a year, ``baseline_year_mpg`` /
     ``baseline_year_error`` fitted on the other lists; boosted: ``boosted_*``), the physics
     + learned residual (``residual_*``), and the comparison per procedure and scheme.
 
     ``training``: rows simulated only to fit the residual year to year (a list's rows built
-    with the coefficients fitted on it; see the module's docstring); never judged."""
+    with the coefficients fitted on it; see the module's docstring); never judged.
+    ``jobs``: processes for the trees' fits (the results do not depend on it)."""
     every = [*records, *training]
     makes = {m: k for k, m in enumerate(sorted({make_key(r) for r in every}))}
     groups: dict[tuple[str, str], list[Item]] = defaultdict(list)
@@ -302,7 +343,7 @@ def cross_validate(records: Sequence[dict[str, Any]],
 
     _fit_predict(groups, log_mpg, BASELINE_KEYS, mpg, ridge)
     losses = {"boosted": _fit_predict_chosen(groups, log_mpg, BOOSTED_KEYS, mpg,
-                                             boosted_learners())}
+                                             boosted_learners(), jobs=jobs)}
 
     def physics(items: list[Item]) -> dict[tuple[str, str], list[Item]]:
         out: dict[tuple[str, str], list[Item]] = defaultdict(list)
@@ -315,7 +356,7 @@ def cross_validate(records: Sequence[dict[str, Any]],
         physics([it for its in groups.values() for it in its]),
         lambda r: math.log(r["predicted_mpg"] / r["measured_mpg"]), RESIDUAL_KEYS,
         lambda r, p: r["predicted_mpg"] / math.exp(p), boosted_learners(),
-        train=physics(_usable(every, makes)))
+        train=physics(_usable(every, makes)), jobs=jobs)
     residual_verdicts(records)
     out = compare(records)
     for scheme, procs in out.items():
