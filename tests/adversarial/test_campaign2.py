@@ -96,3 +96,21 @@ def test_page_breach_check(tmp_path):
     assert check("")
     page.write_text(meta.format("script-src 'sha256-abc'") + "<SVG onload=alert('X5S')>")
     assert check("")
+
+
+def test_a_larger_address_space_never_refuses_what_a_smaller_one_runs(tmp_path):
+    """A 10 h test that QA runs under 1 GB of address space runs under 1.5 GB too, with two
+    runs at once. Arrow's allocator reserved a 1 GiB arena when the limit left room for it
+    (the 1.5 GB run was refused for memory, the 1 GB one ran), and its CSV reader's worker
+    threads failed to start beside another run (an internal error, or a hang)."""
+    from concurrent.futures import ThreadPoolExecutor
+    from dataclasses import replace
+
+    cases = {c.name: c for c in CAMPAIGN.cases(tmp_path, ["memory"])}
+    pick = [cases[f"10 h at 10 Hz, qa under {gb} GB of address space"] for gb in ("1", "1.5")]
+    pick[0].prepare()  # both read one file: written once, before they start
+    twins = [replace(pick[1], args=[*pick[1].args[:-1], tmp_path / f"twin{k}"]) for k in (0, 1)]
+    with ThreadPoolExecutor(2) as pool:
+        rows = list(pool.map(CAMPAIGN.run_case, twins))
+    rows.append(CAMPAIGN.run_case(pick[0]))
+    assert [r["outcome"] for r in rows] == ["handled"] * 3, rows

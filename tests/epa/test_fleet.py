@@ -299,6 +299,10 @@ def test_the_trees_loss_is_chosen_on_the_fit_lists_own_folds():
     _fit_predict(groups, lambda r: math.log(r["predicted_mpg"] / r["measured_mpg"]),
                  ("m", "e", "ym", "ye"), lambda r, p: r["predicted_mpg"] / math.exp(p), boosted)
     assert float(np.median([abs(r["e"]) for r in squared])) > max(2 * chosen, 0.01)
+    # a list judged with its own fit (every row in-sample) chooses on all its rows
+    own = [dict(r) | {"in_sample": True} for r in recs]
+    cross_validate(own)
+    assert float(np.median([abs(r["residual_error"]) for r in own])) < 0.005
 
 
 def test_the_trees_fits_in_processes_give_the_same_figures(monkeypatch):

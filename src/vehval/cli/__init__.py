@@ -17,6 +17,7 @@ except ImportError:  # pragma: no cover
 
 from vehval.cli.app import app  # noqa: E402 - the application the commands register on
 from vehval.errors import VehvalError
+from vehval.io.budget import system_allocator_under_limit
 
 
 def _register() -> None:
@@ -52,6 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     had is restored afterwards (an in-process caller runs several commands)."""
     from vehval.constants import UNITS_ENV_VAR as ENV_VAR
 
+    system_allocator_under_limit()
     before = os.environ.get(ENV_VAR)
     try:
         return _main(argv)

@@ -278,7 +278,8 @@ def _fit_predict_chosen(groups: dict[tuple[str, str], list[Item]], target: Any,
                         jobs: int = 1) -> dict[str, dict[str, dict[str, str]]]:
     """:func:`_fit_predict` with the learner chosen among ``learners`` (name -> learner) per
     list and procedure on that list's own within-year folds (the smallest median |error|
-    over its out-of-sample rows); year to year, the fit takes the learner chosen on the
+    over its rows out of the technology coefficients' fit, or all its rows when none is);
+    year to year, the fit takes the learner chosen on the
     lists it is fitted on (their within-year rows pooled), never on the judged list.
     Returns scheme -> procedure -> list (within a year) or the fit lists joined by `` + ``
     (year to year) -> the name chosen."""
@@ -287,8 +288,13 @@ def _fit_predict_chosen(groups: dict[tuple[str, str], list[Item]], target: Any,
     for name, learner in learners.items():
         _within_year(groups, target, tmp[name], to_mpg, learner, fits)
     fits.run()
-    trial = {name: {g: [r[k[1]] for r, _ in items if k[1] in r and not r.get("in_sample")]
-                    for g, items in groups.items()} for name, k in tmp.items()}
+    # judged on the rows out of the technology coefficients' fit (a test carried over from
+    # the list fitted on is that list's, not this one's); a list judged with its own fit
+    # has none: all its rows
+    out = {g: [it for it in items if not it[0].get("in_sample")] or items
+           for g, items in groups.items()}
+    trial = {name: {g: [r[k[1]] for r, _ in items if k[1] in r]
+                    for g, items in out.items()} for name, k in tmp.items()}
 
     def best(errs: dict[str, list[float]]) -> str:
         scored = [(float(np.median(np.abs(e))), n) for n, e in errs.items() if e]

@@ -51,6 +51,22 @@ def _mem_available() -> int | None:
     return None
 
 
+def address_space_limited() -> bool:
+    """True when this process runs under an address-space limit (``ulimit -v``)."""
+    soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    return soft != resource.RLIM_INFINITY and soft > 0
+
+
+def system_allocator_under_limit() -> None:
+    """Under an address-space limit, make the system allocator Arrow's default (call before
+    Arrow's first allocation; a pool the caller chose, ``ARROW_DEFAULT_MEMORY_POOL``, is
+    kept). Arrow's own allocator (mimalloc) reserves an arena on first use, 1 GiB of address
+    space under a 1.5 GB limit and 128 MB under 1 GB: a 1.5 GB process would be refused what
+    a 1 GB one runs."""
+    if address_space_limited():
+        os.environ.setdefault("ARROW_DEFAULT_MEMORY_POOL", "system")
+
+
 def available_memory() -> tuple[int | None, str]:
     """Memory this process may still allocate [bytes] and where the figure comes from.
 
@@ -63,7 +79,7 @@ def available_memory() -> tuple[int | None, str]:
         ``"address-space limit X GB"`` or ``"available memory"`` (for messages).
     """
     soft, _ = resource.getrlimit(resource.RLIMIT_AS)
-    if soft != resource.RLIM_INFINITY and soft > 0:
+    if address_space_limited():
         used = _vm_size() or 0
         return max(soft - used, 0), f"address-space limit {_gb(soft)}"
     avail = _mem_available()

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from vehval.errors import InputFileError
 from vehval.io.arrow import arrow_owned, float_values
-from vehval.io.budget import MAX_TEXT_BYTES, check_file_size
+from vehval.io.budget import MAX_TEXT_BYTES, address_space_limited, check_file_size
 from vehval.io.raw import RawTable, find_time_column, is_printable, is_time_header, split_headers
 from vehval.units import split_header
 
@@ -291,7 +291,10 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     try:
         table = pacsv.read_csv(
             pa.BufferReader(arrow_owned(body)),     # never a Python object: see arrow_owned
-            read_options=pacsv.ReadOptions(column_names=col_ids),
+            # on this thread under an address-space limit: Arrow's worker threads each map
+            # a stack and an allocator arena, and one that cannot start fails or hangs the read
+            read_options=pacsv.ReadOptions(column_names=col_ids,
+                                           use_threads=not address_space_limited()),
             parse_options=pacsv.ParseOptions(delimiter=delim),
             convert_options=pacsv.ConvertOptions(
                 column_types={c: pa.float64() for c in col_ids}, decimal_point=decimal))
