@@ -103,7 +103,7 @@ def cluster():
 
     warnings.filterwarnings("ignore", message="Port 8787 is already in use")
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=logging.ERROR) as c:
+                      dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR) as c:
         yield c
 
 
@@ -298,7 +298,7 @@ def test_hanging_test_on_a_cluster_times_out(tmp_path):
 
     warnings.filterwarnings("ignore", message="Port 8787 is already in use")
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=logging.ERROR) as c, \
+                      dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR) as c, \
             Client(c) as client:
         client.run(patch)
         t0 = time.perf_counter()

@@ -91,7 +91,7 @@ def test_a_dask_scheduler_passes_the_check():
     from distributed import LocalCluster
 
     with LocalCluster(n_workers=0, processes=False, host="127.0.0.1", protocol="tcp://",
-                      dashboard_address=None, silence_logs=logging.ERROR) as c:
+                      dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR) as c:
         assert c.scheduler_address.startswith("tcp://127.0.0.1:")
         check_scheduler(c.scheduler_address)
         check_scheduler(c.scheduler_address.removeprefix("tcp://"))   # host:port
