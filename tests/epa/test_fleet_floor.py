@@ -88,3 +88,16 @@ def test_the_page_and_the_cli_state_the_floor():
     assert "The data&#39;s floor" in html and "83.3 % within 5 %" in html  # 10 of 12 tests
     line = _fleet_model_lines(summary["fleet_model"])[-1]
     assert "6 groups" in line and "within 5 % 83.3 %" in line
+
+
+def test_the_page_names_the_trees_loss_chosen():
+    from vehval.report.fleet_page import _baseline
+
+    st = {"n": 40, "median_abs_error": 0.03, "share_within_5pct": 0.7}
+    d = {k: st for k in ("model", "baseline", "boosted", "physics_residual")}
+    d |= {"residual_better": True, "loss": {
+        "boosted": {"16tstcar.csv": "absolute_error", "19tstcar.csv": "squared_error"},
+        "physics_residual": {"16tstcar.csv + 17tstcar.csv": "absolute_error"}}}
+    blocks = _baseline({"baseline": {"year_to_year": {"hwfet": d}}})
+    text = repr(blocks)
+    assert "absolute (16tstcar.csv), squared (19tstcar.csv); absolute (16tstcar.csv + 17tstcar.csv)" in text

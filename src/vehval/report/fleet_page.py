@@ -116,7 +116,8 @@ def _baseline(summary: dict[str, Any]) -> list[Block]:
             rows.append([scheme.replace("_", " "), p, str(d["model"]["n"]),
                          *(f"{_pc(d[k]['median_abs_error'])} / {_pc(d[k]['share_within_5pct'])}"
                            for k in ("model", "baseline", "boosted", "physics_residual")),
-                         "physics + residual" if d["residual_better"] else "a baseline"])
+                         "physics + residual" if d["residual_better"] else "a baseline",
+                         _losses(d.get("loss") or {})])
     return [h2("Physics, the regressions on the list's columns, and physics + learned residual"),
             para("Each cell: median |error| / share within 5 %, on the same rows, "
                  "10-fold cross-validated by test vehicle within a list, or fitted on one "
@@ -126,9 +127,17 @@ def _baseline(summary: dict[str, Any]) -> list[Block]:
                  "the same columns and the make. Physics + learned residual: the same trees "
                  "fitted to the physics model's log error and divided out of its prediction; "
                  "year to year they are fitted on the other list's rows built with the "
-                 "judging coefficients."),
+                 "judging coefficients. The trees' loss (squared or absolute error) is chosen "
+                 "per list and procedure on the list's own within-year folds; year to year, "
+                 "the fit takes the choice of the list it is fitted on."),
             table(["scheme", "procedure", "rows", "physics", "ridge", "boosted",
-                   "physics + residual", "best"], rows)]
+                   "physics + residual", "best", "trees' loss (boosted; residual)"], rows)]
+
+
+def _losses(loss: dict[str, dict[str, str]]) -> str:
+    """``{"boosted": {list: loss}, ...}`` -> ``squared (16tstcar.csv), absolute (19...); ...``."""
+    return "; ".join(", ".join(f"{name.split('_')[0]} ({lists})" for lists, name in by.items())
+                     or "-" for by in (loss.get("boosted") or {}, loss.get("physics_residual") or {}))
 
 
 def _fleet_model(summary: dict[str, Any]) -> list[Block]:
