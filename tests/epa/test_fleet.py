@@ -18,6 +18,16 @@ from vehval.epa.fleet_summary import outliers
 from vehval.epa.fleet_whatif import parse_change, whatif
 from vehval.errors import ConfigError
 
+
+@pytest.fixture(autouse=True)
+def _fewer_trees(monkeypatch):
+    """The synthetic lists' laws are smooth and small: a third of the trees at three times
+    the learning rate fit them alike, in a third of the time."""
+    from vehval.epa import fleet_baseline
+
+    monkeypatch.setattr(fleet_baseline, "BOOST", fleet_baseline.BOOST | {
+        "max_iter": 100, "learning_rate": 3 * fleet_baseline.BOOST["learning_rate"]})
+
 ADFE = "Analytically Derived FE?"
 FLEET_HEADER = [*HEADER, ADFE, "# of Cylinders and Rotors"]
 

@@ -149,21 +149,22 @@ def ridge(x: np.ndarray, y: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     return lambda z: predict_ridge(model, z[:, :-1])
 
 
-def boosted(x: np.ndarray, y: np.ndarray, loss: str = "squared_error"
-            ) -> Callable[[np.ndarray], np.ndarray]:
+def boosted(x: np.ndarray, y: np.ndarray, loss: str = "squared_error",
+            settings: dict[str, Any] | None = None) -> Callable[[np.ndarray], np.ndarray]:
     """Gradient-boosted trees on every column, the make (the last column) categorical,
-    fitted with ``loss`` (one of :data:`LOSSES`)."""
+    fitted with ``loss`` (one of :data:`LOSSES`) and ``settings`` (default :data:`BOOST`)."""
     from sklearn.ensemble import HistGradientBoostingRegressor
 
     mask = [False] * (x.shape[1] - 1) + [True]
     model = HistGradientBoostingRegressor(categorical_features=mask, loss=loss,
-                                          **BOOST).fit(x, y)
+                                          **(BOOST if settings is None else settings)).fit(x, y)
     return model.predict
 
 
 def boosted_learners() -> dict[str, Learner]:
-    """The boosted trees with each of :data:`LOSSES` (name -> learner)."""
-    return {loss: partial(boosted, loss=loss) for loss in LOSSES}
+    """The boosted trees with each of :data:`LOSSES` (name -> learner), each carrying the
+    settings of :data:`BOOST` as they are now (a fit in another process gets the same)."""
+    return {loss: partial(boosted, loss=loss, settings=dict(BOOST)) for loss in LOSSES}
 
 
 def _folds(rows: list[dict[str, Any]], n: int = N_FOLDS) -> list[int]:
