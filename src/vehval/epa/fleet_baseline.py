@@ -262,14 +262,10 @@ def _year_to_year(groups: dict[tuple[str, str], list[Item]], target: Any,
 
 
 def _fit_predict(groups: dict[tuple[str, str], list[Item]], target: Any,
-                 keys: tuple[str, str, str, str], to_mpg: Any, learner: Learner,
-                 jobs: int = 1) -> None:
+                 keys: tuple[str, str, str, str], to_mpg: Any, learner: Learner) -> None:
     """:func:`_within_year` as ``keys[:2]`` and :func:`_year_to_year` as ``keys[2:]``, one
-    learner."""
-    fits = _Fits(jobs)
-    _within_year(groups, target, keys[:2], to_mpg, learner, fits)
-    _year_to_year(groups, target, keys[2:], to_mpg, lambda proc, lists: learner, fits)
-    fits.run()
+    learner (:func:`_fit_predict_chosen` with nothing to choose)."""
+    _fit_predict_chosen(groups, target, keys, to_mpg, {"only": learner})
 
 
 def _fit_predict_chosen(groups: dict[tuple[str, str], list[Item]], target: Any,

@@ -10,7 +10,6 @@ curve above the measured envelope, inertias, efficiencies) name their documented
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -19,7 +18,7 @@ import yaml
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.fuels import known_fuels, resolve_fuel, table_fuel
-from vehval.identify.conditions import STANDARD_CELL_C, identification_conditions, off_standard
+from vehval.identify.conditions import identification_conditions, in_standard_cell, off_standard
 from vehval.identify.fuelmap import ETA_MAX, FuelMapFit, engine_power
 from vehval.identify.gears import (
     GearFit,
@@ -222,10 +221,8 @@ def _cold_among(traces: list[Trace], left_out: dict[str, str],
     """A cold start among ``traces`` to identify the warm-up from (no ``--cold-test`` given):
     the first test left out of the warm map as a cold start in a standard cell, with fuel and
     a warm test of its cycle among ``warm``; None when there is none."""
-    lo, hi = STANDARD_CELL_C
     for t in traces:
-        standard_cell = not math.isfinite(t.amb_temp_c) or lo <= t.amb_temp_c <= hi
-        if (t.test_id in left_out and cold_start_state(t)[0] and standard_cell
+        if (t.test_id in left_out and cold_start_state(t)[0] and in_standard_cell(t)
                 and not dead_fuel_channel(t)
                 and any(w.cycle and w.cycle == t.cycle for w in warm)):
             return t

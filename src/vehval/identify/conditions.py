@@ -41,6 +41,12 @@ def _finite(x: float | None) -> float | None:
     return float(x) if x is not None and math.isfinite(float(x)) else None
 
 
+def in_standard_cell(trace: Trace) -> bool:
+    """The test's cell is within :data:`STANDARD_CELL_C` (True when not measured)."""
+    cell = _finite(trace.amb_temp_c)
+    return cell is None or STANDARD_CELL_C[0] <= cell <= STANDARD_CELL_C[1]
+
+
 def off_standard(trace: Trace) -> str | None:
     """Why ``trace`` is not a standard warm test (None: it is, or its conditions are not
     measured): a cold start (:func:`~vehval.identify.warmup.cold_start_state`: its warm-up
@@ -53,10 +59,10 @@ def off_standard(trace: Trace) -> str | None:
     cold, why = cold_start_state(trace)
     if cold:
         return f"{trace.test_id}: a cold start ({why})"
-    lo, hi = STANDARD_CELL_C
-    cell = _finite(trace.amb_temp_c)
-    if cell is not None and not lo <= cell <= hi:
-        return f"{trace.test_id}: cell {cell:.1f} °C, outside the standard {lo:g}-{hi:g} °C"
+    if not in_standard_cell(trace):
+        lo, hi = STANDARD_CELL_C
+        return (f"{trace.test_id}: cell {trace.amb_temp_c:.1f} °C, outside the standard "
+                f"{lo:g}-{hi:g} °C")
     return None
 
 

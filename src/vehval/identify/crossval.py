@@ -20,7 +20,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from vehval.identify.traces import IdentificationError, Trace, dead_fuel_channel
-from vehval.identify.verdicts import EN_KEYS, judge_row, verdict_of
+from vehval.identify.verdicts import EN_KEYS, in_set_verdict, judge_row, verdict_of
 from vehval.uncertainty import normalised_error
 
 COLUMNS = ("identified_from", "test", "cycle", "measured_g", "predicted_g", "error_rel",
@@ -119,9 +119,9 @@ def cross_validate(traces: list[Trace], pairs: bool = False, declared: dict | No
     rows = [r for part in parts for r in part]
     judged = [(normalised_error(r["predicted_g"], r["measured_g"], r["u_model_g"],
                                 r["u_meas_g"], label=r["test"]), r["s_r"])
-              for r in rows if r.get("en") is not None and not r.get("outside_identification")]
+              for r in rows if r.get("en") is not None and in_set_verdict(r)]
     verdict, why = verdict_of(judged)
-    outside = sorted({r["test"] for r in rows if r.get("outside_identification")})
+    outside = sorted({r["test"] for r in rows if not in_set_verdict(r)})
     if outside:
         why = "; ".join(x for x in (why, "not in the set verdict, outside the identification's "
                                          "conditions: " + ", ".join(outside)) if x)

@@ -78,6 +78,12 @@ def verdict_of(judged: list[tuple[Any, float]]) -> tuple[dict[str, Any] | None, 
     return out, ""
 
 
+def in_set_verdict(row: dict[str, Any]) -> bool:
+    """A prediction counts in the set verdict: held out (not in the identification's own
+    tests) and inside the identification's conditions."""
+    return not row.get("in_sample") and not row.get("outside_identification")
+
+
 def judge_rows(rows: list[dict[str, Any]]) -> tuple[dict[str, Any] | None, list[str]]:
     """Add En to every row and phase of ``rows`` (``predict_trace`` results, in place).
 
@@ -93,12 +99,13 @@ def judge_rows(rows: list[dict[str, Any]]) -> tuple[dict[str, Any] | None, list[
         c, s_r, note = judge_row(r)
         if note:
             notes.append(note)
-        if c is not None and not r.get("in_sample"):
-            if r.get("outside_identification"):
-                notes.append(f"{r['test']}: outside the identification's conditions: not in "
-                             "the set verdict")
-            else:
-                held.append((c, s_r))
+        if c is None or r.get("in_sample"):
+            continue
+        if in_set_verdict(r):
+            held.append((c, s_r))
+        else:
+            notes.append(f"{r['test']}: outside the identification's conditions: not in "
+                         "the set verdict")
     if any(r.get("pi95_rel") is None for r in rows):
         notes.append("a vehicle without identification uncertainty: U_model = 0")
     verdict, why = verdict_of(held)
