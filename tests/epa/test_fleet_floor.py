@@ -101,3 +101,54 @@ def test_the_page_names_the_trees_loss_chosen():
     blocks = _baseline({"baseline": {"year_to_year": {"hwfet": d}}})
     text = repr(blocks)
     assert "absolute (16tstcar.csv), squared (19tstcar.csv); absolute (16tstcar.csv + 17tstcar.csv)" in text
+
+
+def _twin_case() -> list[dict]:
+    """2019 rows judged year to year: car 0 has a 2016 twin (mass 0.5 % off) measured 30 and
+    31 mpg, car 1 a 2016 car of 3 % more mass (no twin), car 2 another make's twin only."""
+    old = [_rec(10, 30.0, list="16tstcar.csv", mass_kg=1507.5),
+           _rec(11, 31.0, list="16tstcar.csv", mass_kg=1507.5),
+           _rec(12, 40.0, list="16tstcar.csv", mass_kg=1545.0 * 1.03),
+           _rec(13, 50.0, list="16tstcar.csv", make="Mazda", mass_kg=1700.0)]
+    new = [_rec(0, 32.0) | {"residual_year_error": 0.01},
+           _rec(1, 33.0, mass_kg=1545.0) | {"residual_year_error": -0.04},
+           _rec(2, 34.0, mass_kg=1700.0) | {"residual_year_error": 0.08}]
+    return old + new
+
+
+def test_a_near_twin_of_the_fit_list_predicts_by_its_measured_figure():
+    from vehval.epa.fleet_floor import twin_check
+
+    twins = twin_check(_twin_case(), "residual_year_error",
+                       {"19tstcar.csv": {"16tstcar.csv"}})["ftp75"]
+    assert twins["twin"]["n"] == 1
+    assert twins["twin"]["median_abs_error"] == pytest.approx(1 - math.sqrt(30 * 31) / 32.0)
+    assert twins["model"] == {"n": 1, "median_abs_error": pytest.approx(0.01),
+                              "share_within_5pct": 1.0}
+    alone = twins["model_without_twin"]
+    assert alone["n"] == 2 and alone["median_abs_error"] == pytest.approx(0.06)
+    assert alone["share_within_5pct"] == pytest.approx(0.5)
+    # the same vehicle in the other list is a carried-over test, not a twin
+    same = [r | {"vehicle_id": "V0"} if r["list"] == "16tstcar.csv" else r
+            for r in _twin_case()]
+    assert twin_check(same, "residual_year_error",
+                      {"19tstcar.csv": {"16tstcar.csv"}})["ftp75"]["twin"]["n"] == 0
+
+
+def test_the_year_to_year_block_and_page_state_the_twins():
+    from vehval.report.fleet_page import _twins
+
+    block = fleet_model(_twin_case())
+    twins = block["floor"]["twins"]
+    assert twins["ftp75"]["twin"]["n"] == 1 and twins["ftp75"]["model_without_twin"]["n"] == 2
+    text = repr(_twins(twins))
+    assert "rows with a twin" in text and "6.00 %" in text
+    within = fleet_model([r | {"residual_error": 0.0} for r in _pairs([0.02] * 6)])
+    assert "twins" not in within["floor"]  # within a year: no fit list to hold a twin
+    from vehval.cli.commands_fleet import _floor_line
+
+    line = _floor_line({"per_procedure": {}, "twins": twins})
+    assert line == []  # no floor stated: nothing to add to
+    line = _floor_line({**within["floor"], "twins": twins})[-1]
+    assert "ftp75 twin 4.70 % (1 rows), model 1.00 % (1 rows), without a twin 6.00 % (2 rows)" \
+        in line

@@ -48,7 +48,19 @@ def _floor_line(floor: dict) -> list[str]:
             + f"{sum(st['n_groups'] for st in per.values())} groups of rows it cannot tell "
             "apart): " + ", ".join(f"{p} {100 * st['median_abs_error']:.2f} %"
                                    for p, st in per.items())
-            + f" median |error|, within 5 % {_pct(floor['share_within_5pct'])}"]
+            + f" median |error|, within 5 % {_pct(floor['share_within_5pct'])}"] + _twin_line(
+        floor.get("twins") or {})
+
+
+def _twin_line(twins: dict) -> list[str]:
+    """The fleet model on rows with a near twin in the fit list and on the others."""
+    def part(st: dict) -> str:
+        return (f"{100 * st['median_abs_error']:.2f} % ({st['n']} rows)" if st.get("n")
+                else "no rows")
+
+    return ["  near twins in the fit list: " + "; ".join(
+        f"{p} twin {part(t['twin'])}, model {part(t['model'])}, without a twin "
+        f"{part(t['model_without_twin'])}" for p, t in twins.items())] if twins else []
 
 
 def _lines(s: dict) -> list[str]:

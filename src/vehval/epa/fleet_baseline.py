@@ -68,7 +68,8 @@ BOOST = {"learning_rate": 0.05, "max_iter": 300, "max_leaf_nodes": 15, "min_samp
          "l2_regularization": 1.0, "random_state": 0}
 
 
-def _road_load(r: dict[str, Any], mph: float) -> float:
+def road_load(r: dict[str, Any], mph: float) -> float:
+    """The row's target road load at ``mph`` [N]."""
     v = mph * MPH_M_PER_S
     return r["target_a_n"] + r["target_b_n_per_mps"] * v + r["target_c_n_per_mps2"] * v * v
 
@@ -81,7 +82,7 @@ def features(r: dict[str, Any]) -> list[float] | None:
         return None
     if not (r["mass_kg"] > 0 and r["displacement_l"] > 0 and r["rated_power_w"] > 0):
         return None
-    f_lo, f_mid, f_hi = (max(_road_load(r, v), 1.0) for v in (20.0, 50.0, 70.0))
+    f_lo, f_mid, f_hi = (max(road_load(r, v), 1.0) for v in (20.0, 50.0, 70.0))
     x = [math.log(r["mass_kg"]), math.log(f_lo), math.log(f_mid), math.log(f_hi),
          math.log(r["displacement_l"]), math.log(r["rated_power_w"]),
          math.log(r["rated_power_w"] / r["mass_kg"]), float(r.get("cylinders") or 0),

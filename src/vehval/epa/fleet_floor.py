@@ -15,6 +15,13 @@ columns: its median |deviation| and its share within 5 % are the floor of the fl
 targets; the pooled standard deviation (``sigma``, ``dof`` degrees of freedom) is stated
 too. The distribution has heavy tails (a few groups differ by over 10 %), so the median
 and the share are read from the deviations themselves, not from ``sigma``.
+
+Year to year, :func:`twin_check` asks the same of another list: a judged row whose fit
+list holds a near twin (another test vehicle of the same procedure, make, cylinders,
+transmission class, gears, fuel and aspiration, every number within
+:data:`TWIN_TOLERANCE`) is predicted by the twins' measured figure alone; the fleet model
+is read on the same rows and on the rows without a twin, which splits its error into what
+the columns tell apart and what is new to the fit list.
 """
 
 from __future__ import annotations
@@ -25,13 +32,19 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from vehval.epa.fleet_baseline import features, make_key
+from vehval.epa.fleet_baseline import features, make_key, road_load
 
 #: least groups of a procedure to state its floor
 MIN_GROUPS = 5
 #: columns rounded to this many significant digits before grouping (list figures repeated
 #: across rows convert to SI identically; the rounding only absorbs float noise)
 _DIGITS = 6
+#: a near twin's largest relative difference per column [-] (displacement: absolute [L])
+TWIN_TOLERANCE = {"mass_kg": 0.01, "n_v_ratio": 0.01, "axle_ratio": 0.01,
+                  "rated_power_w": 0.02, "road_load_20": 0.03, "road_load_50": 0.02,
+                  "road_load_70": 0.02, "displacement_l": 0.05}
+_TWIN_SAME = ("procedure", "cylinders", "transmission_class", "gears", "fuel_family",
+              "aspiration")
 
 
 def _key(r: dict[str, Any]) -> tuple | None:
@@ -84,3 +97,61 @@ def data_floor(rows: Sequence[dict[str, Any]],
     share = (sum(weights[p] * per[p]["share_within_5pct"] for p in per) / total
              if total else None)
     return {"per_procedure": per, "share_within_5pct": share}
+
+
+def _twin_columns(r: dict[str, Any]) -> dict[str, float] | None:
+    if features(r) is None:
+        return None
+    cols = {k: float(r[k]) for k in ("mass_kg", "n_v_ratio", "axle_ratio", "rated_power_w",
+                                     "displacement_l")}
+    for mph in (20, 50, 70):
+        cols[f"road_load_{mph}"] = max(road_load(r, float(mph)), 1.0)
+    return cols
+
+
+def _is_twin(a: dict[str, float], b: dict[str, float]) -> bool:
+    return all(abs(a[k] - b[k]) <= tol if k == "displacement_l" else abs(a[k] / b[k] - 1.0) <= tol
+               for k, tol in TWIN_TOLERANCE.items())
+
+
+def _share(err: list[float]) -> dict[str, Any]:
+    a = np.abs(np.asarray(err, float))
+    return {"n": len(a), "median_abs_error": float(np.median(a)) if len(a) else None,
+            "share_within_5pct": float(np.mean(a <= 0.05)) if len(a) else None}
+
+
+def twin_check(judged_rows: Sequence[dict[str, Any]], error_key: str,
+               fit_lists: dict[str, set[str]]) -> dict[str, Any]:
+    """The near twins of the judged rows in their fit lists.
+
+    ``judged_rows``: every judged record (their measured figures are the twins);
+    ``error_key``: the fleet model's error key of the rows judged; ``fit_lists``: judged
+    list -> the lists its fit was made on. Per procedure: ``twin`` (the twins' geometric
+    mean measured figure as the prediction) and ``model`` on the rows with a twin,
+    ``model_without_twin`` on the others; each ``n``, ``median_abs_error`` and
+    ``share_within_5pct`` [-]."""
+    pool: dict[tuple, list[tuple[dict[str, Any], dict[str, float]]]] = defaultdict(list)
+    for r in judged_rows:
+        cols = _twin_columns(r)
+        if cols is not None and r.get("measured_mpg"):
+            pool[(r["list"], make_key(r), *(r.get(k) for k in _TWIN_SAME))].append((r, cols))
+    twin_err: dict[str, list[float]] = defaultdict(list)
+    model_err: dict[str, list[float]] = defaultdict(list)
+    alone_err: dict[str, list[float]] = defaultdict(list)
+    for r in judged_rows:
+        err = r.get(error_key)
+        cols = _twin_columns(r)
+        if err is None or r.get("in_sample") or cols is None:
+            continue
+        same = (make_key(r), *(r.get(k) for k in _TWIN_SAME))
+        logs = [math.log(t["measured_mpg"]) for lst in sorted(fit_lists.get(r["list"], ()))
+                for t, c in pool.get((lst, *same), ())
+                if t.get("vehicle_id") != r.get("vehicle_id") and _is_twin(cols, c)]
+        if logs:
+            twin_err[r["procedure"]].append(math.exp(float(np.mean(logs))) / r["measured_mpg"] - 1)
+            model_err[r["procedure"]].append(err)
+        else:
+            alone_err[r["procedure"]].append(err)
+    return {p: {"twin": _share(twin_err[p]), "model": _share(model_err[p]),
+                "model_without_twin": _share(alone_err[p])}
+            for p in sorted({*twin_err, *alone_err})}

@@ -13,7 +13,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from vehval.epa.fleet_floor import data_floor
+from vehval.epa.fleet_floor import data_floor, twin_check
 
 #: an outlier lies beyond this many robust standard deviations (1.4826 x MAD) of its
 #: procedure's median error, or beyond :data:`OUTLIER_ABS`
@@ -147,7 +147,9 @@ def fleet_model(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     it, else within a year; rows in the technology coefficients' fit left out), against
     :data:`TARGETS`: errors per procedure, share within 5 %, HWFET/FTP bias, technology
     groups and the worst group's median bias; ``floor``: what a perfect model of the row's
-    columns would reach on these lists (:func:`vehval.epa.fleet_floor.data_floor`)."""
+    columns would reach on these lists (:func:`vehval.epa.fleet_floor.data_floor`) and, year
+    to year, under ``floor.twins``, the fit lists' near twins against the fleet model
+    (:func:`vehval.epa.fleet_floor.twin_check`)."""
     year = any(r.get("residual_year_error") is not None for r in records)
     key = "residual_year_error" if year else "residual_error"
     rows = [{**r, "error": r[key], "en": r.get("residual_en") if year else None}
@@ -166,6 +168,10 @@ def fleet_model(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
     bias = block["hwfet_ftp_bias"]["mean"]
     block["floor"] = data_floor(judged(records),
                                 {p: st["n"] for p, st in block["errors"].items()})
+    if year:
+        every = sorted({r["list"] for r in judged(records)})
+        block["floor"]["twins"] = twin_check(judged(records), key,
+                                             {k: set(every) - {k} for k in lists})
     block["targets"] = TARGETS
     block["met"] = {
         "median_abs_error": {p: st["median_abs_error"] <= TARGETS["median_abs_error"]

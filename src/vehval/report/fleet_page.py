@@ -185,7 +185,29 @@ def _floor(floor: dict[str, Any]) -> list[Block]:
                  "errs by that spread: "
                  f"{_pc(floor['share_within_5pct'])} within 5 % on this procedure mix."),
             table(["procedure", "groups", "rows", "median |error|", "within 5 %",
-                   "sigma (one test)"], rows)]
+                   "sigma (one test)"], rows)] + _twins(floor.get("twins") or {})
+
+
+def _twins(twins: dict[str, Any]) -> list[Block]:
+    """The fit lists' near twins against the fleet model, year to year."""
+    if not twins:
+        return []
+
+    def cells(st: dict[str, Any]) -> list[str]:
+        if not st.get("n"):
+            return ["0", "-", "-"]
+        return [str(st["n"]), f"{_PCT * st['median_abs_error']:.2f} %",
+                _pc(st["share_within_5pct"])]
+
+    rows = [[p, *cells(t["twin"]), *cells(t["model"])[1:], *cells(t["model_without_twin"])]
+            for p, t in twins.items()]
+    return [para("Near twins: a judged row whose fit list holds another test vehicle of the "
+                 "same make and technology with every number within 1-3 % is predicted by "
+                 "that twin's measured figure alone. Where a twin exists the fleet model is "
+                 "read beside it; the rows without one are cars new to the fit list."),
+            table(["procedure", "rows with a twin", "twin median |error|", "twin within 5 %",
+                   "model median |error|", "model within 5 %", "rows without a twin",
+                   "model median |error|", "model within 5 %"], rows)]
 
 
 def _figures(rows: Sequence[dict[str, Any]], fleet_key: str | None = None) -> list[Block]:
