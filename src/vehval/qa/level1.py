@@ -3,8 +3,8 @@
 Checks, per signal: plausible range (registry) and the vehicle's own limits, missing
 samples (NaN) and holes in the time base, sample-rate irregularity, stuck segments,
 constant or all-zero channels, spikes (Hampel filter) and impossible signs. The shape
-checks (spikes, stuck segments) and their corroboration by partner signals are in
-:mod:`vehval.qa.level1_shape`.
+checks and their corroboration by partner signals are in :mod:`vehval.qa.level1_shape`
+(stuck segments) and :mod:`vehval.qa.level1_spikes` (spikes).
 """
 
 from __future__ import annotations
@@ -21,14 +21,16 @@ from vehval.qa.level1_shape import (
     DYNAMIC_QUANTITIES,
     NON_NEGATIVE,
     Level1Options,
-    cap_spikes,
-    corroborate_spikes,
-    corroborate_spikes_with_calc,
     emit_runs,
     parse_name,
     robust_noise,
-    spike_findings,
     stuck_findings,
+)
+from vehval.qa.level1_spikes import (
+    cap_spikes,
+    corroborate_spikes,
+    corroborate_spikes_with_calc,
+    spike_findings,
 )
 from vehval.test import Signal, Test
 
