@@ -90,3 +90,43 @@ def test_explicit_control_validation_and_raw(qa_outdir, tmp_path):
     html = out.read_text(encoding="utf-8")
     assert _sections(html)[-2:] == ["control", "validation"]
     assert main(["report", str(qa_outdir), "--control", str(tmp_path / "missing.json")]) == 2
+
+
+@pytest.mark.parametrize("name", ["validated.parquet", "findings.json", "validation.json"])
+def test_an_output_over_a_file_of_the_input_directory_is_refused(qa_outdir, capsys, name):
+    """The directory given is an input, and so is every file the report reads from it."""
+    target = qa_outdir / name
+    before = target.read_bytes()
+    assert main(["report", str(qa_outdir), "-o", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert "also an input" in err and name in err
+    assert target.read_bytes() == before and not (qa_outdir / "tables.xlsx").exists()
+
+
+def test_a_document_of_another_kind_or_test_is_refused(qa_outdir, tmp_path, capsys):
+    res = tmp_path / "results.json"
+    res.write_text(json.dumps({"results_version": 3, "test": {"id": "T-report"}}),
+                   encoding="utf-8")
+    out = tmp_path / "r.html"
+    assert main(["report", str(qa_outdir), "--validation", str(res), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "is a results document ('results_version'), not a validation document" in err
+    # findings of another test beside this test's Parquet
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "findings.json").write_text(json.dumps(make_qa() | {"test": {"id": "T-other"}}),
+                                         encoding="utf-8")
+    assert main(["report", str(qa_outdir), str(other), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "is of test 'T-other'" in err and "'T-report'" in err
+    # two tests, and a raw test of another id
+    parquet.write_test(make_test(), other / "validated.parquet")
+    assert main(["report", str(qa_outdir), str(other), "-o", str(out)]) == 2
+    assert "two tests given" in capsys.readouterr().err
+    raw_test = make_test()
+    raw_test.meta.test_id = "T-other"
+    parquet.write_test(raw_test, tmp_path / "raw.parquet")
+    assert main(["report", str(qa_outdir), "--raw", str(tmp_path / "raw.parquet"),
+                 "-o", str(out)]) == 2
+    assert "raw.parquet: is of test 'T-other'" in capsys.readouterr().err
+    assert not out.exists() and not (tmp_path / "tables.xlsx").exists()

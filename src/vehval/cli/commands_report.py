@@ -26,6 +26,7 @@ def collect_inputs(paths: list[Path]) -> dict[str, Path]:
     its ``.parquet`` extension; later paths override earlier ones.
     """
     found: dict[str, Path] = {}
+    tests: list[Path] = []
     for p in paths:
         if not p.exists():
             raise InputFileError(f"{p}: not found: give the output directory of `vehval qa` "
@@ -36,10 +37,13 @@ def collect_inputs(paths: list[Path]) -> dict[str, Path]:
                                ("results", "results.json")):
                 if (p / name).is_file():
                     found[kind] = p / name
+                    if kind == "test":
+                        tests.append(p / name)
             continue
         name = p.name.lower()
         if name.endswith(".parquet"):
             found["test"] = p
+            tests.append(p)
         elif name.endswith(".json"):
             json_kind = next((k for k in ("findings", "control", "validation", "results")
                               if k in name), None)
@@ -51,6 +55,9 @@ def collect_inputs(paths: list[Path]) -> dict[str, Path]:
         else:
             raise InputFileError(f"{p}: not a report input: expected a directory, a .parquet "
                                  "test or a .json result")
+    if len({t.resolve() for t in tests}) > 1:
+        raise InputFileError(f"two tests given ({', '.join(map(str, tests))}): a report shows one "
+                             "test; run `vehval report` once per test (or `vehval batch` for many)")
     if "test" not in found:
         raise InputFileError(f"no validated test found in {', '.join(map(str, paths))}: expected "
                              f"{VALIDATED} (written by `vehval qa`) or a .parquet file")
@@ -95,24 +102,25 @@ def report_cmd(
     `vehval results --force` or `vehval qa --force` to state them under a banner)."""
     from vehval.io.parquet import read_test
     from vehval.report import build_reports, load_json, write_report
+    from vehval.report.inputs import checked_document, same_test
 
-    if output is not None:
-        _check_report_outputs(output, excel, [*inputs, control, validation, raw])
     found = collect_inputs(list(inputs))
     for kind, path in (("control", _existing(control, "control.json")),
                        ("validation", _existing(validation, "validation.json"))):
         if path is not None:
             found[kind] = path
-    test = read_test(found["test"])
-    raw_test = read_test(raw) if _existing(raw, "imported test") is not None else None
-    qa = load_json(found["findings"]) if "findings" in found else None
-    ctl = load_json(found["control"]) if "control" in found else None
-    val = load_json(found["validation"]) if "validation" in found else None
-    res = load_json(found["results"]) if "results" in found else None
     if output is None:
         base = inputs[0] if inputs[0].is_dir() else found["test"].parent
         output = base / "report.html"
-        _check_report_outputs(output, excel, [*inputs, control, validation, raw])
+    # every file read, not only the paths given: a directory's files are inputs too
+    _check_report_outputs(output, excel, [*inputs, *found.values(), raw])
+    test = read_test(found["test"])
+    raw_test = read_test(raw) if _existing(raw, "imported test") is not None else None
+    docs = {kind: checked_document(load_json(found[kind]), kind, found[kind])
+            for kind in ("findings", "control", "validation", "results") if kind in found}
+    same_test(test, found["test"], [(raw_test, raw)] + [
+        (docs[k], found[k]) for k in ("findings", "results") if k in docs])
+    qa, ctl, val, res = (docs.get(k) for k in ("findings", "control", "validation", "results"))
     kw: dict[str, Any] = {"vehicle": vehicle, "control": ctl, "validation": val, "title": title, "raw": raw_test,
           "results": res}
     if excel:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 from vehval.errors import ConfigError, InputFileError
 from vehval.io.paths import check_input_file
@@ -45,3 +46,44 @@ def results_beside(origin: str | Path | None, kinds: tuple[str, ...] = ("finding
     if folder is None:
         return {}
     return {k: load_json(folder / RESULT_FILES[k]) for k in kinds if (folder / RESULT_FILES[k]).is_file()}
+
+
+#: the version key each kind of result document carries (a validation.json has none)
+VERSION_KEYS = {"findings": "findings_version", "results": "results_version",
+                "control": "control_version"}
+_WRITER = {"findings": "vehval qa", "results": "vehval results", "control": "vehval analyze",
+           "validation": "vehval validate"}
+
+
+def checked_document(doc: dict, kind: str, path: str | Path) -> dict:
+    """``doc`` read from ``path`` as the report's ``kind`` document; :class:`InputFileError`
+    when it carries another kind's version key (a results.json given as ``--validation``)."""
+    for other, key in VERSION_KEYS.items():
+        if other != kind and key in doc:
+            raise InputFileError(f"{path}: is a {other} document ('{key}'), not a {kind} "
+                                 f"document: give the {kind}.json of `{_WRITER[kind]}`")
+    return doc
+
+
+def _test_id(item: Any) -> str:
+    """The test id of a Test or of a result document ('' when it names none)."""
+    meta = getattr(item, "meta", None)
+    if meta is not None:
+        return str(getattr(meta, "test_id", "") or "")
+    test = item.get("test") if isinstance(item, dict) else None
+    if isinstance(test, dict):
+        return str(test.get("id") or test.get("test_id") or "")
+    return ""
+
+
+def same_test(test: Any, test_path: str | Path,
+              others: list[tuple[Any, str | Path | None]]) -> None:
+    """Refuse a file of another test than ``test`` (read from ``test_path``): each of
+    ``others`` (a Test or a result document, and its path) that names a test id other than
+    the test's (files naming none are taken as they are)."""
+    want = _test_id(test)
+    for item, path in others:
+        got = _test_id(item) if item is not None else ""
+        if want and got and got != want:
+            raise InputFileError(f"{path}: is of test '{got}', the report's test {test_path} is "
+                                 f"'{want}': give the files of one test")
