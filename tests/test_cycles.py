@@ -186,3 +186,39 @@ def test_cli_list_and_show(capsys):
     assert main(["cycles", "show", "nope"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("vehval: error: unknown drive cycle 'nope'") and "udds" in err
+
+
+def test_a_cycle_file_is_checked_row_by_row_and_for_plausible_speed(tmp_path):
+    empty = tmp_path / "empty.csv"
+    empty.write_text("time_s,speed_mps\n# nothing yet\n", encoding="utf-8")
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy warning leaks out
+        with pytest.raises(VehvalError, match=r"empty\.csv: no data rows after the header"):
+            load_cycle(empty)
+    ragged = tmp_path / "ragged.csv"
+    ragged.write_text("time_s,speed_mps\n0,0\n1,1,2\n2,3\n", encoding="utf-8")
+    with pytest.raises(VehvalError, match=r"ragged\.csv: line 3: 3 fields, the header has 2"):
+        load_cycle(ragged)
+    fast = tmp_path / "fast.csv"
+    fast.write_text("time_s,speed_kph\n0,0\n1,1800\n2,0\n", encoding="utf-8")
+    with pytest.raises(VehvalError, match=r"fast\.csv: speed 500 m/s \(1800 km/h\) at t = 1 s "
+                                          r"\(line 3\) is above the plausible 70 m/s"):
+        load_cycle(fast)
+    with pytest.raises(VehvalError, match=r"steady cycle: speed 83.33 m/s \(300 km/h\)"):
+        load_cycle("steady:300kph:10s")
+    assert load_cycle("steady:250kph:10s").max_speed_mps == pytest.approx(250 / 3.6)
+    # a measured trace driven as a cycle is not held to the schedule's range
+    assert Cycle.from_trace([0, 1, 2], [0, 80, 0], "measured").max_speed_mps == 80
+    with pytest.raises(VehvalError, match="is a directory"):
+        load_cycle(tmp_path)
+
+
+def test_cli_show_speaks_the_display_units(capsys):
+    assert main(["cycles", "show", "udds"]) == 0
+    out = capsys.readouterr().out
+    assert "distance [mi]:       7.450" in out and "max speed [mph]:     56.7" in out
+    assert main(["--units", "metric", "cycles", "show", "udds"]) == 0
+    out = capsys.readouterr().out
+    assert "distance [km]:       11.990" in out and "max speed [km/h]:    91.2" in out

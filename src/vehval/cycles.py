@@ -33,8 +33,10 @@ from typing import Any
 
 import numpy as np
 
+from vehval.constants import KMH_M_PER_S
 from vehval.errors import InputFileError, UnitError, VehvalError
 from vehval.integrals import integral
+from vehval.nomenclature import registry
 from vehval.units import conversion, split_header
 
 #: Alternative spellings -> package cycle name. Keys are normalised with :func:`_norm`.
@@ -248,6 +250,22 @@ def _validate(t: np.ndarray, v: np.ndarray, label: str,
                           f"(previous {t[i - 1]:g} s): cycle time must be strictly increasing")
 
 
+def _plausible_speed(t: np.ndarray | None, v: np.ndarray, label: str,
+                     lines: np.ndarray | None = None) -> None:
+    """Refuse a drive-schedule speed above the registry's plausible range of
+    ``veh_spd_target`` (a file's speed unit mistaken, a steady speed typed in the wrong unit);
+    a measured trace driven as a cycle is not held to it (QA flags its range)."""
+    top = registry()["veh_spd_target"].range[1]
+    fast = np.flatnonzero(v > top)
+    if fast.size:
+        i = fast[0]
+        at = (f" at t = {t[i]:g} s" if t is not None else "") + (
+            f" (line {int(lines[i])})" if lines is not None else "")
+        raise VehvalError(f"{label}: speed {v[i]:.4g} m/s ({v[i] / KMH_M_PER_S:.4g} km/h){at} "
+                          f"is above the plausible {top:g} m/s of a drive-schedule speed: "
+                          "check the speed and its unit")
+
+
 # ---------------------------------------------------------------------- file parsing
 def _column_unit(header: str) -> tuple[str, str | None]:
     """Name and unit of a header: ``Speed[mph]``, ``Speed (kph)``, ``speed_mps``, ``time_s``."""
@@ -294,6 +312,15 @@ def _parse_csv(text: str, label: str) -> tuple[dict[str, str], np.ndarray, np.nd
     except UnitError as exc:
         raise InputFileError(f"{label}: line {header_line}: {exc}") from None
     body = lines[header_idx + 1:]
+    data = [(k, raw) for k, raw in enumerate(body, header_idx + 2)
+            if raw.strip() and not raw.lstrip().startswith("#")]
+    if not data:
+        raise InputFileError(f"{label}: no data rows after the header on line {header_line}")
+    ragged = next((k for k, raw in data if raw.count(delim) != len(header) - 1), None)
+    if ragged is not None:
+        n = body[ragged - header_idx - 2].count(delim) + 1
+        raise InputFileError(f"{label}: line {ragged}: {n} fields, the header has "
+                             f"{len(header)}: fix or remove the line")
     try:
         arr = np.loadtxt(body, delimiter=delim, comments="#", usecols=(it, iv), ndmin=2,
                          dtype=float)
@@ -315,6 +342,9 @@ def _parse_csv(text: str, label: str) -> tuple[dict[str, str], np.ndarray, np.nd
             linenos = _data_line_numbers(body, header_idx + 2)
         raise InputFileError(f"{label}: line {int(linenos[neg[0]])}: negative speed "
                              f"{arr[neg[0], 1]:g}: a cycle speed must be >= 0")
+    if np.any(v > registry()["veh_spd_target"].range[1]):
+        _plausible_speed(t, v, label, _data_line_numbers(body, header_idx + 2)
+                         if linenos is None else linenos)
     return meta, t, v
 
 
@@ -492,6 +522,9 @@ def load_cycle(name_or_path: str | Path | Cycle) -> Cycle:
     looks_like_path = (isinstance(name_or_path, Path) or path.suffix.lower() in
                        (".csv", ".txt", ".tsv", ".dat") or "/" in text or "\\" in text)
     if looks_like_path:
+        if path.is_dir():
+            raise InputFileError(f"cycle file {path}: is a directory: give a CSV file of time "
+                                 "and speed (e.g. 'time_s,speed_mps') or a cycle name")
         if not path.is_file():
             raise InputFileError(f"cycle file {path} not found; known cycle names: "
                                  f"{', '.join(list_cycles())}")
@@ -539,6 +572,7 @@ def steady_cycle(speed_mps: float, duration_s: float, ramp_mps2: float = 1.0) ->
         raise VehvalError(f"steady cycle: hold duration must be >= 0 s, got {duration_s!r}")
     if not (ramp_mps2 > 0 and math.isfinite(ramp_mps2)):
         raise VehvalError(f"steady cycle: ramp must be > 0 m/s^2, got {ramp_mps2!r}")
+    _plausible_speed(None, np.array([float(speed_mps)]), "steady cycle")
     t_ramp = speed_mps / ramp_mps2
     if duration_s + 2 * t_ramp > MAX_CYCLE_S:
         raise VehvalError(f"steady cycle: {duration_s + 2 * t_ramp:.4g} s long; a drive cycle "

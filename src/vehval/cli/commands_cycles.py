@@ -48,10 +48,23 @@ def show_cmd(name: str = typer.Argument(..., help="Cycle name, alias, 'steady:60
     if as_json:
         typer.echo(json.dumps(info, indent=1))
         return
-    labels = {"duration_s": "duration [s]", "distance_km": "distance [km]",
-              "max_speed_kph": "max speed [km/h]", "mean_speed_kph": "mean speed [km/h]",
-              "dt_s": "time step [s]", "idle_fraction": "idle fraction [-]"}
+    from vehval.constants import KMH_M_PER_S
+    from vehval.display import unit_for
+
+    dist, spd = unit_for("m"), unit_for("m/s")
+    shown = {"distance_km": (f"distance [{dist.label}]",
+                             lambda v: f"{dist.convert(1000 * v):.3f}"),
+             "max_speed_kph": (f"max speed [{spd.label}]",
+                               lambda v: f"{spd.convert(v * KMH_M_PER_S):.1f}"),
+             "mean_speed_kph": (f"mean speed [{spd.label}]",
+                                lambda v: f"{spd.convert(v * KMH_M_PER_S):.1f}")}
+    labels = {"duration_s": "duration [s]", "dt_s": "time step [s]",
+              "idle_fraction": "idle fraction [-]"}
     for key, value in info.items():
         if value == "":
             continue
-        typer.echo(f"{labels.get(key, key) + ':':20s} {value}")
+        if key in shown and isinstance(value, (int, float)):
+            label, fmt = shown[key]
+            typer.echo(f"{label + ':':20s} {fmt(value)}")
+        else:
+            typer.echo(f"{labels.get(key, key) + ':':20s} {value}")
