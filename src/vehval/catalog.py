@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import Any, Iterable, Iterator
 
 from vehval.catalog_schema import (  # noqa: F401 - re-exported: vehval.catalog's API
+    CATALOG_FILE,
     DDL,
     EN_COLUMNS,
     EN_FLAGS,
@@ -54,6 +55,12 @@ from vehval.jsonsafe import clean
 #: Metrics summarised by :func:`summary` (variability per vehicle, cycle and conditions).
 SUMMARY_METRICS = ("headline_mpg", "headline_mpge", "fuel_economy_mpg", "fuel_mass_kg", "soc_change",
                    "fuel_energy_j", "ess_energy_j", "eng_energy_j", "tractive_energy_j")
+#: The same figures as a metric reader reads them: each test's own L/100 km (kWh/100 km)
+#: summarised, not the mean mpg converted (a mean of mpg is not a mean of L/100 km).
+SUMMARY_METRICS_METRIC = tuple({"headline_mpg": "headline_l_per_100km",
+                                "headline_mpge": "headline_kwh_per_100km",
+                                "fuel_economy_mpg": "fuel_consumption_l_per_100km"}.get(m, m)
+                               for m in SUMMARY_METRICS)
 
 #: Defaults of ``vehval catalog query``: rows printed and wall-clock time [s].
 DEFAULT_LIMIT = 10_000
@@ -101,9 +108,18 @@ class Catalog:
         duckdb = _duckdb()
         self.path = Path(path)
         self.timeout_s = timeout_s
+        if read_only and self.path.is_dir():
+            if not (self.path / CATALOG_FILE).is_file():
+                raise InputFileError(f"catalog {self.path}: is a directory without "
+                                     f"{CATALOG_FILE}: pass the output directory of `vehval "
+                                     f"batch` or DIR/{CATALOG_FILE}")
+            self.path = self.path / CATALOG_FILE  # a batch's output directory: its catalog
         if read_only and not self.path.is_file():
             raise InputFileError(f"catalog {self.path} does not exist: run `vehval batch ... -o DIR` "
                                  "first or pass --db DIR/catalog.duckdb")
+        if read_only and self.path.stat().st_size == 0:
+            raise InputFileError(f"catalog {self.path}: is an empty file, not a DuckDB catalog: "
+                                 "pass the catalog.duckdb a `vehval batch` wrote")
         if not read_only:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         try:

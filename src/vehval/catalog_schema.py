@@ -23,6 +23,8 @@ from vehval.constants import MILE_M
 from vehval.errors import ConfigError
 
 SCHEMA_VERSION = 5
+#: The catalog's file name in a batch's output directory.
+CATALOG_FILE = "catalog.duckdb"
 
 #: Key metrics stored as DOUBLE columns of ``tests`` (name -> description [unit]).
 METRIC_COLUMNS: dict[str, str] = {

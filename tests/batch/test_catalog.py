@@ -144,3 +144,48 @@ def test_summary_and_batch_index_speak_display_units(tmp_path, capsys, monkeypat
         html = render_index_page(run, tests, var, [], [])
         assert dist in html and mass in html and shown in html
         assert "e+07" not in html and ">MJ<" in html and ">54<" in html
+
+
+def test_summary_in_metric_units_summarises_each_tests_l_per_100km(tmp_path, capsys,
+                                                                   monkeypatch):
+    """`--units metric catalog summary` reads L/100 km: the mean of the tests' own L/100 km
+    (not the mean mpg converted); the JSON keeps the documented mpg metrics."""
+    import json
+
+    from vehval.cli import main
+
+    db = tmp_path / "c.duckdb"
+    with open_catalog(db) as cat:
+        cat.start_run("r1", {})
+        for tid, mpg in (("a", 40.0), ("b", 60.0)):
+            r = _res(tid, "r1", mpg, -0.02)
+            r["metrics"]["fuel_consumption_l_per_100km"] = 235.2146 / mpg
+            cat.add_result("r1", r)
+        cat.finish_run("r1")
+    monkeypatch.setenv("COLUMNS", "200")
+    assert main(["--units", "metric", "catalog", "summary", "--db", str(db)]) == 0
+    out = capsys.readouterr().out
+    line = next(ln for ln in out.splitlines() if "fuel_consumption" in ln).split()
+    mean = (235.2146 / 40 + 235.2146 / 60) / 2  # 4.9003, not 235.2146 / 50 = 4.7043
+    at = line.index("fuel_consumption")
+    assert line[at + 1:at + 3] == ["L/100", "km"] and f"{mean:.5g}" in line
+    assert "fuel_economy_mpg" not in out
+    assert main(["--units", "metric", "catalog", "summary", "--db", str(db), "--json"]) == 0
+    metrics = {r["metric"] for r in json.loads(capsys.readouterr().out)}
+    assert "fuel_economy_mpg" in metrics and "fuel_consumption_l_per_100km" not in metrics
+
+
+def test_catalog_db_option_takes_a_batch_folder_and_names_an_empty_file(tmp_path):
+    out = tmp_path / "batch_out"
+    with open_catalog(out / "catalog.duckdb") as cat:
+        cat.start_run("r1", {})
+        cat.add_result("r1", _res("a", "r1", 50.0, -0.01))
+        cat.finish_run("r1")
+    with open_catalog(out, read_only=True) as cat:  # the batch's output folder
+        assert cat.path == out / "catalog.duckdb" and len(cat.summary()) > 0
+    (tmp_path / "plain").mkdir()
+    with pytest.raises(InputFileError, match="plain: is a directory without catalog.duckdb"):
+        open_catalog(tmp_path / "plain", read_only=True)
+    (tmp_path / "empty.csv").write_bytes(b"")
+    with pytest.raises(InputFileError, match="empty.csv: is an empty file, not a DuckDB"):
+        open_catalog(tmp_path / "empty.csv", read_only=True)

@@ -706,3 +706,24 @@ def test_every_judged_row_has_its_normalised_error(mixed_list, tmp_path):
     assert set(ver) == {"ftp75", "hwfet"} and all(v["n"] == 2 for v in ver.values())
     share = np.mean([abs(r["en"]) <= 1 for r in judged_rows if r["procedure"] == "hwfet"])
     assert ver["hwfet"]["share_consistent"] == pytest.approx(share)
+
+
+def test_cli_whatif_speaks_the_display_units_and_names_bad_choices(mixed_list, capsys):
+    args = ["epa", "whatif", str(mixed_list), "--vehicle-id", "A1", "--weight", "-200lb"]
+    assert main([*args, "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert main(args) == 0
+    us = capsys.readouterr().out
+    assert main(["--units", "metric", *args]) == 0
+    metric = capsys.readouterr().out
+    r = res["rows"][0]
+    assert f"listed {r['measured_mpg']:.1f} mpg" in us and "L/100 km" not in us
+    litres = 235.2146 / r["measured_mpg"]  # L/100 km of an mpg figure, by hand
+    assert f"listed {litres:.2f} L/100 km" in metric and " mpg" not in metric
+    lo, hi = (235.2146 / v for v in reversed(r["interval_mpg"]))
+    assert f"[{lo:.2f}, {hi:.2f}]" in metric
+    assert main([*args, "--procedure", "udds"]) == 2
+    assert "--procedure udds: unknown procedure; give one of ftp75, hwfet, us06" in \
+        capsys.readouterr().err
+    assert main([*args, "--config", "99"]) == 2
+    assert "--config 99: no row of the lists; its configurations:" in capsys.readouterr().err

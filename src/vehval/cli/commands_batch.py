@@ -151,8 +151,13 @@ def catalog_summary(
 
     if not (0 < timeout < float("inf")):
         raise VehvalError(f"--timeout {timeout}: give a positive number of seconds")
+    from vehval.catalog import SUMMARY_METRICS, SUMMARY_METRICS_METRIC
+    from vehval.display import system
+
+    # the JSON keeps the documented metrics; the table reads in the display units
+    shown = SUMMARY_METRICS_METRIC if system() == "metric" and not as_json else SUMMARY_METRICS
     with open_catalog(_db(db), read_only=True, timeout_s=timeout) as cat:
-        rows = cat.summary()
+        rows = cat.summary(shown)
         from vehval.batch.verdicts import stored_set_verdicts
 
         verdicts = stored_set_verdicts(cat)
@@ -167,6 +172,8 @@ def catalog_summary(
     for r in rows:
         # the catalog is SI (fuel_energy_j 5.4e+07): shown in display units (53.9 MJ)
         name, unit = keyed_metric(r["metric"], magnitude=r["mean"])
+        if unit is not None and unit.label in ("L/100 km", "kWh/100 km"):
+            name = name.removesuffix("_l_per_100km").removesuffix("_kwh_per_100km")
         f, off = (unit.factor, unit.offset) if unit is not None else (1.0, 0.0)
         table.append([r["vehicle"], r["cycle"], r["start"], r["temperature_band"], r["ac"],
                       name, unit.label if unit is not None else "", str(r["n"]),

@@ -171,8 +171,13 @@ def whatif_cmd(
     ch = ", ".join(f"{k} {v}" for k, v in res["changes"].items() if v and k in
                    ("weight", "road_load", "axle"))
     typer.echo(f"{res['car']} ({res['vehicle_id']}): {ch}")
+    from vehval.cli.epa_common import _fe_display
+
+    unit, shown, fmt = _fe_display()
     for r in res["rows"]:
-        lo, hi = r["interval_mpg"]
-        typer.echo(f"  {r['row_id']} {r['procedure']}: listed {r['measured_mpg']:.1f} mpg -> "
-                   f"{r['answer_mpg']:.1f} mpg [{lo:.1f}, {hi:.1f}] (model {r['model_mpg']:.1f} "
-                   f"-> {r['model_changed_mpg']:.1f}, {100 * r['change']:+.1f} %)")
+        # an interval in L/100 km runs the other way round
+        lo, hi = sorted(shown(v) for v in r["interval_mpg"])
+        model, changed = shown(r["model_mpg"]), shown(r["model_changed_mpg"])
+        typer.echo(f"  {r['row_id']} {r['procedure']}: listed {shown(r['measured_mpg']):{fmt}} "
+                   f"{unit} -> {shown(r['answer_mpg']):{fmt}} {unit} [{lo:{fmt}}, {hi:{fmt}}] "
+                   f"(model {model:{fmt}} -> {changed:{fmt}}, {100 * (changed / model - 1):+.1f} %)")

@@ -23,7 +23,7 @@ from typing import Any, Sequence
 
 from vehval.constants import LB_KG
 from vehval.epa.fleet import FLEET_DT_S, CarJob, plan_fleet
-from vehval.epa.procedures import plan_for
+from vehval.epa.procedures import RUNNABLE, plan_for
 from vehval.epa.reader import EpaTest
 from vehval.errors import ConfigError, InputFileError
 
@@ -59,6 +59,12 @@ def _apply(value: float, change: tuple[str, float, str] | None, si: float = 1.0)
 def _car(tests: list[EpaTest], vehicle_id: str, config: str | None) -> CarJob:
     rows = [t for t in tests if t.vehicle_id.upper() == vehicle_id.strip().upper()
             and (config is None or t.config == config.strip())]
+    if not rows and config is not None:
+        have = sorted({t.config for t in tests
+                       if t.vehicle_id.upper() == vehicle_id.strip().upper()})
+        if have:
+            raise InputFileError(f"--vehicle-id {vehicle_id} --config {config}: no row of the "
+                                 f"lists; its configurations: {', '.join(have)}")
     if not rows:
         import difflib
 
@@ -114,6 +120,9 @@ def whatif(tests: list[EpaTest], vehicle_id: str, *, config: str | None = None,
 
     if not (weight or road_load or axle):
         raise ConfigError("what-if: give at least one of --weight, --road-load, --axle")
+    if procedure is not None and procedure not in RUNNABLE:
+        raise ConfigError(f"--procedure {procedure}: unknown procedure; give one of "
+                          f"{', '.join(RUNNABLE)}")
     cw = parse_change(weight, "--weight", ("lb", "kg", "%")) if weight else None
     cr = parse_change(road_load, "--road-load", ("%",)) if road_load else None
     ca = parse_change(axle, "--axle", ("", "%")) if axle else None
