@@ -196,6 +196,11 @@ def test_file_with_none_of_the_template_channels_is_an_error(tmp_path):
                    "    channels:\n      Dyno_Speed: {name: veh_spd_test, unit: mph}\n")
     with pytest.raises(InputFileError, match="none of the 1 channels.*wrong template"):
         import_test([f], tpl)
+    # `template check` says the same, as an error (it passed with two warnings)
+    from vehval.io.propose import check_template
+
+    rep = check_template(tpl, [f])
+    assert not rep.ok and any("none of the 1 channels" in e for e in rep.errors)
 
 
 def test_template_unit_note_only_when_the_units_differ(tmp_path):

@@ -18,7 +18,7 @@ import numpy as np
 from vehval.errors import ConfigError, InputFileError, UnitError
 from vehval.fuels import resolve_fuel
 from vehval.io.paths import check_input_file
-from vehval.io.propose import _did_you_mean, entry_for_file, find_channel
+from vehval.io.propose import _did_you_mean, entry_for_file, find_channel, no_channel_found
 from vehval.io.raw import RawTable
 from vehval.io.readers import read_raw
 from vehval.io.template import FileSpec, Template, as_template
@@ -297,11 +297,7 @@ def _import_file(raw: RawTable, spec: FileSpec, idx: int, t: Template, test: Tes
         if sig_notes:
             notes.extend(f"{ch.name}: {n}" for n in sig_notes)
     if spec.channels and not mapped:
-        raise InputFileError(
-            f"{path}: none of the {len(spec.channels)} channels of template entry files[{idx}] "
-            f"is in this file (it has: {', '.join(raw.names[:8])}"
-            f"{'...' if len(raw.names) > 8 else ''}): wrong template or wrong file? "
-            "Run `vehval template check` or `vehval template init` on it")
+        raise InputFileError(no_channel_found(path, len(spec.channels), idx, raw.names))
     extra = [n for n in raw.names if n not in mapped and n != time_col]
     if missing:
         notes.append(f"warning: {path.name}: template channel(s) not in the file: "

@@ -467,6 +467,8 @@ def check_template(template: Template | str | Path, files: Sequence[str | Path])
             if ch.unit is not None and hdr is not None and not _same_unit(ch.unit, hdr):
                 rep.warnings.append(f"{path.name}: channel '{key}': template unit '{ch.unit}' differs "
                                     f"from the header unit '{hdr}' (the template wins)")
+        if spec.channels and not mapped:
+            rep.errors.append(no_channel_found(path, len(spec.channels), idx, raw.names))
         extra = [n for n in raw.names if n not in mapped and n != raw.time_name and n != tcol]
         for key in missing:                 # a typo names the channel it probably meant
             hint = _did_you_mean(key, extra)[len(key):]
@@ -475,6 +477,15 @@ def check_template(template: Template | str | Path, files: Sequence[str | Path])
             rep.warnings.append(f"{path.name}: channels not in the template (ignored at import): "
                                 + ", ".join(extra))
     return rep
+
+
+def no_channel_found(path: str | Path, n_channels: int, idx: int, names: Sequence[str]) -> str:
+    """The problem of a file none of whose columns the template entry ``files[idx]`` maps
+    (import refuses it; ``template check`` states it as an error)."""
+    return (f"{path}: none of the {n_channels} channels of template entry files[{idx}] "
+            f"is in this file (it has: {', '.join(names[:8])}"
+            f"{'...' if len(names) > 8 else ''}): wrong template or wrong file? "
+            "Run `vehval template check` or `vehval template init` on it")
 
 
 def _did_you_mean(key: str, unmapped: list[str]) -> str:
