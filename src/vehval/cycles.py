@@ -36,7 +36,6 @@ import numpy as np
 from vehval.constants import KMH_M_PER_S
 from vehval.errors import InputFileError, UnitError, VehvalError
 from vehval.integrals import integral
-from vehval.nomenclature import registry
 from vehval.units import conversion, split_header
 
 #: Alternative spellings -> package cycle name. Keys are normalised with :func:`_norm`.
@@ -250,12 +249,20 @@ def _validate(t: np.ndarray, v: np.ndarray, label: str,
                           f"(previous {t[i - 1]:g} s): cycle time must be strictly increasing")
 
 
+def _schedule_top_speed() -> float:
+    """The registry's plausible top of ``veh_spd_target`` [m/s] (read when a cycle is made
+    from a file or a steady spec: listing the shipped cycles needs numpy only)."""
+    from vehval.nomenclature import registry
+
+    return registry()["veh_spd_target"].range[1]
+
+
 def _plausible_speed(t: np.ndarray | None, v: np.ndarray, label: str,
                      lines: np.ndarray | None = None) -> None:
     """Refuse a drive-schedule speed above the registry's plausible range of
     ``veh_spd_target`` (a file's speed unit mistaken, a steady speed typed in the wrong unit);
     a measured trace driven as a cycle is not held to it (QA flags its range)."""
-    top = registry()["veh_spd_target"].range[1]
+    top = _schedule_top_speed()
     fast = np.flatnonzero(v > top)
     if fast.size:
         i = fast[0]
@@ -277,7 +284,8 @@ def _column_unit(header: str) -> tuple[str, str | None]:
     return name.strip(), unit
 
 
-def _parse_csv(text: str, label: str) -> tuple[dict[str, str], np.ndarray, np.ndarray]:
+def _parse_csv(text: str, label: str, *, user_file: bool = True
+               ) -> tuple[dict[str, str], np.ndarray, np.ndarray]:
     """Parse a cycle text file -> (metadata, time [s], speed [m/s]).
 
     Comment lines ``# key: value`` before the header are metadata; the first other line is
@@ -342,7 +350,7 @@ def _parse_csv(text: str, label: str) -> tuple[dict[str, str], np.ndarray, np.nd
             linenos = _data_line_numbers(body, header_idx + 2)
         raise InputFileError(f"{label}: line {int(linenos[neg[0]])}: negative speed "
                              f"{arr[neg[0], 1]:g}: a cycle speed must be >= 0")
-    if np.any(v > registry()["veh_spd_target"].range[1]):
+    if user_file and np.any(v > _schedule_top_speed()):  # a shipped schedule is known
         _plausible_speed(t, v, label, _data_line_numbers(body, header_idx + 2)
                          if linenos is None else linenos)
     return meta, t, v
@@ -418,7 +426,8 @@ def _package_names() -> tuple[str, ...]:
 @lru_cache(maxsize=64)
 def _load_package(name: str) -> Cycle:
     res = _data_dir() / f"{name}.csv"
-    meta, t, v = _parse_csv(res.read_text(encoding="utf-8"), f"package cycle {name}.csv")
+    meta, t, v = _parse_csv(res.read_text(encoding="utf-8"), f"package cycle {name}.csv",
+                            user_file=False)
     return Cycle(meta.get("name", name), t, v, regulation=meta.get("regulation", ""),
                  description=meta.get("description", ""), source=meta.get("source", ""))
 
