@@ -34,3 +34,6 @@ BRAKE_EFFICIENCY_RANGE = (0.20, 0.45)
 #: Environment variable holding the display unit system chosen with ``--units``
 #: (read by :mod:`vehval.display`; the CLI sets it for one run).
 UNITS_ENV_VAR = "VEHVAL_UNITS"
+#: Fewest Monte Carlo draws of any draw vehval makes (0 switches the draws off): fewer give a
+#: standard deviation uncertain by more than 7 % of itself (1/sqrt(2(n-1))).
+MIN_MC_DRAWS = 100

@@ -120,7 +120,7 @@ def test_monte_carlo_of_too_few_draws_refused(tmp_path, capsys, predicted):
                "model=PRIUS", "--dt", "1", "--model-uncertainty", "monte-carlo",
                "--draws", "20"])
     err = capsys.readouterr().err
-    assert rc == 2 and "20 draws is refused: at least 100" in err
+    assert rc == 2 and "--draws 20: must be 0 or within [100, 10000] draws" in err
 
 
 def test_source_rule():

@@ -50,7 +50,7 @@ def test_configuration_pairs_elasticity():
             {"procedure": "sc03", "label": "b", **light, "measured_mpg": 1.0,
              "predicted_mpg": 1.0}]
     (p,) = configuration_pairs(rows)
-    assert p["procedure"] == "hwfet" and p["reference"].startswith("a (3375 lb")
+    assert p["procedure"] == "hwfet" and p["reference"] == "a (1531 kg, A 138.5 N)"
     assert p["tractive_change_pct"] == pytest.approx(100 * (e_l / e_h - 1), rel=1e-12)
     assert p["measured_elasticity"] == pytest.approx(1.0, rel=1e-12)
     assert p["predicted_elasticity"] == pytest.approx(0.0, abs=1e-12)

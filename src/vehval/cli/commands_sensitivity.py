@@ -42,7 +42,6 @@ def sensitivity_cmd(
                                               "(repeatable), e.g. 'model=PRIUS Eco,year=2016'."),
 ) -> None:
     """Rank the vehicle's uncertain parameters by their effect on fuel economy (tornado)."""
-    from vehval.errors import ConfigError
     from vehval.jsonsafe import clean
     from vehval.sim.sensitivity import sensitivity
 
@@ -51,15 +50,12 @@ def sensitivity_cmd(
 
         check_outputs(outdir=outdir, inputs=[vehicle_path(vehicle), *(epa or [])],
                       writes=["sensitivity.json", "sensitivity.html", "road_load.json"])
-    names = [c.strip() for c in cycles.split(",") if c.strip()]
-    if not names:
-        raise ConfigError("--cycles: give at least one cycle name, e.g. udds,hwfet")
+    names = _names(cycles, "--cycles", "cycle name, e.g. udds,hwfet")
     if road_load or epa or tests:
         _road_load(vehicle, names, dt, epa, tests, as_json, outdir)
         return
-    if monte_carlo < 0:
-        raise ConfigError(f"--monte-carlo must be >= 0, got {monte_carlo}")
-    plist = [p.strip() for p in params.split(",") if p.strip()] if params else None
+    plist = None if params is None else _names(params, "--params", "parameter, e.g. "
+                                               "body.aux_power_w (leave --params out for all)")
     from vehval.cli.progress import bar
     with bar("sensitivity: simulating", as_json=as_json):
         res = clean(sensitivity(vehicle, names, plist, dt=dt, monte_carlo=monte_carlo, seed=seed))
@@ -76,18 +72,41 @@ def sensitivity_cmd(
     if as_json:
         typer.echo(json.dumps(res))
         return
-    base = ", ".join(f"{c} {b['mpg']:.1f}" for c, b in res["base"].items())
-    typer.echo(f"{res['vehicle']}: base {base} mpg (dt = {res['dt_s']:g} s)")
-    typer.echo(f"  {'parameter':44s} {'swing %':>8s}  low/high % per cycle")
+    from vehval.cli.epa_common import _fe_display
+
+    unit, fe, fmt = _fe_display()
+    shown = {c: fe(b["mpg"]) for c, b in res["base"].items()}
+    base = ", ".join(f"{c} {_num(v, fmt)}" for c, v in shown.items())
+    typer.echo(f"{res['vehicle']}: base {base} {unit} (dt = {res['dt_s']:g} s)")
+    typer.echo(f"  {'parameter':44s} {'swing %':>8s}  low/high % per cycle (fuel economy "
+               "change)")
     for r in res["parameters"]:
-        per = "  ".join(f"{r['cycles'][c]['low_pct']:+.1f}/{r['cycles'][c]['high_pct']:+.1f}"
-                        for c in names)
-        typer.echo(f"  {r['key']:44s} {r['swing_pct']:8.2f}  {per}")
+        per = "  ".join(f"{_num(r['cycles'][c]['low_pct'], '+.1f')}/"
+                        f"{_num(r['cycles'][c]['high_pct'], '+.1f')}" for c in res["cycles"])
+        typer.echo(f"  {r['key']:44s} {_num(r['swing_pct'], '8.2f')}  {per}")
     for c, m in res.get("monte_carlo", {}).items():
-        typer.echo(f"  Monte Carlo {c}: {m['p5']:.1f} / {m['p50']:.1f} / {m['p95']:.1f} mpg "
+        ps = [fe(m[k]) for k in ("p5", "p50", "p95")]
+        if ps[0] is not None and ps[2] is not None and ps[0] > ps[2]:
+            ps = ps[::-1]  # a consumption falls as the economy rises: its 5 % is the mpg's 95 %
+        typer.echo(f"  Monte Carlo {c}: {' / '.join(_num(v, fmt) for v in ps)} {unit} "
                    f"(5/50/95 %, n = {m['n']})")
     if outdir is not None:
         typer.echo(f"  wrote {outdir / 'sensitivity.json'} and {outdir / 'sensitivity.html'}")
+
+
+def _names(text: str, option: str, example: str) -> list[str]:
+    """The comma-separated names of ``option`` (stripped); ConfigError when there is none."""
+    from vehval.errors import ConfigError
+
+    names = [c.strip() for c in text.split(",") if c.strip()]
+    if not names:
+        raise ConfigError(f"{option}: give at least one {example}")
+    return names
+
+
+def _num(value: float | None, fmt: str) -> str:
+    """``value`` in ``fmt``, ``n/a`` for a missing figure (an end that is no valid vehicle)."""
+    return "n/a" if value is None else format(value, fmt)
 
 
 def _road_load(vehicle: str, cycles: list[str], dt: float, epa: Optional[list[Path]],
@@ -133,19 +152,34 @@ def _road_load(vehicle: str, cycles: list[str], dt: float, epa: Optional[list[Pa
     if as_json:
         typer.echo(json.dumps(res))
         return
-    d = res["derivatives"]
-    typer.echo(f"{res['vehicle']}: d ln mpg / d ln x (dt = {d['dt_s']:g} s, "
-               f"+-{100 * d['rel_step']:g} %)")
-    typer.echo(f"  {'cycle':10s} {'mpg':>6s} {'weight':>7s} {'A':>7s} {'B':>7s} {'C':>7s} "
-               f"{'all':>7s} {'%/100 lb':>9s}")
-    for cyc, r in d["cycles"].items():
-        e = r["elasticity"]
-        typer.echo(f"  {cyc:10s} {r['mpg']:6.1f} " + " ".join(
-            f"{e[k]:+7.3f}" for k in (*e,)) + f" {r['per_100_lb_pct']:+9.2f}")
-    for p in res.get("pairs", []):
-        typer.echo(f"  {p['procedure']:6s} {p['config']} vs {p['reference']}: tractive energy "
-                   f"{p['tractive_change_pct']:+.1f} %, mpg list {p['measured_change_pct']:+.1f} "
-                   f"% / model {p['predicted_change_pct']:+.1f} % (elasticity list "
-                   f"{p['measured_elasticity']:.2f}, model {p['predicted_elasticity']:.2f})")
+    _road_load_text(res)
     if outdir is not None:
         typer.echo(f"  wrote {outdir / 'road_load.json'}")
+
+
+def _road_load_text(res: dict) -> None:
+    """The ``--road-load`` table and pairs in the display units (``--units``)."""
+    from vehval.cli.epa_common import _fe_display
+    from vehval.display import format_value, unit_for
+
+    unit, fe, fmt = _fe_display()
+    weight = unit_for("kg").label  # lb or kg: the step of test weight the table states
+    d = res["derivatives"]
+    typer.echo(f"{res['vehicle']}: d ln fuel economy / d ln x (dt = {d['dt_s']:g} s, "
+               f"+-{100 * d['rel_step']:g} %)")
+    typer.echo(f"  {'cycle':10s} {unit:>8s} {'weight':>7s} {'A':>7s} {'B':>7s} {'C':>7s} "
+               f"{'all':>7s} {'%/100 ' + weight:>9s}")
+    for cyc, r in d["cycles"].items():
+        e = r["elasticity"]
+        typer.echo(f"  {cyc:10s} {_num(fe(r['mpg']), '8' + fmt)} " + " ".join(
+            _num(e[k], '+7.3f') for k in (*e,)) + f" {_num(r[f'per_100_{weight}_pct'], '+9.2f')}")
+
+    def name(p: dict, side: str) -> str:
+        return (f"{p[side + '_selection']} ({format_value(p[side + '_mass_kg'], 'kg')}, "
+                f"A {format_value(p[side + '_road_load_a_n'], 'N')})")
+    for p in res.get("pairs", []):
+        typer.echo(f"  {p['procedure']:6s} {name(p, 'config')} vs {name(p, 'reference')}: "
+                   f"tractive energy {p['tractive_change_pct']:+.1f} %, fuel economy list "
+                   f"{p['measured_change_pct']:+.1f} % / model {p['predicted_change_pct']:+.1f} "
+                   f"% (elasticity list {p['measured_elasticity']:.2f}, model "
+                   f"{p['predicted_elasticity']:.2f})")

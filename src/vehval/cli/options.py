@@ -23,6 +23,7 @@ from typing import Any, Callable
 
 import typer
 
+from vehval.constants import MIN_MC_DRAWS
 from vehval.errors import ConfigError
 
 
@@ -39,19 +40,24 @@ class Bound:
 
 
 SEED_MAX = 2**32 - 1
+#: Fewest Monte Carlo draws of any command that draws (0 switches the draws off).
+MC_MIN_DRAWS = MIN_MC_DRAWS
+_MC_FEW = (f"fewer than {MC_MIN_DRAWS} draws give a standard deviation uncertain by more than 7 % of "
+           "itself (1/sqrt(2(n-1)))")
 
 BOUNDS: dict[str, Bound] = {
     "dt": Bound(1e-3, 1.0, "s", "0.2 s is already within 0.3 % of 0.1 s on US06: a step "
                 "below 1 ms changes no result and only costs time and memory; one above 1 s "
                 "misses the cycle's accelerations"),
     "soc": Bound(0.0, 1.0, "-", "a state of charge is a fraction"),
-    "mc_results": Bound(100, 10_000_000, "draws", "0 is first-order propagation; fewer "
-                        "than 100 draws give a standard deviation uncertain by more than 7 % "
-                        "of itself (1/sqrt(2(n-1))); GUM Supplement 1 asks for about 10^6 "
+    "mc_results": Bound(MC_MIN_DRAWS, 10_000_000, "draws", "0 is first-order propagation; "
+                        f"{_MC_FEW}; GUM Supplement 1 asks for about 10^6 "
                         "draws for a 95 % interval good to two digits; more adds time and "
                         "memory, not accuracy", off=0),
-    "mc_sensitivity": Bound(0, 10_000, "draws", "every draw is one simulation per cycle "
-                            "and 10^4 draws of five cycles take hours"),
+    "mc_sensitivity": Bound(MC_MIN_DRAWS, 10_000, "draws", f"0 is none; {_MC_FEW} (and "
+                            "5/95 % percentiles of a few draws are single draws); every "
+                            "draw is one simulation per cycle and 10^4 draws of five cycles "
+                            "take hours", off=0),
     "seed": Bound(0, SEED_MAX, "-", "numpy and scipy generators take seeds in [0, 2^32 - 1]"),
     "workers": Bound(0, 64, "processes", "each worker process holds its own copy of the "
                      "model and a test, a few hundred MB; more than 64 only exhausts memory"),

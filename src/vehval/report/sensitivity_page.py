@@ -30,9 +30,13 @@ def render_sensitivity_page(result: dict, plotly_src: str) -> str:
 
     cycles = result["cycles"]
     base = ", ".join(f"{c} {b['mpg']:.1f}" for c, b in result["base"].items())
+    from vehval.sim.sensitivity import MPG
+
+    hybrid = result.get("figure", MPG) == MPG
+    what = ("SOC-corrected fuel economy from the initial SOC of the charge-balanced base run"
+            if hybrid else "Fuel economy (a car without a traction battery: no SOC correction)")
     blocks = [h1(f"Sensitivity of fuel economy: {result['vehicle']}"),
-              para(f"SOC-corrected fuel economy from the initial SOC of the charge-balanced base "
-                   f"run, dt = {result['dt_s']:g} s. Base: {base} mpg.")]
+              para(f"{what}, dt = {result['dt_s']:g} s. Base: {base} mpg.")]
     if "monte_carlo" in result:
         blocks += [h2("Monte Carlo (all parameters at once)"),
                    bullets([f"{c}: {m['p5']:.1f} / {m['p50']:.1f} / {m['p95']:.1f} mpg "

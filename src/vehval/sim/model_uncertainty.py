@@ -37,6 +37,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from vehval.constants import MIN_MC_DRAWS
 from vehval.cycles import Cycle
 from vehval.errors import ConfigError
 from vehval.sim.batch import simulate_batch
@@ -46,8 +47,8 @@ from vehval.vehicle import Vehicle, load_vehicle
 
 #: Coverage factor of U.
 K = 2.0
-#: Fewest Monte Carlo draws accepted.
-MIN_DRAWS = 100
+#: Fewest Monte Carlo draws accepted (the one floor of every draw).
+MIN_DRAWS = MIN_MC_DRAWS
 METHODS = ("linear", "monte_carlo")
 
 
@@ -106,25 +107,18 @@ def standard_uncertainty(u: Uncertain, half_swing: float) -> float:
 
 def _figures(veh: Vehicle, cyc: Any, variants: list[dict], dt: float, soc0: float,
              workers: int) -> list[float]:
-    """Fuel economy [mpg] of each variant: SOC-corrected from ``soc0`` (one parallel compiled
-    call for scalar variants), or, for a car without a battery (``soc0`` NaN), run one by one
-    (nan where a variant is not a valid vehicle)."""
-    if math.isfinite(soc0):
-        if not any(isinstance(x, list) for var in variants for x in var.values()):
-            try:   # one validation per variant; the filtering path below validates twice
-                return [float(r[MPG]) for r in simulate_batch(
-                    veh, cyc, variants, dt=dt, workers=workers, soc_initial=soc0)]
-            except ConfigError:
-                pass   # a variant that is not a valid vehicle: run them apart (nan for it)
-        return _run_variants(veh, cyc, variants, dt, soc0, workers)
-    out = []
-    for var in variants:
-        try:
-            out.append(float(simulate(veh.with_overrides(var), cyc, dt=dt).summary[
-                "fuel_economy_mpg"]))
+    """Fuel economy [mpg] of each variant (:func:`vehval.sim.sensitivity.figure_key`:
+    SOC-corrected from ``soc0`` for a hybrid, plain for a car without a battery, ``soc0``
+    NaN); nan where a variant is not a valid vehicle. A power-split car's scalar variants
+    share one compiled call; every other case runs as the sensitivity runs it."""
+    if isinstance(veh, Vehicle) and math.isfinite(soc0) and not any(
+            isinstance(x, list) for var in variants for x in var.values()):
+        try:   # one validation per variant; the filtering path below validates twice
+            return [float(r[MPG]) for r in simulate_batch(
+                veh, cyc, variants, dt=dt, workers=workers, soc_initial=soc0)]
         except ConfigError:
-            out.append(math.nan)
-    return out
+            pass   # a variant that is not a valid vehicle: run them apart (nan for it)
+    return [float(x) for x in _run_variants(veh, cyc, variants, dt, soc0, workers)]
 
 
 def _linear(veh: Vehicle, unc: list[Uncertain], cyc: Any, dt: float, soc0: float,
