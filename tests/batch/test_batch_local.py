@@ -234,3 +234,42 @@ def test_a_fifo_is_skipped_and_listed_with_its_reason(tmp_path, template_path, c
     assert "no regular file of the test folder matches the template's file patterns (*.txt)" in err
     res = json.loads((out / "tests" / "t0" / "result.json").read_text())
     assert res["status"] == "ok" and [os.path.basename(f) for f in res["files"]] == ["run0.txt"]
+
+
+def test_output_folder_that_is_the_input_folder_is_refused(tmp_path, template_path, capsys):
+    """``batch DIR -o DIR`` would put the batch's ``tests`` and ``assets`` among the tests:
+    refused in one line, nothing written."""
+    inp = tmp_path / "cruze dir"
+    write_d3(inp / "t0.txt", seed=0)
+    before = sorted(p.name for p in inp.iterdir())
+    rc = main(["batch", str(inp), "-t", str(template_path), "-o", str(inp), "--steps", "",
+               "--no-report", "--workers", "0", "-q"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "is the input folder: choose another output folder" in err
+    assert sorted(p.name for p in inp.iterdir()) == before          # nothing written
+    with pytest.raises(ConfigError, match="is the input folder"):   # the API refuses too
+        run_batch(inp, template_path, inp / ".." / inp.name, steps=[], workers=0,
+                  progress=False)
+
+
+def test_an_earlier_batch_output_in_the_input_folder_is_not_a_test(tmp_path, template_path,
+                                                                   capsys):
+    """An older run wrote its outputs into the input folder (``tests``, ``assets``, the
+    catalog, the index), and another batch's output folder lies beside the tests: a later
+    batch reads neither as tests, says so, and succeeds."""
+    inp = tmp_path / "in"
+    write_d3(inp / "t0" / "run0.txt", seed=0)
+    write_d3(inp / "t1.txt", seed=1)
+    run_batch(inp, template_path, inp / "old", steps=[], report=True, workers=0, progress=False)
+    for name in ("tests/t0", "assets"):                  # what an input = output run left
+        (inp / name).mkdir(parents=True)
+        (inp / name / "x.txt").write_text("not data\n")
+    (inp / "catalog.duckdb").write_bytes((inp / "old" / "catalog.duckdb").read_bytes())
+    (inp / "index.html").write_text("<html></html>")
+    rc = main(["batch", str(inp), "-t", str(template_path), "-o", str(tmp_path / "new"),
+               "--steps", "", "--no-report", "--workers", "0", "-q"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert sorted(p.name for p in (tmp_path / "new" / "tests").iterdir()) == ["t0", "t1"]
+    for name in ("tests", "assets", "old"):
+        assert f"not a test: {inp / name} (an earlier batch's output" in err

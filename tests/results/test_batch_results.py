@@ -108,3 +108,28 @@ def test_batch_headline_withheld_reason_conditions_and_exit_code(tmp_path, cli):
     assert "fe_soc" not in html and "withheld" in html
     code, text, _ = cli("catalog", "summary", "--db", out / "catalog.duckdb")
     assert code == 0 and "hot (> 30 degC)" in text and "headline_mpg" in text
+
+
+def test_batch_an_idle_record_has_no_headline_in_the_catalog(tmp_path, cli):
+    """A 9.8 s idle record beside a UDDS: its headline is none, the reason in the catalog's
+    withheld_reason, headline_mpg NULL; the run is ok (no QA error: exit 0)."""
+    inp, out = tmp_path / "in", tmp_path / "out"
+    tpl = _write(inp, n=1)
+    t = np.arange(0.0, 9.8, 0.1)
+    d = inp / "idle"
+    d.mkdir()
+    rng = np.random.default_rng(0)        # a standing car: the speed sensor's noise only
+    cols = np.column_stack([t, np.abs(rng.normal(0.0, 0.002, t.size)),
+                            0.12 + 0.02 * np.sin(t), np.zeros(t.size), np.full(t.size, 24.0)])
+    np.savetxt(d / "run.csv", cols, delimiter=",", fmt="%.6f",
+               header="Time[s],Speed[mph],Fuel[g/s],Phase,Cell[degC]", comments="")
+    code, _, err = cli("batch", inp, "-t", tpl, "-o", out, "--workers", "0", "-q")
+    assert code == 0, err
+    assert "no headline idle: distance 0.0 m: no fuel-economy headline" in err
+    with open_catalog(out / "catalog.duckdb", read_only=True) as cat:
+        _, rows = cat.query("SELECT test_id, status, headline_mpg, headline_u_mpg, "
+                            "withheld_reason, fuel_economy_mpg FROM latest_tests ORDER BY 1")
+    by_id = {r[0]: r for r in rows}
+    assert by_id["idle"][1] == "ok" and by_id["idle"][2] is None and by_id["idle"][3] is None
+    assert by_id["idle"][4].startswith("distance 0.0 m: no fuel-economy headline")
+    assert by_id["u0"][2] is not None and by_id["u0"][4] is None

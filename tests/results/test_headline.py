@@ -144,3 +144,47 @@ def test_a_battery_electric_headline_is_in_j1634_terms():
     both = _bev_doc()
     both["headline"]["fuel_economy_mpg"] = 50.0
     assert headline_of(both, system_name="us").figure().startswith("50.00")
+
+
+def _idle(seconds: float = 9.8, creep_mps: float = 0.0005):
+    """An idle record: standing, the speed sensor's offset only, the engine idling."""
+    t = np.arange(0.0, seconds, 0.1)
+    sig = {"veh_spd": np.full(t.size, creep_mps), "fuel_rate": np.full(t.size, 0.12e-3),
+           "test_phase": np.ones(t.size)}
+    return compute_results(make_test(t, sig, cycle="", phase=False), fuel=EXPLICIT)
+
+
+def test_an_idle_record_has_no_fuel_economy_headline():
+    """A 9.8 s idle record computes a fuel economy of a few millimetres driven: no headline,
+    the reason stated; the whole test keeps its figure under its own name."""
+    from vehval.results.gate import headline
+    from vehval.results.headline import NOT_A_HEADLINE
+
+    res = _idle()
+    assert 0 < res.value("test", "distance_m") < 0.01
+    assert res.value("test", "fuel_economy_mpg") is not None       # the scope keeps it
+    h = headline(res)
+    assert h["fuel_economy_mpg"] is None and h["fuel_economy_u_mpg"] is None
+    assert h["withheld"]["rule"] == NOT_A_HEADLINE and not h["forced"]
+    assert h["withheld"]["reason"].startswith("distance 0.0 m: no fuel-economy headline")
+    doc = res.to_dict()
+    assert doc["headline"]["withheld"]["reason"] == h["withheld"]["reason"]
+    assert doc["withheld_count"] == 0                 # no QA error: no figure withheld
+    hl = headline_of(doc)
+    assert hl is not None and hl.kind == "withheld"
+    assert hl.lines()[0] == f"headline test: {h['withheld']['reason']}"
+    assert "--force" not in " ".join(hl.lines()) and hl.banner()["title"].endswith("none")
+
+
+def test_a_headline_whose_u_exceeds_its_value_is_no_headline():
+    from vehval.results.headline import MIN_HEADLINE_DISTANCE_M, not_a_headline
+
+    w = not_a_headline(0.0067, 0.607, 2 * MIN_HEADLINE_DISTANCE_M)
+    assert w is not None and w["reason"].startswith("U 0.607 mpg exceeds the value 0.0067 mpg")
+    assert not_a_headline(0.0067, 0.607, None) is not None        # a composite: U alone
+    assert not_a_headline(24.6, 0.3, 12000.0) is None
+    assert not_a_headline(None, None, 0.0) is None                 # nothing stated
+    # a cycle's own headline is untouched
+    t, s = true_signals()
+    from vehval.results.gate import headline
+    assert headline(compute_results(make_test(t, s), fuel=EXPLICIT))["withheld"] is None

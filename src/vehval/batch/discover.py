@@ -10,7 +10,10 @@ Discovery rule (documented in ``docs/catalog.md``):
 * A glob given (``"data/*/"``, ``"runs/*.txt"``): each matched directory is a test as above;
   each matched file is a test of that single file.
 * Never taken: hidden entries, the batch's own output folder (when it lies inside the
-  input folder), symlinks leading out of the input folder, symlink loops, broken symlinks,
+  input folder; the output folder is never the input folder itself), the output of an
+  earlier batch (:func:`earlier_output`: a folder holding ``catalog.duckdb``, and the
+  entries a batch writes beside that catalog; said in ``notes``, not an error),
+  symlinks leading out of the input folder, symlink loops, broken symlinks,
   FIFOs, sockets and devices (reading a FIFO blocks) and unreadable folders; a template without ``match`` takes only data files (by extension and
   content: no PDF, image, README or SOURCE.txt). Every entry skipped for a reason other than
   being hidden or the batch's own output is reported (``skipped``), never silently dropped.
@@ -28,11 +31,39 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from vehval.catalog_schema import CATALOG_FILE
 from vehval.errors import InputFileError
 from vehval.io.folder import data_files, is_data_file, template_patterns
 from vehval.io.paths import inside, sanitize_id, special_kind
 
 _GLOB_CHARS = set("*?[")
+
+#: The entries a batch writes into its output folder (OUTDIR): never tests. The catalog
+#: marks a folder as a batch's output (:func:`earlier_output`).
+CATALOG_NAME = CATALOG_FILE
+INDEX_NAME = "index.html"
+#: Directory of OUTDIR holding the one plotly.js copy the test reports share.
+ASSETS_DIR = "assets"
+#: Directory of OUTDIR holding one folder per test.
+TESTS_DIR = "tests"
+#: File beside the catalog holding the set verdicts of the latest run.
+SET_VERDICT_NAME = "set_verdict.json"
+OUTPUT_NAMES = (TESTS_DIR, ASSETS_DIR, CATALOG_NAME, f"{CATALOG_NAME}.wal", INDEX_NAME,
+                SET_VERDICT_NAME)
+
+
+def earlier_output(p: Path) -> str | None:
+    """Why ``p`` is (part of) a batch's output, or None: a folder holding the batch's
+    catalog, or one of the entries a batch writes (:data:`OUTPUT_NAMES`) beside it (an
+    earlier run whose output folder was the input folder)."""
+    try:
+        if p.is_dir() and (p / CATALOG_NAME).is_file():
+            return f"an earlier batch's output folder: it holds {CATALOG_NAME}"
+        if p.name in OUTPUT_NAMES and (p.parent / CATALOG_NAME).is_file():
+            return f"an earlier batch's output: {CATALOG_NAME} beside it"
+    except OSError:
+        return None
+    return None
 
 
 @dataclass
@@ -78,20 +109,27 @@ def _why_not(p: Path, root: Path, exclude: list[Path]) -> str | None:
     return None
 
 
-def _allowed(p: Path, root: Path, exclude: list[Path], skipped: Skipped | None = None) -> bool:
+def _allowed(p: Path, root: Path, exclude: list[Path], skipped: Skipped | None = None,
+             notes: Skipped | None = None) -> bool:
     """Visible, not an excluded output folder, no symlink leading out of ``root``, no symlink
-    loop; a refusal with a reason is appended to ``skipped``."""
+    loop, not an earlier batch's output; a refusal with a reason is appended to ``skipped``,
+    an earlier batch's output to ``notes``."""
     why = _why_not(p, root, exclude)
     if why and skipped is not None:
         skipped.append((p, why))
+    if why is None and (old := earlier_output(p)):
+        if notes is not None:
+            notes.append((p, old))
+        return False
     return why is None
 
 
 def _matching_files(directory: Path, template: Any, root: Path | None = None,
-                    exclude: Sequence[Path] = (), skipped: Skipped | None = None) -> list[Path]:
+                    exclude: Sequence[Path] = (), skipped: Skipped | None = None,
+                    notes: Skipped | None = None) -> list[Path]:
     root = root or directory
     files = sorted(p for p in directory.iterdir()
-                   if _allowed(p, root, list(exclude), skipped) and p.is_file())
+                   if _allowed(p, root, list(exclude), skipped, notes) and p.is_file())
     return data_files(files, template)
 
 
@@ -114,7 +152,8 @@ def _test_folder(p: Path, template: Any, root: Path, excl: list[Path],
 
 def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - one branch per accepted layout of a batch directory
                    exclude: Sequence[str | Path] = (),
-                   skipped: Skipped | None = None) -> list[TestSpec]:
+                   skipped: Skipped | None = None,
+                   notes: Skipped | None = None) -> list[TestSpec]:
     """Find the tests of a batch (see the module docstring for the rule).
 
     Parameters
@@ -130,6 +169,9 @@ def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - o
         Receives ``(path, reason)`` of every entry skipped for a reason worth telling: a
         symlink loop or a broken symlink, a symlink leading out, a FIFO, socket or device,
         an unreadable folder.
+    notes : list, optional
+        Receives ``(path, reason)`` of every earlier batch's output left out
+        (:func:`earlier_output`): not a test, and not an error.
 
     Returns
     -------
@@ -147,7 +189,7 @@ def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - o
         if not paths:
             raise InputFileError(f"no file or directory matches '{target_s}'")
         for p in paths:
-            if not _allowed(p, p.parent, excl, skipped):
+            if not _allowed(p, p.parent, excl, skipped, notes):
                 continue
             if p.is_dir():
                 files = _test_folder(p, template, p, excl, skipped)
@@ -161,14 +203,14 @@ def discover_tests(target: str | Path, template: Any,  # noqa: C901, PLR0912 - o
             raise InputFileError(f"batch input '{root}' is not a directory (give a directory or a "
                                  "quoted glob such as 'data/*/')")
         for p in sorted(root.iterdir()):
-            if not _allowed(p, root, excl, skipped):
+            if not _allowed(p, root, excl, skipped, notes):
                 continue
             if p.is_dir():
                 files = _test_folder(p, template, root, excl, skipped)
                 if files is not None:
                     found.append((p.name, files))
         if single:
-            for f in _matching_files(root, template, root, excl):
+            for f in _matching_files(root, template, root, excl):   # noted above
                 found.append((f.stem, [f]))
     if not found:
         rule = ("a subdirectory per test or one file per test" if single

@@ -22,6 +22,12 @@ from pathlib import Path
 from typing import Any, Callable
 
 from vehval.batch.discover import (
+    ASSETS_DIR,
+    CATALOG_NAME,
+    INDEX_NAME,
+    OUTPUT_NAMES,
+    SET_VERDICT_NAME,
+    TESTS_DIR,
     TestSpec,
     discover_tests,
     file_sha256,
@@ -30,7 +36,6 @@ from vehval.batch.discover import (
     settings_hash,
 )
 from vehval.batch.task import (
-    ASSETS_DIR,
     DEFAULT_TEST_TIMEOUT_S,
     RESULT_NAME,
     check_steps,
@@ -43,8 +48,6 @@ from vehval.errors import ConfigError, VehvalError
 from vehval.io.atomic import sweep_debris
 from vehval.io.paths import inside
 
-CATALOG_NAME = "catalog.duckdb"
-INDEX_NAME = "index.html"
 #: Local worker processes allowed per CPU: each is a process with its own imports and
 #: memory; past a few per CPU they only wait for the CPUs (and thousands never start).
 MAX_WORKERS_PER_CPU = 4
@@ -112,7 +115,7 @@ def remove_debris(out: Path) -> int:
     processes (``tests/``, ``assets/``, the index) and temporaries of earlier versions.
     Called with the catalog open, so no other batch is writing ``out``; returns the count."""
     removed = sweep_debris(out, depth=2)
-    for d in (out, out / ASSETS_DIR, *sorted((out / "tests").glob("*"))):
+    for d in (out, out / ASSETS_DIR, *sorted((out / TESTS_DIR).glob("*"))):
         if d.is_dir() and not d.is_symlink():
             for f in d.iterdir():
                 if _LEGACY_TMP.match(f.name) and ".vehval-" not in f.name and f.is_file() and not f.is_symlink():
@@ -148,7 +151,7 @@ def _load_settings(template: str | Path, vehicle: str | None) -> tuple[Any, dict
 
 def _cached(outdir: Path, spec: TestSpec) -> dict | None:
     """The previous result of ``spec`` when it is complete and its inputs are unchanged."""
-    path = outdir / "tests" / spec.test_id / RESULT_NAME
+    path = outdir / TESTS_DIR / spec.test_id / RESULT_NAME
     try:
         res = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
@@ -279,15 +282,29 @@ def _checked_options(workers: int | None, scheduler: str | None, test_timeout_s:
 
 
 def _own_outputs(target: str | Path, out: Path, tmpl: Any) -> tuple[list[Path], list[tuple[str, str]]]:
-    """The batch's own outputs (never tests, even with OUTDIR inside or equal to DIR) and
-    the notes of checking that OUTDIR is no test."""
-    own = [out / "tests", out / ASSETS_DIR, out / CATALOG_NAME, out / f"{CATALOG_NAME}.wal",
-           out / INDEX_NAME]
+    """The batch's own outputs (never tests, even with OUTDIR inside DIR) and the notes of
+    checking that OUTDIR is no test. OUTDIR equal to DIR is refused: its outputs (``tests``,
+    ``assets``...) would lie among the tests, for this batch and every later one."""
+    if Path(target).is_dir() and out == Path(target).resolve():
+        raise ConfigError(f"-o {out} is the input folder: choose another output folder")
+    own = [out / name for name in OUTPUT_NAMES]
     notes: list[tuple[str, str]] = []
     if not (Path(target).is_dir() and inside(target, out)):
         own.append(out)
         _check_outdir_not_a_test(target, out, tmpl, own, notes)
     return own, notes
+
+
+def _discover(target: str | Path, tmpl: Any, own: list[Path], digest: str,
+              notes: list[tuple[str, str]]) -> tuple[list[TestSpec], list[tuple[Path, str]]]:
+    """The batch's tests (hashed) and the inputs skipped; an earlier batch's output is added
+    to ``notes`` (not a test, not an error)."""
+    skipped: list[tuple[Path, str]] = []
+    earlier: list[tuple[Path, str]] = []
+    specs = [hash_spec(s, digest)
+             for s in discover_tests(target, tmpl, exclude=own, skipped=skipped, notes=earlier)]
+    notes += [(str(p), why) for p, why in earlier]
+    return specs, skipped
 
 
 def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
@@ -352,9 +369,7 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     digest = settings_hash(settings)
     out = Path(outdir).resolve()
     own, notes = _own_outputs(target, out, tmpl)
-    skipped: list[tuple[Path, str]] = []
-    specs = [hash_spec(s, digest)
-             for s in discover_tests(target, tmpl, exclude=own, skipped=skipped)]
+    specs, skipped = _discover(target, tmpl, own, digest, notes)
     out.mkdir(parents=True, exist_ok=True)
     run_id = new_run_id()
     summary = BatchSummary(run_id=run_id, outdir=out, notes=notes,
@@ -415,7 +430,7 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
 def _set_verdicts(catalog: Any, run_id: str, summary: BatchSummary) -> None:
     """The set verdicts over the run's validated tests: in the summary, the catalog's
     ``set_verdicts`` table and ``OUTDIR/set_verdict.json``."""
-    from vehval.batch.verdicts import SET_VERDICT_NAME, batch_set_verdicts
+    from vehval.batch.verdicts import batch_set_verdicts
     from vehval.io.atomic import write_text_atomic
     from vehval.jsonsafe import dumps
 

@@ -22,7 +22,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Callable
 
-from vehval.batch.discover import file_sha256
+from vehval.batch.discover import ASSETS_DIR, file_sha256
 from vehval.errors import ConfigError, InputFileError, VehvalError
 from vehval.io.atomic import atomic_dir, write_text_atomic
 from vehval.jsonsafe import clean as jsonable
@@ -40,8 +40,6 @@ STEPS: dict[str, Callable[[TestRun], Any]] = {
 }
 #: Output file of each step.
 STEP_OUTPUT = {"qa": "findings.json", "analyze": "control.json", "validate": "validation.json"}
-#: Directory of OUTDIR holding the one plotly.js copy the test reports share.
-ASSETS_DIR = "assets"
 
 
 #: Default limit of one test's processing time [s] (``--test-timeout``).
@@ -197,13 +195,18 @@ def _validation_document(job: dict, run: TestRun, outcome: Any) -> Any:
     """validation.json: the comparison of the vehicle's architecture
     (:class:`vehval.workflow.ValidationOutcome`: the simulation on the test's conditions,
     a conventional car's fuel prediction, a battery-electric car's traces, DC energy and
-    SAE J1634 figures); the simulation on the test's conditions adds the normalised error
-    of the fuel mass (the others carry their own verdicts)."""
+    SAE J1634 figures); the simulation on the test's conditions and a conventional car's
+    fuel prediction (the En ``vehval predict`` states) add the normalised error of the fuel
+    mass (the battery-electric comparison carries its own verdicts)."""
     from vehval.validate.validation import Validation
 
-    out = jsonable(outcome.comparison)
-    if isinstance(outcome.comparison, Validation) and isinstance(out, dict):
+    comp = outcome.comparison
+    out = jsonable(comp)
+    if isinstance(out, dict) and isinstance(comp, Validation):
         out["normalised_error"] = jsonable(_normalised_error(job, run, outcome))
+    elif isinstance(out, dict) and callable(getattr(comp, "normalised_error", None)):
+        # a conventional car's prediction (vehval.identify.comparison.PredictionComparison)
+        out["normalised_error"] = jsonable(comp.normalised_error())
     return out
 
 

@@ -17,9 +17,6 @@ from vehval.errors import VehvalError
 from vehval.uncertainty import normalised_error
 from vehval.validate.ladder import held_out_set_verdict
 
-#: File beside the catalog holding the set verdicts of the latest run.
-SET_VERDICT_NAME = "set_verdict.json"
-
 
 def _judged(res: dict) -> dict | None:
     val = res.get("validation")

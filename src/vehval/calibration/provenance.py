@@ -14,6 +14,11 @@ Which tests a vehicle file was calibrated on is read back from these texts
 the file (the file was fitted to it), every other figure is *held out*. Both the current
 text and the older ``calibrated by <command> on the EPA Test Car List tests <ids>`` are
 understood.
+
+A test named in a vehicle file is the same test as an id spelled otherwise only by the
+characters a path cannot hold (:func:`same_test`, the one matching rule: the file's
+``61410013 Test Data`` is a batch's ``61410013_Test_Data``); every in-sample check
+(:func:`in_sample`, the validation ladder, ``vehval predict``'s identification tests) uses it.
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import numpy as np
 import yaml
 
 from vehval.io.atomic import write_text_atomic
+from vehval.io.paths import sanitize_id
 
 
 def bounds_text(lo: float, hi: float) -> str:
@@ -182,10 +188,20 @@ def calibration_tests(vehicle: Any) -> dict[str, list[str]]:
     return {t: sorted(p) for t, p in out.items()}
 
 
+def same_test(test_id: object, names: Iterable[object]) -> bool:
+    """Whether ``test_id`` is one of the test ``names`` a vehicle file lists, compared as
+    test ids (:func:`vehval.io.paths.sanitize_id`): a name with spaces or other characters a
+    path cannot hold is the same test as its id (``61410013 Test Data`` is
+    ``61410013_Test_Data``, the id a batch gives the file or folder). An empty name matches
+    nothing."""
+    key = sanitize_id(test_id, default="")
+    return bool(key) and any(sanitize_id(n, default="") == key for n in names)
+
+
 def in_sample(vehicle: Any, test_id: str,
               calibrated: dict[str, list[str]] | None = None) -> bool:
     """Whether ``test_id`` is one the vehicle file was calibrated on (its figures are then
-    in-sample, not a prediction). ``calibrated``: :func:`calibration_tests` of the vehicle,
-    when already computed."""
+    in-sample, not a prediction; matched by :func:`same_test`). ``calibrated``:
+    :func:`calibration_tests` of the vehicle, when already computed."""
     cal = calibration_tests(vehicle) if calibrated is None else calibrated
-    return str(test_id) in cal
+    return same_test(test_id, cal)

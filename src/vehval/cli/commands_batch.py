@@ -75,12 +75,19 @@ def batch_cmd(
     for r in failed:
         when = " (unchanged since an earlier run)" if r.get("batch_status") == "skipped" else ""
         typer.echo(f"  failed {r['test_id']}{when}: {r.get('error')}", err=True)
-    held = [r for r in res.results if r.get("status") != "failed"
-            and ((r.get("results") or {}).get("headline") or {}).get("withheld")
-            and not ((r.get("results") or {}).get("headline") or {}).get("forced")]
-    for r in held:
-        w = r["results"]["headline"]["withheld"]
-        typer.echo(f"  withheld {r['test_id']}: headline {r['results']['headline'].get('name')} "
+    from vehval.results.headline import NOT_A_HEADLINE
+
+    held = []
+    for r in res.results:
+        head = (r.get("results") or {}).get("headline") or {}
+        w = head.get("withheld")
+        if r.get("status") == "failed" or not w or head.get("forced"):
+            continue
+        if w.get("rule") == NOT_A_HEADLINE:     # no figure to state, not a QA error
+            typer.echo(f"  no headline {r['test_id']}: {w.get('reason')}", err=True)
+            continue
+        held.append(r)
+        typer.echo(f"  withheld {r['test_id']}: headline {head.get('name')} "
                    f"({', '.join(w.get('signals') or [])}): {w.get('fix')}", err=True)
     if failed or res.skipped_inputs:
         raise typer.Exit(1)

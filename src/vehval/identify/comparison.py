@@ -1,6 +1,7 @@
 """The validation of a conventional car on one test: its model driven over the test's
 measured speed, fuel measured against predicted per test and phase (the comparison of
-``vehval predict``), as the workflow's validate step gives it."""
+``vehval predict``, its normalised errors En included: :func:`vehval.identify.verdicts.judge_row`),
+as the workflow's validate step gives it."""
 
 from __future__ import annotations
 
@@ -11,10 +12,38 @@ from typing import Any
 @dataclass
 class PredictionComparison:
     """One test predicted by a conventional model: ``row`` (:func:`predict_trace`'s row,
-    arrays included) and the ``vehicle`` that ran."""
+    arrays included, judged by :func:`vehval.identify.verdicts.judge_row`), the ``vehicle``
+    that ran, and ``s_r`` and ``note`` of the judgement (the repeatability used, the cycle
+    whose precision was borrowed)."""
 
     row: dict[str, Any]
     vehicle: Any
+    s_r: float | None = None
+    note: str = ""
+
+    def normalised_error(self) -> dict[str, Any]:
+        """The verdict by the normalised error of the test's fuel mass, in the keys of
+        :func:`vehval.workflow.fuel_normalised_error` (the batch's ``normalised_error``, the
+        catalog's ``fuel_en`` ...): the En ``vehval predict`` states for the test, in kg."""
+        r = self.row
+        en = r.get("en")
+
+        def kg(g: float | None) -> float | None:
+            return None if g is None else g / 1e3
+
+        err = r.get("error_rel")
+        notes = [n for n in (self.note, "a vehicle without identification uncertainty: "
+                             "U_model = 0" if r.get("pi95_rel") is None else "") if n]
+        return {"figure": "fuel_mass_kg", "en": en, "consistent": r.get("consistent"),
+                "uninformative": r.get("uninformative"), "u_model_kg": kg(r.get("u_model_g")),
+                "u_meas_kg": kg(r.get("u_meas_g")), "s_r": r.get("s_r"),
+                "model_kg": kg(r.get("fuel_predicted_g")),
+                "measured_kg": kg(r.get("fuel_measured_g")),
+                "error_pct": None if err is None or err != err else 100.0 * err,
+                "u_model_rel": r.get("pi95_rel"), "in_sample": bool(r.get("in_sample")),
+                "verdict": ("no En" if en is None else
+                            "consistent" if r.get("consistent") else "inconsistent"),
+                "note": "; ".join(notes)}
 
     def to_dict(self) -> dict[str, Any]:
         """The row of ``vehval predict --json`` (without arrays, fuel economy added)."""
@@ -44,10 +73,13 @@ def predict_comparison(vehicle: Any, test: Any, overrides: dict | None = None,
     dotted parameter values), after checking the test is of the same car."""
     from vehval.identify.predict import check_same_car, predict_trace
     from vehval.identify.traces import trace_from_test
+    from vehval.identify.verdicts import judge_row
     from vehval.results import compute_results
 
     veh = vehicle.with_overrides(overrides) if overrides else vehicle
     trace = trace_from_test(test, 0.1, veh)
     trace.results = compute_results(test)
     check_same_car(veh, trace)
-    return PredictionComparison(predict_trace(veh, trace, ac=ac), veh)
+    row = predict_trace(veh, trace, ac=ac)
+    _, s_r, note = judge_row(row)   # the En of vehval predict, per test and phase
+    return PredictionComparison(row, veh, s_r, note)

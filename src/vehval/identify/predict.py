@@ -22,6 +22,7 @@ import copy
 
 import numpy as np
 
+from vehval.calibration.provenance import same_test
 from vehval.cycles import Cycle
 from vehval.errors import ConfigError
 from vehval.identify.conditions import outside_conditions
@@ -118,19 +119,18 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
     sels["test"] = (sel, [r["predicted_g"] / tot for r in phases] or [1.0])
     unc = interval_parts(ident, res.test, dt, sels)
     ac_fit = ident.get("ac") or {}
+    fitted = same_test(trace.test_id, _fitted_tests(ident))
+    ac_test = same_test(trace.test_id, [ac_fit.get("test") or ""])
     for r in phases:     # the A/C test's load was fitted on its phases after the first
         _add_interval(r, unc.get(int(r["phase"])))
-        r["in_sample"] = (trace.test_id in _fitted_tests(ident)
-                          or (ac_fit.get("test") == trace.test_id
-                              and r["phase"] in (ac_fit.get("phases") or [])))
+        r["in_sample"] = fitted or (ac_test and r["phase"] in (ac_fit.get("phases") or []))
     out = {"test": trace.test_id, "cycle": trace.cycle, "amb_temp_c": trace.amb_temp_c,
             "fuel_measured_g": mg, "fuel_predicted_g": pg,
             "error_rel": pg / mg - 1 if mg > 0 else float("nan"), "phases": phases,
             "trace_max_miss_mps": res.summary["trace_max_miss_mps"], "ac_on": ac_on,
             "ac_reason": ac_reason, "starts_cold": cold, "cold_start": cold_run,
             "cold_reason": cold_reason,
-            "in_sample": (trace.test_id in _fitted_tests(ident)
-                          or any(r["in_sample"] for r in phases)),
+            "in_sample": fitted or any(r["in_sample"] for r in phases),
             "outside_identification": outside_conditions(ident, trace),
             "sim": res, "trace": trace,
             "not_judged": dead_fuel_channel(trace)}
@@ -141,7 +141,8 @@ def predict_trace(vehicle, trace: Trace, ac: str = "auto") -> dict:
 
 def _fitted_tests(ident: dict) -> set[str]:
     """The tests a vehicle's identification fitted as a whole: its identification tests and
-    the cold-start test of its warm-up fuel (the A/C test is fitted on some phases only)."""
+    the cold-start test of its warm-up fuel (the A/C test is fitted on some phases only); a
+    test is one of them by :func:`vehval.calibration.provenance.same_test`."""
     warm = ident.get("warmup") or {}
     return set(ident.get("tests") or []) | ({warm["cold_test"]} if warm.get("cold_test") else set())
 

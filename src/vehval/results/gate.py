@@ -219,7 +219,10 @@ def headline(res: Any) -> dict[str, Any]:
     dict
         ``name``, ``kind`` (``composite`` or ``test``), ``rule``, ``fuel_economy_mpg``
         [mile/US gal], ``fuel_economy_u_mpg`` (U, k = 2), ``fuel_consumption_l_per_100km``,
-        ``withheld`` (the scope's entry or None), ``forced`` and ``caveats`` (the
+        ``withheld`` (the scope's entry or None; when the figure is no headline, a distance
+        below :data:`vehval.results.headline.MIN_HEADLINE_DISTANCE_M` or U as large as the
+        value, the entry of :func:`vehval.results.headline.not_a_headline` and null figures),
+        ``forced`` and ``caveats`` (the
         composite's departures from the procedure's conditions, each naming its clause;
         a whole-test headline of a test with no identified cycle says so,
         :data:`NO_CYCLE_CAVEAT`).
@@ -233,14 +236,20 @@ def headline(res: Any) -> dict[str, Any]:
         comp = res.composites[0]
     name, kind, rule = ("test", "test", WHOLE_TEST_RULE) if comp is None else \
         (comp.name, "composite", comp.rule)
+    from vehval.results.headline import not_a_headline
+
     held = res.withheld.get(name)
     if held is not None and not set(_ECON) & set(held["quantities"]):
         held = None                  # only figures other than the fuel economy withheld
+    mpg, u_mpg = res.value(name, "fuel_economy_mpg"), res.expanded(name, "fuel_economy_mpg")
+    lkm = res.value(name, "fuel_consumption_l_per_100km")
+    forced = bool(held and res.forced)
+    if held is None and (held := not_a_headline(mpg, u_mpg, res.value(name, "distance_m"))):
+        mpg = u_mpg = lkm = None     # no headline (an idle record): the scope keeps its values
     return {"name": name, "kind": kind, "rule": rule,
-            "fuel_economy_mpg": res.value(name, "fuel_economy_mpg"),
-            "fuel_economy_u_mpg": res.expanded(name, "fuel_economy_mpg"),
-            "fuel_consumption_l_per_100km": res.value(name, "fuel_consumption_l_per_100km"),
-            "withheld": held, "forced": bool(held and res.forced),
+            "fuel_economy_mpg": mpg, "fuel_economy_u_mpg": u_mpg,
+            "fuel_consumption_l_per_100km": lkm,
+            "withheld": held, "forced": forced,
             "caveats": list(getattr(comp, "caveats", None) or []) + _whole_test_caveat(res, comp)}
 
 

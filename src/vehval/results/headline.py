@@ -21,7 +21,17 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Headline", "electric_figures", "headline_of", "j1711_caveat"]
+__all__ = ["MIN_HEADLINE_DISTANCE_M", "NOT_A_HEADLINE", "Headline", "electric_figures",
+           "headline_of", "j1711_caveat", "not_a_headline"]
+
+#: Least distance of a fuel-economy headline [m]: a record that drives less (an idle
+#: record, a file cut at the start) has a fuel economy of the speed sensor's offset, not a
+#: figure (the shortest regulatory phase drives about 5.8 km, UDDS bag 1; a short drive
+#: of a few hundred metres still has a figure, judged by its U).
+MIN_HEADLINE_DISTANCE_M = 100.0
+#: ``rule`` of the headline's ``withheld`` entry when the figure is no headline (not a QA
+#: error: :func:`not_a_headline`).
+NOT_A_HEADLINE = "not_a_headline"
 
 #: SAE J1711 statuses that qualify the figure (the others stand it unqualified).
 _J1711_CAVEAT = ("beyond_tolerance_uncorrected", "corrected", "undetermined")
@@ -39,6 +49,38 @@ def j1711_caveat(soc: dict | None) -> str | None:
     if status not in _J1711_CAVEAT:
         return None
     return f"SAE J1711 {str(status).replace('_', ' ')}: {soc.get('message', '')}".rstrip(": ")
+
+
+def not_a_headline(mpg: float | None, u_mpg: float | None,
+                   distance_m: float | None) -> dict[str, Any] | None:
+    """The headline's ``withheld`` entry when its fuel economy is no headline, else None: a
+    distance below :data:`MIN_HEADLINE_DISTANCE_M` (``distance 0.1 m: no fuel-economy
+    headline ...``), or an expanded uncertainty U (k = 2) as large as the value itself (the
+    figure says nothing). The values stay in their scope (``test_total``, the composite);
+    ``--force`` does not state it (it is no QA error).
+
+    Parameters
+    ----------
+    mpg, u_mpg : float or None
+        The headline's fuel economy and its U (k = 2) [mile/US gal].
+    distance_m : float or None
+        The headline scope's distance [m] (None for a composite, which has none).
+    """
+    mpg, u, d = _num(mpg), _num(u_mpg), _num(distance_m)
+    if mpg is None:
+        return None
+    if d is not None and d < MIN_HEADLINE_DISTANCE_M:
+        reason = (f"distance {d:.1f} m: no fuel-economy headline (it needs at least "
+                  f"{MIN_HEADLINE_DISTANCE_M:g} m driven)")
+    elif u is not None and u >= abs(mpg):
+        reason = (f"U {u:.3g} mpg exceeds the value {mpg:.3g} mpg: no fuel-economy headline "
+                  "(the figure says nothing)")
+    else:
+        return None
+    return {"quantities": ["fuel_economy_mpg", "fuel_consumption_l_per_100km"], "signals": [],
+            "reason": reason, "rule": NOT_A_HEADLINE, "findings": [],
+            "fix": "a fuel-economy headline needs a drive: check that the file holds the "
+                   "whole test (speed channel, unit, the record not cut short)"}
 
 
 @dataclass
@@ -143,6 +185,9 @@ class Headline:
     def lines(self) -> list[str]:
         """The command line's headline lines (ASCII ``+-``)."""
         held = self.withheld or {}
+        if self.kind == "withheld" and held.get("rule") == NOT_A_HEADLINE:
+            return [f"headline {self.scope}: {held.get('reason', '')}",
+                    f"  fix: {held.get('fix', '')}"]
         if self.kind == "withheld":
             return [f"headline {self.scope}: WITHHELD ({', '.join(held.get('signals') or [])}): "
                     f"{held.get('reason', '')}", f"  fix: {held.get('fix', '')}",
@@ -162,6 +207,9 @@ class Headline:
         """The report's banner: ``{"kind", "title", "lines"}``."""
         held = self.withheld or {}
         n = self.withheld_count
+        if self.kind == "withheld" and held.get("rule") == NOT_A_HEADLINE:
+            return {"kind": "withheld", "title": f"Headline {self.shown}: none",
+                    "lines": [f"Reason: {held.get('reason', '')}", f"Fix: {held.get('fix', '')}"]}
         if self.kind == "withheld":
             return {"kind": "withheld", "title": f"Headline {self.shown}: withheld",
                     "lines": [f"Signals: {', '.join(held.get('signals') or [])}",

@@ -39,6 +39,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from vehval.calibration.provenance import same_test
 from vehval.errors import ConfigError
 from vehval.jsonsafe import clean
 from vehval.uncertainty import InsufficientDataError, normalised_error, set_verdict
@@ -327,7 +328,7 @@ def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | No
             raise ConfigError(f"test '{c.test_id}': unknown rung '{rung}' (use {', '.join(RUNGS)})")
         ok, fails, err = verdict(c, tol)
         e = LadderEntry(c.test_id, c.cycle, rung, err, ok, fails,
-                        in_sample=c.test_id in (calibrated or {}))
+                        in_sample=same_test(c.test_id, calibrated or {}))
         judged = judge_fuel(e, c, (u_model_rel or {}).get(c.test_id), family)
         if judged is not None and not e.in_sample:
             held.append((judged, e.s_r or 0.0))
