@@ -330,3 +330,14 @@ def test_an_implausible_fitted_map_is_named(specs):
     note = efficiency_note(vehicle_from_specs(specs, 0.59, 0.5))
     assert "best brake efficiency is" in note and "outside the 20-45 %" in note
     assert "outside the 20-45 %" in efficiency_note(vehicle_from_specs(specs, 0.15, 2.0))
+
+
+def test_splits_name_what_they_need():
+    from vehval.epa.specs_fit import all_splits
+
+    with pytest.raises(ConfigError, match=r"--splits 2: each split calibrates on 2 test\(s\) "
+                                          r"and holds out the others, so it needs between 1 "
+                                          r"and 1 calibration tests with 2 tests given"):
+        all_splits(None, [object(), object()], 2)  # refused before anything is fitted
+    with pytest.raises(ConfigError, match="a split holds out at least one test"):
+        all_splits(None, [object()], 1)

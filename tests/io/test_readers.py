@@ -211,3 +211,16 @@ def test_corrupted_mdf_is_an_error_not_a_crash(tmp_path):
         except InputFileError:
             outcomes.add("error")
     assert "error" in outcomes
+
+
+def test_an_epa_test_car_list_is_named_not_read_as_a_time_series(tmp_path, capsys):
+    """`vehval info 19tstcar.csv` said "non-numeric value 'aston martin' ... fix the cell"."""
+    from helpers.epa_lists import row, write_list
+    from vehval.cli import main
+
+    path = write_list(tmp_path / "19tstcar.csv", [row()])
+    with pytest.raises(InputFileError, match=r"19tstcar\.csv: is an EPA Test Car List .* "
+                                             r"`vehval epa list`"):
+        read_raw(path)
+    assert main(["info", str(path)]) == 2
+    assert "is an EPA Test Car List" in capsys.readouterr().err

@@ -219,7 +219,8 @@ def vehicle_cmd(
             typer.echo(f"! {f}: {h['message']} ({h['fix']}; used with --force)")
     if predict:
         worst = max(abs(e) for e in pred.values())
-        typer.echo(f"held-out: {len(pred)} tests, largest |fuel error| {100 * worst:.1f} %")
+        typer.echo(f"held-out: {len(pred)} test{'s' if len(pred) != 1 else ''}, largest "
+                   f"|fuel error| {100 * worst:.1f} %")
     for sp in split_rows:
         errs = ", ".join(f"{k} {100 * v:+.1f} %" for k, v in sp["held_out_errors"].items())
         typer.echo(f"split: fit on {', '.join(sp['calibration'])} -> {errs}")

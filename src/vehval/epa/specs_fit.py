@@ -309,7 +309,12 @@ def all_splits(specs: Specs, runs: Sequence[DynoRun], n_cal: int = 2,
         ``max_abs_held_out``.
     """
     if not 1 <= n_cal < len(runs):
-        raise ConfigError(f"splits need 1 <= calibration tests < {len(runs)} tests")
+        raise ConfigError(f"--splits {n_cal}: each split calibrates on {n_cal} test(s) and "
+                          f"holds out the others, so it needs between 1 and {len(runs) - 1} "
+                          f"calibration tests with {len(runs)} tests given"
+                          if len(runs) > 1 else
+                          f"--splits {n_cal}: a split holds out at least one test: give two "
+                          "tests or more")
     out = []
     for cal in itertools.combinations(range(len(runs)), n_cal):
         fit = calibrate_specs(specs, [runs[i] for i in cal], dt)

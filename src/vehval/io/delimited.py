@@ -28,6 +28,11 @@ _NUMBER = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
 MAX_COLUMNS = 20_000
 
 
+#: Columns every EPA Test Car List has (its reader: :mod:`vehval.epa.reader`): a file with
+#: them is a list of certification tests, not a time series.
+_EPA_LIST_HEADERS = frozenset({"Test Vehicle ID", "Represented Test Veh Make"})
+
+
 def check_exists(path: Path) -> None:
     """Raise :class:`InputFileError` when ``path`` is missing, a directory or empty."""
     if not path.exists():
@@ -244,6 +249,10 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
         headers = _tokens(header_line, delim)
     except InputFileError as exc:
         raise InputFileError(f"{path} line {skipped + 1}: {exc}") from None
+    if {h.strip() for h in headers} >= _EPA_LIST_HEADERS:
+        raise InputFileError(f"{path}: is an EPA Test Car List (one row per certification "
+                             "test), not a time series: read it with `vehval epa list`, `epa "
+                             "tests`, `epa validate` or `epa fleet`")
     headers[0] = repair_first_header(headers[0], path, notes)
     for i, h in enumerate(headers[1:], start=2):
         if not is_printable(h):
