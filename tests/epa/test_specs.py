@@ -91,6 +91,12 @@ def test_calibration_recovers_a_known_fuel_model(specs):
     assert abs(held["h"]) < 0.01
     # the written vehicle names its calibration tests: their figures are in-sample
     assert set(calibration_tests(fit.vehicle())) == {"u", "s"}
+    # a record that does not drive (an idle file) has idle fuel, not a fuel economy
+    from dataclasses import replace
+
+    idle = replace(cal[0], test_id="idle", distance_m=0.4)
+    with pytest.raises(Exception, match=r"test\(s\) idle \(0 m\): drive under 100 m"):
+        calibrate_specs(specs, [cal[1], idle], dt=1.0)
 
 
 def _test_with_soak(v: np.ndarray, fuel: np.ndarray) -> Test:

@@ -72,7 +72,7 @@ def camry_rows(**kw) -> list[dict]:
 def virtual_run(veh, cycle: str, tid: str, dt: float = 1.0) -> DynoRun:
     cyc = load_cycle(cycle)
     fuel = simulate(veh, cyc, dt=dt).summary["fuel_mass_kg"]
-    return DynoRun(test_id=tid, runs=[cyc], fuel_kg=fuel, distance_m=1.0, cold=False)
+    return DynoRun(test_id=tid, runs=[cyc], fuel_kg=fuel, distance_m=cyc.distance_m, cold=False)
 
 
 def write_sim_d3(path, veh, cycle: str) -> None:

@@ -251,6 +251,14 @@ def calibrate_specs(specs: Specs, runs: Sequence[DynoRun], dt: float = 0.5) -> S
     """
     if not runs:
         raise ConfigError("give at least one calibration test")
+    from vehval.results.headline import MIN_HEADLINE_DISTANCE_M
+
+    still = [f"{r.test_id} ({r.distance_m:.0f} m)" for r in runs
+             if not r.distance_m >= MIN_HEADLINE_DISTANCE_M]
+    if still:
+        raise SignalError(f"test(s) {', '.join(still)}: drive under {MIN_HEADLINE_DISTANCE_M:g} m, "
+                          "so their fuel is idle fuel, not a fuel economy to calibrate on: "
+                          "calibrate on whole dyno tests (check the speed channel and its unit)")
     meas = np.array([r.fuel_kg for r in runs])
     if np.any(meas <= 0):
         bad = [r.test_id for r in runs if r.fuel_kg <= 0]
