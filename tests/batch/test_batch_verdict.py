@@ -102,3 +102,8 @@ def test_set_verdict_needs_three_validated_tests():
     assert "none (set verdict: 2 comparison(s)" in verdict_line(rows[0])
     three = batch_set_verdicts([res("a"), res("b"), res("c")])[0]["set_verdict"]
     assert three["n"] == 3 and three["mean_error_pct"] == pytest.approx(1.0)
+    # a test outside the identification's conditions is left out, as `vehval predict` does
+    cold = res("f")
+    cold["validation"]["normalised_error"]["outside_identification"] = True
+    row = batch_set_verdicts([res("a"), res("b"), res("c"), cold])[0]
+    assert row["tests"] == ["a", "b", "c"] and row["set_verdict"]["n"] == 3

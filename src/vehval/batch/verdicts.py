@@ -15,7 +15,7 @@ from typing import Any, Iterable
 
 from vehval.errors import VehvalError
 from vehval.uncertainty import normalised_error
-from vehval.validate.ladder import held_out_set_verdict
+from vehval.validate.ladder import held_out_set_verdict, in_set_verdict
 
 
 def _judged(res: dict) -> dict | None:
@@ -36,7 +36,8 @@ def batch_set_verdicts(results: Iterable[dict]) -> list[dict[str, Any]]:
     -------
     list of dict
         ``vehicle``, ``figure`` (``fuel_mass_kg``), ``n_validated`` (tests with an En),
-        ``n_in_sample``, ``tests`` (the held-out test ids judged), ``set_verdict``
+        ``n_in_sample``, ``tests`` (the test ids judged: held out and inside the
+        identification's conditions, :func:`vehval.validate.ladder.in_set_verdict`), ``set_verdict``
         (:meth:`vehval.uncertainty.SetVerdict.to_dict`, None with fewer than 3) and ``note``
         (why there is none).
     """
@@ -50,7 +51,7 @@ def batch_set_verdicts(results: Iterable[dict]) -> list[dict[str, Any]]:
     for veh, tests in sorted(groups.items()):
         held, ids = [], []
         for tid, ne in sorted(tests):
-            if ne.get("in_sample"):
+            if not in_set_verdict(ne):  # the rule of `vehval predict`'s set verdict
                 continue
             try:
                 c = normalised_error(float(ne["model_kg"]), float(ne["measured_kg"]),

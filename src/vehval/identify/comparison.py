@@ -41,6 +41,7 @@ class PredictionComparison:
                 "measured_kg": kg(r.get("fuel_measured_g")),
                 "error_pct": None if err is None or err != err else 100.0 * err,
                 "u_model_rel": r.get("pi95_rel"), "in_sample": bool(r.get("in_sample")),
+                "outside_identification": bool(r.get("outside_identification")),
                 "verdict": ("no En" if en is None else
                             "consistent" if r.get("consistent") else "inconsistent"),
                 "note": "; ".join(notes)}

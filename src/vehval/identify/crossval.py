@@ -20,8 +20,9 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 from vehval.identify.traces import IdentificationError, Trace, dead_fuel_channel
-from vehval.identify.verdicts import EN_KEYS, in_set_verdict, judge_row, verdict_of
+from vehval.identify.verdicts import EN_KEYS, judge_row, verdict_of
 from vehval.uncertainty import normalised_error
+from vehval.validate.ladder import in_set_verdict
 
 COLUMNS = ("identified_from", "test", "cycle", "measured_g", "predicted_g", "error_rel",
            "pi95_rel", "pi95_g", "inside_pi95", "uncovered_share", "n_gears")

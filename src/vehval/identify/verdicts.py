@@ -25,6 +25,7 @@ from typing import Any
 from vehval.uncertainty import InsufficientDataError, normalised_error, set_verdict
 from vehval.uncertainty.defaults import cycle_precision
 from vehval.uncertainty.verdict import measurement_uncertainty
+from vehval.validate.ladder import in_set_verdict
 
 #: keys added to a row and a phase
 EN_KEYS = ("en", "consistent", "u_model_g", "u_meas_g", "uninformative", "s_r")
@@ -76,12 +77,6 @@ def verdict_of(judged: list[tuple[Any, float]]) -> tuple[dict[str, Any] | None, 
     out = sv.to_dict()
     out["tests"] = [c.label for c, _ in judged]
     return out, ""
-
-
-def in_set_verdict(row: dict[str, Any]) -> bool:
-    """A prediction counts in the set verdict: held out (not in the identification's own
-    tests) and inside the identification's conditions."""
-    return not row.get("in_sample") and not row.get("outside_identification")
 
 
 def judge_rows(rows: list[dict[str, Any]]) -> tuple[dict[str, Any] | None, list[str]]:

@@ -339,6 +339,13 @@ def ladder(comparisons: Sequence[Comparison], tolerances: Tolerances | dict | No
     return res
 
 
+def in_set_verdict(row: dict[str, Any]) -> bool:
+    """A prediction counts in the set verdict: held out (not in the vehicle's own fit) and
+    inside the identification's conditions (``outside_identification``: the test's start
+    outside them). The one rule of `vehval predict`, cross-validation and the batch."""
+    return not row.get("in_sample") and not row.get("outside_identification")
+
+
 def held_out_set_verdict(judged: Sequence[tuple[Any, float]]
                          ) -> tuple[dict[str, Any] | None, str]:
     """Set verdict over held-out fuel comparisons: ``(SetVerdict.to_dict(), "")``, or
