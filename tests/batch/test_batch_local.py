@@ -236,20 +236,21 @@ def test_a_fifo_is_skipped_and_listed_with_its_reason(tmp_path, template_path, c
     assert res["status"] == "ok" and [os.path.basename(f) for f in res["files"]] == ["run0.txt"]
 
 
-def test_output_folder_that_is_the_input_folder_is_refused(tmp_path, template_path, capsys):
-    """``batch DIR -o DIR`` would put the batch's ``tests`` and ``assets`` among the tests:
-    refused in one line, nothing written."""
+def test_output_folder_that_is_the_input_folder_stays_out_of_every_later_batch(
+        tmp_path, template_path, capsys):
+    """``batch DIR -o DIR`` puts the batch's ``tests`` and ``assets`` beside the tests: that
+    run and a later one with another output folder take only the tests (the later one said
+    'failed assets: ... no regular file ... matches')."""
     inp = tmp_path / "cruze dir"
     write_d3(inp / "t0.txt", seed=0)
-    before = sorted(p.name for p in inp.iterdir())
-    rc = main(["batch", str(inp), "-t", str(template_path), "-o", str(inp), "--steps", "",
-               "--no-report", "--workers", "0", "-q"])
+    args = ["-t", str(template_path), "--steps", "", "--no-report", "--workers", "0", "-q"]
+    assert main(["batch", str(inp), "-o", str(inp), *args]) == 0
+    assert (inp / "catalog.duckdb").is_file() and (inp / "tests" / "t0").is_dir()
+    capsys.readouterr()
+    assert main(["batch", str(inp), "-o", str(tmp_path / "other"), *args]) == 0
     err = capsys.readouterr().err
-    assert rc == 2 and "is the input folder: choose another output folder" in err
-    assert sorted(p.name for p in inp.iterdir()) == before          # nothing written
-    with pytest.raises(ConfigError, match="is the input folder"):   # the API refuses too
-        run_batch(inp, template_path, inp / ".." / inp.name, steps=[], workers=0,
-                  progress=False)
+    assert sorted(p.name for p in (tmp_path / "other" / "tests").iterdir()) == ["t0"]
+    assert f"not a test: {inp / 'tests'} (an earlier batch's output" in err
 
 
 def test_an_earlier_batch_output_in_the_input_folder_is_not_a_test(tmp_path, template_path,

@@ -87,3 +87,23 @@ def test_motor_peak_power_respected(bev_file):
     t = res.test
     p = t["mot_trq_out_simu"].values * t["mot_spd_out_simu"].values
     assert p.max() < 40_000.0 * 1.05
+
+
+def test_simulate_screen_of_a_battery_electric_car_states_its_energy(capsys):
+    """`vehval simulate` printed two lines then an internal error (KeyError 'fuel_mass_kg')."""
+    import json
+
+    from vehval.cli import main
+
+    args = ["simulate", "--vehicle", "bev/nissan_leaf_2016", "--cycle", "ece15"]
+    assert main([*args, "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert f"AC consumption      {s['ac_kwh_per_100mi']:.2f} kWh/100 mi" in out
+    assert f"MPGe                {s['mpge']:.1f}" in out and "fuel" not in out
+    assert main(["--units", "metric", *args]) == 0
+    assert f"AC consumption      {s['ac_kwh_per_100km']:.2f} kWh/100 km" in capsys.readouterr().out
+    # the shipped name without its folder is pointed to it
+    assert main(["simulate", "--vehicle", "nissan_leaf_2016", "--cycle", "ece15"]) == 2
+    assert "(did you mean bev/nissan_leaf_2016?)" in capsys.readouterr().err

@@ -172,3 +172,22 @@ def test_the_soc_correction_is_withheld_with_the_fuel_energy():
     assert res.soc["status"] == "withheld" and "fuel_rate_test" in res.soc["message"]
     assert not any("battery net energy change" in f.message for f in res.findings)
     assert res.value("test", "ess_energy_net_j") is not None      # the battery is fine
+
+
+def test_a_battery_signal_dropped_for_an_error_leaves_the_soc_check_undetermined():
+    """A hybrid whose battery current QA dropped (sign flipped) had its J1711 status
+    'not_applicable' (as a conventional car) and an unqualified headline."""
+    from vehval.results.headline import headline_of
+
+    res = _res()
+    assert res.soc["status"] == "not_applicable"  # no battery signal in this test
+    apply_gate(res, [_err("ess_curr_test", kind=Kind.SIGN_FLIP)])
+    assert res.soc["status"] == "undetermined"
+    assert "ess_curr_test has a QA error" in res.soc["message"]
+    head = headline_of(res.to_dict())
+    assert any("SAE J1711 undetermined: the battery signal ess_curr_test" in c
+               for c in head.caveats)
+    # a warning, or an error on another signal, says nothing about the battery
+    res = _res()
+    apply_gate(res, [_err("ess_curr_test", sev=Severity.WARNING), _err("amb_temp_test")])
+    assert res.soc["status"] == "not_applicable"

@@ -48,6 +48,11 @@ def test_folder_of_many_tests_opens_as_one_test_per_file(many):
     assert m["error"] is None, m["error"]
     assert [f["file"] for f in m["files"]] == ["second_d3.txt"]
     assert (many / "virtual" / "qa" / "second_d3" / "findings.json").is_file()
+    # the figure of one of that test's findings (the test named, as every query takes it)
+    if m["findings"]:
+        r = c.get("/api/finding", params={"dir": "virtual", "test": "second_d3", "i": 0})
+        assert r.status_code == 200, r.text
+        assert r.json()["figure"]["data"]
     r = c.get("/api/test", params={"dir": "virtual", "test": "nope"})
     assert r.status_code == 400 and "no test 'nope'" in r.json()["error"]
     # the report of that test, built from the page and served from the workspace

@@ -171,11 +171,13 @@ class ParallelAnalysis:
             r = ar[key]
             lines.append(f"  {r['name']} when {r['quantity']} {r['op']} {r['threshold']:.1f} "
                          f"N·m (explains {r['support']:.1%} of {r['n']} samples)")
-        lines.append(f"  no regen below {ar['regen_min_speed_mps']:.2f} m/s; assist share by "
-                     "gear " + ", ".join(f"{g}: {s:.0%}"
-                                         for g, s in ar["assist_share_by_gear"].items()))
-        lines.append(f"  engine stops below {st['threshold']:.2f} m/s while decelerating "
-                     f"({st['n'] - st['contradicted']} of {st['n']} stops)")
+        from vehval.display import format_value
+
+        lines.append(f"  no regen below {format_value(ar['regen_min_speed_mps'], 'm/s', digits=3)}"
+                     "; assist share by gear " + ", ".join(
+                         f"{g}: {s:.0%}" for g, s in ar["assist_share_by_gear"].items()))
+        lines.append(f"  engine stops below {format_value(st['threshold'], 'm/s', digits=3)} "
+                     f"while decelerating ({st['n'] - st['contradicted']} of {st['n']} stops)")
         idle = self.document.get("idle_battery_power", {}).get("median_w")
         if idle is not None:
             lines.append(f"  battery power while the motor idles: median {idle:.0f} W")

@@ -282,11 +282,9 @@ def _checked_options(workers: int | None, scheduler: str | None, test_timeout_s:
 
 
 def _own_outputs(target: str | Path, out: Path, tmpl: Any) -> tuple[list[Path], list[tuple[str, str]]]:
-    """The batch's own outputs (never tests, even with OUTDIR inside DIR) and the notes of
-    checking that OUTDIR is no test. OUTDIR equal to DIR is refused: its outputs (``tests``,
-    ``assets``...) would lie among the tests, for this batch and every later one."""
-    if Path(target).is_dir() and out == Path(target).resolve():
-        raise ConfigError(f"-o {out} is the input folder: choose another output folder")
+    """The batch's own outputs (never tests, even with OUTDIR inside or equal to DIR) and
+    the notes of checking that OUTDIR is no test (a later batch of DIR with another OUTDIR
+    skips them too: :func:`vehval.batch.discover.earlier_output`)."""
     own = [out / name for name in OUTPUT_NAMES]
     notes: list[tuple[str, str]] = []
     if not (Path(target).is_dir() and inside(target, out)):

@@ -107,11 +107,16 @@ def simulate_cmd(
     band = f"outside ±{format_value(2.0 * MPH_M_PER_S, 'm/s', digits=2)} / ±1 s"
     typer.echo(f"{s['vehicle']} on {s['cycle']} (dt = {s['dt_s']:g} s)")
     typer.echo(f"  distance            {format_value(s['distance_m'], 'm')}")
+    from vehval.architectures import stages
+
+    if not stages(s.get("architecture")).burns_fuel:
+        _electric_lines(s, miss, band)
+        if written and outdir is not None:
+            typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
+        return
     typer.echo(f"  fuel                {s['fuel_mass_kg'] * 1000:.1f} g")
     typer.echo(f"  fuel economy        "
                f"{fuel_text(s['fuel_economy_mpg'], s['fuel_consumption_l_per_100km'])}")
-    from vehval.architectures import stages
-
     if not stages(s.get("architecture")).has_battery:
         typer.echo(f"  gear shifts         {s['gear_shifts']:8d}")
         typer.echo(f"  fuel cut            {s['fuel_cut_time_s']:8.1f} s, idle "
@@ -170,3 +175,21 @@ def vehicle_show_cmd(
         if sources:
             line += f"   [{src.get(key, '')}]"
         typer.echo(line)
+
+
+def _electric_lines(s: dict, miss: str, band: str) -> None:
+    """The screen summary of a car that burns no fuel: SAE J1634 AC consumption (per 100 mi
+    or 100 km as ``--units`` reads), MPGe, the battery's DC energy and regeneration, SOC."""
+    from vehval.display import system
+
+    per = (f"{s['ac_kwh_per_100mi']:.2f} kWh/100 mi ({s['ac_kwh_per_100km']:.2f} kWh/100 km)"
+           if system() == "us" else
+           f"{s['ac_kwh_per_100km']:.2f} kWh/100 km ({s['ac_kwh_per_100mi']:.2f} kWh/100 mi)")
+    typer.echo(f"  AC consumption      {per}, charger {s['charger_efficiency']:g}")
+    typer.echo(f"  MPGe                {s['mpge']:.1f}")
+    typer.echo(f"  battery DC          {s['dc_energy_kwh']:.3f} kWh net, regeneration "
+               f"{s['regen_energy_kwh']:.3f} kWh")
+    typer.echo(f"  SOC                 {100 * s['soc_initial']:.1f} % -> "
+               f"{100 * s['soc_final']:.1f} %")
+    typer.echo(f"  trace max miss      {miss} ({band})")
+    typer.echo(f"  energy balance      {s['energy_balance_rel']:.1e} (relative residual)")

@@ -148,6 +148,7 @@ def apply_gate(res: Any, findings: Iterable[Finding | dict] = (), *,
     res.forced = bool(force)
     if not errors:
         return res
+    _battery_dropped(res, errors)
     # a role with no signal because QA's selection dropped its only source for an error:
     # its figures are withheld for that error, not merely "n/a"
     dropped = {role: sorted({f.signal for f in errors if _is_measured(f.signal, base)})
@@ -176,6 +177,28 @@ def apply_gate(res: Any, findings: Iterable[Finding | dict] = (), *,
     if not force:
         _gate_soc(res)
     return res
+
+
+#: Base names of the measured battery signals the SAE J1711 ratio rests on.
+_BATTERY_BASES = ("ess_pwr", "ess_curr", "ess_volt")
+
+
+def _battery_dropped(res: Any, errors: list[Finding]) -> None:
+    """A test whose battery signal QA dropped for an error has a battery: its J1711 status
+    is ``undetermined`` (naming the error), not ``not_applicable`` (no battery), so the
+    headline carries the caveat instead of silently losing the SOC check."""
+    soc = res.soc or {}
+    if soc.get("status") != "not_applicable":
+        return
+    hits = [f for f in errors if any(_is_measured(f.signal, b) for b in _BATTERY_BASES)]
+    if not hits:
+        return
+    f = hits[0]
+    res.soc = {"status": "undetermined", "tolerance": soc.get("tolerance"), "method": None,
+               "message": f"the battery signal {f.signal} has a QA error ({f.kind.value}: {f.message}), so the "
+                          "battery's change over the test is unknown; fix the signal (sign, "
+                          "unit, mapping) and rerun",
+               "scopes": {}}
 
 
 def _gate_soc(res: Any) -> None:

@@ -373,7 +373,7 @@ def api_finding(wb: Workbench, q: prm.FindingQuery, body: None) -> dict:
 
     from vehval.report.figures import figure_json
 
-    out = wb.bench(q.dir).finding_figure(q.i)
+    out = wb.bench(q.dir, q.test).finding_figure(q.i)
     out["figure"] = json.loads(figure_json(out["figure"]))
     return out
 

@@ -204,8 +204,10 @@ def _vehicles_dir() -> Path:
 
 
 def list_vehicles() -> list[str]:
-    """Names of the vehicles shipped with vehval."""
-    return sorted(p.stem for p in _vehicles_dir().glob("*.yaml"))
+    """Names of the vehicles shipped with vehval (those of a sub-folder named with it:
+    ``bev/nissan_leaf_2016``)."""
+    root = _vehicles_dir()
+    return sorted(p.relative_to(root).with_suffix("").as_posix() for p in root.rglob("*.yaml"))
 
 
 def _validate(data: Any, where: str):
@@ -244,8 +246,11 @@ def _find(text: str, here: Path | None = None) -> Path:
     if not (path.suffix in (".yaml", ".yml") or path.exists()):
         path = _vehicles_dir() / f"{text}.yaml"
         if not path.exists():
-            raise ConfigError(f"unknown vehicle '{text}': known vehicles are "
-                              f"{', '.join(list_vehicles())}, or give a path to a YAML file")
+            known = list_vehicles()
+            near = [n for n in known if n.rsplit("/", 1)[-1] == text]
+            hint = f" (did you mean {near[0]}?)" if near else ""
+            raise ConfigError(f"unknown vehicle '{text}'{hint}: known vehicles are "
+                              f"{', '.join(known)}, or give a path to a YAML file")
     return path
 
 
