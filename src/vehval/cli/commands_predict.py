@@ -40,10 +40,11 @@ def _table(rows: list[dict]) -> str:
 
 
 def _en(r: dict) -> str:
-    """`` En +0.42`` (``?`` when uninformative) of a result row; empty without one."""
+    """`` En +0.42`` (`` (uninformative)`` when the combined U exceeds a tenth of the
+    measured figure: the comparison cannot tell) of a result row; empty without one."""
     if r.get("en") is None:
         return ""
-    return f" En {r['en']:+.2f}" + ("?" if r.get("uninformative") else "")
+    return f" En {r['en']:+.2f}" + (" (uninformative)" if r.get("uninformative") else "")
 
 
 def _verdict_lines(verdict: dict | None, notes: list[str]) -> list[str]:

@@ -163,6 +163,9 @@ def table(result: dict) -> str:
                      f"{inside:>3} {unc:>7} {en:>6}"
                      + ("  outside the identification's conditions"
                         if r.get("outside_identification") else ""))
+    if any(r.get("en") is not None and r.get("uninformative") for r in result["rows"]):
+        lines.append("En? : uninformative (the combined uncertainty exceeds a tenth of the "
+                     "measured fuel: the comparison cannot tell)")
     for s in result["skipped"]:
         lines.append(f"skipped {s}")
     s = result["summary"]
