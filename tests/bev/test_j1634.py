@@ -77,6 +77,19 @@ def test_virtual_bev_results_within_half_percent(bev_file, tmp_path, cycle):
                                                            rel=0.005)
     assert j["test"]["mpge"] == pytest.approx(key["test"]["mpge"], rel=0.005)
     assert json.loads(json.dumps(res.to_dict()))["j1634"]["standard"] == "SAE J1634"
+    if cycle == "udds":  # the screen: J1634 figures, no fuel economy, composite or J1711
+        import contextlib
+        import io
+
+        from vehval.cli.commands_results import echo_results
+
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            echo_results(res)
+        text = out.getvalue()
+        assert "MPGe" in text and "SAE J1634" in text
+        assert "fuel economy" not in text and "ftp75_from_udds" not in text
+        assert "SOC:" not in text
 
 
 def _bev_template(tmp_path, extra_channel: str = "", fuel: str = "") -> str:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import typer
 
@@ -71,26 +72,30 @@ def withheld_exit(doc: dict) -> None:
         raise typer.Exit(EXIT_WITHHELD)
 
 
+def _fe_text(res: Any, scope: str) -> str:
+    """The fuel economy of ``scope`` as the screen states it (withheld, n/a, or mpg and
+    L/100 km in the reading order of ``--units``)."""
+    from vehval.display import system as display_system
+
+    v = res.value(scope, "fuel_economy_mpg")
+    held = res.withheld.get(scope)
+    if held and "fuel_economy_mpg" in held["quantities"] and not res.forced:
+        return f"fuel economy withheld ({', '.join(held['signals'])})"
+    if v is None:
+        m = res.value(scope, "fuel_mass_kg")
+        return "fuel economy n/a" + (f" (fuel {m * 1e3:.1f} g)" if m is not None else "")
+    u = res.expanded(scope, "fuel_economy_mpg")
+    lp = res.value(scope, "fuel_consumption_l_per_100km")
+    ul = res.expanded(scope, "fuel_consumption_l_per_100km")
+    mpg = f"{v:6.2f} +- {u or 0:.2f} mpg"
+    if lp is None:
+        return mpg
+    lkm = f"{lp:.2f} +- {ul or 0:.2f} L/100 km" if ul is not None else f"{lp:.2f} L/100 km"
+    return f"{mpg} ({lkm})" if display_system() == "us" else f"{lkm} ({mpg.strip()})"
+
+
 def echo_results(res) -> None:
     """Headline lines: phases and composites with their expanded uncertainty."""
-    def fe(scope: str) -> str:
-        v = res.value(scope, "fuel_economy_mpg")
-        held = res.withheld.get(scope)
-        if held and "fuel_economy_mpg" in held["quantities"] and not res.forced:
-            return f"fuel economy withheld ({', '.join(held['signals'])})"
-        if v is None:
-            m = res.value(scope, "fuel_mass_kg")
-            return "fuel economy n/a" + (f" (fuel {m * 1e3:.1f} g)" if m is not None else "")
-        u = res.expanded(scope, "fuel_economy_mpg")
-        lp = res.value(scope, "fuel_consumption_l_per_100km")
-        ul = res.expanded(scope, "fuel_consumption_l_per_100km")
-        mpg = f"{v:6.2f} +- {u or 0:.2f} mpg"
-        if lp is None:
-            return mpg
-        lkm = f"{lp:.2f} +- {ul or 0:.2f} L/100 km" if ul is not None else f"{lp:.2f} L/100 km"
-        return f"{mpg} ({lkm})" if display_system() == "us" else f"{lkm} ({mpg.strip()})"
-
-    from vehval.display import system as display_system
     from vehval.display import unit_for
 
     dist_u, spd_u = unit_for("m"), unit_for("m/s")
@@ -106,21 +111,27 @@ def echo_results(res) -> None:
                f"{res.phase_source}; fuel {_fuel_declared(res.fuel)}")
     for line in headline_lines(res.to_dict()):
         typer.echo(f"  {line}")
+    # a car that burns no fuel: its figures are the SAE J1634 ones below, no fuel economy
+    electric = res.j1634 is not None and res.value("test", "fuel_mass_kg") is None
+
+    def fe_or_none(scope: str) -> str:
+        return "" if electric else _fe_text(res, scope)
+
     for p in res.phases:
         dq = res.drive_quality.get(p.name) or {}
         extra = (f"  IWR {dq['iwr_pct']:+.1f} %, RMSSE {spd_u.convert(dq['rmsse_mps']):.2f} "
                  f"{spd_u.label}" if dq.get("iwr_pct") is not None else "")
-        typer.echo(f"  {p.name:18s} {dist(p.name)}  {fe(p.name)}{extra}")
-    typer.echo(f"  {'whole test':18s} {dist('test')}  {fe('test')}")
-    for c in res.composites:
-        typer.echo(f"  = {c.name:16s} {fe(c.name)}  [{c.rule.split(':')[0]}]")
+        typer.echo(f"  {p.name:18s} {dist(p.name)}  {fe_or_none(p.name)}{extra}".rstrip())
+    typer.echo(f"  {'whole test':18s} {dist('test')}  {fe_or_none('test')}".rstrip())
+    for c in [] if electric else res.composites:
+        typer.echo(f"  = {c.name:16s} {_fe_text(res, c.name)}  [{c.rule.split(':')[0]}]")
         for cav in getattr(c, "caveats", []):
             typer.echo(f"      ! {cav}")
     for note in res.notes:
         if note.startswith("FTP-75:"):
             typer.echo(f"  ! {note}")
-    typer.echo(_j1634_text(res)
-               + f"  uncertainty: {_method_text(res)}, k = 2; SOC: {res.soc['status']}")
+    typer.echo(_j1634_text(res) + f"  uncertainty: {_method_text(res)}, k = 2"
+               + ("" if electric else f"; SOC: {res.soc['status']}"))
     if res.withheld:
         typer.echo(f"  {len(res.withheld)} figure(s) "
                    + ("stated despite QA errors (--force)" if res.forced else
