@@ -130,3 +130,15 @@ def test_conventional_warmup_fuel_by_hand():
     assert cold.summary["fuel_mass_kg"] > 1.05 * hot.summary["fuel_mass_kg"]
     plain = simulate(base, "udds", dt=DT, cold_start=True)  # no warm-up model: cold == hot
     assert plain.summary["fuel_mass_kg"] == hot.summary["fuel_mass_kg"]
+
+
+def test_cold_start_on_a_car_without_a_cold_model_says_so(capsys):
+    """`simulate --cold-start` on a car with no warm-up model ran as a hot start, silently."""
+    from vehval.cli import main
+
+    assert main(["simulate", "--vehicle", "prius_2004", "--cycle", "ece15", "--dt", "1",
+                 "--cold-start"]) == 0
+    assert "prius_2004 has no cold-start model" in capsys.readouterr().err
+    assert main(["simulate", "--vehicle", "prius_2004", "--cycle", "ece15", "--dt", "1",
+                 "--cold-start", "--set", "engine.warmup_fuel_fraction=0.2"]) == 0
+    assert "no cold-start model" not in capsys.readouterr().err

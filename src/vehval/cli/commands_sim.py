@@ -83,6 +83,8 @@ def simulate_cmd(
     res = simulate(vehicle, cycle, dt=dt, soc_initial=soc_initial,
                    charge_balance=charge_balance, cold_start=cold_start, **overrides)
     s = res.summary
+    if cold_start:
+        _note_without_cold_model(vehicle, overrides)
     aud = None
     if audit:
         from vehval.sim.audit import energy_audit
@@ -99,6 +101,13 @@ def simulate_cmd(
             doc["audit"] = aud
         typer.echo(json.dumps(doc))
         return
+    _screen(s, aud)
+    if written and outdir is not None:
+        typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
+
+
+def _screen(s: dict, aud: dict | None) -> None:
+    """The simulation on screen, per architecture (the JSON has every figure)."""
     from vehval.constants import MPH_M_PER_S
     from vehval.display import format_value, fuel_text
 
@@ -111,8 +120,6 @@ def simulate_cmd(
 
     if not stages(s.get("architecture")).burns_fuel:
         _electric_lines(s, miss, band)
-        if written and outdir is not None:
-            typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
         return
     typer.echo(f"  fuel                {s['fuel_mass_kg'] * 1000:.1f} g")
     typer.echo(f"  fuel economy        "
@@ -123,8 +130,6 @@ def simulate_cmd(
                    f"{s['idle_time_s']:.1f} s, converter open {s['unlocked_time_s']:.1f} s")
         typer.echo(f"  trace max miss      {miss} ({band})")
         typer.echo(f"  energy balance      {s['energy_balance_rel']:.1e} (relative residual)")
-        if written and outdir is not None:
-            typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
         return
     typer.echo("  SOC-corrected       " + fuel_text(s["fuel_economy_soc_corrected_mpg"],
                                                    s.get("fuel_consumption_soc_corrected_l_per_100km")))
@@ -140,8 +145,6 @@ def simulate_cmd(
         typer.echo("energy audit:")
         for line in audit_lines(aud):
             typer.echo(f"  {line}")
-    if written and outdir is not None:
-        typer.echo(f"  wrote {', '.join(str(outdir / w) for w in written)}")
 
 
 @vehicle_app.command("list")
@@ -175,6 +178,18 @@ def vehicle_show_cmd(
         if sources:
             line += f"   [{src.get(key, '')}]"
         typer.echo(line)
+
+
+def _note_without_cold_model(vehicle: str, overrides: dict) -> None:
+    """Say so when ``--cold-start`` has no effect: the car has no cold-start model."""
+    from vehval.sim.simulate import architecture
+    from vehval.vehicle import load_vehicle
+
+    veh = load_vehicle(vehicle)
+    if not architecture(veh).cold_start_model(veh.with_overrides(overrides)
+                                              if overrides else veh):
+        typer.echo(f"note: {veh.name} has no cold-start model (no warm-up fuel, no cold "
+                   "engine-on time): --cold-start runs as a hot start", err=True)
 
 
 def _electric_lines(s: dict, miss: str, band: str) -> None:
