@@ -116,6 +116,6 @@ def cycle_precision(cycle: str | None, family: str = "all") -> tuple[DefaultPrec
     """:func:`precision_default` of a test's cycle (:func:`procedure_of_cycle`) and a note
     (empty, or which procedure's figure was borrowed)."""
     proc, own = procedure_of_cycle(cycle)
-    note = "" if own else (f"no packaged precision for the cycle '{cycle or '?'}': the "
-                           f"{proc} figure is used")
+    what = f"the cycle '{cycle}'" if cycle else "a test whose cycle was not identified"
+    note = "" if own else f"no packaged precision for {what}: the {proc} figure is used"
     return precision_default(proc, family), note
