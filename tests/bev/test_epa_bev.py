@@ -78,10 +78,29 @@ def test_negative_road_load_row_refused_in_one_line():
     assert "road_load_b" in str(exc.value) and "\n" not in str(exc.value)
 
 
-def test_validate_bev_skips_other_rows(tmp_path):
+def test_validate_bev_skips_other_rows(tmp_path, monkeypatch):
     doc = validate_bev("bev/nissan_leaf_2016", [_row(), _row(displacement_l=2.0)], dt=1.0)
     assert doc["stats"]["n"] == 1 and len(doc["skipped"]) == 1
     assert doc["rows"][0]["unit"] == "MPGe"
+    # the screen in the reader's units: kWh/100 km of an MPGe figure, by hand
+    from vehval.epa.bev import validation_text
+
+    j = doc["rows"][0]
+    kwh_100km = 33.705 / j["listed"] * 100 / 1.609344
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    assert f"{kwh_100km:8.1f} " in validation_text(doc) and "kWh/100 km" in validation_text(doc)
+    monkeypatch.setenv("VEHVAL_UNITS", "us")
+    assert f"{j['listed']:8.1f} " in validation_text(doc) and "kWh/100 km" not in \
+        validation_text(doc)
+    # -o writes the report, the JSON and the CSV
+    import json
+
+    from vehval.report.epa import write_bev_report
+
+    names = write_bev_report(doc, tmp_path / "out")
+    assert sorted(names) == ["epa_validation.csv", "epa_validation.json", "report.html"]
+    assert json.loads((tmp_path / "out" / "epa_validation.json").read_text())["stats"]["n"] == 1
+    assert "battery-electric" in (tmp_path / "out" / "report.html").read_text()
 
 
 def test_shipped_bev_vehicles_current_and_sourced():

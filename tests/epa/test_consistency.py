@@ -126,3 +126,18 @@ def test_vehicle_match_by_axle_ratio_and_displacement(tmp_path):
     lumped = veh.with_overrides({"driveline.final_drive_ratio": 1.0,
                                  "engine.displacement_l": None})
     assert check_vehicle_match(c, lumped).ok
+
+
+def test_cli_shows_an_electricity_row_in_its_own_unit(tmp_path, capsys, monkeypatch):
+    """`--units metric epa tests` showed a 180.4 MPGe row as 1.3 L/100 km (mpg converted)."""
+    path = write_list(tmp_path / "16tstcar.csv", [
+        row(model="LEAF", number="EV", code=81, desc="Charge Depleting UDDS",
+            fuel=("E", "Electricity"), fe=180.4)])
+    monkeypatch.setenv("COLUMNS", "250")
+    assert main(["epa", "tests", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "elec: MPGe or kWh/100 mi as listed" in out and " 180.4 " in out
+    assert main(["--units", "metric", "epa", "tests", str(path)]) == 0
+    out = capsys.readouterr().out
+    kwh_100km = 33.705 / 180.4 * 100 / 1.609344  # 11.61, by hand
+    assert f" {kwh_100km:.1f} " in out and "elec: kWh/100 km" in out and " 1.3 " not in out

@@ -271,7 +271,7 @@ def test_in_sample_marked_in_cli_and_report(prius_list, prius_2016, tmp_path, ca
 
     from vehval.calibration.provenance import _plain
 
-    veh = _calibrated_on(prius_2016, ["T4"])
+    veh = _calibrated_on(prius_2016, ["T4", "T9"])  # T9: a calibration test not in this run
     path = tmp_path / "cal.yaml"
     path.write_text(yaml.safe_dump(_plain(veh.model_dump(exclude_none=True)), sort_keys=False),
                     encoding="utf-8")
@@ -284,6 +284,7 @@ def test_in_sample_marked_in_cli_and_report(prius_list, prius_2016, tmp_path, ca
     assert "in-sample (the vehicle file was calibrated on these tests" in text
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "In-sample, apart" in html and "square: in-sample" in html
+    assert "calibrated on 1 of these tests (T4)" in html  # not T9, which did not run
     data = json.loads((out / "epa_validation.json").read_text(encoding="utf-8"))
     assert data["stats"]["n_judged"] == 0 and data["stats_in_sample"]["n_judged"] == 1
 

@@ -86,9 +86,12 @@ def tests_cmd(
                f"{'trans':5s} {'fuel':6s} "
                f"{f'ETW {mu.label}':>7} {'N/V':>5} {'axle':>5} {f'A {fu.label}':>7} "
                f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE':>6}  "
-               f"bags 1-4 (FE, bags: {fe[0]})")
+               f"bags 1-4 (FE, bags: {fe[0]}; elec: {_electric_unit()})")
     for t, chk in zip(tests, checks):
-        bags = " ".join(f"{_fmt(fe[1](b_), fe[2]):>6}" for b_ in t.bags) + (
+        # an electricity row's figures are MPGe or kWh/100 mi, never mpg
+        shown = _electric_shown if _fuel_text(t) == "elec" else (
+            lambda v: _fmt(fe[1](v), fe[2]))
+        bags = " ".join(f"{shown(b_):>6}" for b_ in t.bags) + (
             "" if chk.ok else "  !") + ("  AD" if t.analytically_derived else "")
         typer.echo(f"{t.label:{wt}s} {t.vehicle_id:{wv}s} {t.config[:3]:>3} "
                    f"{(t.originator or '?')[:4]:4s} {procedure_key(t)[:7]:7s} "
@@ -96,7 +99,7 @@ def tests_cmd(
                    f"{_fmt(float(mu.convert(t.mass_kg)), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
                    f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(float(fu.convert(t.target_a_n)), '.2f'):>7} "
                    f"{_fmt(b_k * t.target_b_n_per_mps, '.4f'):>11} "
-                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {_fmt(fe[1](t.fe), fe[2]):>6}  {bags}")
+                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {shown(t.fe):>6}  {bags}")
     typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients and SI "
                "units in --json; N/V in rpm/mph as listed)")
     for t, chk in zip(tests, checks):
@@ -122,6 +125,27 @@ def _echo_list_marks(tests: list) -> None:
     if tests and all(t.analytically_derived is None for t in tests):
         typer.echo("AD: the list has no 'Analytically Derived FE?' column (a reduced column "
                    "set): derived figures cannot be told from measured ones")
+
+
+def _electric_unit() -> str:
+    """The unit an electricity row's figures are shown in: as listed (MPGe; a consumption
+    row kWh/100 mi) in the us system, kWh/100 km in metric."""
+    from vehval.display import system
+
+    return "MPGe or kWh/100 mi as listed" if system() == "us" else "kWh/100 km"
+
+
+def _electric_shown(value: float) -> str:
+    """An electricity row's figure in :func:`_electric_unit` (the list's FE_UNIT says MPG
+    for MPGe; a figure under 60 is a kWh/100 mi consumption, :mod:`vehval.epa.bev`)."""
+    import math
+
+    from vehval.epa.bev import MPGE_THRESHOLD, shown_figure
+
+    if value is None or not math.isfinite(value) or value <= 0:
+        return _fmt(value)
+    unit = "MPGe" if value > MPGE_THRESHOLD else "kWh/100mi"
+    return _fmt(shown_figure(value, unit)[0])
 
 
 def _trans_text(t) -> str:

@@ -20,16 +20,23 @@ from vehval.cli.options import bounded, output_dir
 
 
 def _validate_bev(paths: list[Path], vehicle: str, tests: str, dt: float,
-                  as_json: bool) -> bool:
+                  as_json: bool, outdir: Path | None) -> bool:
     """`epa validate` of a battery-electric vehicle: electricity rows judged in their own
-    unit (vehval.epa.bev); False for any other vehicle."""
+    unit (vehval.epa.bev), written to ``outdir`` when given; False for any other vehicle."""
     from vehval import jsonsafe
     from vehval.epa.bev import is_bev_vehicle, validate_bev, validation_text
 
     if not is_bev_vehicle(vehicle):
         return False
     doc = validate_bev(vehicle, _selected(paths, tests, dt), dt)
+    written: list[str] = []
+    if outdir is not None:
+        from vehval.report.epa import write_bev_report
+
+        written = write_bev_report(doc, outdir)
     typer.echo(jsonsafe.dumps(doc) if as_json else validation_text(doc), nl=not as_json)
+    if written and not as_json and outdir is not None:
+        typer.echo(f"wrote {', '.join(str(outdir / w) for w in written)}")
     return True
 
 
@@ -65,7 +72,7 @@ def validate_cmd(
     if outdir is not None:
         check_outputs(outdir=outdir, inputs=[*paths, vehicle_path(vehicle)],
                       writes=["report.html", "epa_validation.json", "epa_validation.csv"])
-    if _validate_bev(paths, vehicle, tests, dt, as_json):
+    if _validate_bev(paths, vehicle, tests, dt, as_json, outdir):
         return
     with bar("epa validate: simulating tests", as_json=as_json):
         every: list = []

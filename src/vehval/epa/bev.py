@@ -258,16 +258,35 @@ def validate_bev(vehicle: Any, tests: list[EpaTest], dt: float = 1.0,
             "skipped": skipped}
 
 
+def shown_figure(value: float, unit: str, system_name: str | None = None
+                 ) -> tuple[float, str]:
+    """A row's figure as the reader reads it: as the list states it (MPGe or kWh/100 mi) in
+    the ``us`` system, kWh/100 km in ``metric``."""
+    from vehval.constants import MILE_M
+    from vehval.display import system
+    from vehval.fuels.quantities import kwh_per_100mi_from_mpge
+
+    if system(system_name) == "us":
+        return value, unit
+    return kwh_per_100mi_from_mpge(as_mpge(value, unit)) / (MILE_M / 1000.0), "kWh/100 km"
+
+
 def validation_text(doc: dict[str, Any]) -> str:
-    """Screen text of :func:`validate_bev`."""
+    """Screen text of :func:`validate_bev` (figures in the display units; the error is of
+    the row's own figure, as in the JSON)."""
     lines = [f"{'row':22s} {'cycle':6s} {'listed':>8} {'sim':>8} unit       {'err %':>6} "
              f"{'En':>6}"]
     for j in doc["rows"]:
-        lines.append(f"{j['row'][:22]:22s} {j['cycle']:6s} {j['listed']:8.1f} "
-                     f"{j['simulated']:8.1f} {j['unit']:10s} {100 * j['error']:+6.1f} "
+        listed, unit = shown_figure(j["listed"], j["unit"])
+        sim, _ = shown_figure(j["simulated"], j["unit"])
+        lines.append(f"{j['row'][:22]:22s} {j['cycle']:6s} {listed:8.1f} "
+                     f"{sim:8.1f} {unit:10s} {100 * j['error']:+6.1f} "
                      f"{j['en']:+6.2f}")
     for s in doc["skipped"]:
         lines.append(f"skipped {s['row']}: {s['reason']}")
+    if doc["rows"] and shown_figure(1.0, "MPGe")[1] != "MPGe":
+        lines.append("err %: of the list's own figure (MPGe or kWh/100 mi), as the JSON; "
+                     "a consumption reads the other way round")
     st = doc["stats"]
     if st["n"]:
         lines.append(f"{st['n']} rows: mean error {100 * st['mean_error']:+.1f} %, mean "

@@ -13,6 +13,7 @@ import csv
 import io
 import math
 from pathlib import Path
+from typing import Any
 
 from vehval import jsonsafe
 from vehval.display import as_unit
@@ -150,9 +151,11 @@ def render_html(val: EpaValidation) -> str:
     in_sample = ""
     if st["n_judged_in_sample"]:
         ins = val.stats(in_sample=True)
+        here = {p.test.label for p in val.predictions}  # the file may name tests not run
         in_sample = (f"In-sample, apart: the vehicle file was calibrated on "
                      f"{ins['n_tests_in_sample']} of these tests "
-                     f"({', '.join(sorted(val.calibrated))}); their figures are not a "
+                     f"({', '.join(sorted(t for t in val.calibrated if t in here))}); their "
+                     "figures are not a "
                      f"prediction: {_figures_text(ins)}")
     if val.sample_unknown:
         in_sample += (f" Sample unknown: {len(val.sample_unknown)} test(s) without a test number "
@@ -181,5 +184,44 @@ def write_epa_report(val: EpaValidation, outdir: str | Path) -> list[str]:
         (stage / "report.html").write_text(render_html(val), encoding="utf-8")
         (stage / "epa_validation.json").write_text(jsonsafe.dumps(val),
                                                    encoding="utf-8")
+        (stage / "epa_validation.csv").write_text(buf.getvalue(), encoding="utf-8")
+    return ["report.html", "epa_validation.json", "epa_validation.csv"]
+
+
+def write_bev_report(doc: dict[str, Any], outdir: str | Path) -> list[str]:
+    """The outputs of `epa validate` of a battery-electric vehicle
+    (:func:`vehval.epa.bev.validate_bev`): report.html, epa_validation.json and
+    epa_validation.csv, atomically."""
+    from vehval.epa.bev import shown_figure, validation_text
+    from vehval.io.atomic import atomic_dir
+    from vehval.report.document import h1, para, render_document, table
+
+    rows = [{"row": j["row"], "cycle": j["cycle"], "unit": j["unit"], "listed": j["listed"],
+             "simulated": j["simulated"], "error_pct": 100 * j["error"], "en": j["en"],
+             "in_sample": j["in_sample"]} for j in doc["rows"]]
+    buf = io.StringIO()
+    if rows:
+        w = csv.DictWriter(buf, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    cells = []
+    for j in doc["rows"]:
+        listed, unit = shown_figure(j["listed"], j["unit"])
+        sim, _ = shown_figure(j["simulated"], j["unit"])
+        cells.append([j["row"], j["cycle"], f"{listed:.1f}", f"{sim:.1f}", unit,
+                      f"{100 * j['error']:+.1f}", f"{j['en']:+.2f}"])
+    summary = validation_text({**doc, "rows": []}).strip()
+    blocks = [h1(f"vehval EPA validation: {doc['vehicle']} (battery-electric)"),
+              para("Each electricity row simulated on its own test weight and road load and "
+                   "judged by its normalised error En (|En| <= 1: consistent; U_model "
+                   f"{100 * doc['u_model_rel']:.0f} %, k = 2)."),
+              table(["row", "cycle", "listed", "simulated", "unit", "error [%]", "En"], cells)]
+    if summary:
+        blocks.append(para(summary))
+    html = render_document(blocks, title=f"vehval EPA validation: {doc['vehicle']}",
+                           css="simple.css")
+    with atomic_dir(Path(outdir)) as stage:
+        (stage / "report.html").write_text(html, encoding="utf-8")
+        (stage / "epa_validation.json").write_text(jsonsafe.dumps(doc), encoding="utf-8")
         (stage / "epa_validation.csv").write_text(buf.getvalue(), encoding="utf-8")
     return ["report.html", "epa_validation.json", "epa_validation.csv"]
