@@ -197,7 +197,7 @@ def write_bev_report(doc: dict[str, Any], outdir: str | Path) -> list[str]:
     from vehval.report.document import h1, para, render_document, table
 
     rows = [{"row": j["row"], "cycle": j["cycle"], "unit": j["unit"], "listed": j["listed"],
-             "simulated": j["simulated"], "error_pct": 100 * j["error"], "en": j["en"],
+             "simulated": j["simulated"], "error_pct": as_unit(j["error"], "%"), "en": j["en"],
              "in_sample": j["in_sample"]} for j in doc["rows"]]
     buf = io.StringIO()
     if rows:
@@ -209,12 +209,12 @@ def write_bev_report(doc: dict[str, Any], outdir: str | Path) -> list[str]:
         listed, unit = shown_figure(j["listed"], j["unit"])
         sim, _ = shown_figure(j["simulated"], j["unit"])
         cells.append([j["row"], j["cycle"], f"{listed:.1f}", f"{sim:.1f}", unit,
-                      f"{100 * j['error']:+.1f}", f"{j['en']:+.2f}"])
+                      f"{as_unit(j['error'], '%'):+.1f}", f"{j['en']:+.2f}"])
     summary = validation_text({**doc, "rows": []}).strip()
     blocks = [h1(f"vehval EPA validation: {doc['vehicle']} (battery-electric)"),
               para("Each electricity row simulated on its own test weight and road load and "
                    "judged by its normalised error En (|En| <= 1: consistent; U_model "
-                   f"{100 * doc['u_model_rel']:.0f} %, k = 2)."),
+                   f"{as_unit(doc['u_model_rel'], '%'):.0f} %, k = 2)."),
               table(["row", "cycle", "listed", "simulated", "unit", "error [%]", "En"], cells)]
     if summary:
         blocks.append(para(summary))
