@@ -121,3 +121,22 @@ def test_cruze_fuel_declared_mg_per_s_is_withheld_not_33857_mpg(cli, tmp_path, c
     assert "33856" not in out and "33,857" not in out
     doc = json.loads((tmp_path / "r" / "results.json").read_text())
     assert doc["headline"]["name"] == "udds" and doc["headline"]["fuel_economy_mpg"] is None
+
+
+def test_hot_start_that_is_the_test_itself_is_refused(tmp_path, capsys):
+    """`results T --hot-start T` took the test's own bag 1 as the hot start, silently."""
+    from vehval.cli import main
+
+    f = tmp_path / "run.txt"
+    f.write_text("Time[s],Dyno_Speed[mph]\n0,0\n1,1\n", encoding="utf-8")
+    link = tmp_path / "same.txt"
+    link.symlink_to(f)
+    t = tmp_path / "t.yaml"
+    t.write_text("files:\n  - source: dyno\n    channels:\n"
+                 "      Dyno_Speed: {name: veh_spd_test, unit: mph}\n", encoding="utf-8")
+    for hot in (f, link):
+        rc = main(["results", str(f), "-t", str(t), "-o", str(tmp_path / "out"),
+                   "--hot-start", str(hot)])
+        err = capsys.readouterr().err
+        assert rc == 2 and "is a file of the test itself" in err, err
+    assert not (tmp_path / "out").exists()

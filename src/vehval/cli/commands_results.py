@@ -36,6 +36,27 @@ def hot_start_bag1(files: list[Path], template) -> dict[str, float]:
             if (v := vals.get(k)) is not None}
 
 
+def _hot_start_not_the_test(files: list[Path], hot: list[Path]) -> None:
+    """Refuse a ``--hot-start`` file that is one of the test's own files (the same file by
+    device and inode): its bag 1 is this test's, not the hot start after the soak."""
+    import os
+
+    def ids(paths: list[Path]) -> dict[tuple[int, int], Path]:
+        out = {}
+        for p in paths:
+            try:
+                st = os.stat(p)
+            except OSError:
+                continue
+            out[(st.st_dev, st.st_ino)] = p
+        return out
+
+    same = ids(files).keys() & ids(hot).keys()
+    if same:
+        raise VehvalError(f"--hot-start {ids(hot)[next(iter(same))]}: is a file of the test "
+                          "itself: give the hot-start UDDS run after the soak, another test")
+
+
 def headline_lines(doc: dict) -> list[str]:
     """The headline of a results.json document (:meth:`vehval.results.headline.Headline.lines`):
     its figure with U and caveats, or why it is withheld."""
@@ -176,6 +197,7 @@ def results_cmd(
 
     check_outputs(outdir=outdir, inputs=[*files, template, vehicle_path(vehicle), *(hot_start or [])],
                   writes=["results.json", "findings.json", "validated.parquet"])
+    _hot_start_not_the_test(files, hot_start or [])
     run = TestRun.load(files, template, vehicle)
     hot = hot_start_bag1(list(hot_start), run.template) if hot_start else None
     res = run.results(method="monte_carlo" if monte_carlo else "first_order",
