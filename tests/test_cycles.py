@@ -157,20 +157,20 @@ def test_csv_path_with_mph_header(tmp_path):
     assert load_cycle(kph).max_speed_mps == pytest.approx(10.0)
 
 
-def test_bad_csv_error_names_file_and_line(tmp_path):
-    path = tmp_path / "broken.csv"
-    path.write_text("time_s,speed_mps\n0,0\n1,2\n2,abc\n3,0\n", encoding="utf-8")
-    with pytest.raises(VehvalError) as exc:
+def _refused(tmp_path, name: str, text: str, match: str) -> None:
+    """A cycle file ``name`` holding ``text`` is refused with a message matching ``match``."""
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(VehvalError, match=match):
         load_cycle(path)
-    assert "broken.csv" in str(exc.value) and "line 4" in str(exc.value)
-    back = tmp_path / "back.csv"
-    back.write_text("time_s,speed_mps\n0,0\n1,2\n1,2\n", encoding="utf-8")
-    with pytest.raises(VehvalError, match=r"back\.csv.*line 4"):
-        load_cycle(back)
-    nounit = tmp_path / "nounit.csv"
-    nounit.write_text("time,speed\n0,0\n1,1\n", encoding="utf-8")
-    with pytest.raises(VehvalError, match=r"nounit\.csv: line 1.*no unit"):
-        load_cycle(nounit)
+
+
+def test_bad_csv_error_names_file_and_line(tmp_path):
+    _refused(tmp_path, "broken.csv", "time_s,speed_mps\n0,0\n1,2\n2,abc\n3,0\n",
+             r"broken\.csv.*line 4")
+    _refused(tmp_path, "back.csv", "time_s,speed_mps\n0,0\n1,2\n1,2\n", r"back\.csv.*line 4")
+    _refused(tmp_path, "nounit.csv", "time,speed\n0,0\n1,1\n",
+             r"nounit\.csv: line 1.*no unit")
     with pytest.raises(VehvalError, match="not found"):
         load_cycle(tmp_path / "missing.csv")
 
@@ -197,15 +197,11 @@ def test_a_cycle_file_is_checked_row_by_row_and_for_plausible_speed(tmp_path):
         warnings.simplefilter("error")  # no numpy warning leaks out
         with pytest.raises(VehvalError, match=r"empty\.csv: no data rows after the header"):
             load_cycle(empty)
-    ragged = tmp_path / "ragged.csv"
-    ragged.write_text("time_s,speed_mps\n0,0\n1,1,2\n2,3\n", encoding="utf-8")
-    with pytest.raises(VehvalError, match=r"ragged\.csv: line 3: 3 fields, the header has 2"):
-        load_cycle(ragged)
-    fast = tmp_path / "fast.csv"
-    fast.write_text("time_s,speed_kph\n0,0\n1,1800\n2,0\n", encoding="utf-8")
-    with pytest.raises(VehvalError, match=r"fast\.csv: speed 500 m/s \(1800 km/h\) at t = 1 s "
-                                          r"\(line 3\) is above the plausible 70 m/s"):
-        load_cycle(fast)
+    _refused(tmp_path, "ragged.csv", "time_s,speed_mps\n0,0\n1,1,2\n2,3\n",
+             r"ragged\.csv: line 3: 3 fields, the header has 2")
+    _refused(tmp_path, "fast.csv", "time_s,speed_kph\n0,0\n1,1800\n2,0\n",
+             r"fast\.csv: speed 500 m/s \(1800 km/h\) at t = 1 s \(line 3\) is above the "
+             r"plausible 70 m/s")
     with pytest.raises(VehvalError, match=r"steady cycle: speed 83.33 m/s \(300 km/h\)"):
         load_cycle("steady:300kph:10s")
     assert load_cycle("steady:250kph:10s").max_speed_mps == pytest.approx(250 / 3.6)

@@ -136,16 +136,15 @@ def _electric_unit() -> str:
 
 
 def _electric_shown(value: float) -> str:
-    """An electricity row's figure in :func:`_electric_unit` (the list's FE_UNIT says MPG
-    for MPGe; a figure under 60 is a kWh/100 mi consumption, :mod:`vehval.epa.bev`)."""
+    """An electricity row's figure in :func:`_electric_unit` (its unit read by
+    :func:`vehval.epa.bev.figure_unit`)."""
     import math
 
-    from vehval.epa.bev import MPGE_THRESHOLD, shown_figure
+    from vehval.epa.bev import figure_unit, shown_figure
 
     if value is None or not math.isfinite(value) or value <= 0:
         return _fmt(value)
-    unit = "MPGe" if value > MPGE_THRESHOLD else "kWh/100mi"
-    return _fmt(shown_figure(value, unit)[0])
+    return _fmt(shown_figure(value, figure_unit(value))[0])
 
 
 def _trans_text(t) -> str:

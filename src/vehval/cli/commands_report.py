@@ -102,7 +102,7 @@ def report_cmd(
     `vehval results --force` or `vehval qa --force` to state them under a banner)."""
     from vehval.io.parquet import read_test
     from vehval.report import build_reports, load_json, write_report
-    from vehval.report.inputs import checked_document, same_test
+    from vehval.report.inputs import checked_document, refuse_other_test
 
     found = collect_inputs(list(inputs))
     for kind, path in (("control", _existing(control, "control.json")),
@@ -118,7 +118,7 @@ def report_cmd(
     raw_test = read_test(raw) if _existing(raw, "imported test") is not None else None
     docs = {kind: checked_document(load_json(found[kind]), kind, found[kind])
             for kind in ("findings", "control", "validation", "results") if kind in found}
-    same_test(test, found["test"], [(raw_test, raw)] + [
+    refuse_other_test(test, found["test"], [(raw_test, raw)] + [
         (docs[k], found[k]) for k in ("findings", "results") if k in docs])
     qa, ctl, val, res = (docs.get(k) for k in ("findings", "control", "validation", "results"))
     kw: dict[str, Any] = {"vehicle": vehicle, "control": ctl, "validation": val, "title": title, "raw": raw_test,

@@ -39,22 +39,12 @@ def hot_start_bag1(files: list[Path], template) -> dict[str, float]:
 def _hot_start_not_the_test(files: list[Path], hot: list[Path]) -> None:
     """Refuse a ``--hot-start`` file that is one of the test's own files (the same file by
     device and inode): its bag 1 is this test's, not the hot start after the soak."""
-    import os
+    from vehval.io.paths import shared_file
 
-    def ids(paths: list[Path]) -> dict[tuple[int, int], Path]:
-        out = {}
-        for p in paths:
-            try:
-                st = os.stat(p)
-            except OSError:
-                continue
-            out[(st.st_dev, st.st_ino)] = p
-        return out
-
-    same = ids(files).keys() & ids(hot).keys()
-    if same:
-        raise VehvalError(f"--hot-start {ids(hot)[next(iter(same))]}: is a file of the test "
-                          "itself: give the hot-start UDDS run after the soak, another test")
+    same = shared_file(files, hot)
+    if same is not None:
+        raise VehvalError(f"--hot-start {same[1]}: is a file of the test itself: give the "
+                          "hot-start UDDS run after the soak, another test")
 
 
 def headline_lines(doc: dict) -> list[str]:

@@ -57,11 +57,17 @@ def is_bev_row(t: EpaTest) -> bool:
     return d is None or not math.isfinite(d) or d < 0.2 or d > 99.0
 
 
+def figure_unit(value: float) -> str:
+    """The unit of an electricity figure of the lists (their FE_UNIT says MPG for MPGe):
+    ``MPGe`` above :data:`MPGE_THRESHOLD`, else a ``kWh/100mi`` consumption."""
+    return "MPGe" if value > MPGE_THRESHOLD else "kWh/100mi"
+
+
 def listed_figure(t: EpaTest) -> tuple[float, str]:
-    """The row's figure and its unit (``MPGe`` or ``kWh/100mi``)."""
+    """The row's figure and its unit (:func:`figure_unit`)."""
     if not (math.isfinite(t.fe) and t.fe > 0):
         raise ConfigError(f"{t.source}: no listed result")
-    return (t.fe, "MPGe") if t.fe > MPGE_THRESHOLD else (t.fe, "kWh/100mi")
+    return t.fe, figure_unit(t.fe)
 
 
 def wheel_radius_from_nv(axle_ratio: float, n_v: float) -> float:
@@ -207,7 +213,8 @@ def as_mpge(value: float, unit: str) -> float:
     return value if unit == "MPGe" else mpge_from_kwh_per_100mi(value)
 
 
-__all__ = ["CD_CYCLES", "MPGE_THRESHOLD", "RowJudgement", "bev_from_row", "is_bev_row",
+__all__ = ["CD_CYCLES", "MPGE_THRESHOLD", "RowJudgement", "bev_from_row", "figure_unit",
+           "is_bev_row",
            "judge_row", "as_mpge", "listed_figure", "row_conditions",
            "simulate_row", "wheel_radius_from_nv"]
 

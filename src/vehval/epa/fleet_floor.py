@@ -130,17 +130,16 @@ def twin_check(judged_rows: Sequence[dict[str, Any]], error_key: str,
     mean measured figure as the prediction) and ``model`` on the rows with a twin,
     ``model_without_twin`` on the others; each ``n``, ``median_abs_error`` and
     ``share_within_5pct`` [-]."""
+    columns = [(r, _twin_columns(r)) for r in judged_rows]  # once per row
     pool: dict[tuple, list[tuple[dict[str, Any], dict[str, float]]]] = defaultdict(list)
-    for r in judged_rows:
-        cols = _twin_columns(r)
+    for r, cols in columns:
         if cols is not None and r.get("measured_mpg"):
             pool[(r["list"], make_key(r), *(r.get(k) for k in _TWIN_SAME))].append((r, cols))
     twin_err: dict[str, list[float]] = defaultdict(list)
     model_err: dict[str, list[float]] = defaultdict(list)
     alone_err: dict[str, list[float]] = defaultdict(list)
-    for r in judged_rows:
+    for r, cols in columns:
         err = r.get(error_key)
-        cols = _twin_columns(r)
         if err is None or r.get("in_sample") or cols is None:
             continue
         same = (make_key(r), *(r.get(k) for k in _TWIN_SAME))

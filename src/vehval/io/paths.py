@@ -183,6 +183,26 @@ def _same_file(a: os.stat_result, b: os.stat_result) -> bool:
     return (a.st_dev, a.st_ino) == (b.st_dev, b.st_ino)
 
 
+def shared_file(paths: Iterable[str | Path | None],
+                others: Iterable[str | Path | None]) -> tuple[Path, Path] | None:
+    """The first ``(path, other)`` naming one file (same device and inode: a symbolic or
+    hard link to a file is that file), or None; paths that do not exist are skipped."""
+    def stats(ps: Iterable[str | Path | None]) -> list[tuple[Path, os.stat_result]]:
+        out = []
+        for p in ps:
+            if p is not None:
+                with contextlib.suppress(OSError):
+                    out.append((Path(p), os.stat(p)))
+        return out
+
+    mine = stats(paths)
+    for o, so in stats(others):
+        for p, sp in mine:
+            if _same_file(sp, so):
+                return p, o
+    return None
+
+
 def check_outputs(*, outdir: str | Path | None = None, writes: Iterable[str] = (),
                   outfile: str | Path | None = None,
                   inputs: Iterable[str | Path | None] = (), option: str = "-o") -> None:
@@ -205,27 +225,18 @@ def check_outputs(*, outdir: str | Path | None = None, writes: Iterable[str] = (
     option : str
         The option that names the output, for the message.
     """
-    resolved: list[tuple[Path, os.stat_result]] = []
-    for p in inputs:
-        if p is None:
-            continue
-        with contextlib.suppress(OSError):
-            resolved.append((Path(p), os.stat(p)))
     targets: list[Path] = []
     if outdir is not None:
         d = check_output_path(outdir, option, directory=True)
         targets += [d] + [check_output_path(d / name, option) for name in writes]
     if outfile is not None:
         targets.append(check_output_path(outfile, option))
-    for t in targets:
-        try:
-            st = os.stat(t)
-        except OSError:
-            continue
-        for p, sp in resolved:
-            if _same_file(st, sp):
-                raise VehvalError(f"{option} {t}: is also an input ('{p}'): writing it would "
-                                  f"replace the input; choose another {option}")
+    read = list(inputs)
+    for t in targets:  # in order: the first output that is an input is named
+        same = shared_file(read, [t])
+        if same is not None:
+            raise VehvalError(f"{option} {t}: is also an input ('{same[0]}'): writing it would "
+                              f"replace the input; choose another {option}")
 
 
 def vehicle_path(name: str | Path | None) -> Path | None:

@@ -172,18 +172,23 @@ def render_html(val: EpaValidation) -> str:
 
 def write_epa_report(val: EpaValidation, outdir: str | Path) -> list[str]:
     """Write report.html, epa_validation.json and epa_validation.csv atomically."""
+    return _write_outputs(outdir, render_html(val), jsonsafe.dumps(val), table_rows(val))
+
+
+def _write_outputs(outdir: str | Path, html: str, doc_json: str,
+                   rows: list[dict[str, Any]]) -> list[str]:
+    """report.html, epa_validation.json and epa_validation.csv (``rows``) into ``outdir``,
+    atomically; returns their names."""
     from vehval.io.atomic import atomic_dir
 
-    rows = table_rows(val)
     buf = io.StringIO()
     if rows:
         w = csv.DictWriter(buf, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     with atomic_dir(Path(outdir)) as stage:
-        (stage / "report.html").write_text(render_html(val), encoding="utf-8")
-        (stage / "epa_validation.json").write_text(jsonsafe.dumps(val),
-                                                   encoding="utf-8")
+        (stage / "report.html").write_text(html, encoding="utf-8")
+        (stage / "epa_validation.json").write_text(doc_json, encoding="utf-8")
         (stage / "epa_validation.csv").write_text(buf.getvalue(), encoding="utf-8")
     return ["report.html", "epa_validation.json", "epa_validation.csv"]
 
@@ -193,17 +198,11 @@ def write_bev_report(doc: dict[str, Any], outdir: str | Path) -> list[str]:
     (:func:`vehval.epa.bev.validate_bev`): report.html, epa_validation.json and
     epa_validation.csv, atomically."""
     from vehval.epa.bev import shown_figure, validation_text
-    from vehval.io.atomic import atomic_dir
     from vehval.report.document import h1, para, render_document, table
 
     rows = [{"row": j["row"], "cycle": j["cycle"], "unit": j["unit"], "listed": j["listed"],
              "simulated": j["simulated"], "error_pct": as_unit(j["error"], "%"), "en": j["en"],
              "in_sample": j["in_sample"]} for j in doc["rows"]]
-    buf = io.StringIO()
-    if rows:
-        w = csv.DictWriter(buf, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
     cells = []
     for j in doc["rows"]:
         listed, unit = shown_figure(j["listed"], j["unit"])
@@ -220,8 +219,4 @@ def write_bev_report(doc: dict[str, Any], outdir: str | Path) -> list[str]:
         blocks.append(para(summary))
     html = render_document(blocks, title=f"vehval EPA validation: {doc['vehicle']}",
                            css="simple.css")
-    with atomic_dir(Path(outdir)) as stage:
-        (stage / "report.html").write_text(html, encoding="utf-8")
-        (stage / "epa_validation.json").write_text(jsonsafe.dumps(doc), encoding="utf-8")
-        (stage / "epa_validation.csv").write_text(buf.getvalue(), encoding="utf-8")
-    return ["report.html", "epa_validation.json", "epa_validation.csv"]
+    return _write_outputs(outdir, html, jsonsafe.dumps(doc), rows)

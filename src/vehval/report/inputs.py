@@ -76,8 +76,8 @@ def _test_id(item: Any) -> str:
     return ""
 
 
-def same_test(test: Any, test_path: str | Path,
-              others: list[tuple[Any, str | Path | None]]) -> None:
+def refuse_other_test(test: Any, test_path: str | Path,
+                      others: list[tuple[Any, str | Path | None]]) -> None:
     """Refuse a file of another test than ``test`` (read from ``test_path``): each of
     ``others`` (a Test or a result document, and its path) that names a test id other than
     the test's (files naming none are taken as they are)."""

@@ -176,7 +176,7 @@ def sensitivity(vehicle: Vehicle | str, cycles: Sequence[str] = DEFAULT_CYCLES,
         A car that burns no fuel, or no parameter with an uncertainty (nothing to rank).
     """
     veh = load_vehicle(vehicle)
-    figure_key(veh)  # a battery-electric car is refused before anything runs
+    key = figure_key(veh)  # a battery-electric car is refused before anything runs
     cycles = list(dict.fromkeys(cycles))
     unc = uncertain_parameters(veh, params)
     if not unc:
@@ -211,7 +211,7 @@ def sensitivity(vehicle: Vehicle | str, cycles: Sequence[str] = DEFAULT_CYCLES,
                      "uncertainty": u.spec, "source": u.source, "cycles": res,
                      "swing_pct": swing_pct(res)})
     rows.sort(key=lambda r: -r["swing_pct"] if np.isfinite(r["swing_pct"]) else 0.0)
-    out = {"vehicle": veh.name, "figure": figure_key(veh), "cycles": cycles, "dt_s": dt,
+    out = {"vehicle": veh.name, "figure": key, "cycles": cycles, "dt_s": dt,
            "base": base, "parameters": rows}
     if monte_carlo > 0:
         out["monte_carlo"] = _monte_carlo(veh, unc, cycles, dt, base, workers, monte_carlo,
