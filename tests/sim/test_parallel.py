@@ -91,6 +91,9 @@ def test_engine_stop_rule():
     assert engine_on_rule(True, -10.0, 6.0, False, 0.6, 4.5, 0.2)      # above it
     assert engine_on_rule(True, -10.0, 3.0, False, 0.1, 4.5, 0.2)      # SOC too low
     assert engine_on_rule(False, 50.0, 0.0, False, 0.6, 4.5, 0.2)      # drive demand restarts
+    # a standing car's demand is the driver memory's residual: the brake holds it
+    assert not engine_on_rule(False, 1.2, 0.0, True, 0.6, 4.5, 0.2)
+    assert engine_on_rule(False, 1.2, 0.0, True, 0.1, 4.5, 0.2)        # unless SOC is low
 
 
 @pytest.mark.parametrize("thr", [20.0, 40.0])
@@ -159,3 +162,18 @@ def test_an_idle_motor_with_its_inverter_off_draws_nothing(insight, udds):
     aux = insight.controller.electrical_aux_power_w
     assert np.median(d["mot_pwr_in_simu"].values[idle_d]) > 50.0
     assert np.median(d["ess_pwr_simu"].values[idle_d]) > aux + 50.0
+
+
+@pytest.mark.parametrize("cycle", ["ece15", "udds"])
+def test_idle_stop_does_not_depend_on_the_step(insight, cycle):
+    """The engine stays off through a stop whatever the step: a few newtons of the driver
+    memory's residual once restarted it at 0.2 s and held it idling through every later
+    stop (ECE15 engine-on 0.76 at 0.2 s against 0.61 at 1 s, fuel economy 13 % apart)."""
+    on = {dt: simulate(insight, cycle, dt=dt).summary["engine_on_fraction"]
+          for dt in (1.0, 0.2, 0.1)}
+    assert max(on.values()) - min(on.values()) < 0.01, on
+    frame = simulate(insight, cycle, dt=0.2).frame()
+    stopped = (frame["veh_spd_simu"] == 0.0) & (frame["veh_spd_target_simu"] == 0.0)
+    soc_ok = frame["ess_soc_simu"] > load_vehicle(insight).controller.engine_stop_soc_min
+    idling = frame["eng_on_simu"].to_numpy(bool) & stopped.to_numpy() & soc_ok.to_numpy()
+    assert idling.sum() <= 5  # the step the car comes to rest at most

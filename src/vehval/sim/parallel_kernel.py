@@ -57,12 +57,14 @@ def engine_on_rule(on, f_dem, v0, standstill, soc, stop_spd, stop_soc):
 
     A running engine stops when SOC >= ``stop_soc`` and the car stands, or decelerates
     (no drive demand, ``f_dem`` <= 0 [N]) below ``stop_spd`` [m/s]; a stopped engine
-    restarts on a drive demand or when SOC falls below ``stop_soc``."""
+    restarts on a drive demand of a car that moves (a standing car's demand is the driver
+    memory's residual, a few newtons, held by the brake) or when SOC falls below
+    ``stop_soc``."""
     if on:
         if soc >= stop_soc and f_dem <= 0.0 and (standstill or v0 < stop_spd):
             return False
         return True
-    return f_dem > 0.0 or soc < stop_soc
+    return (f_dem > 0.0 and not standstill) or soc < stop_soc
 
 
 @njit(cache=True)
