@@ -133,3 +133,6 @@ def test_batch_an_idle_record_has_no_headline_in_the_catalog(tmp_path, cli):
     assert by_id["idle"][1] == "ok" and by_id["idle"][2] is None and by_id["idle"][3] is None
     assert by_id["idle"][4].startswith("distance 0.0 m: no fuel-economy headline")
     assert by_id["u0"][2] is not None and by_id["u0"][4] is None
+    html = (out / "index.html").read_text()   # no headline is not a QA error's "withheld"
+    row = html[html.index(">idle<"):].split("</tr>")[0]
+    assert "no headline" in row and "withheld" not in row

@@ -68,7 +68,9 @@ def _tests_table(tests: Sequence[dict]) -> Block:
         sev = json.loads(r["n_findings_by_severity"]) if r["n_findings_by_severity"] else {}
         status = str(r["status"])
         held = r.get("withheld_reason")
-        vals = [cell("withheld", "err") if c == "headline_mpg" and held else _num(r.get(c), s, p)
+        # a reason with nothing withheld: no headline (an idle record), not a QA error
+        mark = cell("withheld", "err") if r.get("withheld_count") else cell("no headline")
+        vals = [mark if c == "headline_mpg" and held else _num(r.get(c), s, p)
                 for c, _, s, p in _columns()]
         rows.append([cell(tid, href=link), cell(status, status if status in _STATUS else ""),
                      r["vehicle"] or "", r["cycle"] or "", r.get("headline_name") or "",
