@@ -81,3 +81,35 @@ def test_loaded_objects_satisfy_the_protocols(virtual):
 
     run = TestRun.from_paths([virtual], vehicle="prius_2004")
     assert isinstance(run.template, TemplateLike) and isinstance(run.vehicle, VehicleLike)
+
+
+def test_a_validated_test_is_gated_by_the_findings_beside_it(virtual, tmp_path):
+    """`vehval validate OUTDIR` of a `vehval qa` output reads validated.parquet: the fuel
+    figure QA withheld there stays withheld (it was stated, ungated, and its mpg computed
+    with the vehicle's fuel instead of the template's); findings of another test are
+    refused."""
+    from vehval.errors import InputFileError
+    from vehval.io.parquet import write_test
+
+    run = TestRun.load(_files(virtual), virtual / "template.yaml", "prius_2004")
+    out = tmp_path / "qa"
+    out.mkdir()
+    write_test(run.qa().validated, out / "validated.parquet")
+    doc = dict(run.qa().document)
+    clean = TestRun.from_paths([out], vehicle="prius_2004").results().results
+    assert not clean.withheld and clean.value("test", "fuel_economy_mpg") > 0
+    error = {"signal": "fuel_rate_test", "kind": "range", "severity": "error", "level": 1,
+             "start_s": 10.0, "end_s": 12.0, "message": "fuel_rate_test reaches -5 g/s"}
+    doc["findings"] = [*doc.get("findings", []), error]
+    (out / "findings.json").write_text(json.dumps(doc))
+    for given in (out, out / "validated.parquet"):
+        held = TestRun.from_paths([given], vehicle="prius_2004").results().results
+        assert "fuel_economy_mpg" in held.withheld["test"]["quantities"]
+    doc["findings"][-1] = {"signal": "fuel_rate_test"}
+    (out / "findings.json").write_text(json.dumps(doc))
+    with pytest.raises(InputFileError, match="finding .* is damaged"):
+        TestRun.from_paths([out], vehicle="prius_2004")
+    doc["test"] = {**doc["test"], "id": "another"}
+    (out / "findings.json").write_text(json.dumps(doc))
+    with pytest.raises(InputFileError, match="is of test 'another'"):
+        TestRun.from_paths([out], vehicle="prius_2004")

@@ -433,40 +433,23 @@ def identify_cycle(time_s: Any, speed_mps: Any, *, cycles: list[str] | None = No
     if steady is not None:
         details.update(method="steady", steady_fraction=_r(frac, 3))
         return steady, _r(frac, 3), details
+    from vehval.cycles_text import no_match_reason
+
+    details.update(steady_fraction=_r(frac, 3), limits={
+        "max_rms_mps": max_rms_mps, "min_coverage": min_coverage, "min_explained": min_explained})
     if tried and tried[0].repeats:
         b = tried[0]
-        details["reason"] = (f"no cycle explains {min_explained:.0%} of the driving: best "
-                             f"{b.name} explains {b.explained:.0%} (rms {b.rms_mps:.2f} m/s); "
-                             f"{frac:.0%} of the moving time on steady plateaus")
-    else:
-        details["reason"] = (f"no cycle follows the speed within {max_rms_mps:g} m/s RMS over "
-                             f"{min_coverage:.0%} of its duration; {frac:.0%} of the moving time "
-                             "on steady plateaus")
+        details["best"] = {"name": b.name, "explained": _r(b.explained, 3),
+                           "rms_mps": _r(b.rms_mps, 3)}
+    details["reason"] = no_match_reason(details)
     return None, 0.0, details
 
 
-def describe(name: str | None, details: dict) -> str:
-    """One-line account of an identification, for notes and the CLI.
+def describe(name: str | None, details: dict, system_name: str | None = None) -> str:
+    """One-line account of an identification (:func:`vehval.cycles_text.describe`)."""
+    from vehval.cycles_text import describe as text
 
-    Examples: ``cycle identified as udds (rms 0.21 m/s, offset 0.0 s)``,
-    ``cycle identified as hwfet_x2 (hwfet x2, rms 0.30 m/s, offsets 0.0, 781.0 s)``.
-    """
-    if name is None:
-        return f"cycle not identified: {details.get('reason', 'no match')}"
-    if details.get("method") == "steady":
-        plats = details.get("plateaus", [])
-        speeds = ", ".join(f"{p[2] * 3.6:.0f}" for p in plats)
-        return (f"cycle identified as {name} (steady speed: {len(plats)} plateau(s) at "
-                f"{speeds} km/h, {details.get('steady_fraction', 0):.0%} of the moving time)")
-    offs = details.get("offsets_s", [])
-    extra = ""
-    if details.get("repeats", 1) > 1:
-        extra = f"{details['cycle']} x{details['repeats']}, "
-    if details.get("split_by_soak"):
-        extra += "split by a soak, "
-    where = (f"offset {offs[0]:.1f} s" if len(offs) == 1
-             else "offsets " + ", ".join(f"{o:.1f}" for o in offs) + " s")
-    return f"cycle identified as {name} ({extra}rms {details['rms_mps']:.2f} m/s, {where})"
+    return text(name, details, system_name)
 
 
 # ------------------------------------------------------------------------------ scale

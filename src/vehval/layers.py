@@ -27,7 +27,7 @@ LAYERS: dict[str, int] = {
     "vehval": 0, "errors": 0, "constants": 0, "units": 0, "nomenclature": 0, "safe_yaml": 0,
     "jsonsafe": 0, "conditions": 0, "protocols": 0, "numba_cache": 0, "progress": 0,
     "fuels": 0, "display": 0, "uncertainty": 0, "layers": 0, "integrals": 0, "figures": 0,
-    "test": 1, "cycles": 1, "cycles_match": 1, "vehicle": 1,
+    "test": 1, "cycles": 1, "cycles_match": 1, "cycles_text": 1, "vehicle": 1,
     "io": 2, "align": 2,
     "equations": 3, "sim": 3, "calibration": 3,
     "qa": 4,
@@ -68,8 +68,8 @@ SAME_LAYER: frozenset[tuple[str, str]] = frozenset({
     # floor 0: fuel properties at reference conditions; display formats fuels and names
     ("fuels", "conditions"), ("fuels", "constants"), ("display", "constants"),
     ("display", "fuels"), ("display", "nomenclature"),
-    # floor 1: cycle matching reads the cycle table
-    ("cycles_match", "cycles"),
+    # floor 1: cycle matching reads the cycle table and words its account in one place
+    ("cycles_match", "cycles"), ("cycles_match", "cycles_text"),
     # floor 8: the catalog opens its file through the schema module (DDL, check, migration)
     ("catalog", "catalog_schema"),
     # floor 9: a batch and an identification run the one-test workflow

@@ -206,7 +206,7 @@ def test_cli_import_and_info_print_the_cycle(tmp_path, cli, d3_template):
     f = _d3(tmp_path / "r_d3.txt", "sc03")
     code, out, err = cli("info", f)
     assert code == 0, err
-    assert "cycle: sc03  [cycle identified as sc03 (rms 0.0" in out and "from 'Dyno_Speed'" in out
+    assert "cycle: sc03  [cycle identified as sc03 (rms 0.1" in out and " mph, offset" in out and "from 'Dyno_Speed'" in out
     o = tmp_path / "o.parquet"
     code, out, err = cli("import", f, "-t", d3_template, "-o", o)
     assert code == 0, err
@@ -250,3 +250,39 @@ def test_a_damaged_timestamp_far_out_gives_no_match_not_a_huge_grid():
     v = np.append(c.speed_mps, 0.0)
     got, score, _ = identify_cycle(t, v)
     assert got is None and score == 0.0
+
+
+def test_the_cycle_line_speaks_the_display_units(tmp_path, cli, d3_template, monkeypatch):
+    """`info` and `import` print the identification's speeds in the display units; the
+    test's note and the JSON stay SI (data)."""
+    monkeypatch.setenv("VEHVAL_UNITS", "us")     # `--units` sets it: restored after the test
+    f = _d3(tmp_path / "r_d3.txt", "sc03")
+    lines = {}
+    for system, unit in (("us", "mph"), ("metric", "km/h")):
+        code, out, err = cli("--units", system, "info", f)
+        assert code == 0, err
+        lines[system] = next(x for x in out.splitlines() if "cycle identified" in x)
+        assert f" {unit}, offset" in lines[system] and "m/s" not in lines[system]
+        o = tmp_path / f"{system}.parquet"
+        code, out, err = cli("--units", system, "import", f, "-t", d3_template, "-o", o)
+        assert code == 0, err
+        assert f" {unit}, offset" in out and "m/s" not in out
+        assert any("m/s, offset" in n for n in read_test(o).meta.notes)   # stored SI
+        code, out, err = cli("--units", system, "info", o)
+        assert code == 0 and f" {unit}, offset" in out, out
+        code, out, err = cli("--units", system, "info", o, "--json")
+        assert "m/s, offset" in json.loads(out)["cycle_found"]
+
+
+def test_describe_in_display_units():
+    from vehval.cycles_text import describe, no_match_reason
+
+    steady = {"method": "steady", "plateaus": [[0.0, 100.0, 25.0]], "steady_fraction": 0.9}
+    assert "at 90 km/h" in describe("steady_90kph", steady)                  # the note: SI
+    assert "at 55.9 mph" in describe("steady_90kph", steady, "us")
+    assert "at 90 km/h" in describe("steady_90kph", steady, "metric")
+    miss = {"limits": {"max_rms_mps": 2.0, "min_coverage": 0.5, "min_explained": 0.6},
+            "best": {"name": "udds", "explained": 0.4, "rms_mps": 1.0}, "steady_fraction": 0.1}
+    assert "(rms 1.00 m/s)" in no_match_reason(miss)
+    assert "(rms 2.24 mph)" in no_match_reason(miss, "us")
+    assert "within 7.2 km/h RMS" in no_match_reason({**miss, "best": None}, "metric")

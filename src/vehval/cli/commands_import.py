@@ -100,7 +100,19 @@ def import_cmd(
     typer.echo(f"  cycle: {test.meta.cycle or '(not identified)'}"
                + ("  [VIRTUAL TEST: synthetic data]" if test.meta.synthetic else ""))
     for note in test.meta.notes:
-        typer.echo(f"  {note}", err=note.startswith("warning"))
+        typer.echo(f"  {_shown_note(note, test.meta)}", err=note.startswith("warning"))
+
+
+def _shown_note(note: str, meta: Any) -> str:
+    """A stored note as a person reads it: the cycle identification's speeds in the
+    display units (``--units``); the note itself stays SI (data)."""
+    from vehval.cycles_text import cycle_note
+    from vehval.display import system
+
+    match = meta.cycle_match or {}
+    if match.get("signal") and note == cycle_note(match):
+        return cycle_note(match, system())
+    return note
 
 
 def _channel_stats(name: str, unit: str | None, t: np.ndarray | None, v: np.ndarray) -> dict:
@@ -121,6 +133,7 @@ def _raw_cycle(raw) -> dict:
     """Cycle of a raw file, identified from its vehicle-speed channel (matched like
     ``template init`` does), as ``{cycle, cycle_found}``; empty when the file has none."""
     from vehval.cycles_match import describe, identify_cycle
+    from vehval.display import system
     from vehval.io.propose import match_channel, unit_known
     from vehval.units import to_si
 
@@ -137,7 +150,8 @@ def _raw_cycle(raw) -> dict:
         if raw.time_unit:
             t = to_si(t, raw.time_unit, "s")
         cyc, _, details = identify_cycle(t, to_si(raw.data[name], unit, "m/s"))
-        return {"cycle": cyc, "cycle_found": f"{describe(cyc, details)} from '{name}'"}
+        return {"cycle": cyc, "cycle_found": f"{describe(cyc, details)} from '{name}'",
+                "cycle_shown": f"{describe(cyc, details, system())} from '{name}'"}
     return {}
 
 
@@ -176,6 +190,9 @@ def info_cmd(
                 t = to_si(t, tu, "s")
             info["channels"].append(_channel_stats(name, unit, t, raw.data[name]))
         info.update(_raw_cycle(raw))
+    cycle_text = info.pop("cycle_shown", None)       # the screen's text (JSON stays SI)
+    if test is not None and info.get("cycle_found"):
+        cycle_text = _shown_note(info["cycle_found"], test.meta)
     if as_json:
         typer.echo(json.dumps(info, indent=1))
         return
@@ -184,7 +201,7 @@ def info_cmd(
         typer.echo("  VIRTUAL TEST: synthetic data, not a measurement")
     if "cycle" in info:
         typer.echo(f"  cycle: {info['cycle'] or '(not identified)'}"
-                   + (f"  [{info['cycle_found']}]" if info.get("cycle_found") else ""))
+                   + (f"  [{cycle_text}]" if cycle_text else ""))
     for n in info["notes"]:
         if n != info.get("cycle_found"):     # already on the cycle line
             typer.echo(f"  note: {n}")

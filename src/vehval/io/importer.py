@@ -327,7 +327,8 @@ def set_cycle(test: Test, template: Template | None = None, *, identify: bool = 
     veh_spd_test``); an unidentified cycle leaves ``meta.cycle`` empty with a note saying why.
     """
     from vehval.cycles import list_cycles
-    from vehval.cycles_match import describe, identify_cycle
+    from vehval.cycles_match import identify_cycle
+    from vehval.cycles_text import cycle_note
 
     meta = test.meta
     sigs = speed_signals(test)
@@ -355,12 +356,12 @@ def set_cycle(test: Test, template: Template | None = None, *, identify: bool = 
         name, score, details = identify_cycle(sig.time, sig.values)
         if name is not None:
             meta.cycle = name
-            meta.notes.append(f"{describe(name, details)} from {sig.name}")
             keep(name, score, details, sig)
+            meta.notes.append(cycle_note(meta.cycle_match))
             return
-        first = first or f"{describe(name, details)} (from {sig.name})"
         if not meta.cycle_match:
             keep(name, score, details, sig)
+            first = cycle_note(meta.cycle_match)
     meta.notes.append(first)
 
 

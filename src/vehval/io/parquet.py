@@ -204,7 +204,11 @@ def read_test(path: str | Path) -> Test:
 _META_TYPES: dict[str, tuple[type, ...]] = {
     "test_id": (str,), "vehicle": (str,), "cycle": (str,), "files": (list,),
     "template": (str, type(None)), "constants": (dict,), "offsets_s": (dict,),
-    "deleted": (list,), "notes": (list,), "synthetic": (bool,)}
+    "deleted": (list,), "notes": (list,), "synthetic": (bool,),
+    "fuel": (str, dict, type(None)), "cycle_match": (dict,)}
+#: Numeric entries of ``meta.cycle_match`` the later stages compute with (None allowed).
+_MATCH_NUMBERS = ("score", "rms_mps", "offset_s", "source_offset_s", "coverage", "explained",
+                  "repeats")
 
 
 def _checked_meta(meta_d: dict) -> dict:
@@ -224,8 +228,26 @@ def _checked_meta(meta_d: dict) -> dict:
             raise TypeError(f"meta.{key} must map names to numbers")
         if key == "deleted" and not all(isinstance(v, dict) for v in value):
             raise TypeError("meta.deleted must be a list of mappings")
+        if key == "cycle_match":
+            _check_match(value)
         out[key] = value
     return out
+
+
+def _check_match(match: dict) -> None:
+    """``meta.cycle_match`` holds numbers where the later stages compute with them."""
+    def number(v: Any) -> bool:
+        return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+    bad = [k for k in _MATCH_NUMBERS if match.get(k) is not None and not number(match[k])]
+    offs, wins = match.get("offsets_s", []), match.get("windows_s", [])
+    if not (isinstance(offs, list) and all(number(v) for v in offs)):
+        bad.append("offsets_s")
+    if not (isinstance(wins, list) and all(isinstance(w, list) and len(w) == 2
+                                           and all(number(v) for v in w) for w in wins)):
+        bad.append("windows_s")
+    if bad:
+        raise TypeError(f"meta.cycle_match.{bad[0]} must be numbers")
 
 
 def _test_from(table: pa.Table, info: dict) -> Test:

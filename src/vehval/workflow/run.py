@@ -143,7 +143,8 @@ class TestRun:
         Where the test came from (paths), for messages and for results stored beside it.
     validated_input : bool
         True when the test was read back already validated (``validated.parquet``): QA is
-        not run again.
+        not run again; its ``findings.json`` beside it (``vehval qa``'s, of the same test)
+        gates the results as QA's findings would.
     """
 
     __test__ = False  # not a pytest test class
@@ -162,6 +163,8 @@ class TestRun:
         self._analysis: AnalysisOutcome | None = None
         self._results: ResultsOutcome | None = None
         self._validation: ValidationOutcome | None = None
+        #: QA findings stored beside a validated input (its ``findings.json``)
+        self.stored_findings: list[Any] = []
 
     # ------------------------------------------------------------------ load
     @classmethod
@@ -203,7 +206,6 @@ class TestRun:
                    *, use_qa: bool = True, repair_time: bool = REPAIR_TIME) -> "TestRun":
         """One test from a directory, a validated Parquet test or a group of raw files
         (the grouping rule of the module docstring)."""
-        from vehval.io.parquet import read_test
 
         given = [Path(p) for p in paths]
         for p in given:
@@ -212,10 +214,9 @@ class TestRun:
         veh = load_vehicle_arg(vehicle)
         one = given[0] if len(given) == 1 else None
         if one is not None and one.is_dir() and (one / "validated.parquet").is_file():
-            return cls(read_test(one / "validated.parquet"), None, veh, origin=str(one),
-                       validated_input=True)
+            return cls._validated(one / "validated.parquet", one, veh)
         if one is not None and one.is_file() and one.suffix.lower() == ".parquet":
-            return cls(read_test(one), None, veh, origin=str(one), validated_input=True)
+            return cls._validated(one, one, veh)
         if one is not None and one.is_dir():
             tpl = _template_for(one, template)
             return cls.load(_dir_files(one, tpl), tpl, veh, repair_time=repair_time,
@@ -226,6 +227,24 @@ class TestRun:
         tpl = (_template_for(None, template) if template is not None
                else _template_for(given[0].parent, None))
         return cls.load(given, tpl, veh, repair_time=repair_time, use_qa=use_qa)
+
+    @classmethod
+    def _validated(cls, path: Path, origin: Path, vehicle: Any) -> "TestRun":
+        """A validated test read back, with the QA findings stored beside it (an error
+        there withholds the figures it touches, as when QA ran; a findings.json of
+        another test is refused)."""
+        from vehval.io.parquet import read_test
+        from vehval.report.inputs import checked_document, refuse_other_test, results_beside
+
+        test = read_test(path)
+        run = cls(test, None, vehicle, origin=str(origin), validated_input=True)
+        found = results_beside(origin, ("findings",)).get("findings")
+        if found is not None:
+            where = path.parent / "findings.json"
+            checked_document(found, "findings", where)
+            refuse_other_test(test, path, [(found, where)])
+            run.stored_findings = _stored_findings(found.get("findings"), where)
+        return run
 
     # ------------------------------------------------------------------ steps
     def qa(self, **options: Any) -> QAOutcome:
@@ -275,7 +294,8 @@ class TestRun:
                 res = results_from_template(test, self.template, self.vehicle, **opts)
             else:
                 res = compute_results(test, **opts)
-            apply_gate(res, self._qa.result.findings if self._qa is not None else (), force=force)
+            apply_gate(res, self._qa.result.findings if self._qa is not None
+                       else self.stored_findings, force=force)
             self._results = ResultsOutcome(res)
             self._results_opts = opts
         return self._results
@@ -368,4 +388,21 @@ def _dir_files(d: Path, template: Any) -> list[Path]:
     if not out:
         raise InputFileError(f"{d}: no data file matches the template "
                              f"({', '.join(match_globs(template)) or 'any data file'})")
+    return out
+
+
+def _stored_findings(items: Any, where: Path) -> list[Any]:
+    """The findings of a stored ``findings.json`` (``where``) as :class:`Finding` objects;
+    :class:`InputFileError` naming the entry when one is damaged."""
+    from vehval.qa.findings import Finding
+
+    if not isinstance(items, list):
+        raise InputFileError(f"{where}: 'findings' is not a list: re-run `vehval qa`")
+    out = []
+    for k, item in enumerate(items):
+        try:
+            out.append(Finding.from_dict(item))
+        except (KeyError, ValueError, TypeError, AttributeError) as exc:
+            raise InputFileError(f"{where}: finding {k} is damaged ({type(exc).__name__}: "
+                                 f"{str(exc)[:80]}): re-run `vehval qa`") from None
     return out
