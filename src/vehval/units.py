@@ -289,6 +289,18 @@ def _rate_dimensions() -> tuple[Any, Any]:
             reg.Unit("kilogram / second").dimensionality)
 
 
+def is_volume_rate(unit: str | None) -> bool:
+    """True when ``unit`` is a volume flow (``ccps``, ``L/h``...): the channel measures the
+    fuel's volume, its mass rests on the density it was imported with. False for any other
+    unit, none, or one the registry does not know."""
+    if not unit:
+        return False
+    try:
+        return parse_unit(unit).dimensionality == _rate_dimensions()[0]
+    except UnitError:
+        return False
+
+
 @lru_cache(maxsize=512)
 def parse_unit(text: str | None) -> pint.Unit:
     """Parse a unit as written in a file header or template.

@@ -261,3 +261,35 @@ def test_an_obd_speed_gets_the_obd_class_default_not_the_roll_speed():
     assert obd.assumed and "J1979" in obd.basis
     roll = channel_accuracy("veh_spd_test", None)
     assert roll.gain_limit == pytest.approx(0.001) and "roll speed" in roll.basis
+
+
+def test_a_volume_fuel_meter_puts_the_density_spread_on_the_mass_not_the_volume():
+    # A meter of volume (ccps, the D3 Camry's Eng_FuelFlow_Direct_DI) measures the volume:
+    # its mpg and L/100 km do not depend on the fuel density (imported mass / density gives
+    # back the measured volume exactly), while its fuel mass, energy and CO2 do. The density
+    # spread was put on the volume figures and left off the mass (Camry 61811012: U 0.59 mpg,
+    # 26 % of the variance from the density; 0.50 mpg without it).
+    t, s = true_signals()
+    test = make_test(t, s)
+    test["fuel_rate_test"].raw_unit = "ccps"
+    acc = _one_percent_meter()
+    vol = compute_results(test, fuel="gasoline_e10", accuracy=acc)
+    mass = compute_results(make_test(t, s), fuel="gasoline_e10", accuracy=acc)
+    names = {q: [c["parameter"] for c in vol.uncertainty["test"][q]["contributors"]]
+             for q in ("fuel_economy_mpg", "fuel_volume_m3", "fuel_mass_kg", "co2_kg")}
+    for scope in ("test", "udds"):
+        rel = vol.expanded(scope, "fuel_economy_mpg") / vol.value(scope, "fuel_economy_mpg")
+        # the 1 % meter alone: U = 2 x 1 %/sqrt(3) (first order in 1/(1+g)), as a mass meter
+        # without the density's spread
+        assert rel == pytest.approx(0.02 / np.sqrt(3), rel=0.01), scope
+        assert vol.value(scope, "fuel_economy_mpg") == pytest.approx(
+            mass.value(scope, "fuel_economy_mpg"), rel=1e-12)    # nominal figures unchanged
+    assert "fuel density_kg_per_m3" not in names["fuel_economy_mpg"] + names["fuel_volume_m3"]
+    assert "fuel density_kg_per_m3" in names["fuel_mass_kg"] and "fuel density_kg_per_m3" in names["co2_kg"]
+    # the mass carries the density's relative spread: 5 kg/m3 of 745.5, rectangular
+    u_rho = 5.0 / 745.5 / np.sqrt(3)
+    u_rel = vol.uncertainty["test"]["fuel_mass_kg"]["u"] / vol.value("test", "fuel_mass_kg")
+    assert u_rel == pytest.approx(np.hypot(0.01 / np.sqrt(3), u_rho), rel=1e-3)
+    # a mass meter keeps the density on the volume figures
+    assert "fuel density_kg_per_m3" in [c["parameter"] for c in
+                                        mass.uncertainty["test"]["fuel_economy_mpg"]["contributors"]]

@@ -53,6 +53,7 @@ from vehval.results.phases import (
 from vehval.results.soc import soc_correction
 from vehval.results.uncertainty import ChannelAccuracy, Parameter, channel_accuracy, propagate
 from vehval.test import Signal, Test
+from vehval.units import is_volume_rate
 
 #: Cell temperature [degC] at or above which a test runs with the A/C on (the hot-ambient
 #: tests: SC03 at 35 degC, hot UDDS/FTP with A/C max); below it the A/C is off.
@@ -395,9 +396,12 @@ class ResultsModel:
         q["mean_speed_mps"] = dist / ints.duration
         q["max_speed_mps"] = (nan if ints.vmax is None else (1.0 + _error(theta, sel.speed, "gain"))
                               * ints.vmax + _error(theta, sel.speed, "offset"))
-        mass = lin(ints.fuel, sel.fuel)
-        q["fuel_mass_kg"] = mass
         rho, lhv = self._prop(theta, "density_kg_per_m3"), self._prop(theta, "lhv_j_per_kg")
+        # a volume meter measures the volume: its imported mass scales with the density
+        scale = (rho / self.fuel.density_kg_per_m3 if rho is not None and self.fuel is not None
+                 and sel.fuel is not None and is_volume_rate(sel.fuel.raw_unit) else 1.0)
+        mass = lin(ints.fuel, sel.fuel) * scale
+        q["fuel_mass_kg"] = mass
         cf = self._prop(theta, "carbon_mass_fraction")
         vol = fuel_volume_m3(mass, rho) if rho is not None else nan
         q["fuel_volume_m3"] = vol
@@ -412,7 +416,8 @@ class ResultsModel:
             q["co2_kg"] = co2
             q["co2_g_per_km"] = np.where(dist > 0, co2 / dist * 1e6, np.nan)
         q["ess_energy_net_j"] = self._battery(theta, lin, nan)
-        return q, {"n": n, "rho": rho, "lhv": lhv, "cf": cf}
+        return q, {"n": n, "rho": rho, "lhv": lhv, "cf": cf,
+                   "scale": scale[:, 0] if isinstance(scale, np.ndarray) else np.ones(n)}
 
     def _battery(self, theta: dict[str, np.ndarray], lin: Any, nan: np.ndarray) -> np.ndarray:
         """Net battery energy [J]: from the power, else from voltage and current."""
@@ -438,10 +443,11 @@ class ResultsModel:
             for nm in names:
                 if nm == "__hot_bag1__":
                     assert hot is not None, "a hot bag 1 composite needs hot_start_bag1"
-                    fm += hot["fuel_mass_kg"]
+                    hot_mass = hot["fuel_mass_kg"] * props["scale"]
+                    fm += hot_mass
                     dd += hot["distance_m"]
                     cc += hot.get("co2_kg", np.nan) if self.integrals.co2 is not None else (
-                        co2_kg(hot["fuel_mass_kg"], cf[:, 0]) if cf is not None else np.nan)
+                        co2_kg(hot_mass, cf[:, 0]) if cf is not None else np.nan)
                     continue
                 i = idx[nm]
                 fm += mass[:, i]
