@@ -28,7 +28,7 @@ from vehval.errors import InputFileError, VehvalError
 from vehval.jsonsafe import clean
 from vehval.serve import params as prm
 from vehval.serve import security as sec
-from vehval.serve.bench import QA_DIR, TEMPLATE_NAME, Bench, QANotRun, pick_data
+from vehval.serve.bench import MAX_DATA_FILES, QA_DIR, TEMPLATE_NAME, Bench, QANotRun, pick_data
 
 STATIC = Path(__file__).with_name("static")
 #: The one path served without the token: the plotly.js bundled with plotly (a report from the
@@ -213,12 +213,12 @@ class Workbench:
             listing = sec.list_folder(self.root, d, max_entries=min(sec.MAX_ENTRIES, budget))
             budget -= len(listing.files) + len(listing.dirs) + len(listing.left_out)
             rel = sec.relative(self.root, d)
-            data, gone = pick_data(listing)
+            has_tpl = any(p.name == TEMPLATE_NAME for p in listing.files)
+            many = folder_tests(self.root, d, listing) if has_tpl else {}
+            data, gone = pick_data(listing, most=None if many else MAX_DATA_FILES)
             left += [{"name": f"{rel}/{x['name']}".removeprefix("./"), "why": x["why"]}
                      for x in gone]
-            has_tpl = any(p.name == TEMPLATE_NAME for p in listing.files)
             if data or has_tpl:
-                many = folder_tests(self.root, d, listing) if has_tpl else {}
                 for tid, name in many.items():
                     out.append({"dir": rel, "test": tid, "files": [name], "template": True,
                                 "qa": _qa_done(self.root, d / QA_DIR / tid)})
@@ -257,7 +257,9 @@ def folder_tests(root: Path, folder: Path, listing: sec.Listing | None = None) -
             return {}
         tmpl = template_from_data(load_yaml(path.read_text(encoding="utf-8"), TEMPLATE_NAME),
                                   TEMPLATE_NAME)
-        data, _ = pick_data(listing or sec.list_folder(root, folder), tmpl)
+        # one file per test: every data file of the folder (the listing bounds them), not
+        # the first MAX_DATA_FILES the files of one test are read up to
+        data, _ = pick_data(listing or sec.list_folder(root, folder), tmpl, most=None)
     except VehvalError:
         return {}
     ordered = sorted(data, key=lambda p: p.name)
@@ -265,10 +267,18 @@ def folder_tests(root: Path, folder: Path, listing: sec.Listing | None = None) -
 
 
 # --------------------------------------------------------------------------- pages
-def _page(name: str, request: Request, **ctx: Any) -> HTMLResponse:
+def _page(name: str, request: Request, status: int = 200, **ctx: Any) -> HTMLResponse:
     wb: Workbench = request.app.state.workbench
     html = _jinja().get_template(name).render(csrf=wb.csrf, workspace=wb.root.name, **ctx)
-    return HTMLResponse(html)
+    return HTMLResponse(html, status_code=status)
+
+
+def _error_page(request: Request, exc: VehvalError) -> HTMLResponse:
+    """The error page of a refused page request, with the status the API gives the same
+    error: 403 outside the workspace, the parser's 4xx for a bad query, else 400."""
+    status = 403 if isinstance(exc, sec.OutsideWorkspace) else \
+        exc.status if isinstance(exc, prm.BadRequest) else 400
+    return _page("error.html", request, status=status, message=str(exc))
 
 
 async def home(request: Request) -> Response:
@@ -291,7 +301,7 @@ async def test_page(request: Request) -> Response:
         wb.bench(q.dir, q.test)
         many = folder_tests(wb.root, sec.inside_workspace(wb.root, q.dir)) if q.test is None else {}
     except VehvalError as exc:
-        return _page("error.html", request, message=str(exc))
+        return _error_page(request, exc)
     if many:
         return _page("error.html", request, message=(
             f"{q.dir}: {len(many)} tests under one template (one data file each): open one "
@@ -305,7 +315,7 @@ async def catalog_page(request: Request) -> Response:
         q = prm.parse_query(prm.CatalogQuery, request.query_params.multi_items())
         sec.regular_file(wb.root, sec.inside_workspace(wb.root, q.db), q.db)
     except VehvalError as exc:
-        return _page("error.html", request, message=str(exc))
+        return _error_page(request, exc)
     return _page("catalog.html", request, db=q.db)
 
 

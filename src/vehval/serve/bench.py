@@ -45,17 +45,19 @@ class QANotRun(VehvalError):
     page runs QA with a POST, then asks again; a GET never runs it)."""
 
 
-def pick_data(listing: sec.Listing, template: Any = None) -> tuple[list[Path], list[dict]]:
+def pick_data(listing: sec.Listing, template: Any = None,
+              most: int | None = MAX_DATA_FILES) -> tuple[list[Path], list[dict]]:
     """Raw data files of a listed test folder (the template's ``match`` globs when it has
-    them), at most :data:`MAX_DATA_FILES`; and the listing's left-out entries plus the count
-    of data files beyond the bound (``[{"name", "why"}]``)."""
+    them), at most ``most`` (:data:`MAX_DATA_FILES` for the files of one test; None for a
+    folder of many tests, one file each, bounded by the listing); and the listing's left-out
+    entries plus the count of data files beyond the bound (``[{"name", "why"}]``)."""
     data = data_folder.data_files(listing.files, template)
     left = list(listing.left_out)
-    if len(data) > MAX_DATA_FILES:
-        left.append({"name": f"({len(data) - MAX_DATA_FILES:,} more data files)",
-                     "why": f"too many files: the first {MAX_DATA_FILES} data files (by name) "
+    if most is not None and len(data) > most:
+        left.append({"name": f"({len(data) - most:,} more data files)",
+                     "why": f"too many files: the first {most} data files (by name) "
                             "are read; put each test's files in a folder of their own"})
-        data = data[:MAX_DATA_FILES]
+        data = data[:most]
     return data, left
 
 
@@ -138,7 +140,7 @@ class Bench:
         from vehval.batch.discover import file_tests
 
         listing = listing or sec.list_folder(self.root, self.folder)
-        files, left = pick_data(listing, tmpl)
+        files, left = pick_data(listing, tmpl, MAX_DATA_FILES if self.test is None else None)
         if self.test is None:
             return files, left
         ordered = sorted(files, key=lambda p: p.name)
@@ -204,7 +206,7 @@ class Bench:
                     else:
                         data.pop(key, None)
             if edits.get("vehicle"):
-                _check_vehicle(data["vehicle"])
+                _check_vehicle(data["vehicle"], self.root)
             consts = data.get("constants") or {}
             for key, value in (edits.get("constants") or {}).items():
                 if value is None:
@@ -261,6 +263,7 @@ class Bench:
                 from vehval.io.template import load_template
 
                 tmpl = load_template(self.template_path)
+                sec.vehicle_inside(self.root, tmpl.vehicle, TEMPLATE_NAME)
                 files, _ = self.test_files(tmpl)
                 if not files:
                     raise InputFileError(f"{self._label()}: no raw data file the template "
@@ -528,10 +531,12 @@ def _placeholder_text(tmpl: Any) -> str:
         return p.read_text(encoding="utf-8")
 
 
-def _check_vehicle(name: str) -> None:
-    """The vehicle a template names loads as the command line loads it (one line when not)."""
+def _check_vehicle(name: str, root: Path) -> None:
+    """The vehicle a template names loads as the command line loads it (one line when not);
+    a vehicle file outside the workspace is refused before it is read."""
     from vehval.vehicle import load_vehicle
 
+    sec.vehicle_inside(root, name, TEMPLATE_NAME)
     try:
         load_vehicle(name)
     except VehvalError as exc:

@@ -132,10 +132,14 @@ def _headline_cell(row: dict) -> str:
     if row.get("headline_mpg") is None and electric is None:
         why = row.get("withheld_reason")
         return f"{name}: withheld" + (f" ({why})" if why else "")
-    h = Headline(kind="headline", scope=str(electric["scope"] if electric and row.get(
-                 "headline_mpg") is None else name), mpg=row.get("headline_mpg"),
-                 u_mpg=row.get("headline_u_mpg"), l_per_100km=row.get("headline_l_per_100km"),
-                 electric=electric, system=system())
+    mpg, u_mpg, lkm = (row.get(k) for k in ("headline_mpg", "headline_u_mpg",
+                                            "headline_l_per_100km"))
+    # L/100 km is inversely proportional to mpg: the same relative U (the catalog keeps U
+    # of mpg only; the metric headline leads with L/100 km and states its U as the test's page)
+    u_lkm = lkm * u_mpg / mpg if None not in (mpg, u_mpg, lkm) and mpg > 0 else None
+    h = Headline(kind="headline", scope=str(electric["scope"] if electric and mpg is None
+                                            else name), mpg=mpg, u_mpg=u_mpg,
+                 l_per_100km=lkm, u_l_per_100km=u_lkm, electric=electric, system=system())
     return f"{h.shown}: {h.figure()}"
 
 

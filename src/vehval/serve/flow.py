@@ -81,6 +81,7 @@ def plan(bench: Any) -> dict:
         raise InputFileError(f"{bench._label()}: no raw data file the template matches")
     inputs = [*files, bench.template_path]
     if tmpl.vehicle:
+        sec.vehicle_inside(bench.root, tmpl.vehicle)
         veh = load_vehicle(tmpl.vehicle)
         vfile = getattr(veh, "_file", None)
         if vfile:
@@ -108,7 +109,7 @@ def _other_tests(bench: Any, tmpl: Any) -> list[Path]:
     from vehval.batch.discover import file_tests
     from vehval.serve.bench import pick_data
 
-    data, _ = pick_data(sec.list_folder(bench.root, bench.folder), tmpl)
+    data, _ = pick_data(sec.list_folder(bench.root, bench.folder), tmpl, most=None)
     ordered = sorted(data, key=lambda p: p.name)
     return [p for p, s in zip(ordered, file_tests(ordered, tmpl)) if s.test_id != bench.test]
 

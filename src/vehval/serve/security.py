@@ -242,6 +242,30 @@ def regular_file(root: Path, path: Path, label: str) -> Path | None:
     raise InputFileError(f"{label}: {why or 'a folder, a file is expected'}: refused")
 
 
+def vehicle_inside(root: Path, name: str | None, label: str = "template.yaml") -> None:
+    """Refuse a template's vehicle that is a file outside the workspace ``root`` (a shipped
+    name is no file of the user's: allowed). A vehicle file is named as the command line
+    names it: a path ending ``.yaml``/``.yml`` or an existing path (relative: from the
+    directory the server started in); an absolute path or a ``..`` step is checked whether
+    or not it exists, so a refusal says nothing of the file.
+
+    Raises
+    ------
+    OutsideWorkspace
+        The vehicle file resolves outside the workspace (nothing of it is read).
+    """
+    if not name:
+        return
+    path = Path(name)
+    if not (path.is_absolute() or ".." in path.parts or path.suffix in (".yaml", ".yml")
+            or path.exists()):
+        return
+    if not Path(os.path.realpath(path)).is_relative_to(root):
+        raise OutsideWorkspace(f"{label}: vehicle: {name[:200]}: a vehicle file "
+                               "outside the workspace: refused (put the vehicle file in "
+                               "the workspace folder, or name a shipped vehicle)")
+
+
 def check_workspace(root: Path) -> Path:
     """``root`` (resolved) when it may be a workspace: not the filesystem root, not the
     user's home directory nor a folder holding it (the workbench would list everything).
