@@ -177,3 +177,18 @@ def test_idle_stop_does_not_depend_on_the_step(insight, cycle):
     soc_ok = frame["ess_soc_simu"] > load_vehicle(insight).controller.engine_stop_soc_min
     idling = frame["eng_on_simu"].to_numpy(bool) & stopped.to_numpy() & soc_ok.to_numpy()
     assert idling.sum() <= 5  # the step the car comes to rest at most
+
+
+def test_simulate_says_when_the_charge_balance_is_not_reached(capsys):
+    """The Insight (no charging torque in its data) cannot end where it started: asked
+    for a charge balance, the screen says it was not reached (it printed the closest run as
+    if balanced); a power-split car that balances prints no such line."""
+    from vehval.cli import main
+
+    assert main(["simulate", "--vehicle", "insight_2000", "--cycle", "hwfet", "--dt", "0.5",
+                 "--charge-balance"]) == 0
+    err = capsys.readouterr().err
+    assert "charge balance      NOT reached in" in err and "tolerance ±0.50 %" in err
+    assert main(["simulate", "--vehicle", "prius_2004", "--cycle", "hwfet", "--dt", "0.5",
+                 "--charge-balance"]) == 0
+    assert "NOT reached" not in capsys.readouterr().err

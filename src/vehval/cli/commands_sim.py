@@ -135,6 +135,14 @@ def _screen(s: dict, aud: dict | None) -> None:
                                                    s.get("fuel_consumption_soc_corrected_l_per_100km")))
     typer.echo(f"  SOC                 {100 * s['soc_initial']:.1f} % -> "
                f"{100 * s['soc_final']:.1f} %")
+    if s.get("charge_balance_iterations") and not s.get("charge_balanced"):
+        from vehval.display import percent
+        from vehval.sim.simulate import CHARGE_BALANCE_TOL
+
+        typer.echo(f"  charge balance      NOT reached in {s['charge_balance_iterations']} runs "
+                   f"(SOC change {percent(s['soc_delta'])}, tolerance "
+                   f"±{percent(CHARGE_BALANCE_TOL)}): the closest run is shown; read the "
+                   "SOC-corrected figure", err=True)
     typer.echo(f"  engine on           {100 * s['engine_on_fraction']:.1f} % "
                f"({s['engine_starts']} starts)")
     typer.echo(f"  trace max miss      {miss} ({band})")
@@ -206,5 +214,13 @@ def _electric_lines(s: dict, miss: str, band: str) -> None:
                f"{s['regen_energy_kwh']:.3f} kWh")
     typer.echo(f"  SOC                 {100 * s['soc_initial']:.1f} % -> "
                f"{100 * s['soc_final']:.1f} %")
+    if s.get("charge_balance_iterations") and not s.get("charge_balanced"):
+        from vehval.display import percent
+        from vehval.sim.simulate import CHARGE_BALANCE_TOL
+
+        typer.echo(f"  charge balance      NOT reached in {s['charge_balance_iterations']} runs "
+                   f"(SOC change {percent(s['soc_delta'])}, tolerance "
+                   f"±{percent(CHARGE_BALANCE_TOL)}): the closest run is shown; read the "
+                   "SOC-corrected figure", err=True)
     typer.echo(f"  trace max miss      {miss} ({band})")
     typer.echo(f"  energy balance      {s['energy_balance_rel']:.1e} (relative residual)")
