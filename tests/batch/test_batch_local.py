@@ -274,3 +274,23 @@ def test_an_earlier_batch_output_in_the_input_folder_is_not_a_test(tmp_path, tem
     assert sorted(p.name for p in (tmp_path / "new" / "tests").iterdir()) == ["t0", "t1"]
     for name in ("tests", "assets", "old"):
         assert f"not a test: {inp / name} (an earlier batch's output" in err
+
+
+def test_qa_outputs_in_the_input_folder_are_not_tests(tmp_path, template_path, capsys):
+    """The workbench's ``qa/`` (one `vehval qa` output per one-file test) and a `vehval qa
+    -o` folder beside the tests: not tests (the batch read the first as a failed test,
+    '10 ok, 1 failed', and a failed row in the catalog); a test folder is still one."""
+    inp = tmp_path / "cruze"
+    write_d3(inp / "t0.txt", seed=0)
+    write_d3(inp / "t1" / "run1.txt", seed=1)
+    for out in (inp / "qa" / "t0", inp / "qa_by_hand"):
+        out.mkdir(parents=True)
+        (out / "findings.json").write_text("{}")
+        (out / "validated.parquet").write_bytes(b"PAR1")
+    rc = main(["batch", str(inp), "-t", str(template_path), "-o", str(tmp_path / "out"),
+               "--steps", "", "--no-report", "--workers", "0", "-q"])
+    err = capsys.readouterr().err
+    assert rc == 0, err
+    assert sorted(p.name for p in (tmp_path / "out" / "tests").iterdir()) == ["t0", "t1"]
+    assert f"not a test: {inp / 'qa'} (a folder of `vehval qa` / workbench outputs" in err
+    assert f"not a test: {inp / 'qa_by_hand'} (the output of `vehval qa` or the workbench" in err

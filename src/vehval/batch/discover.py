@@ -52,15 +52,32 @@ OUTPUT_NAMES = (TESTS_DIR, ASSETS_DIR, CATALOG_NAME, f"{CATALOG_NAME}.wal", INDE
                 SET_VERDICT_NAME)
 
 
+#: What ``vehval qa`` (and the workbench's QA of a test) writes: a folder holding both is
+#: an output, not a test.
+QA_OUTPUTS = ("findings.json", "validated.parquet")
+
+
+def _qa_output(p: Path) -> bool:
+    return p.is_dir() and all((p / name).is_file() for name in QA_OUTPUTS)
+
+
 def earlier_output(p: Path) -> str | None:
-    """Why ``p`` is (part of) a batch's output, or None: a folder holding the batch's
-    catalog, or one of the entries a batch writes (:data:`OUTPUT_NAMES`) beside it (an
-    earlier run whose output folder was the input folder)."""
+    """Why ``p`` is (part of) an earlier output, or None: a folder holding a batch's
+    catalog, one of the entries a batch writes (:data:`OUTPUT_NAMES`) beside it (an earlier
+    run whose output folder was the input folder), a ``vehval qa`` output folder
+    (:data:`QA_OUTPUTS`), or a folder of such folders (the workbench's ``qa/`` beside a
+    folder of one-file tests)."""
     try:
         if p.is_dir() and (p / CATALOG_NAME).is_file():
             return f"an earlier batch's output folder: it holds {CATALOG_NAME}"
         if p.name in OUTPUT_NAMES and (p.parent / CATALOG_NAME).is_file():
             return f"an earlier batch's output: {CATALOG_NAME} beside it"
+        if _qa_output(p):
+            return f"the output of `vehval qa` or the workbench: it holds {', '.join(QA_OUTPUTS)}"
+        if p.is_dir():
+            kids = [k for k in p.iterdir() if _visible(k)]
+            if kids and all(_qa_output(k) for k in kids):
+                return "a folder of `vehval qa` / workbench outputs (one per test)"
     except OSError:
         return None
     return None
