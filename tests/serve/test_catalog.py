@@ -73,6 +73,17 @@ def test_overlay_from_the_batch_kept_signals_and_a_missing_soc(batch_ws, tmp_pat
     assert out["traces"] == 1 and out["missing"] == [
         "udds: no battery SOC signal in the test (a conventional car has no traction battery)"]
     assert out["figure"]["layout"]["yaxis"]["title"]["text"] == "battery SOC [%]"
+    # a test the catalog holds no signals nor raw files of (a failed test): named, the rest
+    # drawn (the whole overlay answered 400)
+    import duckdb
+
+    con = duckdb.connect(str(db))
+    con.execute("UPDATE tests SET files = NULL WHERE test_id = 'japan1015'")
+    con.close()
+    (ws / "out" / "tests" / "japan1015" / "overlay.parquet").unlink()
+    out = overlay_figure(root, db, ["udds", "japan1015"], "speed", 1000)
+    assert out["traces"] == 1 and out["missing"] == [
+        "japan1015: the catalog records no raw files or template: not overlaid"]
 
 
 def test_catalog_view_is_in_display_units(batch_ws):

@@ -307,15 +307,22 @@ def test_traces(root: Path, db: Path, test_id: str, quantity: str, n: int,
 def overlay_figure(root: Path, db: Path, test_ids: list[str], quantity: str, n: int,
                    per_phase: bool = False) -> dict:
     """The overlay of ``quantity`` over catalog tests on one axis in its display unit (the
-    report's figure layer); tests without the signal are named in ``missing``."""
+    report's figure layer); tests without the signal, or that cannot be read (a failed
+    test of the batch), are named in ``missing``: the others are drawn."""
     from vehval.report.figures import one_axis_figure
+    from vehval.serve.security import OutsideWorkspace
 
     traces, missing, unit = [], [], None
     for tid in test_ids:
         try:
             s = test_traces(root, db, tid, quantity, n, per_phase)
+        except OutsideWorkspace:
+            raise                                          # a refusal, not a missing trace
         except NoSignal as exc:
             missing.append(str(exc))
+            continue
+        except VehvalError as exc:
+            missing.append(f"{exc}: not overlaid")
             continue
         if unit is not None and s["unit"] != unit:       # one unit per axis
             missing.append(f"{tid}: {quantity} in {s['unit']}, not {unit}: not overlaid")
