@@ -129,3 +129,22 @@ def test_qa_runs_no_engine_fuel_or_hybrid_relation_on_a_bev(virtual):
     assert not [n for n in tried if n.startswith(("eng_", "fuel_"))], tried
     assert "eng_pwr_out_calc" in calc["not_applicable"]
     assert "ess_pwr_calc" in calc["computed"]          # the battery relations still run
+
+
+def test_results_screen_states_j1634_energy_in_the_display_units(virtual, tmp_path, capsys,
+                                                                 monkeypatch):
+    """`vehval --units metric results` of a BEV: the SAE J1634 lines read kWh/100 km like
+    its headline (they read kWh/100 mi whatever the units)."""
+    from vehval.cli import main
+
+    monkeypatch.setenv("VEHVAL_UNITS", "us")     # `--units` sets it: restored after the test
+    truth = virtual[0]
+    args = ["results", *map(str, truth["files"]), "-t", str(truth["template"])]
+    assert main([*args, "-o", str(tmp_path / "a"), "--json"]) == 0
+    test = json.loads(capsys.readouterr().out)["j1634"]["scopes"]["test"]
+    for system, key, unit in (("us", "ac_kwh_per_100mi", "kWh/100 mi"),
+                              ("metric", "ac_kwh_per_100km", "kWh/100 km")):
+        assert main(["--units", system, *args, "-o", str(tmp_path / system)]) == 0
+        line = next(x for x in capsys.readouterr().out.splitlines()
+                    if x.strip().startswith("test ") and "DC" in x)
+        assert f"AC {test[key]:.1f} {unit}  {test['mpge']:.1f} MPGe" in line

@@ -215,16 +215,21 @@ def results_cmd(
 
 
 def _j1634_text(res) -> str:
-    """SAE J1634 figures of a battery-electric test (kWh/100 mi AC and MPGe per scope), one
-    line each, newline-terminated; '' for any other test."""
+    """SAE J1634 figures of a battery-electric test (AC energy per distance in the display
+    units, kWh/100 mi or kWh/100 km, and MPGe per scope), one line each, newline-terminated;
+    '' for any other test."""
+    from vehval.display import system
+
     j = getattr(res, "j1634", None)
     if not j:
         return ""
+    per = ("ac_kwh_per_100mi", "kWh/100 mi") if system() == "us" else \
+        ("ac_kwh_per_100km", "kWh/100 km")
     basis = (f"charger efficiency {j['charger_efficiency']:g}"
              + (" (assumed)" if j["charger_efficiency_assumed"] else ""))
     lines = [f"  SAE J1634 (AC energy: {basis}):"]
     for scope, f in j["scopes"].items():
         lines.append(f"    {scope:16s} DC {f['dc_energy_kwh']:.3f} kWh  AC "
-                     f"{f['ac_kwh_per_100mi']:.1f} kWh/100 mi  {f['mpge']:.1f} MPGe")
+                     f"{f[per[0]]:.1f} {per[1]}  {f['mpge']:.1f} MPGe")
     return "\n".join(lines) + "\n"
 
