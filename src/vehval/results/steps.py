@@ -397,9 +397,11 @@ class ResultsModel:
         q["max_speed_mps"] = (nan if ints.vmax is None else (1.0 + _error(theta, sel.speed, "gain"))
                               * ints.vmax + _error(theta, sel.speed, "offset"))
         rho, lhv = self._prop(theta, "density_kg_per_m3"), self._prop(theta, "lhv_j_per_kg")
-        # a volume meter measures the volume: its imported mass scales with the density
-        scale = (rho / self.fuel.density_kg_per_m3 if rho is not None and self.fuel is not None
-                 and sel.fuel is not None and is_volume_rate(sel.fuel.raw_unit) else 1.0)
+        # a volume meter measures the volume (the imported mass over the density it was
+        # imported with): its mass is that volume times the density drawn
+        scale = (fuel_volume_m3(1.0, self.fuel.density_kg_per_m3) * rho
+                 if rho is not None and self.fuel is not None and sel.fuel is not None
+                 and is_volume_rate(sel.fuel.raw_unit) else 1.0)
         mass = lin(ints.fuel, sel.fuel) * scale
         q["fuel_mass_kg"] = mass
         cf = self._prop(theta, "carbon_mass_fraction")
