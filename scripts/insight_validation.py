@@ -23,14 +23,12 @@ import os
 import sys
 from pathlib import Path
 
-import numpy as np
-
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
 from vehval.analysis.parallel import analyze_parallel  # noqa: E402
 from vehval.io.importer import import_test  # noqa: E402
-from vehval.validate.parallel import parallel_figures, simulate_on_test  # noqa: E402
+from vehval.validate.parallel import battery_verdicts, model_uncertainty, parallel_figures, simulate_on_test  # noqa: E402
 from vehval.vehicle import load_vehicle  # noqa: E402
 
 TEMPLATE = ROOT / "tests" / "io" / "templates" / "insight_2000_10hz.yaml"
@@ -70,50 +68,17 @@ def figures(veh, test) -> dict:
     return {"hwfet_1": f["part_1"], "hwfet_2": f["part_2"], "both": f["all"]}
 
 
-def _leaves(d, prefix=""):
-    for k, v in d.items():
-        if isinstance(v, dict):
-            yield from _leaves(v, f"{prefix}{k}.")
-        else:
-            yield f"{prefix}{k}", v
-
-
 def uncertainty(veh, test, base: dict) -> dict[str, float]:
-    """Model uncertainty of every figure: RSS over the swings of half their spread."""
-    flat0 = dict(_leaves(base))
-    acc = {k: 0.0 for k in flat0}
-    for sws in SWINGS.values():
-        vals = {k: [v] for k, v in flat0.items()}
-        for sw in sws:
-            f2 = dict(_leaves(figures(variant(veh, sw), test)))
-            for k in vals:
-                if k in f2:
-                    vals[k].append(f2[k])
-        for k, xs in vals.items():
-            acc[k] += (0.5 * (max(xs) - min(xs))) ** 2
-    return {k: float(np.sqrt(x)) for k, x in acc.items()}
+    """Model uncertainty of every figure: RSS over this log's swings of half their spread
+    (vehval.validate.parallel.model_uncertainty)."""
+    swings = {label: [variant(veh, sw) for sw in sws] for label, sws in SWINGS.items()}
+    return model_uncertainty(lambda v: figures(v, test), veh, base, swings)
 
 
 def normalised_errors(figs: dict, unc: dict) -> dict:
-    """En of the battery energies per part: the model's U (the swings' half spread, read
-    as k = 2) against the test's from the sensor class defaults of the battery current and
-    voltage (vehval.uncertainty.sensors: gain limits in RSS, the current's offset limit
-    over the part's duration at 155 V)."""
-    from vehval.uncertainty.sensors import channel_accuracy
-    from vehval.uncertainty.verdict import normalised_error
-
-    ci, cv = channel_accuracy("ess_curr_test", None), channel_accuracy("ess_volt_test", None)
-    gain = (ci.gain_limit ** 2 + cv.gain_limit ** 2) ** 0.5
-    out: dict = {}
-    for part, f in figs.items():
-        off_wh = ci.offset_limit * 155.0 * f["duration_s"] / 3600.0
-        out[part] = {}
-        for q in ("battery_out", "battery_in", "battery_energy"):
-            meas, model = f[f"{q}_test_wh"], f[f"{q}_model_wh"]
-            u_meas = ((gain * abs(meas)) ** 2 + off_wh ** 2) ** 0.5
-            c = normalised_error(model, meas, unc[f"{part}.{q}_model_wh"], u_meas, label=q)
-            out[part][q] = {"en": c.en, "u_test_wh": u_meas}
-    return out
+    """En of the battery energies per part (vehval.validate.parallel.battery_verdicts: the
+    test's U from the class defaults of the battery current and voltage, at 155 V)."""
+    return battery_verdicts(figs, unc, 155.0)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -201,8 +201,8 @@ REGISTRY: dict[str, Stages] = {
     "conventional": Stages(
         name="conventional", label="conventional car", family="conventional",
         synth=_synth_conventional, validate=_validate_conventional, validate_suite=False,
-        hint="for a conventional car use vehval predict (fuel per phase) or vehval "
-             "calibrate",
+        hint="for a conventional car use vehval validate or vehval predict (fuel per "
+             "phase, judged test by test) or vehval calibrate",
         calibrate=_calibrate_conventional, identify=_identify_conventional,
         predict=_predict_conventional),
     "parallel_hybrid": Stages(
@@ -210,15 +210,15 @@ REGISTRY: dict[str, Stages] = {
         synth=_synth_parallel_hybrid, validate=_validate_parallel_hybrid,
         validate_suite=False, analyze=_analyze_parallel_hybrid,
         hint="for a parallel hybrid use vehval analyze (assist / regen / engine-stop rules) "
-             "or the validate step of vehval.workflow.TestRun (engine on/off and speed, "
-             "battery energy, motor torque per test)"),
+             "or vehval validate (engine on/off and speed, battery energy, motor torque, "
+             "judged test by test)"),
     "battery_electric": Stages(
         name="battery_electric", label="battery-electric car", family="electric",
         synth=_synth_battery_electric, validate=_validate_battery_electric,
         validate_suite=False,
         hint="for a battery-electric car use vehval results (SAE J1634 energy and MPGe), "
-             "vehval epa validate on the list's electricity rows, or the validate step of "
-             "vehval.workflow.TestRun (traces, DC energy and J1634 figures per test)"),
+             "vehval epa validate on the list's electricity rows, or vehval validate "
+             "(traces, DC energy and J1634 figures, judged test by test)"),
 }
 
 #: Text of each stage in a refusal.

@@ -190,6 +190,19 @@ class Test:
     def names(self) -> list[str]:
         return list(self.signals)
 
+    def data_digest(self) -> str:
+        """Hash of the measured data (every signal's name, times and values): two tests with
+        the same digest are the same data, whatever their files are called."""
+        import hashlib
+
+        h = hashlib.sha256()
+        for name in sorted(self.signals):
+            sig = self.signals[name]
+            h.update(name.encode())
+            h.update(np.ascontiguousarray(sig.time).tobytes())
+            h.update(np.ascontiguousarray(sig.values).tobytes())
+        return h.hexdigest()
+
     def by_base(self, base: str, origin: str | None = "test") -> list[Signal]:
         """All signals of a base name (any source), optionally of one origin."""
         reg = registry()

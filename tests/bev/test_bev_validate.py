@@ -148,3 +148,35 @@ def test_results_screen_states_j1634_energy_in_the_display_units(virtual, tmp_pa
         line = next(x for x in capsys.readouterr().out.splitlines()
                     if x.strip().startswith("test ") and "DC" in x)
         assert f"AC {test[key]:.1f} {unit}  {test['mpge']:.1f} MPGe" in line
+
+
+def test_validate_command_judges_a_bev_test_by_test(virtual, tmp_path, capsys):
+    """`vehval validate` of a battery-electric car (it refused one, pointing to the Python
+    API): each test judged by the En of its whole-test DC energy, written and reported."""
+    from vehval.cli import main
+
+    truth, vfile, _ = virtual
+    out = tmp_path / "val"
+    args = ["validate", *map(str, truth["files"]), "-t", str(truth["template"]),
+            "--vehicle", str(vfile), "-o", str(out)]
+    assert main([*args, "--report"]) == 0
+    text = capsys.readouterr().out
+    doc = json.loads((out / "metrics.json").read_text())
+    v = doc["tests"][0]["verdict"]
+    assert doc["architecture"] == "battery_electric" and v["figure"] == "dc_energy_wh"
+    assert abs(v["en"]) < 1.0 and v["consistent"] is True and v["in_sample"] is False
+    assert f"En {v['en']:+.2f} consistent" in text and "MPGe" in text
+    assert "held-out: 1/1 consistent (|En| <= 1)" in text
+    assert (out / "report.html").is_file() and (out / "validation.json").is_file()
+    assert "SAE J1634 figures, model vs test" in (out / "report.html").read_text()
+    # a wrong model is judged inconsistent: the verdict can fail
+    import yaml
+
+    from helpers.bev import bev_data
+
+    data = bev_data()
+    data["body"]["aux_power_w"] = 3000.0
+    wrong = tmp_path / "wrong.yaml"
+    wrong.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
+    assert main([*args[:-4], "--vehicle", str(wrong), "-o", str(tmp_path / "w")]) == 0
+    assert "inconsistent" in capsys.readouterr().out

@@ -72,3 +72,34 @@ def test_cli_says_a_bound_hit_and_the_held_out_mean(virtual, tmp_path, capsys):
     assert any("(tune, in sample)" in line for line in lines)
     note = next(line for line in lines if line.startswith("held-out: 1 tests, mean |fuel error|"))
     assert "; in-sample (a fit, not a prediction): 1 tests, mean |fuel error|" in note
+
+
+def test_holdout_the_start_vehicle_was_identified_on_is_in_sample():
+    """A --holdout test that is one of the start vehicle's identification tests is a fit, as
+    `vehval predict` marks it: before, the summary counted it as held out."""
+    import numpy as np
+
+    from vehval.identify import trace_from_test
+    from vehval.identify.calibrate_stage import _lines
+    from vehval.test import Signal, TestMeta
+    from vehval.test import Test as VTest
+
+    def trace(tid):
+        t = np.arange(0.0, 200.0, 0.1)
+        v = np.clip(10 * np.sin(np.pi * t / 100.0), 0, None)
+        test = VTest(meta=TestMeta(test_id=tid, files=[f"{tid}.txt"]))
+        test.add(Signal.standard("veh_spd_test", t, v))
+        test.add(Signal.standard("veh_frc_in_test", t, 200 + 1500 * np.gradient(v, t)))
+        test.add(Signal.standard("fuel_rate_test", t, 1e-3 * (0.2 + 0.1 * v)))
+        test.add(Signal.standard("eng_spd_out_test", t, 90 + 10 * v))
+        return trace_from_test(test)
+
+    veh = load_vehicle("cruze_diesel_2014")     # identified on 61410013 and 61410004
+    res = calibrate_conventional(veh, [trace("tune_run")], ["gearbox.efficiency"],
+                                 [trace("61410013 Test Data"), trace("other_run")], maxiter=1)
+    assert [r["in_sample"] for r in res.tests] == [True, True, False]
+    lines = _lines(res)
+    assert any(s.startswith("61410013 Test Data (holdout, in sample: the start vehicle was "
+                            "identified on it)") for s in lines)
+    assert any(s.startswith("held-out: 1 tests") and "in-sample (a fit, not a prediction): "
+               "2 tests" in s for s in lines), lines

@@ -1,5 +1,7 @@
 """Identification refuses bad input with one clear line (library and CLI)."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -211,19 +213,27 @@ def test_predict_cli_table_json_and_report(tmp_path, capsys):
     assert "normalised error" in text
 
 
-@pytest.mark.parametrize("command", ["validate", "analyze"])
-def test_power_split_steps_refuse_a_conventional_vehicle(tmp_path, capsys, command):
+def test_power_split_analysis_refuses_a_conventional_vehicle_validate_judges_it(tmp_path,
+                                                                                capsys):
+    """`analyze` (the power-split control analysis) refuses the Cruze in one line; `validate`
+    judges it test by test by the En of its fuel, as `predict` does (it refused it)."""
     out = tmp_path / "v"
     assert main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "ece15", "--seed", "2",
                  "-o", str(out)]) == 0
     capsys.readouterr()
     f = str(next(out.glob("*_d3.txt")))
-    rc = main([command, f, "-t", str(out / "template.yaml"), "--vehicle", "cruze_diesel_2014",
-               "-o", str(tmp_path / "o")])
+    args = [f, "-t", str(out / "template.yaml"), "--vehicle", "cruze_diesel_2014"]
+    rc = main(["analyze", *args, "-o", str(tmp_path / "o")])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2
     assert len(err) == 1 and "is 'conventional'" in err[0] and "vehval predict" in err[0]
     assert not (tmp_path / "o").exists()
+    assert main(["validate", *args, "-o", str(tmp_path / "val")]) == 0
+    text = capsys.readouterr().out
+    doc = json.loads((tmp_path / "val" / "metrics.json").read_text())
+    v = doc["tests"][0]["verdict"]
+    assert v["figure"] == "fuel_mass_g" and f"En {v['en']:+.2f} consistent" in text
+    assert "held-out: 1/1 consistent" in text
 
 
 def test_ac_state_rules():
@@ -414,3 +424,20 @@ def test_a_cold_start_among_the_tests_gives_the_warm_up_without_cold_test():
     assert cold_warnings([warm, cold]) != []  # fitted into the map, it would warn
     frozen = dataclasses.replace(cold, amb_temp_c=-7.0, coolant_start_c=-7.0)
     assert identify_conventional([warm, frozen], "frozen", drag_evidence=False).warmup is None
+
+
+def test_negative_fuel_channel_is_refused_not_called_zero():
+    """A fuel channel with its sign slipped (all negative while the engine turns) was taken
+    for a dead channel ('reads 0 throughout') and left out, or predicted against a negative
+    measured fuel; it is refused naming the file and the sign. Meter noise (a few negative
+    samples) passes."""
+    test = _test()
+    fuel = test["fuel_rate_test"]
+    test.add(type(fuel)(**{**fuel.__dict__, "values": -fuel.values}), replace_existing=True)
+    with pytest.raises(IdentificationError, match=r"t1.txt: its fuel rate is negative in \d+ "
+                       r"of the \d+ samples.*check the channel's sign"):
+        trace_from_test(test)
+    noisy = _test()
+    vals = noisy["fuel_rate_test"].values
+    vals[::10] = -1e-4                     # -0.1 g/s in one sample of ten
+    assert trace_from_test(noisy).fuel.min() < 0

@@ -128,3 +128,32 @@ def test_the_strategy_read_from_a_log_states_its_rules(virtual, tmp_path):
     assert r2["strategy"]["electrical_aux_power_w"] == pytest.approx(150.0, abs=15.0)
     # applied to the model, the read strategy is a valid vehicle
     veh.with_overrides({f"controller.{k}": v for k, v in r2["strategy"].items()})
+
+
+def test_validate_command_judges_a_parallel_hybrid_by_its_battery_energy(virtual, tmp_path,
+                                                                       capsys):
+    """`vehval validate` of a parallel hybrid (it refused one): the generating model is
+    consistent on the net battery energy (U_model from one-at-a-time swings, U_test from
+    the sensor class defaults), a model with a wrong assist threshold is not."""
+    import yaml
+
+    veh, truth, _ = virtual
+    good = tmp_path / "good.yaml"
+    raw = yaml.safe_load(open(veh.file, encoding="utf-8"))
+    raw["controller"].update(assist_threshold_nm=40.0, engine_stop_speed_mps=5.0)
+    good.write_text(yaml.safe_dump(raw, sort_keys=False), encoding="utf-8")
+    raw["controller"]["assist_threshold_nm"] = 10.0
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(yaml.safe_dump(raw, sort_keys=False), encoding="utf-8")
+    files = [str(f) for f in truth["files"]]
+    words = {}
+    for name, vfile in (("good", good), ("bad", bad)):
+        rc, so, se = run_cli(["validate", *files, "-t", truth["template"], "--vehicle", vfile,
+                              "-o", tmp_path / name], capsys)
+        assert rc == 0, se
+        doc = json.loads((tmp_path / name / "metrics.json").read_text())
+        v = doc["tests"][0]["verdict"]
+        assert v["figure"] == "battery_energy_wh" and f"En {v['en']:+.2f}" in so
+        assert doc["tests"][0]["verdicts"]["all"]["battery_energy"]["u_model_wh"] > 0
+        words[name] = v["consistent"]
+    assert words == {"good": True, "bad": False}

@@ -183,3 +183,22 @@ def test_calibration_marks_in_sample_and_summarises_held_out_apart(nominal):
     assert d["in_sample"] == {"a": True, "b": False, "c": True}
     assert d["stats"]["n_tests"] == 1 and d["stats_in_sample"]["n_tests"] == 2
     assert "held-out: 1 tests, mean |fuel error| 2.00 -> 1.00 %" in d["tables"][1]["note"]
+
+
+def test_prior_calibration_test_matched_by_the_one_rule(nominal):
+    """A held-out test the start vehicle names as ``61410013 Test Data`` is in-sample when
+    its id is spelled ``61410013_Test_Data`` (a batch's id of the same file): the marking goes
+    through :func:`vehval.calibration.provenance.same_test`, not an exact string match."""
+    from vehval.validate.calibration import CalibrationResult
+
+    errs = {t: {"fuel_pct": 2.0, "soc_pct": 1.0} for t in ("a", "61410013_Test_Data")}
+    res = CalibrationResult(
+        parameters=["controller.soc_gain_w"], start={"controller.soc_gain_w": 1.0},
+        bounds={"controller.soc_gain_w": (0.5, 2.0)}, best={"controller.soc_gain_w": 1.5},
+        objective_start=1.0, objective_best=0.5, tests=["a"], holdout=["61410013_Test_Data"],
+        before=errs, after=errs, n_evaluations=1, n_simulations=1, elapsed_s=0.0,
+        method="grid", dt=1.0, vehicle=nominal,
+        prior={"61410013 Test Data": ["body.aux_power_w"]})
+    assert res.in_sample("61410013_Test_Data")
+    assert res.rows()[1][1].startswith("held out (in-sample")
+    assert res.sample_stats()["n_tests"] == 0

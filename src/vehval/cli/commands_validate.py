@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 import typer
 
@@ -66,7 +66,7 @@ def validate_cmd(
     secondary check (pass / FAIL)."""
     from vehval.io.atomic import atomic_dir
     from vehval.jsonsafe import dumps
-    from vehval.workflow import runs_from_args, validate_runs
+    from vehval.workflow import runs_from_args, validate_each, validate_runs
 
     if not files and not test_group:
         raise ConfigError("no test given: name test directories or files, or use --test A,B")
@@ -79,7 +79,14 @@ def validate_cmd(
             from vehval.vehicle import load_vehicle
 
             run.vehicle = load_vehicle(DEFAULT_VEHICLE)
+    from vehval.architectures import stages
     from vehval.cli.progress import bar
+
+    if not stages(runs[0].vehicle).validate_suite:      # judged test by test
+        with bar("validate: simulating tests", as_json=as_json):
+            each = validate_each(runs, dt=dt, window_s=window_s, smooth_hz=smooth_hz)
+        _write_each(each, output, report, runs, as_json)
+        return
     with bar("validate: simulating tests", as_json=as_json):
         suite = validate_runs(runs, _tolerances(fuel_tol, soc_tol, soc_points), dt=dt,
                               window_s=window_s, smooth_hz=smooth_hz,
@@ -119,6 +126,32 @@ def validate_cmd(
                    f"{'' if e.passed or not e.failures else ': ' + '; '.join(e.failures)}")
     typer.echo(lad.en_summary())
     typer.echo("tolerance (secondary check): " + lad.summary())
+    typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
+
+
+def _write_each(each: Any, output: Path, report: bool, runs: list, as_json: bool) -> None:
+    """The outputs and the screen of tests validated one by one (an architecture without
+    the tolerance ladder): validation.json, metrics.json, a report per test."""
+    from vehval.io.atomic import atomic_dir
+    from vehval.jsonsafe import dumps
+
+    with atomic_dir(output) as stage:
+        (stage / "validation.json").write_text(dumps(each.payload), encoding="utf-8")
+        (stage / "metrics.json").write_text(dumps(each.metrics), encoding="utf-8")
+        if report:
+            from vehval.report import results_beside
+
+            for run, v in zip(runs, each.validations):
+                tid = str(run.validated.meta.test_id)
+                sub = stage if len(runs) == 1 else stage / sanitize_id(tid)
+                found = results_beside(run.origin) if run.qa_outcome is None else {}
+                run.report(sub, qa=found.get("findings"), control=found.get("control"),
+                           validation=v.payload(), title=f"Validation report: {tid}")
+    if as_json:
+        typer.echo(dumps(each.metrics), nl=False)
+        return
+    for line in each.lines():
+        typer.echo(line)
     typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
 
 

@@ -117,7 +117,9 @@ def calibrate_conventional(vehicle, tuning: list[Trace], names: list[str],
     for role, _tr, b, a in before_after(
             lambda tr, values: _fuel_errors(vehicle.with_overrides(values), [tr])[0],
             [("tune", tuning), ("holdout", list(holdout))], start, best):
+        # a held-out test the start vehicle was identified on is a fit too (predict's rule)
         rows.append({"test": b["test"], "role": role, "cycle": b["cycle"],
+                     "in_sample": role == "tune" or bool(b.get("in_sample")),
                      "fuel_measured_g": b["fuel_measured_g"],
                      "error_rel_before": b["error_rel"], "error_rel_after": a["error_rel"],
                      "phases_after": a["phases"]})

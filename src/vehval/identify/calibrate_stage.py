@@ -51,13 +51,15 @@ def _lines(res: Any) -> list[str]:
                    + (f"  (at its {edge}: not identified, the fuel data push it beyond its "
                       "range)" if edge else ""))
     for row in res.tests:
-        out.append(f"{row['test']} ({row['role']}{', in sample' if row['role'] == 'tune' else ''})"
+        mark = ("" if not row["in_sample"] else ", in sample" if row["role"] == "tune" else
+                ", in sample: the start vehicle was identified on it")
+        out.append(f"{row['test']} ({row['role']}{mark})"
                    f": fuel error {100 * row['error_rel_before']:+.2f}"
                    f" -> {100 * row['error_rel_after']:+.2f} %")
     # the summary line of the power-split calibration: held-out and in-sample apart
     stats: dict[str, dict] = {}
     for role in ("holdout", "tune"):
-        rows = [r for r in res.tests if r["role"] == role]
+        rows = [r for r in res.tests if r["in_sample"] == (role == "tune")]
         b, a = (100 * sum(abs(r[k]) for r in rows) / len(rows) if rows else None
                 for k in ("error_rel_before", "error_rel_after"))
         stats[role] = {"n_tests": len(rows), "fuel_pct_before": b, "fuel_pct_after": a}

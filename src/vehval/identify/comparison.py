@@ -46,6 +46,14 @@ class PredictionComparison:
                             "consistent" if r.get("consistent") else "inconsistent"),
                 "note": "; ".join(notes)}
 
+    def verdict(self) -> dict[str, Any]:
+        """The test's verdict: the normalised error of its fuel mass (as ``vehval
+        predict`` states it), with the fuel in ``text``."""
+        r, ne = self.row, self.normalised_error()
+        return {"figure": "fuel_mass_g", "en": ne["en"], "consistent": ne["consistent"],
+                "model": r["fuel_predicted_g"], "measured": r["fuel_measured_g"],
+                "text": f"fuel {r['fuel_predicted_g']:.1f} g against {r['fuel_measured_g']:.1f} g"}
+
     def to_dict(self) -> dict[str, Any]:
         """The row of ``vehval predict --json`` (without arrays, fuel economy added)."""
         from vehval.identify.predict import public_row

@@ -18,12 +18,15 @@ def load_traces(files: Sequence[str | Path], template, dt: float = 0.1) -> list[
     signal is the one :meth:`vehval.test.Test.best` chooses (with QA's
     ``template_final.yaml`` as the template, the signals QA dropped are not imported). The results
     stage (:func:`vehval.results.compute_results`) runs on each test: predictions are
-    compared with its per-phase fuel and uncertainty."""
+    compared with its per-phase fuel and uncertainty. A test given twice (the same file, or
+    the same data under another name) is refused: it would count one run twice."""
     from vehval.results import compute_results
     from vehval.workflow import TestRun
+    from vehval.workflow.paths import refuse_repeated_data
+    runs = [TestRun.load([f], template, use_qa=False) for f in files]
+    refuse_repeated_data([run.test for run in runs], what="test")
     out = []
-    for f in files:
-        run = TestRun.load([f], template, use_qa=False)
+    for run in runs:
         test = run.test
         tr = trace_from_test(test, dt, run.vehicle)
         tr.results = compute_results(test)

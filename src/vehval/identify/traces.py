@@ -121,6 +121,19 @@ def dead_fuel_channel(tr: Trace) -> str | None:
     return None
 
 
+def negative_fuel_channel(tr: Trace) -> str | None:
+    """Why the fuel channel of ``tr`` is not a fuel flow (None: it may be): while the engine
+    turns it reads negative more often than positive and sums below zero (a sign slip of the
+    channel or its template ``scale``; a few negative samples of meter noise pass)."""
+    fuel = tr.fuel[(tr.w_eng > TURNING_RAD_S) & np.isfinite(tr.fuel)]
+    neg, pos = np.count_nonzero(fuel < -NO_FUEL_KG_S), np.count_nonzero(fuel > NO_FUEL_KG_S)
+    if neg <= pos or float(np.sum(fuel)) >= 0.0:
+        return None
+    return (f"{tr.file or tr.test_id}: its fuel rate is negative in {neg} of the "
+            f"{fuel.size} samples with the engine turning (down to {fuel.min() * 1e3:.3g} g/s): "
+            "no fuel flow is; check the channel's sign (its unit or scale in the template)")
+
+
 def trace_from_test(test: Test, dt: float = 0.1, vehicle: object = None) -> Trace:
     """Trace of ``test`` on a ``dt`` grid from time 0 (the start of the drive) to its end.
 
@@ -160,13 +173,17 @@ def trace_from_test(test: Test, dt: float = 0.1, vehicle: object = None) -> Trac
     v = np.maximum(sig["veh_spd"].at(t), 0.0)
     ph, amb, clt = (test.best(b, ("test",)) for b in ("test_phase", "amb_temp",
                                                       "eng_temp_coolant"))
-    return Trace(test_id=test.meta.test_id, cycle=test.meta.cycle or "", t=t, v=v,
-                 a=acceleration(v, dt), force=sig["veh_frc_in"].at(t),
-                 w_eng=np.maximum(sig["eng_spd_out"].at(t), 0.0), fuel=sig["fuel_rate"].at(t),
-                 phase=np.round(ph.at(t, "previous")) if ph is not None else np.ones_like(t),
-                 constants=dict(test.meta.constants or {}), test_fuel=resolve_fuel(test=test),
-                 amb_temp_c=float(np.nanmean(amb.values)) if amb is not None else float("nan"),
-                 coolant_start_c=_start_value(clt, t0), file=str(where))
+    tr = Trace(test_id=test.meta.test_id, cycle=test.meta.cycle or "", t=t, v=v,
+               a=acceleration(v, dt), force=sig["veh_frc_in"].at(t),
+               w_eng=np.maximum(sig["eng_spd_out"].at(t), 0.0), fuel=sig["fuel_rate"].at(t),
+               phase=np.round(ph.at(t, "previous")) if ph is not None else np.ones_like(t),
+               constants=dict(test.meta.constants or {}), test_fuel=resolve_fuel(test=test),
+               amb_temp_c=float(np.nanmean(amb.values)) if amb is not None else float("nan"),
+               coolant_start_c=_start_value(clt, t0), file=str(where))
+    negative = negative_fuel_channel(tr)
+    if negative:
+        raise IdentificationError(negative)
+    return tr
 
 
 def _start_value(sig, t0: float, span_s: float = 5.0) -> float:

@@ -136,7 +136,8 @@ def _headline_cell(row: dict) -> str:
                                             "headline_l_per_100km"))
     # L/100 km is inversely proportional to mpg: the same relative U (the catalog keeps U
     # of mpg only; the metric headline leads with L/100 km and states its U as the test's page)
-    u_lkm = lkm * u_mpg / mpg if None not in (mpg, u_mpg, lkm) and mpg > 0 else None
+    u_lkm = (lkm * u_mpg / mpg if mpg is not None and u_mpg is not None and lkm is not None
+             and mpg > 0 else None)
     h = Headline(kind="headline", scope=str(electric["scope"] if electric and mpg is None
                                             else name), mpg=mpg, u_mpg=u_mpg,
                  l_per_100km=lkm, u_l_per_100km=u_lkm, electric=electric, system=system())

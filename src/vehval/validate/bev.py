@@ -86,6 +86,18 @@ class BevValidation:
             "sim_summary": {k: v for k, v in self.sim_summary.items()
                             if isinstance(v, (int, float, str, bool))}})
 
+    def verdict(self) -> dict[str, Any]:
+        """The test's verdict: the normalised error of its whole-test DC battery energy,
+        with its SAE J1634 MPGe in ``text``."""
+        e = next((r for r in self.energy if r["scope"] == "test"), {})
+        m = next((r for r in self.j1634 if r["scope"] == "test" and r["figure"] == "mpge"), {})
+        text = (f"DC energy {e['model_wh']:.0f} Wh against {e['test_wh']:.0f} Wh"
+                if e else "no whole-test DC energy")
+        if m.get("error_pct") is not None:
+            text += f", MPGe {m['model']:.1f} against {m['test']:.1f}"
+        return {"figure": "dc_energy_wh", "en": e.get("en"), "consistent": e.get("consistent"),
+                "model": e.get("model_wh"), "measured": e.get("test_wh"), "text": text}
+
     def tables(self) -> list[dict[str, Any]]:
         """Report tables: traces (RMS error), DC energy per scope, J1634 figures."""
         from vehval.display import to_display

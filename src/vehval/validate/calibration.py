@@ -41,7 +41,7 @@ from vehval.calibration import (
     vehicle_with_values,
     write_vehicle_yaml,
 )
-from vehval.calibration.provenance import bounds_text, calibration_tests
+from vehval.calibration.provenance import bounds_text, calibration_tests, same_test
 from vehval.errors import ConfigError
 from vehval.jsonsafe import clean
 from vehval.sim.simulate import simulate
@@ -194,13 +194,13 @@ class CalibrationResult:
     def in_sample(self, tid: str) -> bool:
         """A tuning test, or a test the starting vehicle file was calibrated on: its errors
         are a fit, not a prediction."""
-        return tid in self.tests or tid in self.prior
+        return tid in self.tests or _prior_params(self.prior, tid) is not None
 
     def _role(self, tid: str) -> str:
         if tid in self.tests:
             return "tuned"
         return ("held out (in-sample: the start vehicle was calibrated on it)"
-                if tid in self.prior else "held out")
+                if _prior_params(self.prior, tid) is not None else "held out")
 
     def sample_stats(self, in_sample: bool = False) -> dict[str, Any]:
         """Mean |fuel error| and |SOC error| [%] before and after over the held-out tests
@@ -523,7 +523,8 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         before[tid], after[tid] = b, a
     prior = calibration_tests(veh0)
     notes += [f"held-out test {tid} is in-sample: the start vehicle was calibrated on it "
-              f"({', '.join(prior[tid])})" for tid in hold_ids if tid in prior]
+              f"({', '.join(params)})" for tid in hold_ids
+              if (params := _prior_params(prior, tid)) is not None]
     rejected: dict[str, float] = {}
     worse = holdout_worse(before, after, hold_ids)
     if worse:
@@ -540,6 +541,12 @@ def calibrate(tests: Sequence[Test], vehicle: Vehicle | str, parameters: Sequenc
         elapsed_s=time.perf_counter() - t_start, method=method, dt=dt, vehicle=veh0,
         date=_dt.date.today().isoformat(), history=history, smooth_hz=smooth_hz, notes=notes,
         rejected=rejected, prior=prior)
+
+
+def _prior_params(prior: dict[str, list[str]], tid: str) -> list[str] | None:
+    """The parameters the start vehicle was calibrated on test ``tid`` with (None: not one
+    of its calibration tests; matched by :func:`~vehval.calibration.provenance.same_test`)."""
+    return next((p for name, p in prior.items() if same_test(tid, [name])), None)
 
 
 def _errors(v) -> dict[str, float]:

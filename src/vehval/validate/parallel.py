@@ -124,6 +124,92 @@ TABLE_FIGURES = {
 }
 #: Traces overlaid in the report: test key of :func:`simulate_on_test` -> base name
 OVERLAY_TRACES = ("veh_spd", "eng_spd_out", "mot_trq_out")
+#: One-at-a-time swings of the least-known inputs, relative to the model's own values:
+#: label -> (what, factors). U_model of a figure is the root-sum-square over the swings of
+#: half the figure's spread, read as k = 2.
+SWINGS: dict[str, tuple[str, tuple[float, ...]]] = {
+    "road load ±15 %": ("road_load", (0.85, 1.15)),
+    "test mass ±5 %": ("mass", (0.95, 1.05)),
+    "battery R ±30 %": ("battery_r", (0.7, 1.3)),
+    "wheel radius ±1.5 %": ("radius", (0.985, 1.015)),
+}
+#: The battery energies judged by the normalised error (figure stem of :func:`_part`)
+BATTERY_FIGURES = ("battery_out", "battery_in", "battery_energy")
+
+
+def swung(veh: Any, what: str, factor: float) -> Any:
+    """``veh`` with one least-known input scaled by ``factor`` (:data:`SWINGS`)."""
+    b, body = veh.battery, veh.body
+    change = {
+        "road_load": {"body.road_load_a_n": factor * body.road_load_a_n,
+                      "body.road_load_b_n_per_mps": factor * body.road_load_b_n_per_mps,
+                      "body.road_load_c_n_per_mps2": factor * body.road_load_c_n_per_mps2},
+        "mass": {"body.mass_kg": factor * body.mass_kg},
+        "battery_r": {"battery.resistance_discharge_ohm": [factor * x for x in
+                                                           b.resistance_discharge_ohm],
+                      "battery.resistance_charge_ohm": [factor * x for x in
+                                                        b.resistance_charge_ohm]},
+        "radius": {"driveline.wheel_radius_m": factor * veh.driveline.wheel_radius_m},
+    }[what]
+    return veh.with_overrides(change)
+
+
+def _leaves(d: dict, prefix: str = "") -> Any:
+    for k, v in d.items():
+        if isinstance(v, dict):
+            yield from _leaves(v, f"{prefix}{k}.")
+        else:
+            yield f"{prefix}{k}", v
+
+
+def model_uncertainty(figures_of: Any, veh: Any, base: dict,
+                      swings: dict[str, list[Any]] | None = None) -> dict[str, float]:
+    """U_model (k = 2) of every figure of ``base`` (``figures_of(vehicle)`` of ``veh``),
+    flattened as ``part.figure``: the root-sum-square over the swings of half the figure's
+    spread. ``swings``: label -> the vehicles (or override mappings) of that swing; default
+    :data:`SWINGS` applied to ``veh``."""
+    flat0 = dict(_leaves(base))
+    acc = {k: 0.0 for k in flat0}
+    chosen = swings if swings is not None else {
+        label: [swung(veh, what, f) for f in fs] for label, (what, fs) in SWINGS.items()}
+    for variants in chosen.values():
+        vals = {k: [v] for k, v in flat0.items()}
+        for var in variants:
+            other = dict(_leaves(figures_of(veh.with_overrides(var) if isinstance(var, dict)
+                                            else var)))
+            for k in vals:
+                if k in other:
+                    vals[k].append(other[k])
+        for k, xs in vals.items():
+            acc[k] += (0.5 * (max(xs) - min(xs))) ** 2
+    return {k: float(np.sqrt(x)) for k, x in acc.items()}
+
+
+def battery_verdicts(figs: dict[str, dict], u_model: dict[str, float],
+                     volt_v: float) -> dict[str, dict[str, dict[str, Any]]]:
+    """En of the battery energies (:data:`BATTERY_FIGURES`) of every part of ``figs``:
+    U_model from :func:`model_uncertainty`, the test's U from the class defaults of the
+    battery current and voltage (gain limits in RSS; the current's offset limit over the
+    part's duration at ``volt_v`` [V])."""
+    from vehval.uncertainty.sensors import channel_accuracy
+    from vehval.uncertainty.verdict import normalised_error
+
+    ci, cv = channel_accuracy("ess_curr_test", None), channel_accuracy("ess_volt_test", None)
+    gain = (ci.gain_limit ** 2 + cv.gain_limit ** 2) ** 0.5
+    out: dict[str, dict[str, dict[str, Any]]] = {}
+    for part, f in figs.items():
+        off_wh = ci.offset_limit * volt_v * f["duration_s"] / 3600.0
+        out[part] = {}
+        for q in BATTERY_FIGURES:
+            meas, model = f[f"{q}_test_wh"], f[f"{q}_model_wh"]
+            u_meas = ((gain * abs(meas)) ** 2 + off_wh ** 2) ** 0.5
+            if not (np.isfinite(meas) and np.isfinite(model)) or meas == 0.0:
+                out[part][q] = {"en": None, "u_test_wh": u_meas, "consistent": None}
+                continue
+            c = normalised_error(model, meas, u_model[f"{part}.{q}_model_wh"], u_meas, label=q)
+            out[part][q] = {"en": c.en, "u_test_wh": u_meas, "u_model_wh": c.u_model,
+                            "consistent": c.consistent}
+    return out
 
 
 @dataclass
@@ -145,6 +231,8 @@ class ParallelValidation:
     overlays : DataFrame
         ``time`` and ``<base>_test`` / ``<base>_simu`` (SI) of the traces overlaid.
     notes : list of str
+    verdicts : dict
+        :func:`battery_verdicts` of the whole test (``all`` -> figure -> En, U).
     """
 
     test_id: str
@@ -154,6 +242,7 @@ class ParallelValidation:
     figures: dict[str, dict]
     overlays: pd.DataFrame
     notes: list[str] = field(default_factory=list)
+    verdicts: dict[str, dict[str, dict[str, Any]]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (``validation.json`` of a parallel-hybrid test)."""
@@ -161,16 +250,34 @@ class ParallelValidation:
             "architecture": "parallel_hybrid", "test_id": self.test_id,
             "vehicle": self.vehicle.name, "vehicle_file": self.vehicle.file,
             "overrides": dict(self.overrides), "soc_initial": self.soc_initial,
-            "figures": self.figures, "notes": list(self.notes)})
+            "figures": self.figures, "verdicts": self.verdicts, "notes": list(self.notes)})
+
+    def verdict(self) -> dict[str, Any]:
+        """The test's verdict: the normalised error of its net battery energy (the figure
+        a charge-sustaining strategy is judged by), with the traces' agreement in ``text``."""
+        f, v = self.figures["all"], self.verdicts.get("all", {}).get("battery_energy", {})
+        meas, model = f["battery_energy_test_wh"], f["battery_energy_model_wh"]
+        en = v.get("en")
+        return {"figure": "battery_energy_wh", "en": en, "consistent": v.get("consistent"),
+                "model": model, "measured": meas, "text": (
+                    f"battery net {model:.1f} Wh against {meas:.1f} Wh, engine on/off "
+                    f"agreement {f['engine_on_agreement_pct']:.1f} %, gear "
+                    f"{f['gear_agreement_pct']:.1f} %, engine speed RMS "
+                    f"{f['engine_speed_rms_rpm']:.0f} rpm")}
 
     def tables(self) -> list[dict[str, Any]]:
-        """Report table: each figure of the whole test."""
+        """Report tables: each figure of the whole test, and the battery energies' En."""
         f = self.figures["all"]
         rows = [[label, unit, f[k]] for k, (label, unit) in TABLE_FIGURES.items() if k in f]
         rows += [[f"engine speed error RMS, gear {g}", "rpm", x]
                  for g, x in f.get("engine_speed_rms_rpm_by_gear", {}).items()]
+        en = [[q, f[f"{q}_model_wh"], f[f"{q}_test_wh"], v.get("u_model_wh"), v["u_test_wh"],
+               v["en"]] for q, v in self.verdicts.get("all", {}).items()]
         return [{"title": f"Traces, model vs test ({self.test_id})",
-                 "columns": ["figure", "unit", "value"], "rows": rows}]
+                 "columns": ["figure", "unit", "value"], "rows": rows},
+                {"title": f"Battery energy, model vs test ({self.test_id})",
+                 "columns": ["figure", "model [Wh]", "test [Wh]", "U_model [Wh]",
+                             "U_test [Wh]", "En"], "rows": en}]
 
     def payload(self, figures: bool = True) -> dict[str, Any]:
         """The report's validation section: ``{tables, figures, notes}``."""
@@ -205,6 +312,16 @@ def validate_parallel_test(run: Any, *, dt: float = 0.1, overrides: dict | None 
     d = simulate_on_test(veh, test, soc0=soc0, dt=dt)
     overlays = pd.DataFrame({"time": d["t"], **{f"{b}_test": d[b] for b in OVERLAY_TRACES},
                              **{f"{b}_simu": d[f"sim_{b}"] for b in OVERLAY_TRACES}})
+    figs = {"all": parallel_figures(veh, d)["all"]}
+
+    def figures_of(v: Any) -> dict:
+        return {"all": parallel_figures(v, simulate_on_test(v, test, soc0=soc0, dt=dt))["all"]}
+
+    u_model = model_uncertainty(figures_of, veh, figs)
+    volt = float(np.nanmedian(d["ess_volt"]))
+    notes.append("U_model: half the spread over " + ", ".join(SWINGS) + ", root-sum-square "
+                 "(k = 2); U_test: the class defaults of battery current and voltage at "
+                 f"{volt:.0f} V")
     return ParallelValidation(test_id=str(test.meta.test_id), vehicle=veh, overrides=applied,
-                              soc_initial=soc0, figures=parallel_figures(veh, d),
-                              overlays=overlays, notes=notes)
+                              soc_initial=soc0, figures=figs, overlays=overlays, notes=notes,
+                              verdicts=battery_verdicts(figs, u_model, volt))

@@ -30,6 +30,7 @@ The package: :mod:`vehval.workflow.run` (:class:`TestRun` and the outcomes of it
 importable from ``vehval.workflow``.
 """
 
+from vehval.workflow.each import EachOutcome, validate_each
 from vehval.workflow.paths import calibration_runs, group_args, runs_from_args
 from vehval.workflow.run import (
     REPAIR_TIME,
@@ -49,4 +50,4 @@ from vehval.workflow.suite import (
     validate_runs,
 )
 
-__all__ = ["AnalysisOutcome", "QAOutcome", "REPAIR_TIME", "ReportOutcome", "ResultsOutcome", "SuiteOutcome", "TestRun", "ValidationOutcome", "calibration_runs", "fuel_normalised_error", "group_args", "load_template_arg", "load_vehicle_arg", "model_uncertainty_by_cycle", "runs_from_args", "validate_runs"]
+__all__ = ["AnalysisOutcome", "EachOutcome", "QAOutcome", "REPAIR_TIME", "ReportOutcome", "ResultsOutcome", "SuiteOutcome", "TestRun", "ValidationOutcome", "calibration_runs", "fuel_normalised_error", "group_args", "load_template_arg", "load_vehicle_arg", "model_uncertainty_by_cycle", "runs_from_args", "validate_each", "validate_runs"]

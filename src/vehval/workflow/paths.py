@@ -59,7 +59,33 @@ def calibration_runs(files: Sequence[Path], groups: Sequence[str], holdout: Sequ
     if per_file:
         tune = [TestRun.load(g, template, use_qa=use_qa)
                 for g in [[f] for f in files] + [paths(g) for g in groups]]
-        return tune, [TestRun.load(paths(h), template, use_qa=use_qa) for h in holdout]
-    tune = runs_from_args(files, groups, template, vehicle, use_qa=use_qa)
-    return tune, [TestRun.from_paths(paths(h), template, vehicle, use_qa=use_qa)
-                  for h in holdout]
+        hold = [TestRun.load(paths(h), template, use_qa=use_qa) for h in holdout]
+    else:
+        tune = runs_from_args(files, groups, template, vehicle, use_qa=use_qa)
+        hold = [TestRun.from_paths(paths(h), template, vehicle, use_qa=use_qa)
+                for h in holdout]
+    refuse_repeated_data([r.test for r in tune], [r.test for r in hold])
+    return tune, hold
+
+
+def refuse_repeated_data(tests: Sequence[Any], holdout: Sequence[Any] = (),
+                         what: str = "tuning test") -> None:
+    """Refuse, in one line, a test given twice (the same file, or the same data under
+    another name: :meth:`vehval.test.Test.data_digest`): as two ``what`` it would count one
+    run twice (narrower intervals, a doubled weight), as a held-out test a fit would be
+    judged as a prediction."""
+    from vehval.errors import ConfigError
+
+    seen: dict[str, str] = {}
+    for k, test in enumerate([*tests, *holdout]):
+        tid, digest = test.meta.test_id or "test", test.data_digest()
+        if digest not in seen:
+            seen[digest] = tid
+            continue
+        first = seen[digest]
+        same = "the same test" if first == tid else f"the same data as {first}"
+        if k >= len(tests):
+            raise ConfigError(f"--holdout {tid}: it is {same}, a {what}; a held-out test must "
+                              f"be another test run (drop it from the {what}s or the holdout)")
+        raise ConfigError(f"{tid}: it is {same}, given twice"
+                          f"{'' if what == 'test' else ' as a ' + what}; give each test run once")

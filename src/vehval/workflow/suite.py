@@ -133,9 +133,10 @@ def validate_runs(runs: Sequence[TestRun], tolerances: Any, *, dt: float = 0.1,
     from vehval.architectures import stages
 
     if not stages(veh).validate_suite:   # one line, before any test is simulated
-        raise ConfigError(f"vehicle '{veh.name}' is '{stages(veh).name}': vehval validate "
-                          "ranks simulations on the tests' conditions, not written for it; "
-                          f"{stages(veh).hint}")
+        raise ConfigError(f"vehicle '{veh.name}' is '{stages(veh).name}': the tolerance "
+                          "ladder ranks a power-split hybrid's simulations, not written for "
+                          "it; vehval.workflow.validate_each judges its tests one by one "
+                          f"({stages(veh).hint})")
     progress.add(len(runs))
     vals = []
     for one in runs:
