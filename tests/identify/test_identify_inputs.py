@@ -314,7 +314,7 @@ def test_a_dead_fuel_channel_is_left_out_of_the_fuel_map_and_named():
     nan = dataclasses.replace(dead, fuel=np.full_like(live.fuel, np.nan))
     assert dead_fuel_channel(live) is None
     assert "dead: its fuel rate reads 0 throughout" in dead_fuel_channel(dead)
-    assert dead_fuel_channel(nan) is not None
+    assert "dead: its fuel rate has no value throughout" in dead_fuel_channel(nan)
     both = identify_conventional([live, dead], "two", drag_evidence=False)
     alone = identify_conventional([live], "one", drag_evidence=False)
     assert set(both.fuel_left_out) == {"dead"} and not alone.fuel_left_out

@@ -240,7 +240,8 @@ def _fuel_traces(traces: list[Trace], gears: list[np.ndarray]
     if len(dead) == len(traces):
         raise IdentificationError("identify: no test with a fuel rate to fit the engine map: "
                                   + "; ".join(dead.values())
-                                  + ": map the fuel channel to fuel_rate_test in the template")
+                                  + ": check that the fuel meter's channel is recorded and "
+                                  "mapped to fuel_rate_test in the template")
     off = {t.test_id: why for t in traces if t.test_id not in dead and (why := off_standard(t))}
     if len(dead) + len(off) < len(traces):
         dead |= off

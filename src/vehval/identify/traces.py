@@ -116,7 +116,8 @@ def dead_fuel_channel(tr: Trace) -> str | None:
     turning = float(np.count_nonzero(tr.w_eng > TURNING_RAD_S)) * tr.dt
     fuel = np.nan_to_num(tr.fuel, nan=0.0)
     if turning >= DEAD_FUEL_S and not np.any(fuel > NO_FUEL_KG_S):
-        return (f"{tr.test_id}: its fuel rate reads 0 throughout while the engine "
+        what = "has no value" if not np.isfinite(tr.fuel).any() else "reads 0"
+        return (f"{tr.test_id}: its fuel rate {what} throughout while the engine "
                 f"turns for {turning:.0f} s (a channel not recorded or a meter not connected)")
     return None
 
