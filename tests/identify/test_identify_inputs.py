@@ -441,3 +441,22 @@ def test_negative_fuel_channel_is_refused_not_called_zero():
     vals = noisy["fuel_rate_test"].values
     vals[::10] = -1e-4                     # -0.1 g/s in one sample of ten
     assert trace_from_test(noisy).fuel.min() < 0
+
+
+def test_a_speed_unit_slip_is_refused_not_identified(tmp_path, capsys):
+    """mph declared km/h: identify wrote a 6151 lb car with ratios 1.6 x too high and only
+    an efficiency warning; it refuses now, with QA's speed-scale reason (the factor)."""
+    out = tmp_path / "v"
+    assert main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "udds", "--seed", "3",
+                 "--faults", "none", "-o", str(out)]) == 0
+    tpl = out / "template.yaml"
+    bad = tmp_path / "kmh.yaml"
+    bad.write_text(tpl.read_text().replace("{name: veh_spd_test, unit: mph}",
+                                           "{name: veh_spd_test, unit: km/h}"))
+    f = str(next(out.glob("*_d3.txt")))
+    capsys.readouterr()
+    rc = main(["identify", f, "-t", str(bad), "-o", str(tmp_path / "id")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "follows udds once divided by 0.62" in err, err
+    assert not (tmp_path / "id").exists()
+    assert main(["identify", f, "-t", str(tpl), "-o", str(tmp_path / "ok")]) == 0

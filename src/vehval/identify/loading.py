@@ -19,7 +19,12 @@ def load_traces(files: Sequence[str | Path], template, dt: float = 0.1) -> list[
     ``template_final.yaml`` as the template, the signals QA dropped are not imported). The results
     stage (:func:`vehval.results.compute_results`) runs on each test: predictions are
     compared with its per-phase fuel and uncertainty. A test given twice (the same file, or
-    the same data under another name) is refused: it would count one run twice."""
+    the same data under another name) is refused: it would count one run twice. So is a
+    test whose speed covers its cycle's distance a factor off (QA's speed-scale error,
+    :func:`vehval.qa.speed_scale.speed_scale_check`: a speed unit or scale slip would scale
+    the identified mass, road load and gear ratios)."""
+    from vehval.identify.traces import IdentificationError
+    from vehval.qa.speed_scale import speed_scale_check
     from vehval.results import compute_results
     from vehval.workflow import TestRun
     from vehval.workflow.paths import refuse_repeated_data
@@ -28,6 +33,9 @@ def load_traces(files: Sequence[str | Path], template, dt: float = 0.1) -> list[
     out = []
     for run in runs:
         test = run.test
+        for f in speed_scale_check(test, template=run.template):
+            raise IdentificationError(f"{test.meta.test_id}: {f.message}"
+                                      + (f"; {f.fix}" if f.fix else ""))
         tr = trace_from_test(test, dt, run.vehicle)
         tr.results = compute_results(test)
         out.append(tr)
