@@ -156,7 +156,8 @@ def vehicle_cmd(
     from vehval.cli.epa_inputs import check_roles, unit_hints
     from vehval.epa import read_lists, select_tests
     from vehval.epa.dyno_vehicle import DynoTest, dyno_vehicle, uncalibrated_note
-    from vehval.epa.specs import model_fuel_lhv, specs_from_tests
+    from vehval.epa.procedures import fuel_family
+    from vehval.epa.specs import ENGINE_FUELS, model_fuel_lhv, specs_from_tests
     from vehval.epa.specs_fit import dyno_run, efficiency_note
     from vehval.errors import ConfigError
     from vehval.io.paths import check_outputs
@@ -167,7 +168,9 @@ def vehicle_cmd(
     rows = _narrow(select_tests(read_lists(paths), make, model, year), vehicle_id, config)
     if _bev_from_rows(rows, output, as_json):
         return
-    specs = specs_from_tests(rows)
+    fams = {fuel_family(t.fuel) for t in rows} & set(ENGINE_FUELS)  # gasoline first, else
+    specs = specs_from_tests(rows, "gasoline" if "gasoline" in fams or len(fams) != 1
+                             else fams.pop())  # the one fuel (a diesel car was refused)
     check_roles(calibrate, predict)
     files = [*calibrate, *predict]
     if files and template is None:

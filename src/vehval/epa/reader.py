@@ -371,10 +371,30 @@ def _flag(text: str) -> bool | None:
         else None
 
 
+#: record fields read as numbers (a text there is refused, not read as an empty cell)
+NUMERIC = frozenset({"weight_lb", "axle_ratio", "n_v_ratio", "procedure_code", "fe", "bag1",
+                     "bag2", "bag3", "bag4", "target_a", "target_b", "target_c", "set_a", "set_b",
+                     "set_c", "displacement_l", "rated_hp", "co2_g_per_mi", "gears", "cylinders"})
+
+
+def _check_numbers(path: Path, lineno: int, cells: dict[str, str]) -> None:
+    """Refuse a text in a numeric column (column -> cell), naming line, column and text."""
+    for col, text in cells.items():
+        try:
+            float(text or "0")
+        except ValueError:
+            raise InputFileError(f"{path}: line {lineno}: '{text}' in column '{col}' is not a "
+                                 "number: correct the cell, or leave it empty where the list "
+                                 "gives no value") from None
+
+
 def _record(path: Path, lineno: int, row: list[str], index: dict[str, int],
             year_col: str | None) -> EpaTest:
     """One row as an EpaTest (SI units)."""
-    f = {field: _cell(row, index, col) for col, field in {**REQUIRED, **OPTIONAL}.items()}
+    cols = {**REQUIRED, **OPTIONAL}
+    f = {field: _cell(row, index, col) for col, field in cols.items()}
+    _check_numbers(path, lineno, {str(year_col): _cell(row, index, year_col),
+                                  **{c: f[k] for c, k in cols.items() if k in NUMERIC}})
     year = _num(_cell(row, index, year_col))
     code = _num(f["procedure_code"])
     gears = _num(f["gears"])
@@ -448,9 +468,11 @@ def _read(path: Path, rows) -> list[EpaTest]:
     for lineno, row in rows:
         if not any(cell.strip() for cell in row):
             continue
-        if len(row) > len(header) and any(cell.strip() for cell in row[len(header):]):
+        extra = len(row) > len(header) and any(cell.strip() for cell in row[len(header):])
+        if extra or len(row) < len(header):
+            cut = "" if extra else ": the row is cut short (a truncated file?)"
             raise InputFileError(f"{path}: line {lineno}: {len(row)} fields, the header has "
-                                 f"{len(header)}: fix or remove the line")
+                                 f"{len(header)}{cut}: fix or remove the line")
         if any("\x00" in cell for cell in row):
             raise InputFileError(f"{path}: line {lineno}: a NUL byte in a field (binary data "
                                  "in a text list: a damaged file): fix or remove the line")

@@ -115,6 +115,10 @@ def parse_selector(text: str) -> dict[str, str]:
                               f"{', '.join(SELECTOR_KEYS)}, e.g. model=PRIUS,originator=EPA)")
         if not value.strip():
             raise ConfigError(f"test selector '{text}': '{key}' needs a value")
+        if out.get(key, value.strip()) != value.strip():  # the last one was taken silently
+            raise ConfigError(f"test selector '{text}': '{key}' given twice ('{out[key]}', "
+                              f"'{value.strip()}'; a bare word is a model): one value per "
+                              "key; run the command once per value")
         out[key] = value.strip()
     if not out:
         raise ConfigError("empty test selector: give e.g. model=PRIUS,originator=EPA")

@@ -8,6 +8,7 @@ import math
 import re
 import statistics
 
+from vehval.constants import LB_KG
 from vehval.epa.consistency import impossible_values
 from vehval.epa.procedures import fuel_family, is_gasoline, procedure_key
 from vehval.epa.reader import EpaTest
@@ -55,6 +56,11 @@ HYBRID_CITY_HIGHWAY_RATIO = 0.85
 #: turbo: 40-140 kW/L in the 2016-2019 lists); outside it the listed power or displacement
 #: is a typing error
 SPECIFIC_POWER_W_PER_L = (20e3, 200e3)
+#: plausible equivalent test weight [lb] (the 2016-2019 lists: 2375-7000 lb) and axle ratio
+#: [-] (1.0-9.99; the what-if's range): outside them the value is a typing error or a
+#: column shifted (the vehicle model refused them with an internal error)
+TEST_WEIGHT_LB = (1000.0, 15000.0)
+AXLE_RATIO = (0.5, 10.0)
 
 
 def _refuse_mixed(tests: list[EpaTest], key: str) -> None:
@@ -204,6 +210,15 @@ def _check_values(tests: list[EpaTest]) -> None:
                                   "road load, axle ratio, N/V, displacement and rated power: "
                                   "use a list that gives them for this test vehicle")
     t0 = tests[0]
+    for t in tests:
+        for key, (lo, hi), si, unit in (("mass_kg", TEST_WEIGHT_LB, LB_KG, " lb"),
+                                        ("axle_ratio", AXLE_RATIO, 1.0, "")):
+            v = float(getattr(t, key)) / si
+            if not lo <= v <= hi:
+                raise ConfigError(f"EPA list row {_where(t)}: {_SPEC_NAMES[key]} {v:g}{unit} as "
+                                  f"listed ('{_SPEC_COLUMNS[key]}') is outside the "
+                                  f"{lo:g}-{hi:g}{unit} of cars: a typing error or a shifted "
+                                  "column; the specs cannot build the car")
     spec = t0.rated_power_w / t0.displacement_l
     lo, hi = SPECIFIC_POWER_W_PER_L
     if not lo <= spec <= hi:
