@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from helpers.epa_lists import GAS as GAS_ROW
 from helpers.epa_lists import HEADER, camry_rows, write_list
 from vehval.cli import main
 from vehval.epa import read_test_car_list
@@ -90,3 +91,38 @@ def test_epa_vehicle_builds_a_car_tested_on_diesel_only(tmp_path, capsys):
     assert main(["epa", "vehicle", str(path), "--make", "MAKER", "--model", "SEDAN XLE",
                  "--year", "2019", "-o", str(out)]) == 0, capsys.readouterr().err
     assert load_vehicle(str(out)).engine.fuel == "diesel"
+
+
+def test_not_run_reasons_name_a_battery_electric_car(tmp_path):
+    """A car with electricity rows only is named battery-electric (it read 'a hybrid or
+    plug-in hybrid (other test)'); a plug-in hybrid's rows stay a hybrid's."""
+    from helpers.epa_lists import row
+
+    ev = ("95", "Electricity")
+    rows = [row(model="LEAF", make="NISSAN", vid="EV1", number=n, code=c, fuel=ev, fe=f)
+            for n, c, f in (("E1", 21, 120.0), ("E2", 3, 100.0))]
+    rows += [row(model="X PLUG-IN HYBRID", make="MAKER", vid="PH1", number=n, code=c, fuel=fuel, fe=f)
+             for n, c, fuel, f in (("P1", 21, ev, 90.0), ("P2", 21, GAS_ROW, 40.0))]
+    tests, _ = read_fleet([write_list(tmp_path / "19tstcar.csv", rows, header=HEADER)])
+    why = {r["source"].rsplit(":", 1)[1]: r["reason"] for r in plan_fleet(tests).not_run}
+    assert "a battery-electric car (electricity test)" in why["2"]
+    assert "a battery-electric car (electricity test)" in why["3"]
+    assert "a hybrid or plug-in hybrid (electricity test)" in why["4"]
+    assert "a hybrid or plug-in hybrid (gasoline test)" in why["5"]
+
+
+@pytest.mark.parametrize("soc0,label", [(float("nan"), "HWFET"), (0.6, "HWFET (J1711 balanced)")])
+def test_only_a_car_with_a_battery_has_a_j1711_balanced_figure(tmp_path, soc0, label):
+    """A conventional car's whole-test figure was labelled '(J1711 balanced)'."""
+    from vehval.epa.procedures import plan_for
+    from vehval.epa.validation import TestPrediction, _compare
+
+    t = read_test_car_list(write_list(tmp_path / "19tstcar.csv", _car("A1"), header=HEADER))[1]
+    proc, _ = plan_for(t)
+    pred = TestPrediction(test=t, procedure=proc.key, overall_mpg=57.0, bags_mpg={1: 57.0},
+                          bag_distance_m={1: 16500.0}, bag_fuel_j={1: 3.0e7},
+                          bag_battery_j={1: 0.0}, soc_initial=soc0, soc_delta=0.0,
+                          trace_n_miss=0, energy_balance_rel=0.0, distance_m=16500.0,
+                          fuel_kg=0.7, engine_on_fraction=1.0)
+    names = [c.name for c in _compare(pred, proc, cold_model=False) if c.item == "overall"]
+    assert names == [label]

@@ -260,11 +260,15 @@ def plan_fleet(tests: Iterable[EpaTest], dt: float = FLEET_DT_S,
     for key, rows in cars.items():
         mark = hybrid_mark(rows)
         if mark:
+            # a car with electricity rows only is battery-electric, not a hybrid
+            kind = ("a battery-electric car" if all("ELECTRIC" in t.fuel.upper() for t in rows)
+                    else "a hybrid or plug-in hybrid")
             plan.not_run.extend(
                 not_run(t, "electric" if "ELECTRIC" in t.fuel.upper() else "hybrid",
-                        f"{t.make} {t.model}: {mark}: a hybrid or plug-in hybrid "
-                        f"({fuel_family(t.fuel)} test); the model from specs is a "
-                        "conventional car")
+                        f"{t.make} {t.model}: {mark}: {kind} ("
+                        f"{'electricity' if 'ELECTRIC' in t.fuel.upper() else fuel_family(t.fuel)}"
+                        " test); "
+                        "the model from specs is a conventional car")
                 for t in rows)
             continue
         by_fuel: dict[str, list[EpaTest]] = defaultdict(list)

@@ -409,7 +409,10 @@ def _compare(pred: TestPrediction, proc: Procedure, cold_model: bool) -> list[Co
     if not math.isnan(t.fe):
         note = ("" if not cold_in_overall else "contains the cold start (warm-up model)"
                 if cold_model else "contains the cold start: cold-start gap, not judged")
-        rows.append(Comparison(**base, item="overall", name=f"{proc.name} (J1711 balanced)",
+        # a hybrid's whole-test figure is charge-balanced (SAE J1711); a car without a
+        # battery has nothing to balance
+        name = proc.name + ("" if math.isnan(pred.soc_initial) else " (J1711 balanced)")
+        rows.append(Comparison(**base, item="overall", name=name,
                                predicted_mpg=pred.overall_mpg, measured_mpg=t.fe,
                                judged=cold_model or not cold_in_overall, note=note,
                                cold_start=cold_in_overall,
