@@ -317,7 +317,7 @@ def test_cli_vehicle_without_tests_says_it_is_not_calibrated(tmp_path, capsys):
                  "--year", "2019", "-o", str(out)]) == 0
     text = capsys.readouterr().out
     assert "fuel model not calibrated (no --calibrate test)" in text
-    assert "generic technology coefficients" in text and "spark na engine" in text
+    assert "generic technology coefficients" in text and "a naturally aspirated spark-ignition engine and an" in text
     assert "automatic gearbox: indicated efficiency" in text
     assert "fuel model not calibrated" in load_vehicle(out).description
 

@@ -23,9 +23,11 @@ def uncalibrated_note(specs: Any = None) -> str:
     c = tech.load_coefficients()
     e = tech.engine_values(c, specs.engine_technology, specs.rated_power_w,
                            specs.displacement_l, None, None, INDICATED_EFFICIENCY)
-    return (f"{head}: the generic technology coefficients ({c.where}) of a "
-            f"{specs.engine_technology.replace('_', ' ')} engine and a "
-            f"{specs.family.replace('_', ' ')} gearbox: indicated efficiency "
+    engine = tech.ENGINE_TECHNOLOGY_TEXT.get(specs.engine_technology, specs.engine_technology)
+    box = specs.family.replace("_", " ")
+    return (f"{head}: the generic technology coefficients ({c.where}) of "
+            f"{'an' if engine[:1] in 'aeiou' else 'a'} {engine} engine and "
+            f"{'an' if box[:1] in 'aeiou' else 'a'} {box} gearbox: indicated efficiency "
             f"{100 * e['indicated_efficiency'][0]:.0f} %, friction scale "
             f"{e['friction_scale'][0]:.2g} x Heywood, idle fuel {e['idle_factor'][0]:.2g} x "
             f"the map, part-load pumping {e['pumping_bar'][0]:.2g} bar")

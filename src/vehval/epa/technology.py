@@ -50,6 +50,9 @@ from typing import Any, Sequence
 from vehval.errors import ConfigError
 
 ENGINE_TECHNOLOGIES = ("spark_na", "spark_turbo", "diesel")
+#: How text names each engine technology
+ENGINE_TECHNOLOGY_TEXT = {"spark_na": "naturally aspirated spark-ignition",
+                          "spark_turbo": "turbocharged spark-ignition", "diesel": "diesel"}
 ENGINE_KEYS = ("indicated_efficiency", "friction_scale", "idle_factor", "pumping_bar",
                "efficiency_specific_power_exponent", "accessory_power_w")
 #: specific power at which ``indicated_efficiency`` holds [W/L]
