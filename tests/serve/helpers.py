@@ -41,3 +41,16 @@ def expected_mpg(synth_dir: Path, density_kg_per_m3: float) -> float:
 def copy_tree(src: Path, dst: Path) -> Path:
     shutil.copytree(src, dst)
     return dst
+
+
+def client(ws: Path, csrf: bool = True):
+    """A test client of the workbench on workspace ``ws``, with its token (and its CSRF
+    token, as the pages send it, unless ``csrf`` is false)."""
+    from starlette.testclient import TestClient
+
+    from vehval.serve.app import create_app
+
+    app = create_app(ws)
+    wb = app.state.workbench
+    headers = {"X-Vehval-Token": wb.token, **({"X-CSRF-Token": wb.csrf} if csrf else {})}
+    return TestClient(app, base_url="http://127.0.0.1", headers=headers)

@@ -15,24 +15,18 @@ import yaml
 
 pytest.importorskip("starlette")
 pytest.importorskip("httpx2")
-from starlette.testclient import TestClient  # noqa: E402
 
 from vehval.cli import main  # noqa: E402
 from vehval.io.readers import read_raw  # noqa: E402
 from vehval.io.template import Template  # noqa: E402
-from vehval.serve.app import create_app  # noqa: E402
 
 from .helpers import FUEL_COLUMN, expected_mpg  # noqa: E402
+from .helpers import client as _client  # noqa: E402
 
 FUEL = "gasoline_e0"
 DENSITY = 740.0  # gasoline_e0 of the fuel table [kg/m³]
 
 
-def _client(ws: Path) -> TestClient:
-    app = create_app(ws)
-    wb = app.state.workbench
-    return TestClient(app, base_url="http://127.0.0.1",
-                      headers={"X-Vehval-Token": wb.token, "X-CSRF-Token": wb.csrf})
 
 
 def _init_data(ws: Path) -> tuple[str, dict]:

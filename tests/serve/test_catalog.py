@@ -6,16 +6,14 @@ import pytest
 
 pytest.importorskip("starlette")
 pytest.importorskip("httpx2")
-from starlette.testclient import TestClient  # noqa: E402
 
 from vehval.catalog import open_catalog  # noqa: E402
-from vehval.serve.app import create_app  # noqa: E402
+
+from .helpers import client  # noqa: E402
 
 
 def _client(ws):
-    app = create_app(ws)
-    wb = app.state.workbench
-    return TestClient(app, base_url="http://127.0.0.1", headers={"X-Vehval-Token": wb.token})
+    return client(ws, csrf=False)
 
 
 def test_rows_filters_and_overlay_match_the_catalog(batch_ws):

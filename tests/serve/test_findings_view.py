@@ -8,19 +8,11 @@ import pytest
 
 pytest.importorskip("starlette")
 pytest.importorskip("httpx2")
-from starlette.testclient import TestClient  # noqa: E402
 
 from vehval.report.finding_figures import panel_units  # noqa: E402
-from vehval.serve.app import create_app  # noqa: E402
 
 from .helpers import FUEL_COLUMN  # noqa: E402
-
-
-def _client(ws):
-    app = create_app(ws)
-    wb = app.state.workbench
-    return TestClient(app, base_url="http://127.0.0.1",
-                      headers={"X-Vehval-Token": wb.token, "X-CSRF-Token": wb.csrf})
+from .helpers import client as _client  # noqa: E402
 
 
 def test_headline_findings_and_their_figures(workspace, monkeypatch):

@@ -17,12 +17,7 @@ from starlette.testclient import TestClient  # noqa: E402
 
 from vehval.serve.app import create_app  # noqa: E402
 
-
-def _client(ws: Path) -> TestClient:
-    app = create_app(ws)
-    wb = app.state.workbench
-    return TestClient(app, base_url="http://127.0.0.1",
-                      headers={"X-Vehval-Token": wb.token, "X-CSRF-Token": wb.csrf})
+from .helpers import client as _client  # noqa: E402
 
 
 @pytest.fixture()
