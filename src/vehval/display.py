@@ -336,7 +336,9 @@ KEY_SUFFIX_COMPOUND: dict[str, dict[str, DisplayUnit]] = {
 _LENGTH_M_BELOW = 10.0
 #: Result keys that are fractions (shown in %) and keys already in a display unit.
 KEY_FRACTIONS: frozenset[str] = frozenset({"soc_change"})
-_KEY_DISPLAY_SUFFIXES = {"_mpg": "mpg", "_l_per_100km": "L/100 km", "_g_per_km": "g/km"}
+_KEY_DISPLAY_SUFFIXES = {"_mpg": "mpg", "_l_per_100km": "L/100 km", "_g_per_km": "g/km",
+                         "_mpge": "MPGe", "_kwh_per_100km": "kWh/100 km",
+                         "_kwh_per_100mi": "kWh/100 mi"}
 
 
 def keyed_unit(key: str, *, system_name: str | None = None,

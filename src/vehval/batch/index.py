@@ -18,7 +18,8 @@ def index_data(catalog: Catalog, run_id: str) -> dict:
     """The plain data of the index page of run ``run_id`` (the arguments of
     :func:`vehval.report.batch_index.render_index_page`)."""
     cols = ["test_id", "status", "error", "vehicle", "cycle", "outputs", "source_run_id",
-            "n_findings_by_severity", "headline_name", "withheld_reason", "withheld_count"] \
+            "n_findings_by_severity", "headline_name", "headline_j1634_scope", "withheld_reason",
+            "withheld_count"] \
         + [c[0] for c in COLUMNS]
     names, rows = catalog.query(f"SELECT {', '.join(cols)} FROM tests WHERE run_id = ? "
                                 "ORDER BY test_id", [run_id])

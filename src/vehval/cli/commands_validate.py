@@ -74,11 +74,11 @@ def validate_cmd(
                                          vehicle_path(vehicle or DEFAULT_VEHICLE)],
                   writes=["validation.json", "metrics.json", "report.html", "tables.xlsx"])
     runs = runs_from_args(files or [], test_group, template, vehicle, use_qa=not no_qa)
-    for run in runs:  # neither --vehicle nor the template names one
+    for run in runs:  # no --vehicle: the template's (a QA output keeps it in its metadata)
         if run.vehicle is None:
             from vehval.vehicle import load_vehicle
 
-            run.vehicle = load_vehicle(DEFAULT_VEHICLE)
+            run.vehicle = load_vehicle(run.test.meta.vehicle or DEFAULT_VEHICLE)
     from vehval.architectures import stages
     from vehval.cli.progress import bar
 
@@ -107,8 +107,10 @@ def validate_cmd(
                 sub = stage if len(runs) == 1 else stage / sanitize_id(tid)
                 # a validated test from `vehval qa` / `analyze`: its findings and control.json
                 found = results_beside(run.origin) if run.qa_outcome is None else {}
+                payload = dict(v.payload())      # + the test's own ladder row and En verdict
+                payload["tables"] = [*payload["tables"], *lad.tables(tid), lad.en_table(tid)]
                 run.report(sub, qa=found.get("findings"), control=found.get("control"),
-                           validation=v.payload(), title=f"Validation report: {tid}")
+                           validation=payload, title=f"Validation report: {tid}")
     if as_json:
         typer.echo(dumps(metrics), nl=False)
         return

@@ -62,14 +62,21 @@ class PredictionComparison:
 
     def payload(self, figures: bool = True) -> dict[str, Any]:
         """The report's validation section: ``{tables, figures, notes}`` (fuel [g] measured
-        and predicted per phase and for the whole test; no figures)."""
+        and predicted per phase and for the whole test, each with its normalised error En
+        and verdict as ``vehval predict`` states them; no figures)."""
         r = self.row
+
+        def judged(p: dict) -> list:
+            en = p.get("en")
+            return [en, "no En" if en is None else
+                    "consistent" if p.get("consistent") else "inconsistent"]
         rows = [[p.get("results_name", f"phase {p['phase']}"), p["measured_g"],
-                 p["predicted_g"], 100 * p["error_rel"]] for p in r["phases"]]
+                 p["predicted_g"], 100 * p["error_rel"], *judged(p)] for p in r["phases"]]
         rows.append(["whole test", r["fuel_measured_g"], r["fuel_predicted_g"],
-                     100 * r["error_rel"]])
+                     100 * r["error_rel"], *judged(r)])
         table = {"title": f"Fuel measured and predicted ({r['test']})",
-                 "columns": ["phase", "measured [g]", "predicted [g]", "error [%]"],
+                 "columns": ["phase", "measured [g]", "predicted [g]", "error [%]", "En",
+                             "verdict (|En| <= 1)"],
                  "rows": rows}
         notes = [f"{self.vehicle.name} driven over the measured speed of {r['test']}; A/C "
                  f"{'on' if r['ac_on'] else 'off'}: {r['ac_reason']}; {r['cold_reason']}"]

@@ -23,7 +23,14 @@ from typing import Any
 
 from vehval.io.atomic import atomic_dir
 from vehval.report.excel import write_tables
-from vehval.report.html import INLINE, plotly_asset_name, render_report, write_plotly_asset, write_report
+from vehval.report.html import (
+    INLINE,
+    energy_tables,
+    plotly_asset_name,
+    render_report,
+    write_plotly_asset,
+    write_report,
+)
 from vehval.report.inputs import load_json, results_beside
 from vehval.test import Test
 
@@ -65,5 +72,5 @@ def build_reports(outdir: str | Path, test: Test, qa: Any = None, template: Any 
     with atomic_dir(outdir, whole=False) as stage:
         (stage / html_name).write_text(html, encoding="utf-8")
         write_tables(stage / excel_name, qa, test, control=control, validation=validation,
-                     results=results)
+                     results=results, energy=energy_tables(test, vehicle, template, results))
     return {"report": outdir / html_name, "tables": outdir / excel_name}

@@ -20,6 +20,7 @@ from vehval.report.figures import FigSpec
 #: Result columns of the tests table: (catalog column, header, scale, format); distance and
 #: fuel mass are shown in the display system's unit (:func:`_columns`).
 COLUMNS = [("headline_mpg", "headline [mpg]", 1.0, "{:.2f}"),
+           ("headline_mpge", "headline [MPGe]", 1.0, "{:.1f}"),
            ("distance_m", "distance [km]", 1e-3, "{:.2f}"),
            ("fuel_mass_kg", "fuel [kg]", 1.0, "{:.3f}"),
            ("fuel_economy_mpg", "whole test [mpg]", 1.0, "{:.2f}"),
@@ -29,12 +30,15 @@ COLUMNS = [("headline_mpg", "headline [mpg]", 1.0, "{:.2f}"),
            ("fuel_en", "En (fuel, model)", 1.0, "{:+.2f}")]
 
 
-def _columns() -> list[tuple[str, str, float, str]]:
-    """:data:`COLUMNS` with distance and fuel mass in the display system (mi and lb for us)."""
+def _columns(tests: Sequence[dict] = ()) -> list[tuple[str, str, float, str]]:
+    """:data:`COLUMNS` with distance and fuel mass in the display system (mi and lb for us);
+    the SAE J1634 headline (MPGe) only when a test of ``tests`` has one (battery-electric)."""
     from vehval.display import unit_for
 
     out = []
     for col, head, scale, pattern in COLUMNS:
+        if col == "headline_mpge" and all(t.get(col) is None for t in tests):
+            continue
         if col in ("distance_m", "fuel_mass_kg"):
             unit = unit_for("m" if col == "distance_m" else "kg")
             head, scale = f"{head.split(' [')[0]} [{unit.label}]", unit.factor
@@ -59,8 +63,16 @@ def _num(v: Any, scale: float = 1.0, pattern: str = "{:.5g}") -> dict:
     return cell(_fmt(v, scale, pattern), "num")
 
 
+def _headline_scope(r: dict) -> str:
+    """The scope the headline figure is of: a battery-electric test's J1634 scope (``test``)."""
+    if r.get("headline_mpg") is None and r.get("headline_mpge") is not None:
+        return r.get("headline_j1634_scope") or r.get("headline_name") or ""
+    return r.get("headline_name") or ""
+
+
 def _tests_table(tests: Sequence[dict]) -> Block:
     rows = []
+    cols = _columns(tests)
     for r in tests:
         tid = str(r["test_id"])
         link = "tests/" + quote(tid, safe="") + "/report.html" \
@@ -71,13 +83,13 @@ def _tests_table(tests: Sequence[dict]) -> Block:
         # a reason with nothing withheld: no headline (an idle record), not a QA error
         mark = cell("withheld", "err") if r.get("withheld_count") else cell("no headline")
         vals = [mark if c == "headline_mpg" and held else _num(r.get(c), s, p)
-                for c, _, s, p in _columns()]
+                for c, _, s, p in cols]
         rows.append([cell(tid, href=link), cell(status, status if status in _STATUS else ""),
-                     r["vehicle"] or "", r["cycle"] or "", r.get("headline_name") or "",
+                     r["vehicle"] or "", r["cycle"] or "", _headline_scope(r),
                      ", ".join(f"{v} {k}" for k, v in sorted(sev.items()))]
                     + vals + [cell(r["error"] or held or "", "err")])
     return table(["test", "status", "vehicle", "cycle", "headline", "findings"]
-                 + [c[1] for c in _columns()] + ["error / withheld because"], rows)
+                 + [c[1] for c in cols] + ["error / withheld because"], rows)
 
 
 def _variability(var: Sequence[dict]) -> list[Block]:

@@ -1,7 +1,8 @@
 """Excel export: every table of the report and the validated time series in ``tables.xlsx``.
 
 Sheets: ``Summary``, ``Findings``, ``Table2``, ``Table3``, ``Alignment``, ``Selection``,
-``Calculations``, ``Mapping`` (raw → standard names and units), ``Deleted``, ``Control`` and
+``Calculations``, ``Mapping`` (raw → standard names and units), ``Deleted``, ``Energy`` (the
+energy tables of the report, when given), ``Control`` and
 ``Validation`` (when given) and ``TimeSeries`` (every signal resampled to one grid, header
 ``name [unit]``). Each table sheet stacks its tables: a bold title row, a header row, the
 rows, a blank row. Cells hold the same values as ``findings.json`` (nested values as JSON
@@ -261,9 +262,30 @@ def plugin_tables(control: Any = None, validation: Any = None) -> dict[str, list
     return {k: v or [rows_table(k, [])] for k, v in sheets.items()}
 
 
+def _numbers_with_u(t: Table) -> Table:
+    """``t`` with each column of ``value ± U`` cells as two number columns: the value and
+    ``U (k = 2) <column>``; "—" (no figure) an empty cell, "withheld" stays text."""
+    from vehval.report.results_view import PlusMinus
+
+    pm = {j for r in t.rows for j, v in enumerate(r) if isinstance(v, PlusMinus)}
+    cols = [x for j, c in enumerate(t.columns) for x in ([c, f"U (k = 2) {c}"] if j in pm else [c])]
+    rows = []
+    for r in t.rows:
+        row: list[Any] = []
+        for j, v in enumerate(r):
+            if j not in pm:
+                row.append(None if v == "—" else v)
+            elif isinstance(v, PlusMinus):
+                row += [v.value, v.u]
+            else:
+                row += [None if v == "—" else v, None]
+        rows.append(row)
+    return Table(t.title, cols, rows, key=t.key, note=t.note)
+
+
 def results_tables(results: Any = None) -> dict[str, list[Table]]:
     """The ``Results`` sheet: the headline and the results section's tables (a withheld
-    figure reads "withheld", never a number)."""
+    figure reads "withheld", never a number; a ``value ± U`` cell is two numbers)."""
     if results is None:
         return {}
     from vehval.report.results_view import results_section
@@ -275,12 +297,13 @@ def results_tables(results: Any = None) -> dict[str, list[Table]]:
         tables.append(Table("Headline", ["headline", "detail"],
                             [[banner["title"], line] for line in banner["lines"] or [""]],
                             key="results-headline"))
-    tables += results_section(doc).tables
+    tables += [_numbers_with_u(t) for t in results_section(doc).tables]
     return {"Results": tables}
 
 
 def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: float | None = None,
-                 control: Any = None, validation: Any = None, results: Any = None) -> Path:
+                 control: Any = None, validation: Any = None, results: Any = None,
+                 energy: list[Table] | None = None) -> Path:
     """Write ``tables.xlsx``: the report tables, one sheet per group, and the time series.
 
     Parameters
@@ -298,6 +321,9 @@ def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: flo
         ``Validation`` sheets.
     results : dict, optional
         ``results.json``: the ``Results`` sheet (first).
+    energy : list of Table, optional
+        The report's energy tables (:func:`vehval.report.html.energy_tables`): the
+        ``Energy`` sheet.
 
     Returns
     -------
@@ -313,6 +339,7 @@ def write_tables(path: str | Path, qa: Any, test: Test | None = None, *, dt: flo
                "head": wb.add_format({"bold": True, "bg_color": "#E9EEF3", "bottom": 1})}
         exact = _exact_worksheet_class()
         for name, tables in {**results_tables(results), **qa_tables(qa, test),
+                             **({"Energy": energy} if energy else {}),
                              **plugin_tables(control, validation)}.items():
             ws = wb.add_worksheet(name, worksheet_class=exact)
             _write_tables(ws, tables, fmt)

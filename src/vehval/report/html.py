@@ -27,7 +27,7 @@ from vehval.report.qa_view import as_dict
 from vehval.report.tables import fmt_cell
 from vehval.test import Test, TestMeta
 
-__all__ = ["INLINE", "DEFAULT_FIG_HEIGHT_PX", "build_sections", "plotly_asset_name",
+__all__ = ["INLINE", "DEFAULT_FIG_HEIGHT_PX", "build_sections", "energy_tables", "plotly_asset_name",
            "render_report", "write_plotly_asset", "write_report"]
 
 
@@ -89,16 +89,44 @@ def engineering_section(test: Test, vehicle: Any, vehicle_note: str | None) -> S
             continue
         fig, caption = normalise_figure(fig)  # the plot's own title becomes the caption
         sec.figures.append(FigSpec(caption or title, fig))
-    if audit is not None:
-        sec.tables.append(S.Table("Energy audit over the test (conventional)",
-                                  ["item", "energy [MJ]", "share of the fuel energy [%]"],
-                                  ef.audit_rows(audit), key="energies"))
-        return sec
-    flows = plots.energy_flows(test)
-    if flows:
-        sec.tables.append(S.Table("Energies over the test", ["quantity", "energy [MJ]"],
-                                  [[k, as_unit(v, "MJ")] for k, v in flows.items()], key="energies"))
+    sec.tables += _energy_tables(test, audit)
     return sec
+
+
+def _energy_tables(test: Test, audit: Any) -> list[S.Table]:
+    """The energy table of the engineering section: a conventional car's audit, else the
+    energies over the test (a hybrid's, or a car without the audit's signals)."""
+    from vehval.report import energy_flow as ef
+
+    if audit is not None:
+        return [S.Table("Energy audit over the test (conventional)",
+                        ["item", "energy [MJ]", "share of the fuel energy [%]"],
+                        ef.audit_rows(audit), key="energies")]
+    flows = plots.energy_flows(test)
+    return [S.Table("Energies over the test", ["quantity", "energy [MJ]"],
+                    [[k, as_unit(v, "MJ")] for k, v in flows.items()], key="energies")] if flows else []
+
+
+def energy_tables(test: Test, vehicle: Any = None, template: Any = None,
+                  results: Any = None) -> list[S.Table]:
+    """The tables of the report's energy section without its figures (the workbook's
+    ``Energy`` sheet): SAE J1634 energy per phase of a battery-electric car, a conventional
+    car's energy audit, a hybrid's energies over the test."""
+    from vehval.report import energy_flow as ef
+    from vehval.vehicle.definition import architecture_of
+
+    veh, _ = resolve_vehicle(vehicle, test)
+    if architecture_of(veh, template) == "battery_electric":
+        from vehval.report.energy_bev import bev_energy_section
+
+        return bev_energy_section(test, as_dict(results) if results is not None else None).tables
+    audit = None
+    if not ef.is_hybrid(test, veh):
+        try:
+            audit = ef.conventional_audit(test)
+        except plots.PlotSkipped:
+            audit = None
+    return _energy_tables(test, audit)
 
 
 def _energy_section(test: Test, veh: Any, vnote: str | None, template: Any,

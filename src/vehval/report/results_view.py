@@ -16,7 +16,20 @@ from vehval.report.figures import FigSpec
 from vehval.report.sections import Section
 from vehval.report.tables import Table
 
-__all__ = ["results_section"]
+__all__ = ["PlusMinus", "results_section"]
+
+
+class PlusMinus(str):
+    """A ``value ± U`` cell: text on the page; the workbook writes the two numbers
+    (:func:`vehval.report.excel.results_tables`), as shown (rounded to the printed digits)."""
+
+    value: float
+    u: float | None
+
+    def __new__(cls, value: float, u: float | None, nd: int) -> "PlusMinus":
+        out = super().__new__(cls, f"{value:.{nd}f}" + (f" ± {u:.{nd}f}" if u is not None else ""))
+        out.value, out.u = round(value, nd), None if u is None else round(u, nd)
+        return out
 
 #: Column header and unit label of the two fuel figures.
 _HEAD = {"fuel_economy_mpg": "fuel economy [mpg]",
@@ -40,8 +53,9 @@ def _pm(block: dict, key: str, scale: float = 1.0, nd: int = 2) -> str:
     if v is None:
         return "withheld" if held else "—"
     u = (block.get("uncertainty") or {}).get(key)
-    txt = f"{v * scale:.{nd}f}"
-    return txt + (f" ± {u['U'] * scale:.{nd}f}" if u else "") + (" (forced)" if held else "")
+    if held:                              # stated despite QA errors: the text says so
+        return f"{v * scale:.{nd}f}" + (f" ± {u['U'] * scale:.{nd}f}" if u else "") + " (forced)"
+    return PlusMinus(v * scale, u["U"] * scale if u else None, nd)
 
 
 def _num_or_held(block: dict, key: str, value: Any) -> Any:
@@ -77,7 +91,40 @@ def _fuel_keys() -> list[str]:
     return keys[::-1] if _metric() else keys
 
 
-def _row(name: str, block: dict) -> list:
+def _electric(doc: dict) -> dict:
+    """The SAE J1634 scopes of a battery-electric test (``{}`` for a car that burns fuel)."""
+    return ((doc.get("j1634") or {}).get("scopes") or {}) if not _burns_fuel(doc) else {}
+
+
+def _burns_fuel(doc: dict) -> bool:
+    """False for a battery-electric test: J1634 figures and no fuel figure anywhere."""
+    if not (doc.get("j1634") or {}).get("scopes"):
+        return True
+    blocks = [*(doc.get("phases") or []), doc.get("test_total") or {}, *(doc.get("composites") or [])]
+    return any((b.get("values") or {}).get(k) is not None or _held(b, k)
+               for b in blocks for k in ("fuel_mass_kg", "fuel_economy_mpg"))
+
+
+def _has_battery(doc: dict) -> bool:
+    """True when some scope has a battery net energy (no battery column for a conventional car)."""
+    return any((b.get("values") or {}).get("ess_energy_net_j") is not None
+               for b in [*(doc.get("phases") or []), doc.get("test_total") or {}])
+
+
+def _electric_cells(scope: dict | None) -> list[str]:
+    """MPGe and the AC consumption of a J1634 scope, each ± U (k = 2) as the headline states
+    them (:func:`vehval.results.headline.electric_figures`)."""
+    if not scope:
+        return ["—", "—"]
+    rel = scope.get("U_rel_dc_energy")
+    kwh = scope.get("ac_kwh_per_100km" if _metric() else "ac_kwh_per_100mi")
+
+    def pm(v: Any, nd: int) -> str:
+        return "—" if v is None else PlusMinus(v, None if rel is None else abs(rel * v), nd)
+    return [pm(scope.get("mpge"), 1), pm(kwh, 2)]
+
+
+def _row(name: str, block: dict, doc: dict, scope: str) -> list:
     v = block.get("values") or {}
     dq = block.get("drive_quality") or {}
     d = v.get("distance_m")
@@ -85,16 +132,20 @@ def _row(name: str, block: dict) -> list:
     rmsse = dq.get("rmsse_mps") if _metric() else dq.get("rmsse_mph")
     if _metric() and rmsse is not None:
         rmsse = rmsse / KMH_M_PER_S
-    return [name, _num_or_held(block, "distance_m", _r(d / dist_m if d is not None else None, 3)),
-            _r(v.get("duration_s"), 1),
-            _r((v.get("mean_speed_mps") or 0) / spd_mps, 2) if v.get("mean_speed_mps") else None,
-            _r((v.get("max_speed_mps") or 0) / spd_mps, 2) if v.get("max_speed_mps") else None,
-            _r(as_unit(v["fuel_mass_kg"], "g"), 1) if v.get("fuel_mass_kg") is not None else
-            _num_or_held(block, "fuel_mass_kg", None),
-            *(_pm(block, k) for k in _fuel_keys()),
-            _pm(block, "co2_g_per_km", nd=1),
-            _r(v["ess_energy_net_j"] / KWH_J, 4) if v.get("ess_energy_net_j") is not None else None,
-            _r(dq.get("iwr_pct"), 2), _r(rmsse, 3), dq.get("violations")]
+    row = [name, _num_or_held(block, "distance_m", _r(d / dist_m if d is not None else None, 3)),
+           _r(v.get("duration_s"), 1),
+           _r((v.get("mean_speed_mps") or 0) / spd_mps, 2) if v.get("mean_speed_mps") else None,
+           _r((v.get("max_speed_mps") or 0) / spd_mps, 2) if v.get("max_speed_mps") else None]
+    if _burns_fuel(doc):
+        row += [_r(as_unit(v["fuel_mass_kg"], "g"), 1) if v.get("fuel_mass_kg") is not None else
+                _num_or_held(block, "fuel_mass_kg", None),
+                *(_pm(block, k) for k in _fuel_keys()), _pm(block, "co2_g_per_km", nd=1)]
+    else:
+        row += _electric_cells(_electric(doc).get(scope))
+    if _has_battery(doc):
+        row.append(_r(v["ess_energy_net_j"] / KWH_J, 4) if v.get("ess_energy_net_j") is not None
+                   else None)
+    return row + [_r(dq.get("iwr_pct"), 2), _r(rmsse, 3), dq.get("violations")]
 
 
 def _dq_row(name: str, dq: dict | None) -> list:
@@ -103,6 +154,14 @@ def _dq_row(name: str, dq: dict | None) -> list:
                                                  "iwr_pct")] + [
         _r(dq.get("rmsse_mph"), 3), dq.get("violations"), _r(dq.get("violation_s"), 1),
         {True: "yes", False: "NO", None: "—"}[dq.get("within_tolerance")]]
+
+
+def _electric_headline(doc: dict) -> str:
+    """The headline of a battery-electric test, as the banner states it."""
+    from vehval.results.headline import headline_of
+
+    h = headline_of(doc)
+    return "—" if h is None else f"{h.shown}: {h.figure()}"
 
 
 def results_section(doc: dict) -> Section:
@@ -118,12 +177,14 @@ def results_section(doc: dict) -> Section:
     blocks = {c.get("name"): c for c in doc.get("composites") or []}
     head = blocks.get(hl.get("name")) if hl.get("kind") == "composite" else None
     hblock = head or doc.get("test_total") or {}
+    fuel_car = _burns_fuel(doc)
     sec.facts = [
         ("Cycle", str((doc.get("test") or {}).get("cycle") or "not identified")),
         ("Headline", f"{'whole test' if head is None else head['name']}: "
                      + ", ".join(f"{_pm(hblock, k)} {_LABEL[k]}" for k in _fuel_keys())
                      + (f" (caveat: {'; '.join(head['caveats'])})"
-                        if head and head.get("caveats") else "")),
+                        if head and head.get("caveats") else "")) if fuel_car else
+        ("Headline (SAE J1634)", _electric_headline(doc)),
         ("Fuel", f"{fuel.get('name')} ({fuel.get('density_kg_per_m3')} kg/m³, "
                  f"{as_unit(fuel.get('lhv_j_per_kg') or 0, 'MJ'):.2f} MJ/kg)" if fuel else
          "not declared: no volume-based result"),
@@ -135,13 +196,18 @@ def results_section(doc: dict) -> Section:
                         + (f", {unc['draws']} draws" if unc.get("draws") else "")),
         ("SOC correction (SAE J1711)", str((doc.get("soc_correction") or {}).get("message", "—"))),
     ]
+    if not fuel_car:     # no fuel, no SAE J1711 (it corrects a hybrid's fuel, not a BEV's energy)
+        sec.facts = [f for f in sec.facts if f[0] not in ("Fuel", "SOC correction (SAE J1711)")]
     dist, spd = ("km", "km/h") if _metric() else ("mi", "mph")
     fuel_cols = [_HEAD[k] for k in _fuel_keys()]
     cols = ["phase", f"distance [{dist}]", "duration [s]", f"mean speed [{spd}]",
-            f"max speed [{spd}]", "fuel [g]", *fuel_cols, "CO2 [g/km]",
-            "battery net [kWh]", "IWR [%]", f"RMSSE [{spd}]", "violations"]
-    rows = [_row(p["name"], p) for p in doc.get("phases") or []]
-    rows.append(_row("whole test", doc.get("test_total") or {}))
+            f"max speed [{spd}]",
+            *(["fuel [g]", *fuel_cols, "CO2 [g/km]"] if fuel_car else
+              ["MPGe", f"AC energy [kWh/100 {dist}]"]),
+            *(["battery net [kWh]"] if _has_battery(doc) else []),
+            "IWR [%]", f"RMSSE [{spd}]", "violations"]
+    rows = [_row(p["name"], p, doc, p["name"]) for p in doc.get("phases") or []]
+    rows.append(_row("whole test", doc.get("test_total") or {}, doc, "test"))
     sec.tables.append(Table("Results per phase", cols, rows, key="results-phases",
                             note="value ± expanded uncertainty U (k = 2)"))
     crow = [[c["name"], *(_pm(c, k) for k in _fuel_keys()),
@@ -149,7 +215,7 @@ def results_section(doc: dict) -> Section:
              "; ".join(x for x in c.get("caveats") or []       # the substitute has its column
                        if x != f"substitute: {c.get('substitute')}") or "none"]
             for c in doc.get("composites") or []]
-    if crow:
+    if crow and fuel_car:      # J1634 has the phases and the whole test, not the composites
         sec.tables.append(Table("Regulatory composites", ["composite", *fuel_cols,
                                 "CO2 [g/km]", "rule", "substitute", "caveats"],
                                 crow, key="results-composites",

@@ -247,9 +247,29 @@ def results_from_template(test: Test, template: Any, vehicle: Any = None,
                           phase_channel=template.phase_channel, **kw)
     arch = getattr(template, "architecture", None) or getattr(vehicle, "architecture", None)
     if arch == "battery_electric":
-        from vehval.results.j1634 import j1634_results
-        res.j1634 = j1634_results(res, _charger_efficiency(template, vehicle),
-                                  getattr(template.constants, "ac_recharge_energy_j", None))
+        attach_j1634(res, _charger_efficiency(template, vehicle),
+                     getattr(template.constants, "ac_recharge_energy_j", None))
+    return res
+
+
+def attach_j1634(res: TestResults, charger_efficiency: float | None,
+                 ac_recharge_energy_j: float | None) -> TestResults:
+    """``res`` with the SAE J1634 figures of a battery-electric test (charger efficiency
+    [-], None: assumed; measured wall energy [J], None: from the DC energy)."""
+    from vehval.results.j1634 import j1634_results
+
+    res.j1634 = j1634_results(res, charger_efficiency, ac_recharge_energy_j)
+    return res
+
+
+def results_of_validated(test: Test, vehicle: Any = None, **kw: Any) -> TestResults:
+    """:func:`compute_results` of a validated test read back (no template: its metadata
+    holds the fuel and constants), with the SAE J1634 figures when ``vehicle`` is
+    battery-electric (its charger, the test's measured wall energy constant)."""
+    res = compute_results(test, **kw)
+    if getattr(vehicle, "architecture", None) == "battery_electric":
+        attach_j1634(res, _charger_efficiency(None, vehicle),
+                     (test.meta.constants or {}).get("ac_recharge_energy_j"))
     return res
 
 

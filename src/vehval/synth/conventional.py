@@ -82,7 +82,7 @@ def make_conventional_test(veh, cyc, seed: int, outdir: str | Path,
     share = DRIVEN_AXLE_LOSS_SHARE
     template = (
         "template_version: 1\n"
-        + vehicle_line(vehicle_ref) +
+        + vehicle_line(vehicle_ref) + "synthetic: true\n"
         f"description: \"VIRTUAL conventional test of {veh.name} on {cyc.name} (seed {seed}): "
         "synthetic, not a measurement\"\n"
         "constants:\n"

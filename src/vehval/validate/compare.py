@@ -246,9 +246,11 @@ class Comparison:
         rows = [["engine state agreement (time steps)", "%", self.on_agreement * 100.0, "", "", ""]]
         for name, ev in (("engine starts", self.starts), ("engine stops", self.stops)):
             if ev is not None:
+                lag = (f"mean lag {ev.mean_lag_s:.2f} s" if np.isfinite(ev.mean_lag_s)
+                       else "mean lag n/a (none matched)")
                 rows.append([name, "count", ev.n_test, ev.n_sim, len(ev.pairs),
                              f"{ev.matched_share * 100:.1f} % matched within ±{ev.window_s:g} s, "
-                             f"mean lag {ev.mean_lag_s:.2f} s"])
+                             f"{lag}"])
         return rows
 
     def tables(self) -> list[dict]:

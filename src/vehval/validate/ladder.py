@@ -229,12 +229,16 @@ class LadderResult:
             best = r
         return best
 
-    def tables(self) -> list[dict]:
+    def _entries(self, test_id: str | None) -> list:
+        return [e for e in self.entries if test_id is None or e.test_id == test_id]
+
+    def tables(self, test_id: str | None = None) -> list[dict]:
+        """The ladder table: every test, or the row of ``test_id`` (its own report)."""
         t = self.tolerances
         rows = [[RUNG_LABELS[e.rung], e.cycle, e.test_id, e.errors["fuel_pct"], e.errors["soc_pct"],
                  e.errors["soc_points"], e.errors["engine_on_agreement_pct"],
                  "pass" if e.passed else "FAIL: " + "; ".join(e.failures),
-                 "in-sample" if e.in_sample else "held-out"] for e in self.entries]
+                 "in-sample" if e.in_sample else "held-out"] for e in self._entries(test_id)]
         return [{"title": "Validation ladder",
                  "columns": ["rung", "cycle", "test", "fuel error [%]", "SOC error [%]",
                              "ΔSOC error [points]", "engine state agreement [%]", "verdict",
@@ -245,11 +249,13 @@ class LadderResult:
                          f"{t.engine_on_agreement_min_pct} % (None = not checked); "
                          f"{self.summary()}"}]
 
-    def en_table(self) -> dict:
-        """The verdict by the normalised error of the fuel mass, one row per test."""
+    def en_table(self, test_id: str | None = None) -> dict:
+        """The verdict by the normalised error of the fuel mass, one row per test (or the
+        row of ``test_id``, for its own report)."""
         rows = [[e.test_id, e.cycle, e.errors["fuel_sim_kg"], e.errors["fuel_test_kg"],
                  e.u_model_kg, e.u_meas_kg, e.s_r, e.en, e.verdict,
-                 "in-sample" if e.in_sample else "held-out", e.en_note] for e in self.entries]
+                 "in-sample" if e.in_sample else "held-out", e.en_note]
+                for e in self._entries(test_id)]
         return {"title": "Verdict by the normalised error (fuel mass)",
                 "columns": ["test", "cycle", "fuel sim [kg]", "fuel test [kg]",
                             "U_model [kg]", "U_meas [kg]", "s_r [-]", "En", "verdict",

@@ -282,7 +282,8 @@ class TestRun:
         and ``phase_channel`` (see :func:`vehval.results.compute_results`), gated by QA's
         error findings (:func:`vehval.results.gate.apply_gate`; ``force`` states withheld
         figures anyway); runs once per run unless called again with other options."""
-        from vehval.results import compute_results, results_from_template
+        from vehval.results import results_from_template
+        from vehval.results.compute import results_of_validated
         from vehval.results.gate import apply_gate
 
         opts: dict[str, Any] = {"method": method, "draws": draws, "seed": seed,
@@ -292,8 +293,8 @@ class TestRun:
             test = self.validated
             if self.template is not None:
                 res = results_from_template(test, self.template, self.vehicle, **opts)
-            else:
-                res = compute_results(test, **opts)
+            else:       # a validated test read back: its vehicle may make it battery-electric
+                res = results_of_validated(test, self.vehicle, **opts)
             apply_gate(res, self._qa.result.findings if self._qa is not None
                        else self.stored_findings, force=force)
             self._results = ResultsOutcome(res)
