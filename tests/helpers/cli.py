@@ -42,3 +42,17 @@ def run_cli(args, capsys):
     rc = main([str(a) for a in args])
     out = capsys.readouterr()
     return rc, out.out, out.err
+
+
+def virtual_qa_output(root, vehicle: str, capsys) -> "object":
+    """A one-minute steady virtual test of ``vehval synth --vehicle VEHICLE`` (no faults)
+    run through ``vehval qa``: the QA output folder (``root / "q"``)."""
+    from vehval.cli import main
+
+    out = root / "virtual"
+    assert main(["synth", "--vehicle", vehicle, "--cycle", "steady:15mps:60s", "--seed", "1",
+                 "--faults", "none", "-o", str(out)]) == 0
+    files = [str(f) for f in sorted(out.glob("virtual_*"))]
+    assert main(["qa", *files, "-t", str(out / "template.yaml"), "-o", str(root / "q")]) == 0
+    capsys.readouterr()
+    return root / "q"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 
+from helpers.cli import virtual_qa_output
 from vehval.cli import main
 
 
@@ -55,13 +56,8 @@ def test_a_conventional_virtual_test_is_marked_synthetic(tmp_path):
 def test_validate_of_a_qa_output_takes_the_vehicle_its_template_named(tmp_path, capsys):
     """`vehval validate QA_DIR` (the documented `vehval qa ... -o out; vehval validate out`)
     validates the car the test's template named, not the default Prius."""
-    out = tmp_path / "cruze"
-    assert main(["synth", "--vehicle", "cruze_diesel_2014", "--cycle", "steady:15mps:60s",
-                 "--seed", "1", "--faults", "none", "-o", str(out)]) == 0
-    files = [str(f) for f in sorted(out.glob("virtual_*"))]
-    assert main(["qa", *files, "-t", str(out / "template.yaml"), "-o", str(tmp_path / "q")]) == 0
-    capsys.readouterr()
-    assert main(["validate", str(tmp_path / "q"), "--dt", "1", "-o", str(tmp_path / "val")]) == 0
+    q = virtual_qa_output(tmp_path, "cruze_diesel_2014", capsys)
+    assert main(["validate", str(q), "--dt", "1", "-o", str(tmp_path / "val")]) == 0
     assert "does not match test" not in capsys.readouterr().err
     doc = json.loads((tmp_path / "val" / "metrics.json").read_text())
     assert doc["vehicle"] == "cruze_diesel_2014" and doc["architecture"] == "conventional"
