@@ -180,3 +180,25 @@ def test_validate_command_judges_a_bev_test_by_test(virtual, tmp_path, capsys):
     wrong.write_text(yaml.safe_dump(data, sort_keys=False), encoding="utf-8")
     assert main([*args[:-4], "--vehicle", str(wrong), "-o", str(tmp_path / "w")]) == 0
     assert "inconsistent" in capsys.readouterr().out
+
+
+def test_validate_command_states_the_set_verdict_of_three_bev_tests(virtual, tmp_path,
+                                                                    capsys):
+    """Three held-out tests of one car judged test by test: the set verdict of their DC
+    energies (bias with its interval and coverage), as the power-split ladder states it."""
+    from vehval.cli import main
+    from vehval.synth.bev import make_bev_test
+
+    truth, vfile, _ = virtual
+    args = []
+    for seed in (6, 7):
+        t = make_bev_test(load_vehicle(vfile), load_cycle("ece15"), seed, tmp_path / f"e{seed}")
+        args += ["--test", ",".join(map(str, t["files"]))]
+    args += ["--test", ",".join(map(str, truth["files"]))]
+    assert main(["validate", *args, "-t", str(truth["template"]), "--vehicle", str(vfile),
+                 "-o", str(tmp_path / "val")]) == 0
+    out = capsys.readouterr().out
+    doc = json.loads((tmp_path / "val" / "metrics.json").read_text())
+    sv = doc["set_verdict"]
+    assert sv["n"] == 3 and sv["n_consistent"] == 3
+    assert "held-out: 3/3 consistent (|En| <= 1); set verdict (n = 3): " in out

@@ -49,9 +49,13 @@ class PredictionComparison:
     def verdict(self) -> dict[str, Any]:
         """The test's verdict: the normalised error of its fuel mass (as ``vehval
         predict`` states it), with the fuel in ``text``."""
+        from vehval.validate.ladder import in_set_verdict
+
         r, ne = self.row, self.normalised_error()
         return {"figure": "fuel_mass_g", "en": ne["en"], "consistent": ne["consistent"],
                 "model": r["fuel_predicted_g"], "measured": r["fuel_measured_g"],
+                "u_model": r.get("u_model_g"), "u_meas": r.get("u_meas_g"),
+                "s_r": ne.get("s_r") or 0.0, "in_set": in_set_verdict(r),
                 "text": f"fuel {r['fuel_predicted_g']:.1f} g against {r['fuel_measured_g']:.1f} g"}
 
     def to_dict(self) -> dict[str, Any]:

@@ -74,6 +74,8 @@ class BevValidation:
     overlays: pd.DataFrame
     sim_summary: dict[str, Any] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    #: the cycle's repeatability [-] the measured figures were judged with
+    s_r: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (``validation.json`` of a battery-electric test)."""
@@ -96,7 +98,9 @@ class BevValidation:
         if m.get("error_pct") is not None:
             text += f", MPGe {m['model']:.1f} against {m['test']:.1f}"
         return {"figure": "dc_energy_wh", "en": e.get("en"), "consistent": e.get("consistent"),
-                "model": e.get("model_wh"), "measured": e.get("test_wh"), "text": text}
+                "model": e.get("model_wh"), "measured": e.get("test_wh"),
+                "u_model": e.get("U_model"), "u_meas": e.get("U_meas"), "s_r": self.s_r,
+                "text": text}
 
     def tables(self) -> list[dict[str, Any]]:
         """Report tables: traces (RMS error), DC energy per scope, J1634 figures."""
@@ -244,4 +248,4 @@ def validate_bev_test(run: Any, *, dt: float = 0.1, smooth_hz: float | None = No
         test_id=test.meta.test_id, cycle=cyc.name, vehicle=veh, overrides=applied,
         traces=traces, energy=energy, j1634=jrows, u_model_rel=u_model_rel,
         u_model_source=u_model_source, overlays=pd.DataFrame(cols),
-        sim_summary=dict(sim.summary), notes=notes)
+        sim_summary=dict(sim.summary), notes=notes, s_r=s_r)

@@ -259,7 +259,8 @@ class ParallelValidation:
         meas, model = f["battery_energy_test_wh"], f["battery_energy_model_wh"]
         en = v.get("en")
         return {"figure": "battery_energy_wh", "en": en, "consistent": v.get("consistent"),
-                "model": model, "measured": meas, "text": (
+                "model": model, "measured": meas, "u_model": v.get("u_model_wh"),
+                "u_meas": v.get("u_test_wh"), "s_r": 0.0, "text": (
                     f"battery net {model:.1f} Wh against {meas:.1f} Wh, engine on/off "
                     f"agreement {f['engine_on_agreement_pct']:.1f} %, gear "
                     f"{f['gear_agreement_pct']:.1f} %, engine speed RMS "

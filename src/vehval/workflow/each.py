@@ -24,7 +24,11 @@ class EachOutcome:
         The runs and their validation outcomes, in the same order.
     verdicts : list of dict
         Per test: ``test_id``, ``figure``, ``en``, ``consistent``, ``model``, ``measured``,
-        ``in_sample``, ``text`` (the comparison's ``verdict()``).
+        ``u_model``, ``u_meas`` (k = 2), ``s_r``, ``in_sample``, ``text`` (the comparison's
+        ``verdict()``).
+    set_verdict : dict or None
+        The held-out tests' set verdict (:func:`vehval.validate.ladder.held_out_set_verdict`),
+        None with fewer than 3 (``set_verdict_note`` says why).
     payload : dict
         ``validation.json``: report tables, figures and notes of every test.
     metrics : dict
@@ -36,6 +40,8 @@ class EachOutcome:
     verdicts: list[dict[str, Any]]
     payload: dict
     metrics: dict
+    set_verdict: dict[str, Any] | None = None
+    set_verdict_note: str = ""
 
     def lines(self) -> list[str]:
         """One line per test and the count of consistent held-out tests."""
@@ -49,7 +55,14 @@ class EachOutcome:
                        + (" (in-sample)" if v["in_sample"] else ""))
         held = [v for v in self.verdicts if not v["in_sample"] and v.get("en") is not None]
         ok = sum(1 for v in held if v.get("consistent"))
-        out.append(f"held-out: {ok}/{len(held)} consistent (|En| <= 1)")
+        text = f"held-out: {ok}/{len(held)} consistent (|En| <= 1)"
+        if self.set_verdict is not None:
+            from vehval.uncertainty import verdict_text
+
+            text += "; " + verdict_text(self.set_verdict)
+        else:
+            text += f"; no set verdict ({self.set_verdict_note})"
+        out.append(text)
         return out
 
 
@@ -87,6 +100,20 @@ def validate_each(runs: Sequence[TestRun], *, dt: float = 0.1, window_s: float =
         verdicts.append(verdict)
         docs.append({**out.document, "verdict": verdict})
         progress.advance()
+    sv, why = _set_verdict(verdicts)
     metrics = {"vehicle": veh.name, "vehicle_file": veh.file, "architecture": stages(veh).name,
-               "dt_s": dt, "tests": docs}
-    return EachOutcome(list(runs), vals, verdicts, payload, metrics)
+               "dt_s": dt, "tests": docs, "set_verdict": sv, "set_verdict_note": why}
+    return EachOutcome(list(runs), vals, verdicts, payload, metrics, sv, why)
+
+
+def _set_verdict(verdicts: list[dict[str, Any]]) -> tuple[dict[str, Any] | None, str]:
+    """The set verdict over the held-out tests with an En (and, for a prediction, inside
+    the identification's conditions: ``in_set``)."""
+    from vehval.uncertainty import normalised_error
+    from vehval.validate.ladder import held_out_set_verdict
+
+    judged = [(normalised_error(v["model"], v["measured"], v["u_model"] or 0.0,
+                                v["u_meas"] or 0.0, label=v["test_id"]), v.get("s_r") or 0.0)
+              for v in verdicts if not v["in_sample"] and v.get("in_set", True)
+              and v.get("en") is not None and v.get("u_meas") is not None]
+    return held_out_set_verdict(judged)
