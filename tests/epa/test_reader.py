@@ -125,8 +125,10 @@ def test_cli_list_and_tests(prius_list, capsys):
 def test_cli_tests_and_list_in_display_units(prius_list, capsys, monkeypatch):
     """The screen reads the list's own units in the us system (ETW lb, A lbf, B lbf/mph,
     C lbf/mph², as the row T4 gives them: 3375, 24.153, 0.33502, 0.014096) and kg, N,
-    N/(km/h), N/(km/h)² in metric; --json stays SI."""
-    from vehval.display import ENV_VAR
+    N/(m/s), N/(m/s)² in metric, the road-load units of every other screen (`identify`;
+    it printed N/(km/h), 3.6 times smaller than identify's B of the same car); --json stays
+    SI."""
+    from vehval.display import ENV_VAR, keyed_unit
 
     monkeypatch.setenv(ENV_VAR, "us")
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
@@ -141,10 +143,12 @@ def test_cli_tests_and_list_in_display_units(prius_list, capsys, monkeypatch):
     monkeypatch.setenv(ENV_VAR, "metric")
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS"]) == 0
     out = capsys.readouterr().out.splitlines()
-    assert "ETW kg" in out[0] and "B N/(km/h)" in out[0]
+    b_label = keyed_unit("road_load_b_n_per_mps", system_name="metric").label
+    assert "ETW kg" in out[0] and f"B {b_label}" in out[0] and "B N/(m/s)" in out[0]
+    assert "C N/(m/s)²" in out[0] and "km/h" not in out[0]
     t4 = next(ln for ln in out if ln.startswith("T4 ")).split()
     kg, a_n = 3375 * LB_KG, 24.153 * LBF_N
-    b = 0.33502 * LBF_N / MPH_M_PER_S / 3.6
+    b = 0.33502 * LBF_N / MPH_M_PER_S
     assert t4[7] == f"{kg:.0f}" and t4[10] == f"{a_n:.2f}" and t4[11] == f"{b:.4f}"
     assert main(["epa", "tests", str(prius_list), "--model", "PRIUS", "--json"]) == 0
     data = json.loads(capsys.readouterr().out)

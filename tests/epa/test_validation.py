@@ -160,6 +160,16 @@ def test_cli_validate(prius_list, tmp_path, capsys):
     assert "did you mean" in capsys.readouterr().err
 
 
+def test_cli_validate_metric_header_defines_the_error_in_l_per_100km(prius_list, capsys):
+    # the metric header read "(pred, meas: L/100 km; err: fuel economy, pred / meas mpg - 1"
+    rc = main(["--units", "metric", "epa", "validate", str(prius_list), "--vehicle",
+               "prius_2016", "--tests", "model=PRIUS,originator=EPA,procedure=hwfet"])
+    assert rc == 0
+    header = capsys.readouterr().out.splitlines()[0]
+    assert "err: fuel economy, meas / pred L/100 km - 1" in header, header
+    assert "mpg" not in header, header
+
+
 def test_cli_validate_nothing_runnable(prius_list, tmp_path, capsys):
     """A selection of only unrunnable procedures is refused: named, counted, nothing written."""
     out = tmp_path / "out"

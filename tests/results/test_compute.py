@@ -252,6 +252,25 @@ def test_drive_quality_finding_reads_in_display_units_and_explains_iwr(monkeypat
     assert dq[0].numbers["iwr_1hz_pct"] > 4.0
 
 
+def test_drive_quality_finding_states_the_rmsse_to_the_digits_of_its_tolerance(monkeypatch):
+    # "RMSSE 1.3 km/h (allowed 1.29 km/h)" for a 1.27 km/h RMSSE within the tolerance: the
+    # value was cut to two significant digits, its tolerance to three
+    import re
+
+    from vehval.display import as_unit
+
+    t, s = true_signals()
+    s["veh_spd"] = 1.05 * s["veh_spd"]
+    monkeypatch.setenv("VEHVAL_UNITS", "metric")
+    res = compute_results(make_test(t, s), fuel="diesel")
+    dq = [f for f in res.findings if f.kind == Kind.DRIVE_QUALITY]
+    assert dq
+    for f in dq:
+        shown = float(re.search(r"RMSSE (\S+) km/h \(allowed", f.message).group(1))
+        assert shown == pytest.approx(as_unit(f.numbers["rmsse_mps"], "km/h"), abs=0.006), \
+            f.message
+
+
 def test_an_obd_speed_gets_the_obd_class_default_not_the_roll_speed():
     # the Prius c OBD log's speed was assumed 0.1 % / 0.01 m/s "chassis-dyno roll speed"
     from vehval.results.uncertainty import channel_accuracy

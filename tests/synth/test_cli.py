@@ -51,3 +51,13 @@ def test_synth_cli_refuses_foreign_non_empty_dir(tmp_path, capsys):
     (tmp_path / "notes.txt").write_text("mine")
     rc = main(["synth", "--cycle", "steady:30kph:10s", "-o", str(tmp_path)])
     assert rc == 2 and "not empty" in capsys.readouterr().err
+
+
+def test_synth_cli_screen_states_the_offsets_in_seconds_not_as_a_dict(tmp_path, capsys):
+    # the screen printed the truth's dict: "offsets {'dyno': 0.0, 'obd': -2.7}"
+    rc = main(["synth", "--cycle", "steady:30kph:20s", "--faults", "none",
+               "-o", str(tmp_path / "vt")])
+    assert rc == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if "offsets" in x)
+    assert line.endswith("offsets dyno 0 s, obd 0 s"), line
+    assert "{" not in line and "'" not in line

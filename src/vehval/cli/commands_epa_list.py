@@ -70,14 +70,13 @@ def tests_cmd(
                                     "impossible_values": impossible_values(t)}
                                    for t, c in zip(tests, checks)]), nl=False)
         return
-    from vehval.display import unit_for
+    from vehval.display import keyed_unit, unit_for
 
     # the display units (us: lb, lbf, lbf/mph, lbf/mph², as the list itself; metric: kg, N,
-    # N/(km/h), N/(km/h)²); --json stays SI
-    mu, fu, vu = unit_for("kg"), unit_for("N"), unit_for("m/s")
+    # N/(m/s), N/(m/s)², as every other road load on screen); --json stays SI
+    mu, fu = unit_for("kg"), unit_for("N")
+    bu, cu = keyed_unit("target_b_n_per_mps"), keyed_unit("target_c_n_per_mps2")
     fe = _fe_display()
-    per = vu.label if "/" not in vu.label else f"({vu.label})"
-    b_k, c_k = fu.factor / vu.factor, fu.factor / vu.factor ** 2
     # the test and vehicle IDs whole: they are what --tests number=/vehicle= and
     # --vehicle-id take
     wt = max([14, *(len(t.label) for t in tests)])
@@ -85,7 +84,7 @@ def tests_cmd(
     typer.echo(f"{'test':{wt}s} {'vehicle':{wv}s} {'cfg':>3} {'orig':4s} {'proc':7s} "
                f"{'trans':5s} {'fuel':6s} "
                f"{f'ETW {mu.label}':>7} {'N/V':>5} {'axle':>5} {f'A {fu.label}':>7} "
-               f"{f'B {fu.label}/{per}':>11} {f'C {fu.label}/{per}²':>12} {'FE':>6}  "
+               f"{f'B {bu.label}':>11} {f'C {cu.label}':>12} {'FE':>6}  "
                f"bags 1-4 (FE, bags: {fe[0]}; elec: {_electric_unit()})")
     for t, chk in zip(tests, checks):
         # an electricity row's figures are MPGe or kWh/100 mi, never mpg
@@ -98,8 +97,9 @@ def tests_cmd(
                    f"{_trans_text(t):5s} {_fuel_text(t):6s} "
                    f"{_fmt(float(mu.convert(t.mass_kg)), '.0f'):>7} {_fmt(t.n_v_ratio):>5} "
                    f"{_fmt(t.axle_ratio, '.2f'):>5} {_fmt(float(fu.convert(t.target_a_n)), '.2f'):>7} "
-                   f"{_fmt(b_k * t.target_b_n_per_mps, '.4f'):>11} "
-                   f"{_fmt(c_k * t.target_c_n_per_mps2, '.5f'):>12} {shown(t.fe):>6}  {bags}")
+                   f"{_fmt(float(bu.convert(t.target_b_n_per_mps)), '.4f'):>11} "
+                   f"{_fmt(float(cu.convert(t.target_c_n_per_mps2)), '.5f'):>12} "
+                   f"{shown(t.fe):>6}  {bags}")
     typer.echo(f"{len(tests)} tests (road-load target coefficients; set coefficients and SI "
                "units in --json; N/V in rpm/mph as listed)")
     for t, chk in zip(tests, checks):

@@ -89,10 +89,12 @@ def validate_cmd(
         typer.echo(jsonsafe.dumps(val), nl=False)
         return
     fe = _fe_display()
+    # the error is the fuel economy's, read in the shown unit: L/100 km is its inverse
+    ratio = "pred / meas mpg" if fe[0] == "mpg" else f"meas / pred {fe[0]}"
     wt = max([14, *(len(c.test) for c in val.comparisons)])
     typer.echo(f"{'test':{wt}s} {'by':4s} {'proc':6s} {'figure':8s} {'pred':>6} {'meas':>6} "
                f"{'err %':>6} {'En':>6} {'batt %':>6} {'sample':9s} judged   (pred, meas: "
-               f"{fe[0]}; err: fuel economy, pred / meas mpg - 1; En: normalised error)")
+               f"{fe[0]}; err: fuel economy, {ratio} - 1; En: normalised error)")
     for c in val.comparisons:
         batt = share_text(c.battery_share)
         typer.echo(f"{c.test:{wt}s} {c.originator[:4]:4s} {c.procedure:6s} {c.item:8s} "

@@ -529,7 +529,7 @@ def drive_quality_by_scope(test: Test, speed: Signal | None, plan: PhasePlan,
             findings.append(finding(
                 f"drive quality of {sc} outside the SAE J2951 tolerances applied by "
                 f"40 CFR 1066.425(j): IWR {res.iwr_pct:+.2f} % (allowed -2.0..+4.0), "
-                f"RMSSE {format_delta(res.rmsse_mps or 0.0, 'm/s', digits=2)} (allowed "
+                f"RMSSE {format_delta(res.rmsse_mps or 0.0, 'm/s', digits=3)} (allowed "
                 f"{format_delta(RMSSE_TOLERANCE_MPS, 'm/s', digits=3)})"
                 + (f"; {why}" if (why := iwr_reading(res)) else ""), speed.name,
                 kind=Kind.DRIVE_QUALITY, iwr_pct=res.iwr_pct, rmsse_mps=res.rmsse_mps,

@@ -51,10 +51,17 @@ def power_split_test(veh: Any, vehicle: str, cycle: str, seed: int, faults: str,
     lines += [f"  data      {p.name}" for p in res.files]
     lines += [f"  template  {res.template_path.name}",
               f"  truth     {res.truth_path.name}: {len(truth['faults'])} injected faults, "
-              f"offsets {truth['offsets_s']}",
+              f"offsets {_offsets_text(truth['offsets_s'])}",
               f"import it with: vehval import {' '.join(str(p) for p in res.files)} "
               f"-t {res.template_path}"]
     return VirtualTest(doc, lines)
+
+
+def _offsets_text(offsets_s: dict[str, float]) -> str:
+    """The injected clock offsets as a person reads them: ``dyno 0 s, obd -2.7 s``."""
+    from vehval.display import format_value
+
+    return ", ".join(f"{source} {format_value(value, 's')}" for source, value in offsets_s.items())
 
 
 def _written(kind: str, truth: dict, out: Path, next_step: str) -> VirtualTest:
