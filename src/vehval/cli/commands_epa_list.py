@@ -76,6 +76,7 @@ def tests_cmd(
     # N/(m/s), N/(m/s)², as every other road load on screen); --json stays SI
     mu, fu = unit_for("kg"), unit_for("N")
     bu, cu = keyed_unit("target_b_n_per_mps"), keyed_unit("target_c_n_per_mps2")
+    assert bu is not None and cu is not None       # compound keys the display owner knows
     fe = _fe_display()
     # the test and vehicle IDs whole: they are what --tests number=/vehicle= and
     # --vehicle-id take
