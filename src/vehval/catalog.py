@@ -250,9 +250,38 @@ class Catalog:
                       _num(f.get("start_s")), _num(f.get("end_s")), f.get("message")]
                      for f in findings])
             self.con.execute("COMMIT")
-        except BaseException:
-            self.con.execute("ROLLBACK")
+        except BaseException as exc:
+            # a failed COMMIT (disk full, read-only file) has ended the transaction already:
+            # the ROLLBACK must not hide why the row could not be written
+            with contextlib.suppress(_duckdb().Error):
+                self.con.execute("ROLLBACK")
+            if isinstance(exc, _duckdb().Error):
+                raise VehvalError(
+                    f"catalog {self.path}: recording test {row[0]} of run {run_id} failed "
+                    f"({_first_line(exc)}); the earlier runs in it are unchanged: free disk "
+                    "space (or make the folder writable) and run the batch again, it resumes "
+                    "where it stopped") from None
             raise
+
+    def mark_removed(self, run_id: str, present: Iterable[str]) -> list[str]:
+        """Record as ``removed`` in run ``run_id`` every test of an earlier run that is not
+        among ``present`` (this run's test ids) and none of whose files exists any more: its
+        folder was deleted, or renamed (a new test id). Its latest row then says so, and the
+        variability summaries leave it out. A test left out of the run whose files are still
+        there (a narrower glob) is not touched. Returns the ids, sorted."""
+        present = set(present)
+        _, rows = self.query("SELECT test_id, source_run_id, vehicle, cycle, files, file_hashes, "
+                             "input_hash FROM latest_tests WHERE status <> 'removed' "
+                             "AND run_id <> ? ORDER BY test_id", [run_id])
+        gone = [r for r in rows if r[0] not in present and r[4]
+                and not any(Path(f).exists() for f in r[4])]
+        if gone:
+            self.con.executemany(
+                "INSERT INTO tests (test_id, run_id, status, source_run_id, recorded, vehicle, "
+                "cycle, files, file_hashes, input_hash, outputs) VALUES "
+                "(?, ?, 'removed', ?, current_timestamp, ?, ?, ?, ?, ?, [])",
+                [[r[0], run_id, *r[1:]] for r in gone])
+        return [r[0] for r in gone]
 
     def add_set_verdicts(self, run_id: str, rows: Iterable[dict]) -> None:
         """Store the set verdicts of a run (:func:`vehval.batch.verdicts.batch_set_verdicts`); read back by

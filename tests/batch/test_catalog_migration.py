@@ -275,5 +275,8 @@ def test_the_batch_migrates_a_version_4_folder_and_adds_its_rows(tmp_path, templ
     _old_catalog(out / "catalog.duckdb", "4")
     s = run_batch(inp, template_path, out, steps=["qa"], workers=0, report=False, progress=False)
     with open_catalog(out / "catalog.duckdb", read_only=True) as cat:
-        _, got = cat.query("SELECT run_id, test_id FROM tests ORDER BY run_id, test_id")
-    assert sorted(got) == sorted([("r-old", "a"), ("r-old", "b"), (s.run_id, "t0")])
+        _, got = cat.query("SELECT run_id, test_id, status FROM tests ORDER BY run_id, test_id")
+    # the old tests' files (/d/a.txt, /d/b.txt) are gone: the new run records them removed
+    assert sorted(got) == sorted([("r-old", "a", "ok"), ("r-old", "b", "failed"),
+                                  (s.run_id, "a", "removed"), (s.run_id, "b", "removed"),
+                                  (s.run_id, "t0", "ok")])

@@ -24,6 +24,8 @@ def index_data(catalog: Catalog, run_id: str) -> dict:
     names, rows = catalog.query(f"SELECT {', '.join(cols)} FROM tests WHERE run_id = ? "
                                 "ORDER BY test_id", [run_id])
     tests = [dict(zip(names, r)) for r in rows]
+    removed = [t["test_id"] for t in tests if t["status"] == "removed"]
+    tests = [t for t in tests if t["status"] != "removed"]
     _, run = catalog.query("SELECT started, vehval_version, n_ok, n_failed, n_skipped FROM runs "
                            "WHERE run_id = ?", [run_id])
     started, version, n_ok, n_failed, n_skipped = run[0] if run else (None, "", 0, 0, 0)
@@ -34,7 +36,8 @@ def index_data(catalog: Catalog, run_id: str) -> dict:
     from vehval.batch.verdicts import stored_set_verdicts, verdict_line
 
     return {"run": {"run_id": run_id, "started": started, "vehval_version": version,
-                    "n_ok": n_ok, "n_failed": n_failed, "n_skipped": n_skipped},
+                    "n_ok": n_ok, "n_failed": n_failed, "n_skipped": n_skipped,
+                    "removed": removed},
             "tests": tests, "variability": catalog.summary(),
             "results": results_variability(catalog), "phase_rows": [tuple(r) for r in phase_rows],
             "verdict_lines": [verdict_line(v) for v in stored_set_verdicts(catalog, run_id)]}

@@ -8,6 +8,7 @@ rerun skips every test whose ``result.json`` carries the same input hash.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import logging
@@ -72,6 +73,9 @@ class BatchSummary:
     notes: list[tuple[str, str]] = field(default_factory=list)
     #: Debris of interrupted runs removed at the start (staging folders, temporaries).
     n_debris_removed: int = 0
+    #: Tests of earlier runs whose files are all gone (deleted or renamed), recorded as
+    #: ``removed`` in this run (:meth:`vehval.catalog.Catalog.mark_removed`).
+    removed: list[str] = field(default_factory=list)
     #: Set verdicts over the validated tests, one per vehicle
     #: (:func:`vehval.batch.verdicts.batch_set_verdicts`); empty without a validate step.
     set_verdicts: list[dict] = field(default_factory=list)
@@ -383,19 +387,11 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
                                    "test_timeout_s": test_timeout_s,
                                    "skipped_inputs": [{"path": p, "reason": r}
                                                       for p, r in summary.skipped_inputs]})
-        jobs = []
-        for spec in specs:
-            cached = None if force else _cached(out, spec)
-            if cached is not None:
-                catalog.add_result(run_id, cached, status="skipped")
-                summary.n_skipped += 1
-                summary.results.append({**cached, "batch_status": "skipped"})
-                continue
-            jobs.append({"test_id": spec.test_id, "files": [str(f) for f in spec.files],
-                         "file_hashes": spec.file_hashes, "input_hash": spec.input_hash,
-                         "run_id": run_id, "outdir": str(out), "steps": steps,
-                         "report": bool(report), "vehicle_name": veh_name,
-                         "test_timeout_s": test_timeout_s, **settings})
+        summary.removed = catalog.mark_removed(run_id, {s.test_id for s in specs})
+        jobs = _plan(catalog, run_id, specs, out, force, summary,
+                     {"run_id": run_id, "outdir": str(out), "steps": steps,
+                      "report": bool(report), "vehicle_name": veh_name,
+                      "test_timeout_s": test_timeout_s, **settings})
 
         def record(res: dict) -> None:
             catalog.add_result(run_id, res)
@@ -412,7 +408,8 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
                      dashboard)
         except BaseException as exc:  # record how the run ended, then let it propagate
             summary.status = "interrupted" if isinstance(exc, KeyboardInterrupt) else "failed"
-            catalog.finish_run(run_id, summary.status)
+            with contextlib.suppress(Exception):    # never hide why the run stopped
+                catalog.finish_run(run_id, summary.status)
             raise
         if "validate" in steps:
             _set_verdicts(catalog, run_id, summary)
@@ -423,6 +420,23 @@ def run_batch(target: str | Path, template: str | Path, outdir: str | Path, *,
     finally:
         catalog.close()
     return summary
+
+
+def _plan(catalog: Any, run_id: str, specs: list[TestSpec], out: Path, force: bool,
+          summary: BatchSummary, common: dict) -> list[dict]:
+    """Record the unchanged tests as ``skipped`` (unless ``force``); return the jobs of the
+    others (``common`` holds the keys every job shares)."""
+    jobs = []
+    for spec in specs:
+        cached = None if force else _cached(out, spec)
+        if cached is not None:
+            catalog.add_result(run_id, cached, status="skipped")
+            summary.n_skipped += 1
+            summary.results.append({**cached, "batch_status": "skipped"})
+            continue
+        jobs.append({"test_id": spec.test_id, "files": [str(f) for f in spec.files],
+                     "file_hashes": spec.file_hashes, "input_hash": spec.input_hash, **common})
+    return jobs
 
 
 def _set_verdicts(catalog: Any, run_id: str, summary: BatchSummary) -> None:

@@ -61,14 +61,18 @@ def batch_cmd(
                     progress=not quiet, cycle=cycle, dashboard=dashboard,
                     test_timeout_s=test_timeout)
     skipped = (f", {len(res.skipped_inputs)} input(s) skipped" if res.skipped_inputs else "")
+    removed = f", {len(res.removed)} removed" if res.removed else ""
     typer.echo(f"run {res.run_id}: {res.n_ok} ok, {res.n_failed} failed, {res.n_skipped} unchanged"
-               f"{skipped} -> {res.outdir / 'index.html'}")
+               f"{removed}{skipped} -> {res.outdir / 'index.html'}")
     from vehval.batch.verdicts import verdict_line
 
     for row in res.set_verdicts:
         typer.echo(verdict_line(row))
     for path, why in res.notes:
         typer.echo(f"  not a test: {path} ({why})", err=True)
+    for tid in res.removed:
+        typer.echo(f"  removed {tid}: none of its files exists any more (deleted or renamed)",
+                   err=True)
     for path, why in res.skipped_inputs:
         typer.echo(f"  skipped {path}: {why}", err=True)
     failed = [r for r in res.results if r.get("status") == "failed"]

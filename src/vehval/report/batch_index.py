@@ -177,7 +177,8 @@ def render_index_page(run: dict, tests: Sequence[dict], variability: Sequence[di
     Parameters
     ----------
     run : dict
-        ``run_id``, ``started``, ``vehval_version``, ``n_ok``, ``n_failed``, ``n_skipped``.
+        ``run_id``, ``started``, ``vehval_version``, ``n_ok``, ``n_failed``, ``n_skipped``;
+        ``removed``: ids of the tests whose files are gone (said under the counts).
     tests : sequence of dict
         The run's tests: ``test_id``, ``status``, ``error``, ``vehicle``, ``cycle``,
         ``outputs``, ``n_findings_by_severity`` (JSON text) and the :data:`COLUMNS`.
@@ -196,6 +197,10 @@ def render_index_page(run: dict, tests: Sequence[dict], variability: Sequence[di
                    (f"{run['n_ok']} ok", "ok"), " · ", (f"{run['n_failed']} failed", "failed"),
                    " · ", (f"{run['n_skipped']} unchanged (skipped)", "skipped")),
               h2("Tests"), _tests_table(tests)]
+    if run.get("removed"):
+        blocks.insert(2, para(f"{len(run['removed'])} removed since the earlier runs (their "
+                              f"files are gone: deleted or renamed; left out of the "
+                              f"variability): {', '.join(run['removed'])}"))
     blocks += [para(line) for line in verdict_lines]
     blocks += _variability(variability) + _results(results)
     blocks += _phase_figure(phase_rows) + _soc_figure(tests)
