@@ -216,3 +216,36 @@ def test_template_unit_note_only_when_the_units_differ(tmp_path):
     assert test["amb_temp_test"].notes == [] and test["amb_rh_test"].notes == []
     test = import_test([f], _tmpl(tmp_path, text.replace("unit: degC", "unit: degF"), "f.yaml"))
     assert test["amb_temp_test"].notes == ["template unit 'degF' used instead of header unit 'C'"]
+
+
+def test_time_restarting_midway_is_refused_even_with_repair(tmp_path, d3_template):
+    # two runs in one file: sorting would drop the second run as repeated times
+    rows = d3_rows(200) + d3_rows(200)
+    f = write_d3(tmp_path / "x.txt", rows=rows)
+    with pytest.raises(InputFileError, match=r"x\.txt line 202: the time column 'Time' restarts"
+                                             r" .*more than one run.*split the file"):
+        import_test([f], d3_template, repair_time=True)
+    # one stray time (high or low) in the middle is still a glitch --repair-time sorts in
+    for bad in (1e4, -1.0):
+        rows = d3_rows(200)
+        rows[100][0] = bad
+        test = import_test([write_d3(tmp_path / "y.txt", rows=rows)], d3_template,
+                           repair_time=True)
+        assert test["veh_spd_test"].time.size >= 198
+
+
+def test_files_days_apart_are_refused(tmp_path):
+    d = write_d3(tmp_path / "t1_d3.txt")
+    o = tmp_path / "t1_obd.csv"
+    # the logger's clock in epoch seconds beside the dyno's seconds from the start
+    o.write_text("t,eng2rpm\n1700000000,3000\n1700000001,3000\n")
+    text = ("files:\n"
+            "  - {match: '*_d3.txt', source: dyno, channels: {Dyno_Speed: {name: veh_spd_test, unit: mph}}}\n"
+            "  - match: '*_obd.csv'\n    source: obd\n    time: {column: t}\n    channels:\n"
+            "      eng2rpm: {name: eng_spd_out_obd_test, unit: rpm}\n")
+    t = _tmpl(tmp_path, text)
+    with pytest.raises(InputFileError, match=r"t1_obd\.csv: its time runs 1700000000\.\.1700000001"
+                                             r" s, .*not on one clock"):
+        import_test([d, o], t)
+    o.write_text("t,eng2rpm\n3600,3000\n3601,3000\n")     # an hour apart: for QA to align
+    assert "eng_spd_out_obd_test" in import_test([d, o], t)

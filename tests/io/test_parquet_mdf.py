@@ -136,3 +136,14 @@ def test_bad_mdf_file(tmp_path):
     p.write_bytes(b"MDF     garbage" * 10)
     with pytest.raises(InputFileError, match=r"bad\.mf4: not a readable MDF file"):
         read_raw(p)
+
+
+def test_plain_parquet_null_timestamps_are_missing_times(tmp_path):
+    p = tmp_path / "ts.parquet"
+    ts = pa.array([None, 1_000, 2_000, None, 4_000], type=pa.timestamp("ms", tz="Europe/Berlin"))
+    pq.write_table(pa.table({"Timestamp": ts, "Speed[km/h]": pa.array([1, 2, None, 4, 5],
+                                                                       pa.int64())}), p)
+    r = read_raw(p)
+    t = r.data["Timestamp"]
+    assert np.isnan(t[[0, 3]]).all() and t[[1, 2, 4]].tolist() == [0.0, 1.0, 3.0]
+    assert np.isnan(r.data["Speed"][2]) and any("(2 empty)" in n for n in r.notes)

@@ -224,3 +224,11 @@ def test_an_epa_test_car_list_is_named_not_read_as_a_time_series(tmp_path, capsy
         read_raw(path)
     assert main(["info", str(path)]) == 2
     assert "is an EPA Test Car List" in capsys.readouterr().err
+
+
+def test_mixed_line_ends_are_read(tmp_path):
+    p = tmp_path / "mixed.txt"
+    p.write_bytes(b"Time[s]\tSpeed[mph]\r0\t1\r\n1\t2\n2\t3\r3\t4\r\n")
+    r = read_raw(p)
+    assert r.data["Speed"].tolist() == [1.0, 2.0, 3.0, 4.0]
+    assert any("mixed line ends" in n for n in r.notes)

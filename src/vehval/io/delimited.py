@@ -20,6 +20,7 @@ from vehval.units import split_header
 
 _DELIMS = ("\t", ";", ",")
 _DECIMAL_COMMA = re.compile(rb"(?:^|[;\t ])-?\d+,\d+(?:[;\t\r\n]|$)")
+_LONE_CR = re.compile(rb"\r(?!\n)")
 _NUMBER = re.compile(r"^\s*[-+]?(\d+([.,]\d*)?|[.,]\d+)([eE][-+]?\d+)?\s*$")
 
 
@@ -235,6 +236,9 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     if b"\n" not in raw and b"\r" in raw:
         raw = raw.replace(b"\r", b"\n")
         notes.append("old Mac line ends (CR only) read as line ends")
+    elif _LONE_CR.search(raw):   # mixed CR, CR LF and LF (files appended by several tools)
+        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+        notes.append("mixed line ends (CR, CR LF and LF) read as line ends")
     start, skipped = _skip_blank_lines(raw)
     if not raw[start:].strip():
         raise InputFileError(f"{path}: file is empty (no header line)")

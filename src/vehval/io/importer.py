@@ -150,6 +150,7 @@ def _ordered_time(t: np.ndarray, *, path: Path, raw: RawTable | None, label: str
             f"{where(i)}: {kind} timestamp {t[i]:g} s after {t[i - 1]:g} s in the {label}: fix the "
             "file or pass --repair-time to sort the rows and drop duplicate times")
     idx = np.flatnonzero(finite)
+    _refuse_restart(t[idx], idx, where, label)
     n_nan = t.size - idx.size
     n_dec = int(np.sum(np.diff(t[idx]) < 0))
     order = idx[np.argsort(t[idx], kind="stable")]
@@ -163,6 +164,42 @@ def _ordered_time(t: np.ndarray, *, path: Path, raw: RawTable | None, label: str
             f"{n_dup} repeated timestamp(s) dropped (first kept), {n_nan} row(s) without time "
             f"dropped{at})")
     return ts[keep], order[keep], [note]
+
+
+#: Share of the rows (and least number) that may fall back inside the time already covered
+#: for ``--repair-time`` to sort them in: more is a second run, not a clock glitch.
+RESTART_MAX_SHARE = 0.01
+RESTART_MIN_ROWS = 50
+
+
+def _refuse_restart(t: np.ndarray, idx: np.ndarray, where, label: str) -> None:
+    """Refuse a time base that restarts: two runs concatenated, or a logger restarted.
+
+    The rows are cut into increasing stretches at each backward step; a row counts as
+    fallen back when it lies at or before the time the earlier stretches had reached
+    (their last row left out, so that one stray high or low time is a glitch, not a
+    restart). Sorting such rows into the others would interleave two runs (or drop the
+    second as repeated times), so more than :data:`RESTART_MAX_SHARE` of them is an error.
+    """
+    starts = np.flatnonzero(np.diff(t) < 0) + 1
+    if starts.size == 0:
+        return
+    inner = t.copy()
+    inner[np.r_[starts - 1, t.size - 1]] = -np.inf      # each stretch's last row left out
+    reached = np.maximum.accumulate(inner)[starts - 1]  # covered before each stretch
+    seg = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, t.size]))
+    rows = np.arange(starts[0], t.size)
+    back = (t[rows] <= reached[seg]) & ~np.isin(rows, starts)
+    n_back = int(back.sum())
+    if n_back <= max(RESTART_MIN_ROWS, RESTART_MAX_SHARE * t.size):
+        return
+    first = int(rows[np.flatnonzero(back)[0]])
+    s = int(starts[np.searchsorted(starts, first, side="right") - 1])
+    raise InputFileError(
+        f"{where(int(idx[s]))}: the {label} restarts ({t[s]:g} s after {t[s - 1]:g} s) and "
+        f"{n_back} row(s) fall again inside the time already covered: the file holds more "
+        "than one run (files concatenated or a logger restart), which --repair-time cannot "
+        "sort into one; split the file at this line and import each run as its own test")
 
 
 def _time_unit(spec: FileSpec, header_unit: str | None) -> str:
@@ -365,6 +402,34 @@ def set_cycle(test: Test, template: Template | None = None, *, identify: bool = 
     meta.notes.append(first)
 
 
+#: Largest gap [s] between the time spans of two files of one test: beyond, they are not
+#: on one clock (epoch seconds beside seconds from the start, a file of another day).
+MAX_FILE_GAP_S = 86400.0
+
+
+def _check_clocks(test: Test) -> None:
+    """Refuse files of one test whose time spans lie more than a day apart (one grid over
+    both would be unbounded, and no alignment spans it)."""
+    spans: dict[str, tuple[float, float]] = {}
+    for sig in test:
+        t = sig.time[np.isfinite(sig.time)]
+        if t.size and sig.file:
+            a, b = spans.get(sig.file, (np.inf, -np.inf))
+            spans[sig.file] = (min(a, float(t[0])), max(b, float(t[-1])))
+    items = sorted(spans.items(), key=lambda kv: kv[1][0])
+    f0, (a0, b0) = items[0] if items else ("", (0.0, 0.0))
+    for f1, (a1, b1) in items[1:]:
+        if a1 - b0 > MAX_FILE_GAP_S:
+            raise InputFileError(
+                f"{f1}: its time runs {a1:.10g}..{b1:.10g} s, {a1 - b0:.3g} s after {f0} "
+                f"({a0:.10g}..{b0:.10g} s): the files of one test are not on one clock (epoch "
+                "or clock time beside seconds from the start, or a file of another day); "
+                "give every file the test's time base (the time column's unit, or "
+                "files[].time.start_s), or import the file with its own test")
+        if b1 > b0:
+            f0, a0, b0 = f1, a1, b1
+
+
 def import_test(files: Sequence[str | Path] | str | Path, template: Template | str | Path, *,
                 repair_time: bool = False, test_id: str | None = None,
                 identify: bool = True) -> Test:
@@ -431,6 +496,7 @@ def import_test(files: Sequence[str | Path] | str | Path, template: Template | s
             f"this test has no file for files[{i}] of {tname} (source '{t.files[i].source}', "
             f"match {t.files[i].match!r}); give its file, or mark the entry 'optional: true' "
             "when tests may lack it")
+    _check_clocks(test)
     for name, reason in t.selection.drop.items():
         if name in test:
             test.drop(name)

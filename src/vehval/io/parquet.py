@@ -301,10 +301,13 @@ def read_parquet_raw(path: str | Path, **_opts) -> RawTable:
         if f.metadata and f.metadata.get(b"unit"):
             unit = f.metadata[b"unit"].decode()
         if pa.types.is_timestamp(f.type):
-            ns = col.cast(pa.timestamp("ns")).to_numpy().astype("int64").astype(float)
-            values = (ns - ns[0]) * 1e-9 if ns.size else ns
+            ns = col.cast(pa.timestamp("ns")).fill_null(0).to_numpy().astype("int64").astype(float)
+            ns[col.is_null().to_numpy(zero_copy_only=False)] = np.nan   # a null time: no time
+            first = ns[np.isfinite(ns)]
+            values = (ns - first[0]) * 1e-9 if first.size else ns
             unit = "s"
-            notes.append(f"column '{f.name}': timestamps converted to seconds since the first row")
+            notes.append(f"column '{f.name}': timestamps converted to seconds since the first row"
+                         + (f" ({int(np.isnan(ns).sum())} empty)" if np.isnan(ns).any() else ""))
         elif pa.types.is_integer(f.type) or pa.types.is_floating(f.type) or pa.types.is_boolean(f.type):
             values = float_values(col.cast(pa.float64()))
         else:
