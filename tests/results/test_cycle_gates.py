@@ -201,3 +201,28 @@ def test_real_files_raise_no_scale_or_bag_finding(tmp_path):
         scale = [x for x in run.qa_outcome.result.findings if "speed scale" in x.message]
         bags = [x for x in res.findings if "off the cycle's" in x.message]
         assert not scale and not bags, (f.name, scale, bags)
+
+
+@pytest.mark.parametrize("declare_cycle", [True, False])
+def test_a_time_column_in_ms_declared_s_is_named_and_withholds(vt, cli, tmp_path,
+                                                               declare_cycle):
+    """The D3 file's time in ms under a `Time[sec]` header: the declared cycle is not
+    found, no speed factor explains it, and the figures read 1000 x the distance (7450 mi,
+    exit 0 with `cycle:` declared). The speed follows the cycle once the time is read
+    x 0.001: an error on the speed withholds them, naming the slip."""
+    d3 = next(f for f in vt[0] if f.name.endswith("_d3.txt"))
+    lines = d3.read_text(encoding="latin-1").splitlines()
+    rows = [r.split("\t") for r in lines[1:]]
+    for r in rows:
+        r[0] = f"{1000 * float(r[0]):.1f}"
+    slow = tmp_path / d3.name
+    slow.write_text("\n".join([lines[0]] + ["\t".join(r) for r in rows]) + "\n",
+                    encoding="latin-1")
+    tpl = _template(vt, tmp_path, "  source: obd\n", "  source: obd\n  optional: true\n")
+    if not declare_cycle:
+        tpl.write_text(tpl.read_text().replace("cycle: udds\n", ""))
+    code, out, _ = cli("results", slow, "-t", tpl, "-o", tmp_path / "o")
+    assert code == 4, out
+    assert "follows udds once the time is read x 0.001 (a time column in ms declared s?)" in out
+    doc = json.loads((tmp_path / "o" / "results.json").read_text())
+    assert doc["headline"]["fuel_economy_mpg"] is None and doc["headline"]["withheld"]

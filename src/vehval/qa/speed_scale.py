@@ -31,6 +31,12 @@ __all__ = ["SPEED_SCALE_TOL", "speed_scale_check"]
 #: RMSSE tolerance on every cycle faster than 40 mph on average, and 2 % of distance is more
 #: than the 1.2 % expanded uncertainty of a fuel economy (Cruze HWFET 54.80 +- 0.66 mpg).
 SPEED_SCALE_TOL = 0.02
+#: Time-unit slips searched when no cycle is found at any speed factor: the record's time
+#: read x factor (ms declared s: 0.001; min declared s: 60 ...) [-], and the durations a
+#: scaled record must span to be searched [s] (a search never bins more than 6 h)
+TIME_SLIPS = {0.001: "ms declared s", 1 / 60: "s declared min", 60.0: "min declared s",
+              1 / 3600: "s declared h", 1000.0: "s declared ms"}
+TIME_SLIP_SPAN_S = (120.0, 6 * 3600.0)
 
 
 def _declared_scale(template: Any, sig: Signal) -> float | None:
@@ -117,8 +123,36 @@ def speed_scale_check(test: Test, skip: set[str] | frozenset[str] = frozenset(),
         cycles = [base] if base and base in list_cycles() else None
         found, factor, _ = identify_scaled(sig.time, sig.values, cycles=cycles)
         if found is None:
-            return []
+            return _time_slip(test, sig, cycles)
         name, identified = found, False
     if not (np.isfinite(factor) and abs(factor - 1.0) > SPEED_SCALE_TOL):
         return []
     return [_finding(test, sig, float(factor), name, identified, template)]
+
+
+def _time_slip(test: Test, sig: Signal, cycles: list[str] | None) -> list[Finding]:
+    """An error when the speed follows a cycle once the record's time is read in another
+    unit (:data:`TIME_SLIPS`): every duration and distance is off by that factor."""
+    from vehval.cycles_match import identify_cycle
+
+    t = np.asarray(sig.time, float)
+    ok = np.isfinite(t)
+    if ok.sum() < 2:
+        return []
+    span = float(t[ok].max() - t[ok].min())
+    for factor, slip in TIME_SLIPS.items():
+        if not TIME_SLIP_SPAN_S[0] <= span * factor <= TIME_SLIP_SPAN_S[1]:
+            continue
+        found, _, det = identify_cycle(t * factor, sig.values, cycles=cycles)
+        if found is None or det.get("method") != "cycle":
+            continue
+        t0, t1 = test.span()
+        return [Finding(
+            sig.name, Kind.UNIT_SUSPECT, float(t0), float(t1), Severity.ERROR,
+            f"{sig.name} follows no drive cycle on the record's time base, but follows "
+            f"{found} once the time is read x {factor:.4g} (a time column in {slip}?): every "
+            f"duration and distance is off by {1 / factor:.4g} x",
+            {"time_factor": factor, "cycle": found}, level=3,
+            fix=f"declare the time column's unit in the template (x {factor:.4g}: {slip}) "
+                "and import the test again")]
+    return []
