@@ -61,7 +61,8 @@ def _construct_mapping(loader: _StrictLoader, node: yaml.MappingNode, deep: bool
 def _construct_float(loader: _StrictLoader, node: yaml.ScalarNode) -> float:
     value = yaml.SafeLoader.construct_yaml_float(loader, node)
     if not math.isfinite(value):
-        raise ConfigError(f"{loader.where} line {node.start_mark.line + 1}: '{node.value}' is not "
+        shown = node.value if len(node.value) <= 40 else node.value[:37] + "..."
+        raise ConfigError(f"{loader.where} line {node.start_mark.line + 1}: '{shown}' is not "
                           "a finite number: give a finite value")
     return value
 
@@ -119,8 +120,10 @@ def load_yaml(text: str, where: str = "document"):
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         line = f" line {mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{where}{line}: YAML syntax error (not valid YAML): "
-                          f"{getattr(exc, 'problem', None) or exc}") from None
+        if isinstance(exc, yaml.reader.ReaderError):  # a control character: its line, one line
+            line = f" line {text.count(chr(10), 0, exc.position) + 1}"
+        detail = str(getattr(exc, "problem", None) or exc).splitlines()[0]
+        raise ConfigError(f"{where}{line}: YAML syntax error (not valid YAML): {detail}") from None
     except RecursionError:
         raise ConfigError(f"{where}: nesting too deep: not a vehval document") from None
     finally:

@@ -125,14 +125,39 @@ def bp_check(values: Sequence[float], key: str) -> list[float]:
     return list(values)
 
 
+def check_speed_axis(speed_rpm: Sequence[float], max_speed_rpm: float) -> None:
+    """Raise ValueError unless a map's speed breakpoints [rpm] reach at least half the
+    machine's ``max_speed_rpm``: an axis ending far below it was given in rad/s (rpm / 9.55),
+    and the map would be clamped at its edge over most of the speed range."""
+    top = float(np.max(np.abs(np.asarray(speed_rpm, float))))
+    if top < 0.5 * max_speed_rpm:
+        raise ValueError(f"'speed_rpm' breakpoints end at {top:g}, far below 'max_speed_rpm' = "
+                         f"{max_speed_rpm:g}: the map's speeds are in rpm (rad/s x 9.549); "
+                         "give the map up to the maximum speed")
+
+
 def table_check(values, rows: int, cols: int | None, key: str) -> None:
     """Raise ValueError naming ``key`` unless ``values`` has shape (rows,) or (rows, cols)."""
-    arr = np.asarray(values, dtype=float)
     shape = (rows,) if cols is None else (rows, cols)
+    try:
+        arr = np.asarray(values, dtype=float)
+    except ValueError:  # ragged rows: numpy cannot make a table of them
+        lens = sorted({len(r) for r in values if isinstance(r, list)})
+        raise ValueError(f"'{key}' rows have different lengths ({', '.join(map(str, lens))}): "
+                         f"expected {rows} rows of {cols} values to match its breakpoints") from None
     if arr.shape != shape:
         raise ValueError(f"'{key}' has shape {arr.shape}, expected {shape} to match its breakpoints")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"'{key}' must contain finite numbers only")
+
+
+def check_soc_target(soc_target: float, battery: Any) -> None:
+    """Raise ValueError unless the controller's ``soc_target`` (the SOC a run starts from by
+    default and the one charge sustaining aims at) lies in the battery's SOC window."""
+    if not battery.soc_min <= soc_target <= battery.soc_max:
+        raise ValueError(f"'controller.soc_target' = {soc_target:g} is outside the battery "
+                         f"window [soc_min, soc_max] = [{battery.soc_min:g}, "
+                         f"{battery.soc_max:g}]: give a target inside it")
 
 
 def block_with(block: Any, changes: dict[str, Any]) -> Any:
@@ -171,13 +196,43 @@ def apply_overrides(veh, overrides: dict[str, Any] | None, blocks: tuple[str, ..
         try:
             update[blk] = block_with(getattr(veh, blk), changes)
         except ValidationError as exc:
-            msgs = "; ".join(f"key '{blk}.{'.'.join(str(x) for x in e['loc']) or '?'}': "
-                             f"{e['msg'].removeprefix('Value error, ')}"
-                             for e in exc.errors()[:5])
-            raise ConfigError(f"{where}: invalid override: {msgs}") from None
-    new = veh.model_copy(update=update)
+            raise ConfigError(f"{where}: invalid override: "
+                              f"{validation_text(exc, (blk,), 5)}") from None
+    fields = {k: update.get(k, getattr(veh, k)) for k in type(veh).model_fields}
+    try:  # the vehicle's own cross-block checks (the blocks are kept as validated)
+        new = type(veh).model_validate(fields)
+    except ValidationError as exc:
+        raise ConfigError(f"{where}: invalid override: {validation_text(exc)}") from None
     new._file = veh._file
     return new
+
+
+def _given(err: Any) -> str:
+    """' (got VALUE)' for a pydantic error on one value (empty for a missing key, an
+    unknown key or a check of several values)."""
+    if err["type"] in ("missing", "extra_forbidden", "value_error", "assertion_error"):
+        return ""
+    value = err.get("input")
+    if isinstance(value, (dict, BaseModel)):
+        return " (got a mapping)"
+    text = repr(value)
+    return f" (got {text if len(text) <= 60 else text[:57] + '...'})"
+
+
+def validation_text(exc: ValidationError, prefix: tuple[str, ...] = (), limit: int = 8) -> str:
+    """One line from a pydantic ``ValidationError``: per error the dotted key (under
+    ``prefix``), what is wrong and the value given (a check of several keys names them in
+    its message)."""
+    parts = []
+    for err in exc.errors()[:limit]:
+        key = ".".join(str(x) for x in (*prefix, *err["loc"]))
+        msg = err["msg"].removeprefix("Value error, ")
+        if err["type"] == "extra_forbidden":
+            msg = "unknown key (misspelled?)"
+        elif err["type"] == "missing":
+            msg = "missing key"
+        parts.append((f"key '{key}': " if key else "") + msg + _given(err))
+    return "; ".join(parts)
 
 
 class BlockVehicle(BaseModel):

@@ -16,7 +16,7 @@ import numpy as np
 from pydantic import Field, model_validator
 
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.vehicle.base import Block, bp_check, table_check
+from vehval.vehicle.base import Block, bp_check, check_speed_axis, table_check
 
 
 class BodyParams(Block):
@@ -91,8 +91,17 @@ class EngineParams(Block):
         table_check(self.max_torque_nm, len(self.speed_rpm), None, "max_torque_nm")
         if np.any(np.asarray(self.fuel_rate_g_per_s) < 0):
             raise ValueError("'fuel_rate_g_per_s' must not be negative")
+        tmax = np.asarray(self.max_torque_nm, float)
+        if np.any(tmax < 0) or not np.any(tmax > 0):
+            raise ValueError(f"'max_torque_nm' (full-load torque) must not be negative and must "
+                             f"be positive somewhere (got {min(self.max_torque_nm):g} to "
+                             f"{max(self.max_torque_nm):g} N·m)")
         if not self.idle_speed_rpm < self.max_speed_rpm:
             raise ValueError("'idle_speed_rpm' must be below 'max_speed_rpm'")
+        if not self.fire_speed_rpm < self.max_speed_rpm:
+            raise ValueError(f"'fire_speed_rpm' = {self.fire_speed_rpm:g} must be below "
+                             f"'max_speed_rpm' = {self.max_speed_rpm:g} (the engine could never fire)")
+        check_speed_axis(self.speed_rpm, self.max_speed_rpm)
         return self
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -123,6 +132,7 @@ class MachineParams(Block):
         table_check(self.loss_w, len(self.speed_rpm), len(self.torque_nm), "loss_w")
         if np.any(np.asarray(self.loss_w) < 0):
             raise ValueError("'loss_w' must not be negative (losses are always >= 0)")
+        check_speed_axis(self.speed_rpm, self.max_speed_rpm)
         return self
 
     def arrays(self) -> dict[str, np.ndarray]:
@@ -154,12 +164,17 @@ class BatteryParams(Block):
     @model_validator(mode="after")
     def _maps(self):
         bp_check(self.soc, "soc")
+        if self.soc[0] < 0 or self.soc[-1] > 1:
+            raise ValueError(f"'soc' breakpoints must lie in [0, 1] (a fraction, not percent; "
+                             f"got {self.soc[0]:g} to {self.soc[-1]:g})")
         n = len(self.soc)
         for key in ("ocv_v", "resistance_discharge_ohm", "resistance_charge_ohm",
                     "discharge_power_limit_w", "charge_power_limit_w"):
             table_check(getattr(self, key), n, None, key)
             if np.any(np.asarray(getattr(self, key)) < 0):
                 raise ValueError(f"'{key}' must not be negative")
+        if np.any(np.asarray(self.ocv_v) <= 0):
+            raise ValueError("'ocv_v' (open-circuit voltage) must be positive at every SOC")
         if np.any(np.asarray(self.resistance_discharge_ohm) <= 0) or \
                 np.any(np.asarray(self.resistance_charge_ohm) <= 0):
             raise ValueError("battery resistances must be positive")
@@ -197,6 +212,13 @@ class PlanetaryParams(Block):
     ring_teeth: int = Field(gt=0, le=1_000)
     carrier_inertia_kg_m2: float = Field(ge=0, le=1e3)
     ring_inertia_kg_m2: float = Field(ge=0, le=1e3)
+
+    @model_validator(mode="after")
+    def _ring_around_sun(self):
+        if self.ring_teeth <= self.sun_teeth:
+            raise ValueError(f"'ring_teeth' = {self.ring_teeth} must exceed 'sun_teeth' = "
+                             f"{self.sun_teeth} (the ring gear surrounds the sun)")
+        return self
 
 
 class DrivelineParams(Block):

@@ -15,12 +15,12 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError
+from pydantic import BaseModel, ConfigDict, PrivateAttr, ValidationError, model_validator
 
 from vehval.constants import RPM_RAD_PER_S as RPM
 from vehval.errors import ConfigError
 from vehval.safe_yaml import read_yaml
-from vehval.vehicle.base import apply_overrides
+from vehval.vehicle.base import apply_overrides, check_soc_target, validation_text
 from vehval.vehicle.bev import BatteryElectricVehicle
 from vehval.vehicle.components import (
     BatteryParams,
@@ -67,6 +67,11 @@ class Vehicle(BaseModel):
     def file(self) -> str:
         """File the vehicle was loaded from ('' when built in code)."""
         return self._file
+
+    @model_validator(mode="after")
+    def _consistent(self):
+        check_soc_target(self.controller.soc_target, self.battery)
+        return self
 
     def parameters(self) -> dict[str, Any]:
         """Flat dict of every scalar parameter by dotted path (e.g. ``body.mass_kg``)."""
@@ -220,21 +225,18 @@ def _validate(data: Any, where: str):
         raise ConfigError(f"{where}: key 'architecture': unknown architecture {arch!r} "
                           f"(known: {', '.join(ARCHITECTURES)})")
     foreign = _foreign_key(data, arch, model)
+    if foreign and "architecture" not in data:
+        fits = [a for a, m in ARCHITECTURES.items() if set(data) <= set(m.model_fields)]
+        hint = f"add 'architecture: {fits[0]}'" if fits else \
+            f"add 'architecture:' (one of {', '.join(ARCHITECTURES)})"
+        raise ConfigError(f"{where}: key 'architecture' is missing, so the file is read as a "
+                          f"power_split vehicle, but its blocks are another's: {hint}")
     if foreign:
         raise ConfigError(f"{where}: mixed architectures: {foreign}")
     try:
         veh = model.model_validate(copy.deepcopy(data))
     except ValidationError as exc:
-        lines = []
-        for err in exc.errors()[:8]:
-            key = ".".join(str(x) for x in err["loc"]) or "(top level)"
-            msg = err["msg"].removeprefix("Value error, ")
-            if err["type"] == "extra_forbidden":
-                msg = "unknown key (misspelled?)"
-            elif err["type"] == "missing":
-                msg = "missing key"
-            lines.append(f"key '{key}': {msg}")
-        raise ConfigError(f"{where}: invalid vehicle: " + "; ".join(lines)) from None
+        raise ConfigError(f"{where}: invalid vehicle: {validation_text(exc)}") from None
     return veh
 
 

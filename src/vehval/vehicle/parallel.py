@@ -34,7 +34,7 @@ import numpy as np
 from pydantic import ConfigDict, Field, model_validator
 
 from vehval.constants import RPM_RAD_PER_S as RPM
-from vehval.vehicle.base import Block, BlockVehicle
+from vehval.vehicle.base import Block, BlockVehicle, check_soc_target
 from vehval.vehicle.components import BatteryParams, BodyParams, DrivelineParams, EngineParams, MachineParams
 from vehval.vehicle.control import DriverParams
 from vehval.vehicle.conventional import ConverterParams, GearboxParams
@@ -117,6 +117,7 @@ class ParallelHybridVehicle(BlockVehicle):
             raise ValueError("'converter' belongs to transmission: automatic (this is manual)")
         if self.controller.assist_min_gear > n:
             raise ValueError(f"'controller.assist_min_gear' exceeds the {n} gears")
+        check_soc_target(self.controller.soc_target, self.battery)
         return self
 
     def _blocks(self) -> tuple[str, ...]:

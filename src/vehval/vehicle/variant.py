@@ -123,6 +123,9 @@ def _merge_block(out: dict[str, Any], base: dict[str, Any], blk: str, changes: d
                           f"does not change: {', '.join(extra)}")
     unc = changes.get("uncertainty")
     if unc is not None:
+        if not isinstance(unc, dict):
+            raise ConfigError(f"{where}: key '{blk}.uncertainty': must be a mapping of "
+                              f"parameter names, got {_fmt(unc)}")
         out["uncertainty"] = {**(out.get("uncertainty") or {}), **unc}
 
 
