@@ -117,3 +117,17 @@ def test_overrides_after_the_best_line_is_cached(prius):
     veh.best_line  # noqa: B018
     new = veh.with_overrides({"boost.efficiency": 0.95})
     assert new.boost.efficiency == 0.95 and new.file == veh.file
+
+
+def test_a_battery_too_small_for_the_cycle_is_said_not_stated_as_physical(capsys):
+    """A legal but tiny pack (0.5 Ah) ran the Leaf's SOC to -81 % and printed its MPGe as
+    if physical: the run says so (summary ``warnings``, stderr); a sound run says nothing."""
+    from vehval.cli import main
+    from vehval.sim.simulate import simulate
+
+    bad = simulate("bev/nissan_leaf_2016", "ece15", dt=0.5, **{"battery.capacity_ah": 0.2})
+    assert any("state of charge left 0-100 %" in w for w in bad.summary["warnings"])
+    assert simulate("bev/nissan_leaf_2016", "ece15", dt=0.5).summary["warnings"] == []
+    assert main(["simulate", "--vehicle", "bev/nissan_leaf_2016", "--cycle", "ece15",
+                 "--dt", "0.5", "--set", "battery.capacity_ah=0.2"]) == 0
+    assert "vehval: warning: the battery's state of charge left 0-100 %" in capsys.readouterr().err

@@ -83,6 +83,8 @@ def simulate_cmd(
     res = simulate(vehicle, cycle, dt=dt, soc_initial=soc_initial,
                    charge_balance=charge_balance, cold_start=cold_start, **overrides)
     s = res.summary
+    for warning in s.get("warnings") or []:
+        typer.echo(f"vehval: warning: {warning}", err=True)
     if cold_start:
         _note_without_cold_model(vehicle, overrides)
     aud = None

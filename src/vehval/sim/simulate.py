@@ -17,6 +17,7 @@ packing or their layouts.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -43,7 +44,7 @@ from vehval.vehicle.maps import best_line_efficiency
 
 __all__ = ["ARCHITECTURES", "BALANCE_MAX_ITER", "BALANCE_TOL", "CHARGE_BALANCE_TOL",
            "Architecture", "Grid", "SimResult", "architecture", "balanced_plan",
-           "charge_balance", "check_dt", "cycle_grid", "make_grid", "plan_summary",
+           "charge_balance", "check_dt", "physics_warnings", "cycle_grid", "make_grid", "plan_summary",
            "run_cycle", "run_once", "run_plan", "simulate", "summarise", "time_grid"]
 
 CHARGE_BALANCE_TOL = 0.005  # [-] |SOC_end - SOC_start| accepted by charge_balance
@@ -223,6 +224,7 @@ def simulate(vehicle: Any, cycle: Cycle | str | Path, dt: float = 0.1,
     else:
         summary["architecture"] = arch.name
     summary["cold_start"] = bool(cold_start)
+    summary["warnings"] = physics_warnings(summary)
     meta = TestMeta(test_id=f"simu_{veh.name}_{cyc.name}", vehicle=veh.name, cycle=cyc.name,
                     notes=[f"vehval {arch.label}, dt = {dt:g} s"], synthetic=True)
     test = Test(meta=meta)
@@ -483,3 +485,28 @@ def plan_summary(veh: Any, runs: list[tuple[np.ndarray, np.ndarray]],
     if arch.has_battery:
         ys[arch.soc_final] = runs[-1][1][arch.soc_final]
     return arch.summarise(veh, ys, soc0)
+
+
+def physics_warnings(summary: dict[str, Any]) -> list[str]:
+    """What in a run's summary is not physical (the model ran on regardless): a battery
+    state of charge outside 0-100 % (a capacity too small for the cycle), or energy the
+    battery could not deliver at its power limit booked as unmet (more than 0.1 % of the
+    energy moved). Empty for a sound run."""
+    out = []
+    soc = [float(v) for k in ("soc_initial", "soc_final", "soc_min_seen", "soc_max_seen")
+           if isinstance(v := summary.get(k), (int, float)) and math.isfinite(v)]
+    if soc and (min(soc) < 0.0 or max(soc) > 1.0):
+        from vehval.display import percent
+
+        out.append(f"the battery's state of charge left 0-100 % (lowest {percent(min(soc))}, "
+                   f"highest {percent(max(soc))}): the figures are not physical; check "
+                   "battery.capacity_ah")
+    unmet = float(summary.get("unmet_energy_j") or 0.0)
+    moved = abs(float(summary.get("ess_chem_energy_j") or 0.0)) + abs(
+        float(summary.get("fuel_energy_j") or 0.0))
+    if moved > 0 and unmet > 1e-3 * moved:
+        from vehval.display import percent
+
+        out.append(f"{percent(unmet / moved)} of the energy moved was beyond the battery's power "
+                   "limit (booked as unmet): the figures count energy the battery cannot give")
+    return out
