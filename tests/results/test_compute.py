@@ -238,13 +238,18 @@ def test_results_use_the_cycle_match_kept_at_import(monkeypatch):
     assert res.phases[0].segments[0] == pytest.approx((27.5, 532.5), abs=0.2)
 
 
-def test_drive_quality_finding_reads_in_display_units_and_explains_iwr(monkeypatch):
-    # a driver 5 % fast: IWR about +10 %, outside -2..+4 % at 10 Hz and at 1 Hz alike
+def _fast_driver_findings(monkeypatch) -> list:
+    """The drive-quality findings (metric) of a driver 5 % fast: IWR about +10 %, outside
+    -2..+4 % at 10 Hz and at 1 Hz alike."""
     t, s = true_signals()
     s["veh_spd"] = 1.05 * s["veh_spd"]
     monkeypatch.setenv("VEHVAL_UNITS", "metric")
     res = compute_results(make_test(t, s), fuel="diesel")
-    dq = [f for f in res.findings if f.kind == Kind.DRIVE_QUALITY]
+    return [f for f in res.findings if f.kind == Kind.DRIVE_QUALITY]
+
+
+def test_drive_quality_finding_reads_in_display_units_and_explains_iwr(monkeypatch):
+    dq = _fast_driver_findings(monkeypatch)
     assert dq and all(f.severity == Severity.WARNING for f in dq)
     msg = dq[0].message
     assert " km/h (allowed 1.29 km/h)" in msg and "mph" not in msg, msg
@@ -259,11 +264,7 @@ def test_drive_quality_finding_states_the_rmsse_to_the_digits_of_its_tolerance(m
 
     from vehval.display import as_unit
 
-    t, s = true_signals()
-    s["veh_spd"] = 1.05 * s["veh_spd"]
-    monkeypatch.setenv("VEHVAL_UNITS", "metric")
-    res = compute_results(make_test(t, s), fuel="diesel")
-    dq = [f for f in res.findings if f.kind == Kind.DRIVE_QUALITY]
+    dq = _fast_driver_findings(monkeypatch)
     assert dq
     for f in dq:
         shown = float(re.search(r"RMSSE (\S+) km/h \(allowed", f.message).group(1))
