@@ -196,6 +196,18 @@ def _sample_lines(raw: bytes, start: int, path: Path, notes: list[str]) -> list[
     return [s for s in sample if s != ""] or [""]
 
 
+def _line_ends(raw: bytes, notes: list[str]) -> bytes:
+    """``raw`` with LF line ends: old Mac CR-only files, and mixed CR, CR LF and LF (files
+    appended by several tools), each said in ``notes``."""
+    if b"\n" not in raw and b"\r" in raw:
+        notes.append("old Mac line ends (CR only) read as line ends")
+        return raw.replace(b"\r", b"\n")
+    if _LONE_CR.search(raw):
+        notes.append("mixed line ends (CR, CR LF and LF) read as line ends")
+        return raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+    return raw
+
+
 def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None = None,
                    decimal: str | None = None, encoding: str | None = None) -> RawTable:
     """Read a delimited text file with one header row (optionally a unit row below it).
@@ -233,12 +245,7 @@ def read_delimited(path: str | Path, *, fmt: str = "csv", delimiter: str | None 
     notes: list[str] = []
     raw = decode_bytes(path.read_bytes(), path, encoding, notes)
     raw = _strip_nuls(raw, path, notes)
-    if b"\n" not in raw and b"\r" in raw:
-        raw = raw.replace(b"\r", b"\n")
-        notes.append("old Mac line ends (CR only) read as line ends")
-    elif _LONE_CR.search(raw):   # mixed CR, CR LF and LF (files appended by several tools)
-        raw = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
-        notes.append("mixed line ends (CR, CR LF and LF) read as line ends")
+    raw = _line_ends(raw, notes)
     start, skipped = _skip_blank_lines(raw)
     if not raw[start:].strip():
         raise InputFileError(f"{path}: file is empty (no header line)")
