@@ -135,16 +135,7 @@ def _screen(s: dict, aud: dict | None) -> None:
         return
     typer.echo("  SOC-corrected       " + fuel_text(s["fuel_economy_soc_corrected_mpg"],
                                                    s.get("fuel_consumption_soc_corrected_l_per_100km")))
-    typer.echo(f"  SOC                 {100 * s['soc_initial']:.1f} % -> "
-               f"{100 * s['soc_final']:.1f} %")
-    if s.get("charge_balance_iterations") and not s.get("charge_balanced"):
-        from vehval.display import percent
-        from vehval.sim.simulate import CHARGE_BALANCE_TOL
-
-        typer.echo(f"  charge balance      NOT reached in {s['charge_balance_iterations']} runs "
-                   f"(SOC change {percent(s['soc_delta'])}, tolerance "
-                   f"±{percent(CHARGE_BALANCE_TOL)}): the closest run is shown; read the "
-                   "SOC-corrected figure", err=True)
+    _soc_lines(s)
     typer.echo(f"  engine on           {100 * s['engine_on_fraction']:.1f} % "
                f"({s['engine_starts']} starts)")
     typer.echo(f"  trace max miss      {miss} ({band})")
@@ -202,6 +193,20 @@ def _note_without_cold_model(vehicle: str, overrides: dict) -> None:
                    "engine-on time): --cold-start runs as a hot start", err=True)
 
 
+def _soc_lines(s: dict) -> None:
+    """The SOC line, and on stderr a charge balance asked for and not reached."""
+    typer.echo(f"  SOC                 {100 * s['soc_initial']:.1f} % -> "
+               f"{100 * s['soc_final']:.1f} %")
+    if s.get("charge_balance_iterations") and not s.get("charge_balanced"):
+        from vehval.display import percent
+        from vehval.sim.simulate import CHARGE_BALANCE_TOL
+
+        typer.echo(f"  charge balance      NOT reached in {s['charge_balance_iterations']} runs "
+                   f"(SOC change {percent(s['soc_delta'])}, tolerance "
+                   f"±{percent(CHARGE_BALANCE_TOL)}): the closest run is shown; read the "
+                   "SOC-corrected figure", err=True)
+
+
 def _electric_lines(s: dict, miss: str, band: str) -> None:
     """The screen summary of a car that burns no fuel: SAE J1634 AC consumption (per 100 mi
     or 100 km as ``--units`` reads), MPGe, the battery's DC energy and regeneration, SOC."""
@@ -214,15 +219,6 @@ def _electric_lines(s: dict, miss: str, band: str) -> None:
     typer.echo(f"  MPGe                {s['mpge']:.1f}")
     typer.echo(f"  battery DC          {s['dc_energy_kwh']:.3f} kWh net, regeneration "
                f"{s['regen_energy_kwh']:.3f} kWh")
-    typer.echo(f"  SOC                 {100 * s['soc_initial']:.1f} % -> "
-               f"{100 * s['soc_final']:.1f} %")
-    if s.get("charge_balance_iterations") and not s.get("charge_balanced"):
-        from vehval.display import percent
-        from vehval.sim.simulate import CHARGE_BALANCE_TOL
-
-        typer.echo(f"  charge balance      NOT reached in {s['charge_balance_iterations']} runs "
-                   f"(SOC change {percent(s['soc_delta'])}, tolerance "
-                   f"±{percent(CHARGE_BALANCE_TOL)}): the closest run is shown; read the "
-                   "SOC-corrected figure", err=True)
+    _soc_lines(s)
     typer.echo(f"  trace max miss      {miss} ({band})")
     typer.echo(f"  energy balance      {s['energy_balance_rel']:.1e} (relative residual)")

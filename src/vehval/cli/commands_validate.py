@@ -99,18 +99,9 @@ def validate_cmd(
             comp = v.validation.comparison
             comp.overlays.to_parquet(stage / f"overlays_{sanitize_id(comp.test_id)}.parquet",
                                      index=False)
-        if report:
-            from vehval.report import results_beside
-
-            for run, v in zip(runs, suite.validations):
-                tid = v.validation.comparison.test_id
-                sub = stage if len(runs) == 1 else stage / sanitize_id(tid)
-                # a validated test from `vehval qa` / `analyze`: its findings and control.json
-                found = results_beside(run.origin) if run.qa_outcome is None else {}
-                payload = dict(v.payload())      # + the test's own ladder row and En verdict
-                payload["tables"] = [*payload["tables"], *lad.tables(tid), lad.en_table(tid)]
-                run.report(sub, qa=found.get("findings"), control=found.get("control"),
-                           validation=payload, title=f"Validation report: {tid}")
+        if report:   # + each test's own ladder row and En verdict
+            _test_reports(stage, runs, suite.validations,
+                          lambda tid: [*lad.tables(tid), lad.en_table(tid)])
     if as_json:
         typer.echo(dumps(metrics), nl=False)
         return
@@ -131,6 +122,22 @@ def validate_cmd(
     typer.echo(f"wrote {output / 'validation.json'} and {output / 'metrics.json'}")
 
 
+def _test_reports(stage: Path, runs: list, validations: list, extra: Any) -> None:
+    """report.html (and tables.xlsx) of each test, in ``stage`` or ``stage/<test>`` when
+    several: its validation section plus ``extra(test id)`` tables; a validated test from
+    `vehval qa` / `analyze` adds its findings and control.json."""
+    from vehval.report import results_beside
+
+    for run, v in zip(runs, validations):
+        tid = str(getattr(v.comparison, "test_id", "") or run.validated.meta.test_id)
+        sub = stage if len(runs) == 1 else stage / sanitize_id(tid)
+        found = results_beside(run.origin) if run.qa_outcome is None else {}
+        payload = dict(v.payload())
+        payload["tables"] = [*payload["tables"], *extra(tid)]
+        run.report(sub, qa=found.get("findings"), control=found.get("control"),
+                   validation=payload, title=f"Validation report: {tid}")
+
+
 def _write_each(each: Any, output: Path, report: bool, runs: list, as_json: bool) -> None:
     """The outputs and the screen of tests validated one by one (an architecture without
     the tolerance ladder): validation.json, metrics.json, a report per test."""
@@ -141,14 +148,7 @@ def _write_each(each: Any, output: Path, report: bool, runs: list, as_json: bool
         (stage / "validation.json").write_text(dumps(each.payload), encoding="utf-8")
         (stage / "metrics.json").write_text(dumps(each.metrics), encoding="utf-8")
         if report:
-            from vehval.report import results_beside
-
-            for run, v in zip(runs, each.validations):
-                tid = str(run.validated.meta.test_id)
-                sub = stage if len(runs) == 1 else stage / sanitize_id(tid)
-                found = results_beside(run.origin) if run.qa_outcome is None else {}
-                run.report(sub, qa=found.get("findings"), control=found.get("control"),
-                           validation=v.payload(), title=f"Validation report: {tid}")
+            _test_reports(stage, runs, each.validations, lambda tid: [])
     if as_json:
         typer.echo(dumps(each.metrics), nl=False)
         return

@@ -92,8 +92,8 @@ def _fuel_keys() -> list[str]:
 
 
 def _electric(doc: dict) -> dict:
-    """The SAE J1634 scopes of a battery-electric test (``{}`` for a car that burns fuel)."""
-    return ((doc.get("j1634") or {}).get("scopes") or {}) if not _burns_fuel(doc) else {}
+    """The SAE J1634 scopes of a test (``{}`` when it has none)."""
+    return (doc.get("j1634") or {}).get("scopes") or {}
 
 
 def _burns_fuel(doc: dict) -> bool:
@@ -124,7 +124,9 @@ def _electric_cells(scope: dict | None) -> list[str]:
     return [pm(scope.get("mpge"), 1), pm(kwh, 2)]
 
 
-def _row(name: str, block: dict, doc: dict, scope: str) -> list:
+def _row(name: str, block: dict, electric: dict | None, battery: bool, scope: str) -> list:
+    """One results row; ``electric``: the J1634 scopes of a battery-electric test (None for
+    a car that burns fuel); ``battery``: the battery column is shown."""
     v = block.get("values") or {}
     dq = block.get("drive_quality") or {}
     d = v.get("distance_m")
@@ -136,13 +138,13 @@ def _row(name: str, block: dict, doc: dict, scope: str) -> list:
            _r(v.get("duration_s"), 1),
            _r((v.get("mean_speed_mps") or 0) / spd_mps, 2) if v.get("mean_speed_mps") else None,
            _r((v.get("max_speed_mps") or 0) / spd_mps, 2) if v.get("max_speed_mps") else None]
-    if _burns_fuel(doc):
+    if electric is None:
         row += [_r(as_unit(v["fuel_mass_kg"], "g"), 1) if v.get("fuel_mass_kg") is not None else
                 _num_or_held(block, "fuel_mass_kg", None),
                 *(_pm(block, k) for k in _fuel_keys()), _pm(block, "co2_g_per_km", nd=1)]
     else:
-        row += _electric_cells(_electric(doc).get(scope))
-    if _has_battery(doc):
+        row += _electric_cells(electric.get(scope))
+    if battery:
         row.append(_r(v["ess_energy_net_j"] / KWH_J, 4) if v.get("ess_energy_net_j") is not None
                    else None)
     return row + [_r(dq.get("iwr_pct"), 2), _r(rmsse, 3), dq.get("violations")]
@@ -200,14 +202,15 @@ def results_section(doc: dict) -> Section:
         sec.facts = [f for f in sec.facts if f[0] not in ("Fuel", "SOC correction (SAE J1711)")]
     dist, spd = ("km", "km/h") if _metric() else ("mi", "mph")
     fuel_cols = [_HEAD[k] for k in _fuel_keys()]
+    electric, battery = (None if fuel_car else _electric(doc)), _has_battery(doc)
     cols = ["phase", f"distance [{dist}]", "duration [s]", f"mean speed [{spd}]",
             f"max speed [{spd}]",
             *(["fuel [g]", *fuel_cols, "CO2 [g/km]"] if fuel_car else
               ["MPGe", f"AC energy [kWh/100 {dist}]"]),
-            *(["battery net [kWh]"] if _has_battery(doc) else []),
+            *(["battery net [kWh]"] if battery else []),
             "IWR [%]", f"RMSSE [{spd}]", "violations"]
-    rows = [_row(p["name"], p, doc, p["name"]) for p in doc.get("phases") or []]
-    rows.append(_row("whole test", doc.get("test_total") or {}, doc, "test"))
+    rows = [_row(p["name"], p, electric, battery, p["name"]) for p in doc.get("phases") or []]
+    rows.append(_row("whole test", doc.get("test_total") or {}, electric, battery, "test"))
     sec.tables.append(Table("Results per phase", cols, rows, key="results-phases",
                             note="value ± expanded uncertainty U (k = 2)"))
     crow = [[c["name"], *(_pm(c, k) for k in _fuel_keys()),

@@ -206,7 +206,6 @@ class TestRun:
                    *, use_qa: bool = True, repair_time: bool = REPAIR_TIME) -> "TestRun":
         """One test from a directory, a validated Parquet test or a group of raw files
         (the grouping rule of the module docstring)."""
-
         given = [Path(p) for p in paths]
         for p in given:
             if not p.exists():
